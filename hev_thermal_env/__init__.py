@@ -1,0 +1,21 @@
+"""hev-thermal-env: a Gymnasium environment and energy-management benchmark for a parallel hybrid
+city bus whose permanent-magnet traction motor heats up, derates and cuts out.
+
+``import hev_thermal_env`` registers ``HevThermal-v0``.
+"""
+
+from gymnasium.envs.registration import register, registry
+
+from .cycles import Cycle, cycle_from_arrays, generate_bus_cycle, list_cycles, load_cycle
+from .physics import Conditions, ConfigError, PhysicsCore, VehicleConfig, paper_bus
+from .physics.simulate import SimResult, simulate
+
+__version__ = "0.1.0"
+
+if "HevThermal-v0" not in registry:
+    register(id="HevThermal-v0", entry_point="hev_thermal_env.env:HevThermalEnv")
+
+__all__ = [
+    "Conditions", "ConfigError", "Cycle", "PhysicsCore", "SimResult", "VehicleConfig", "cycle_from_arrays",
+    "generate_bus_cycle", "list_cycles", "load_cycle", "paper_bus", "simulate",
+]

@@ -1,0 +1,25 @@
+"""Drive cycles for the hybrid city-bus environment.
+
+A :class:`Cycle` is a speed trace [m/s] and road grade (rise/run) sampled every second from
+0 s, with read-only arrays and summary properties (distance, mean speed, idle fraction, ...).
+
+* :func:`list_cycles` / :func:`load_cycle`: built-in cycles ``hwfet``, ``udds``, ``us06``,
+  ``wltc_3b`` (standard cycles vendored from the ``fastsim==2.1.5`` wheel, Apache-2.0) and
+  ``beijing`` (a *synthetic* city-bus cycle, generated, not measured), or any user CSV with
+  columns ``time_s,speed_mps[,grade]``.
+* :func:`cycle_from_arrays`: a validated cycle from arrays.
+* :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles.
+
+Examples
+--------
+>>> from hev_thermal_env.cycles import load_cycle
+>>> cyc = load_cycle("udds")
+>>> round(cyc.distance_km, 2)
+11.99
+"""
+
+from .cycle import Cycle
+from .generator import generate_bus_cycle
+from .loader import cycle_from_arrays, list_cycles, load_cycle
+
+__all__ = ["Cycle", "cycle_from_arrays", "generate_bus_cycle", "list_cycles", "load_cycle"]

@@ -1,0 +1,336 @@
+"""The :class:`Cycle` container and the sample checks shared by every cycle source.
+
+A cycle is a speed trace (and an optional road grade) sampled every second from ``t = 0``.
+Every way of making a cycle (built-in name, user CSV, arrays, the synthetic generator) ends in
+the same :class:`Cycle`, whose arrays are read-only so a cycle can be shared between
+environments without copies.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Speed below which a 1-s sample counts as standing still [m/s].
+IDLE_SPEED_MPS = 0.1
+
+#: Largest accepted ``|grade|`` (rise/run). Steeper values are almost surely percent or degrees.
+MAX_ABS_GRADE = 0.5
+
+#: Tolerance on the time grid [s] (time stamps written with a few decimals still pass).
+TIME_TOL_S = 1e-6
+
+Locate = Callable[[int], str]
+
+
+def _index_locator(i: int) -> str:
+    return f"index {i}"
+
+
+def check_samples(
+    time_s: np.ndarray,
+    speed_mps: np.ndarray,
+    grade: np.ndarray,
+    *,
+    origin: str,
+    locate: Locate = _index_locator,
+) -> float:
+    """Check raw cycle samples and return their time step.
+
+    Parameters
+    ----------
+    time_s, speed_mps, grade : numpy.ndarray
+        1-D float arrays of equal length.
+    origin : str
+        Where the samples come from, used as the start of every error message
+        (for example ``"cycle file 'x.csv'"``).
+    locate : callable, optional
+        Maps a 0-based sample index to a human-readable position (for example
+        ``"data row 3 (line 4)"``). Defaults to ``"index i"``.
+
+    Returns
+    -------
+    float
+        The (uniform) time step [s].
+
+    Raises
+    ------
+    ValueError
+        With ``origin``, the position and the problem, if there are fewer than two samples,
+        a value is NaN/inf, a speed is negative, ``|grade|`` exceeds :data:`MAX_ABS_GRADE`,
+        the time does not increase, or the time step is not uniform.
+    """
+
+    def fail(i: int, problem: str) -> ValueError:
+        return ValueError(f"{origin}: {locate(i)}: {problem}")
+
+    n = len(speed_mps)
+    if not (len(time_s) == n == len(grade)):
+        raise ValueError(
+            f"{origin}: length mismatch: time_s has {len(time_s)} samples, "
+            f"speed_mps {n}, grade {len(grade)}"
+        )
+    if n < 2:
+        raise ValueError(f"{origin}: need at least 2 samples to define a time step, found {n}")
+    for label, arr in (("time_s", time_s), ("speed_mps", speed_mps), ("grade", grade)):
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            i = int(bad[0])
+            raise fail(i, f"{label} value {float(arr[i])} is not finite (NaN or inf)")
+    bad = np.flatnonzero(speed_mps < 0.0)
+    if bad.size:
+        i = int(bad[0])
+        raise fail(i, f"negative speed: speed_mps = {float(speed_mps[i])!r} (must be >= 0)")
+    bad = np.flatnonzero(np.abs(grade) > MAX_ABS_GRADE)
+    if bad.size:
+        i = int(bad[0])
+        raise fail(
+            i,
+            f"grade = {float(grade[i])!r} is not a plausible rise/run fraction "
+            f"(|grade| <= {MAX_ABS_GRADE}; 0.04 means 4 %, not 4)",
+        )
+    dt = np.diff(time_s)
+    bad = np.flatnonzero(dt <= 0.0)
+    if bad.size:
+        i = int(bad[0])
+        raise fail(
+            i + 1,
+            f"time not increasing: time_s = {float(time_s[i + 1])!r} follows {float(time_s[i])!r}",
+        )
+    dt0 = float(dt[0])
+    bad = np.flatnonzero(np.abs(dt - dt0) > TIME_TOL_S * max(1.0, dt0))
+    if bad.size:
+        i = int(bad[0])
+        raise fail(
+            i + 1,
+            f"non-uniform time step: {float(dt[i])!r} s from time_s = {float(time_s[i])!r} to "
+            f"{float(time_s[i + 1])!r}, but the first step is {dt0!r} s "
+            "(only uniformly sampled cycles are supported)",
+        )
+    return dt0
+
+
+def regrid_to_1s(
+    time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, dt_s: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Shift checked samples to start at 0 s and bring them to a 1-s grid.
+
+    A step of 1 s (within :data:`TIME_TOL_S`) only snaps the time stamps to ``0, 1, 2, ...``.
+    Any other uniform step is resampled by linear interpolation onto whole seconds from 0 to
+    the last whole second covered; a trailing fraction of a second is dropped. Downsampling
+    (steps below 1 s) therefore picks interpolated points and does not average.
+
+    Parameters
+    ----------
+    time_s, speed_mps, grade : numpy.ndarray
+        Samples that passed :func:`check_samples`.
+    dt_s : float
+        Their time step [s].
+
+    Returns
+    -------
+    time_s, speed_mps, grade : numpy.ndarray
+        On the 1-s grid, starting at 0.
+    resampled : bool
+        Whether interpolation was needed.
+    """
+    t_rel = time_s - time_s[0]
+    if abs(dt_s - 1.0) <= TIME_TOL_S:
+        return np.arange(len(t_rel), dtype=np.float64), speed_mps, grade, False
+    n_whole_s = int(math.floor(t_rel[-1] + TIME_TOL_S))
+    t_new = np.arange(n_whole_s + 1, dtype=np.float64)
+    speed_new = np.maximum(np.interp(t_new, t_rel, speed_mps), 0.0)
+    grade_new = np.interp(t_new, t_rel, grade)
+    return t_new, speed_new, grade_new, True
+
+
+def _readonly_float_array(name: str, values: Any) -> np.ndarray:
+    try:
+        arr = np.array(values, dtype=np.float64, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"Cycle: {name} is not numeric: {exc}") from None
+    if arr.ndim != 1:
+        raise ValueError(f"Cycle: {name} must be 1-D, got shape {arr.shape}")
+    arr.flags.writeable = False
+    return arr
+
+
+def _format_float(x: float) -> str:
+    # Shortest text that reads back to the same float64.
+    return repr(float(x))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Cycle:
+    """A drive cycle sampled at 1 s.
+
+    Build cycles with :func:`~hev_thermal_env.cycles.load_cycle`,
+    :func:`~hev_thermal_env.cycles.cycle_from_arrays` or
+    :func:`~hev_thermal_env.cycles.generate_bus_cycle`; the constructor accepts only data
+    already on the 1-s grid. The arrays are stored as read-only float64 copies.
+
+    Parameters
+    ----------
+    name : str
+        Short identifier, e.g. ``"hwfet"``.
+    time_s : numpy.ndarray
+        Time [s]: ``0, 1, 2, ...``.
+    speed_mps : numpy.ndarray
+        Vehicle speed [m/s], ``>= 0``.
+    grade : numpy.ndarray
+        Road grade as a rise/run fraction (0.04 is a 4 % climb), same length.
+    synthetic : bool
+        True if the speed trace was generated rather than measured or standardised.
+    description : str
+        One-line human description.
+    source : str
+        Where the data come from (package, file or generator).
+    metadata : dict
+        Free-form extra information (seed and parameters of a generated cycle, original time
+        step of a resampled file, ...).
+
+    Raises
+    ------
+    ValueError
+        If the arrays differ in length, hold fewer than 2 samples, contain NaN/inf, a negative
+        speed or an implausible grade, or ``time_s`` is not ``0, 1, 2, ...``.
+
+    Notes
+    -----
+    Instances compare by identity; compare arrays explicitly when needed.
+    """
+
+    name: str
+    time_s: np.ndarray
+    speed_mps: np.ndarray
+    grade: np.ndarray
+    synthetic: bool = False
+    description: str = ""
+    source: str = ""
+    metadata: dict = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        time_s = _readonly_float_array("time_s", self.time_s)
+        speed_mps = _readonly_float_array("speed_mps", self.speed_mps)
+        grade = _readonly_float_array("grade", self.grade)
+        origin = f"Cycle {self.name!r}"
+        check_samples(time_s, speed_mps, grade, origin=origin)
+        if np.any(np.abs(time_s - np.arange(len(time_s))) > TIME_TOL_S):
+            raise ValueError(
+                f"{origin}: time_s must be 0, 1, 2, ... s; "
+                "use cycle_from_arrays to shift or resample other time grids"
+            )
+        object.__setattr__(self, "time_s", time_s)
+        object.__setattr__(self, "speed_mps", speed_mps)
+        object.__setattr__(self, "grade", grade)
+        object.__setattr__(self, "synthetic", bool(self.synthetic))
+        object.__setattr__(self, "metadata", dict(self.metadata))
+
+    # -- summary quantities -------------------------------------------------------------
+
+    @property
+    def duration_s(self) -> float:
+        """Duration [s]: the last time stamp."""
+        return float(self.time_s[-1])
+
+    @property
+    def n_steps(self) -> int:
+        """Number of 1-s steps (number of samples minus one)."""
+        return len(self.time_s) - 1
+
+    @property
+    def distance_m(self) -> float:
+        """Distance [m]: trapezoidal integral of the speed over time."""
+        v = self.speed_mps
+        return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(self.time_s)))
+
+    @property
+    def distance_km(self) -> float:
+        """Distance [km]."""
+        return self.distance_m / 1000.0
+
+    @property
+    def mean_speed_kmh(self) -> float:
+        """Mean speed including stops [km/h]: distance divided by duration."""
+        return 3.6 * self.distance_m / self.duration_s
+
+    @property
+    def max_speed_kmh(self) -> float:
+        """Maximum speed [km/h]."""
+        return 3.6 * float(np.max(self.speed_mps))
+
+    @property
+    def idle_fraction(self) -> float:
+        """Fraction of 1-s samples with speed below 0.1 m/s."""
+        return float(np.mean(self.speed_mps < IDLE_SPEED_MPS))
+
+    @property
+    def accel_mps2(self) -> np.ndarray:
+        """Forward-difference acceleration [m/s^2] over each 1-s step (length ``n_steps``)."""
+        return np.diff(self.speed_mps) / np.diff(self.time_s)
+
+    @property
+    def max_abs_accel_mps2(self) -> float:
+        """Largest ``|acceleration|`` [m/s^2] from the 1-s forward difference of the speed."""
+        return float(np.max(np.abs(self.accel_mps2)))
+
+    def summary(self) -> dict[str, float]:
+        """Summary statistics of the cycle.
+
+        Returns
+        -------
+        dict
+            ``duration_s``, ``distance_km``, ``mean_speed_kmh``, ``max_speed_kmh``,
+            ``idle_fraction`` and ``max_abs_accel_mps2``.
+        """
+        return {
+            "duration_s": self.duration_s,
+            "distance_km": self.distance_km,
+            "mean_speed_kmh": self.mean_speed_kmh,
+            "max_speed_kmh": self.max_speed_kmh,
+            "idle_fraction": self.idle_fraction,
+            "max_abs_accel_mps2": self.max_abs_accel_mps2,
+        }
+
+    # -- output ------------------------------------------------------------------------
+
+    def to_csv(self, path: str | os.PathLike, *, comment: str | None = None) -> Path:
+        """Write the cycle as CSV with columns ``time_s,speed_mps,grade``.
+
+        Floats are written in the shortest form that reads back to the same value, so
+        ``load_cycle(cycle.to_csv(p))`` reproduces the arrays exactly.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Destination file (overwritten).
+        comment : str, optional
+            Text written above the header as ``#`` lines (skipped by ``load_cycle``).
+
+        Returns
+        -------
+        pathlib.Path
+            The written path.
+        """
+        path = Path(path)
+        lines = [f"# {c}".rstrip() for c in comment.splitlines()] if comment else []
+        lines.append("time_s,speed_mps,grade")
+        lines.extend(
+            f"{_format_float(t)},{_format_float(v)},{_format_float(g)}"
+            for t, v, g in zip(self.time_s, self.speed_mps, self.grade)
+        )
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        return path
+
+    def __repr__(self) -> str:
+        kind = "synthetic" if self.synthetic else "data"
+        return (
+            f"Cycle(name={self.name!r}, {kind}, duration_s={self.duration_s:.0f}, "
+            f"distance_km={self.distance_km:.3f}, mean_speed_kmh={self.mean_speed_kmh:.2f})"
+        )

@@ -1,0 +1,116 @@
+"""The whole-vehicle configuration, the run conditions, and the default ``paper_bus``.
+
+``VehicleConfig`` groups one frozen parameter record per component; ``Conditions`` holds what
+varies between runs of the same vehicle (ambient, starting temperature and SOC, coolant mode).
+Both round-trip through YAML (``to_yaml`` / ``from_yaml``).
+
+Where the ``paper_bus`` numbers come from
+-----------------------------------------
+* Motor: the paper's Table 1 (rated/peak power swapped back: 30/90 kW), thermal data Table 1 and
+  the paper's text (h_water 3000 W/(m²·K), thermostat 35 °C, cutoff 70 °C, 5 % extra loss, T_s 30 s,
+  PWM_initial 0.3, T_gain in [0.1, 0.3], efficiency −1 point per 15 °C).
+* Glider: ADVISOR VEH_RTS06 (Cd 0.79, A 7.8965 m²) and WH_HEAVY (Crr 0.00938, r 0.5 m).
+  Test mass 15 000 kg: ADVISOR's 40-ft bus (12 156 kg glider + 1 837 kg cargo) plus the hybrid
+  powertrain, fine-tuned with the final drive so that Table 3's top speed, 0-60 km/h time and
+  4 % grade speed are met with the thermal model off (``tests/test_performance.py``).
+* Engine: ADVISOR FC_CI119 (6.5 L, 119 kW diesel) full-load curve and fitted fuel surface.
+* Driveline: 5-speed AMT (ratios 5.0/3.3/2.37/1.45/1.0, final drive 5.6, chosen so the
+  engine runs near its peak power on the 4 % grade in third gear), lossless coupler with ADVISOR's TC_DUMMY speed-ratio rule.
+* Battery: 2 × 30 ADVISOR Ovonic 45 Ah NiMH modules (402 V, 90 Ah, 36 kWh nominal), power limits
+  130/110 kW, SOC window 0.4-0.8.
+* Accessories: ADVISOR ACC_HEAVY 7.457 kW, on the engine when it runs, else from the battery.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Literal
+
+import numpy as np
+
+from .battery import BatteryParams
+from .driveline import DrivelineParams
+from .engine import EngineParams
+from .glider import GliderParams
+from .motor import MotorParams
+from .params import ConfigError, Params, spec
+from .thermal import ThermalParams
+
+ACC_W, STOP_START, REGEN, N_PT = 0, 1, 2, 3
+
+COOLANT_MODES = ("on", "degraded", "off")
+
+
+@dataclasses.dataclass(frozen=True)
+class PowertrainParams(Params):
+    """Supervisory facts of the powertrain that are not a component's."""
+
+    accessory_power_w: float = spec(7457.0, "accessory load (ADVISOR ACC_HEAVY)", min=0.0)
+    stop_start: bool = spec(True, "engine off (no fuel) whenever it is not needed")
+    regen_enabled: bool = spec(True, "regenerative braking by the motor within its and the battery's limits")
+
+    def pack(self) -> np.ndarray:
+        return np.array([self.accessory_power_w, float(self.stop_start), float(self.regen_enabled)])
+
+
+@dataclasses.dataclass(frozen=True)
+class VehicleConfig(Params):
+    """A whole vehicle: one parameter record per component."""
+
+    glider: GliderParams = dataclasses.field(default_factory=GliderParams)
+    driveline: DrivelineParams = dataclasses.field(default_factory=DrivelineParams)
+    engine: EngineParams = dataclasses.field(default_factory=EngineParams)
+    motor: MotorParams = dataclasses.field(default_factory=MotorParams)
+    thermal: ThermalParams = dataclasses.field(default_factory=ThermalParams)
+    battery: BatteryParams = dataclasses.field(default_factory=BatteryParams)
+    powertrain: PowertrainParams = dataclasses.field(default_factory=PowertrainParams)
+
+    def with_thermal(self, enabled: bool) -> "VehicleConfig":
+        """The same vehicle with the thermal model on or off (off = the paper's ADVISOR baseline)."""
+        return self.replace(thermal=self.thermal.replace(enabled=enabled))
+
+    def conventional(self) -> "VehicleConfig":
+        """The conventional bus: no motor, no regeneration, the engine idles instead of stopping."""
+        return self.replace(motor=self.motor.replace(enabled=False),
+                            powertrain=self.powertrain.replace(stop_start=False, regen_enabled=False))
+
+
+def paper_bus() -> VehicleConfig:
+    """The default vehicle: the paper's parallel hybrid city bus (see the module docstring)."""
+    return VehicleConfig()
+
+
+@dataclasses.dataclass(frozen=True)
+class Conditions(Params):
+    """Conditions of one run: ambient, starting state and coolant mode."""
+
+    ambient_temp_c: float = spec(20.0, "ambient air temperature (paper: 20 °C)", min=-40.0, max=60.0)
+    initial_motor_temp_c: float = spec(20.0, "motor temperature at the start (paper: 20 °C)", min=-40.0, max=150.0)
+    initial_soc: float = spec(0.65, "battery SOC at the start (middle of ADVISOR's 0.6-0.7 band)",
+                              min=0.0, max=1.0)
+    coolant: str = "on"
+    coolant_temp_c: float | None = None
+    coolant_degraded_factor: float = spec(0.1, "h_water multiplier when the coolant is degraded", min=0.0, max=1.0)
+
+    def validate(self) -> None:
+        if self.coolant not in COOLANT_MODES:
+            raise ConfigError(f"Conditions.coolant: {self.coolant!r} is not one of {list(COOLANT_MODES)}")
+        if self.coolant_temp_c is not None:
+            object.__setattr__(self, "coolant_temp_c", float(self.coolant_temp_c))
+
+    @property
+    def water_temp_c(self) -> float:
+        """Coolant return temperature: the paper's perfect radiator brings it back to the start value."""
+        return self.initial_motor_temp_c if self.coolant_temp_c is None else self.coolant_temp_c
+
+    @property
+    def coolant_factor(self) -> float:
+        return {"on": 1.0, "degraded": self.coolant_degraded_factor, "off": 0.0}[self.coolant]
+
+    def check_soc(self, battery: BatteryParams) -> None:
+        if not battery.soc_min <= self.initial_soc <= battery.soc_max:
+            raise ConfigError(f"Conditions.initial_soc: {self.initial_soc} is outside the battery's SOC window "
+                              f"[{battery.soc_min}, {battery.soc_max}]")
+
+
+CoolantMode = Literal["on", "degraded", "off"]

@@ -1,0 +1,313 @@
+"""The one physics step of the vehicle, vectorised over a batch axis.
+
+``step_kernel`` advances B independent vehicles by one time step. It is the only place where
+the components are put together; the environment, the vector environment, ECMS, dynamic
+programming, the whole-cycle simulation and the performance tests all call it (through
+:class:`PhysicsCore`). It is compiled with numba: the same source serves a batch of one (an env
+step) and a batch of thousands (a vector env step, a DP stage).
+
+Backward-facing quasi-static model (ADVISOR-style): over a step the cycle asks for a speed change
+v0 → v1 on a grade; road load gives the wheel torque at the mean speed; the driveline maps it to
+the coupler shaft; the action splits it between motor and engine.
+
+Split and limits (DESIGN §3-4). For a positive shaft demand T_dem and action u ∈ [-1, 1] the
+motor is asked for u·T_dem and the engine for (1-u)·T_dem. The motor request is clipped to its
+envelope (peak torque, the heat index of eq 8, the cutoff) and to the battery's power and SOC
+limits; the engine covers the rest up to its full-load torque; if the engine is saturated or off
+the motor assists further up to its limits. Whatever the powertrain still cannot give is a trace
+miss: the step delivers what it can, the missed wheel energy and the speed deficit it would cause
+(``trace_miss_mps`` = missed force·dt / effective mass) are reported, and the next step again
+follows the cycle. So every strategy and DP face the same capped demand, and the reward prices
+the miss. Braking: the motor regenerates up to its and the battery's limits; friction brakes take
+the rest. The action has no effect while braking or at standstill.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from . import battery as bat
+from . import driveline as drv
+from . import engine as eng
+from . import glider as gli
+from . import motor as mot
+from . import thermal as thm
+from .config import ACC_W, REGEN, STOP_START, Conditions, VehicleConfig
+
+# state columns
+SOC, TEMP_C, HEAT_X, HEAT_X_MIN, CUTOFF = range(5)
+N_STATE = 5
+STATE_NAMES = ("soc", "motor_temp_c", "heat_x", "heat_x_min", "motor_cutoff")
+
+# condition columns
+AMBIENT_C, WATER_C, COOLANT_FACTOR = range(3)
+N_COND = 3
+
+# output columns (per step; powers are means over the step, energies in J)
+OUT_NAMES = (
+    "fuel_g", "engine_on", "engine_speed_radps", "engine_torque_nm", "engine_power_w",
+    "motor_torque_nm", "motor_speed_radps", "motor_elec_power_w", "motor_loss_w", "motor_heat_w",
+    "motor_torque_avail_nm", "motor_torque_request_nm", "battery_power_w", "battery_chem_power_w",
+    "battery_loss_w", "battery_current_a", "gear", "speed_mps", "wheel_power_demand_w", "wheel_power_w",
+    "missed_wheel_energy_j", "trace_miss_mps", "brake_power_w", "clutch_loss_w", "driveline_loss_w",
+    "accessory_power_w", "coolant_on", "heat_index", "q_air_w", "q_rad_w", "q_cool_w",
+    "shaft_torque_demand_nm", "motor_torque_clipped", "engine_torque_max_nm", "motor_torque_max_nm",
+)
+(FUEL_G, ENGINE_ON, ENGINE_SPEED, ENGINE_TORQUE, ENGINE_POWER, MOTOR_TORQUE, MOTOR_SPEED, MOTOR_ELEC,
+ MOTOR_LOSS, MOTOR_HEAT, MOTOR_AVAIL, MOTOR_REQ, BATT_POWER, BATT_CHEM, BATT_LOSS, BATT_CURRENT, GEAR,
+ SPEED, WHEEL_DEMAND, WHEEL_POWER, MISSED_J, TRACE_MISS, BRAKE_POWER, CLUTCH_LOSS, DRIVELINE_LOSS, ACC,
+ COOLANT_ON, HEAT_INDEX, Q_AIR, Q_RAD, Q_COOL, SHAFT_DEMAND, MOTOR_CLIPPED, ENGINE_MAX, MOTOR_MAX) = range(35)
+N_OUT = len(OUT_NAMES)
+
+
+@njit(cache=True)
+def _step_one(gl, dl, en, mo, th, ba, pt, st, u, v0, v1, grade, cond, dt, st_out, out):
+    for k in range(N_OUT):
+        out[k] = 0.0
+    soc = st[SOC]
+    temp = st[TEMP_C]
+    hx = st[HEAT_X]
+    cutoff = st[CUTOFF]
+    ambient = cond[AMBIENT_C]
+    acc_w = pt[ACC_W]
+    stop_start = pt[STOP_START] != 0.0
+    u = min(max(u, -1.0), 1.0)
+
+    # --- road load and driveline -------------------------------------------------------------
+    v = 0.5 * (v0 + v1)
+    accel = (v1 - v0) / dt
+    moving = v > 1e-6
+    force = gli.road_force_n(gl, v, accel, grade) if moving else 0.0
+    r_w = gl[gli.WHEEL_R_M]
+    t_wheel = force * r_w
+    w_wheel = v / r_w
+    p_eng_max = 0.0
+    for k in range(int(en[eng.N_CURVE])):
+        p_eng_max = max(p_eng_max, en[eng.CURVE0 + k] * en[eng.CURVE0 + eng.MAX_CURVE + k])
+    gear = drv.select_gear(dl, w_wheel, force * v / max(p_eng_max, 1.0), en[eng.MAX_RADPS])
+    w_s = w_wheel * drv.overall_ratio(dl, gear)
+    t_s_dem = drv.shaft_torque_nm(dl, t_wheel, gear) if moving else 0.0
+    rho = dl[drv.COUPLER_RATIO]
+    w_m = w_s * rho
+
+    # --- motor envelope at the start of the step ------------------------------------------------
+    extra = thm.extra_loss_frac(th)
+    derate = thm.derate_frac(th, temp)
+    t_env = thm.available_torque_nm(th, mot.peak_torque_nm(mo, w_m), mot.continuous_torque_nm(mo, w_m), hx,
+                                    cutoff)
+    p_dis, p_chg = bat.power_limits_w(ba, soc, dt)
+    engine_avail = w_s <= en[eng.MAX_RADPS] + 1e-9
+
+    t_m = 0.0
+    t_e = 0.0
+    w_e = 0.0
+    t_acc = 0.0
+    fuel_rate = 0.0
+    clutch_loss = 0.0
+    brake_w = 0.0
+    missed_force = 0.0
+    t_m_req = 0.0
+    t_e_max = 0.0
+    t_m_max = 0.0
+    acc_from_engine = 0.0
+
+    if t_s_dem > 0.0:
+        # --- traction: split, clip, engine covers, motor tops up --------------------------------
+        engine_on = engine_avail and (((1.0 - u) * t_s_dem > 1e-9) or not stop_start)
+        if not engine_on and engine_avail and p_dis < acc_w:
+            engine_on = True  # the battery cannot carry the accessories
+        acc_elec = 0.0 if engine_on else acc_w
+        t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate)
+        t_m_min = max(-t_env, t_lo)
+        t_m_max = min(t_env, t_hi)
+        t_m_req = u * t_s_dem / rho
+        t_m = min(max(t_m_req, t_m_min), t_m_max)
+        t_e = t_s_dem - rho * t_m
+        if t_e > 1e-9 and not engine_on and engine_avail:
+            engine_on = True
+            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis, p_chg, extra, derate)
+            t_m_min = max(-t_env, t_lo)
+            t_m_max = min(t_env, t_hi)
+            t_m = min(max(t_m, t_m_min), t_m_max)
+            t_e = t_s_dem - rho * t_m
+        if engine_on:
+            w_e = max(w_s, en[eng.IDLE_RADPS])
+            t_acc = acc_w / w_e
+            t_e_max = max(eng.max_torque_nm(en, w_e) - t_acc, 0.0)
+        t_e = min(max(t_e, 0.0), t_e_max)
+        short = t_s_dem - rho * t_m - t_e
+        if short > 1e-12:
+            t_m = min(t_m + short / rho, t_m_max)
+            short = t_s_dem - rho * t_m - t_e
+        if short > 1e-12:
+            t_w_del = drv.wheel_torque_nm(dl, rho * t_m + t_e, gear)
+            missed_force = (t_wheel - t_w_del) / r_w
+        if engine_on:
+            clutch_loss = t_e * (w_e - w_s)
+            acc_from_engine = acc_w
+            fuel_rate = eng.fuel_rate_gps(en, w_e, t_e + t_acc)
+        t_s_used = rho * t_m + t_e
+        t_w_used = drv.wheel_torque_nm(dl, t_s_used, gear)
+        driveline_loss = t_s_used * w_s - t_w_used * w_wheel
+    else:
+        # --- braking, coasting or standstill: regeneration by rule, friction for the rest -------
+        engine_on = not stop_start
+        if not engine_on and p_dis < acc_w and engine_avail:
+            engine_on = True
+        acc_take = 0.0
+        if engine_on:
+            w_e = max(w_s, en[eng.IDLE_RADPS])
+            if moving and w_s >= en[eng.IDLE_RADPS]:
+                # overrun: fuel cut; the braking shaft drives the accessories as far as it can
+                acc_take = min(acc_w, -t_s_dem * w_s)
+            acc_from_engine = acc_w - acc_take
+            t_acc = acc_from_engine / w_e
+            t_e_max = max(eng.max_torque_nm(en, w_e) - acc_w / w_e, 0.0)
+            fuel_rate = eng.fuel_rate_gps(en, w_e, t_acc) if acc_from_engine > 1e-9 else 0.0
+        acc_elec = 0.0 if engine_on else acc_w
+        t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate)
+        t_m_max = min(t_env, t_hi)
+        t_s_free = t_s_dem + (acc_take / w_s if acc_take > 0.0 else 0.0)
+        if pt[REGEN] != 0.0 and t_s_free < 0.0:
+            t_m_req = t_s_free / rho
+            t_m = max(t_m_req, max(-t_env, t_lo))
+        t_s_used = rho * t_m - (acc_take / w_s if acc_take > 0.0 else 0.0)
+        t_w_used = drv.wheel_torque_nm(dl, t_s_used, gear)
+        brake_w = -(t_wheel - t_w_used) * w_wheel if moving else 0.0
+        driveline_loss = t_s_used * w_s - t_w_used * w_wheel
+
+    # --- motor, battery ---------------------------------------------------------------------------
+    motor_loss = mot.total_loss_w(mo, t_m, w_m, extra, derate)
+    p_elec = mot.electric_power_w(mo, t_m, w_m, extra, derate)
+    acc_elec = 0.0 if engine_on else acc_w
+    p_batt = p_elec + acc_elec
+    current = bat.current_a(ba, soc, p_batt)
+    voc = bat.open_circuit_voltage_v(ba, soc)
+    p_chem = voc * current
+    soc_new = bat.soc_step(ba, soc, current, dt)
+
+    # --- thermal: heat index (eq 9), temperature (eq 7), protection --------------------------------
+    cont = mot.continuous_torque_nm(mo, w_m)
+    hx_new = thm.heat_index_step(th, hx, st[HEAT_X_MIN], t_m, cont, temp, dt)
+    heat_w = motor_loss
+    temp_new, coolant_on = thm.temperature_step(th, temp, heat_w, ambient, cond[WATER_C], cond[COOLANT_FACTOR],
+                                                v, dt)
+    q_air, q_rad, q_cool = thm.heat_flows_w(th, temp, ambient, cond[WATER_C], cond[COOLANT_FACTOR], v)
+    cutoff_new = thm.cutoff_step(th, cutoff, temp_new)
+
+    st_out[SOC] = soc_new
+    st_out[TEMP_C] = temp_new
+    st_out[HEAT_X] = hx_new
+    st_out[HEAT_X_MIN] = st[HEAT_X_MIN]
+    st_out[CUTOFF] = cutoff_new
+
+    m_eff = gli.effective_mass_kg(gl)
+    out[FUEL_G] = fuel_rate * dt
+    out[ENGINE_ON] = 1.0 if engine_on else 0.0
+    out[ENGINE_SPEED] = w_e
+    out[ENGINE_TORQUE] = t_e
+    out[ENGINE_POWER] = (t_e + t_acc) * w_e
+    out[MOTOR_TORQUE] = t_m
+    out[MOTOR_SPEED] = w_m
+    out[MOTOR_ELEC] = p_elec
+    out[MOTOR_LOSS] = motor_loss
+    out[MOTOR_HEAT] = heat_w
+    out[MOTOR_AVAIL] = t_env
+    out[MOTOR_REQ] = t_m_req
+    out[BATT_POWER] = p_batt
+    out[BATT_CHEM] = p_chem
+    out[BATT_LOSS] = p_chem - p_batt
+    out[BATT_CURRENT] = current
+    out[GEAR] = gear + 1
+    out[SPEED] = v1 - missed_force * dt / m_eff
+    out[WHEEL_DEMAND] = force * v
+    out[WHEEL_POWER] = (force - missed_force) * v
+    out[MISSED_J] = missed_force * v * dt
+    out[TRACE_MISS] = missed_force * dt / m_eff
+    out[BRAKE_POWER] = brake_w
+    out[CLUTCH_LOSS] = clutch_loss
+    out[DRIVELINE_LOSS] = driveline_loss
+    out[ACC] = acc_w
+    out[COOLANT_ON] = 1.0 if coolant_on else 0.0
+    out[HEAT_INDEX] = thm.heat_index_pwm(hx_new)
+    out[Q_AIR] = q_air
+    out[Q_RAD] = q_rad
+    out[Q_COOL] = q_cool
+    out[SHAFT_DEMAND] = t_s_dem
+    out[MOTOR_CLIPPED] = 1.0 if abs(t_m - t_m_req) > 1e-6 else 0.0
+    out[ENGINE_MAX] = t_e_max
+    out[MOTOR_MAX] = t_m_max
+
+
+@njit(cache=True)
+def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, dt, state_out, out):
+    """Advance every row of ``state`` [B, N_STATE] by one step; write ``state_out`` and ``out`` [B, N_OUT].
+
+    ``action``, ``v0``, ``v1``, ``grade`` have length B; ``cond`` is [B, N_COND].
+    """
+    for b in range(action.shape[0]):
+        _step_one(gl, dl, en, mo, th, ba, pt, state[b], action[b], v0[b], v1[b], grade[b], cond[b], dt,
+                  state_out[b], out[b])
+
+
+@njit(cache=True)
+def initial_heat_x(th, initial_temp_c):
+    return -thm.pwm_initial(th, initial_temp_c)
+
+
+class PhysicsCore:
+    """A vehicle's packed parameters and the batched step.
+
+    >>> core = PhysicsCore(paper_bus())
+    >>> state = core.initial_state(Conditions(), batch=4)
+    >>> new_state, out = core.step(state, np.zeros(4), v0=np.zeros(4), v1=np.ones(4),
+    ...                            grade=np.zeros(4), cond=core.conditions_array(Conditions(), 4))
+    """
+
+    def __init__(self, config: VehicleConfig, dt_s: float = 1.0):
+        self.config = config
+        self.dt_s = float(dt_s)
+        self.gl = config.glider.pack()
+        self.dl = config.driveline.pack()
+        self.en = config.engine.pack()
+        self.mo = config.motor.pack()
+        self.th = config.thermal.pack()
+        self.ba = config.battery.pack()
+        self.pt = config.powertrain.pack()
+
+    @property
+    def params(self) -> tuple:
+        return (self.gl, self.dl, self.en, self.mo, self.th, self.ba, self.pt)
+
+    def initial_state(self, conditions: Conditions, batch: int = 1) -> np.ndarray:
+        conditions.check_soc(self.config.battery)
+        st = np.zeros((batch, N_STATE))
+        st[:, SOC] = conditions.initial_soc
+        st[:, TEMP_C] = conditions.initial_motor_temp_c
+        st[:, HEAT_X] = initial_heat_x(self.th, conditions.initial_motor_temp_c)
+        st[:, HEAT_X_MIN] = st[:, HEAT_X]
+        st[:, CUTOFF] = 1.0 if (self.config.thermal.enabled
+                                and conditions.initial_motor_temp_c >= self.config.thermal.cutoff_temp_c) else 0.0
+        return st
+
+    @staticmethod
+    def conditions_array(conditions: Conditions, batch: int = 1) -> np.ndarray:
+        cond = np.empty((batch, N_COND))
+        cond[:, AMBIENT_C] = conditions.ambient_temp_c
+        cond[:, WATER_C] = conditions.water_temp_c
+        cond[:, COOLANT_FACTOR] = conditions.coolant_factor
+        return cond
+
+    def step(self, state, action, v0, v1, grade, cond, state_out=None, out=None):
+        """One step for a batch; returns (new state [B, N_STATE], outputs [B, N_OUT])."""
+        b = state.shape[0]
+        if state_out is None:
+            state_out = np.empty((b, N_STATE))
+        if out is None:
+            out = np.empty((b, N_OUT))
+        step_kernel(self.gl, self.dl, self.en, self.mo, self.th, self.ba, self.pt, state, action, v0, v1, grade,
+                    cond, self.dt_s, state_out, out)
+        return state_out, out

@@ -1,0 +1,112 @@
+"""Driveline: wheel ← final drive ← automated manual gearbox ← torque coupler ← clutch ← engine.
+
+The motor joins the engine shaft through the torque coupler ahead of the gearbox (the paper's
+"torque synthesizer"), so both see the gearbox input shaft ("coupler shaft"). The motor turns at
+``coupler_ratio`` times the shaft speed, with ADVISOR's TC_DUMMY rule
+``0.99 · max motor speed / max engine speed`` (lossless coupler).
+
+Gear choice is a stateless shift map on vehicle speed and load: the highest gear whose shaft
+speed is at least the up-shift speed, which rises with the demanded load fraction from
+``upshift_low_load_rpm`` to ``upshift_full_load_rpm`` (ADVISOR's PTC_PAR schedule in spirit,
+without its hysteresis, so that dynamic programming needs no gear state).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from numba import njit
+
+from .params import ConfigError, Params, spec
+
+RPM = math.pi / 30.0
+
+FD_RATIO, GB_EFF, FD_EFF, COUPLER_RATIO, UP_LO_RADPS, UP_HI_RADPS, N_GEARS = range(7)
+GEARS0 = 7  # gear ratios follow from this index
+MAX_GEARS = 8
+N_PACKED = GEARS0 + MAX_GEARS
+
+
+@dataclasses.dataclass(frozen=True)
+class DrivelineParams(Params):
+    """Gearbox, final drive and torque coupler."""
+
+    gear_ratios: tuple = spec((5.0, 3.3, 2.37, 1.45, 1.0), "AMT gear ratios, first to top (input/output speed)",
+                              min=0.1, max=20.0)
+    final_drive_ratio: float = spec(5.6, "final drive ratio (calibrated to Table 3)", min=0.5, max=20.0)
+    gearbox_efficiency: float = spec(0.96, "AMT efficiency, constant", min=0.5, max=1.0)
+    final_drive_efficiency: float = spec(0.97, "final drive efficiency, constant", min=0.5, max=1.0)
+    coupler_ratio: float = spec(0.99 * 6000.0 / 3500.0, "motor speed / coupler shaft speed (ADVISOR TC_DUMMY rule)",
+                                min=0.1, max=10.0)
+    upshift_low_load_rpm: float = spec(1100.0, "shaft speed above which to up-shift at zero load", min=300.0)
+    upshift_full_load_rpm: float = spec(2400.0, "shaft speed above which to up-shift at full load", min=300.0)
+
+    def validate(self) -> None:
+        if not 1 <= len(self.gear_ratios) <= MAX_GEARS:
+            raise ConfigError(f"DrivelineParams.gear_ratios: need 1 to {MAX_GEARS} gears, got {len(self.gear_ratios)}")
+        if any(a <= b for a, b in zip(self.gear_ratios, self.gear_ratios[1:])):
+            raise ConfigError(f"DrivelineParams.gear_ratios: must decrease from first to top, got {self.gear_ratios}")
+        if self.upshift_full_load_rpm < self.upshift_low_load_rpm:
+            raise ConfigError("DrivelineParams.upshift_full_load_rpm: must be >= upshift_low_load_rpm")
+
+    def pack(self) -> np.ndarray:
+        v = np.zeros(N_PACKED)
+        v[FD_RATIO] = self.final_drive_ratio
+        v[GB_EFF] = self.gearbox_efficiency
+        v[FD_EFF] = self.final_drive_efficiency
+        v[COUPLER_RATIO] = self.coupler_ratio
+        v[UP_LO_RADPS] = self.upshift_low_load_rpm * RPM
+        v[UP_HI_RADPS] = self.upshift_full_load_rpm * RPM
+        v[N_GEARS] = len(self.gear_ratios)
+        v[GEARS0:GEARS0 + len(self.gear_ratios)] = self.gear_ratios
+        return v
+
+
+@njit(cache=True)
+def overall_ratio(dl, gear):
+    """Shaft speed / wheel speed in ``gear`` (0-based)."""
+    return dl[GEARS0 + gear] * dl[FD_RATIO]
+
+
+@njit(cache=True)
+def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
+    """Stateless shift map: highest gear whose shaft speed reaches the load-dependent up-shift speed."""
+    n = int(dl[N_GEARS])
+    lf = min(max(load_frac, 0.0), 1.0)
+    up = dl[UP_LO_RADPS] + (dl[UP_HI_RADPS] - dl[UP_LO_RADPS]) * lf
+    gear = 0
+    for k in range(n):
+        w = wheel_speed_radps * overall_ratio(dl, k)
+        if w >= up and w <= shaft_max_radps:
+            gear = k
+    # if even first gear over-speeds, take the lowest gear that does not
+    if wheel_speed_radps * overall_ratio(dl, gear) > shaft_max_radps:
+        for k in range(n):
+            if wheel_speed_radps * overall_ratio(dl, k) <= shaft_max_radps:
+                gear = k
+                break
+        else:
+            gear = n - 1
+    return gear
+
+
+@njit(cache=True)
+def shaft_torque_nm(dl, wheel_torque_nm, gear):
+    """Coupler-shaft torque for a wheel torque: losses add when driving and subtract when braking."""
+    eff = dl[GB_EFF] * dl[FD_EFF]
+    r = overall_ratio(dl, gear)
+    if wheel_torque_nm >= 0.0:
+        return wheel_torque_nm / (r * eff)
+    return wheel_torque_nm * eff / r
+
+
+@njit(cache=True)
+def wheel_torque_nm(dl, shaft_torque, gear):
+    """Wheel torque for a coupler-shaft torque (inverse of :func:`shaft_torque_nm`)."""
+    eff = dl[GB_EFF] * dl[FD_EFF]
+    r = overall_ratio(dl, gear)
+    if shaft_torque >= 0.0:
+        return shaft_torque * r * eff
+    return shaft_torque * r / eff

@@ -1,0 +1,103 @@
+"""Diesel engine: maximum torque curve and a parametric fuel-rate surface.
+
+Fuel rate (Willans-type surface in speed ω [rad/s] and brake power P [kW])::
+
+    fuel_gps = c0 + c1·ω + c2·ω² + (c3 + c4·ω)·P + c5·P²
+
+Coefficients are a least-squares fit to ADVISOR's FC_CI119 (6.5 L, 119 kW) fuel map
+(``benchmarks/calibrate_engine.py`` refits and reports the error: 2.1 % RMS, 5.1 % max over
+the 54 map points). The constant-plus-speed terms give the fuel at zero load (idle and
+motoring with accessories only). Fuel is cut on overrun (no positive torque requested while the
+shaft turns above idle) and zero when the engine is off.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from numba import njit
+
+from .params import ConfigError, Params, spec
+
+RPM = math.pi / 30.0
+
+IDLE_RADPS, MAX_RADPS, LHV_J_PER_G, DENSITY_KG_PER_L, N_CURVE = range(5)
+FUEL0 = 5  # six fuel coefficients
+CURVE0 = 11  # then N_CURVE speeds [rad/s] and N_CURVE torques [N·m]
+MAX_CURVE = 12
+N_PACKED = CURVE0 + 2 * MAX_CURVE
+
+
+@dataclasses.dataclass(frozen=True)
+class EngineParams(Params):
+    """Diesel engine, default calibrated to ADVISOR FC_CI119."""
+
+    idle_speed_rpm: float = spec(700.0, "idle speed", min=100.0)
+    max_speed_rpm: float = spec(3500.0, "maximum speed (top of the FC_CI119 map)", min=500.0)
+    fuel_lhv_j_per_g: float = spec(43000.0, "fuel lower heating value (ADVISOR diesel)", min=1000.0)
+    fuel_density_kg_per_l: float = spec(0.835, "diesel density for L/100 km", min=0.5, max=1.2)
+    fuel_coeffs: tuple = spec((0.467811, -4.06548e-3, 1.55914e-5, 5.52159e-2, -1.54977e-6, 4.18751e-5),
+                              "fuel-rate surface c0..c5 (g/s with ω in rad/s, P in kW), fit to FC_CI119")
+    max_torque_speed_rpm: tuple = spec((700.0, 1000.0, 1500.0, 2000.0, 2500.0, 3000.0, 3500.0),
+                                       "speeds of the full-load curve (FC_CI119, idle point extrapolated)", min=0.0)
+    max_torque_nm: tuple = spec((250.0, 310.0, 380.0, 400.0, 392.0, 368.0, 330.0),
+                                "full-load torque at those speeds (FC_CI119)", min=0.0)
+
+    def validate(self) -> None:
+        if len(self.fuel_coeffs) != 6:
+            raise ConfigError("EngineParams.fuel_coeffs: need 6 coefficients")
+        if len(self.max_torque_speed_rpm) != len(self.max_torque_nm):
+            raise ConfigError("EngineParams.max_torque_nm: length differs from max_torque_speed_rpm")
+        if not 2 <= len(self.max_torque_nm) <= MAX_CURVE:
+            raise ConfigError(f"EngineParams.max_torque_nm: need 2 to {MAX_CURVE} points")
+        if any(a >= b for a, b in zip(self.max_torque_speed_rpm, self.max_torque_speed_rpm[1:])):
+            raise ConfigError("EngineParams.max_torque_speed_rpm: must increase")
+        if self.max_speed_rpm <= self.idle_speed_rpm:
+            raise ConfigError("EngineParams.max_speed_rpm: must exceed idle_speed_rpm")
+
+    @property
+    def max_power_w(self) -> float:
+        return max(s * RPM * t for s, t in zip(self.max_torque_speed_rpm, self.max_torque_nm))
+
+    def pack(self) -> np.ndarray:
+        v = np.zeros(N_PACKED)
+        v[IDLE_RADPS] = self.idle_speed_rpm * RPM
+        v[MAX_RADPS] = self.max_speed_rpm * RPM
+        v[LHV_J_PER_G] = self.fuel_lhv_j_per_g
+        v[DENSITY_KG_PER_L] = self.fuel_density_kg_per_l
+        n = len(self.max_torque_nm)
+        v[N_CURVE] = n
+        v[FUEL0:FUEL0 + 6] = self.fuel_coeffs
+        v[CURVE0:CURVE0 + n] = np.asarray(self.max_torque_speed_rpm) * RPM
+        v[CURVE0 + MAX_CURVE:CURVE0 + MAX_CURVE + n] = self.max_torque_nm
+        return v
+
+
+@njit(cache=True)
+def max_torque_nm(en, speed_radps):
+    """Full-load torque at ``speed_radps`` (linear in the table, flat beyond its ends, 0 above max speed)."""
+    if speed_radps > en[MAX_RADPS] + 1e-9:
+        return 0.0
+    n = int(en[N_CURVE])
+    s0 = CURVE0
+    t0 = CURVE0 + MAX_CURVE
+    if speed_radps <= en[s0]:
+        return en[t0]
+    for k in range(1, n):
+        if speed_radps <= en[s0 + k]:
+            f = (speed_radps - en[s0 + k - 1]) / (en[s0 + k] - en[s0 + k - 1])
+            return en[t0 + k - 1] + f * (en[t0 + k] - en[t0 + k - 1])
+    return en[t0 + n - 1]
+
+
+@njit(cache=True)
+def fuel_rate_gps(en, speed_radps, torque_nm):
+    """Fuel rate of the running engine at brake torque ``torque_nm`` ≥ 0 (idle fuel at zero torque)."""
+    w = speed_radps
+    p_kw = max(torque_nm, 0.0) * w * 1e-3
+    c = FUEL0
+    rate = (en[c] + en[c + 1] * w + en[c + 2] * w * w
+            + (en[c + 3] + en[c + 4] * w) * p_kw + en[c + 5] * p_kw * p_kw)
+    return max(rate, 0.0)

@@ -1,0 +1,65 @@
+"""Glider and road load: the force the wheels must deliver to follow a speed trace.
+
+Road load (DESIGN §3)::
+
+    F = m·a·(1 + f_rot) + m·g·Crr·cos(θ) + m·g·sin(θ) + ½·ρ·Cd·A·v²
+
+with θ = atan(grade). Defaults are the 40-ft transit-bus glider of ADVISOR (VEH_RTS06 body,
+WH_HEAVY tyres); the test mass is calibrated to the paper's Table 3 (see ``config.paper_bus``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from numba import njit
+
+from .params import Params, spec
+
+# Layout of the packed vector read by the compiled kernels.
+MASS_KG, ROT_FRAC, CD, AREA_M2, CRR, WHEEL_R_M, RHO, GRAVITY = range(8)
+N_PACKED = 8
+
+
+@dataclasses.dataclass(frozen=True)
+class GliderParams(Params):
+    """Body, tyres and air: everything the road load needs."""
+
+    mass_kg: float = spec(15000.0, "vehicle test mass incl. powertrain and cargo (calibrated to Table 3)",
+                          min=0.0, min_exclusive=True)
+    rotating_mass_frac: float = spec(0.06, "equivalent rotating inertia as a fraction of mass", min=0.0, max=1.0)
+    drag_coefficient: float = spec(0.79, "aerodynamic drag coefficient Cd (ADVISOR VEH_RTS06)", min=0.0, max=3.0)
+    frontal_area_m2: float = spec(7.8965, "frontal area A (ADVISOR VEH_RTS06)", min=0.0, min_exclusive=True)
+    rolling_resistance_coeff: float = spec(0.00938, "rolling resistance Crr (ADVISOR WH_HEAVY)", min=0.0, max=0.1)
+    wheel_radius_m: float = spec(0.5, "tyre rolling radius (ADVISOR WH_HEAVY)", min=0.05, max=2.0)
+    air_density_kgpm3: float = spec(1.23, "air density", min=0.5, max=2.0)
+    gravity_mps2: float = spec(9.81, "gravitational acceleration", min=9.0, max=10.5)
+
+    def pack(self) -> np.ndarray:
+        return np.array([self.mass_kg, self.rotating_mass_frac, self.drag_coefficient, self.frontal_area_m2,
+                         self.rolling_resistance_coeff, self.wheel_radius_m, self.air_density_kgpm3,
+                         self.gravity_mps2], dtype=np.float64)
+
+
+@njit(cache=True)
+def effective_mass_kg(gl):
+    """Mass plus the equivalent mass of the rotating parts."""
+    return gl[MASS_KG] * (1.0 + gl[ROT_FRAC])
+
+
+@njit(cache=True)
+def resistance_force_n(gl, speed_mps, grade):
+    """Rolling + grade + aerodynamic force at ``speed_mps`` on ``grade`` (rise/run)."""
+    theta = math.atan(grade)
+    m_g = gl[MASS_KG] * gl[GRAVITY]
+    rolling = m_g * gl[CRR] * math.cos(theta) if speed_mps > 1e-3 else 0.0
+    aero = 0.5 * gl[RHO] * gl[CD] * gl[AREA_M2] * speed_mps * speed_mps
+    return rolling + m_g * math.sin(theta) + aero
+
+
+@njit(cache=True)
+def road_force_n(gl, speed_mps, accel_mps2, grade):
+    """Total tractive force needed at the wheels (positive drives, negative brakes)."""
+    return effective_mass_kg(gl) * accel_mps2 + resistance_force_n(gl, speed_mps, grade)
