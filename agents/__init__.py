@@ -1,0 +1,1 @@
+"""Energy-management strategies behind one protocol (see :mod:`agents.base`)."""

@@ -1,0 +1,39 @@
+"""The protocol every strategy follows, so evaluation treats PPO, rules, ECMS and DP alike.
+
+A strategy is driven through ``HevThermal-v0``::
+
+    strategy.reset(env)            # once per episode, after env.reset(); may plan (DP)
+    action = strategy.act(obs, info)   # every step; returns np.ndarray of shape (1,)
+
+``vehicle_config(config)`` lets a strategy change the vehicle it drives (``engine_only`` drives
+the conventional bus); ``thermal_aware`` says whether it respects the thermal model.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.physics import VehicleConfig
+
+
+class Strategy:
+    """Base class: subclasses override :meth:`act` and optionally :meth:`reset`."""
+
+    name: str = "strategy"
+    thermal_aware: bool = False
+
+    def vehicle_config(self, config: VehicleConfig) -> VehicleConfig:
+        return config
+
+    def reset(self, env: Any) -> None:
+        """Called after ``env.reset()``; ``env.unwrapped`` exposes the physics (see the env's docs)."""
+        self.env = env.unwrapped
+
+    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
+        raise NotImplementedError
+
+    def describe(self) -> dict[str, Any]:
+        """Settings worth reporting next to the results (grid sizes, gains...)."""
+        return {}
