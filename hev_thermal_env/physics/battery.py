@@ -12,7 +12,7 @@ import dataclasses
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import jit
 
 from .params import ConfigError, Params, spec
 
@@ -78,7 +78,7 @@ class BatteryParams(Params):
         return v
 
 
-@njit(cache=True)
+@jit
 def _table(ba, start, soc):
     x = min(max(soc, 0.0), 1.0) * (N_SOC - 1)
     k = min(int(x), N_SOC - 2)
@@ -86,17 +86,17 @@ def _table(ba, start, soc):
     return ba[start + k] + f * (ba[start + k + 1] - ba[start + k])
 
 
-@njit(cache=True)
+@jit
 def open_circuit_voltage_v(ba, soc):
     return _table(ba, VOC0, soc)
 
 
-@njit(cache=True)
+@jit
 def resistance_ohm(ba, soc, charging):
     return _table(ba, RCHG0 if charging else RDIS0, soc)
 
 
-@njit(cache=True)
+@jit
 def power_limits_w(ba, soc, dt_s):
     """(max discharge, max charge) terminal power this step, within rating and the SOC window."""
     voc = open_circuit_voltage_v(ba, soc)
@@ -110,7 +110,7 @@ def power_limits_w(ba, soc, dt_s):
     return max(p_dis, 0.0), max(p_chg, 0.0)
 
 
-@njit(cache=True)
+@jit
 def current_a(ba, soc, terminal_power_w):
     """Current for a terminal power (positive discharging), from P = V_oc·I − R·I²."""
     voc = open_circuit_voltage_v(ba, soc)
@@ -124,7 +124,7 @@ def current_a(ba, soc, terminal_power_w):
     return (voc - math.sqrt(voc * voc - 4.0 * r * terminal_power_w)) / (2.0 * r)
 
 
-@njit(cache=True)
+@jit
 def soc_step(ba, soc, current, dt_s):
     """SOC after ``dt_s`` at ``current`` (coulomb counting), held inside the hard window."""
     new = soc - current * dt_s / ba[CAPACITY_AS]

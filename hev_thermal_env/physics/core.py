@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import jit
 
 from . import battery as bat
 from . import driveline as drv
@@ -63,10 +63,8 @@ OUT_NAMES = (
 N_OUT = len(OUT_NAMES)
 
 
-@njit(cache=True)
+@jit
 def _step_one(gl, dl, en, mo, th, ba, pt, st, u, v0, v1, grade, cond, dt, st_out, out):
-    for k in range(N_OUT):
-        out[k] = 0.0
     soc = st[SOC]
     temp = st[TEMP_C]
     hx = st[HEAT_X]
@@ -84,9 +82,7 @@ def _step_one(gl, dl, en, mo, th, ba, pt, st, u, v0, v1, grade, cond, dt, st_out
     r_w = gl[gli.WHEEL_R_M]
     t_wheel = force * r_w
     w_wheel = v / r_w
-    p_eng_max = 0.0
-    for k in range(int(en[eng.N_CURVE])):
-        p_eng_max = max(p_eng_max, en[eng.CURVE0 + k] * en[eng.CURVE0 + eng.MAX_CURVE + k])
+    p_eng_max = en[eng.MAX_POWER_W]
     gear = drv.select_gear(dl, w_wheel, force * v / max(p_eng_max, 1.0), en[eng.MAX_RADPS])
     w_s = w_wheel * drv.overall_ratio(dl, gear)
     t_s_dem = drv.shaft_torque_nm(dl, t_wheel, gear) if moving else 0.0
@@ -193,9 +189,9 @@ def _step_one(gl, dl, en, mo, th, ba, pt, st, u, v0, v1, grade, cond, dt, st_out
     cont = mot.continuous_torque_nm(mo, w_m)
     hx_new = thm.heat_index_step(th, hx, st[HEAT_X_MIN], t_m, cont, temp, dt)
     heat_w = motor_loss
-    temp_new, coolant_on = thm.temperature_step(th, temp, heat_w, ambient, cond[WATER_C], cond[COOLANT_FACTOR],
-                                                v, dt)
-    q_air, q_rad, q_cool = thm.heat_flows_w(th, temp, ambient, cond[WATER_C], cond[COOLANT_FACTOR], v)
+    temp_new, q_air, q_rad, q_cool = thm.temperature_step(th, temp, heat_w, ambient, cond[WATER_C],
+                                                          cond[COOLANT_FACTOR], v, dt)
+    coolant_on = q_cool != 0.0
     cutoff_new = thm.cutoff_step(th, cutoff, temp_new)
 
     st_out[SOC] = soc_new
@@ -242,7 +238,7 @@ def _step_one(gl, dl, en, mo, th, ba, pt, st, u, v0, v1, grade, cond, dt, st_out
     out[MOTOR_MAX] = t_m_max
 
 
-@njit(cache=True)
+@jit
 def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, dt, state_out, out):
     """Advance every row of ``state`` [B, N_STATE] by one step; write ``state_out`` and ``out`` [B, N_OUT].
 
@@ -253,7 +249,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                   state_out[b], out[b])
 
 
-@njit(cache=True)
+@jit
 def initial_heat_x(th, initial_temp_c):
     return -thm.pwm_initial(th, initial_temp_c)
 

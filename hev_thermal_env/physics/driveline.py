@@ -17,7 +17,7 @@ import dataclasses
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import jit
 
 from .params import ConfigError, Params, spec
 
@@ -64,13 +64,13 @@ class DrivelineParams(Params):
         return v
 
 
-@njit(cache=True)
+@jit
 def overall_ratio(dl, gear):
     """Shaft speed / wheel speed in ``gear`` (0-based)."""
     return dl[GEARS0 + gear] * dl[FD_RATIO]
 
 
-@njit(cache=True)
+@jit
 def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
     """Stateless shift map: highest gear whose shaft speed reaches the load-dependent up-shift speed."""
     n = int(dl[N_GEARS])
@@ -92,7 +92,7 @@ def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
     return gear
 
 
-@njit(cache=True)
+@jit
 def shaft_torque_nm(dl, wheel_torque_nm, gear):
     """Coupler-shaft torque for a wheel torque: losses add when driving and subtract when braking."""
     eff = dl[GB_EFF] * dl[FD_EFF]
@@ -102,7 +102,7 @@ def shaft_torque_nm(dl, wheel_torque_nm, gear):
     return wheel_torque_nm * eff / r
 
 
-@njit(cache=True)
+@jit
 def wheel_torque_nm(dl, shaft_torque, gear):
     """Wheel torque for a coupler-shaft torque (inverse of :func:`shaft_torque_nm`)."""
     eff = dl[GB_EFF] * dl[FD_EFF]

@@ -17,15 +17,15 @@ import dataclasses
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import jit
 
 from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0
 
-IDLE_RADPS, MAX_RADPS, LHV_J_PER_G, DENSITY_KG_PER_L, N_CURVE = range(5)
-FUEL0 = 5  # six fuel coefficients
-CURVE0 = 11  # then N_CURVE speeds [rad/s] and N_CURVE torques [N·m]
+IDLE_RADPS, MAX_RADPS, LHV_J_PER_G, DENSITY_KG_PER_L, N_CURVE, MAX_POWER_W = range(6)
+FUEL0 = 6  # six fuel coefficients
+CURVE0 = 12  # then N_CURVE speeds [rad/s] and N_CURVE torques [N·m]
 MAX_CURVE = 12
 N_PACKED = CURVE0 + 2 * MAX_CURVE
 
@@ -69,16 +69,17 @@ class EngineParams(Params):
         v[DENSITY_KG_PER_L] = self.fuel_density_kg_per_l
         n = len(self.max_torque_nm)
         v[N_CURVE] = n
+        v[MAX_POWER_W] = self.max_power_w
         v[FUEL0:FUEL0 + 6] = self.fuel_coeffs
         v[CURVE0:CURVE0 + n] = np.asarray(self.max_torque_speed_rpm) * RPM
         v[CURVE0 + MAX_CURVE:CURVE0 + MAX_CURVE + n] = self.max_torque_nm
         return v
 
 
-@njit(cache=True)
+@jit
 def max_torque_nm(en, speed_radps):
     """Full-load torque at ``speed_radps`` (linear in the table, flat beyond its ends, 0 above max speed)."""
-    if speed_radps > en[MAX_RADPS] + 1e-9:
+    if speed_radps > en[MAX_RADPS] * (1.0 + 1e-9):
         return 0.0
     n = int(en[N_CURVE])
     s0 = CURVE0
@@ -92,7 +93,7 @@ def max_torque_nm(en, speed_radps):
     return en[t0 + n - 1]
 
 
-@njit(cache=True)
+@jit
 def fuel_rate_gps(en, speed_radps, torque_nm):
     """Fuel rate of the running engine at brake torque ``torque_nm`` ≥ 0 (idle fuel at zero torque)."""
     w = speed_radps

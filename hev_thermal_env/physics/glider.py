@@ -14,7 +14,7 @@ import dataclasses
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import jit
 
 from .params import Params, spec
 
@@ -43,23 +43,27 @@ class GliderParams(Params):
                          self.gravity_mps2], dtype=np.float64)
 
 
-@njit(cache=True)
+@jit
 def effective_mass_kg(gl):
     """Mass plus the equivalent mass of the rotating parts."""
     return gl[MASS_KG] * (1.0 + gl[ROT_FRAC])
 
 
-@njit(cache=True)
+@jit
 def resistance_force_n(gl, speed_mps, grade):
     """Rolling + grade + aerodynamic force at ``speed_mps`` on ``grade`` (rise/run)."""
-    theta = math.atan(grade)
     m_g = gl[MASS_KG] * gl[GRAVITY]
-    rolling = m_g * gl[CRR] * math.cos(theta) if speed_mps > 1e-3 else 0.0
+    if grade == 0.0:
+        cos_t, sin_t = 1.0, 0.0
+    else:  # θ = atan(grade)
+        inv = 1.0 / math.sqrt(1.0 + grade * grade)
+        cos_t, sin_t = inv, grade * inv
+    rolling = m_g * gl[CRR] * cos_t if speed_mps > 1e-3 else 0.0
     aero = 0.5 * gl[RHO] * gl[CD] * gl[AREA_M2] * speed_mps * speed_mps
-    return rolling + m_g * math.sin(theta) + aero
+    return rolling + m_g * sin_t + aero
 
 
-@njit(cache=True)
+@jit
 def road_force_n(gl, speed_mps, accel_mps2, grade):
     """Total tractive force needed at the wheels (positive drives, negative brakes)."""
     return effective_mass_kg(gl) * accel_mps2 + resistance_force_n(gl, speed_mps, grade)

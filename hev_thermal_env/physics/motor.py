@@ -21,7 +21,7 @@ import dataclasses
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import jit
 
 from .params import ConfigError, Params, spec
 
@@ -41,9 +41,9 @@ class MotorParams(Params):
     peak_power_w: float = spec(90e3, "peak power (Table 1, swapped)", min=0.0)
     continuous_power_w: float = spec(30e3, "rated power (Table 1, swapped)", min=0.0, min_exclusive=True)
     max_speed_rpm: float = spec(6000.0, "maximum speed (Table 1)", min=100.0)
-    copper_loss_coeff: float = spec(0.075, "k_cu in W/(N·m)²", min=0.0)
-    iron_loss_coeff: float = spec(0.11, "k_fe in W/(rad/s)^1.5", min=0.0)
-    friction_loss_coeff: float = spec(0.5, "k_fr in W/(rad/s)", min=0.0)
+    copper_loss_coeff: float = spec(0.0975, "k_cu in W/(N·m)²", min=0.0)
+    iron_loss_coeff: float = spec(0.143, "k_fe in W/(rad/s)^1.5", min=0.0)
+    friction_loss_coeff: float = spec(0.65, "k_fr in W/(rad/s)", min=0.0)
     mass_kg: float = spec(100.0, "motor mass (Table 1); the thermal node uses ThermalParams.mass_kg", min=0.0)
     enabled: bool = spec(True, "False removes the motor (conventional bus): no torque, no losses")
 
@@ -63,7 +63,7 @@ class MotorParams(Params):
                          self.iron_loss_coeff, self.friction_loss_coeff, float(self.enabled)])
 
 
-@njit(cache=True)
+@jit
 def peak_torque_nm(mo, speed_radps):
     """Peak torque envelope: constant to base speed, then constant power; 0 beyond max speed."""
     w = abs(speed_radps)
@@ -74,7 +74,7 @@ def peak_torque_nm(mo, speed_radps):
     return mo[PEAK_POWER] / w
 
 
-@njit(cache=True)
+@jit
 def continuous_torque_nm(mo, speed_radps):
     """Continuous torque envelope (T_cont(ω) of eq 8); never zero so eq 9 stays finite."""
     w = abs(speed_radps)
@@ -83,22 +83,22 @@ def continuous_torque_nm(mo, speed_radps):
     return mo[CONT_POWER] / w
 
 
-@njit(cache=True)
+@jit
 def base_loss_w(mo, torque_nm, speed_radps):
     """Copper + iron + friction loss of the untouched (thermal-model-off) motor."""
     if mo[ENABLED] == 0.0:
         return 0.0
     w = abs(speed_radps)
-    return mo[K_CU] * torque_nm * torque_nm + mo[K_FE] * w ** 1.5 + mo[K_FR] * w
+    return mo[K_CU] * torque_nm * torque_nm + mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w
 
 
-@njit(cache=True)
+@jit
 def total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
     """Loss including the thermal model's extra loss fraction and efficiency derate."""
     return (1.0 + extra_frac) * base_loss_w(mo, torque_nm, speed_radps) + derate_frac * abs(torque_nm * speed_radps)
 
 
-@njit(cache=True)
+@jit
 def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
     """Electrical input power (negative when generating)."""
     if mo[ENABLED] == 0.0:
@@ -106,7 +106,7 @@ def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
     return torque_nm * speed_radps + total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac)
 
 
-@njit(cache=True)
+@jit
 def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_frac, derate_frac):
     """Torque range [t_lo, t_hi] whose electrical power stays within [-p_chg_max_w, p_dis_max_w].
 
@@ -116,7 +116,7 @@ def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_fra
     w = abs(speed_radps)
     f = 1.0 + extra_frac
     a = f * mo[K_CU]
-    c0 = f * (mo[K_FE] * w ** 1.5 + mo[K_FR] * w)
+    c0 = f * (mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w)
     if c0 > p_dis_max_w:
         return 0.0, 0.0
     # motoring side: a T² + w(1+d) T + c0 - p_dis = 0, positive root

@@ -39,7 +39,7 @@ import dataclasses
 import math
 
 import numpy as np
-from numba import njit
+from ._jit import jit
 
 from .params import ConfigError, Params, spec
 
@@ -112,25 +112,25 @@ class ThermalParams(Params):
             self.air_speed_exponent])
 
 
-@njit(cache=True)
+@jit
 def _ramp(x, x_lo, x_hi, y_lo, y_hi):
     f = min(max((x - x_lo) / (x_hi - x_lo), 0.0), 1.0)
     return y_lo + f * (y_hi - y_lo)
 
 
-@njit(cache=True)
+@jit
 def pwm_initial(th, initial_temp_c):
     """PWM_initial as a function of the motor's starting temperature (our eq 10 companion)."""
     return _ramp(initial_temp_c, th[PWM0_LO_C], th[PWM0_HI_C], th[PWM0_COLD], 0.0)
 
 
-@njit(cache=True)
+@jit
 def t_gain(th, temp_c):
     """T_gain = f(T_mc) (eq 10), linear between the cold and hot values."""
     return _ramp(temp_c, th[TGAIN_LO_C], th[TGAIN_HI_C], th[TGAIN_COLD], th[TGAIN_HOT])
 
 
-@njit(cache=True)
+@jit
 def derate_frac(th, temp_c):
     """Efficiency lost (as a fraction of mechanical power) at ``temp_c``; 0 with the model off."""
     if th[ENABLED] == 0.0:
@@ -138,18 +138,18 @@ def derate_frac(th, temp_c):
     return max(temp_c - th[DERATE_START_C], 0.0) * th[DERATE_PER_C]
 
 
-@njit(cache=True)
+@jit
 def extra_loss_frac(th):
     return th[EXTRA_LOSS] if th[ENABLED] != 0.0 else 0.0
 
 
-@njit(cache=True)
+@jit
 def heat_index_pwm(heat_x):
     """PWM = clip(x, 0, 1) (eq 9)."""
     return min(max(heat_x, 0.0), 1.0)
 
 
-@njit(cache=True)
+@jit
 def available_torque_nm(th, peak_nm, cont_nm, heat_x, cutoff):
     """Torque limit under the heat index (eq 8) and the cutoff; the peak with the model off."""
     if th[ENABLED] == 0.0:
@@ -160,39 +160,40 @@ def available_torque_nm(th, peak_nm, cont_nm, heat_x, cutoff):
     return cont_nm * pwm + peak_nm * (1.0 - pwm)
 
 
-@njit(cache=True)
+@jit
 def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
     """One Euler step of eq 9 with anti-windup to [x_min, 1]."""
     dx = t_gain(th, temp_c) / th[T_S] * (abs(torque_nm) / cont_nm - 1.0)
     return min(max(heat_x + dx * dt_s, heat_x_min), 1.0)
 
 
-@njit(cache=True)
+@jit
 def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
     """(Q_air, Q_rad, Q_cool) leaving the motor at ``temp_c`` (eqs 1, 4, 5, 6)."""
     dT = temp_c - ambient_c
     v_kmh = max(speed_mps, 0.0) * 3.6
-    h_air = th[H_AIR0] + th[H_AIR_NAT] * (abs(dT) / 1000.0) ** 0.25 \
-        + th[H_AIR_FORCED] * (v_kmh / th[V_REF_KMH]) ** th[V_EXP]
+    h_air = th[H_AIR0] + th[H_AIR_NAT] * math.sqrt(math.sqrt(abs(dT) / 1000.0))
+    if v_kmh > 0.0:
+        h_air += th[H_AIR_FORCED] * (v_kmh / th[V_REF_KMH]) ** th[V_EXP]
     q_air = h_air * th[AREA_M2] * dT
     tk = temp_c + KELVIN
     ta = ambient_c + KELVIN
-    q_rad = th[EMISSIVITY] * SIGMA * th[AREA_M2] * (tk ** 4 - ta ** 4)
+    q_rad = th[EMISSIVITY] * SIGMA * th[AREA_M2] * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
     q_cool = 0.0
     if temp_c > th[THERMOSTAT_C] and coolant_factor > 0.0:
         q_cool = th[H_WATER] * coolant_factor * th[AREA_M2] * (temp_c - water_c)
     return q_air, q_rad, q_cool
 
 
-@njit(cache=True)
+@jit
 def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, speed_mps, dt_s):
-    """One Euler step of eq 7. Returns (new temperature, coolant flowing)."""
+    """One Euler step of eq 7. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
     q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
     new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / (th[MASS_KG] * th[CP])
-    return new, q_cool != 0.0
+    return new, q_air, q_rad, q_cool
 
 
-@njit(cache=True)
+@jit
 def cutoff_step(th, cutoff, temp_c):
     """Protection with hysteresis: trips at cutoff_temp_c, releases at cutoff_release_temp_c."""
     if th[ENABLED] == 0.0:
