@@ -354,3 +354,11 @@ def test_initial_soc_outside_window():
 def test_cycle_distance_used_in_summary():
     res = simulate("hwfet", paper_bus(), 0.0)
     assert res.summary["distance_km"] == pytest.approx(load_cycle("hwfet").distance_km)
+
+
+def test_parameter_docs_up_to_date():
+    from pathlib import Path
+
+    from hev_thermal_env.physics.docs import parameters_markdown
+    doc = Path(__file__).resolve().parents[1] / "docs" / "parameters.md"
+    assert doc.read_text() == parameters_markdown(), "regenerate: python -m hev_thermal_env.physics.docs"
