@@ -1,0 +1,193 @@
+"""The benchmark: every strategy on every cycle and scenario, one table and plots.
+
+``python evaluate.py benchmark --out DIR`` writes ``results.csv``, ``results.json``, ``results.md``
+(one row per cycle × scenario × strategy, with fuel relative to DP on the same cycle and scenario)
+and PNGs: per cycle and scenario, speed / SOC / motor temperature / heat index / split over time
+for every strategy on shared axes, and a bar chart of corrected fuel relative to DP.
+
+Independent runs are spread over processes; each run is deterministic (fixed seed, no shared
+state), so the results equal a serial run's. Every file is written atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.commands.io import atomic_write_json, atomic_write_text
+
+DEFAULT_CYCLES = ("hwfet", "beijing")
+DEFAULT_SCENARIOS = ("paper",)
+DEFAULT_STRATEGIES = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "ppo")
+
+COLUMNS = ("cycle", "scenario", "strategy", "distance_km", "fuel_g", "fuel_l_per_100km", "fuel_corrected_l_per_100km",
+           "fuel_vs_dp_pct", "soc_correction_l_per_100km", "miss_correction_l_per_100km", "missed_wheel_energy_kwh",
+           "soc_initial", "soc_final", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s",
+           "trace_miss_max_mps", "wall_s")
+TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", "action",
+              "motor_torque_nm", "engine_torque_nm", "fuel_g")
+
+
+def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
+    cycle, scenario, strategy, options = task
+    from . import get_strategy
+    from .evaluation import run_strategy
+
+    res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cycle, scenario)
+    trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
+    summary = dict(res.summary)
+    summary.update(cycle=cycle, scenario=scenario, strategy=strategy)
+    return summary, trace
+
+
+def validate(cycles, strategies, scenarios, out: Path) -> None:
+    """Fail before any work on unknown names or an unusable output directory."""
+    from hev_thermal_env.cycles import load_cycle
+    from hev_thermal_env.scenarios import get_scenario
+
+    from . import list_strategies
+
+    for c in cycles:
+        load_cycle(c)
+    for s in scenarios:
+        get_scenario(s)
+    known = list_strategies()
+    for s in strategies:
+        base = s.split(":", 1)[0]
+        if base not in known:
+            raise ValueError(f"unknown strategy {s!r}; known strategies: {', '.join(known)}")
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"{out}: exists and is not a directory")
+    probe = out if out.exists() else next((p for p in out.parents if p.exists()), Path("."))
+    if not os.access(probe, os.W_OK):
+        raise PermissionError(f"{out}: not writable")
+
+
+def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT_STRATEGIES,
+                  scenarios=DEFAULT_SCENARIOS, *, jobs: int | None = None, options: dict | None = None,
+                  progress: bool = True, plots: bool = True) -> list[dict]:
+    """Run every combination, write the result files and plots, return the rows."""
+    out = Path(out_dir)
+    validate(cycles, strategies, scenarios, out)
+    options = options or {}
+    tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in strategies]
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    # slow runs first so that the pool stays busy
+    order = sorted(range(len(tasks)), key=lambda i: (0 if tasks[i][2].startswith("dp") else 1, i))
+    results: list[Any] = [None] * len(tasks)
+    t0 = time.perf_counter()
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+        bar = tqdm(total=len(tasks), desc="benchmark runs", unit="run")
+    if jobs == 1:
+        for i in order:
+            results[i] = _run_one(tasks[i])
+            if bar:
+                bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
+                bar.update()
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futures = {i: pool.submit(_run_one, tasks[i]) for i in order}
+            for i in order:
+                results[i] = futures[i].result()
+                if bar:
+                    bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
+                    bar.update()
+    if bar:
+        bar.close()
+    rows = [r[0] for r in results]
+    traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}
+    dp_fuel = {(r["cycle"], r["scenario"]): r["fuel_corrected_l_per_100km"] for r in rows if r["strategy"] == "dp"}
+    for r in rows:
+        ref = dp_fuel.get((r["cycle"], r["scenario"]))
+        r["fuel_vs_dp_pct"] = 100.0 * r["fuel_corrected_l_per_100km"] / ref if ref else None
+    out.mkdir(parents=True, exist_ok=True)
+    write_results(out, rows, wall_s=time.perf_counter() - t0)
+    if plots:
+        plot_results(out, rows, traces)
+    return rows
+
+
+def _fmt(v: Any) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def write_results(out: Path, rows: list[dict], wall_s: float) -> None:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_fmt(r.get(c)) for c in COLUMNS])
+    atomic_write_text(out / "results.csv", buf.getvalue())
+    clean = [{k: (v if not isinstance(v, (np.floating, np.integer)) else v.item()) for k, v in r.items()}
+             for r in rows]
+    atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean})
+    md = ["| cycle | scenario | strategy | fuel L/100 km | corrected L/100 km | vs DP | SOC start → end | "
+          "max motor °C | heat index max | derated s | cutoff s | missed kWh |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        vs = f"{r['fuel_vs_dp_pct']:.1f} %" if r.get("fuel_vs_dp_pct") else "-"
+        md.append(f"| {r['cycle']} | {r['scenario']} | {r['strategy']} | {r['fuel_l_per_100km']:.2f} | "
+                  f"{r['fuel_corrected_l_per_100km']:.2f} | {vs} | {r['soc_initial']:.3f} → {r['soc_final']:.3f} | "
+                  f"{r['max_motor_temp_c']:.1f} | {r['heat_index_max']:.2f} | {r['derated_s']:.0f} | "
+                  f"{r['cutoff_s']:.0f} | {r['missed_wheel_energy_kwh']:.3f} |")
+    md += ["", "Corrected fuel puts strategies on equal service: fuel plus the fuel equivalent of the net battery "
+           "energy used and of the missed wheel energy (see README, *Metrics*). \"vs DP\" is corrected fuel "
+           "relative to the dynamic-programming optimum on the same cycle and scenario."]
+    atomic_write_text(out / "results.md", "\n".join(md) + "\n")
+
+
+def _savefig(fig, path: Path) -> None:
+    tmp = path.with_name(f".{path.stem}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)
+
+
+def plot_results(out: Path, rows: list[dict], traces: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .plots import plot_run
+
+    groups = sorted({(r["cycle"], r["scenario"]) for r in rows})
+    for cyc, sc in groups:
+        group = {st: tr for (c, s, st), tr in traces.items() if c == cyc and s == sc}
+        path = out / f"traces_{cyc}_{sc}.png"
+        tmp = path.with_name(f".{path.stem}.tmp.png")
+        plot_run(group, tmp, title=f"{cyc} cycle, {sc} scenario: every strategy")
+        os.replace(tmp, path)
+    # bar chart of corrected fuel relative to DP
+    fig, axes = plt.subplots(1, len(groups), figsize=(4.2 * len(groups), 4.0), squeeze=False)
+    for ax, (cyc, sc) in zip(axes[0], groups):
+        sel = [r for r in rows if r["cycle"] == cyc and r["scenario"] == sc]
+        has_dp = any(r["fuel_vs_dp_pct"] for r in sel)
+        vals = [r["fuel_vs_dp_pct"] if has_dp else r["fuel_corrected_l_per_100km"] for r in sel]
+        names = [r["strategy"] for r in sel]
+        bars = ax.bar(range(len(sel)), vals, color=["tab:grey" if n.startswith("dp") else "tab:blue" for n in names])
+        for b, v in zip(bars, vals):
+            ax.text(b.get_x() + b.get_width() / 2, b.get_height(), f"{v:.1f}", ha="center", va="bottom", fontsize=8)
+        ax.set_xticks(range(len(sel)))
+        ax.set_xticklabels(names, rotation=35, ha="right")
+        if has_dp:
+            ax.axhline(100.0, color="k", lw=0.8)
+            ax.set_ylim(min(95.0, min(vals) - 2), max(vals) * 1.05)
+        ax.set_ylabel("corrected fuel, % of DP" if has_dp else "corrected fuel (L/100 km)")
+        ax.set_title(f"{cyc} / {sc}")
+    fig.suptitle("Corrected fuel relative to the DP optimum (lower is better)")
+    fig.tight_layout()
+    _savefig(fig, out / "fuel_vs_dp.png")
+    plt.close(fig)

@@ -1,0 +1,36 @@
+"""``evaluate.py benchmark``: strategies × cycles × scenarios, a table and plots (the main job)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from .benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("benchmark", help="every strategy on every cycle and scenario: table + plots",
+                       description="Run strategies on cycles and scenarios; write results.csv/json/md and PNGs.")
+    p.add_argument("--cycles", nargs="+", default=list(DEFAULT_CYCLES), help="cycle names or CSV paths")
+    p.add_argument("--strategies", nargs="+", default=list(DEFAULT_STRATEGIES),
+                   help="strategy names (ppo:PATH for a trained model)")
+    p.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), help="scenario names")
+    p.add_argument("--out", default="results", help="output directory (default results)")
+    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+
+
+def main(args: argparse.Namespace) -> int:
+    from .benchmark import run_benchmark
+
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
+    t0 = time.perf_counter()
+    rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
+                         plots=not args.no_plots)
+    print((Path(args.out) / "results.md").read_text())
+    print(f"{len(rows)} runs in {time.perf_counter() - t0:.1f} s")
+    print(f"table: {Path(args.out) / 'results.md'} (also results.csv, results.json)")
+    print(f"plots: {Path(args.out) / 'fuel_vs_dp.png'}, {Path(args.out)}/traces_<cycle>_<scenario>.png")
+    return 0
