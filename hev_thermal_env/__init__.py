@@ -13,7 +13,8 @@ from .physics.simulate import SimResult, simulate
 __version__ = "0.1.0"
 
 if "HevThermal-v0" not in registry:
-    register(id="HevThermal-v0", entry_point="hev_thermal_env.env:HevThermalEnv")
+    register(id="HevThermal-v0", entry_point="hev_thermal_env.env:HevThermalEnv",
+             vector_entry_point="hev_thermal_env.vector_env:HevThermalVectorEnv")
 
 __all__ = [
     "Conditions", "ConfigError", "Cycle", "PhysicsCore", "SimResult", "VehicleConfig", "cycle_from_arrays",

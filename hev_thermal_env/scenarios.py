@@ -37,8 +37,13 @@ class Scenario:
         ambient = float(rng.uniform(10.0, 40.0))
         motor = ambient + float(rng.uniform(0.0, 30.0))
         soc = float(rng.uniform(0.55, 0.75))
-        mode = rng.choice(3, p=[0.6, 0.3, 0.1])
-        coolant, factor = [("on", 0.1), ("degraded", float(rng.uniform(0.05, 0.5))), ("degraded", 0.01)][mode]
+        draw = rng.random()
+        if draw < 0.6:
+            coolant, factor = "on", 0.1
+        elif draw < 0.9:
+            coolant, factor = "degraded", float(rng.uniform(0.05, 0.5))
+        else:
+            coolant, factor = "degraded", 0.01
         return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=motor, initial_soc=soc, coolant=coolant,
                           coolant_degraded_factor=factor, coolant_temp_c=ambient + 5.0)
 

@@ -77,18 +77,17 @@ def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
     lf = min(max(load_frac, 0.0), 1.0)
     up = dl[UP_LO_RADPS] + (dl[UP_HI_RADPS] - dl[UP_LO_RADPS]) * lf
     gear = 0
+    lowest_ok = n - 1  # the lowest gear that does not over-speed; the top gear if none
     for k in range(n):
         w = wheel_speed_radps * overall_ratio(dl, k)
-        if w >= up and w <= shaft_max_radps:
-            gear = k
-    # if even first gear over-speeds, take the lowest gear that does not
-    if wheel_speed_radps * overall_ratio(dl, gear) > shaft_max_radps:
-        for k in range(n):
-            if wheel_speed_radps * overall_ratio(dl, k) <= shaft_max_radps:
+        if w <= shaft_max_radps:
+            lowest_ok = min(lowest_ok, k)
+            if w >= up:
                 gear = k
-                break
-        else:
-            gear = n - 1
+    # if even first gear over-speeds, take the lowest gear that does not (found in the same pass:
+    # a second, conditional loop over ``dl`` costs reference counting, speed rule in _jit.py)
+    if wheel_speed_radps * overall_ratio(dl, gear) > shaft_max_radps:
+        gear = lowest_ok
     return gear
 
 

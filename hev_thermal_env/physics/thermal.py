@@ -175,13 +175,14 @@ def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
     h_air = th[H_AIR0] + th[H_AIR_NAT] * math.sqrt(math.sqrt(abs(dT) / 1000.0))
     if v_kmh > 0.0:
         h_air += th[H_AIR_FORCED] * (v_kmh / th[V_REF_KMH]) ** th[V_EXP]
-    q_air = h_air * th[AREA_M2] * dT
-    tk = temp_c + KELVIN
-    ta = ambient_c + KELVIN
-    q_rad = th[EMISSIVITY] * SIGMA * th[AREA_M2] * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
     q_cool = 0.0
     if temp_c > th[THERMOSTAT_C] and coolant_factor > 0.0:
         q_cool = th[H_WATER] * coolant_factor * th[AREA_M2] * (temp_c - water_c)
+    q_air = h_air * th[AREA_M2] * dT
+    tk = temp_c + KELVIN
+    ta = ambient_c + KELVIN
+    # ``th`` is read for the last time outside any branch (speed rule in _jit.py)
+    q_rad = th[EMISSIVITY] * SIGMA * th[AREA_M2] * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
     return q_air, q_rad, q_cool
 
 
@@ -196,10 +197,6 @@ def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, spe
 @jit
 def cutoff_step(th, cutoff, temp_c):
     """Protection with hysteresis: trips at cutoff_temp_c, releases at cutoff_release_temp_c."""
-    if th[ENABLED] == 0.0:
-        return 0.0
-    if temp_c >= th[CUTOFF_C]:
-        return 1.0
-    if cutoff != 0.0 and temp_c > th[RELEASE_C]:
-        return 1.0
-    return 0.0
+    # one return, not three (speed rule in _jit.py)
+    tripped = temp_c >= th[CUTOFF_C] or (cutoff != 0.0 and temp_c > th[RELEASE_C])
+    return 1.0 if (th[ENABLED] != 0.0 and tripped) else 0.0

@@ -1,0 +1,171 @@
+"""Throughput of HevThermal-v0: single env, native vector env, SB3 adapter, and Pendulum-v1 for reference.
+
+Measures, in one run on the same machine:
+
+* ``single_env``: steps/s of one ``gymnasium.make("HevThermal-v0")`` env (with gymnasium's default
+  wrappers: PassiveEnvChecker, OrderEnforcing), reset at truncation. Target ≥ 10 000.
+* ``pendulum_reference``: steps/s of ``gymnasium.make("Pendulum-v1")``, the same loop.
+* ``vector_env``: env-steps/s of :class:`HevThermalVectorEnv` with ``--num-envs`` (1024) sub-envs
+  in the default configuration (HWFET, ``paper`` scenario), autoreset included (all sub-envs end
+  together every 765 steps). Target ≥ 2 000 000.
+* ``vector_env_training``: the same with a training-like configuration (``random`` scenario,
+  ``random_start``, HWFET/UDDS/US06): episodes end at different steps, so a few sub-envs reset in
+  almost every step.
+* ``sb3_adapter``: env-steps/s of :class:`Sb3VecEnv` with full per-env infos and with
+  ``info_keys=()`` (what PPO needs).
+* ``physics_kernel``: the batched physics step alone at the same batch size, for context.
+
+Usage::
+
+    python benchmarks/env_throughput.py                # full run, writes benchmarks/results/env_throughput.json
+    python benchmarks/env_throughput.py --quick        # a tiny run (seconds)
+    python benchmarks/env_throughput.py --json out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numba
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import hev_thermal_env  # noqa: E402  (registers HevThermal-v0)
+from hev_thermal_env.physics import core as C  # noqa: E402
+from hev_thermal_env.vector_env import HevThermalVectorEnv, Sb3VecEnv  # noqa: E402
+
+TARGET_SINGLE = 10_000.0
+TARGET_VECTOR = 2_000_000.0
+DEFAULT_JSON = Path(__file__).resolve().parent / "results" / "env_throughput.json"
+
+
+def single_env_rate(env_id: str, n_steps: int, seed: int = 0, **kwargs) -> dict:
+    env = gym.make(env_id, **kwargs)
+    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(n_steps, 1)).astype(np.float32)
+    if env_id.startswith("Pendulum"):
+        actions *= 2.0
+    env.reset(seed=seed)
+    for a in actions[: min(200, n_steps)]:  # warm-up (numba dispatch, checker's first-step checks)
+        _, _, term, trunc, _ = env.step(a)
+        if term or trunc:
+            env.reset()
+    env.reset(seed=seed)
+    t0 = time.perf_counter()
+    for a in actions:
+        _, _, term, trunc, _ = env.step(a)
+        if term or trunc:
+            env.reset()
+    wall = time.perf_counter() - t0
+    env.close()
+    return {"steps": n_steps, "wall_s": wall, "steps_per_s": n_steps / wall}
+
+
+def vector_rate(num_envs: int, n_steps: int, seed: int = 0, **kwargs) -> dict:
+    envs = HevThermalVectorEnv(num_envs, **kwargs)
+    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(8, num_envs, 1)).astype(np.float32)
+    envs.reset(seed=seed)
+    for i in range(20):
+        envs.step(actions[i % 8])
+    resets = 0
+    t0 = time.perf_counter()
+    for i in range(n_steps):
+        _, _, term, trunc, _ = envs.step(actions[i % 8])
+        resets += int(trunc.sum())
+    wall = time.perf_counter() - t0
+    return {"num_envs": num_envs, "vector_steps": n_steps, "env_steps": n_steps * num_envs, "wall_s": wall,
+            "env_steps_per_s": n_steps * num_envs / wall, "episodes_ended": resets}
+
+
+def sb3_rate(num_envs: int, n_steps: int, info_keys, seed: int = 0) -> dict:
+    env = Sb3VecEnv(num_envs, cycle="hwfet", random_start=True, info_keys=info_keys)
+    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(8, num_envs, 1)).astype(np.float32)
+    env.seed(seed)
+    env.reset()
+    for i in range(5):
+        env.step(actions[i % 8])
+    t0 = time.perf_counter()
+    for i in range(n_steps):
+        env.step(actions[i % 8])
+    wall = time.perf_counter() - t0
+    return {"num_envs": num_envs, "info_keys": "all" if info_keys == "all" else list(info_keys),
+            "vector_steps": n_steps, "env_steps": n_steps * num_envs, "wall_s": wall,
+            "env_steps_per_s": n_steps * num_envs / wall}
+
+
+def kernel_rate(num_envs: int, n_steps: int) -> dict:
+    envs = HevThermalVectorEnv(num_envs, cycle="hwfet", random_start=True)
+    envs.reset(seed=0)
+    rows = envs._rows
+    core = envs.core
+    j = rows.base + rows.k
+    v0, v1, g = rows._speed_flat[j], rows._speed_flat[j + 1], rows._grade_flat[j]
+    u = np.full(num_envs, 0.3)
+    st_out = np.empty((num_envs, C.N_STATE))
+    out = np.empty((num_envs, C.N_OUT))
+    args = (*core.params, rows.state, u, v0, v1, g, rows.cond, core.dt_s, st_out, out)
+    C.step_kernel(*args)
+    t0 = time.perf_counter()
+    for _ in range(n_steps):
+        C.step_kernel(*args)
+    wall = time.perf_counter() - t0
+    return {"num_envs": num_envs, "calls": n_steps, "wall_s": wall, "env_steps_per_s": n_steps * num_envs / wall,
+            "us_per_call": wall / n_steps * 1e6}
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"output file (default {DEFAULT_JSON})")
+    parser.add_argument("--quick", action="store_true", help="a tiny run to check the script (numbers are rough)")
+    parser.add_argument("--num-envs", type=int, default=1024, help="sub-environments of the vector runs")
+    args = parser.parse_args(argv)
+
+    n_single = 2_000 if args.quick else 50_000
+    n_vector = 20 if args.quick else 1_600
+    n_sb3 = 10 if args.quick else 200
+
+    t_import = time.perf_counter()
+    single = single_env_rate("HevThermal-v0", n_single, cycle="hwfet")
+    results = {
+        "single_env": {**single, "target_steps_per_s": TARGET_SINGLE,
+                       "meets_target": single["steps_per_s"] >= TARGET_SINGLE},
+        "pendulum_reference": single_env_rate("Pendulum-v1", n_single),
+    }
+    vec = vector_rate(args.num_envs, n_vector, cycle="hwfet")
+    results["vector_env"] = {**vec, "target_env_steps_per_s": TARGET_VECTOR,
+                             "meets_target": vec["env_steps_per_s"] >= TARGET_VECTOR}
+    results["vector_env_training"] = vector_rate(args.num_envs, n_vector, cycle=["hwfet", "udds", "us06"],
+                                                 scenario="random", random_start=True)
+    results["sb3_adapter"] = sb3_rate(args.num_envs, n_sb3, "all")
+    results["sb3_adapter_no_infos"] = sb3_rate(args.num_envs, n_sb3, ())
+    results["physics_kernel"] = kernel_rate(args.num_envs, n_vector)
+    results["meta"] = {
+        "quick": args.quick, "python": platform.python_version(), "numpy": np.__version__,
+        "numba": numba.__version__, "gymnasium": gym.__version__, "hev_thermal_env": hev_thermal_env.__version__,
+        "machine": platform.machine(), "cpu_count": os.cpu_count(), "total_wall_s": time.perf_counter() - t_import,
+    }
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(results, indent=2) + "\n")
+
+    print(f"single env (gymnasium.make)   {results['single_env']['steps_per_s']:>14,.0f} steps/s "
+          f"(target {TARGET_SINGLE:,.0f})")
+    print(f"Pendulum-v1 (reference)       {results['pendulum_reference']['steps_per_s']:>14,.0f} steps/s")
+    print(f"vector env, {args.num_envs} envs        {vec['env_steps_per_s']:>14,.0f} env-steps/s "
+          f"(target {TARGET_VECTOR:,.0f})")
+    print(f"vector env, training config   {results['vector_env_training']['env_steps_per_s']:>14,.0f} env-steps/s")
+    print(f"SB3 adapter, all infos        {results['sb3_adapter']['env_steps_per_s']:>14,.0f} env-steps/s")
+    print(f"SB3 adapter, info_keys=()     {results['sb3_adapter_no_infos']['env_steps_per_s']:>14,.0f} env-steps/s")
+    print(f"physics kernel alone          {results['physics_kernel']['env_steps_per_s']:>14,.0f} env-steps/s")
+    print(f"wrote {args.json}")
+    return results
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,487 @@
+"""Native batched vector form of ``HevThermal-v0`` and its Stable-Baselines3 adapter.
+
+:class:`HevThermalVectorEnv` steps all sub-environments with one call of the physics core
+(:func:`~hev_thermal_env.physics.core.step_kernel`) through the same :class:`~hev_thermal_env.env.EpisodeRows`
+tables as the single env, so sub-environment ``i`` reset with seed ``s`` lives through exactly the
+trajectory of ``HevThermalEnv`` reset with seed ``s``. :class:`Sb3VecEnv` exposes it as an SB3
+``VecEnv`` so that training steps the batched core directly.
+
+>>> from hev_thermal_env.vector_env import HevThermalVectorEnv
+>>> envs = HevThermalVectorEnv(8, cycle="hwfet")
+>>> obs, infos = envs.reset(seed=0)
+>>> obs.shape
+(8, 19)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from .env import (
+    INFO_KEYS,
+    RESET_INFO_KEYS,
+    EpisodeRows,
+    EpisodeSampler,
+    TableCache,
+    observation_bounds,
+    observation_names,
+    preview_offsets,
+    reset_info_dict,
+    resolve_config,
+    resolve_reward,
+    step_info_arrays,
+    total_reward,
+)
+from .physics import core as C
+from .physics.config import Conditions, VehicleConfig
+from .reward import RewardParams
+from .scenarios import Scenario
+
+# Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
+_PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
+
+
+class HevThermalVectorEnv(VectorEnv):
+    """``num_envs`` copies of ``HevThermal-v0`` stepped together by one batched call of the physics core.
+
+    Arguments are those of :class:`~hev_thermal_env.env.HevThermalEnv` (``cycle``, ``scenario``,
+    ``config``, ``conditions``, ``reward``, ``preview_s``, ``preview_step_s``, ``thermal``,
+    ``random_start``), shared by all sub-environments, plus:
+
+    * ``max_episode_steps``: optional cap on the steps of an episode (truncation), per sub-env.
+    * ``autoreset_mode``: :class:`gymnasium.vector.AutoresetMode` (or its value):
+
+      - ``NEXT_STEP`` (default, as gymnasium 1.x): the step after a truncation resets that
+        sub-environment, ignores its action and returns the reset observation with reward 0; its
+        step-info keys are masked out and the reset-info keys masked in.
+      - ``SAME_STEP``: a truncating sub-environment resets within the same step; the returned
+        observation is the reset one, ``infos["final_obs"]`` (object array) and
+        ``infos["final_info"]`` (dict of arrays) hold the last step's, and reset-info keys
+        overwrite step-info keys for those sub-environments. :class:`Sb3VecEnv` uses this mode.
+      - ``DISABLED``: stepping an ended sub-environment raises; reset it with
+        ``reset(options={"reset_mask": mask})``.
+
+    Sub-environments may run different cycles (lists of cycles, ``"random_bus"``) of different
+    lengths; each truncates at the end of its own. Rendering is not supported (``render_mode=None``).
+
+    Seeding follows gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each
+    one; every sub-environment has its own generator, created as the single env's
+    (``gymnasium.utils.seeding.np_random``). ``reset(options=...)`` takes the single env's options,
+    applied to every reset sub-environment, ``reset_mask`` (bool array: reset only these), or a list
+    of one options dict per sub-environment.
+
+    Infos are dicts of arrays with ``_key`` masks (gymnasium vector format); step keys are
+    :data:`~hev_thermal_env.env.INFO_KEYS`, reset keys :data:`~hev_thermal_env.env.RESET_INFO_KEYS`.
+    The batch attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``,
+    ``k`` [n], ``phys_state`` [n, N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and
+    ``last_out`` [n, N_OUT] mirror the single env's.
+    """
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, *, cycle: Any = "hwfet", scenario: str | Scenario = "paper",
+                 config: VehicleConfig | None = None, conditions: Conditions | None = None,
+                 reward: RewardParams | dict | None = None, preview_s: int = 10, preview_step_s: int = 2,
+                 thermal: bool = True, random_start: bool = False, max_episode_steps: int | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, render_mode: str | None = None):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if render_mode is not None:
+            raise ValueError("HevThermalVectorEnv does not render; use render_mode=None (render single envs instead)")
+        if max_episode_steps is not None and (int(max_episode_steps) != max_episode_steps or max_episode_steps < 1):
+            raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
+        self.autoreset_mode = AutoresetMode(autoreset_mode)
+        self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
+        self.config = resolve_config(config, thermal)
+        self.core = C.PhysicsCore(self.config)
+        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
+        self.offsets = preview_offsets(preview_s, preview_step_s)
+        self.obs_names = observation_names(int(preview_s), int(preview_step_s))
+        low, high = observation_bounds(self.config, self.offsets.size)
+        self.single_observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
+        self._rows = EpisodeRows(self.core, self.num_envs, self.offsets, low, high, resolve_reward(reward))
+        self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+        self._started = np.zeros(self.num_envs, dtype=bool)
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+
+    # -- batch attributes --------------------------------------------------------------------------
+
+    @property
+    def reward_params(self) -> RewardParams:
+        return self._rows.rp
+
+    @reward_params.setter
+    def reward_params(self, value: RewardParams | dict) -> None:
+        self._rows.rp = resolve_reward(value)
+
+    @property
+    def cycles(self) -> list:
+        return list(self._rows.cycles)
+
+    @property
+    def conditions(self) -> list:
+        return list(self._rows.conditions)
+
+    @property
+    def k(self) -> np.ndarray:
+        return self._rows.k.copy()
+
+    @property
+    def phys_state(self) -> np.ndarray:
+        return self._rows.state
+
+    @property
+    def cond(self) -> np.ndarray:
+        return self._rows.cond
+
+    @property
+    def soc_target(self) -> np.ndarray:
+        return self._rows.soc_target
+
+    @property
+    def last_out(self) -> np.ndarray:
+        return self._rows.last_out
+
+    # -- gymnasium vector API -----------------------------------------------------------------------
+
+    def reset(self, *, seed: int | Sequence[int | None] | None = None,
+              options: dict[str, Any] | Sequence[dict[str, Any] | None] | None = None):
+        seeds = self._seed_list(seed)
+        mask = np.ones(self.num_envs, dtype=bool)
+        per_env: list[dict | None]
+        if isinstance(options, dict):
+            options = dict(options)
+            if "reset_mask" in options:
+                mask = _check_mask(options.pop("reset_mask"), self.num_envs)
+            per_env = [options] * self.num_envs
+        elif options is None:
+            per_env = [None] * self.num_envs
+        else:
+            per_env = list(options)
+            if len(per_env) != self.num_envs:
+                raise ValueError(f"options: a list needs one dict per sub-environment ({self.num_envs}), "
+                                 f"got {len(per_env)}")
+        if isinstance(seed, int) and not isinstance(seed, bool):
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        idx = np.flatnonzero(mask)
+        self._seed_rows(idx, seeds)
+        reset_infos = self._start_episodes(idx, [per_env[i] for i in idx])
+        self._autoreset[idx] = False
+        obs = self._rows.observe()
+        return obs, self._reset_info_arrays(idx, reset_infos, {})
+
+    def step(self, actions: np.ndarray):
+        u, clipped = self._check_actions(actions)
+        rows = self._rows
+        if not self._started.all():
+            raise RuntimeError("call reset() before step()")
+        mode = self.autoreset_mode
+        if mode == AutoresetMode.DISABLED and np.any(rows.k >= rows.end):
+            ended = np.flatnonzero(rows.k >= rows.end)
+            raise RuntimeError(f"sub-environment(s) {ended.tolist()} have ended and autoreset is disabled; "
+                               "reset them with reset(options={'reset_mask': mask})")
+        resetting = self._autoreset if mode == AutoresetMode.NEXT_STEP else None
+        if resetting is not None and resetting.any():
+            idx = np.flatnonzero(resetting)
+            u[idx] = 0.0
+            clipped[idx] = False
+        reward, terms, out = rows.step(u)
+        state = rows.state
+        truncated = rows.k >= rows.end
+        terminated = np.zeros(self.num_envs, dtype=bool)
+        cycle_speed = rows._speed_flat[rows.base + rows.k]  # before any reset (which may widen the tables)
+        time_s = rows.k.astype(np.float64)
+        step_mask = np.ones(self.num_envs, dtype=bool)
+        if mode == AutoresetMode.NEXT_STEP and resetting.any():
+            idx = np.flatnonzero(resetting)
+            reset_infos = self._start_episodes(idx, [None] * idx.size)  # new state array, out rows zeroed
+            for arr in (out, state, reward, cycle_speed, time_s, *terms.values()):
+                arr[idx] = 0.0
+            truncated[idx] = False
+            step_mask[idx] = False
+            infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
+            infos = self._reset_info_arrays(idx, reset_infos, infos)
+            obs = rows.observe()
+        elif mode == AutoresetMode.SAME_STEP and truncated.any():
+            idx = np.flatnonzero(truncated)
+            obs = rows.observe()
+            step_infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in idx:
+                final_obs[i] = obs[i].copy()
+            done_mask = truncated.copy()
+            final_info = {}
+            for key in INFO_KEYS:
+                final_info[key] = step_infos[key]
+                final_info["_" + key] = done_mask
+            rows.last_out = out.copy()  # the final infos keep viewing ``out``
+            reset_infos = self._start_episodes(idx, [None] * idx.size)
+            obs[idx] = rows.observe(idx)
+            infos = {key: value for key, value in step_infos.items()}
+            for key in RESET_INFO_KEYS:
+                if key in infos:
+                    infos[key] = infos[key].copy()
+            infos = self._reset_info_arrays(idx, reset_infos, infos)
+            infos["final_obs"], infos["_final_obs"] = final_obs, done_mask
+            infos["final_info"], infos["_final_info"] = final_info, done_mask
+        else:
+            obs = rows.observe()
+            infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
+        self._autoreset = terminated | truncated
+        return obs, reward, terminated, truncated, infos
+
+    def get_attr(self, name: str) -> tuple:
+        """The attribute of every sub-environment: per-env values for the episode attributes
+        (``cycle``, ``conditions``, ``k``, ``soc_target``, ``phys_state``, ``cond``, ``last_out``,
+        ``np_random``), else the shared attribute of the vector env repeated."""
+        rows = self._rows
+        if name in _PER_ENV_ATTRS:
+            per = {
+                "cycle": lambda i: rows.cycles[i], "conditions": lambda i: rows.conditions[i],
+                "k": lambda i: int(rows.k[i]), "soc_target": lambda i: float(rows.soc_target[i]),
+                "phys_state": lambda i: rows.state[i:i + 1].copy(), "cond": lambda i: rows.cond[i:i + 1].copy(),
+                "last_out": lambda i: rows.last_out[i].copy(), "np_random": lambda i: self._rngs[i],
+            }[name]
+            return tuple(per(i) for i in range(self.num_envs))
+        value = getattr(self, name)
+        return (value,) * self.num_envs
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set a shared attribute (e.g. ``reward_params``); a list must hold the same value for every env."""
+        if name in _PER_ENV_ATTRS:
+            raise ValueError(f"{name!r} is per sub-environment and set by reset (options), not set_attr")
+        if isinstance(values, (list, tuple)):
+            if len(values) != self.num_envs:
+                raise ValueError(f"set_attr: expected {self.num_envs} values, got {len(values)}")
+            if any(v is not values[0] and v != values[0] for v in values[1:]):
+                raise ValueError(f"set_attr: {name!r} is shared by all sub-environments; per-env values differ")
+            values = values[0]
+        if not hasattr(self, name):
+            raise AttributeError(f"HevThermalVectorEnv has no attribute {name!r}")
+        setattr(self, name, values)
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple:
+        """Call a method of the vector env once (or read an attribute); the result for every sub-env."""
+        attr = getattr(self, name)
+        result = attr(*args, **kwargs) if callable(attr) else attr
+        return (result,) * self.num_envs
+
+    def render(self):
+        gym.logger.warn("HevThermalVectorEnv does not render; render a single HevThermal-v0 env instead")
+        return None
+
+    def __repr__(self) -> str:
+        return f"HevThermalVectorEnv(num_envs={self.num_envs}, autoreset_mode={self.autoreset_mode.value})"
+
+    # -- internals (also used by Sb3VecEnv) ---------------------------------------------------------
+
+    def _seed_list(self, seed: Any) -> list[int | None]:
+        if seed is None:
+            return [None] * self.num_envs
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(self.num_envs)]
+        seeds = list(seed)
+        if len(seeds) != self.num_envs:
+            raise ValueError(f"seed: a list needs one seed per sub-environment ({self.num_envs}), got {len(seeds)}")
+        return seeds
+
+    def _seed_rows(self, idx: np.ndarray, seeds: list[int | None]) -> None:
+        """New generators for the rows given a seed (and for rows that have none yet), as the single env."""
+        for i in idx:
+            if seeds[i] is not None or self._rngs[i] is None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
+
+    def _check_actions(self, actions: Any) -> tuple[np.ndarray, np.ndarray]:
+        a = np.asarray(actions)
+        if a.shape != (self.num_envs, 1):
+            raise ValueError(f"actions must have shape ({self.num_envs}, 1) (num_envs, 1), got shape {a.shape}")
+        raw = a[:, 0].astype(np.float64)
+        if not np.isfinite(raw).all():
+            bad = np.flatnonzero(~np.isfinite(raw))
+            raise ValueError(f"actions must be finite; NaN or inf for sub-environment(s) {bad.tolist()}")
+        u = np.clip(raw, -1.0, 1.0)
+        return u, u != raw
+
+    def _start_episodes(self, idx: np.ndarray, options: Sequence[dict | None]) -> list[dict]:
+        """Draw and start new episodes in rows ``idx`` from their own generators; their reset infos."""
+        episodes = [self.sampler.sample(self._rngs[i], opt) for i, opt in zip(idx, options)]
+        tables = [self._tables.get(ep) for ep in episodes]
+        self._rows.load(idx, episodes, tables, self.max_episode_steps)
+        self._started[idx] = True
+        return [reset_info_dict(self._rows, i, ep) for i, ep in zip(idx, episodes)]
+
+    def _step_infos(self, out, state, terms, cycle_speed, time_s, u, clipped, mask) -> dict[str, np.ndarray]:
+        arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped)
+        infos = {}
+        for key, value in arrays.items():
+            infos[key] = value
+            infos["_" + key] = mask
+        return infos
+
+    def _reset_info_arrays(self, idx: np.ndarray, reset_infos: list[dict], infos: dict) -> dict:
+        if idx.size == 0:
+            return infos
+        mask = np.zeros(self.num_envs, dtype=bool)
+        mask[idx] = True
+        for key in RESET_INFO_KEYS:
+            values = [ri[key] for ri in reset_infos]
+            arr = infos.get(key)
+            if arr is None:
+                if isinstance(values[0], str):
+                    arr = np.full(self.num_envs, None, dtype=object)
+                else:
+                    arr = np.zeros(self.num_envs, dtype=type(values[0]))
+                key_mask = mask
+            else:
+                key_mask = infos["_" + key] | mask
+            arr[idx] = values
+            infos[key] = arr
+            infos["_" + key] = key_mask
+        return infos
+
+
+def _check_mask(mask: Any, n: int) -> np.ndarray:
+    if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
+        raise ValueError(f"options['reset_mask'] must be a numpy bool array of shape ({n},)")
+    if not mask.any():
+        raise ValueError("options['reset_mask'] must select at least one sub-environment")
+    return mask
+
+
+# --- Stable-Baselines3 ----------------------------------------------------------------------------
+# ``Sb3VecEnv`` is built on first access (module ``__getattr__``) so that importing this module does
+# not import stable-baselines3 and torch.
+
+def __getattr__(name: str) -> Any:
+    if name == "Sb3VecEnv":
+        cls = _build_sb3_vec_env()
+        globals()["Sb3VecEnv"] = cls
+        return cls
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _build_sb3_vec_env() -> type:
+    from stable_baselines3.common.vec_env import VecEnv
+
+    class Sb3VecEnv(VecEnv):
+        """Stable-Baselines3 ``VecEnv`` over :class:`HevThermalVectorEnv`: SB3 trains on the batched core.
+
+        SB3 semantics: a sub-environment that ends is reset in the same step; the returned observation
+        is the new episode's, ``infos[i]["terminal_observation"]`` holds the last one,
+        ``infos[i]["TimeLimit.truncated"]`` says whether the end was a truncation (always, here) and
+        ``reset_infos[i]`` the new episode's reset info. ``seed()`` and ``set_options()`` apply at the
+        next ``reset()`` (SB3 convention).
+
+        ``info_keys`` selects the step-info keys copied into SB3's per-env info dicts: ``"all"``
+        (default, :data:`~hev_thermal_env.env.INFO_KEYS`) or a sequence of names; ``()`` is fastest when
+        only the SB3 keys are needed (PPO and ``VecMonitor`` need no others). Arguments other than
+        ``num_envs``, ``venv`` and ``info_keys`` build the vector env (see :class:`HevThermalVectorEnv`).
+
+        ``get_attr`` returns per-env values for the episode attributes and the shared value otherwise;
+        ``set_attr`` sets shared attributes (for all sub-environments at once); ``env_method`` calls a
+        method of the vector env once and returns its result per requested index.
+        """
+
+        def __init__(self, num_envs: int | None = None, *, venv: HevThermalVectorEnv | None = None,
+                     info_keys: str | Sequence[str] = "all", **env_kwargs: Any):
+            if venv is None:
+                if num_envs is None:
+                    raise ValueError("Sb3VecEnv: give num_envs (and env arguments) or venv")
+                venv = HevThermalVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
+            elif env_kwargs or (num_envs is not None and num_envs != venv.num_envs):
+                raise ValueError("Sb3VecEnv: with venv, give no env arguments")
+            self.venv = venv
+            keys = INFO_KEYS if isinstance(info_keys, str) and info_keys == "all" else tuple(info_keys)
+            unknown = sorted(set(keys) - set(INFO_KEYS))
+            if unknown:
+                raise ValueError(f"info_keys: unknown key(s) {unknown}; known: {list(INFO_KEYS)}")
+            self.info_keys = keys
+            self._actions: np.ndarray | None = None
+            super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
+
+        def reset(self) -> np.ndarray:
+            seeds = self._seeds if any(s is not None for s in self._seeds) else None
+            options = self._options if any(self._options) else None
+            venv = self.venv
+            idx = np.arange(self.num_envs)
+            venv._seed_rows(idx, venv._seed_list(seeds))
+            self.reset_infos = venv._start_episodes(idx, options if options is not None else [None] * self.num_envs)
+            venv._autoreset[:] = False
+            self._reset_seeds()
+            self._reset_options()
+            return venv._rows.observe()
+
+        def step_async(self, actions: np.ndarray) -> None:
+            self._actions = actions
+
+        def step_wait(self):
+            venv = self.venv
+            rows = venv._rows
+            u, clipped = venv._check_actions(self._actions)
+            if not venv._started.all():
+                raise RuntimeError("call reset() before step()")
+            _, terms, out = rows.step(u)
+            reward = total_reward(terms).astype(np.float32)
+            truncated = rows.k >= rows.end
+            obs = rows.observe()
+            n = self.num_envs
+            if self.info_keys:
+                arrays = step_info_arrays(out, rows.state, terms, rows._speed_flat[rows.base + rows.k],
+                                          rows.k.astype(np.float64), u, clipped)
+                keys = self.info_keys
+                columns = [arrays[key].tolist() for key in keys]
+                infos = [dict(zip(keys, values)) for values in zip(*columns)]
+            else:
+                infos = [{} for _ in range(n)]
+            for info in infos:
+                info["TimeLimit.truncated"] = False
+            if truncated.any():
+                idx = np.flatnonzero(truncated)
+                for i in idx:
+                    infos[i]["terminal_observation"] = obs[i].copy()
+                    infos[i]["TimeLimit.truncated"] = True
+                for i, reset_info in zip(idx, venv._start_episodes(idx, [None] * idx.size)):
+                    self.reset_infos[i] = reset_info
+                obs[idx] = rows.observe(idx)
+            return obs, reward, truncated.copy(), infos
+
+        def close(self) -> None:
+            self.venv.close()
+
+        def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+            values = self.venv.get_attr(attr_name)
+            return [values[i] for i in self._get_indices(indices)]
+
+        def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+            if sorted(self._get_indices(indices)) != list(range(self.num_envs)):
+                raise ValueError(f"set_attr: {attr_name!r} is shared by all sub-environments; set it for all indices")
+            self.venv.set_attr(attr_name, value)
+
+        def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
+            result = self.venv.call(method_name, *method_args, **method_kwargs)
+            return [result[i] for i in self._get_indices(indices)]
+
+        def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+            return [False for _ in self._get_indices(indices)]
+
+        def get_images(self) -> list[None]:
+            return [None] * self.num_envs
+
+    Sb3VecEnv.__qualname__ = "Sb3VecEnv"
+    Sb3VecEnv.__module__ = __name__
+    return Sb3VecEnv
