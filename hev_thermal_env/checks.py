@@ -1,0 +1,151 @@
+"""Reliability checks: random-action fuzzing of the environment against physical invariants.
+
+:func:`fuzz` drives the native vector environment with random actions (including the bounds and
+values beyond them) over every built-in cycle, every scenario and random bus cycles, and checks
+at every step that
+
+* observations, rewards and infos hold no NaN or inf, and observations lie in their space;
+* SOC stays within the battery's hard window; the heat index within [0, 1]; fuel is never negative;
+* the motor temperature is finite and never below the coolest heat sink (ambient, coolant, or
+  its own starting temperature) minus ``temp_tol_c``;
+
+and at the end of every episode that the energy balance closes within ``balance_tol`` (fuel
+energy through the engine + battery energy = wheel energy + losses + brakes + accessories).
+
+``python benchmarks/fuzz.py --steps 1000000`` runs the long version and writes JSON.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from .cycles import list_cycles
+from .physics import core as C
+from .scenarios import list_scenarios
+
+
+def _balance_terms(out: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    e_in = out[:, C.ENGINE_POWER] + out[:, C.BATT_CHEM]
+    e_out = (out[:, C.WHEEL_POWER] + out[:, C.BRAKE_POWER] + out[:, C.BATT_LOSS] + out[:, C.MOTOR_LOSS]
+             + out[:, C.CLUTCH_LOSS] + out[:, C.DRIVELINE_LOSS] + out[:, C.ACC])
+    scale = np.abs(out[:, C.ENGINE_POWER]) + np.abs(out[:, C.BATT_CHEM])
+    return e_in, e_out, scale
+
+
+def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios: list[str] | None = None,
+         cycles: list[str] | None = None, temp_tol_c: float = 1e-6, balance_tol: float = 0.005,
+         progress: bool = False) -> dict[str, Any]:
+    """Run about ``n_steps`` random env-steps per scenario in total; raise AssertionError on the first violation.
+
+    Returns counts and the worst values seen (steps, episodes, max energy-balance error, SOC range...).
+    """
+    from .vector_env import HevThermalVectorEnv
+
+    scenarios = scenarios or list_scenarios()
+    cycles = cycles or (list_cycles() + ["random_bus"])
+    rng = np.random.default_rng(seed)
+    report: dict[str, Any] = {"steps": 0, "episodes": 0, "max_balance_error": 0.0, "soc_min": 1.0, "soc_max": 0.0,
+                              "temp_min_margin_c": np.inf, "temp_max_c": -np.inf, "cutoff_steps": 0,
+                              "derated_steps": 0, "scenarios": scenarios, "cycles": cycles}
+    per_scenario = max(n_steps // len(scenarios), num_envs)
+    t0 = time.perf_counter()
+    for si, scenario in enumerate(scenarios):
+        env = HevThermalVectorEnv(num_envs, cycle=cycles, scenario=scenario, random_start=True)
+        bat = env.config.battery
+        space = env.single_observation_space
+        obs, _ = env.reset(seed=seed * 1000 + si)
+        e_in = np.zeros(num_envs)
+        e_out = np.zeros(num_envs)
+        e_scale = np.zeros(num_envs)
+        resetting = np.zeros(num_envs, dtype=bool)
+        sink = _sinks(env)
+        # a third of the episodes keep a sustained aggressive assist, to reach derating and cutoff
+        aggressive = rng.random(num_envs) < 0.33
+        done_steps = 0
+        while done_steps < per_scenario:
+            kind = rng.random(num_envs)
+            act = rng.uniform(-1.0, 1.0, num_envs)
+            act[kind < 0.1] = -1.0
+            act[(kind >= 0.1) & (kind < 0.2)] = 1.0
+            act[(kind >= 0.2) & (kind < 0.25)] = 0.0
+            big = (kind >= 0.25) & (kind < 0.35)
+            act[big] = rng.uniform(-5.0, 5.0, int(big.sum()))  # beyond the bounds: clipped
+            act = np.where(aggressive & (kind >= 0.35), rng.uniform(0.7, 1.0, num_envs), act)
+            obs, rew, term, trunc, info = env.step(act.astype(np.float32)[:, None])
+            stepped = ~resetting
+            out = env.last_out
+            state = env.phys_state
+            _check_finite(obs, rew, info, out)
+            if not np.all((obs >= space.low) & (obs <= space.high)):
+                bad = np.argwhere(~((obs >= space.low) & (obs <= space.high)))[0]
+                raise AssertionError(f"{scenario}: observation {bad[1]} = {obs[bad[0], bad[1]]} outside its bounds")
+            soc = state[:, C.SOC]
+            if np.any(soc < bat.soc_min - 1e-12) or np.any(soc > bat.soc_max + 1e-12):
+                raise AssertionError(f"{scenario}: SOC {soc.min()}..{soc.max()} left [{bat.soc_min}, {bat.soc_max}]")
+            hi = info["heat_index"]
+            if np.any(hi < 0) or np.any(hi > 1):
+                raise AssertionError(f"{scenario}: heat index {hi.min()}..{hi.max()} outside [0, 1]")
+            if np.any(info["fuel_g"] < 0):
+                raise AssertionError(f"{scenario}: negative fuel {info['fuel_g'].min()}")
+            temp = state[:, C.TEMP_C]
+            margin = temp - sink
+            if np.any(margin[stepped] < -temp_tol_c):
+                i = int(np.argmin(np.where(stepped, margin, np.inf)))
+                raise AssertionError(f"{scenario}: motor at {temp[i]:.6f} °C below its coolest heat sink {sink[i]:.6f}")
+            a, b, s = _balance_terms(out)
+            e_in[stepped] += a[stepped]
+            e_out[stepped] += b[stepped]
+            e_scale[stepped] += s[stepped]
+            ended = (term | trunc) & stepped
+            for i in np.flatnonzero(ended):
+                err = abs(e_in[i] - e_out[i]) / max(e_scale[i], 1.0)
+                report["max_balance_error"] = max(report["max_balance_error"], float(err))
+                if err > balance_tol:
+                    raise AssertionError(f"{scenario}: energy balance off by {err:.3%} over an episode")
+                report["episodes"] += 1
+            e_in[ended] = e_out[ended] = e_scale[ended] = 0.0
+            n_live = int(stepped.sum())
+            done_steps += n_live
+            report["steps"] += n_live
+            report["soc_min"] = min(report["soc_min"], float(soc[stepped].min(initial=1.0)))
+            report["soc_max"] = max(report["soc_max"], float(soc[stepped].max(initial=0.0)))
+            if stepped.any():
+                report["temp_min_margin_c"] = min(report["temp_min_margin_c"], float(margin[stepped].min()))
+                report["temp_max_c"] = max(report["temp_max_c"], float(temp[stepped].max()))
+            report["cutoff_steps"] += int(info["motor_cutoff"][stepped].sum())
+            report["derated_steps"] += int((hi[stepped] > 0).sum())
+            # NEXT_STEP autoreset: the next step of an ended env is its reset
+            if np.any(resetting):
+                sink = np.where(resetting, _sinks(env), sink)
+                aggressive = np.where(resetting, rng.random(num_envs) < 0.33, aggressive)
+            resetting = term | trunc
+        env.close()
+        if progress:
+            print(f"  {scenario}: {report['steps']:,} steps so far ({time.perf_counter() - t0:.1f} s)")
+    report["wall_s"] = time.perf_counter() - t0
+    report["steps_per_s"] = report["steps"] / report["wall_s"]
+    return report
+
+
+def _sinks(env) -> np.ndarray:
+    """Per env: the coolest temperature the motor can be drawn toward in this episode."""
+    cond = env.cond
+    start = np.array([c.initial_motor_temp_c for c in env.conditions])
+    return np.minimum(np.minimum(cond[:, C.AMBIENT_C], cond[:, C.WATER_C]), start)
+
+
+def _check_finite(obs, rew, info, out) -> None:
+    if not np.all(np.isfinite(obs)):
+        raise AssertionError("NaN or inf in an observation")
+    if not np.all(np.isfinite(rew)):
+        raise AssertionError("NaN or inf in a reward")
+    if not np.all(np.isfinite(out)):
+        raise AssertionError("NaN or inf in a physics output")
+    for key, val in info.items():
+        if key.startswith("_") or not isinstance(val, np.ndarray) or val.dtype.kind not in "fiub":
+            continue
+        if not np.all(np.isfinite(val)):
+            raise AssertionError(f"NaN or inf in info[{key!r}]")

@@ -1,0 +1,11 @@
+"""Random-action fuzzing of the environment with a bounded budget (the long run: benchmarks/fuzz.py)."""
+
+from hev_thermal_env.checks import fuzz
+
+
+def test_fuzz_invariants_bounded_budget():
+    report = fuzz(60_000, num_envs=64, seed=1)
+    assert report["steps"] >= 60_000
+    assert report["episodes"] > 0
+    assert report["max_balance_error"] < 0.005
+    assert report["cutoff_steps"] > 0  # the hot and random scenarios do reach the protection
