@@ -1,1 +1,77 @@
-"""Energy-management strategies behind one protocol (see :mod:`agents.base`)."""
+"""Energy-management strategies behind one protocol (see :mod:`agents.base`).
+
+>>> from agents import get_strategy, list_strategies
+>>> list_strategies()[:3]
+['engine_only', 'rule', 'ecms']
+>>> dp = get_strategy("dp", n_soc=801)
+
+``get_strategy("name:arg", ...)``: if the strategy class has a ``from_label(arg, **options)``
+class method (``ppo``: the text after the colon is a model path), that builds it; otherwise the
+run is reported under the label ``"name:arg"`` (one strategy with several settings in a benchmark).
+Other modules may add strategies with :func:`register_strategy`; ``ppo`` is listed when
+:mod:`agents.ppo` (class ``PPOStrategy``) exists.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from collections.abc import Callable
+from typing import Any
+
+from .base import Strategy
+
+_REGISTRY: dict[str, tuple[str, str] | Callable[..., Strategy]] = {
+    "engine_only": ("agents.rule", "EngineOnly"),
+    "rule": ("agents.rule", "RuleBased"),
+    "ecms": ("agents.ecms", "ECMS"),
+    "aecms": ("agents.ecms", "AdaptiveECMS"),
+    "ecms_thermal": ("agents.ecms", "ThermalECMS"),
+    "dp": ("agents.dp", "DPStrategy"),
+    "dp_thermal": ("agents.dp", "ThermalDPStrategy"),
+}
+_OPTIONAL = {"ppo": ("agents.ppo", "PPOStrategy")}
+
+
+def register_strategy(name: str, factory: Callable[..., Strategy]) -> None:
+    """Make ``get_strategy(name, **options)`` call ``factory(**options)``."""
+    if not name or ":" in name:
+        raise ValueError(f"register_strategy: invalid name {name!r}")
+    _REGISTRY[name] = factory
+
+
+def _available_optional() -> dict[str, tuple[str, str]]:
+    found = {}
+    for name, (module, cls) in _OPTIONAL.items():
+        try:
+            if importlib.util.find_spec(module) is not None:
+                found[name] = (module, cls)
+        except (ImportError, ValueError):
+            pass
+    return found
+
+
+def list_strategies() -> list[str]:
+    """Names accepted by :func:`get_strategy`."""
+    return list(_REGISTRY) + [n for n in _available_optional() if n not in _REGISTRY]
+
+
+def get_strategy(name: str, **options: Any) -> Strategy:
+    """A new strategy by name, with its options; an unknown name raises ValueError listing the valid ones."""
+    if not isinstance(name, str):
+        raise ValueError(f"strategy name must be a string, got {type(name).__name__}")
+    base, _, label = name.partition(":")
+    entry = _REGISTRY.get(base) or _available_optional().get(base)
+    if entry is None:
+        raise ValueError(f"unknown strategy {name!r}; valid strategies: {', '.join(list_strategies())}")
+    factory = entry if callable(entry) else getattr(importlib.import_module(entry[0]), entry[1])
+    from_label = getattr(factory, "from_label", None)
+    if label and from_label is not None:
+        return from_label(label, **options)
+    strategy = factory(**options)
+    if label:
+        strategy.label = name
+    return strategy
+
+
+__all__ = ["Strategy", "get_strategy", "list_strategies", "register_strategy"]

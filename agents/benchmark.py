@@ -6,7 +6,8 @@ and PNGs: per cycle and scenario, speed / SOC / motor temperature / heat index /
 for every strategy on shared axes, and a bar chart of corrected fuel relative to DP.
 
 Independent runs are spread over processes; each run is deterministic (fixed seed, no shared
-state), so the results equal a serial run's. Every file is written atomically.
+state), so the results equal a serial run's, byte for byte: wall times go to ``timings.json``, not
+into the results. Every file is written atomically.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ DEFAULT_STRATEGIES = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "d
 COLUMNS = ("cycle", "scenario", "strategy", "distance_km", "fuel_g", "fuel_l_per_100km", "fuel_corrected_l_per_100km",
            "fuel_vs_dp_pct", "soc_correction_l_per_100km", "miss_correction_l_per_100km", "missed_wheel_energy_kwh",
            "soc_initial", "soc_final", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s",
-           "trace_miss_max_mps", "wall_s")
+           "trace_miss_max_mps")
 TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", "action",
               "motor_torque_nm", "engine_torque_nm", "fuel_g")
 
@@ -131,9 +132,13 @@ def write_results(out: Path, rows: list[dict], wall_s: float) -> None:
     for r in rows:
         w.writerow([_fmt(r.get(c)) for c in COLUMNS])
     atomic_write_text(out / "results.csv", buf.getvalue())
-    clean = [{k: (v if not isinstance(v, (np.floating, np.integer)) else v.item()) for k, v in r.items()}
+    clean = [{c: (r.get(c).item() if isinstance(r.get(c), (np.floating, np.integer)) else r.get(c)) for c in COLUMNS}
              for r in rows]
     atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean})
+    atomic_write_json(out / "timings.json", {
+        "total_wall_s": wall_s,
+        "runs": [{"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
+                 for r in rows]})
     md = ["| cycle | scenario | strategy | fuel L/100 km | corrected L/100 km | vs DP | SOC start → end | "
           "max motor °C | heat index max | derated s | cutoff s | missed kWh |",
           "|---|---|---|---|---|---|---|---|---|---|---|---|"]

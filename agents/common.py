@@ -4,8 +4,9 @@ Every candidate action is evaluated by the one physics step, ``hev_thermal_env.p
 on a batch. :func:`kernel_step` calls it, split over threads when the compiled kernel releases the
 GIL (``nogil``); otherwise in one call.
 
-Prices follow :mod:`hev_thermal_env.reward` exactly (:func:`stage_cost_g` calls
-:func:`~hev_thermal_env.reward.reward_terms`), so DP, ECMS and the environment's reward value the
+Prices follow :mod:`hev_thermal_env.reward` exactly (:func:`stage_cost_g` fuses the terms of
+:func:`~hev_thermal_env.reward.reward_terms` into one compiled pass; a test checks that the two
+agree), so DP, ECMS and the environment's reward value the
 same outcomes the same way: fuel, the fuel equivalent of the battery's chemical energy, missed
 wheel energy at the miss weight, and (optionally) the overheat terms.
 """
@@ -17,15 +18,17 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics.simulate import CHARGE_PATH_EFF, ENGINE_EFF_AVG
+from hev_thermal_env.physics.simulate import (CHARGE_PATH_EFF, ENGINE_EFF_AVG, battery_price_g_per_j,
+                                              miss_price_g_per_j)
 from hev_thermal_env.reward import RewardParams, reward_terms
 
 #: Batches smaller than this are not split over threads (thread start-up would dominate).
 MIN_THREAD_BATCH = 4096
 
-_POOL: ThreadPoolExecutor | None = None
+_POOLS: dict[int, ThreadPoolExecutor] = {}
 
 
 def kernel_releases_gil() -> bool:
@@ -38,19 +41,21 @@ def default_threads() -> int:
 
 
 def _pool(n: int) -> ThreadPoolExecutor:
-    global _POOL
-    if _POOL is None or _POOL._max_workers < n:  # noqa: SLF001 - sizing check only
-        _POOL = ThreadPoolExecutor(max_workers=n, thread_name_prefix="hev-kernel")
-    return _POOL
+    if n not in _POOLS:
+        _POOLS[n] = ThreadPoolExecutor(max_workers=n, thread_name_prefix="hev-kernel")
+    return _POOLS[n]
 
 
 def kernel_step(core: C.PhysicsCore, state: np.ndarray, action: np.ndarray, v0: np.ndarray, v1: np.ndarray,
                 grade: np.ndarray, cond: np.ndarray, state_out: np.ndarray, out: np.ndarray,
-                threads: int | None = None) -> None:
-    """``step_kernel`` on a batch, in ``threads`` slices when the kernel releases the GIL."""
+                threads: int | None = None, force_split: bool = False) -> None:
+    """``step_kernel`` on a batch, in ``threads`` slices when the kernel releases the GIL.
+
+    ``force_split`` slices the batch even if it does not (a test of the slicing).
+    """
     b = state.shape[0]
     n = default_threads() if threads is None else max(1, int(threads))
-    if n == 1 or b < MIN_THREAD_BATCH or not kernel_releases_gil():
+    if n == 1 or b < MIN_THREAD_BATCH or not (kernel_releases_gil() or force_split):
         C.step_kernel(*core.params, state, action, v0, v1, grade, cond, core.dt_s, state_out, out)
         return
     edges = np.linspace(0, b, n + 1).astype(int)
@@ -63,13 +68,31 @@ def kernel_step(core: C.PhysicsCore, state: np.ndarray, action: np.ndarray, v0: 
     list(_pool(n).map(run, range(n)))
 
 
-def battery_price_g_per_j(lhv_j_per_g: float) -> float:
-    """Grams of fuel per joule of battery chemical energy as priced by the reward (and corrected fuel)."""
-    return 1.0 / (lhv_j_per_g * ENGINE_EFF_AVG * CHARGE_PATH_EFF)
-
-
 #: The equivalence factor (s in fuel + s·E_batt/Q_lhv) that matches the reward's battery price.
 REWARD_EQUIVALENCE_FACTOR = 1.0 / (ENGINE_EFF_AVG * CHARGE_PATH_EFF)
+
+
+def _cost_weights(params: RewardParams, battery: bool, soc_deviation: bool, overheat: bool) -> np.ndarray:
+    return np.array([
+        params.fuel_weight, params.miss_weight, params.soc_energy_weight if battery else 0.0,
+        params.soc_deviation_weight if soc_deviation else 0.0,
+        params.overheat_temp_weight if overheat else 0.0, params.overheat_soft_limit_c,
+        params.cutoff_weight if overheat else 0.0, params.derate_weight if overheat else 0.0])
+
+
+@njit(cache=True)
+def _stage_cost(w, out, st, soc_target, batt_g_per_j, miss_g_per_j, dt_s, result):
+    # the terms of hev_thermal_env.reward.reward_terms, fused (tests/test_dp.py checks equality)
+    for b in range(out.shape[0]):
+        c = w[0] * out[b, C.FUEL_G] + w[1] * out[b, C.MISSED_J] * miss_g_per_j
+        c += w[2] * out[b, C.BATT_CHEM] * dt_s * batt_g_per_j
+        if w[3] != 0.0:
+            e = (st[b, C.SOC] - soc_target) / 0.1
+            c += w[3] * e * e
+        if w[4] != 0.0 or w[6] != 0.0 or w[7] != 0.0:
+            over = max(st[b, C.TEMP_C] - w[5], 0.0)
+            c += w[4] * over * over + w[6] * st[b, C.CUTOFF] + w[7] * min(max(st[b, C.HEAT_X], 0.0), 1.0)
+        result[b] = c
 
 
 def stage_cost_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray, soc_target: float,
@@ -77,10 +100,22 @@ def stage_cost_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
                  overheat: bool = False) -> np.ndarray:
     """Cost in fuel-equivalent grams of each row of a batch step, as the reward prices it.
 
-    Always fuel and missed wheel energy (``reward_fuel + reward_miss``); with ``battery`` the fuel
+    Always fuel and missed wheel energy (−(``reward_fuel + reward_miss``)); with ``battery`` the fuel
     equivalent of the battery's chemical energy (the energy part of ``reward_soc``); with
     ``soc_deviation`` the quadratic SOC-deviation part; with ``overheat`` ``reward_overheat``.
+    Computed in one compiled pass over the batch; equal to the same terms of
+    :func:`hev_thermal_env.reward.reward_terms` (see :func:`stage_cost_reference_g`).
     """
+    result = np.empty(out.shape[0])
+    _stage_cost(_cost_weights(params, battery, soc_deviation, overheat), out, state_after, float(soc_target),
+                battery_price_g_per_j(lhv_j_per_g), miss_price_g_per_j(lhv_j_per_g), float(dt_s), result)
+    return result
+
+
+def stage_cost_reference_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray, soc_target: float,
+                           lhv_j_per_g: float, dt_s: float, *, battery: bool = True, soc_deviation: bool = False,
+                           overheat: bool = False) -> np.ndarray:
+    """:func:`stage_cost_g` computed through :func:`~hev_thermal_env.reward.reward_terms` itself."""
     if not soc_deviation:
         params = params.replace(soc_deviation_weight=0.0)
     if not battery:
@@ -98,3 +133,12 @@ def next_step_demand(env: Any) -> tuple[np.ndarray, np.ndarray]:
     The shaft demand, gear and engine speed of the next step do not depend on the action.
     """
     return env.peek(np.zeros(1))
+
+
+def argmin_small_action(cost: np.ndarray, actions: np.ndarray, tol_g: float = 1e-9) -> int:
+    """Index of the cheapest candidate; among equally cheap ones (e.g. the motor cut off) the smallest |u|."""
+    best = float(np.min(cost))
+    ties = np.flatnonzero(cost <= best + tol_g)
+    if ties.size == 1:
+        return int(ties[0])
+    return int(ties[np.argmin(np.abs(actions[ties]))])

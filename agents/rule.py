@@ -19,8 +19,9 @@
 
     With ADVISOR's defaults (``off_trq_frac`` 0, launch speed 0) the engine is on whenever the bus
     pulls: that is ADVISOR's default behaviour, kept on purpose. The physics clips u to [-1, 1],
-    so at light load the charging torque is limited to T_dem (engine at most 2·T_dem); the engine
-    saturates at its full-load curve and the motor then assists, as in ADVISOR.
+    so at light load the charging torque is limited to T_dem (engine at most 2·T_dem). The engine
+    torque is capped at its full-load curve (less the accessories) and the motor asked for the rest,
+    as in ADVISOR (the physics never tops up by itself).
 """
 
 from __future__ import annotations
@@ -80,7 +81,8 @@ class RuleBased(Strategy):
             # ADVISOR: cs_charge_trq = 0.25 * min(fc_max_trq)
             self.charge_trq_nm = self.charge_trq_frac * float(min(self.env.config.engine.max_torque_nm))
 
-    def engine_torque_nm(self, demand_nm: float, engine_speed_radps: float, soc: float, speed_mps: float) -> float | None:
+    def engine_torque_nm(self, demand_nm: float, engine_speed_radps: float, soc: float,
+                         speed_mps: float) -> float | None:
         """ADVISOR's engine torque for a positive shaft demand; None means engine off."""
         t_max = float(eng.max_torque_nm(self.env.core.en, engine_speed_radps))
         f = min(max((soc - self.lo_soc) / (self.hi_soc - self.lo_soc), 0.0), 1.0)
@@ -102,6 +104,9 @@ class RuleBased(Strategy):
         soc = float(env.phys_state[0, C.SOC])
         speed = float(env.cycle.speed_mps[env.k])
         t_eng = self.engine_torque_nm(demand, float(out[0, C.ENGINE_SPEED]), soc, speed)
+        if t_eng is not None:
+            # the engine gives at most its full-load torque (less the accessories); the motor the rest
+            t_eng = min(t_eng, float(out[0, C.ENGINE_MAX]))
         u = 1.0 if t_eng is None else 1.0 - t_eng / demand
         return np.array([min(max(u, -1.0), 1.0)], dtype=np.float32)
 

@@ -19,4 +19,4 @@ packed vector, read the vector for the last time outside any branch and return f
 
 from numba import njit
 
-jit = njit(cache=True, error_model="numpy")
+jit = njit(cache=True, error_model="numpy", nogil=True)

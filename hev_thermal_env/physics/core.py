@@ -11,14 +11,15 @@ v0 → v1 on a grade; road load gives the wheel torque at the mean speed; the dr
 the coupler shaft; the action splits it between motor and engine.
 
 Split and limits (DESIGN §3-4). For a positive shaft demand T_dem and action u ∈ [-1, 1] the
-motor is asked for u·T_dem and the engine for (1-u)·T_dem. The motor request is clipped to its
-envelope (peak torque, the heat index of eq 8, the cutoff) and to the battery's power and SOC
-limits; the engine covers the rest up to its full-load torque; if the engine is saturated or off
-the motor assists further up to its limits. Whatever the powertrain still cannot give is a trace
-miss: the step delivers what it can, the missed wheel energy and the speed deficit it would cause
-(``trace_miss_mps`` = missed force·dt / effective mass) are reported, and the next step again
-follows the cycle. So every strategy and DP face the same capped demand, and the reward prices
-the miss. Braking: the motor regenerates up to its and the battery's limits; friction brakes take
+motor is asked for u·T_dem. That request is clipped only by the motor's own limits: its envelope
+(peak torque, the heat index of eq 8, the cutoff) and the battery's power and SOC limits. The
+engine covers the rest, T_dem − motor, up to its full-load torque. Whatever is still missing is a
+trace miss: the step delivers what it can, the missed wheel energy and the speed deficit it would
+cause (``trace_miss_mps`` = missed force·dt / effective mass) are reported, and the next step again
+follows the cycle. The motor never tops up by itself: where the engine alone falls short, the
+action chooses between assisting (battery energy, motor heat) and missing (priced by the reward
+and the corrected-fuel metric alike), so every strategy and DP face the same choice at the same
+price. Braking: the motor regenerates up to its and the battery's limits; friction brakes take
 the rest. The action has no effect while braking or at standstill.
 """
 
@@ -130,7 +131,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         acc_from_engine = 0.0
 
         if t_s_dem > 0.0:
-            # --- traction: split, clip, engine covers, motor tops up --------------------------------
+            # --- traction: motor request clipped to its limits, engine covers the rest -------------------
             engine_on = engine_avail and (((1.0 - u) * t_s_dem > 1e-9) or not stop_start)
             if not engine_on and engine_avail and p_dis < acc_w:
                 engine_on = True  # the battery cannot carry the accessories
@@ -154,9 +155,6 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 t_e_max = max(eng.max_torque_nm(en, w_e) - t_acc, 0.0)
             t_e = min(max(t_e, 0.0), t_e_max)
             short = t_s_dem - rho * t_m - t_e
-            if short > 1e-12:
-                t_m = min(t_m + short / rho, t_m_max)
-                short = t_s_dem - rho * t_m - t_e
             if short > 1e-12:
                 t_w_del = drv.wheel_torque_nm(dl, rho * t_m + t_e, gear)
                 missed_force = (t_wheel - t_w_del) / r_w

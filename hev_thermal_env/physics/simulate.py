@@ -18,6 +18,11 @@ Split = Union[float, SplitFn, np.ndarray]
 ENGINE_EFF_AVG = 0.36  # near FC_CI119's best BSFC (≈225 g/kWh)
 CHARGE_PATH_EFF = 0.90  # motor as generator × battery, charging
 DRIVELINE_EFF_AVG = 0.93  # gearbox × final drive
+DISCHARGE_PATH_EFF = 0.90  # battery × motor, motoring
+# Missed wheel energy is charged at what it costs to deliver it from the battery and put that energy
+# back with the engine: 1 / (η_engine·η_charge·η_discharge·η_driveline), 1.23 times the fuel the
+# engine would burn to deliver it directly, so not driving never pays where the engine could drive.
+# The reward uses the same prices (hev_thermal_env.reward), so DP optimises the corrected-fuel metric.
 
 
 @dataclasses.dataclass
@@ -28,17 +33,27 @@ class SimResult:
     summary: dict[str, Any]
 
 
+def battery_price_g_per_j(lhv_j_per_g: float) -> float:
+    """Fuel (g) equivalent to one joule of battery chemical energy: what the engine burns to put it back."""
+    return 1.0 / (lhv_j_per_g * ENGINE_EFF_AVG * CHARGE_PATH_EFF)
+
+
+def miss_price_g_per_j(lhv_j_per_g: float) -> float:
+    """Fuel (g) charged per joule of missed wheel energy: delivered from the battery, put back by the engine."""
+    return 1.0 / (lhv_j_per_g * ENGINE_EFF_AVG * CHARGE_PATH_EFF * DISCHARGE_PATH_EFF * DRIVELINE_EFF_AVG)
+
+
 def corrections_g(battery_energy_j: float, missed_wheel_energy_j: float, lhv_j_per_g: float) -> tuple[float, float]:
     """Fuel (g) equivalent to net battery energy used and to missed wheel energy.
 
     Battery: the fuel the engine would burn to put the net chemical energy back, at
     ``ENGINE_EFF_AVG`` × ``CHARGE_PATH_EFF`` (negative when the run ends with more charge).
-    Miss: the fuel the engine would burn to deliver the missed wheel energy, at
-    ``ENGINE_EFF_AVG`` × ``DRIVELINE_EFF_AVG``.
+    Miss: the fuel to deliver the missed wheel energy from the battery (``DISCHARGE_PATH_EFF`` ×
+    ``DRIVELINE_EFF_AVG``) and to put that energy back with the engine (``ENGINE_EFF_AVG`` ×
+    ``CHARGE_PATH_EFF``): the service a hybrid could have given, at the battery's price.
     """
-    batt = battery_energy_j / (lhv_j_per_g * ENGINE_EFF_AVG * CHARGE_PATH_EFF)
-    miss = missed_wheel_energy_j / (lhv_j_per_g * ENGINE_EFF_AVG * DRIVELINE_EFF_AVG)
-    return batt, miss
+    return (battery_energy_j * battery_price_g_per_j(lhv_j_per_g),
+            missed_wheel_energy_j * miss_price_g_per_j(lhv_j_per_g))
 
 
 def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: float, distance_m: float,

@@ -1,0 +1,142 @@
+"""``evaluate.py run``: one strategy on one cycle; a printed summary, JSON, a per-second trace CSV and a plot.
+
+    python evaluate.py run --cycle hwfet --strategy ecms [--scenario hot] [--json run.json]
+                           [--trace run.csv] [--plot run.png] [--dp-soc-points 801 --dp-actions 81]
+
+Unknown strategy, scenario or cycle: one line listing the valid values and exit status 2 (the
+errors are ``ValueError`` s, reported by ``evaluate.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+DP_STRATEGIES = ("dp", "dp_thermal")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="one strategy on one cycle: summary, JSON, trace CSV, plot",
+                       description="Drive one cycle with one energy-management strategy in HevThermal-v0 and "
+                                   "report fuel, corrected fuel, SOC, motor temperature, heat index, derating "
+                                   "and cutoff time.")
+    p.add_argument("--cycle", required=True, metavar="NAME",
+                   help="built-in cycle (hwfet, udds, us06, wltc_3b, beijing) or a CSV path")
+    p.add_argument("--strategy", required=True, metavar="NAME",
+                   help="engine_only, rule, ecms, aecms, ecms_thermal, dp, dp_thermal (and ppo when installed)")
+    p.add_argument("--scenario", default="paper", metavar="S", help="paper (default), hot or random")
+    p.add_argument("--seed", type=int, default=0, help="reset seed (matters for the random scenario; default 0)")
+    p.add_argument("--json", metavar="PATH", help="write the summary as JSON here")
+    p.add_argument("--trace", metavar="PATH.csv", help="write the per-second info fields as CSV here")
+    p.add_argument("--plot", metavar="PATH.png", help="draw speed, SOC, motor temperature, heat index and split")
+    p.add_argument("--dp-soc-points", type=int, metavar="N", help="dp/dp_thermal: SOC grid points per stage")
+    p.add_argument("--dp-actions", type=int, metavar="M", help="dp/dp_thermal: splits u in the backward pass")
+    p.add_argument("--dp-on-infeasible", choices=["raise", "closest"], default=None,
+                   help="dp/dp_thermal when the final-SOC band is unreachable: raise (default) or plan for the "
+                        "nearest reachable band")
+    p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="extra strategy option (value parsed as JSON when possible), repeatable")
+
+
+def _parse_value(text: str) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The strategy's keyword options from the command line (checked)."""
+    options: dict[str, Any] = {}
+    for item in args.option:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--option {item!r}: expected KEY=VALUE")
+        options[key.strip()] = _parse_value(value)
+    dp_flags = {"n_soc": args.dp_soc_points, "n_u": args.dp_actions, "on_infeasible": args.dp_on_infeasible}
+    given = {k: v for k, v in dp_flags.items() if v is not None}
+    base = args.strategy.partition(":")[0]
+    if given and base not in DP_STRATEGIES:
+        raise ValueError(f"--dp-soc-points/--dp-actions/--dp-on-infeasible apply to {', '.join(DP_STRATEGIES)} only, "
+                         f"not to {args.strategy!r}")
+    for key in ("n_soc", "n_u"):
+        if key in given and given[key] < 2:
+            raise ValueError(f"--dp-{'soc-points' if key == 'n_soc' else 'actions'} must be at least 2, "
+                             f"got {given[key]}")
+    options.update(given)
+    return options
+
+
+def format_summary(summary: dict[str, Any]) -> str:
+    """A readable block of the run's metrics."""
+    s = summary
+    rows = [
+        ("distance", f"{s['distance_km']:.3f}", "km"),
+        ("fuel", f"{s['fuel_g']:.1f}", "g"),
+        ("fuel", f"{s['fuel_l_per_100km']:.3f}", "L/100 km"),
+        ("corrected fuel", f"{s['fuel_corrected_l_per_100km']:.3f}", "L/100 km"),
+        ("  SOC correction", f"{s['soc_correction_l_per_100km']:+.3f}", "L/100 km"),
+        ("  miss correction", f"{s['miss_correction_l_per_100km']:+.3f}", "L/100 km"),
+        ("SOC start -> end", f"{s['soc_initial']:.4f} -> {s['soc_final']:.4f}", f"(delta {s['delta_soc']:+.4f})"),
+        ("missed wheel energy", f"{s['missed_wheel_energy_kwh']:.3f}", "kWh"),
+        ("max speed deficit", f"{s['trace_miss_max_mps']:.3f}", "m/s"),
+        ("max motor temperature", f"{s['max_motor_temp_c']:.1f}", "degC"),
+        ("max heat index", f"{s['heat_index_max']:.3f}", "-"),
+        ("time derated (PWM > 0)", f"{s['derated_s']:.0f}", "s"),
+        ("time cut off (70 degC)", f"{s['cutoff_s']:.0f}", "s"),
+        ("wall time (planning)", f"{s['wall_s']:.2f} ({s['plan_s']:.2f})", "s"),
+    ]
+    head = f"{s['strategy']} on {s['cycle']} ({s['scenario']} scenario)"
+    lines = [head, "-" * len(head)] + [f"  {name:<26}{value:>24}  {unit}" for name, value, unit in rows]
+    settings = s.get("strategy_settings") or {}
+    keys = ("grid", "n_u", "solve_s", "soc_band_used", "final_soc_feasible", "temp_mode", "equivalence_factor",
+            "s0", "kp", "ki")
+    shown = {k: settings[k] for k in keys if k in settings}
+    if shown:
+        lines.append("  settings: " + ", ".join(f"{k}={_short(v)}" for k, v in shown.items()))
+    return "\n".join(lines)
+
+
+def _short(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_short(x) for x in v) + "]"
+    return str(v)
+
+
+def main(args: argparse.Namespace) -> int:
+    from hev_thermal_env.commands.io import atomic_write_json, atomic_write_text, check_output_path
+    from hev_thermal_env.cycles import load_cycle
+    from hev_thermal_env.scenarios import get_scenario
+
+    from . import get_strategy
+    from .evaluation import run_strategy
+    from .plots import plot_run
+
+    # validate everything before the (possibly long) run
+    scenario = get_scenario(args.scenario)
+    cycle = load_cycle(args.cycle)
+    strategy = get_strategy(args.strategy, **strategy_options(args))
+    for path in (args.json, args.trace, args.plot):
+        if path:
+            check_output_path(path)
+    if args.plot and not str(args.plot).lower().endswith(".png"):
+        raise ValueError(f"--plot {args.plot!r}: expected a .png path")
+
+    result = run_strategy(strategy, cycle, scenario, seed=args.seed)
+    print(format_summary(result.summary))
+    if args.json:
+        atomic_write_json(args.json, result.to_json_dict())
+        print(f"wrote {args.json}")
+    if args.trace:
+        atomic_write_text(args.trace, result.trace_csv())
+        print(f"wrote {args.trace}")
+    if args.plot:
+        s = result.summary
+        title = (f"{s['strategy']} on {s['cycle']} ({s['scenario']}): corrected fuel "
+                 f"{s['fuel_corrected_l_per_100km']:.2f} L/100 km, SOC {s['soc_initial']:.3f} -> {s['soc_final']:.3f}")
+        plot_run({s["strategy"]: result.trace}, args.plot, title=title)
+        print(f"wrote {args.plot}")
+    return 0

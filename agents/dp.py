@@ -1,0 +1,702 @@
+"""Deterministic dynamic programming over a known cycle: ``dp`` (SOC state) and ``dp_thermal``.
+
+The optimum the other strategies are measured against. Backward recursion over the stages
+k = N−1 … 0 of the cycle on a grid of states; for every stage ONE batched call of the physics
+step (``step_kernel``, through :func:`agents.common.kernel_step`) evaluates every grid state ×
+every split u (batch = n_states·n_u), so DP sees exactly the physics the environment runs,
+including the capped demand and the trace miss. Where the demand is not positive (braking,
+coasting, standing) the action has no effect and the stage is evaluated once per grid state.
+
+Cost (grams of fuel equivalent, as :mod:`hev_thermal_env.reward` prices it, via
+:func:`agents.common.stage_cost_g`): fuel + missed wheel energy at the reward's miss weight +
+the battery's chemical energy at the reward's battery price; ``dp_thermal`` adds the reward's
+overheat terms by default (soft temperature limit, cutoff, derate weight). Because the battery
+term is priced as in the corrected-fuel metric, DP minimises the corrected fuel (with the miss
+at the reward's weight of 2).
+
+Final-SOC constraint: the final SOC must lie in the band [SOC_final − tol, SOC_final + tol]
+(default: SOC_final = the initial SOC, tol = 0.005). The SOC moves far less than a grid cell per
+step, so a penalty wall interpolated between fixed grid points diffuses back through the stages
+(a smeared wall is charged to paths that run near it). Instead the SOC grid of each stage spans
+exactly the corridor of states that are reachable from the start AND can still reach the band:
+forward, the SOC after u = +1 (most discharge) and u = −1 (most charge) from the start; backward,
+the SOC from which u = −1 / u = +1 just reaches the band's lower / upper edge (solved per stage
+by a fixed-point iteration on the physics step). ``n_soc`` points span the corridor at every
+stage, so the walls sit on the grid's ends and never get interpolated; beyond the ends the
+cost-to-go continues with the slope ``penalty_g_per_soc`` (10⁶ g per unit SOC). If the start is
+outside the corridor the band is unreachable and :class:`DPInfeasibleError` says so (with the
+reachable final SOC range); ``on_infeasible="closest"`` instead moves the band (same width) to
+the nearest reachable final SOC and plans for it.
+
+Cost-to-go between grid points: multilinear interpolation (SOC on the stage's corridor grid, the
+other dimensions on fixed uniform grids, clamped at their edges). Execution: at each real step
+the strategy re-optimises one step over a (finer) u grid against the cost-to-go: ``env.peek``
+evaluates every candidate from the actual state and the cheapest stage cost + interpolated
+cost-to-go wins. So the policy is applied at the actual SOC (and heat index, temperature) even
+when the real run departs from the plan.
+
+State and the thermal model:
+
+* ``dp``: state SOC only. The thermal state (temperature, heat-index integrator, cutoff) is held
+  at its initial value while planning: the plan is thermal-blind (no heat index build-up, no
+  cutoff), then executed forward in the real environment with the thermal model on, where the
+  one-step re-optimisation sees the real derating. In the ``paper`` scenario the coolant pins the
+  temperature near 35 °C, so the held temperature costs little; the heat index is what the plan
+  ignores.
+* ``dp_thermal``: state SOC × heat-index integrator x (eq 9) on [x_min, 1], plus the motor
+  temperature as a third dimension (``temp_mode="state"``) or held along a trajectory
+  (``temp_mode="trajectory"``: first held at its start value, then re-planned along the
+  temperature trace of the previous plan's forward run, ``temp_iterations`` times; or
+  ``"fixed"``). With temperature as a state the cutoff flag is taken as T ≥ cutoff temperature:
+  the 60-70 °C hysteresis after a trip is not a DP state, so after a trip the plan is optimistic
+  (it expects the motor back below 70 °C, the environment holds it off until 60 °C); the
+  execution step sees the real cutoff.
+  ``temp_mode="auto"`` (default) uses ``"fixed"`` when the coolant is on and ``"state"``
+  otherwise (hot or coolant-off runs, where the temperature and the cutoff bind). With the
+  coolant on the thermostat pins the motor near 35 °C, where T_gain (eq 10) and the efficiency
+  derate have not started to rise, so holding the start temperature changes nothing the heat
+  index sees: on HWFET (paper) ``"trajectory"`` gave the same run as ``"fixed"`` (34.021 L/100 km
+  corrected both) at twice the solve time.
+
+``describe()`` records the grid sizes, the solve time and the number of vehicle-steps evaluated:
+a coarse DP is not an optimum.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.reward import RewardParams
+
+from .base import Strategy
+from .common import argmin_small_action, default_threads, kernel_releases_gil, kernel_step, stage_cost_g
+
+DIM_COLUMNS = {"soc": C.SOC, "heat_x": C.HEAT_X, "temp": C.TEMP_C}
+TEMP_MODES = ("auto", "fixed", "trajectory", "state")
+
+
+class DPInfeasibleError(ValueError):
+    """No control sequence reaches the final-SOC band on this cycle from this start."""
+
+
+@njit(cache=True)
+def interp_uniform(values, lo, step, n, states, cols, wall, result):
+    """Multilinear interpolation of ``values`` (flattened, C order, shape ``n``) on a uniform grid.
+
+    ``lo``, ``step``, ``n`` per dimension; the point of row b is ``states[b, cols]``. Dimension 0 (SOC) continues beyond
+    its ends with slope ``wall`` (value at the end + wall × distance); the others are clamped.
+    """
+    d_count = lo.shape[0]
+    stride = np.empty(d_count, dtype=np.int64)
+    s = 1
+    for d in range(d_count - 1, -1, -1):
+        stride[d] = s
+        s *= n[d]
+    idx = np.empty(d_count, dtype=np.int64)
+    w = np.empty(d_count)
+    for b in range(states.shape[0]):
+        excess = 0.0
+        for d in range(d_count):
+            f = (states[b, cols[d]] - lo[d]) / step[d]
+            top = n[d] - 1.0
+            if f < 0.0:
+                if d == 0:
+                    excess = (0.0 - f) * step[d]
+                f = 0.0
+            elif f > top:
+                if d == 0:
+                    excess = (f - top) * step[d]
+                f = top
+            i = min(int(f), n[d] - 2)
+            idx[d] = i
+            w[d] = f - i
+        acc = 0.0
+        for corner in range(1 << d_count):
+            weight = 1.0
+            flat = 0
+            for d in range(d_count):
+                if (corner >> d) & 1:
+                    weight *= w[d]
+                    flat += (idx[d] + 1) * stride[d]
+                else:
+                    weight *= 1.0 - w[d]
+                    flat += idx[d] * stride[d]
+            if weight != 0.0:
+                acc += weight * values[flat]
+        result[b] = acc + wall * excess
+
+
+@dataclass
+class DPPlan:
+    """A solved DP: the cost-to-go on the state grid of every stage, and how it was made.
+
+    The SOC grid of stage i has ``n_soc`` points from ``soc_lo[i]`` to ``soc_hi[i]`` (the corridor);
+    the other dimensions have the fixed grids ``grids[1:]``.
+    """
+
+    dims: tuple[str, ...]
+    grids: list[np.ndarray]  # grids[0] is unused (the SOC grid varies per stage); the others are fixed
+    soc_lo: np.ndarray  # [n_stages + 1]
+    soc_hi: np.ndarray  # [n_stages + 1]
+    cost_to_go: np.ndarray  # [n_stages + 1, n_states], flattened grid in C order (SOC-major)
+    k0: int
+    held: np.ndarray  # [n_stages + 1, N_STATE]: values of the columns that are not DP states, per stage
+    soc_final: float
+    soc_tol: float
+    wall_g_per_soc: float
+    solve_s: float
+    n_evals: int
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_stages(self) -> int:
+        return self.cost_to_go.shape[0] - 1
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(g) for g in self.grids)
+
+    def soc_grid(self, stage: int) -> np.ndarray:
+        return np.linspace(self.soc_lo[stage], self.soc_hi[stage], len(self.grids[0]))
+
+    def _axes(self, stage: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        n = np.array(self.shape, dtype=np.int64)
+        lo = np.array([self.soc_lo[stage]] + [g[0] for g in self.grids[1:]])
+        step = np.array([(self.soc_hi[stage] - self.soc_lo[stage]) / (n[0] - 1)]
+                        + [g[1] - g[0] for g in self.grids[1:]])
+        return lo, step, n
+
+    def lookup(self, stage: int, states: np.ndarray) -> np.ndarray:
+        """Cost-to-go at ``stage`` (0 = plan start) of full states [B, N_STATE]."""
+        cols = np.array([DIM_COLUMNS[d] for d in self.dims], dtype=np.int64)
+        res = np.empty(states.shape[0])
+        lo, step, n = self._axes(stage)
+        interp_uniform(self.cost_to_go[stage], lo, step, n, np.ascontiguousarray(states), cols, self.wall_g_per_soc,
+                       res)
+        return res
+
+
+@dataclass
+class DPProblem:
+    """What DP needs from an environment: the vehicle, the cycle from step ``k0``, the start, the prices."""
+
+    core: C.PhysicsCore
+    speed_mps: np.ndarray
+    grade: np.ndarray
+    k0: int
+    state0: np.ndarray  # [N_STATE]
+    cond: np.ndarray  # [N_COND]
+    reward_params: RewardParams
+    soc_target: float
+    name: str = "cycle"
+
+    @classmethod
+    def from_env(cls, env: Any) -> DPProblem:
+        e = env.unwrapped if hasattr(env, "unwrapped") else env
+        return cls(core=e.core, speed_mps=np.asarray(e.cycle.speed_mps, dtype=np.float64),
+                   grade=np.asarray(e.cycle.grade, dtype=np.float64), k0=int(e.k),
+                   state0=np.array(e.phys_state[0], dtype=np.float64), cond=np.array(e.cond[0], dtype=np.float64),
+                   reward_params=e.reward_params, soc_target=float(e.soc_target),
+                   name=getattr(e.cycle, "name", "cycle"))
+
+    @property
+    def n_stages(self) -> int:
+        return len(self.speed_mps) - 1 - self.k0
+
+    @property
+    def lhv(self) -> float:
+        return self.core.config.engine.fuel_lhv_j_per_g
+
+    def key(self) -> str:
+        h = hashlib.sha1()
+        for a in (self.speed_mps, self.grade, self.state0, self.cond, *self.core.params):
+            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        h.update(repr((self.k0, self.reward_params, self.soc_target, self.core.dt_s)).encode())
+        return h.hexdigest()
+
+    def stage_inputs(self, i: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        k = self.k0 + i
+        return (np.full(b, self.speed_mps[k]), np.full(b, self.speed_mps[k + 1]), np.full(b, self.grade[k]))
+
+    def step(self, states: np.ndarray, actions: np.ndarray, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """The physics step of stage i for a small batch (planning helpers)."""
+        b = states.shape[0]
+        so = np.empty_like(states)
+        out = np.empty((b, C.N_OUT))
+        v0, v1, g = self.stage_inputs(i, b)
+        C.step_kernel(*self.core.params, states, actions, v0, v1, g, np.repeat(self.cond[None, :], b, axis=0),
+                      self.core.dt_s, so, out)
+        return so, out
+
+    def demand_positive(self) -> np.ndarray:
+        """Whether the shaft demand of each stage is positive (else the action has no effect)."""
+        n = self.n_stages
+        st = np.repeat(self.state0[None, :], n, axis=0)
+        so = np.empty_like(st)
+        out = np.empty((n, C.N_OUT))
+        k = self.k0
+        C.step_kernel(*self.core.params, st, np.zeros(n), np.ascontiguousarray(self.speed_mps[k:-1]),
+                      np.ascontiguousarray(self.speed_mps[k + 1:]), np.ascontiguousarray(self.grade[k:k + n]),
+                      np.repeat(self.cond[None, :], n, axis=0), self.core.dt_s, so, out)
+        return out[:, C.SHAFT_DEMAND] > 0.0
+
+
+@dataclass
+class DPSettings:
+    """Grid and pricing options of a DP solve (see the module docstring)."""
+
+    dims: tuple[str, ...] = ("soc",)
+    n_soc: int = 401
+    n_heat_x: int = 21
+    n_temp: int = 11
+    n_u: int = 41
+    n_u_exec: int = 101
+    temp_range_c: tuple[float, float] | None = None  # default: [min(start, ambient, water), cutoff + 2]
+    soc_final: float | None = None  # default: the initial SOC
+    soc_tol: float = 0.005
+    on_infeasible: str = "raise"
+    penalty_g_per_soc: float = 1e6
+    price_overheat: bool = False
+    price_soc_deviation: bool = False
+    threads: int | None = None
+
+    def sizes(self) -> dict[str, int]:
+        return {"soc": self.n_soc, "heat_x": self.n_heat_x, "temp": self.n_temp}
+
+
+def _fixed_grids(problem: DPProblem, s: DPSettings) -> list[np.ndarray]:
+    """Grids of the non-SOC dimensions (the SOC entry is a placeholder of the right length)."""
+    cfg = problem.core.config
+    grids = []
+    for d in s.dims:
+        n = s.sizes()[d]
+        if n < 2:
+            raise ValueError(f"dp: the {d} grid needs at least 2 points, got {n}")
+        if d == "soc":
+            lo, hi = 0.0, 1.0
+        elif d == "heat_x":
+            lo, hi = float(problem.state0[C.HEAT_X_MIN]), 1.0
+            if hi - lo < 1e-6:
+                lo = hi - 1.0
+        else:
+            t0 = float(problem.state0[C.TEMP_C])
+            lo, hi = s.temp_range_c or (min(t0, float(problem.cond[C.AMBIENT_C]), float(problem.cond[C.WATER_C])),
+                                        cfg.thermal.cutoff_temp_c + 2.0)
+        grids.append(np.linspace(float(lo), float(hi), int(n)))
+    return grids
+
+
+@dataclass
+class Corridor:
+    """Per-stage SOC bounds: forward-reachable [f_lo, f_hi], band-reaching [b_lo, b_hi], and the band."""
+
+    f_lo: np.ndarray
+    f_hi: np.ndarray
+    b_lo: np.ndarray
+    b_hi: np.ndarray
+    band: tuple[float, float]
+
+    @property
+    def lo(self) -> np.ndarray:
+        return np.maximum(self.f_lo, self.b_lo)
+
+    @property
+    def hi(self) -> np.ndarray:
+        return np.minimum(self.f_hi, self.b_hi)
+
+    @property
+    def feasible(self) -> bool:
+        return bool(np.all(self.lo <= self.hi + 1e-9))
+
+    @property
+    def reachable_final(self) -> tuple[float, float]:
+        return float(self.f_lo[-1]), float(self.f_hi[-1])
+
+
+def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest SOC reachable at each stage from the start: u = +1 and u = −1 throughout.
+
+    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the
+    most charge (the engine up to twice the demand or its full load); regeneration is the same for
+    both. The other state columns follow ``held`` (the planning model).
+    """
+    n = problem.n_stages
+    st = np.repeat(problem.state0[None, :], 2, axis=0)
+    a = np.array([1.0, -1.0])
+    lo = np.empty(n + 1)
+    hi = np.empty(n + 1)
+    lo[0] = hi[0] = problem.state0[C.SOC]
+    for i in range(n):
+        st[:] = held[i]
+        st[0, C.SOC], st[1, C.SOC] = lo[i], hi[i]
+        so, _ = problem.step(st, a, i)
+        lo[i + 1], hi[i + 1] = so[0, C.SOC], so[1, C.SOC]
+    return lo, hi
+
+
+def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float],
+                      iterations: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band."""
+    n = problem.n_stages
+    bat = problem.core.config.battery
+    lo = np.empty(n + 1)
+    hi = np.empty(n + 1)
+    lo[n], hi[n] = band
+    st = np.empty((2, C.N_STATE))
+    a = np.array([-1.0, 1.0])
+    for i in range(n - 1, -1, -1):
+        target = np.array([lo[i + 1], hi[i + 1]])
+        guess = target.copy()
+        for _ in range(iterations):
+            st[:] = held[i]
+            st[:, C.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
+            so, _ = problem.step(st, a, i)
+            guess = target - (so[:, C.SOC] - st[:, C.SOC])
+        lo[i] = bat.soc_min if target[0] <= bat.soc_min + 1e-12 else min(max(guess[0], bat.soc_min), bat.soc_max)
+        hi[i] = bat.soc_max if target[1] >= bat.soc_max - 1e-12 else min(max(guess[1], bat.soc_min), bat.soc_max)
+    return lo, hi
+
+
+def corridor(problem: DPProblem, settings: DPSettings, held: np.ndarray) -> tuple[Corridor, dict]:
+    """The SOC corridor for the requested band, or for the nearest reachable one (``on_infeasible="closest"``)."""
+    soc0 = float(problem.state0[C.SOC])
+    target = soc0 if settings.soc_final is None else float(settings.soc_final)
+    tol = settings.soc_tol
+    band = (target - tol, target + tol)
+    f_lo, f_hi = forward_envelope(problem, held)
+    info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
+    cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
+    info["final_soc_feasible"] = cor.feasible
+    if not cor.feasible:
+        if settings.on_infeasible == "raise":
+            raise DPInfeasibleError(
+                f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
+                f"{soc0:.4f}: the reachable final SOC is [{f_lo[-1]:.4f}, {f_hi[-1]:.4f}] (change soc_final or "
+                f"soc_tol, or pass on_infeasible='closest' (evaluate.py run: --dp-on-infeasible closest) to plan for "
+                f"the nearest reachable band)")
+        if f_hi[-1] < band[0]:
+            band = (float(f_hi[-1]) - 2.0 * tol, float(f_hi[-1]))
+        else:
+            band = (float(f_lo[-1]), float(f_lo[-1]) + 2.0 * tol)
+        cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
+        if not cor.feasible:
+            raise DPInfeasibleError(f"dp: even the nearest reachable final-SOC band {band} is infeasible on cycle "
+                                    f"{problem.name!r}")
+    info["soc_band_used"] = [float(band[0]), float(band[1])]
+    return cor, info
+
+
+def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = None) -> DPPlan:
+    """Backward DP over the cycle; ``held`` [n_stages + 1, N_STATE] gives the non-state columns per stage."""
+    t_start = time.perf_counter()
+    s = settings
+    n_stages = problem.n_stages
+    if n_stages < 1:
+        raise ValueError("dp: the cycle has no step left to plan")
+    if s.dims[0] != "soc":
+        raise ValueError("dp: the first state dimension must be 'soc'")
+    if held is None:
+        held = np.repeat(problem.state0[None, :], n_stages + 1, axis=0)
+    cor, info = corridor(problem, s, held)
+    soc_lo = cor.lo.copy()
+    soc_hi = np.maximum(cor.hi, soc_lo + 1e-9)
+    grids = _fixed_grids(problem, s)
+    shape = tuple(len(g) for g in grids)
+    cols = [DIM_COLUMNS[d] for d in s.dims]
+    n_soc = shape[0]
+    idx_mesh = np.stack([m.ravel() for m in np.meshgrid(*[np.arange(k) for k in shape], indexing="ij")], axis=1)
+    n_states = idx_mesh.shape[0]
+    u_grid = np.linspace(-1.0, 1.0, s.n_u)
+    n_u = s.n_u
+    temp_state = "temp" in s.dims
+    cutoff_c = problem.core.config.thermal.cutoff_temp_c
+    thermal_on = problem.core.config.thermal.enabled
+    unit = np.linspace(0.0, 1.0, n_soc)
+
+    # batches reused across stages: rows of state r are r*reps ... (r+1)*reps - 1
+    def make_states(reps: int) -> tuple[np.ndarray, np.ndarray]:
+        x = np.repeat(held[0][None, :], n_states * reps, axis=0)
+        for j in range(1, len(cols)):
+            x[:, cols[j]] = np.repeat(grids[j][idx_mesh[:, j]], reps)
+        if temp_state:
+            x[:, C.CUTOFF] = (x[:, C.TEMP_C] >= cutoff_c) if thermal_on else 0.0
+        return x, np.repeat(unit[idx_mesh[:, 0]], reps)
+
+    (x_big, frac_big), (x_small, frac_small) = make_states(n_u), make_states(1)
+    a_big, a_small = np.tile(u_grid, n_states), np.zeros(n_states)
+    so_big, so_small = np.empty_like(x_big), np.empty_like(x_small)
+    out_big, out_small = np.empty((x_big.shape[0], C.N_OUT)), np.empty((n_states, C.N_OUT))
+    cond_big = np.repeat(problem.cond[None, :], x_big.shape[0], axis=0)
+    cond_small = cond_big[:n_states]
+    jn_big, jn_small = np.empty(x_big.shape[0]), np.empty(n_states)
+    held_cols = [c for c in range(C.N_STATE) if c not in cols and not (temp_state and c == C.CUTOFF)]
+    held_varies = bool(np.any(held[1:, held_cols] != held[:-1, held_cols]))
+
+    n_arr = np.array(shape, dtype=np.int64)
+    cols_arr = np.array(cols, dtype=np.int64)
+    lo = np.array([0.0] + [g[0] for g in grids[1:]])
+    step = np.array([1.0] + [g[1] - g[0] for g in grids[1:]])
+    J = np.empty((n_stages + 1, n_states))
+    J[n_stages] = 0.0  # the last stage's grid lies inside the band
+    active = problem.demand_positive()
+    n_evals = 0
+    threads = default_threads() if s.threads is None else s.threads
+
+    for i in range(n_stages - 1, -1, -1):
+        if active[i]:
+            x, a, so, out, cond, jn, frac, reps = x_big, a_big, so_big, out_big, cond_big, jn_big, frac_big, n_u
+        else:
+            x, a, so, out, cond, jn, frac, reps = (x_small, a_small, so_small, out_small, cond_small, jn_small,
+                                                   frac_small, 1)
+        x[:, C.SOC] = soc_lo[i] + frac * (soc_hi[i] - soc_lo[i])
+        if held_varies:
+            for c in held_cols:
+                x[:, c] = held[i, c]
+        v0, v1, g = problem.stage_inputs(i, x.shape[0])
+        kernel_step(problem.core, x, a, v0, v1, g, cond, so, out, threads)
+        n_evals += x.shape[0]
+        cost = stage_cost_g(problem.reward_params, out, so, problem.soc_target, problem.lhv, problem.core.dt_s,
+                            soc_deviation=s.price_soc_deviation, overheat=s.price_overheat)
+        lo[0] = soc_lo[i + 1]
+        step[0] = (soc_hi[i + 1] - soc_lo[i + 1]) / (n_soc - 1)
+        interp_uniform(J[i + 1], lo, step, n_arr, so, cols_arr, s.penalty_g_per_soc, jn)
+        J[i] = (cost + jn).reshape(n_states, reps).min(axis=1)
+
+    plan = DPPlan(dims=tuple(s.dims), grids=grids, soc_lo=soc_lo, soc_hi=soc_hi, cost_to_go=J, k0=problem.k0,
+                  held=held, soc_final=0.5 * (cor.band[0] + cor.band[1]), soc_tol=0.5 * (cor.band[1] - cor.band[0]),
+                  wall_g_per_soc=s.penalty_g_per_soc, solve_s=time.perf_counter() - t_start, n_evals=n_evals)
+    plan.info.update(info)
+    plan.info["threads"] = threads if kernel_releases_gil() else 1
+    plan.info["corridor_max_width"] = float(np.max(soc_hi - soc_lo))
+    return plan
+
+
+def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, problem: DPProblem,
+           settings: DPSettings, actions: np.ndarray) -> int:
+    """Index of the cheapest candidate: stage cost + interpolated cost-to-go of its next state."""
+    cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv,
+                        problem.core.dt_s, soc_deviation=settings.price_soc_deviation,
+                        overheat=settings.price_overheat)
+    return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions)
+
+
+def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: bool) -> dict[str, np.ndarray]:
+    """Run the plan forward on the physics from the start state, re-optimising each step.
+
+    ``free=False`` holds the non-state columns at the plan's values (the planning model: the plan's
+    own prediction, reported by ``describe()``); ``free=True`` lets the whole state evolve (as the
+    environment would; used to get the temperature trace in ``temp_mode="trajectory"``).
+    """
+    u_exec = np.linspace(-1.0, 1.0, settings.n_u_exec)
+    n = plan.n_stages
+    st = problem.state0.copy()
+    cols = [DIM_COLUMNS[d] for d in plan.dims]
+    states = np.empty((n + 1, C.N_STATE))
+    outs = np.empty((n, C.N_OUT))
+    us = np.empty(n)
+    states[0] = st
+    m = len(u_exec)
+    idle = int(np.argmin(np.abs(u_exec)))  # the action has no effect: report u = 0
+    cond = np.repeat(problem.cond[None, :], m, axis=0)
+    so = np.empty((m, C.N_STATE))
+    out = np.empty((m, C.N_OUT))
+    for i in range(n):
+        x = np.repeat(st[None, :], m, axis=0)
+        v0, v1, g = problem.stage_inputs(i, m)
+        C.step_kernel(*problem.core.params, x, u_exec, v0, v1, g, cond, problem.core.dt_s, so, out)
+        j = choose(plan, i, so, out, problem, settings, u_exec) if out[0, C.SHAFT_DEMAND] > 0.0 else idle
+        st = so[j].copy()
+        if not free:
+            keep = st[cols].copy()
+            st[:] = plan.held[i + 1]
+            st[cols] = keep
+            if "temp" in plan.dims:
+                st[C.CUTOFF] = so[j, C.CUTOFF]
+        states[i + 1] = st
+        outs[i] = out[j]
+        us[i] = u_exec[j]
+    return {"state": states, "out": outs, "u": us}
+
+
+class DPStrategy(Strategy):
+    """Dynamic programming over the known cycle (SOC state; thermal state held while planning).
+
+    Options: ``n_soc`` SOC grid points across each stage's corridor, ``n_u`` splits in the
+    backward pass and ``n_u_exec`` when acting, ``soc_final`` (default: the initial SOC) and
+    ``soc_tol``, ``on_infeasible`` (``"raise"``: :class:`DPInfeasibleError`; ``"closest"``: plan for
+    the nearest reachable band of the same width), ``penalty_g_per_soc``, ``price_overheat``,
+    ``price_soc_deviation``, ``threads``.
+    """
+
+    name = "dp"
+    thermal_aware = False
+    default_dims: tuple[str, ...] = ("soc",)
+
+    def __init__(self, n_soc: int = 401, n_u: int = 41, n_u_exec: int = 101, soc_tol: float = 0.005,
+                 soc_final: float | None = None, on_infeasible: str = "raise", penalty_g_per_soc: float = 1e6,
+                 price_overheat: bool = False, price_soc_deviation: bool = False, threads: int | None = None,
+                 **extra: Any):
+        if extra:
+            raise ValueError(f"{self.name}: unknown option(s) {sorted(extra)}")
+        if on_infeasible not in ("raise", "closest"):
+            raise ValueError(f"{self.name}: on_infeasible {on_infeasible!r} is not one of ['raise', 'closest']")
+        if soc_tol < 0.0:
+            raise ValueError(f"{self.name}: soc_tol must be >= 0, got {soc_tol}")
+        if min(n_soc, n_u, n_u_exec) < 2:
+            raise ValueError(f"{self.name}: n_soc, n_u and n_u_exec must be at least 2")
+        self.settings = DPSettings(dims=self.default_dims, n_soc=int(n_soc), n_u=int(n_u), n_u_exec=int(n_u_exec),
+                                   soc_tol=float(soc_tol), soc_final=soc_final, on_infeasible=on_infeasible,
+                                   penalty_g_per_soc=float(penalty_g_per_soc), price_overheat=bool(price_overheat),
+                                   price_soc_deviation=bool(price_soc_deviation), threads=threads)
+        self.plan: DPPlan | None = None
+        self.problem: DPProblem | None = None
+        self._used = self.settings
+        self._cache_key: str | None = None
+        self._report: dict[str, Any] = {}
+        self._u_exec = np.linspace(-1.0, 1.0, self.settings.n_u_exec)
+
+    # -- planning -------------------------------------------------------------------------------
+    def _settings_key(self) -> str:
+        return repr(self.settings)
+
+    def plan_for(self, problem: DPProblem) -> DPPlan:
+        """Solve (or reuse the last solve for the same cycle, start, vehicle and settings)."""
+        key = problem.key() + self._settings_key()
+        if self.plan is not None and key == self._cache_key:
+            return self.plan
+        t0 = time.perf_counter()
+        settings = dataclasses.replace(self.settings)
+        plan = self._solve(problem, settings)
+        run = rollout(plan, problem, settings, free=False)
+        self._report = {
+            "planned_soc_final": float(run["state"][-1, C.SOC]),
+            "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
+            "planned_cost_g": float(plan.lookup(0, problem.state0[None, :])[0]),
+            "plan_total_s": time.perf_counter() - t0,
+        }
+        self.plan, self._cache_key, self._used = plan, key, settings
+        return plan
+
+    def _solve(self, problem: DPProblem, settings: DPSettings) -> DPPlan:
+        return solve(problem, settings)
+
+    def reset(self, env: Any) -> None:
+        super().reset(env)
+        self.problem = DPProblem.from_env(self.env)
+        self.plan_for(self.problem)
+
+    # -- acting ---------------------------------------------------------------------------------
+    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
+        env, plan = self.env, self.plan
+        i = int(env.k) - plan.k0
+        if i < 0 or i >= plan.n_stages:
+            return np.zeros(1, dtype=np.float32)
+        st, out = env.peek(self._u_exec)
+        if out[0, C.SHAFT_DEMAND] <= 0.0:
+            return np.zeros(1, dtype=np.float32)  # braking or standing: the action has no effect
+        j = choose(plan, i, st, out, self.problem, self._used, self._u_exec)
+        return np.array([self._u_exec[j]], dtype=np.float32)
+
+    def describe(self) -> dict[str, Any]:
+        s = self._used
+        d: dict[str, Any] = {
+            "name": self.name, "state": list(s.dims),
+            "grid": {dim: s.sizes()[dim] for dim in s.dims}, "n_u": s.n_u, "n_u_exec": s.n_u_exec,
+            "soc_tol": s.soc_tol, "on_infeasible": s.on_infeasible, "penalty_g_per_soc": s.penalty_g_per_soc,
+            "price_overheat": s.price_overheat, "price_soc_deviation": s.price_soc_deviation,
+            "thermal_planning": "held at the initial state" if "heat_x" not in s.dims else "DP state",
+        }
+        if self.plan is not None:
+            p = self.plan
+            d.update({
+                "grid_ranges": {dim: [float(g[0]), float(g[-1])] for dim, g in zip(p.dims[1:], p.grids[1:])},
+                "n_states": int(np.prod(p.shape)), "n_stages": p.n_stages, "solve_s": p.solve_s,
+                "vehicle_steps_evaluated": int(p.n_evals), "vehicle_steps_per_s": p.n_evals / max(p.solve_s, 1e-9),
+                **p.info, **self._report})
+        return d
+
+
+class ThermalDPStrategy(DPStrategy):
+    """DP whose state carries the heat-index integrator (and the motor temperature): the optimum under derating.
+
+    Extra options: ``n_heat_x``, ``n_temp``, ``temp_mode`` (``auto``/``fixed``/``trajectory``/``state``,
+    see the module docstring), ``temp_iterations``, ``temp_range_c``. ``price_overheat`` defaults to True:
+    the cost is the reward's (fuel, battery energy, miss and the overheat terms), so the plan weighs
+    fuel against time near or past the 70 °C cutoff the way the environment's reward does.
+    Default grids (SOC × heat index [× temperature] × splits): 101 × 21 × 41 with the temperature
+    held, 41 × 11 × 13 × 21 with the temperature as a state (a 3-D grid: ~6 k states).
+    """
+
+    name = "dp_thermal"
+    thermal_aware = True
+    default_dims = ("soc", "heat_x")
+
+    #: default grids per temperature mode: (n_soc, n_heat_x, n_temp, n_u)
+    GRID_DEFAULTS = {"fixed": (101, 21, 11, 41), "trajectory": (101, 21, 11, 41), "state": (41, 11, 13, 21)}
+
+    def __init__(self, n_soc: int | None = None, n_heat_x: int | None = None, n_temp: int | None = None,
+                 n_u: int | None = None, n_u_exec: int = 101, temp_mode: str = "auto", temp_iterations: int = 1,
+                 temp_range_c: tuple[float, float] | None = None, price_overheat: bool = True, **options: Any):
+        if temp_mode not in TEMP_MODES:
+            raise ValueError(f"dp_thermal: temp_mode {temp_mode!r} is not one of {list(TEMP_MODES)}")
+        self._grid_request = {"n_soc": n_soc, "n_heat_x": n_heat_x, "n_temp": n_temp, "n_u": n_u}
+        for key, value in self._grid_request.items():
+            if value is not None and value < 2:
+                raise ValueError(f"dp_thermal: {key} must be at least 2, got {value}")
+        super().__init__(n_soc=n_soc or 101, n_u=n_u or 41, n_u_exec=n_u_exec, price_overheat=price_overheat,
+                         **options)
+        self.settings.temp_range_c = None if temp_range_c is None else tuple(temp_range_c)
+        self.temp_mode = temp_mode
+        self.temp_iterations = int(temp_iterations)
+        self._resolved_mode = temp_mode
+
+    def _settings_key(self) -> str:
+        return super()._settings_key() + self.temp_mode + str(self.temp_iterations) + repr(self._grid_request)
+
+    def _mode_for(self, problem: DPProblem) -> str:
+        if self.temp_mode != "auto":
+            return self.temp_mode
+        return "fixed" if problem.cond[C.COOLANT_FACTOR] >= 1.0 else "state"
+
+    def _solve(self, problem: DPProblem, settings: DPSettings) -> DPPlan:
+        mode = self._mode_for(problem)
+        self._resolved_mode = mode
+        settings.dims = ("soc", "heat_x", "temp") if mode == "state" else ("soc", "heat_x")
+        defaults = dict(zip(("n_soc", "n_heat_x", "n_temp", "n_u"), self.GRID_DEFAULTS[mode]))
+        for key, value in self._grid_request.items():
+            setattr(settings, key, int(value if value is not None else defaults[key]))
+        t0 = time.perf_counter()
+        plan = solve(problem, settings)
+        evals = plan.n_evals
+        iterations = 0
+        if mode == "trajectory":
+            for _ in range(self.temp_iterations):
+                run = rollout(plan, problem, settings, free=True)
+                held = np.repeat(problem.state0[None, :], plan.n_stages + 1, axis=0)
+                held[:, C.TEMP_C] = run["state"][:, C.TEMP_C]
+                held[:, C.CUTOFF] = run["state"][:, C.CUTOFF]
+                plan = solve(problem, settings, held=held)
+                evals += plan.n_evals
+                iterations += 1
+        plan.n_evals = evals
+        plan.info.update({"temp_mode": mode, "temp_iterations": iterations, "last_solve_s": plan.solve_s})
+        plan.solve_s = time.perf_counter() - t0
+        return plan
+
+    def describe(self) -> dict[str, Any]:
+        d = super().describe()
+        d["temp_mode"] = self._resolved_mode
+        d["thermal_planning"] = {
+            "state": "SOC x heat-index integrator x temperature (cutoff = T >= cutoff temperature)",
+            "trajectory": "SOC x heat-index integrator; temperature held along the previous plan's trace",
+            "fixed": "SOC x heat-index integrator; temperature held at its start value",
+        }.get(self._resolved_mode, self._resolved_mode)
+        return d

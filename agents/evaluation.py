@@ -1,0 +1,167 @@
+"""Run one strategy over one cycle in ``HevThermal-v0`` and report the metrics of DESIGN §6.
+
+:func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
+resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
+:class:`RunResult`: the JSON summary (the metrics come from
+:func:`hev_thermal_env.physics.simulate.summarize`, so they match the whole-cycle simulation) and
+per-step traces of every ``info`` field, of every physics output and of the state.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import time
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.cycles import Cycle, load_cycle
+from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.simulate import summarize
+from hev_thermal_env.scenarios import Scenario, get_scenario
+
+from .base import Strategy
+
+SUMMARY_KEYS = (
+    "cycle", "strategy", "scenario", "distance_km", "duration_s", "fuel_g", "fuel_l_per_100km",
+    "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km",
+    "battery_energy_kwh", "missed_wheel_energy_kwh", "soc_initial", "soc_final", "delta_soc", "max_motor_temp_c",
+    "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps", "engine_on_s", "wall_s", "plan_s",
+    "thermal_aware", "seed", "conditions", "strategy_settings",
+)
+"""Keys of :attr:`RunResult.summary`, in order."""
+
+
+@dataclasses.dataclass
+class RunResult:
+    """The summary (JSON-ready dict) and per-step traces (arrays of length n_steps) of one run."""
+
+    summary: dict[str, Any]
+    trace: dict[str, np.ndarray]
+    info_keys: tuple[str, ...] = ()
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return _jsonable(self.summary)
+
+    def trace_csv(self, keys: tuple[str, ...] | None = None) -> str:
+        """The per-second trace as CSV text (the env's ``info`` fields by default, then the action)."""
+        keys = tuple(k for k in (keys or self.info_keys) if k in self.trace)
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(keys)
+        cols = [np.asarray(self.trace[k]) for k in keys]
+        for row in zip(*cols):
+            w.writerow([_fmt(v) for v in row])
+        return buf.getvalue()
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return str(int(v))
+    f = float(v)
+    return repr(int(f)) if f.is_integer() and abs(f) < 1e15 else f"{f:.9g}"
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.bool_, bool)):
+        return bool(x)
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, (np.floating, float)):
+        f = float(x)
+        return f if np.isfinite(f) else None
+    return x
+
+
+def make_env(strategy: Strategy, cycle: Any, scenario: str | Scenario = "paper", *, config: VehicleConfig | None = None,
+             conditions: Conditions | None = None, **env_kwargs: Any):
+    """``HevThermalEnv`` for ``strategy`` on ``cycle``: the strategy chooses its vehicle (``vehicle_config``)."""
+    from hev_thermal_env.env import HevThermalEnv
+
+    vehicle = strategy.vehicle_config(config if config is not None else paper_bus())
+    return HevThermalEnv(cycle=cycle, scenario=scenario, config=vehicle, conditions=conditions, **env_kwargs)
+
+
+def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
+                 config: VehicleConfig | None = None, conditions: Conditions | None = None,
+                 seed: int = 0) -> RunResult:
+    """Drive ``cycle`` with ``strategy`` in the ``scenario`` (or explicit ``conditions``) and measure it.
+
+    Parameters
+    ----------
+    strategy : a :class:`agents.base.Strategy` (e.g. from :func:`agents.get_strategy`).
+    cycle : a built-in cycle name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`.
+    scenario : ``"paper"``, ``"hot"``, ``"random"`` (drawn from ``seed``) or a Scenario.
+    config : the vehicle before the strategy's change (default ``paper_bus()``).
+    conditions : explicit run conditions, overriding the scenario's.
+    seed : the env's reset seed.
+
+    Returns
+    -------
+    RunResult with ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every ``info`` field,
+    every physics output (:data:`hev_thermal_env.physics.core.OUT_NAMES`), the state after each
+    step (``soc``, ``motor_temp_c``, ``heat_x``, ``motor_cutoff``) and ``u`` (the action taken).
+    """
+    scen = get_scenario(scenario)
+    cyc = load_cycle(cycle)
+    t_start = time.perf_counter()
+    env = make_env(strategy, cyc, scen, config=config, conditions=conditions)
+    try:
+        obs, info = env.reset(seed=seed)
+        e = env.unwrapped
+        soc0 = float(e.phys_state[0, C.SOC])
+        k0 = int(e.k)
+        t_plan = time.perf_counter()
+        strategy.reset(env)
+        plan_s = time.perf_counter() - t_plan
+        n = e.cycle.n_steps - k0
+        outs = np.empty((n, C.N_OUT))
+        states = np.empty((n, C.N_STATE))
+        us = np.empty(n)
+        infos: dict[str, list] = {}
+        steps = 0
+        while True:
+            action = np.asarray(strategy.act(obs, info), dtype=np.float32).reshape(1)
+            obs, _, terminated, truncated, info = env.step(action)
+            outs[steps] = e.last_out
+            states[steps] = e.phys_state[0]
+            us[steps] = float(action[0])
+            for key, value in info.items():
+                infos.setdefault(key, []).append(value)
+            steps += 1
+            if terminated or truncated or steps >= n:
+                break
+        wall = time.perf_counter() - t_start
+    finally:
+        env.close()
+    trace: dict[str, np.ndarray] = {name: outs[:steps, i].copy() for i, name in enumerate(C.OUT_NAMES)}
+    for i, name in enumerate(C.STATE_NAMES):
+        trace[name] = states[:steps, i].copy()
+    trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
+    for key, values in infos.items():
+        trace[key] = np.asarray(values)
+    trace["u"] = us[:steps]
+    v = np.asarray(e.cycle.speed_mps, dtype=np.float64)
+    distance_m = float(np.sum(0.5 * (v[k0:k0 + steps] + v[k0 + 1:k0 + steps + 1])))
+    vehicle = e.config
+    metrics = summarize(trace, vehicle, soc0, distance_m, e.core.dt_s)
+    summary = {
+        "cycle": e.cycle.name, "strategy": getattr(strategy, "label", strategy.name), "scenario": scen.name,
+        **metrics,
+        "delta_soc": metrics["soc_final"] - metrics["soc_initial"],
+        "wall_s": wall, "plan_s": plan_s, "thermal_aware": bool(strategy.thermal_aware), "seed": seed,
+        "conditions": e.conditions.to_dict(), "strategy_settings": strategy.describe(),
+    }
+    summary = {k: summary[k] for k in SUMMARY_KEYS if k in summary} | {k: v for k, v in summary.items()
+                                                                        if k not in SUMMARY_KEYS}
+    info_keys = tuple(infos) + ("u",)
+    return RunResult(summary=_jsonable(summary), trace=trace, info_keys=info_keys)

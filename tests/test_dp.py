@@ -1,0 +1,243 @@
+"""Dynamic programming: prices, interpolation, the SOC corridor, optimality, convergence, infeasibility."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from agents import get_strategy
+from agents.common import stage_cost_g, stage_cost_reference_g
+from agents.dp import (
+    DPInfeasibleError,
+    DPProblem,
+    DPSettings,
+    backward_envelope,
+    forward_envelope,
+    interp_uniform,
+    rollout,
+    solve,
+)
+from agents.evaluation import run_strategy
+from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cycle, paper_bus
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.reward import RewardParams
+
+
+def problem_for(speed, grade=None, conditions=None, config=None, reward=None) -> DPProblem:
+    config = config or paper_bus()
+    conditions = conditions or Conditions()
+    core = PhysicsCore(config)
+    speed = np.asarray(speed, dtype=np.float64)
+    grade = np.zeros_like(speed) if grade is None else np.asarray(grade, dtype=np.float64)
+    return DPProblem(core=core, speed_mps=speed, grade=grade, k0=0, state0=core.initial_state(conditions, 1)[0],
+                     cond=core.conditions_array(conditions, 1)[0], reward_params=reward or RewardParams(),
+                     soc_target=conditions.initial_soc, name="test")
+
+
+@pytest.fixture(scope="module")
+def city200():
+    return cycle_from_arrays(load_cycle("beijing").speed_mps[:201], name="beijing_200s")
+
+
+# -- prices and interpolation ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("flags", [{}, {"battery": False}, {"soc_deviation": True}, {"overheat": True},
+                                   {"soc_deviation": True, "overheat": True, "battery": False}])
+def test_stage_cost_equals_the_reward_terms(flags):
+    rng = np.random.default_rng(1)
+    out = rng.normal(size=(500, C.N_OUT)) * 3000.0
+    st = rng.normal(size=(500, C.N_STATE))
+    st[:, C.TEMP_C] = rng.uniform(20.0, 80.0, 500)
+    st[:, C.CUTOFF] = rng.integers(0, 2, 500)
+    rp = RewardParams(derate_weight=0.7, soc_deviation_weight=0.3)
+    a = stage_cost_g(rp, out, st, 0.62, 43000.0, 1.0, **flags)
+    b = stage_cost_reference_g(rp, out, st, 0.62, 43000.0, 1.0, **flags)
+    np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-9)
+
+
+def test_interpolation_is_exact_for_linear_functions_and_walls_the_soc_axis():
+    g0, g1 = np.linspace(0.4, 0.8, 11), np.linspace(-0.3, 1.0, 6)
+    m0, m1 = np.meshgrid(g0, g1, indexing="ij")
+    values = (3.0 * m0 - 2.0 * m1 + 1.0).ravel()
+    lo, step, n = np.array([0.4, -0.3]), np.array([0.04, 0.26]), np.array([11, 6], dtype=np.int64)
+    st = np.zeros((4, C.N_STATE))
+    st[:, C.SOC] = [0.41, 0.777, 0.38, 0.9]
+    st[:, C.HEAT_X] = [0.0, 0.95, 0.5, 2.0]
+    res = np.empty(4)
+    interp_uniform(values, lo, step, n, st, np.array([C.SOC, C.HEAT_X], dtype=np.int64), 1000.0, res)
+    assert res[0] == pytest.approx(3 * 0.41 - 2 * 0.0 + 1)
+    assert res[1] == pytest.approx(3 * 0.777 - 2 * 0.95 + 1)
+    assert res[2] == pytest.approx(3 * 0.4 - 2 * 0.5 + 1 + 1000.0 * 0.02)  # below the SOC grid: wall
+    assert res[3] == pytest.approx(3 * 0.8 - 2 * 1.0 + 1 + 1000.0 * 0.1)  # heat_x clamped, SOC walled
+
+
+def test_threaded_kernel_slices_give_the_same_batch():
+    from agents.common import kernel_step
+    core = PhysicsCore(paper_bus())
+    n = 10_000
+    rng = np.random.default_rng(3)
+    st = core.initial_state(Conditions(), n)
+    st[:, C.SOC] = rng.uniform(0.45, 0.75, n)
+    args = (st, rng.uniform(-1, 1, n), np.full(n, 10.0), np.full(n, 11.0), np.zeros(n),
+            core.conditions_array(Conditions(), n))
+    a_st, a_out = np.empty_like(st), np.empty((n, C.N_OUT))
+    b_st, b_out = np.empty_like(st), np.empty((n, C.N_OUT))
+    kernel_step(core, *args, a_st, a_out, threads=1)
+    kernel_step(core, *args, b_st, b_out, threads=3, force_split=True)
+    np.testing.assert_array_equal(a_out, b_out)
+    np.testing.assert_array_equal(a_st, b_st)
+
+
+# -- the SOC corridor ---------------------------------------------------------------------------------
+
+def test_forward_envelope_bounds_every_action_sequence(city200):
+    p = problem_for(city200.speed_mps)
+    held = np.repeat(p.state0[None, :], p.n_stages + 1, axis=0)
+    lo, hi = forward_envelope(p, held)
+    rng = np.random.default_rng(0)
+    n = 64
+    st = np.repeat(p.state0[None, :], n, axis=0)
+    for i in range(p.n_stages):
+        u = rng.uniform(-1.0, 1.0, n)
+        u[:4] = [-1.0, 1.0, 0.0, 0.5]
+        x = np.repeat(held[i][None, :], n, axis=0)  # the planning model: thermal state held
+        x[:, C.SOC] = st[:, C.SOC]
+        so, _ = p.step(x, u, i)
+        st[:, C.SOC] = so[:, C.SOC]
+        assert np.all(st[:, C.SOC] >= lo[i + 1] - 1e-12) and np.all(st[:, C.SOC] <= hi[i + 1] + 1e-12)
+
+
+def test_backward_envelope_edge_just_reaches_the_band(city200):
+    p = problem_for(city200.speed_mps)
+    held = np.repeat(p.state0[None, :], p.n_stages + 1, axis=0)
+    band = (0.645, 0.655)
+    lo, hi = backward_envelope(p, held, band)
+    st = np.repeat(p.state0[None, :], 2, axis=0)
+    st[:, C.SOC] = [lo[0], hi[0]]
+    for i in range(p.n_stages):
+        st, _ = p.step(st, np.array([-1.0, 1.0]), i)
+    assert st[0, C.SOC] == pytest.approx(band[0], abs=2e-6)
+    assert st[1, C.SOC] == pytest.approx(band[1], abs=2e-6)
+
+
+# -- optimality -------------------------------------------------------------------------------------
+
+def test_dp_matches_exhaustive_search_on_a_tiny_cycle():
+    """Six steps, five splits: DP's plan costs no more than the best of all 5^6 action sequences."""
+    speed = [0.0, 2.0, 4.5, 7.0, 9.0, 10.0, 10.5]
+    p = problem_for(speed)
+    u = np.linspace(-1.0, 1.0, 5)
+    seqs = np.array(list(itertools.product(range(5), repeat=6)))
+    n = len(seqs)
+    st = np.repeat(p.state0[None, :], n, axis=0)
+    total = np.zeros(n)
+    for i in range(6):
+        so, out = p.step(st, u[seqs[:, i]], i)
+        total += stage_cost_g(p.reward_params, out, so, p.soc_target, p.lhv, 1.0)
+        st = so
+    settings = DPSettings(n_soc=101, n_u=5, n_u_exec=5, soc_tol=0.1)
+    plan = solve(p, settings)
+    run = rollout(plan, p, settings, free=True)
+    dp_cost = float(stage_cost_g(p.reward_params, run["out"], run["state"][1:], p.soc_target, p.lhv, 1.0).sum())
+    assert dp_cost <= total.min() + 1e-6
+    assert plan.lookup(0, p.state0[None, :])[0] == pytest.approx(dp_cost, rel=1e-6)
+
+
+def test_dp_plan_cost_matches_its_run_and_ends_in_the_band(city200):
+    res = run_strategy(get_strategy("dp"), city200, "paper")
+    d = res.summary["strategy_settings"]
+    assert d["grid"] == {"soc": 401} and d["n_u"] == 41
+    assert d["solve_s"] > 0 and d["vehicle_steps_evaluated"] > 200 * 401
+    assert d["final_soc_feasible"] is True
+    assert abs(res.summary["soc_final"] - 0.65) <= 0.005 + 1e-4
+    lhv = paper_bus().engine.fuel_lhv_j_per_g
+    out = np.column_stack([res.trace[name] for name in C.OUT_NAMES])
+    st = np.column_stack([res.trace[name] for name in C.STATE_NAMES])
+    realized = stage_cost_g(RewardParams(), out, st, 0.65, lhv, 1.0).sum()
+    assert d["planned_cost_g"] == pytest.approx(realized, rel=2e-3)
+
+
+def test_dp_is_converged_in_grid_size(city200):
+    """Doubling the SOC grid and the split grid changes DP's corrected fuel by < 0.3 %."""
+    base = run_strategy(get_strategy("dp", n_soc=201, n_u=21), city200).summary["fuel_corrected_l_per_100km"]
+    fine = run_strategy(get_strategy("dp", n_soc=401, n_u=41), city200).summary["fuel_corrected_l_per_100km"]
+    assert abs(fine - base) / fine < 0.003
+
+
+def test_dp_thermal_state_mode_on_a_hot_short_cycle(city200):
+    s = get_strategy("dp_thermal", n_soc=21, n_heat_x=6, n_temp=6, n_u=11)
+    res = run_strategy(s, city200, "hot")
+    d = res.summary["strategy_settings"]
+    assert d["temp_mode"] == "state" and d["grid"] == {"soc": 21, "heat_x": 6, "temp": 6}
+    assert d["price_overheat"] is True and d["solve_s"] > 0
+    assert abs(res.summary["delta_soc"]) <= 0.005 + 1e-3
+
+
+def test_dp_thermal_holds_temperature_with_the_coolant_on(city200):
+    s = get_strategy("dp_thermal", n_soc=21, n_heat_x=6, n_u=11)
+    res = run_strategy(s, city200, "paper")
+    assert res.summary["strategy_settings"]["temp_mode"] == "fixed"
+    assert res.summary["strategy_settings"]["grid"] == {"soc": 21, "heat_x": 6}
+
+
+def test_plan_is_reused_for_the_same_episode(city200):
+    from hev_thermal_env.env import HevThermalEnv
+    env = HevThermalEnv(cycle=city200)
+    s = get_strategy("dp", n_soc=51, n_u=11)
+    env.reset(seed=0)
+    s.reset(env)
+    first = s.plan
+    env.reset(seed=0)
+    s.reset(env)
+    assert s.plan is first
+    env.reset(seed=0, options={"initial_soc": 0.6})
+    s.reset(env)
+    assert s.plan is not first
+
+
+# -- infeasibility ------------------------------------------------------------------------------------
+
+def test_dp_without_a_feasible_path_says_so():
+    """Standing for 2 minutes, the accessories drain the battery past the band and nothing can recharge it."""
+    idle = cycle_from_arrays(np.zeros(121), name="idle")
+    with pytest.raises(DPInfeasibleError, match="no feasible path to the final SOC 0.6500") as err:
+        run_strategy(get_strategy("dp", n_soc=51, n_u=11), idle)
+    assert "reachable final SOC" in str(err.value) and "on_infeasible='closest'" in str(err.value)
+    assert isinstance(err.value, ValueError)
+
+
+def test_dp_unreachable_target_and_the_closest_band(city200):
+    with pytest.raises(DPInfeasibleError, match="no feasible path"):
+        run_strategy(get_strategy("dp", n_soc=51, n_u=11, soc_final=0.79), city200)
+    res = run_strategy(get_strategy("dp", n_soc=51, n_u=11, soc_final=0.79, on_infeasible="closest"), city200)
+    d = res.summary["strategy_settings"]
+    assert d["final_soc_feasible"] is False
+    reach_hi = d["reachable_final_soc"][1]
+    assert d["soc_band_used"] == pytest.approx([reach_hi - 0.01, reach_hi])
+    assert reach_hi - 0.01 - 1e-3 <= res.summary["soc_final"] <= reach_hi + 1e-3
+
+
+# -- the full cycles (a few seconds) ----------------------------------------------------------------------
+
+def test_hwfet_dp_feasible_and_charge_sustaining():
+    """The engine alone falls short at HWFET's highway speeds; DP may miss (priced) instead of draining the battery."""
+    res = run_strategy(get_strategy("dp", n_soc=201, n_u=21), "hwfet")
+    d = res.summary["strategy_settings"]
+    assert d["final_soc_feasible"] is True
+    assert abs(res.summary["soc_final"] - res.summary["soc_initial"]) <= 0.006
+    assert res.summary["missed_wheel_energy_kwh"] > 0.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cycle", ["beijing", "hwfet"])
+def test_ecms_and_aecms_within_3_percent_of_dp(cycle):
+    dp = run_strategy(get_strategy("dp", on_infeasible="closest"), cycle).summary
+    for name in ("ecms", "aecms", "rule", "engine_only"):
+        s = run_strategy(get_strategy(name), cycle).summary
+        assert s["fuel_corrected_l_per_100km"] >= dp["fuel_corrected_l_per_100km"] - 1e-9, name
+        if name in ("ecms", "aecms"):
+            assert s["fuel_corrected_l_per_100km"] <= 1.03 * dp["fuel_corrected_l_per_100km"], name
+            # charge-sustaining as far as the cycle allows: within 0.02 of DP's final SOC
+            assert abs(s["soc_final"] - dp["soc_final"]) <= 0.02, name

@@ -1,0 +1,258 @@
+"""Strategies behind one protocol: registry, each strategy's logic, ordering on a short cycle, ``evaluate.py run``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents import get_strategy, list_strategies
+from agents.common import REWARD_EQUIVALENCE_FACTOR, stage_cost_g
+from agents.ecms import ECMS, AdaptiveECMS, ecms_cost_g
+from agents.evaluation import SUMMARY_KEYS, run_strategy
+from agents.plots import plot_run
+from agents.rule import RuleBased
+from hev_thermal_env import Conditions, cycle_from_arrays, load_cycle, paper_bus
+from hev_thermal_env.env import HevThermalEnv
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.simulate import simulate
+from hev_thermal_env.reward import RewardParams
+
+ROOT = Path(__file__).resolve().parents[1]
+ALL = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")
+
+
+@pytest.fixture(scope="module")
+def city200():
+    """The first 200 s of the synthetic Beijing bus cycle (stops, launches, regeneration)."""
+    return cycle_from_arrays(load_cycle("beijing").speed_mps[:201], name="beijing_200s")
+
+
+@pytest.fixture(scope="module")
+def runs(city200):
+    """Every strategy on the 200 s city cut, paper scenario (shared by several tests)."""
+    return {name: run_strategy(get_strategy(name), city200, "paper") for name in ALL}
+
+
+# -- registry ----------------------------------------------------------------------------------------
+
+def test_registry_lists_every_strategy():
+    assert set(ALL) <= set(list_strategies())
+    for name in ALL:
+        s = get_strategy(name)
+        assert s.name == name
+        assert isinstance(s.describe(), dict)
+
+
+def test_unknown_strategy_lists_the_valid_ones():
+    with pytest.raises(ValueError) as err:
+        get_strategy("greedy")
+    msg = str(err.value)
+    assert "greedy" in msg
+    for name in ALL:
+        assert name in msg
+
+
+def test_label_suffix_and_bad_options():
+    s = get_strategy("dp:fine", n_soc=801)
+    assert s.name == "dp" and s.label == "dp:fine" and s.settings.n_soc == 801
+    with pytest.raises(ValueError, match="unknown option"):
+        get_strategy("dp", n_socs=3)
+    with pytest.raises(ValueError, match="penalty"):
+        get_strategy("ecms", penalty="quartic")
+
+
+# -- every strategy runs, metrics ------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ALL)
+def test_each_strategy_runs_the_short_cycle(runs, name):
+    res = runs[name]
+    s = res.summary
+    for key in ("cycle", "strategy", "scenario", "distance_km", "fuel_g", "fuel_l_per_100km",
+                "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km",
+                "missed_wheel_energy_kwh", "soc_initial", "soc_final", "max_motor_temp_c", "heat_index_max",
+                "derated_s", "cutoff_s", "trace_miss_max_mps", "wall_s", "strategy_settings"):
+        assert key in s, key
+    assert set(SUMMARY_KEYS) - {"conditions"} <= set(s)
+    assert s["strategy"] == name and s["cycle"] == "beijing_200s" and s["scenario"] == "paper"
+    assert np.isfinite(s["fuel_corrected_l_per_100km"]) and s["fuel_g"] > 0
+    assert len(res.trace["soc"]) == 200
+    json.dumps(res.to_json_dict())  # JSON-ready
+    assert np.all(np.abs(res.trace["action"]) <= 1.0)
+
+
+def test_engine_only_is_the_conventional_bus(runs, city200):
+    res = runs["engine_only"]
+    assert np.all(res.trace["motor_torque_nm"] == 0.0)
+    assert res.summary["soc_final"] == res.summary["soc_initial"]
+    # the metrics are the physics simulation's
+    sim = simulate(city200, config=paper_bus().conventional(), split=0.0)
+    assert res.summary["fuel_g"] == pytest.approx(sim.summary["fuel_g"], rel=1e-12)
+    assert res.summary["fuel_corrected_l_per_100km"] == pytest.approx(
+        sim.summary["fuel_corrected_l_per_100km"], rel=1e-12)
+
+
+def test_ordering_on_the_short_city_cycle(runs):
+    """Corrected fuel: dp <= ecms <= rule <= engine_only, and dp_thermal <= ecms_thermal (same thermal model)."""
+    f = {k: r.summary["fuel_corrected_l_per_100km"] for k, r in runs.items()}
+    assert f["dp"] <= f["ecms"] <= f["rule"] <= f["engine_only"], f
+    assert f["dp_thermal"] <= f["ecms_thermal"], f
+    for name in ("dp", "dp_thermal", "ecms", "aecms"):
+        assert abs(runs[name].summary["delta_soc"]) <= 0.02, (name, runs[name].summary["delta_soc"])
+
+
+def test_ecms_within_3_percent_of_dp_on_the_short_cycle(runs):
+    dp = runs["dp"].summary["fuel_corrected_l_per_100km"]
+    for name in ("ecms", "aecms"):
+        assert runs[name].summary["fuel_corrected_l_per_100km"] <= 1.03 * dp
+
+
+# -- rule ------------------------------------------------------------------------------------------
+
+class _EnvStub:
+    """Only what RuleBased.engine_torque_nm reads."""
+
+    def __init__(self):
+        from hev_thermal_env.physics import PhysicsCore
+        self.config = paper_bus()
+        self.core = PhysicsCore(self.config)
+
+
+def test_rule_follows_advisor_defaults():
+    rule = RuleBased()
+    env = _EnvStub()
+    rule.env = env
+    rule.charge_trq_nm = 0.25 * min(env.config.engine.max_torque_nm)  # what reset() sets
+    assert rule.charge_trq_nm == pytest.approx(62.5)
+    w = 200.0  # rad/s
+    from hev_thermal_env.physics import engine as eng
+    t_max = eng.max_torque_nm(env.core.en, w)
+    # mid band: no charge torque, engine takes the demand
+    assert rule.engine_torque_nm(100.0, w, 0.65, 10.0) == pytest.approx(100.0)
+    # top of the band: the motor assists with the full charge torque
+    assert rule.engine_torque_nm(100.0, w, 0.70, 10.0) == pytest.approx(100.0 - 62.5)
+    # below lo: charge torque and at least min_trq_frac of full load
+    assert rule.engine_torque_nm(10.0, w, 0.55, 10.0) == pytest.approx(max(10.0 + 62.5 * 2.0, 0.4 * t_max))
+    # ADVISOR default keeps the engine on whenever the bus pulls (off_trq_frac 0, launch speed 0)
+    assert rule.engine_torque_nm(1.0, w, 0.75, 0.0) is not None
+    # with an electric launch below 5 m/s and SOC in the band, the engine stays off
+    ev = RuleBased(launch_spd_lo_mps=5.0, launch_spd_hi_mps=5.0, off_trq_frac=0.5)
+    ev.env, ev.charge_trq_nm = env, 62.5
+    assert ev.engine_torque_nm(50.0, w, 0.65, 2.0) is None
+
+
+def test_rule_charges_when_low_and_assists_when_high(city200):
+    env = HevThermalEnv(cycle=city200, scenario="paper")
+    for soc, sign in ((0.55, -1.0), (0.75, 1.0)):
+        env.reset(seed=0, options={"initial_soc": soc})
+        rule = RuleBased()
+        rule.reset(env)
+        us = []
+        for _ in range(60):
+            _, out = env.peek(np.zeros(1))
+            u = float(rule.act(None, {})[0])
+            if out[0, C.SHAFT_DEMAND] > 0:
+                us.append(u)
+            env.step(np.array([u], dtype=np.float32))
+        assert us and sign * np.mean(us) > 0
+
+
+# -- ECMS --------------------------------------------------------------------------------------------
+
+def test_ecms_cost_is_fuel_plus_equivalent_battery_energy_plus_miss_price():
+    from hev_thermal_env.physics import PhysicsCore
+    core = PhysicsCore(paper_bus())
+    cond = Conditions()
+    n = 41
+    st = core.initial_state(cond, n)
+    u = np.linspace(-1, 1, n)
+    so, out = core.step(st, u, np.full(n, 10.0), np.full(n, 10.5), np.zeros(n), core.conditions_array(cond, n))
+    lhv = core.config.engine.fuel_lhv_j_per_g
+    rp = RewardParams()
+    s = 2.5
+    cost = ecms_cost_g(out, so, s, lhv, rp)
+    miss_price = stage_cost_g(rp, out, so, 0.0, lhv, 1.0, battery=False) - out[:, C.FUEL_G]
+    assert np.all(miss_price >= 0.0)
+    np.testing.assert_allclose(cost, out[:, C.FUEL_G] + s * out[:, C.BATT_CHEM] / lhv + miss_price, rtol=1e-12)
+    # at the reward's equivalence factor the battery term is the reward's battery price
+    full = stage_cost_g(rp, out, so, 0.0, lhv, 1.0)
+    np.testing.assert_allclose(ecms_cost_g(out, so, REWARD_EQUIVALENCE_FACTOR, lhv, rp), full, rtol=1e-9)
+    # a cheap battery favours assist, a dear one favours charging
+    assert u[np.argmin(ecms_cost_g(out, so, 0.5, lhv, rp))] > 0.5
+    assert u[np.argmin(ecms_cost_g(out, so, 6.0, lhv, rp))] < 0.0
+
+
+def test_ecms_soc_penalty_and_aecms_pi():
+    e = ECMS(s=3.0, k_soc=1.0, penalty="linear")
+    e.soc_target = 0.65
+    assert e.equivalence_factor(0.60) > 3.0 > e.equivalence_factor(0.70)
+    c = ECMS(s=3.0, k_soc=1.0, penalty="cubic")
+    c.soc_target = 0.65
+    assert c.equivalence_factor(0.65) == 3.0 and c.equivalence_factor(0.55) == pytest.approx(6.0)
+    a = AdaptiveECMS(s0=3.0, kp=20.0, ki=0.01)
+    a.soc_target, a.dt_s, a.integral = 0.65, 1.0, 0.0
+    for _ in range(100):
+        a._observe(0.60)
+    assert a.integral == pytest.approx(5.0)
+    assert a.equivalence_factor(0.60) == pytest.approx(3.0 + 20.0 * 0.05 + 0.01 * 5.0)
+
+
+def test_ecms_thermal_holds_back_a_hot_motor():
+    """Near the cutoff the thermal ECMS asks the motor for less than the plain ECMS."""
+    cyc = cycle_from_arrays(np.linspace(0.0, 15.0, 40), name="launch")
+    cond = Conditions(ambient_temp_c=40.0, initial_motor_temp_c=66.0, coolant="off", initial_soc=0.75)
+    torques = {}
+    for name in ("ecms", "ecms_thermal"):
+        res = run_strategy(get_strategy(name), cyc, "paper", conditions=cond)
+        torques[name] = np.abs(res.trace["motor_torque_nm"]).sum()
+        if name == "ecms_thermal":
+            assert res.summary["cutoff_s"] == 0
+    assert torques["ecms_thermal"] < torques["ecms"]
+
+
+# -- plots and the run command -------------------------------------------------------------------------
+
+def test_plot_run_overlays_strategies(runs, tmp_path):
+    path = plot_run({k: runs[k].trace for k in ("rule", "ecms", "dp")}, tmp_path / "p.png", title="t")
+    assert path.exists() and path.stat().st_size > 10_000
+
+
+def test_evaluate_run_end_to_end(tmp_path):
+    csv = tmp_path / "tiny.csv"
+    cycle_from_arrays(load_cycle("beijing").speed_mps[:61], name="tiny").to_csv(csv)
+    out_json, out_csv, out_png = tmp_path / "r.json", tmp_path / "r.csv", tmp_path / "r.png"
+    r = subprocess.run([sys.executable, str(ROOT / "evaluate.py"), "run", "--cycle", str(csv), "--strategy", "dp",
+                        "--dp-soc-points", "51", "--dp-actions", "11", "--dp-on-infeasible", "closest",
+                        "--json", str(out_json), "--trace", str(out_csv), "--plot", str(out_png)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "corrected fuel" in r.stdout and "L/100 km" in r.stdout
+    data = json.loads(out_json.read_text())
+    assert data["strategy"] == "dp" and data["strategy_settings"]["grid"] == {"soc": 51}
+    assert data["strategy_settings"]["n_u"] == 11
+    lines = out_csv.read_text().splitlines()
+    assert len(lines) == 61 and lines[0].startswith("fuel_g,soc,motor_temp_c,heat_index")
+    assert out_png.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("args, listed", [
+    (["--cycle", "beijing", "--strategy", "greedy"], ["engine_only", "ecms_thermal", "dp_thermal"]),
+    (["--cycle", "beijing", "--strategy", "rule", "--scenario", "arctic"], ["paper", "hot", "random"]),
+    (["--cycle", "mars", "--strategy", "rule"], ["hwfet", "beijing"]),
+    (["--cycle", "beijing", "--strategy", "rule", "--dp-soc-points", "101"], ["dp", "dp_thermal"]),
+])
+def test_evaluate_run_bad_input(args, listed, capsys):
+    sys.path.insert(0, str(ROOT))
+    try:
+        import evaluate
+    finally:
+        sys.path.pop(0)
+    assert evaluate.main(["run", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err and "Traceback" not in err
+    for name in listed:
+        assert name in err
