@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import io
+import multiprocessing
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -41,10 +42,13 @@ def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
     from . import get_strategy
     from .evaluation import run_strategy
 
-    res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cycle, scenario)
+    from hev_thermal_env.cycles import load_cycle
+
+    cyc = load_cycle(cycle)
+    res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario)
     trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
     summary = dict(res.summary)
-    summary.update(cycle=cycle, scenario=scenario, strategy=strategy)
+    summary.update(cycle=cyc.name, scenario=scenario, strategy=strategy)
     return summary, trace
 
 
@@ -95,7 +99,8 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
                 bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
                 bar.update()
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        # spawn, not fork: a forked child would inherit the parent's thread pools (DP) mid-lock
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = {i: pool.submit(_run_one, tasks[i]) for i in order}
             for i in order:
                 results[i] = futures[i].result()

@@ -70,8 +70,8 @@ def fig4(out_dir: Path) -> dict[str, Any]:
         tmax.append(thm.available_torque_nm(th, peak, cont, x, 0.0))
         x = thm.heat_index_step(th, x, x_min, 2.0 * cont, cont, 20.0, 1.0)
     pwm = np.array(pwm)
-    leave = float(t_s[np.argmax(pwm > 0)] - 1)
-    full = float(t_s[np.argmax(pwm >= 1.0)])
+    leave = float(t_s[np.argmax(pwm > 1e-9)] - 1)  # last second at 0
+    full = float(t_s[np.argmax(pwm >= 1.0 - 1e-9)])
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 3.8))
     ax.plot(t_s, pwm, label="heat index PWM")
@@ -219,14 +219,22 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = ("hwfet", "ud
     for cyc, row in t2.items():
         p = row["paper_l_per_100km"]
         ps = f"{p[0]:g} / {p[1]:g}" if p else "-"
-        md.append(f"| {cyc} | {ps} | {row['without_thermal']['fuel_l_per_100km']:.2f} | "
-                  f"{row['with_thermal']['fuel_l_per_100km']:.2f} | "
-                  f"{row['without_thermal']['fuel_corrected_l_per_100km']:.2f} / "
-                  f"{row['with_thermal']['fuel_corrected_l_per_100km']:.2f} |")
+        md.append(f"| {cyc} | {ps} | {row['without_thermal']['fuel_l_per_100km']:.3f} | "
+                  f"{row['with_thermal']['fuel_l_per_100km']:.3f} | "
+                  f"{row['without_thermal']['fuel_corrected_l_per_100km']:.3f} / "
+                  f"{row['with_thermal']['fuel_corrected_l_per_100km']:.3f} |")
+    deltas = {c: r["with_thermal"]["fuel_corrected_l_per_100km"] - r["without_thermal"]["fuel_corrected_l_per_100km"]
+              for c, r in t2.items()}
+    change = ", ".join(f"{c} {d:+.3f}" for c, d in deltas.items())
     md += ["", "The paper's Table 2 labels its highway row \"UDDS\" while its text says HWFET; we report both "
-           "cycles. Shape to compare: fuel rises slightly with the thermal model on the highway cycle and is "
-           "unchanged on the city-bus cycle. Our `beijing` is a synthetic cycle (no measured Beijing bus "
-           "cycle is public), and our bus and its fuel map are not the paper's, so absolute L/100 km differ.",
+           "cycles. The paper's shape: fuel rises slightly with the thermal model on the highway cycle "
+           "(+0.3 L/100 km) and is unchanged on the city-bus cycle. Ours, corrected fuel with minus without "
+           f"the thermal model: {change} L/100 km. In our model the coolant holds the motor at the 35 °C "
+           "thermostat, where the efficiency derate only begins, and the rule strategy's assist rarely builds "
+           "the heat index, so the thermal model costs almost nothing in the paper's conditions: the "
+           "city-bus result matches the paper, the highway rise does not appear. Our `beijing` is a synthetic "
+           "cycle (no measured Beijing bus cycle is public), and our bus and its fuel map are not the paper's, "
+           "so absolute L/100 km differ.",
            "", "## Figs. 7-10 analogs: temperature and heat index along the cycles", ""]
     for cyc, row in t2.items():
         rise = row["heat_index_first_rise_s"]
@@ -237,10 +245,13 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = ("hwfet", "ud
         md += ["", f"![{cyc}](fig_temperature_heat_index_{cyc}.png)", ""]
     md += ["Paper: on HWFET the heat index rises from ≈387 s to a peak ≈0.35 and the temperature peaks at "
            "≈44 °C, settling ≈37.5 °C; on Beijing the temperature hovers at 35 °C and the heat index stays 0. "
-           "In our model the 3000 W/(m²·K) coolant with a perfect radiator pins the motor at the 35 °C "
-           "thermostat on every cycle (losses of a few kW need only a few kelvin above the coolant), so the "
-           "temperature peak of 44 °C is not reproduced; the heat index, which integrates overload torque, "
-           "is what binds, as the paper's HWFET curve shows.", ""]
+           "Ours: the Beijing shape is reproduced (temperature at the thermostat, heat index 0). On HWFET it is "
+           "not: the 3000 W/(m²·K) coolant with a perfect radiator pins the motor at the 35 °C thermostat "
+           "(losses of a few kW need only a few kelvin above the coolant), so there is no 44 °C peak; and the "
+           "rule strategy's assist on our bus exceeds the continuous torque only in short bursts, which the "
+           "heat index, starting at −PWM_initial = −0.3 and integrating at T_gain(35 °C)/T_s = 0.1/30 per "
+           "unit of overload, absorbs without leaving 0. Sustained overload, as in UDDS's long climb to "
+           "90 km/h, hot starts or the `hot` scenario, does build it (see the benchmark's hot rows).", ""]
     atomic_write_json(out / "paper.json", data)
     atomic_write_text(out / "report.md", "\n".join(md) + "\n")
     return data

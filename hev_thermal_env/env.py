@@ -437,7 +437,7 @@ class HevThermalEnv(gym.Env):
 
     ```python
     gymnasium.make("HevThermal-v0", cycle="hwfet", scenario="paper", config=None, conditions=None,
-                   reward=None, preview_s=10, preview_step_s=2, render_mode=None, thermal=True,
+                   reward=None, preview_s=10, preview_step_s=2, render_mode=None, thermal=None,
                    random_start=False)
     ```
 
@@ -455,8 +455,9 @@ class HevThermalEnv(gym.Env):
     * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor
       temperature, heat index and split so far) or ``"human"`` (the same in a matplotlib window,
       redrawn at every step and reset).
-    * ``thermal``: sets ``config.thermal.enabled``; False is the paper's unmodified ADVISOR motor
-      (no derating, no extra loss, no cutoff), the baseline of its tables.
+    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting,
+      on for ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra
+      loss, no cutoff), the baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
 
     ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this
@@ -480,7 +481,7 @@ class HevThermalEnv(gym.Env):
 
     def __init__(self, cycle: Any = "hwfet", scenario: str | Scenario = "paper", config: VehicleConfig | None = None,
                  conditions: Conditions | None = None, reward: RewardParams | dict | None = None, preview_s: int = 10,
-                 preview_step_s: int = 2, render_mode: str | None = None, thermal: bool = True,
+                 preview_step_s: int = 2, render_mode: str | None = None, thermal: bool | None = None,
                  random_start: bool = False):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
@@ -649,12 +650,13 @@ class TableCache:
         return tab
 
 
-def resolve_config(config: VehicleConfig | None, thermal: bool) -> VehicleConfig:
+def resolve_config(config: VehicleConfig | None, thermal: bool | None) -> VehicleConfig:
+    """The vehicle: ``config`` (default ``paper_bus()``), its thermal model switched by ``thermal`` if given."""
     if config is None:
         config = paper_bus()
     if not isinstance(config, VehicleConfig):
         raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
-    return config.with_thermal(bool(thermal))
+    return config if thermal is None else config.with_thermal(bool(thermal))
 
 
 def resolve_reward(reward: RewardParams | dict | None) -> RewardParams:

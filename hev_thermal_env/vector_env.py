@@ -90,7 +90,7 @@ class HevThermalVectorEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, *, cycle: Any = "hwfet", scenario: str | Scenario = "paper",
                  config: VehicleConfig | None = None, conditions: Conditions | None = None,
                  reward: RewardParams | dict | None = None, preview_s: int = 10, preview_step_s: int = 2,
-                 thermal: bool = True, random_start: bool = False, max_episode_steps: int | None = None,
+                 thermal: bool | None = None, random_start: bool = False, max_episode_steps: int | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, render_mode: str | None = None):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")

@@ -1,0 +1,121 @@
+"""``evaluate.py benchmark`` and ``evaluate.py paper`` end to end, on tiny inputs."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.benchmark import COLUMNS, run_benchmark
+from hev_thermal_env import load_cycle
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(ROOT / "evaluate.py"), *args], capture_output=True, text=True,
+                          cwd=ROOT, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def tiny_cycles(tmp_path_factory) -> list[str]:
+    d = tmp_path_factory.mktemp("cycles")
+    paths = []
+    for name, start in (("hwfet", 0), ("beijing", 100)):
+        cyc = load_cycle(name)
+        path = d / f"{name}_tiny.csv"
+        v = cyc.speed_mps[start:start + 121]
+        path.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
+        paths.append(str(path))
+    return paths
+
+
+def test_benchmark_writes_every_file_and_column(tiny_cycles, tmp_path):
+    out = tmp_path / "bench"
+    r = run("benchmark", "--cycles", *tiny_cycles, "--strategies", "rule", "dp", "--scenarios", "paper",
+            "--out", str(out), "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+    for f in ("results.csv", "results.json", "results.md", "timings.json", "fuel_vs_dp.png",
+              "traces_hwfet_tiny_paper.png", "traces_beijing_tiny_paper.png"):
+        assert (out / f).is_file() and (out / f).stat().st_size > 0, f
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert len(rows) == 4
+    assert tuple(rows[0]) == COLUMNS
+    for row in rows:
+        for c in COLUMNS:
+            if c in ("cycle", "scenario", "strategy"):
+                continue
+            assert np.isfinite(float(row[c])), (c, row[c])
+        if row["strategy"] == "dp":
+            assert float(row["fuel_vs_dp_pct"]) == pytest.approx(100.0)
+        else:
+            assert float(row["fuel_vs_dp_pct"]) >= 100.0 - 1e-6
+    data = json.loads((out / "results.json").read_text())
+    assert data["columns"] == list(COLUMNS) and len(data["rows"]) == 4
+    md = (out / "results.md").read_text()
+    assert sum(line.startswith("| ") for line in md.splitlines()) == 5 and "vs DP" in md
+
+
+def test_benchmark_parallel_equals_serial_byte_for_byte(tiny_cycles, tmp_path):
+    kw = dict(cycles=tiny_cycles, strategies=("rule", "ecms", "dp"), scenarios=("paper", "hot"), progress=False,
+              plots=False)
+    run_benchmark(tmp_path / "serial", jobs=1, **kw)
+    run_benchmark(tmp_path / "parallel", jobs=2, **kw)
+    run_benchmark(tmp_path / "again", jobs=2, **kw)
+    for f in ("results.csv", "results.json", "results.md"):
+        a = (tmp_path / "serial" / f).read_bytes()
+        assert a == (tmp_path / "parallel" / f).read_bytes(), f
+        assert a == (tmp_path / "again" / f).read_bytes(), f
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--cycles", "nowhere"], "unknown cycle"),
+    (["--strategies", "magic"], "unknown strategy"),
+    (["--scenarios", "arctic"], "unknown scenario"),
+    (["--jobs", "0"], "--jobs"),
+])
+def test_benchmark_bad_input(args, message, tmp_path):
+    out = tmp_path / "never"
+    r = run("benchmark", "--out", str(out), *args)
+    assert r.returncode == 2
+    assert message in r.stderr and "Traceback" not in r.stderr
+    assert not out.exists()
+
+
+def test_benchmark_output_is_a_file(tmp_path, tiny_cycles):
+    f = tmp_path / "afile"
+    f.write_text("keep me")
+    r = run("benchmark", "--cycles", tiny_cycles[0], "--strategies", "rule", "--out", str(f))
+    assert r.returncode == 2 and "not a directory" in r.stderr and "Traceback" not in r.stderr
+    assert f.read_text() == "keep me"
+
+
+def test_paper_report_quick_within_tolerances(tmp_path, tiny_cycles):
+    out = tmp_path / "paper"
+    r = run("paper", "--out", str(out), "--quick", "--cycles", "beijing")
+    assert r.returncode == 0, r.stderr
+    data = json.loads((out / "paper.json").read_text())
+    t3 = data["table3"]
+    assert all(t3["within_tolerance"].values())
+    assert t3["thermal_off"]["top_speed_kmh"] == pytest.approx(89.0, rel=0.05)
+    assert t3["thermal_off"]["accel_0_60_s"] == pytest.approx(16.4, rel=0.07)
+    assert t3["thermal_off"]["grade_4pct_speed_kmh"] == pytest.approx(48.3, rel=0.07)
+    assert t3["thermal_50c"]["accel_0_60_s"] > t3["thermal_30c"]["accel_0_60_s"] >= t3["thermal_off"]["accel_0_60_s"]
+    assert data["fig4"]["pwm_leaves_zero_s"] == pytest.approx(30, abs=1)
+    assert data["fig4"]["pwm_reaches_one_s"] == pytest.approx(130, abs=1)
+    tc = data["thermal_cutoff"]
+    assert tc["time_to_cutoff_simulated_s"] == pytest.approx(tc["time_to_cutoff_analytic_s"], rel=0.02)
+    assert "beijing" in data["table2"]
+    report = (out / "report.md").read_text()
+    for png in ("fig4_heat_index.png", "thermal_time_to_cutoff.png", "fig_temperature_heat_index_beijing.png"):
+        assert (out / png).is_file() and png in report
+
+
+def test_paper_bad_input(tmp_path):
+    r = run("paper", "--out", str(tmp_path / "p"), "--cycles", "atlantis")
+    assert r.returncode == 2 and "unknown cycle" in r.stderr.lower() and "Traceback" not in r.stderr
