@@ -10,10 +10,9 @@ split grids, backward pass and execution) and the targets:
 * ``dp_thermal`` on HWFET (paper scenario, default grid): solve in ≤ 60 s;
 * doubling both grids changes DP's corrected fuel by < 0.3 %.
 
-HWFET cannot be driven charge-sustaining by this bus (the engine at full load falls short at the
-highway speeds and the motor must assist): from SOC 0.65 the highest reachable final SOC is about
-0.618, so the runs use ``on_infeasible="closest"`` (the final band moves to the nearest reachable
-one) and the JSON records it.
+HWFET's highway section is beyond the engine alone; DP chooses there between motor assist and a
+priced miss, and ends charge-sustaining. ``on_infeasible="closest"`` is kept so that a vehicle
+variant whose final band is out of reach still gives a result (recorded in the JSON).
 """
 
 from __future__ import annotations

@@ -376,8 +376,8 @@ class HevThermalEnv(gym.Env):
     ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler.
     Motor u·T_dem, engine (1 - u)·T_dem; u < 0 loads the engine more and charges the battery.
     The physics core clips the motor request to its envelope (peak torque, heat index, cutoff)
-    and the battery's limits, lets the engine cover the rest and the motor top up if the engine
-    is saturated. Braking is regenerative by rule (the action has no effect while braking or
+    and the battery's limits and lets the engine cover the rest up to its full load; what is
+    still missing is a priced trace miss (the motor never tops up by itself). Braking is regenerative by rule (the action has no effect while braking or
     standing). Values outside [-1, 1] are clipped (``info["action_clipped"]``); NaN or inf, or a
     shape other than ``(1,)``, raise ``ValueError``.
 
