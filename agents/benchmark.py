@@ -39,10 +39,10 @@ TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "
 
 def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
     cycle, scenario, strategy, options = task
+    from hev_thermal_env.cycles import load_cycle
+
     from . import get_strategy
     from .evaluation import run_strategy
-
-    from hev_thermal_env.cycles import load_cycle
 
     cyc = load_cycle(cycle)
     res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario)

@@ -21,8 +21,7 @@ import numpy as np
 from numba import njit
 
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics.simulate import (CHARGE_PATH_EFF, ENGINE_EFF_AVG, battery_price_g_per_j,
-                                              miss_price_g_per_j)
+from hev_thermal_env.physics.simulate import CHARGE_PATH_EFF, ENGINE_EFF_AVG, battery_price_g_per_j, miss_price_g_per_j
 from hev_thermal_env.reward import RewardParams, reward_terms
 
 #: Batches smaller than this are not split over threads (thread start-up would dominate).

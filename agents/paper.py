@@ -126,8 +126,8 @@ def thermal_cutoff_figure(out_dir: Path) -> dict[str, Any]:
 
 def table2_and_traces(out_dir: Path, cycles: tuple[str, ...]) -> dict[str, Any]:
     """Table 2 analog (rule strategy, fuel with and without the thermal model) and Figs. 7-10 analogs."""
-    from .evaluation import run_strategy
     from . import get_strategy
+    from .evaluation import run_strategy
 
     plt = _plt()
     result: dict[str, Any] = {}

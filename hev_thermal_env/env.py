@@ -377,9 +377,10 @@ class HevThermalEnv(gym.Env):
     Motor u·T_dem, engine (1 - u)·T_dem; u < 0 loads the engine more and charges the battery.
     The physics core clips the motor request to its envelope (peak torque, heat index, cutoff)
     and the battery's limits and lets the engine cover the rest up to its full load; what is
-    still missing is a priced trace miss (the motor never tops up by itself). Braking is regenerative by rule (the action has no effect while braking or
-    standing). Values outside [-1, 1] are clipped (``info["action_clipped"]``); NaN or inf, or a
-    shape other than ``(1,)``, raise ``ValueError``.
+    still missing is a priced trace miss (the motor never tops up by itself). Braking is
+    regenerative by rule (the action has no effect while braking or standing). Values outside
+    [-1, 1] are clipped (``info["action_clipped"]``); NaN or inf, or a shape other than ``(1,)``,
+    raise ``ValueError``.
 
     ## Observation Space
 

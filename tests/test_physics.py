@@ -9,8 +9,16 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import load_cycle, simulate
-from hev_thermal_env.physics import (BatteryParams, Conditions, ConfigError, GliderParams, PhysicsCore, ThermalParams,
-                                     VehicleConfig, paper_bus)
+from hev_thermal_env.physics import (
+    BatteryParams,
+    Conditions,
+    ConfigError,
+    GliderParams,
+    PhysicsCore,
+    ThermalParams,
+    VehicleConfig,
+    paper_bus,
+)
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics import engine as eng
 from hev_thermal_env.physics import motor as mot

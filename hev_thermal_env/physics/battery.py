@@ -12,8 +12,8 @@ import dataclasses
 import math
 
 import numpy as np
-from ._jit import jit
 
+from ._jit import jit
 from .params import ConfigError, Params, spec
 
 N_SOC = 11  # Voc and R tables over SOC 0, 0.1, ..., 1

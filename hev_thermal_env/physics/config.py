@@ -15,7 +15,8 @@ Where the ``paper_bus`` numbers come from
   4 % grade speed are met with the thermal model off (``tests/test_performance.py``).
 * Engine: ADVISOR FC_CI119 (6.5 L, 119 kW diesel) full-load curve and fitted fuel surface.
 * Driveline: 5-speed AMT (ratios 5.0/3.3/2.37/1.45/1.0, final drive 5.6, chosen so the
-  engine runs near its peak power on the 4 % grade in third gear), lossless coupler with ADVISOR's TC_DUMMY speed-ratio rule.
+  engine runs near its peak power on the 4 % grade in third gear), lossless coupler with
+  ADVISOR's TC_DUMMY speed-ratio rule.
 * Battery: 2 × 30 ADVISOR Ovonic 45 Ah NiMH modules (402 V, 90 Ah, 36 kWh nominal), power limits
   130/110 kW, SOC window 0.4-0.8.
 * Accessories: ADVISOR ACC_HEAVY 7.457 kW, on the engine when it runs, else from the battery.
@@ -65,11 +66,11 @@ class VehicleConfig(Params):
     battery: BatteryParams = dataclasses.field(default_factory=BatteryParams)
     powertrain: PowertrainParams = dataclasses.field(default_factory=PowertrainParams)
 
-    def with_thermal(self, enabled: bool) -> "VehicleConfig":
+    def with_thermal(self, enabled: bool) -> VehicleConfig:
         """The same vehicle with the thermal model on or off (off = the paper's ADVISOR baseline)."""
         return self.replace(thermal=self.thermal.replace(enabled=enabled))
 
-    def conventional(self) -> "VehicleConfig":
+    def conventional(self) -> VehicleConfig:
         """The conventional bus: no motor, no regeneration, the engine idles instead of stopping."""
         return self.replace(motor=self.motor.replace(enabled=False),
                             powertrain=self.powertrain.replace(stop_start=False, regen_enabled=False))

@@ -25,10 +25,7 @@ the rest. The action has no effect while braking or at standstill.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from ._jit import jit
 
 from . import battery as bat
 from . import driveline as drv
@@ -36,6 +33,7 @@ from . import engine as eng
 from . import glider as gli
 from . import motor as mot
 from . import thermal as thm
+from ._jit import jit
 from .config import ACC_W, REGEN, STOP_START, Conditions, VehicleConfig
 
 # state columns

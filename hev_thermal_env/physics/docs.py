@@ -33,8 +33,10 @@ def parameters_markdown(config: VehicleConfig | None = None) -> str:
             lines.append(f"| `{name}` | {_fmt(getattr(part, name))} | {doc} |")
         lines.append("")
     lines += ["## Run conditions: `Conditions`", "", "| field | default | meaning |", "|---|---|---|"]
+    extra = {"coolant": "on, degraded or off",
+             "coolant_temp_c": "coolant return temperature; default: the initial motor temperature (perfect radiator)"}
     for name, default, doc in Conditions.describe():
-        lines.append(f"| `{name}` | {_fmt(default)} | {doc or {'coolant': 'on, degraded or off', 'coolant_temp_c': 'coolant return temperature; default: the initial motor temperature (perfect radiator)'}.get(name, '')} |")
+        lines.append(f"| `{name}` | {_fmt(default)} | {doc or extra.get(name, '')} |")
     return "\n".join(lines) + "\n"
 
 

@@ -17,8 +17,8 @@ import dataclasses
 import math
 
 import numpy as np
-from ._jit import jit
 
+from ._jit import jit
 from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0

@@ -14,8 +14,8 @@ import dataclasses
 import math
 
 import numpy as np
-from ._jit import jit
 
+from ._jit import jit
 from .params import Params, spec
 
 # Layout of the packed vector read by the compiled kernels.

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Any, Callable, Union
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -12,7 +13,7 @@ from . import core as C
 from .config import Conditions, VehicleConfig, paper_bus
 
 SplitFn = Callable[[int, dict], float]
-Split = Union[float, SplitFn, np.ndarray]
+Split = float | SplitFn | np.ndarray
 
 # Stated average efficiencies for putting strategies on equal service (DESIGN §6).
 ENGINE_EFF_AVG = 0.36  # near FC_CI119's best BSFC (≈225 g/kWh)

@@ -39,8 +39,8 @@ import dataclasses
 import math
 
 import numpy as np
-from ._jit import jit
 
+from ._jit import jit
 from .params import ConfigError, Params, spec
 
 SIGMA = 5.67e-8
