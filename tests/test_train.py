@@ -1,0 +1,272 @@
+"""``train.py`` and the ``ppo`` strategy: a tiny training run end to end, the shipped policy,
+interruption (SIGINT, SIGKILL) and resume, and one-line errors on bad input."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import evaluate
+import train
+from agents import get_strategy
+from agents.evaluation import run_strategy
+from agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy, load_policy
+from agents.training import PolicyEvaluator, apply_overrides, load_run_config, parse_overrides
+from hev_thermal_env import load_cycle
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# a small but complete PPO: 4 envs x 64 steps = 256 env-steps per rollout
+TINY_HP = ["n_steps=64", "batch_size=128", "n_epochs=2", "policy_kwargs.net_arch=[16,16]"]
+
+
+def tiny_cycle_csv(path: Path, name: str = "beijing", start: int = 100, n: int = 91) -> str:
+    v = load_cycle(name).speed_mps[start:start + n]
+    path.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
+    return str(path)
+
+
+def train_args(out: Path, timesteps: int, *extra: str, hp: tuple[str, ...] = ()) -> list[str]:
+    return ["--algo", "ppo", "--cycles", "hwfet", "random_bus", "--scenario", "random", "--timesteps", str(timesteps),
+            "--n-envs", "4", "--seed", "3", "--out", str(out), "--no-progress", "--quiet",
+            "--hp", *TINY_HP, *hp, *extra]
+
+
+def one_line_error(captured: str) -> str:
+    lines = [ln for ln in captured.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1, captured
+    assert "Traceback" not in captured
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("train")
+    cyc = tiny_cycle_csv(d / "short.csv")
+    out = d / "run"
+    code = train.main(train_args(out, 1024, "--eval-cycles", cyc, "--eval-freq", "512", "--checkpoint-freq", "512"))
+    assert code == 0
+    return out
+
+
+# --- the run directory ------------------------------------------------------------------------------
+
+def test_smoke_run_writes_the_zoo_layout(tiny_run):
+    for f in ("model.zip", "best_model.zip", "vecnormalize.pkl", "best_vecnormalize.pkl", "config.yaml",
+              "command.txt", "evaluations.csv", "training_curve.png"):
+        assert (tiny_run / f).is_file() and (tiny_run / f).stat().st_size > 0, f
+    assert any((tiny_run / "tb").rglob("events.out.tfevents.*"))
+    assert sorted(p.name for p in (tiny_run / "checkpoints").glob("*.zip")) == ["ckpt_1024_steps.zip",
+                                                                                "ckpt_512_steps.zip"]
+    cfg = load_run_config(tiny_run)
+    assert cfg["algo"] == "ppo" and cfg["seed"] == 3 and cfg["total_timesteps"] == 1024 and cfg["n_envs"] == 4
+    assert cfg["env"]["cycles"] == ["hwfet", "random_bus"] and cfg["env"]["scenario"] == "random"
+    assert cfg["env"]["preview_s"] == 10 and cfg["env"]["observation_size"] == 19
+    assert cfg["hyperparams"]["n_steps"] == 64 and cfg["hyperparams"]["policy_kwargs"]["net_arch"] == [16, 16]
+    assert {"torch", "stable_baselines3", "gymnasium", "hev_thermal_env"} <= set(cfg["versions"])
+    res = cfg["result"]
+    assert res["finished"] and res["timesteps_done"] == 1024 and 0.0 < res["env_share"] < 1.0
+    assert "--timesteps 1024" in (tiny_run / "command.txt").read_text()
+    rows = list(csv.DictReader((tiny_run / "evaluations.csv").open()))
+    assert [int(r["timesteps"]) for r in rows] == [512, 1024]
+    assert all(math.isfinite(float(r["fuel_corrected_l_per_100km"])) for r in rows)
+
+
+def test_resuming_a_finished_run_does_nothing(tiny_run, capsys):
+    before = (tiny_run / "model.zip").read_bytes()
+    assert train.main(["--resume", str(tiny_run), "--no-progress"]) == 0
+    assert "already finished" in capsys.readouterr().out
+    assert (tiny_run / "model.zip").read_bytes() == before
+
+
+def test_trained_run_evaluates_through_the_registry(tiny_run):
+    short = load_cycle("us06")
+    for strategy in (get_strategy(f"ppo:{tiny_run}"), get_strategy("ppo", path=tiny_run / "best_model.zip"),
+                     get_strategy(f"ppo:{tiny_run / 'checkpoints' / 'ckpt_512_steps.zip'}")):
+        res = run_strategy(strategy, short, "paper")
+        assert res.summary["duration_s"] == short.n_steps
+        assert np.all(np.abs(res.trace["u"]) <= 1.0)
+    assert get_strategy(f"ppo:{tiny_run}").label == f"ppo:{tiny_run}"
+
+
+def test_training_evaluation_matches_run_strategy(tiny_run):
+    """The batched evaluation during training reports what run_strategy measures for the same policy."""
+    policy = load_policy(tiny_run)
+    cfg = load_run_config(tiny_run)
+    (ev,) = PolicyEvaluator(cfg["env"], ["us06"], ["paper"]).run(policy.act)
+    ref = run_strategy(PPOStrategy(tiny_run), "us06", "paper").summary
+    assert ev["fuel_corrected_l_per_100km"] == pytest.approx(ref["fuel_corrected_l_per_100km"], rel=1e-9)
+    assert ev["delta_soc"] == pytest.approx(ref["delta_soc"], abs=1e-12)
+
+
+def test_strategy_normalises_observations_without_updating_them(tiny_run):
+    strategy = PPOStrategy(tiny_run)
+    mean = strategy.policy.stats.obs_rms.mean.copy()
+    run_strategy(strategy, "us06", "paper")
+    np.testing.assert_array_equal(strategy.policy.stats.obs_rms.mean, mean)
+
+
+def test_sac_trains_checkpoints_its_replay_buffer_and_plays(tmp_path):
+    out = tmp_path / "sac"
+    assert train.main(["--algo", "sac", "--timesteps", "600", "--n-envs", "2", "--out", str(out), "--no-progress",
+                       "--quiet", "--eval-cycles", "--checkpoint-freq", "300",
+                       "--hp", "learning_starts=200", "buffer_size=1000", "batch_size=32",
+                       "policy_kwargs.net_arch=[16,16]"]) == 0
+    assert (out / "checkpoints" / "ckpt_600_steps_replay_buffer.pkl").is_file()
+    assert not (out / "checkpoints" / "ckpt_300_steps_replay_buffer.pkl").exists()  # only the newest is kept
+    strategy = get_strategy(f"ppo:{out}")
+    assert strategy.describe()["algo"] == "sac"
+    assert run_strategy(strategy, "us06", "paper").summary["duration_s"] == load_cycle("us06").n_steps
+
+
+def test_subproc_vec_env_trains(tmp_path):
+    out = tmp_path / "subproc"
+    assert train.main(train_args(out, 512, "--vec", "subproc", "--eval-cycles")) == 0
+    cfg = load_run_config(out)
+    assert cfg["vec"] == "subproc" and cfg["result"]["timesteps_done"] == 512
+
+
+# --- the shipped policy -----------------------------------------------------------------------------
+
+def test_shipped_policy_loads_and_drives_a_short_cycle(tmp_path):
+    files = {p.name: p.stat().st_size for p in DEFAULT_POLICY_DIR.iterdir()}
+    assert {"model.zip", "vecnormalize.pkl", "config.yaml", "README.md"} <= set(files)
+    assert files["model.zip"] < 200_000
+    strategy = get_strategy("ppo")
+    assert strategy.describe()["algo"] == "ppo"
+    res = run_strategy(strategy, tiny_cycle_csv(tmp_path / "c.csv", "hwfet", 200, 121), "paper")
+    assert res.summary["cutoff_s"] == 0.0 and abs(res.summary["delta_soc"]) < 0.05
+
+
+# --- hyperparameter overrides -----------------------------------------------------------------------
+
+def test_hp_overrides_yaml_dict_and_dotted_keys():
+    o = parse_overrides(["gamma=0.99", "learning_rate=lin_1e-4", "policy_kwargs=dict(net_arch=[64, 64], "
+                         "activation_fn=nn.ReLU)", "env.reward.soc_deviation_weight=1.5", "normalize.clip_obs=5"])
+    assert o["gamma"] == 0.99 and o["learning_rate"] == "lin_1e-4"
+    assert o["policy_kwargs"] == {"net_arch": [64, 64], "activation_fn": "relu"}
+    hp = apply_overrides({"gamma": 0.97, "policy_kwargs": {"log_std_init": -1.0}, "env": {"scenario": "paper"}}, o)
+    assert hp["policy_kwargs"] == {"log_std_init": -1.0, "net_arch": [64, 64], "activation_fn": "relu"}
+    assert hp["env"] == {"scenario": "paper", "reward": {"soc_deviation_weight": 1.5}}
+    assert parse_overrides(["policy_kwargs={net_arch: [32], activation_fn: tanh}"])["policy_kwargs"] == {
+        "net_arch": [32], "activation_fn": "tanh"}
+
+
+# --- interruption and resume ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["sigint", "sigkill"])
+def test_interrupted_training_resumes_to_the_total(tmp_path, sig):
+    out = tmp_path / "run"
+    total = 30_720  # 120 rollouts of 256 env-steps
+    args = [sys.executable, str(ROOT / "train.py"), *train_args(out, total, "--eval-cycles", "--checkpoint-freq",
+                                                                "1024")]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    deadline = time.monotonic() + 60
+    while not list((out / "checkpoints").glob("ckpt_*_steps.zip")):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.02)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130, err
+        assert "SIGINT" in err and "--resume" in err and "Traceback" not in err
+        cfg = load_run_config(out)
+        stopped = cfg["result"]["timesteps_done"]
+        assert (out / "checkpoints" / f"ckpt_{stopped}_steps.zip").is_file()
+        assert stopped < total and stopped % 256 == 0
+    else:
+        assert proc.returncode == -signal.SIGKILL
+    assert not (out / "model.zip").exists()
+    r = subprocess.run([sys.executable, str(ROOT / "train.py"), "--resume", str(out), "--no-progress", "--quiet"],
+                       cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "resuming from ckpt_" in r.stdout
+    cfg = load_run_config(out)
+    assert cfg["result"]["finished"] and cfg["result"]["timesteps_done"] == total
+    assert (out / "model.zip").is_file() and (out / "checkpoints" / f"ckpt_{total}_steps.zip").is_file()
+    assert "--resume" in (out / "command.txt").read_text().splitlines()[-1]
+
+
+# --- bad input: one line, non-zero exit, no traceback -----------------------------------------------
+
+@pytest.mark.parametrize("argv, expected", [
+    (["--algo", "dqn"], "unknown algorithm 'dqn'"),
+    (["--cycles", "hwfet", "nope"], "unknown cycle 'nope'"),
+    (["--eval-cycles", "nope"], "unknown cycle 'nope'"),
+    (["--scenario", "sahara"], "unknown scenario 'sahara'"),
+    (["--hp", "gamma"], "expected key=value"),
+    (["--hp", "policy_kwargs.activation_fn=sigmoid"], "activation_fn 'sigmoid'"),
+    (["--vec", "threads"], "unknown --vec 'threads'"),
+])
+def test_train_rejects_bad_input_in_one_line(tmp_path, capsys, argv, expected):
+    assert train.main([*argv, "--out", str(tmp_path / "run"), "--no-progress"]) == 2
+    line = one_line_error(capsys.readouterr().err)
+    assert line.startswith("train.py: error:") and expected in line
+    assert not (tmp_path / "run" / "model.zip").exists()
+
+
+def test_resume_rejects_a_directory_without_a_run(tmp_path, capsys):
+    assert train.main(["--resume", str(tmp_path)]) == 2
+    assert "not a train.py run directory" in one_line_error(capsys.readouterr().err)
+    assert train.main(["--resume", str(tmp_path), "--seed", "4"]) == 2
+    assert "drop --seed" in one_line_error(capsys.readouterr().err)
+
+
+def test_train_refuses_to_overwrite_a_run(tiny_run, capsys):
+    assert train.main(train_args(tiny_run, 512)) == 2
+    assert "--resume" in one_line_error(capsys.readouterr().err)
+
+
+def _evaluate_ppo(spec: str, capsys) -> str:
+    pytest.importorskip("agents.cli_run")
+    assert evaluate.main(["run", "--cycle", "us06", "--strategy", spec]) == 2
+    return one_line_error(capsys.readouterr().err)
+
+
+def test_evaluate_reports_a_missing_model(tmp_path, capsys):
+    assert "not found" in _evaluate_ppo(f"ppo:{tmp_path / 'nope.zip'}", capsys)
+    assert "no model in directory" in _evaluate_ppo(f"ppo:{tmp_path}", capsys)
+
+
+def test_evaluate_reports_corrupt_files(tiny_run, tmp_path, capsys):
+    bad = tmp_path / "bad"
+    shutil.copytree(tiny_run, bad)
+    (bad / "model.zip").write_bytes(b"this is not a zip")
+    assert "is not a model zip" in _evaluate_ppo(f"ppo:{bad}", capsys)
+    shutil.copy(tiny_run / "model.zip", bad / "model.zip")
+    (bad / "vecnormalize.pkl").write_bytes(b"\x80\x04garbage")
+    assert "not a readable VecNormalize file" in _evaluate_ppo(f"ppo:{bad}", capsys)
+    (bad / "vecnormalize.pkl").unlink()
+    assert "observation statistics" in _evaluate_ppo(f"ppo:{bad}", capsys)
+
+
+def test_evaluate_reports_a_model_trained_with_another_preview(tiny_run, tmp_path, capsys):
+    other = tmp_path / "preview20"
+    shutil.copytree(tiny_run, other)
+    cfg = yaml.safe_load((other / "config.yaml").read_text())
+    # the same files, declared as trained with a 20 s preview: settings disagree with the env's
+    cfg["env"]["preview_s"] = 20
+    (other / "config.yaml").write_text(yaml.safe_dump(cfg))
+    line = _evaluate_ppo(f"ppo:{other}", capsys)
+    assert "preview_s=20" in line and "preview_s=10" in line
+
+
+def test_model_with_another_observation_size_is_rejected(tmp_path, capsys):
+    out = tmp_path / "p4"
+    assert train.main(train_args(out, 256, "--eval-cycles", hp=("env.preview_s=4",))) == 0
+    assert load_run_config(out)["env"]["observation_size"] == 16
+    line = _evaluate_ppo(f"ppo:{out}", capsys)
+    assert "expects 16 observation entries, the env gives 19" in line and "preview_s=4" in line
