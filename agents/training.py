@@ -56,6 +56,8 @@ from typing import Any
 import numpy as np
 import yaml
 
+from hev_thermal_env.commands.io import read_yaml_mapping
+
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 ALGORITHMS = ("ppo", "sac")
 VEC_MODES = ("native", "subproc", "dummy")
@@ -100,12 +102,7 @@ def load_hyperparams(algo: str, path: str | Path | None = None) -> dict[str, Any
     p = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo.lower()}.yaml"
     if not p.is_file():
         raise FileNotFoundError(f"hyperparameter file {p} not found")
-    try:
-        data = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        raise ValueError(f"{p}: not valid YAML ({' '.join(str(exc).split())})") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{p}: expected a mapping of hyperparameters")
+    data = read_yaml_mapping(p)
     return data
 
 
@@ -339,11 +336,8 @@ def load_run_config(run_dir: str | Path) -> dict[str, Any]:
         raise FileNotFoundError(f"run directory {run_dir} not found")
     if not p.is_file():
         raise FileNotFoundError(f"{p} not found: {run_dir} is not a train.py run directory")
-    try:
-        data = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        raise ValueError(f"{p}: not valid YAML ({' '.join(str(exc).split())})") from None
-    if not isinstance(data, dict) or "algo" not in data or "env" not in data:
+    data = read_yaml_mapping(p)
+    if "algo" not in data or "env" not in data:
         raise ValueError(f"{p}: not a train.py config")
     return data
 
