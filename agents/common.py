@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics.simulate import CHARGE_PATH_EFF, ENGINE_EFF_AVG, battery_price_g_per_j, miss_price_g_per_j
+from hev_thermal_env.physics.simulate import battery_price_g_per_j, miss_price_g_per_j
 from hev_thermal_env.reward import RewardParams, reward_terms
 
 #: Batches smaller than this are not split over threads (thread start-up would dominate).
@@ -68,7 +68,7 @@ def kernel_step(core: C.PhysicsCore, state: np.ndarray, action: np.ndarray, v0: 
 
 
 #: The equivalence factor (s in fuel + s·E_batt/Q_lhv) that matches the reward's battery price.
-REWARD_EQUIVALENCE_FACTOR = 1.0 / (ENGINE_EFF_AVG * CHARGE_PATH_EFF)
+REWARD_EQUIVALENCE_FACTOR = battery_price_g_per_j(1.0)  # the price per joule times Q_lhv
 
 
 def _cost_weights(params: RewardParams, battery: bool, soc_deviation: bool, overheat: bool) -> np.ndarray:
