@@ -18,9 +18,9 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.jit import jit
 from hev_thermal_env.physics.simulate import battery_price_g_per_j, miss_price_g_per_j
 from hev_thermal_env.reward import RewardParams, reward_terms
 
@@ -79,7 +79,7 @@ def _cost_weights(params: RewardParams, battery: bool, soc_deviation: bool, over
         params.cutoff_weight if overheat else 0.0, params.derate_weight if overheat else 0.0])
 
 
-@njit(cache=True)
+@jit
 def _stage_cost(w, out, st, soc_target, batt_g_per_j, miss_g_per_j, dt_s, result):
     # the terms of hev_thermal_env.reward.reward_terms, fused (tests/test_dp.py checks equality)
     for b in range(out.shape[0]):

@@ -71,9 +71,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.jit import jit
 from hev_thermal_env.reward import RewardParams
 
 from .base import Strategy
@@ -87,7 +87,7 @@ class DPInfeasibleError(ValueError):
     """No control sequence reaches the final-SOC band on this cycle from this start."""
 
 
-@njit(cache=True)
+@jit
 def interp_uniform(values, lo, step, n, states, cols, wall, result):
     """Multilinear interpolation of ``values`` (flattened, C order, shape ``n``) on a uniform grid.
 

@@ -13,15 +13,11 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from .jit import jit
+from .layout import Layout, Slot
 from .params import ConfigError, Params, spec
 
 N_SOC = 11  # Voc and R tables over SOC 0, 0.1, ..., 1
-(CAPACITY_AS, SOC_MIN, SOC_MAX, P_DIS_MAX, P_CHG_MAX) = range(5)
-VOC0 = 5
-RDIS0 = VOC0 + N_SOC
-RCHG0 = RDIS0 + N_SOC
-N_PACKED = RCHG0 + N_SOC
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,17 +61,30 @@ class BatteryParams(Params):
         return self.capacity_ah * self.module_voc_v[5] * self.n_series / 1000.0
 
     def pack(self) -> np.ndarray:
-        v = np.zeros(N_PACKED)
-        v[CAPACITY_AS] = self.capacity_ah * 3600.0
-        v[SOC_MIN] = self.soc_min
-        v[SOC_MAX] = self.soc_max
-        v[P_DIS_MAX] = self.max_discharge_power_w
-        v[P_CHG_MAX] = self.max_charge_power_w
-        v[VOC0:VOC0 + N_SOC] = np.asarray(self.module_voc_v) * self.n_series
-        r = self.n_series / self.n_parallel
-        v[RDIS0:RDIS0 + N_SOC] = np.asarray(self.module_r_discharge_ohm) * r
-        v[RCHG0:RCHG0 + N_SOC] = np.asarray(self.module_r_charge_ohm) * r
-        return v
+        return LAYOUT.pack(self)
+
+
+LAYOUT = Layout(BatteryParams, (
+    Slot("capacity_as", fill=lambda p: p.capacity_ah * 3600.0, fields=("module_capacity_ah", "n_parallel")),
+    Slot("soc_min"),
+    Slot("soc_max"),
+    Slot("max_discharge_power_w"),
+    Slot("max_charge_power_w"),
+    Slot("voc_v", N_SOC, fill=lambda p: np.asarray(p.module_voc_v) * p.n_series, fields=("module_voc_v", "n_series")),
+    Slot("r_discharge_ohm", N_SOC, fill=lambda p: np.asarray(p.module_r_discharge_ohm) * p.n_series / p.n_parallel,
+         fields=("module_r_discharge_ohm",)),
+    Slot("r_charge_ohm", N_SOC, fill=lambda p: np.asarray(p.module_r_charge_ohm) * p.n_series / p.n_parallel,
+         fields=("module_r_charge_ohm",)),
+), unpacked=("module_mass_kg",))
+"""Packed pack-level battery parameters read by the kernels (module data scaled to the pack)."""
+CAPACITY_AS = LAYOUT["capacity_as"]
+SOC_MIN = LAYOUT["soc_min"]
+SOC_MAX = LAYOUT["soc_max"]
+P_DIS_MAX = LAYOUT["max_discharge_power_w"]
+P_CHG_MAX = LAYOUT["max_charge_power_w"]
+VOC0 = LAYOUT["voc_v"]
+RDIS0 = LAYOUT["r_discharge_ohm"]
+RCHG0 = LAYOUT["r_charge_ohm"]
 
 
 @jit

@@ -33,11 +33,10 @@ from .battery import BatteryParams
 from .driveline import DrivelineParams
 from .engine import EngineParams
 from .glider import GliderParams
+from .layout import Layout
 from .motor import MotorParams
 from .params import ConfigError, Params, spec
 from .thermal import ThermalParams
-
-ACC_W, STOP_START, REGEN, N_PT = 0, 1, 2, 3
 
 COOLANT_MODES = ("on", "degraded", "off")
 
@@ -51,7 +50,14 @@ class PowertrainParams(Params):
     regen_enabled: bool = spec(True, "regenerative braking by the motor within its and the battery's limits")
 
     def pack(self) -> np.ndarray:
-        return np.array([self.accessory_power_w, float(self.stop_start), float(self.regen_enabled)])
+        return POWERTRAIN_LAYOUT.pack(self)
+
+
+POWERTRAIN_LAYOUT = Layout.of_fields(PowertrainParams)
+"""Packed powertrain facts read by the kernel: one slot per field."""
+ACC_W = POWERTRAIN_LAYOUT["accessory_power_w"]
+STOP_START = POWERTRAIN_LAYOUT["stop_start"]
+REGEN = POWERTRAIN_LAYOUT["regen_enabled"]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -33,8 +33,8 @@ from . import engine as eng
 from . import glider as gli
 from . import motor as mot
 from . import thermal as thm
-from ._jit import jit
 from .config import ACC_W, REGEN, STOP_START, Conditions, VehicleConfig
+from .jit import jit
 
 # state columns
 SOC, TEMP_C, HEAT_X, HEAT_X_MIN, CUTOFF = range(5)

@@ -18,15 +18,13 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from .jit import jit
+from .layout import Layout, Slot
 from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0
 
-FD_RATIO, GB_EFF, FD_EFF, COUPLER_RATIO, UP_LO_RADPS, UP_HI_RADPS, N_GEARS = range(7)
-GEARS0 = 7  # gear ratios follow from this index
 MAX_GEARS = 8
-N_PACKED = GEARS0 + MAX_GEARS
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,16 +50,25 @@ class DrivelineParams(Params):
             raise ConfigError("DrivelineParams.upshift_full_load_rpm: must be >= upshift_low_load_rpm")
 
     def pack(self) -> np.ndarray:
-        v = np.zeros(N_PACKED)
-        v[FD_RATIO] = self.final_drive_ratio
-        v[GB_EFF] = self.gearbox_efficiency
-        v[FD_EFF] = self.final_drive_efficiency
-        v[COUPLER_RATIO] = self.coupler_ratio
-        v[UP_LO_RADPS] = self.upshift_low_load_rpm * RPM
-        v[UP_HI_RADPS] = self.upshift_full_load_rpm * RPM
-        v[N_GEARS] = len(self.gear_ratios)
-        v[GEARS0:GEARS0 + len(self.gear_ratios)] = self.gear_ratios
-        return v
+        return LAYOUT.pack(self)
+
+
+LAYOUT = Layout.of_fields(DrivelineParams, replace={
+    "gear_ratios": (Slot("n_gears", fill=lambda p: len(p.gear_ratios), fields=()), Slot("gear_ratios", MAX_GEARS)),
+    "upshift_low_load_rpm": Slot("upshift_low_load_radps", fill=lambda p: p.upshift_low_load_rpm * RPM,
+                                 fields=("upshift_low_load_rpm",)),
+    "upshift_full_load_rpm": Slot("upshift_full_load_radps", fill=lambda p: p.upshift_full_load_rpm * RPM,
+                                  fields=("upshift_full_load_rpm",)),
+})
+"""Packed driveline parameters read by the kernels (speeds in rad/s, gear table padded)."""
+N_GEARS = LAYOUT["n_gears"]
+GEARS0 = LAYOUT["gear_ratios"]
+FD_RATIO = LAYOUT["final_drive_ratio"]
+GB_EFF = LAYOUT["gearbox_efficiency"]
+FD_EFF = LAYOUT["final_drive_efficiency"]
+COUPLER_RATIO = LAYOUT["coupler_ratio"]
+UP_LO_RADPS = LAYOUT["upshift_low_load_radps"]
+UP_HI_RADPS = LAYOUT["upshift_full_load_radps"]
 
 
 @jit
@@ -85,7 +92,7 @@ def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
             if w >= up:
                 gear = k
     # if even first gear over-speeds, take the lowest gear that does not (found in the same pass:
-    # a second, conditional loop over ``dl`` costs reference counting, speed rule in _jit.py)
+    # a second, conditional loop over ``dl`` costs reference counting, speed rule in jit.py)
     if wheel_speed_radps * overall_ratio(dl, gear) > shaft_max_radps:
         gear = lowest_ok
     return gear

@@ -18,16 +18,13 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from .jit import jit
+from .layout import Layout, Slot
 from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0
 
-IDLE_RADPS, MAX_RADPS, LHV_J_PER_G, DENSITY_KG_PER_L, N_CURVE, MAX_POWER_W = range(6)
-FUEL0 = 6  # six fuel coefficients
-CURVE0 = 12  # then N_CURVE speeds [rad/s] and N_CURVE torques [N·m]
 MAX_CURVE = 12
-N_PACKED = CURVE0 + 2 * MAX_CURVE
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,18 +59,29 @@ class EngineParams(Params):
         return max(s * RPM * t for s, t in zip(self.max_torque_speed_rpm, self.max_torque_nm))
 
     def pack(self) -> np.ndarray:
-        v = np.zeros(N_PACKED)
-        v[IDLE_RADPS] = self.idle_speed_rpm * RPM
-        v[MAX_RADPS] = self.max_speed_rpm * RPM
-        v[LHV_J_PER_G] = self.fuel_lhv_j_per_g
-        v[DENSITY_KG_PER_L] = self.fuel_density_kg_per_l
-        n = len(self.max_torque_nm)
-        v[N_CURVE] = n
-        v[MAX_POWER_W] = self.max_power_w
-        v[FUEL0:FUEL0 + 6] = self.fuel_coeffs
-        v[CURVE0:CURVE0 + n] = np.asarray(self.max_torque_speed_rpm) * RPM
-        v[CURVE0 + MAX_CURVE:CURVE0 + MAX_CURVE + n] = self.max_torque_nm
-        return v
+        return LAYOUT.pack(self)
+
+
+LAYOUT = Layout.of_fields(EngineParams, replace={
+    "idle_speed_rpm": Slot("idle_speed_radps", fill=lambda p: p.idle_speed_rpm * RPM, fields=("idle_speed_rpm",)),
+    "max_speed_rpm": Slot("max_speed_radps", fill=lambda p: p.max_speed_rpm * RPM, fields=("max_speed_rpm",)),
+    "fuel_coeffs": Slot("fuel_coeffs", 6),
+    "max_torque_speed_rpm": (
+        Slot("n_curve", fill=lambda p: len(p.max_torque_nm), fields=()),
+        Slot("curve_speed_radps", MAX_CURVE, fill=lambda p: np.asarray(p.max_torque_speed_rpm) * RPM,
+             fields=("max_torque_speed_rpm",))),
+    "max_torque_nm": Slot("max_torque_nm", MAX_CURVE),
+}, derived=(Slot("max_power_w", fill=lambda p: p.max_power_w, fields=()),))
+"""Packed engine parameters read by the kernels (speeds in rad/s, full-load curve padded)."""
+IDLE_RADPS = LAYOUT["idle_speed_radps"]
+MAX_RADPS = LAYOUT["max_speed_radps"]
+LHV_J_PER_G = LAYOUT["fuel_lhv_j_per_g"]
+DENSITY_KG_PER_L = LAYOUT["fuel_density_kg_per_l"]
+FUEL0 = LAYOUT["fuel_coeffs"]
+N_CURVE = LAYOUT["n_curve"]
+CURVE_SPEED0 = LAYOUT["curve_speed_radps"]
+CURVE_TORQUE0 = LAYOUT["max_torque_nm"]
+MAX_POWER_W = LAYOUT["max_power_w"]
 
 
 @jit
@@ -82,8 +90,8 @@ def max_torque_nm(en, speed_radps):
     if speed_radps > en[MAX_RADPS] * (1.0 + 1e-9):
         return 0.0
     n = int(en[N_CURVE])
-    s0 = CURVE0
-    t0 = CURVE0 + MAX_CURVE
+    s0 = CURVE_SPEED0
+    t0 = CURVE_TORQUE0
     if speed_radps <= en[s0]:
         return en[t0]
     for k in range(1, n):

@@ -15,12 +15,9 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from .jit import jit
+from .layout import Layout
 from .params import Params, spec
-
-# Layout of the packed vector read by the compiled kernels.
-MASS_KG, ROT_FRAC, CD, AREA_M2, CRR, WHEEL_R_M, RHO, GRAVITY = range(8)
-N_PACKED = 8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,9 +35,19 @@ class GliderParams(Params):
     gravity_mps2: float = spec(9.81, "gravitational acceleration", min=9.0, max=10.5)
 
     def pack(self) -> np.ndarray:
-        return np.array([self.mass_kg, self.rotating_mass_frac, self.drag_coefficient, self.frontal_area_m2,
-                         self.rolling_resistance_coeff, self.wheel_radius_m, self.air_density_kgpm3,
-                         self.gravity_mps2], dtype=np.float64)
+        return LAYOUT.pack(self)
+
+
+LAYOUT = Layout.of_fields(GliderParams)
+"""Packed glider parameters read by the kernels: one slot per field."""
+MASS_KG = LAYOUT["mass_kg"]
+ROT_FRAC = LAYOUT["rotating_mass_frac"]
+CD = LAYOUT["drag_coefficient"]
+AREA_M2 = LAYOUT["frontal_area_m2"]
+CRR = LAYOUT["rolling_resistance_coeff"]
+WHEEL_R_M = LAYOUT["wheel_radius_m"]
+RHO = LAYOUT["air_density_kgpm3"]
+GRAVITY = LAYOUT["gravity_mps2"]
 
 
 @jit

@@ -22,13 +22,12 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from .jit import jit
+from .layout import Layout, Slot
 from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0
 
-(PEAK_TORQUE, CONT_TORQUE, PEAK_POWER, CONT_POWER, MAX_RADPS, K_CU, K_FE, K_FR, ENABLED) = range(9)
-N_PACKED = 9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,9 +57,22 @@ class MotorParams(Params):
         return self.peak_power_w / self.peak_torque_nm / RPM
 
     def pack(self) -> np.ndarray:
-        return np.array([self.peak_torque_nm, self.continuous_torque_nm, self.peak_power_w,
-                         self.continuous_power_w, self.max_speed_rpm * RPM, self.copper_loss_coeff,
-                         self.iron_loss_coeff, self.friction_loss_coeff, float(self.enabled)])
+        return LAYOUT.pack(self)
+
+
+LAYOUT = Layout.of_fields(MotorParams, replace={
+    "max_speed_rpm": Slot("max_speed_radps", fill=lambda p: p.max_speed_rpm * RPM, fields=("max_speed_rpm",)),
+}, unpacked=("mass_kg",))
+"""Packed motor parameters read by the kernels (the mass belongs to the thermal model)."""
+PEAK_TORQUE = LAYOUT["peak_torque_nm"]
+CONT_TORQUE = LAYOUT["continuous_torque_nm"]
+PEAK_POWER = LAYOUT["peak_power_w"]
+CONT_POWER = LAYOUT["continuous_power_w"]
+MAX_RADPS = LAYOUT["max_speed_radps"]
+K_CU = LAYOUT["copper_loss_coeff"]
+K_FE = LAYOUT["iron_loss_coeff"]
+K_FR = LAYOUT["friction_loss_coeff"]
+ENABLED = LAYOUT["enabled"]
 
 
 @jit

@@ -40,16 +40,12 @@ import math
 
 import numpy as np
 
-from ._jit import jit
+from .jit import jit
+from .layout import Layout
 from .params import ConfigError, Params, spec
 
 SIGMA = 5.67e-8
 KELVIN = 273.15
-
-(ENABLED, MASS_KG, CP, AREA_M2, H_WATER, THERMOSTAT_C, EMISSIVITY, CUTOFF_C, RELEASE_C, DERATE_START_C,
- DERATE_PER_C, EXTRA_LOSS, T_S, TGAIN_COLD, TGAIN_HOT, TGAIN_LO_C, TGAIN_HI_C, PWM0_COLD, PWM0_LO_C,
- PWM0_HI_C, H_AIR0, H_AIR_NAT, H_AIR_FORCED, V_REF_KMH, V_EXP) = range(25)
-N_PACKED = 25
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,14 +98,36 @@ class ThermalParams(Params):
         return self.mass_kg * self.cp_j_per_kgk
 
     def pack(self) -> np.ndarray:
-        return np.array([
-            float(self.enabled), self.mass_kg, self.cp_j_per_kgk, self.area_m2, self.h_water_w_per_m2k,
-            self.thermostat_temp_c, self.emissivity, self.cutoff_temp_c, self.cutoff_release_temp_c,
-            self.derate_start_temp_c, self.derate_frac_per_c, self.extra_loss_frac, self.t_s_s,
-            self.t_gain_cold, self.t_gain_hot, self.t_gain_temp_lo_c, self.t_gain_temp_hi_c,
-            self.pwm_initial_cold, self.pwm_initial_temp_lo_c, self.pwm_initial_temp_hi_c,
-            self.h_air_base, self.h_air_natural, self.h_air_forced, self.air_ref_speed_kmh,
-            self.air_speed_exponent])
+        return LAYOUT.pack(self)
+
+
+LAYOUT = Layout.of_fields(ThermalParams)
+"""Packed thermal parameters: one slot per field, in field order."""
+ENABLED = LAYOUT["enabled"]
+MASS_KG = LAYOUT["mass_kg"]
+CP = LAYOUT["cp_j_per_kgk"]
+AREA_M2 = LAYOUT["area_m2"]
+H_WATER = LAYOUT["h_water_w_per_m2k"]
+THERMOSTAT_C = LAYOUT["thermostat_temp_c"]
+EMISSIVITY = LAYOUT["emissivity"]
+CUTOFF_C = LAYOUT["cutoff_temp_c"]
+RELEASE_C = LAYOUT["cutoff_release_temp_c"]
+DERATE_START_C = LAYOUT["derate_start_temp_c"]
+DERATE_PER_C = LAYOUT["derate_frac_per_c"]
+EXTRA_LOSS = LAYOUT["extra_loss_frac"]
+T_S = LAYOUT["t_s_s"]
+TGAIN_COLD = LAYOUT["t_gain_cold"]
+TGAIN_HOT = LAYOUT["t_gain_hot"]
+TGAIN_LO_C = LAYOUT["t_gain_temp_lo_c"]
+TGAIN_HI_C = LAYOUT["t_gain_temp_hi_c"]
+PWM0_COLD = LAYOUT["pwm_initial_cold"]
+PWM0_LO_C = LAYOUT["pwm_initial_temp_lo_c"]
+PWM0_HI_C = LAYOUT["pwm_initial_temp_hi_c"]
+H_AIR0 = LAYOUT["h_air_base"]
+H_AIR_NAT = LAYOUT["h_air_natural"]
+H_AIR_FORCED = LAYOUT["h_air_forced"]
+V_REF_KMH = LAYOUT["air_ref_speed_kmh"]
+V_EXP = LAYOUT["air_speed_exponent"]
 
 
 @jit
@@ -181,7 +199,7 @@ def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
     q_air = h_air * th[AREA_M2] * dT
     tk = temp_c + KELVIN
     ta = ambient_c + KELVIN
-    # ``th`` is read for the last time outside any branch (speed rule in _jit.py)
+    # ``th`` is read for the last time outside any branch (speed rule in jit.py)
     q_rad = th[EMISSIVITY] * SIGMA * th[AREA_M2] * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
     return q_air, q_rad, q_cool
 
@@ -197,6 +215,6 @@ def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, spe
 @jit
 def cutoff_step(th, cutoff, temp_c):
     """Protection with hysteresis: trips at cutoff_temp_c, releases at cutoff_release_temp_c."""
-    # one return, not three (speed rule in _jit.py)
+    # one return, not three (speed rule in jit.py)
     tripped = temp_c >= th[CUTOFF_C] or (cutoff != 0.0 and temp_c > th[RELEASE_C])
     return 1.0 if (th[ENABLED] != 0.0 and tripped) else 0.0

@@ -1,0 +1,102 @@
+"""Where each parameter sits in the packed float64 vector a compiled kernel reads.
+
+numba kernels take a component's parameters as one flat ``float64`` array and read entries by
+index. The indices are not written by hand: a :class:`Layout` is built from the parameter
+dataclass, one :class:`Slot` per packed value, and the module's index constants are looked up by
+name (``MASS_KG = LAYOUT["mass_kg"]``). Reordering, adding or removing fields therefore cannot
+silently hand a kernel the wrong parameter, and :meth:`Layout.check_covers` makes a field that no
+slot packs an error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class Slot:
+    """``size`` consecutive packed values named ``name``.
+
+    ``fill(params)`` gives the value(s); by default the field of the same name (bools as 0/1).
+    A table shorter than ``size`` is zero-padded. ``fields`` names the dataclass fields it packs
+    (default: ``name``), for :meth:`Layout.check_covers`.
+    """
+
+    name: str
+    size: int = 1
+    fill: Callable[[Any], Any] | None = None
+    fields: tuple[str, ...] | None = None
+
+    def value(self, params: Any) -> np.ndarray:
+        raw = getattr(params, self.name) if self.fill is None else self.fill(params)
+        arr = np.atleast_1d(np.asarray(raw, dtype=np.float64))
+        if arr.size > self.size:
+            raise ValueError(f"{type(params).__name__}: {self.name} has {arr.size} values, "
+                             f"the layout holds {self.size}")
+        return arr
+
+    def packs(self) -> tuple[str, ...]:
+        return (self.name,) if self.fields is None else self.fields
+
+
+class Layout:
+    """Offsets of named slots in a packed parameter vector, and the packing itself."""
+
+    def __init__(self, params_cls: type, slots: Iterable[Slot], *, unpacked: Iterable[str] = ()):
+        self.params_cls = params_cls
+        self.slots = tuple(slots)
+        self.unpacked = tuple(unpacked)
+        self._offset: dict[str, int] = {}
+        pos = 0
+        for slot in self.slots:
+            if slot.name in self._offset:
+                raise ValueError(f"{params_cls.__name__}: slot {slot.name!r} appears twice in the layout")
+            self._offset[slot.name] = pos
+            pos += slot.size
+        self.size = pos
+        self.check_covers()
+
+    @classmethod
+    def of_fields(cls, params_cls: type, *, replace: dict[str, Slot | Sequence[Slot]] | None = None,
+                  derived: Iterable[Slot] = (), unpacked: Iterable[str] = ()) -> Layout:
+        """One slot per field in declaration order (``replace`` maps a field to its own slot(s): a
+        unit conversion, a padded table), then the ``derived`` slots; ``unpacked`` fields are left out."""
+        replace = replace or {}
+        unpacked = tuple(unpacked)
+        slots: list[Slot] = []
+        for f in dataclasses.fields(params_cls):
+            if f.name in unpacked:
+                continue
+            mapped = replace.get(f.name, Slot(f.name))
+            slots.extend([mapped] if isinstance(mapped, Slot) else mapped)
+        return cls(params_cls, [*slots, *derived], unpacked=unpacked)
+
+    def __getitem__(self, name: str) -> int:
+        try:
+            return self._offset[name]
+        except KeyError:
+            raise KeyError(f"{self.params_cls.__name__} layout has no slot {name!r}") from None
+
+    def names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.slots)
+
+    def pack(self, params: Any) -> np.ndarray:
+        if not isinstance(params, self.params_cls):
+            raise TypeError(f"expected {self.params_cls.__name__}, got {type(params).__name__}")
+        v = np.zeros(self.size)
+        for slot in self.slots:
+            arr = slot.value(params)
+            start = self._offset[slot.name]
+            v[start:start + arr.size] = arr
+        return v
+
+    def check_covers(self) -> None:
+        """Raise if a dataclass field is packed by no slot (the kernels could not see it)."""
+        packed = {name for slot in self.slots for name in slot.packs()} | set(self.unpacked)
+        missing = [f.name for f in dataclasses.fields(self.params_cls) if f.name not in packed]
+        if missing:
+            raise ValueError(f"{self.params_cls.__name__}: fields {missing} are in no slot of the packed layout")
