@@ -2,13 +2,13 @@
 
 The optimum the other strategies are measured against. Backward recursion over the stages
 k = N−1 … 0 of the cycle on a grid of states; for every stage ONE batched call of the physics
-step (``step_kernel``, through :func:`agents.common.kernel_step`) evaluates every grid state ×
+step (:meth:`~hev_thermal_env.physics.PhysicsCore.step`, split over threads) evaluates every grid state ×
 every split u (batch = n_states·n_u), so DP sees exactly the physics the environment runs,
 including the capped demand and the trace miss. Where the demand is not positive (braking,
 coasting, standing) the action has no effect and the stage is evaluated once per grid state.
 
 Cost (grams of fuel equivalent, as :mod:`hev_thermal_env.reward` prices it, via
-:func:`agents.common.stage_cost_g`): fuel + missed wheel energy at the reward's miss weight +
+:func:`hev_thermal_env.envs.reward.stage_cost_g`): fuel + missed wheel energy at the reward's miss weight +
 the battery's chemical energy at the reward's battery price; ``dp_thermal`` adds the reward's
 overheat terms by default (soft temperature limit, cutoff, derate weight). Because the battery
 term is priced as in the corrected-fuel metric, DP minimises the corrected fuel (with the miss
@@ -74,10 +74,10 @@ import numpy as np
 
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.jit import jit
-from hev_thermal_env.reward import RewardParams
+from hev_thermal_env.envs.reward import RewardParams
 
 from .base import Strategy
-from .common import argmin_small_action, default_threads, kernel_releases_gil, kernel_step, stage_cost_g
+from .common import argmin_small_action, default_threads, stage_cost_g
 
 DIM_COLUMNS = {"soc": C.SOC, "heat_x": C.HEAT_X, "temp": C.TEMP_C}
 TEMP_MODES = ("auto", "fixed", "trajectory", "state")
@@ -228,24 +228,15 @@ class DPProblem:
 
     def step(self, states: np.ndarray, actions: np.ndarray, i: int) -> tuple[np.ndarray, np.ndarray]:
         """The physics step of stage i for a small batch (planning helpers)."""
-        b = states.shape[0]
-        so = np.empty_like(states)
-        out = np.empty((b, C.N_OUT))
-        v0, v1, g = self.stage_inputs(i, b)
-        C.step_kernel(*self.core.params, states, actions, v0, v1, g, np.repeat(self.cond[None, :], b, axis=0),
-                      self.core.dt_s, so, out)
-        return so, out
+        v0, v1, g = self.stage_inputs(i, states.shape[0])
+        return self.core.step(states, actions, v0, v1, g, self.cond)
 
     def demand_positive(self) -> np.ndarray:
         """Whether the shaft demand of each stage is positive (else the action has no effect)."""
         n = self.n_stages
-        st = np.repeat(self.state0[None, :], n, axis=0)
-        so = np.empty_like(st)
-        out = np.empty((n, C.N_OUT))
         k = self.k0
-        C.step_kernel(*self.core.params, st, np.zeros(n), np.ascontiguousarray(self.speed_mps[k:-1]),
-                      np.ascontiguousarray(self.speed_mps[k + 1:]), np.ascontiguousarray(self.grade[k:k + n]),
-                      np.repeat(self.cond[None, :], n, axis=0), self.core.dt_s, so, out)
+        _, out = self.core.step(np.repeat(self.state0[None, :], n, axis=0), 0.0, self.speed_mps[k:-1],
+                                self.speed_mps[k + 1:], self.grade[k:k + n], self.cond)
         return out[:, C.SHAFT_DEMAND] > 0.0
 
 
@@ -461,7 +452,7 @@ def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = No
             for c in held_cols:
                 x[:, c] = held[i, c]
         v0, v1, g = problem.stage_inputs(i, x.shape[0])
-        kernel_step(problem.core, x, a, v0, v1, g, cond, so, out, threads)
+        problem.core.step(x, a, v0, v1, g, cond, state_out=so, out=out, threads=threads)
         n_evals += x.shape[0]
         cost = stage_cost_g(problem.reward_params, out, so, problem.soc_target, problem.lhv, problem.core.dt_s,
                             soc_deviation=s.price_soc_deviation, overheat=s.price_overheat)
@@ -474,7 +465,7 @@ def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = No
                   held=held, soc_final=0.5 * (cor.band[0] + cor.band[1]), soc_tol=0.5 * (cor.band[1] - cor.band[0]),
                   wall_g_per_soc=s.penalty_g_per_soc, solve_s=time.perf_counter() - t_start, n_evals=n_evals)
     plan.info.update(info)
-    plan.info["threads"] = threads if kernel_releases_gil() else 1
+    plan.info["threads"] = threads
     plan.info["corridor_max_width"] = float(np.max(soc_hi - soc_lo))
     return plan
 
@@ -511,7 +502,7 @@ def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: boo
     for i in range(n):
         x = np.repeat(st[None, :], m, axis=0)
         v0, v1, g = problem.stage_inputs(i, m)
-        C.step_kernel(*problem.core.params, x, u_exec, v0, v1, g, cond, problem.core.dt_s, so, out)
+        problem.core.step(x, u_exec, v0, v1, g, cond, state_out=so, out=out)
         j = choose(plan, i, so, out, problem, settings, u_exec) if out[0, C.SHAFT_DEMAND] > 0.0 else idle
         st = so[j].copy()
         if not free:

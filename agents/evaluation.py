@@ -3,7 +3,7 @@
 :func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
 resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
 :class:`RunResult`: the JSON summary (the metrics come from
-:func:`hev_thermal_env.physics.simulate.summarize`, so they match the whole-cycle simulation) and
+:func:`hev_thermal_env.metrics.summarize`, so they match the whole-cycle simulation) and
 per-step traces of every ``info`` field, of every physics output and of the state.
 """
 
@@ -20,7 +20,7 @@ import numpy as np
 from hev_thermal_env.cycles import Cycle, load_cycle
 from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics.simulate import summarize
+from hev_thermal_env.metrics import summarize
 from hev_thermal_env.scenarios import Scenario, get_scenario
 
 from .base import Strategy
@@ -85,7 +85,7 @@ def _jsonable(x: Any) -> Any:
 def make_env(strategy: Strategy, cycle: Any, scenario: str | Scenario = "paper", *, config: VehicleConfig | None = None,
              conditions: Conditions | None = None, **env_kwargs: Any):
     """``HevThermalEnv`` for ``strategy`` on ``cycle``: the strategy chooses its vehicle (``vehicle_config``)."""
-    from hev_thermal_env.env import HevThermalEnv
+    from hev_thermal_env.envs import HevThermalEnv
 
     vehicle = strategy.vehicle_config(config if config is not None else paper_bus())
     return HevThermalEnv(cycle=cycle, scenario=scenario, config=vehicle, conditions=conditions, **env_kwargs)

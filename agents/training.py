@@ -13,7 +13,7 @@ it (:func:`resume`), and writes an rl-baselines3-zoo-like run directory::
     DIR/tb/                                        TensorBoard logs
 
 Environment: by default the native batched vector env through its SB3 adapter
-(:class:`hev_thermal_env.vector_env.Sb3VecEnv`, ``vec="native"``); ``"subproc"`` and ``"dummy"``
+(:class:`hev_thermal_env.wrappers.Sb3VecEnv`, ``vec="native"``); ``"subproc"`` and ``"dummy"``
 run SB3's ``SubprocVecEnv`` / ``DummyVecEnv`` over single ``HevThermal-v0`` envs. Observations and
 rewards are normalised by ``VecNormalize``. The time spent inside the environment is measured
 (:class:`TimedVecEnv`) and reported as a share of the training time.
@@ -291,8 +291,9 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
 def validate_config(config: dict[str, Any]) -> None:
     """Fail before any work, with one-line messages, on unknown names and impossible numbers."""
     from hev_thermal_env.cycles import load_cycle
-    from hev_thermal_env.env import RANDOM_BUS, observation_names
-    from hev_thermal_env.reward import RewardParams
+    from hev_thermal_env.envs.episodes import RANDOM_BUS
+    from hev_thermal_env.envs.spaces import observation_names
+    from hev_thermal_env.envs.reward import RewardParams
     from hev_thermal_env.scenarios import get_scenario
 
     algorithm_class(config["algo"])
@@ -448,7 +449,7 @@ def timed_vec_env(venv):
 
 def _make_single_env(kwargs: dict[str, Any]) -> Callable[[], Any]:
     def make():
-        from hev_thermal_env.env import HevThermalEnv
+        from hev_thermal_env.envs import HevThermalEnv
 
         return HevThermalEnv(**kwargs)
 
@@ -462,7 +463,7 @@ def make_vec_env(config: dict[str, Any]):
     kwargs = env_kwargs(config["env"])
     n = int(config["n_envs"])
     if config["vec"] == "native":
-        from hev_thermal_env.vector_env import Sb3VecEnv
+        from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
 
         raw = Sb3VecEnv(n, info_keys=(), **kwargs)
     elif config["vec"] == "subproc":
@@ -494,9 +495,9 @@ class PolicyEvaluator:
     """Deterministic runs of a policy over fixed cycles × scenarios, every cycle of a scenario in one batch.
 
     Each (cycle, scenario) runs from the cycle's start with the scenario's conditions (random
-    scenarios draw them from ``seed``), in a :class:`~hev_thermal_env.vector_env.HevThermalVectorEnv`
+    scenarios draw them from ``seed``), in a :class:`~hev_thermal_env.envs.HevThermalVectorEnv`
     built with the run's env settings (preview, reward, thermal model). The metrics are those of
-    :func:`agents.evaluation.run_strategy` (:func:`hev_thermal_env.physics.simulate.summarize`).
+    :func:`agents.evaluation.run_strategy` (:func:`hev_thermal_env.metrics.summarize`).
     """
 
     def __init__(self, env_cfg: dict[str, Any], cycles: Sequence[str], scenarios: Sequence[str], seed: int = 0):
@@ -511,8 +512,8 @@ class PolicyEvaluator:
     def run(self, act: Callable[[np.ndarray], np.ndarray]) -> list[dict[str, Any]]:
         """Drive every (cycle, scenario) with ``act(raw_obs [n, dim]) -> actions [n, 1]``; one result per run."""
         from hev_thermal_env.physics import core as C
-        from hev_thermal_env.physics.simulate import summarize
-        from hev_thermal_env.vector_env import HevThermalVectorEnv
+        from hev_thermal_env.metrics import summarize
+        from hev_thermal_env.envs import HevThermalVectorEnv
 
         results = []
         keys = ("fuel_g", "battery_chem_power_w", "missed_wheel_energy_j", "soc", "motor_temp_c", "heat_index",

@@ -40,7 +40,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import hev_thermal_env  # noqa: E402  (registers HevThermal-v0)
 from hev_thermal_env.physics import core as C  # noqa: E402
-from hev_thermal_env.vector_env import HevThermalVectorEnv, Sb3VecEnv  # noqa: E402
+from hev_thermal_env.envs import HevThermalVectorEnv  # noqa: E402
+from hev_thermal_env.wrappers.sb3 import Sb3VecEnv  # noqa: E402
 
 TARGET_SINGLE = 10_000.0
 TARGET_VECTOR = 2_000_000.0
@@ -105,16 +106,15 @@ def kernel_rate(num_envs: int, n_steps: int) -> dict:
     envs.reset(seed=0)
     rows = envs._rows
     core = envs.core
-    j = rows.base + rows.k
-    v0, v1, g = rows._speed_flat[j], rows._speed_flat[j + 1], rows._grade_flat[j]
+    v0, v1, g = rows.speed[rows.all_rows, rows.k], rows.speed[rows.all_rows, rows.k + 1], rows.grade[rows.all_rows, rows.k]
     u = np.full(num_envs, 0.3)
     st_out = np.empty((num_envs, C.N_STATE))
     out = np.empty((num_envs, C.N_OUT))
-    args = (*core.params, rows.state, u, v0, v1, g, rows.cond, core.dt_s, st_out, out)
-    C.step_kernel(*args)
+    kwargs = dict(state_out=st_out, out=out)
+    core.step(rows.state, u, v0, v1, g, rows.cond, **kwargs)
     t0 = time.perf_counter()
     for _ in range(n_steps):
-        C.step_kernel(*args)
+        core.step(rows.state, u, v0, v1, g, rows.cond, **kwargs)
     wall = time.perf_counter() - t0
     return {"num_envs": num_envs, "calls": n_steps, "wall_s": wall, "env_steps_per_s": n_steps * num_envs / wall,
             "us_per_call": wall / n_steps * 1e6}

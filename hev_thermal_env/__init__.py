@@ -8,13 +8,13 @@ from gymnasium.envs.registration import register, registry
 
 from .cycles import Cycle, cycle_from_arrays, generate_bus_cycle, list_cycles, load_cycle
 from .physics import Conditions, ConfigError, PhysicsCore, VehicleConfig, paper_bus
-from .physics.simulate import SimResult, simulate
+from .simulate import SimResult, simulate
 
 __version__ = "0.1.0"
 
 if "HevThermal-v0" not in registry:
-    register(id="HevThermal-v0", entry_point="hev_thermal_env.env:HevThermalEnv",
-             vector_entry_point="hev_thermal_env.vector_env:HevThermalVectorEnv")
+    register(id="HevThermal-v0", entry_point="hev_thermal_env.envs.hev_env:HevThermalEnv",
+             vector_entry_point="hev_thermal_env.envs.vector_env:HevThermalVectorEnv")
 
 __all__ = [
     "Conditions", "ConfigError", "Cycle", "PhysicsCore", "SimResult", "VehicleConfig", "cycle_from_arrays",

@@ -42,7 +42,7 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
 
     Returns counts and the worst values seen (steps, episodes, max energy-balance error, SOC range...).
     """
-    from .vector_env import HevThermalVectorEnv
+    from .envs import HevThermalVectorEnv
 
     scenarios = scenarios or list_scenarios()
     cycles = cycles or (list_cycles() + ["random_bus"])

@@ -13,9 +13,10 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import hev_thermal_env
 from hev_thermal_env import Conditions, load_cycle, paper_bus, simulate
-from hev_thermal_env.env import INFO_KEYS, RESET_INFO_KEYS, RESET_OPTIONS, HevThermalEnv, observation_names
+from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS, HevThermalEnv, observation_names
+from hev_thermal_env.envs.episodes import RESET_OPTIONS
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.reward import RewardParams, reward_terms
+from hev_thermal_env.envs.reward import REWARD_TERMS, RewardParams, reward_terms
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 
 DESIGN_INFO_KEYS = (
@@ -206,9 +207,10 @@ def test_info_contract_and_reward_terms():
     assert info["time_s"] == env.k and info["cycle_speed_mps"] == env.cycle.speed_mps[env.k]
     terms = reward_terms(env.reward_params, out[None, :], env.phys_state, env.soc_target,
                          env.config.engine.fuel_lhv_j_per_g)
-    for key, value in terms.items():
-        assert info[key] == value[0]
-    assert r == pytest.approx(sum(info[k] for k in terms), rel=1e-12)
+    terms, _ = terms
+    for i, key in enumerate(REWARD_TERMS):
+        assert info[key] == terms[0, i]
+    assert r == pytest.approx(sum(info[k] for k in REWARD_TERMS), rel=1e-12)
     assert state_before.shape == (1, C.N_STATE)
 
 

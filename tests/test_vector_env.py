@@ -11,10 +11,11 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import hev_thermal_env  # noqa: F401  (registers HevThermal-v0)
-from hev_thermal_env.env import INFO_KEYS, RESET_INFO_KEYS
+from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.reward import RewardParams
-from hev_thermal_env.vector_env import HevThermalVectorEnv, Sb3VecEnv
+from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.envs import HevThermalVectorEnv
+from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
 
 # randomised everywhere: conditions, cycle choice (lengths differ), random bus cycles, start offsets
 RANDOM_KW = {"cycle": ["hwfet", "us06", "random_bus"], "scenario": "random", "random_start": True}
@@ -310,8 +311,8 @@ def test_vector_entry_point_and_gymnasium_vector_wrappers():
 
     env_id = "HevThermalNativeVecCheck-v0"
     if env_id not in gym.registry:
-        gym.register(env_id, entry_point="hev_thermal_env.env:HevThermalEnv",
-                     vector_entry_point="hev_thermal_env.vector_env:HevThermalVectorEnv")
+        gym.register(env_id, entry_point="hev_thermal_env.envs.hev_env:HevThermalEnv",
+                     vector_entry_point="hev_thermal_env.envs.vector_env:HevThermalVectorEnv")
     envs = gym.make_vec(env_id, num_envs=3, cycle="us06", random_start=True)
     assert isinstance(envs.unwrapped, HevThermalVectorEnv) and envs.unwrapped.spec.id == env_id
     with warnings.catch_warnings():

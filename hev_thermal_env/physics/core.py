@@ -25,6 +25,8 @@ the rest. The action has no effect while braking or at standstill.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from . import battery as bat
@@ -258,12 +260,17 @@ def initial_heat_x(th, initial_temp_c):
 
 
 class PhysicsCore:
-    """A vehicle's packed parameters and the batched step.
+    """The only door to the physics kernel: a vehicle's packed parameters and the batched step.
 
     >>> core = PhysicsCore(paper_bus())
     >>> state = core.initial_state(Conditions(), batch=4)
-    >>> new_state, out = core.step(state, np.zeros(4), v0=np.zeros(4), v1=np.ones(4),
-    ...                            grade=np.zeros(4), cond=core.conditions_array(Conditions(), 4))
+    >>> new_state, out = core.step(state, action=np.zeros(4), speed_start_mps=np.zeros(4),
+    ...                            speed_end_mps=np.ones(4), grade=0.0, cond=core.conditions_array(Conditions(), 4))
+
+    :meth:`step` takes named arguments, coerces every input to float64 C-contiguous arrays (one
+    compiled specialisation, no silent recompilation for float32 or strided input), broadcasts
+    scalars over the batch and checks shapes; large batches can be split over threads (the kernel
+    releases the GIL).
     """
 
     def __init__(self, config: VehicleConfig, dt_s: float = 1.0):
@@ -279,6 +286,7 @@ class PhysicsCore:
 
     @property
     def params(self) -> tuple:
+        """The packed parameter vectors, in the kernel's argument order."""
         return (self.gl, self.dl, self.en, self.mo, self.th, self.ba, self.pt)
 
     def initial_state(self, conditions: Conditions, batch: int = 1) -> np.ndarray:
@@ -300,13 +308,74 @@ class PhysicsCore:
         cond[:, COOLANT_FACTOR] = conditions.coolant_factor
         return cond
 
-    def step(self, state, action, v0, v1, grade, cond, state_out=None, out=None):
-        """One step for a batch; returns (new state [B, N_STATE], outputs [B, N_OUT])."""
+    def step(self, state, action, speed_start_mps, speed_end_mps, grade, cond, *, state_out=None, out=None,
+             threads: int = 1):
+        """Advance a batch of B vehicles by one step; returns (new state [B, N_STATE], outputs [B, N_OUT]).
+
+        ``state`` [B, N_STATE]; ``action`` (the motor share u), ``speed_start_mps``, ``speed_end_mps``
+        and ``grade`` of the step, each [B] or a scalar; ``cond`` [B, N_COND] or [N_COND].
+        ``state_out``/``out`` (float64, C-contiguous) are filled if given. ``threads`` > 1 splits
+        batches of at least :data:`MIN_THREAD_BATCH` rows over that many threads.
+        """
+        state = _f64(state, "state")
+        if state.ndim != 2 or state.shape[1] != N_STATE:
+            raise ValueError(f"PhysicsCore.step: state must have shape (B, {N_STATE}), got {state.shape}")
         b = state.shape[0]
-        if state_out is None:
-            state_out = np.empty((b, N_STATE))
-        if out is None:
-            out = np.empty((b, N_OUT))
-        step_kernel(self.gl, self.dl, self.en, self.mo, self.th, self.ba, self.pt, state, action, v0, v1, grade,
-                    cond, self.dt_s, state_out, out)
+        action = _batch(action, b, "action")
+        v0 = _batch(speed_start_mps, b, "speed_start_mps")
+        v1 = _batch(speed_end_mps, b, "speed_end_mps")
+        grade = _batch(grade, b, "grade")
+        cond = _f64(cond, "cond")
+        if cond.shape == (N_COND,):
+            cond = np.ascontiguousarray(np.broadcast_to(cond, (b, N_COND)))
+        if cond.shape != (b, N_COND):
+            raise ValueError(f"PhysicsCore.step: cond must have shape ({b}, {N_COND}), got {cond.shape}")
+        state_out = np.empty((b, N_STATE)) if state_out is None else _out(state_out, (b, N_STATE), "state_out")
+        out = np.empty((b, N_OUT)) if out is None else _out(out, (b, N_OUT), "out")
+        n = max(1, int(threads))
+        if n == 1 or b < MIN_THREAD_BATCH:
+            step_kernel(*self.params, state, action, v0, v1, grade, cond, self.dt_s, state_out, out)
+            return state_out, out
+        edges = np.linspace(0, b, n + 1).astype(int)
+
+        def run(j: int) -> None:
+            s = slice(edges[j], edges[j + 1])
+            step_kernel(*self.params, state[s], action[s], v0[s], v1[s], grade[s], cond[s], self.dt_s, state_out[s],
+                        out[s])
+
+        list(_thread_pool(n).map(run, range(n)))
         return state_out, out
+
+
+#: Batches smaller than this are not split over threads (thread start-up would dominate).
+MIN_THREAD_BATCH = 4096
+
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+
+
+def _thread_pool(n: int) -> ThreadPoolExecutor:
+    if n not in _POOLS:
+        _POOLS[n] = ThreadPoolExecutor(max_workers=n, thread_name_prefix="hev-kernel")
+    return _POOLS[n]
+
+
+def _f64(x, name: str) -> np.ndarray:
+    try:
+        return np.ascontiguousarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"PhysicsCore.step: {name} must be numeric, got {type(x).__name__}") from None
+
+
+def _batch(x, b: int, name: str) -> np.ndarray:
+    a = _f64(x, name)
+    if a.shape == (b,):
+        return a
+    if a.ndim == 0 or a.shape == (1,):
+        return np.full(b, float(a.reshape(-1)[0]))
+    raise ValueError(f"PhysicsCore.step: {name} must be a scalar or have shape ({b},), got {a.shape}")
+
+
+def _out(x: np.ndarray, shape: tuple[int, int], name: str) -> np.ndarray:
+    if not (isinstance(x, np.ndarray) and x.dtype == np.float64 and x.flags.c_contiguous and x.shape == shape):
+        raise ValueError(f"PhysicsCore.step: {name} must be a C-contiguous float64 array of shape {shape}")
+    return x

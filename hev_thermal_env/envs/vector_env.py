@@ -1,12 +1,12 @@
-"""Native batched vector form of ``HevThermal-v0`` and its Stable-Baselines3 adapter.
+"""Native batched vector form of ``HevThermal-v0``.
 
-:class:`HevThermalVectorEnv` steps all sub-environments with one call of the physics core
-(:func:`~hev_thermal_env.physics.core.step_kernel`) through the same :class:`~hev_thermal_env.env.EpisodeRows`
-tables as the single env, so sub-environment ``i`` reset with seed ``s`` lives through exactly the
-trajectory of ``HevThermalEnv`` reset with seed ``s``. :class:`Sb3VecEnv` exposes it as an SB3
-``VecEnv`` so that training steps the batched core directly.
+:class:`HevThermalVectorEnv` steps all sub-environments with one call of the batch engine
+(:class:`~hev_thermal_env.envs.batch.EpisodeRows`, the same engine as the single env's), so
+sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory of
+``HevThermalEnv`` reset with seed ``s``. Autoreset is implemented here, once; the SB3 adapter
+(:class:`hev_thermal_env.wrappers.Sb3VecEnv`) uses the ``SAME_STEP`` mode.
 
->>> from hev_thermal_env.vector_env import HevThermalVectorEnv
+>>> from hev_thermal_env.envs import HevThermalVectorEnv
 >>> envs = HevThermalVectorEnv(8, cycle="hwfet")
 >>> obs, infos = envs.reset(seed=0)
 >>> obs.shape
@@ -25,25 +25,22 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from .env import (
+from ..physics import core as C
+from ..physics.config import Conditions, VehicleConfig
+from ..scenarios import Scenario
+from .batch import EpisodeRows
+from .episodes import EpisodeSampler, TableCache
+from .hev_env import resolve_config, resolve_reward
+from .reward import RewardParams
+from .spaces import (
     INFO_KEYS,
     RESET_INFO_KEYS,
-    EpisodeRows,
-    EpisodeSampler,
-    TableCache,
     observation_bounds,
     observation_names,
     preview_offsets,
     reset_info_dict,
-    resolve_config,
-    resolve_reward,
     step_info_arrays,
-    total_reward,
 )
-from .physics import core as C
-from .physics.config import Conditions, VehicleConfig
-from .reward import RewardParams
-from .scenarios import Scenario
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
@@ -52,7 +49,7 @@ _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond"
 class HevThermalVectorEnv(VectorEnv):
     """``num_envs`` copies of ``HevThermal-v0`` stepped together by one batched call of the physics core.
 
-    Arguments are those of :class:`~hev_thermal_env.env.HevThermalEnv` (``cycle``, ``scenario``,
+    Arguments are those of :class:`~hev_thermal_env.envs.HevThermalEnv` (``cycle``, ``scenario``,
     ``config``, ``conditions``, ``reward``, ``preview_s``, ``preview_step_s``, ``thermal``,
     ``random_start``), shared by all sub-environments, plus:
 
@@ -65,7 +62,7 @@ class HevThermalVectorEnv(VectorEnv):
       - ``SAME_STEP``: a truncating sub-environment resets within the same step; the returned
         observation is the reset one, ``infos["final_obs"]`` (object array) and
         ``infos["final_info"]`` (dict of arrays) hold the last step's, and reset-info keys
-        overwrite step-info keys for those sub-environments. :class:`Sb3VecEnv` uses this mode.
+        overwrite step-info keys for those sub-environments. The SB3 adapter uses this mode.
       - ``DISABLED``: stepping an ended sub-environment raises; reset it with
         ``reset(options={"reset_mask": mask})``.
 
@@ -78,8 +75,13 @@ class HevThermalVectorEnv(VectorEnv):
     applied to every reset sub-environment, ``reset_mask`` (bool array: reset only these), or a list
     of one options dict per sub-environment.
 
+    * ``info_keys``: the step-info keys to report, ``"all"`` (default,
+      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`) or a sequence of them; ``()`` is the lean
+      path for wrappers and trainers that read no step infos (merging many keys per step costs more
+      than the physics).
+
     Infos are dicts of arrays with ``_key`` masks (gymnasium vector format); step keys are
-    :data:`~hev_thermal_env.env.INFO_KEYS`, reset keys :data:`~hev_thermal_env.env.RESET_INFO_KEYS`.
+    ``info_keys``, reset keys :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS`.
     The batch attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``,
     ``k`` [n], ``phys_state`` [n, N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and
     ``last_out`` [n, N_OUT] mirror the single env's.
@@ -91,13 +93,15 @@ class HevThermalVectorEnv(VectorEnv):
                  config: VehicleConfig | None = None, conditions: Conditions | None = None,
                  reward: RewardParams | dict | None = None, preview_s: int = 10, preview_step_s: int = 2,
                  thermal: bool | None = None, random_start: bool = False, max_episode_steps: int | None = None,
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, render_mode: str | None = None):
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, render_mode: str | None = None,
+                 info_keys: str | Sequence[str] = "all"):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if render_mode is not None:
             raise ValueError("HevThermalVectorEnv does not render; use render_mode=None (render single envs instead)")
         if max_episode_steps is not None and (int(max_episode_steps) != max_episode_steps or max_episode_steps < 1):
             raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
+        self.info_keys = _check_info_keys(info_keys)
         self.autoreset_mode = AutoresetMode(autoreset_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
         self.num_envs = int(num_envs)
@@ -123,11 +127,11 @@ class HevThermalVectorEnv(VectorEnv):
 
     @property
     def reward_params(self) -> RewardParams:
-        return self._rows.rp
+        return self._rows.reward_params
 
     @reward_params.setter
     def reward_params(self, value: RewardParams | dict) -> None:
-        self._rows.rp = resolve_reward(value)
+        self._rows.reward_params = resolve_reward(value)
 
     @property
     def cycles(self) -> list:
@@ -200,17 +204,17 @@ class HevThermalVectorEnv(VectorEnv):
             idx = np.flatnonzero(resetting)
             u[idx] = 0.0
             clipped[idx] = False
-        reward, terms, out = rows.step(u)
+        reward, terms, out, obs = rows.step(u)
         state = rows.state
         truncated = rows.k >= rows.end
         terminated = np.zeros(self.num_envs, dtype=bool)
-        cycle_speed = rows._speed_flat[rows.base + rows.k]  # before any reset (which may widen the tables)
+        cycle_speed = rows.speed[rows.all_rows, rows.k]  # before any reset (which may widen the tables)
         time_s = rows.k.astype(np.float64)
         step_mask = np.ones(self.num_envs, dtype=bool)
         if mode == AutoresetMode.NEXT_STEP and resetting.any():
             idx = np.flatnonzero(resetting)
             reset_infos = self._start_episodes(idx, [None] * idx.size)  # new state array, out rows zeroed
-            for arr in (out, state, reward, cycle_speed, time_s, *terms.values()):
+            for arr in (out, state, reward, cycle_speed, time_s, terms):
                 arr[idx] = 0.0
             truncated[idx] = False
             step_mask[idx] = False
@@ -219,14 +223,13 @@ class HevThermalVectorEnv(VectorEnv):
             obs = rows.observe()
         elif mode == AutoresetMode.SAME_STEP and truncated.any():
             idx = np.flatnonzero(truncated)
-            obs = rows.observe()
             step_infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
             final_obs = np.full(self.num_envs, None, dtype=object)
             for i in idx:
                 final_obs[i] = obs[i].copy()
             done_mask = truncated.copy()
             final_info = {}
-            for key in INFO_KEYS:
+            for key in self.info_keys:
                 final_info[key] = step_infos[key]
                 final_info["_" + key] = done_mask
             rows.last_out = out.copy()  # the final infos keep viewing ``out``
@@ -240,7 +243,6 @@ class HevThermalVectorEnv(VectorEnv):
             infos["final_obs"], infos["_final_obs"] = final_obs, done_mask
             infos["final_info"], infos["_final_info"] = final_info, done_mask
         else:
-            obs = rows.observe()
             infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
         self._autoreset = terminated | truncated
         return obs, reward, terminated, truncated, infos
@@ -288,7 +290,7 @@ class HevThermalVectorEnv(VectorEnv):
     def __repr__(self) -> str:
         return f"HevThermalVectorEnv(num_envs={self.num_envs}, autoreset_mode={self.autoreset_mode.value})"
 
-    # -- internals (also used by Sb3VecEnv) ---------------------------------------------------------
+    # -- internals ------------------------------------------------------------------------------------
 
     def _seed_list(self, seed: Any) -> list[int | None]:
         if seed is None:
@@ -326,10 +328,12 @@ class HevThermalVectorEnv(VectorEnv):
         return [reset_info_dict(self._rows, i, ep) for i, ep in zip(idx, episodes)]
 
     def _step_infos(self, out, state, terms, cycle_speed, time_s, u, clipped, mask) -> dict[str, np.ndarray]:
+        if not self.info_keys:
+            return {}
         arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped)
         infos = {}
-        for key, value in arrays.items():
-            infos[key] = value
+        for key in self.info_keys:
+            infos[key] = arrays[key]
             infos["_" + key] = mask
         return infos
 
@@ -363,125 +367,13 @@ def _check_mask(mask: Any, n: int) -> np.ndarray:
     return mask
 
 
-# --- Stable-Baselines3 ----------------------------------------------------------------------------
-# ``Sb3VecEnv`` is built on first access (module ``__getattr__``) so that importing this module does
-# not import stable-baselines3 and torch.
-
-def __getattr__(name: str) -> Any:
-    if name == "Sb3VecEnv":
-        cls = _build_sb3_vec_env()
-        globals()["Sb3VecEnv"] = cls
-        return cls
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def _build_sb3_vec_env() -> type:
-    from stable_baselines3.common.vec_env import VecEnv
-
-    class Sb3VecEnv(VecEnv):
-        """Stable-Baselines3 ``VecEnv`` over :class:`HevThermalVectorEnv`: SB3 trains on the batched core.
-
-        SB3 semantics: a sub-environment that ends is reset in the same step; the returned observation
-        is the new episode's, ``infos[i]["terminal_observation"]`` holds the last one,
-        ``infos[i]["TimeLimit.truncated"]`` says whether the end was a truncation (always, here) and
-        ``reset_infos[i]`` the new episode's reset info. ``seed()`` and ``set_options()`` apply at the
-        next ``reset()`` (SB3 convention).
-
-        ``info_keys`` selects the step-info keys copied into SB3's per-env info dicts: ``"all"``
-        (default, :data:`~hev_thermal_env.env.INFO_KEYS`) or a sequence of names; ``()`` is fastest when
-        only the SB3 keys are needed (PPO and ``VecMonitor`` need no others). Arguments other than
-        ``num_envs``, ``venv`` and ``info_keys`` build the vector env (see :class:`HevThermalVectorEnv`).
-
-        ``get_attr`` returns per-env values for the episode attributes and the shared value otherwise;
-        ``set_attr`` sets shared attributes (for all sub-environments at once); ``env_method`` calls a
-        method of the vector env once and returns its result per requested index.
-        """
-
-        def __init__(self, num_envs: int | None = None, *, venv: HevThermalVectorEnv | None = None,
-                     info_keys: str | Sequence[str] = "all", **env_kwargs: Any):
-            if venv is None:
-                if num_envs is None:
-                    raise ValueError("Sb3VecEnv: give num_envs (and env arguments) or venv")
-                venv = HevThermalVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
-            elif env_kwargs or (num_envs is not None and num_envs != venv.num_envs):
-                raise ValueError("Sb3VecEnv: with venv, give no env arguments")
-            self.venv = venv
-            keys = INFO_KEYS if isinstance(info_keys, str) and info_keys == "all" else tuple(info_keys)
-            unknown = sorted(set(keys) - set(INFO_KEYS))
-            if unknown:
-                raise ValueError(f"info_keys: unknown key(s) {unknown}; known: {list(INFO_KEYS)}")
-            self.info_keys = keys
-            self._actions: np.ndarray | None = None
-            super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
-
-        def reset(self) -> np.ndarray:
-            seeds = self._seeds if any(s is not None for s in self._seeds) else None
-            options = self._options if any(self._options) else None
-            venv = self.venv
-            idx = np.arange(self.num_envs)
-            venv._seed_rows(idx, venv._seed_list(seeds))
-            self.reset_infos = venv._start_episodes(idx, options if options is not None else [None] * self.num_envs)
-            venv._autoreset[:] = False
-            self._reset_seeds()
-            self._reset_options()
-            return venv._rows.observe()
-
-        def step_async(self, actions: np.ndarray) -> None:
-            self._actions = actions
-
-        def step_wait(self):
-            venv = self.venv
-            rows = venv._rows
-            u, clipped = venv._check_actions(self._actions)
-            if not venv._started.all():
-                raise RuntimeError("call reset() before step()")
-            _, terms, out = rows.step(u)
-            reward = total_reward(terms).astype(np.float32)
-            truncated = rows.k >= rows.end
-            obs = rows.observe()
-            n = self.num_envs
-            if self.info_keys:
-                arrays = step_info_arrays(out, rows.state, terms, rows._speed_flat[rows.base + rows.k],
-                                          rows.k.astype(np.float64), u, clipped)
-                keys = self.info_keys
-                columns = [arrays[key].tolist() for key in keys]
-                infos = [dict(zip(keys, values)) for values in zip(*columns)]
-            else:
-                infos = [{} for _ in range(n)]
-            for info in infos:
-                info["TimeLimit.truncated"] = False
-            if truncated.any():
-                idx = np.flatnonzero(truncated)
-                for i in idx:
-                    infos[i]["terminal_observation"] = obs[i].copy()
-                    infos[i]["TimeLimit.truncated"] = True
-                for i, reset_info in zip(idx, venv._start_episodes(idx, [None] * idx.size)):
-                    self.reset_infos[i] = reset_info
-                obs[idx] = rows.observe(idx)
-            return obs, reward, truncated.copy(), infos
-
-        def close(self) -> None:
-            self.venv.close()
-
-        def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-            values = self.venv.get_attr(attr_name)
-            return [values[i] for i in self._get_indices(indices)]
-
-        def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-            if sorted(self._get_indices(indices)) != list(range(self.num_envs)):
-                raise ValueError(f"set_attr: {attr_name!r} is shared by all sub-environments; set it for all indices")
-            self.venv.set_attr(attr_name, value)
-
-        def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
-            result = self.venv.call(method_name, *method_args, **method_kwargs)
-            return [result[i] for i in self._get_indices(indices)]
-
-        def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
-            return [False for _ in self._get_indices(indices)]
-
-        def get_images(self) -> list[None]:
-            return [None] * self.num_envs
-
-    Sb3VecEnv.__qualname__ = "Sb3VecEnv"
-    Sb3VecEnv.__module__ = __name__
-    return Sb3VecEnv
+def _check_info_keys(info_keys: str | Sequence[str]) -> tuple[str, ...]:
+    if isinstance(info_keys, str):
+        if info_keys != "all":
+            raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}")
+        return INFO_KEYS
+    keys = tuple(info_keys)
+    unknown = sorted(set(keys) - set(INFO_KEYS))
+    if unknown:
+        raise ValueError(f"info_keys: unknown key(s) {unknown}; known: {list(INFO_KEYS)}")
+    return keys

@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 
-from .cycles import Cycle
-from .physics.config import VehicleConfig
+from ..cycles import Cycle
+from ..physics.config import VehicleConfig
 
 WIDTH_IN, HEIGHT_IN, DPI = 8.0, 8.0, 80  # 640 × 640 pixels
 

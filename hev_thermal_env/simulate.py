@@ -1,4 +1,7 @@
-"""Whole-cycle simulation without any environment: a cycle, a vehicle, a split → traces and summary."""
+"""Whole-cycle simulation without any environment: a cycle, a vehicle, a split → traces and summary.
+
+A consumer of the physics core like the env, DP and ECMS (cycle → kernel → simulate → metrics).
+"""
 
 from __future__ import annotations
 
@@ -9,22 +12,13 @@ from typing import Any
 
 import numpy as np
 
-from . import core as C
-from .config import Conditions, VehicleConfig, paper_bus
+from .cycles import load_cycle
+from .metrics import summarize
+from .physics import core as C
+from .physics.config import Conditions, VehicleConfig, paper_bus
 
 SplitFn = Callable[[int, dict], float]
 Split = float | SplitFn | np.ndarray
-
-# Stated average efficiencies for putting strategies on equal service (DESIGN §6).
-ENGINE_EFF_AVG = 0.36  # near FC_CI119's best BSFC (≈225 g/kWh)
-CHARGE_PATH_EFF = 0.90  # motor as generator × battery, charging
-DRIVELINE_EFF_AVG = 0.93  # gearbox × final drive
-DISCHARGE_PATH_EFF = 0.90  # battery × motor, motoring
-# Missed wheel energy is charged at what it costs to deliver it from the battery and put that energy
-# back with the engine: 1 / (η_engine·η_charge·η_discharge·η_driveline), 1.23 times the fuel the
-# engine would burn to deliver it directly, so not driving never pays where the engine could drive.
-# The reward uses the same prices (hev_thermal_env.reward), so DP optimises the corrected-fuel metric.
-
 
 @dataclasses.dataclass
 class SimResult:
@@ -32,64 +26,6 @@ class SimResult:
 
     trace: dict[str, np.ndarray]
     summary: dict[str, Any]
-
-
-def battery_price_g_per_j(lhv_j_per_g: float) -> float:
-    """Fuel (g) equivalent to one joule of battery chemical energy: what the engine burns to put it back."""
-    return 1.0 / (lhv_j_per_g * ENGINE_EFF_AVG * CHARGE_PATH_EFF)
-
-
-def miss_price_g_per_j(lhv_j_per_g: float) -> float:
-    """Fuel (g) charged per joule of missed wheel energy: delivered from the battery, put back by the engine."""
-    return 1.0 / (lhv_j_per_g * ENGINE_EFF_AVG * CHARGE_PATH_EFF * DISCHARGE_PATH_EFF * DRIVELINE_EFF_AVG)
-
-
-def corrections_g(battery_energy_j: float, missed_wheel_energy_j: float, lhv_j_per_g: float) -> tuple[float, float]:
-    """Fuel (g) equivalent to net battery energy used and to missed wheel energy.
-
-    Battery: the fuel the engine would burn to put the net chemical energy back, at
-    ``ENGINE_EFF_AVG`` × ``CHARGE_PATH_EFF`` (negative when the run ends with more charge).
-    Miss: the fuel to deliver the missed wheel energy from the battery (``DISCHARGE_PATH_EFF`` ×
-    ``DRIVELINE_EFF_AVG``) and to put that energy back with the engine (``ENGINE_EFF_AVG`` ×
-    ``CHARGE_PATH_EFF``): the service a hybrid could have given, at the battery's price.
-    """
-    return (battery_energy_j * battery_price_g_per_j(lhv_j_per_g),
-            missed_wheel_energy_j * miss_price_g_per_j(lhv_j_per_g))
-
-
-def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: float, distance_m: float,
-              dt_s: float = 1.0) -> dict[str, Any]:
-    """The run's metrics (DESIGN §6) from its traces."""
-    fuel_g = float(trace["fuel_g"].sum())
-    dist_km = max(distance_m / 1000.0, 1e-9)
-    dens = config.engine.fuel_density_kg_per_l
-    lhv = config.engine.fuel_lhv_j_per_g
-    batt_j = float(trace["battery_chem_power_w"].sum() * dt_s)
-    miss_j = float(trace["missed_wheel_energy_j"].sum())
-    corr_batt_g, corr_miss_g = corrections_g(batt_j, miss_j, lhv)
-
-    def l100(g: float) -> float:
-        return g / 1000.0 / dens / dist_km * 100.0
-
-    return {
-        "distance_km": distance_m / 1000.0,
-        "duration_s": float(len(trace["fuel_g"]) * dt_s),
-        "fuel_g": fuel_g,
-        "fuel_l_per_100km": l100(fuel_g),
-        "fuel_corrected_l_per_100km": l100(fuel_g + corr_batt_g + corr_miss_g),
-        "soc_correction_l_per_100km": l100(corr_batt_g),
-        "miss_correction_l_per_100km": l100(corr_miss_g),
-        "battery_energy_kwh": batt_j / 3.6e6,
-        "missed_wheel_energy_kwh": miss_j / 3.6e6,
-        "soc_initial": float(soc_initial),
-        "soc_final": float(trace["soc"][-1]) if len(trace["soc"]) else float(soc_initial),
-        "max_motor_temp_c": float(trace["motor_temp_c"].max()) if len(trace["soc"]) else float("nan"),
-        "heat_index_max": float(trace["heat_index"].max()) if len(trace["soc"]) else 0.0,
-        "derated_s": float((trace["heat_index"] > 0.0).sum() * dt_s),
-        "cutoff_s": float((trace["motor_cutoff"] > 0.0).sum() * dt_s),
-        "trace_miss_max_mps": float(trace["trace_miss_mps"].max()) if len(trace["soc"]) else 0.0,
-        "engine_on_s": float(trace["engine_on"].sum() * dt_s),
-    }
 
 
 def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0,
@@ -111,8 +47,6 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
     SimResult with traces of every output of :data:`core.OUT_NAMES` and the state after each step
     (``soc``, ``motor_temp_c``, ``heat_x``, ``motor_cutoff``), and :func:`summarize`'s metrics.
     """
-    from ..cycles import load_cycle
-
     cyc = load_cycle(cycle)
     config = config or paper_bus()
     conditions = conditions or Conditions()
@@ -144,8 +78,7 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
             if not np.isfinite(u):
                 raise ValueError(f"split returned {u} at step {k}")
             a[0] = u
-        C.step_kernel(*phys.params, state, a, v[k:k + 1], v[k + 1:k + 2], g[k:k + 1], cond, phys.dt_s, st_out,
-                      outs[k:k + 1])
+        phys.step(state, a, v[k:k + 1], v[k + 1:k + 2], g[k:k + 1], cond, state_out=st_out, out=outs[k:k + 1])
         state, st_out = st_out, state
         states[k] = state[0]
     wall = time.perf_counter() - t0

@@ -1,0 +1,213 @@
+"""The batch engine: a batch of vehicles, each on its own cycle, stepped together; the step of every env.
+
+:class:`EpisodeRows` holds, per row, the cycle tables padded to a common width (speed held at its
+last value), the step index ``k``, the end step, the physical state, the conditions and the SOC
+target. :meth:`EpisodeRows.step` advances every row with one call of :func:`advance_kernel`, a
+documented compiled kernel that composes the physics step (:func:`~hev_thermal_env.physics.core.step_kernel`),
+the reward (:func:`~hev_thermal_env.envs.reward.reward_kernel`) and the observation
+(:func:`observe_kernel`): one dispatch per step, which is what makes the single env as cheap to
+step as a classic-control env. The single env is a batch of one; the vector env a batch of n.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..cycles import Cycle
+from ..physics import core as C
+from ..physics.config import Conditions
+from ..physics.jit import jit
+from . import spaces as S
+from .episodes import CycleTables, Episode
+from .reward import REWARD_TERMS, RewardParams, reward_kernel
+
+
+@jit
+def observe_kernel(rows, k, state, cond, soc_target, avail, n_steps, speed, demand, gear, offsets, dt_s, low, high,
+                   obs):
+    """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]).
+
+    Entry order and meaning: :data:`hev_thermal_env.envs.spaces.observation_names`. "Next step"
+    is the step from ``speed[r, k]`` to ``speed[r, k + 1]``.
+    """
+    n_base = S.N_OBS_BASE
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        j = k[r]
+        v0 = speed[r, j]
+        obs[i, S.OBS_SPEED] = v0
+        obs[i, S.OBS_ACCEL] = (speed[r, j + 1] - v0) / dt_s
+        obs[i, S.OBS_DEMAND] = demand[r, j]
+        obs[i, S.OBS_SOC] = state[r, C.SOC]
+        obs[i, S.OBS_SOC_TARGET] = soc_target[r]
+        obs[i, S.OBS_TEMP] = state[r, C.TEMP_C]
+        obs[i, S.OBS_PWM] = state[r, C.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
+        obs[i, S.OBS_HEAT_X] = state[r, C.HEAT_X]
+        obs[i, S.OBS_CUTOFF] = state[r, C.CUTOFF]
+        obs[i, S.OBS_AVAIL] = avail[r]
+        obs[i, S.OBS_GEAR] = gear[r, j]
+        obs[i, S.OBS_PROGRESS] = j / n_steps[r]
+        obs[i, S.OBS_AMBIENT] = cond[r, C.AMBIENT_C]
+        obs[i, S.OBS_COOLANT] = cond[r, C.COOLANT_FACTOR]
+        for p in range(offsets.shape[0]):
+            obs[i, n_base + p] = speed[r, j + offsets[p]]
+        for c in range(obs.shape[1]):
+            x = obs[i, c]
+            if x < low[c]:
+                obs[i, c] = low[c]
+            elif x > high[c]:
+                obs[i, c] = high[c]
+
+
+@jit
+def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, state, cond, soc_target, offsets,
+                   low, high, all_rows, state_out, out, terms, total, avail, obs):
+    """One step of every row: physics, reward, step index, motor envelope and the next observation.
+
+    ``tables`` [4, n, width] holds speed, grade, demanded wheel power (kW) and gear per row and step.
+    Writes ``state_out``, ``out``, ``terms``/``total`` (the reward), ``avail`` (the motor envelope of
+    the step, the next observation's entry) and ``obs``; increments ``k``.
+    """
+    n = u.shape[0]
+    v0 = np.empty(n)
+    v1 = np.empty(n)
+    g = np.empty(n)
+    for r in range(n):
+        v0[r] = tables[0, r, k[r]]
+        v1[r] = tables[0, r, k[r] + 1]
+        g[r] = tables[1, r, k[r]]
+    C.step_kernel(gl, dl, en, mo, th, ba, pt, state, u, v0, v1, g, cond, dt_s, state_out, out)
+    reward_kernel(w, out, state_out, soc_target, dt_s, terms, total)
+    for r in range(n):
+        k[r] += 1
+        avail[r] = out[r, C.MOTOR_AVAIL]
+    observe_kernel(all_rows, k, state_out, cond, soc_target, avail, n_steps, tables[0], tables[2], tables[3], offsets,
+                   dt_s, low, high, obs)
+
+
+class EpisodeRows:
+    """Per-row episode tables of a batch of vehicles, each on its own cycle; the step of both envs."""
+
+    def __init__(self, core: C.PhysicsCore, n_rows: int, offsets: np.ndarray, low: np.ndarray, high: np.ndarray,
+                 reward_params: RewardParams):
+        self.core = core
+        self.n = n_rows
+        self.offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+        self.low = low
+        self.high = high
+        self.low32 = low.astype(np.float32)
+        self.high32 = high.astype(np.float32)
+        self.lhv = core.config.engine.fuel_lhv_j_per_g
+        self.reward_params = reward_params
+        self.pad = int(self.offsets.max()) + 2 if self.offsets.size else 2
+        self.tables = np.zeros((4, n_rows, 2))
+        self.all_rows = np.arange(n_rows, dtype=np.int64)
+        self.k = np.zeros(n_rows, dtype=np.int64)
+        self.end = np.ones(n_rows, dtype=np.int64)
+        self.n_steps = np.ones(n_rows, dtype=np.int64)
+        self.state = np.zeros((n_rows, C.N_STATE))
+        self.cond = np.zeros((n_rows, C.N_COND))
+        self.soc_target = np.zeros(n_rows)
+        self.avail = np.zeros(n_rows)
+        self.last_out = np.zeros((n_rows, C.N_OUT))
+        self.cycles: list[Cycle | None] = [None] * n_rows
+        self.conditions: list[Conditions | None] = [None] * n_rows
+
+    @property
+    def reward_params(self) -> RewardParams:
+        return self._reward_params
+
+    @reward_params.setter
+    def reward_params(self, value: RewardParams) -> None:
+        self._reward_params = value
+        self._weights = value.weights(self.lhv)
+
+    @property
+    def speed(self) -> np.ndarray:
+        """Cycle speed [n, width] of every row (held at the cycle's last value past its end)."""
+        return self.tables[0]
+
+    @property
+    def grade(self) -> np.ndarray:
+        return self.tables[1]
+
+    @property
+    def width(self) -> int:
+        """Steps the tables hold per row (the longest loaded cycle plus the preview's padding)."""
+        return self.tables.shape[2]
+
+    def _widen(self, width: int) -> None:
+        old = self.tables
+        new = np.zeros((4, self.n, width))
+        w0 = old.shape[2]
+        new[:, :, :w0] = old
+        new[0, :, w0:] = old[0, :, w0 - 1:w0]  # speed and gear held
+        new[3, :, w0:] = old[3, :, w0 - 1:w0]
+        self.tables = new
+
+    def load(self, rows: Sequence[int], episodes: Sequence[Episode], tables: Sequence[CycleTables],
+             max_steps: int | None = None) -> None:
+        """Start the given episodes in the given rows (state, tables, index) and compute their first envelope."""
+        need = max(len(t.speed_mps) for t in tables) + self.pad
+        if need > self.tables.shape[2]:
+            self._widen(need)
+        self.state = self.state.copy()  # states handed out earlier (infos, phys_state) stay untouched
+        speed, grade, demand, gear = self.tables
+        for i, ep, tab in zip(rows, episodes, tables):
+            n = tab.speed_mps.size
+            speed[i, :n] = tab.speed_mps
+            speed[i, n:] = tab.speed_mps[-1]
+            grade[i, :n] = tab.grade
+            grade[i, n:] = 0.0
+            demand[i, :n - 1] = tab.wheel_power_demand_kw
+            demand[i, n - 1:] = 0.0
+            gear[i, :n - 1] = tab.gear
+            gear[i, n - 1:] = tab.gear[-1]
+            self.state[i] = self.core.initial_state(ep.conditions, 1)[0]
+            self.cond[i] = self.core.conditions_array(ep.conditions, 1)[0]
+            self.soc_target[i] = ep.conditions.initial_soc
+            self.k[i] = ep.start_s
+            self.n_steps[i] = ep.cycle.n_steps
+            self.end[i] = ep.cycle.n_steps if max_steps is None else min(ep.cycle.n_steps, ep.start_s + max_steps)
+            self.cycles[i] = ep.cycle
+            self.conditions[i] = ep.conditions
+            self.last_out[i] = 0.0
+        idx = np.asarray(rows, dtype=np.int64)
+        self.avail[idx] = self._envelope(idx)
+
+    def _envelope(self, rows: np.ndarray) -> np.ndarray:
+        """Motor torque envelope of the coming step of ``rows`` (one core call with u = 0, nothing kept)."""
+        k = self.k[rows]
+        _, out = self.core.step(self.state[rows], 0.0, self.speed[rows, k], self.speed[rows, k + 1],
+                                self.grade[rows, k], self.cond[rows])
+        return out[:, C.MOTOR_AVAIL]
+
+    def step(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Advance every row with motor shares ``u`` (float64 [n], already clipped to [-1, 1]).
+
+        Returns (reward [n], terms [n, 4] in ``REWARD_TERMS`` order, outputs [n, N_OUT], next
+        observations [n, dim]); updates the state, ``k``, ``last_out`` and the envelope.
+        """
+        n = self.n
+        state_out = np.empty((n, C.N_STATE))
+        out = np.empty((n, C.N_OUT))
+        terms = np.empty((n, len(REWARD_TERMS)))
+        total = np.empty(n)
+        obs = np.empty((n, self.low.size), dtype=np.float32)
+        core = self.core
+        advance_kernel(core.gl, core.dl, core.en, core.mo, core.th, core.ba, core.pt, core.dt_s, self._weights, u,
+                       self.tables, self.k, self.n_steps, self.state, self.cond, self.soc_target, self.offsets,
+                       self.low32, self.high32, self.all_rows, state_out, out, terms, total, self.avail, obs)
+        self.state = state_out
+        self.last_out = out
+        return total, terms, out, obs
+
+    def observe(self, rows: np.ndarray | None = None) -> np.ndarray:
+        """Observations [n, dim] of all rows (or of ``rows``), float32, clipped to the declared bounds."""
+        idx = self.all_rows if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+        obs = np.empty((idx.size, self.low.size), dtype=np.float32)
+        observe_kernel(idx, self.k, self.state, self.cond, self.soc_target, self.avail, self.n_steps, self.tables[0],
+                       self.tables[2], self.tables[3], self.offsets, self.core.dt_s, self.low32, self.high32, obs)
+        return obs

@@ -1,0 +1,152 @@
+"""Episodes: what is drawn at reset (cycle, conditions, start) and the per-cycle tables the steps read.
+
+Shared by the single and the vector env, so a vector sub-environment seeded like a single env
+lives through the same episodes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..cycles import Cycle, generate_bus_cycle, load_cycle
+from ..physics import core as C
+from ..physics.config import COOLANT_MODES, Conditions
+from ..scenarios import Scenario, get_scenario
+
+RANDOM_BUS = "random_bus"
+"""Cycle name that draws a fresh synthetic bus cycle (``generate_bus_cycle``) every episode."""
+
+RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
+"""Keys accepted in ``reset(options=...)``."""
+
+
+class CycleChoice:
+    """What the ``cycle`` argument asks for: fixed cycles (drawn uniformly if several) or random bus cycles.
+
+    Accepts a built-in name, a CSV path, a :class:`Cycle`, ``"random_bus"``, or a non-empty list of these.
+    Named and file cycles are loaded once, here, so errors show at construction.
+    """
+
+    def __init__(self, cycle: Any):
+        items = list(cycle) if isinstance(cycle, (list, tuple)) else [cycle]
+        if not items:
+            raise ValueError("cycle: the list of cycles is empty")
+        self.items: list[Cycle | None] = []
+        for item in items:
+            if isinstance(item, str) and item.strip().lower() == RANDOM_BUS:
+                self.items.append(None)
+            elif isinstance(item, (str, os.PathLike, Cycle)):
+                self.items.append(load_cycle(item))
+            else:
+                raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, {RANDOM_BUS!r} or a list of these, "
+                                f"got {type(item).__name__}")
+
+    def draw(self, rng: np.random.Generator) -> Cycle:
+        item = self.items[int(rng.integers(len(self.items)))] if len(self.items) > 1 else self.items[0]
+        if item is None:
+            return generate_bus_cycle(int(rng.integers(2**31 - 1)))
+        return item
+
+    def fixed_cycles(self) -> list[Cycle]:
+        return [c for c in self.items if c is not None]
+
+
+@dataclasses.dataclass(frozen=True)
+class Episode:
+    """Everything that is drawn when an episode starts."""
+
+    cycle: Cycle
+    conditions: Conditions
+    start_s: int
+
+
+class EpisodeSampler:
+    """Draws episodes (conditions, cycle, start) from a generator; shared by the single and vector envs.
+
+    The draws come in a fixed order (conditions, cycle, random bus seed, start offset), so a vector
+    sub-environment seeded like a single environment lives through the same episodes.
+    """
+
+    def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool):
+        self.cycles = CycleChoice(cycle)
+        self.scenario = get_scenario(scenario)
+        if conditions is not None and not isinstance(conditions, Conditions):
+            raise TypeError(f"conditions: expected Conditions or None, got {type(conditions).__name__}")
+        self.conditions = conditions
+        self.random_start = bool(random_start)
+
+    def sample(self, rng: np.random.Generator, options: dict[str, Any] | None) -> Episode:
+        options = {} if options is None else options
+        if not isinstance(options, dict):
+            raise TypeError(f"options: expected a dict or None, got {type(options).__name__}")
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown}; valid options: {list(RESET_OPTIONS)}")
+        cond = self.conditions if self.conditions is not None else self.scenario.sample(rng)
+        changes = {k: options[k] for k in ("ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant")
+                   if k in options}
+        if "coolant" in changes and changes["coolant"] not in COOLANT_MODES:
+            raise ValueError(f"reset option coolant: {changes['coolant']!r} is not one of {list(COOLANT_MODES)}")
+        if changes:
+            cond = cond.replace(**changes)
+        choice = CycleChoice(options["cycle"]) if "cycle" in options else self.cycles
+        cycle = choice.draw(rng)
+        if "start_s" in options:
+            start = options["start_s"]
+            if isinstance(start, bool) or not isinstance(start, (int, float, np.integer, np.floating)) \
+                    or start != int(start) or not 0 <= start < cycle.n_steps:
+                raise ValueError(f"reset option start_s: {start!r} must be a whole number of seconds in "
+                                 f"[0, {cycle.n_steps - 1}] for cycle {cycle.name!r}")
+            start = int(start)
+        elif self.random_start:
+            start = int(rng.integers(cycle.n_steps))
+        else:
+            start = 0
+        return Episode(cycle, cond, start)
+
+
+class CycleTables:
+    """Per-step quantities of a cycle that do not depend on the vehicle's state.
+
+    The demanded wheel power and the gear of each step come from one batched call of the physics
+    core over all steps of the cycle (they depend only on the speed trace, the grade and the vehicle).
+    """
+
+    def __init__(self, core: C.PhysicsCore, cycle: Cycle, state_row: np.ndarray, cond_row: np.ndarray):
+        n = cycle.n_steps
+        v = np.array(cycle.speed_mps, dtype=np.float64)
+        g = np.array(cycle.grade, dtype=np.float64)
+        _, out = core.step(np.repeat(state_row[None, :], n, axis=0), np.zeros(n), v[:-1].copy(), v[1:].copy(),
+                           g[:-1].copy(), np.repeat(cond_row[None, :], n, axis=0))
+        self.cycle = cycle
+        self.speed_mps = v
+        self.grade = g
+        self.wheel_power_demand_kw = out[:, C.WHEEL_DEMAND] / 1000.0
+        self.gear = out[:, C.GEAR].copy()
+
+
+class TableCache:
+    """Cycle tables of the env's fixed cycles, computed once; other cycles (random, from options) fresh."""
+
+    def __init__(self, core: C.PhysicsCore, fixed: Sequence[Cycle]):
+        self.core = core
+        self._fixed = {id(c): c for c in fixed}
+        self._cache: dict[int, CycleTables] = {}
+
+    def get(self, ep: Episode) -> CycleTables:
+        key = id(ep.cycle)
+        tab = self._cache.get(key)
+        if tab is not None:
+            return tab
+        st = self.core.initial_state(ep.conditions, 1)[0]
+        tab = CycleTables(self.core, ep.cycle, st, self.core.conditions_array(ep.conditions, 1)[0])
+        if self._fixed.get(key) is ep.cycle:
+            self._cache[key] = tab
+        return tab
+
+

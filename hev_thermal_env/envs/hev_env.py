@@ -1,0 +1,334 @@
+"""``HevThermal-v0``: energy management of a parallel hybrid city bus with a thermally limited motor.
+
+A thin MDP layer, as a classic-control env: ``step`` is dynamics, reward and termination, all in
+one call of the batch engine (:class:`~hev_thermal_env.envs.batch.EpisodeRows`, a batch of one),
+which composes the physics core, the reward (:mod:`hev_thermal_env.envs.reward`) and the
+observation (:mod:`hev_thermal_env.envs.spaces`). Episodes (cycle, conditions, start) are drawn
+by :mod:`hev_thermal_env.envs.episodes` from the scenario (:mod:`hev_thermal_env.scenarios`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..cycles import Cycle
+from ..physics import core as C
+from ..physics.config import Conditions, VehicleConfig, paper_bus
+from ..scenarios import Scenario
+from .batch import EpisodeRows
+from .episodes import Episode, EpisodeSampler, TableCache
+from .reward import RewardParams
+from .spaces import observation_bounds, observation_names, preview_offsets, reset_info_dict, step_info_dict
+
+
+class HevThermalEnv(gym.Env):
+    r"""Energy management of a parallel hybrid city bus whose traction motor heats up and derates.
+
+    ## Description
+
+    A 15 t parallel hybrid city bus (the paper's vehicle, :func:`hev_thermal_env.paper_bus`) drives
+    a speed cycle one second per step (backward-facing, ADVISOR-style). The agent is the
+    energy-management strategy: each step it chooses the share of the coupler torque the traction
+    motor carries; the diesel engine carries the rest. The water-cooled PMSM heats up (lumped
+    thermal node, paper eqs 1-7), loses peak torque as its heat index (PWM, eqs 8-9) integrates
+    sustained overload, loses efficiency as it warms and stops at 70 °C until it has cooled. Where
+    the powertrain cannot deliver the demand, the step records a trace miss (missed wheel energy,
+    speed deficit) and the reward prices it; the next step follows the cycle again. See
+    ``DESIGN.md`` §3-4 and :mod:`hev_thermal_env.physics.core`.
+
+    ## Action Space
+
+    ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler.
+    Motor u·T_dem, engine (1 - u)·T_dem; u < 0 loads the engine more and charges the battery.
+    The physics core clips the motor request to its envelope (peak torque, heat index, cutoff)
+    and the battery's limits and lets the engine cover the rest up to its full load; what is
+    still missing is a priced trace miss (the motor never tops up by itself). Braking is
+    regenerative by rule (the action has no effect while braking or standing). Values outside
+    [-1, 1] are clipped (``info["action_clipped"]``); NaN or inf, or a shape other than ``(1,)``,
+    raise ``ValueError``.
+
+    ## Observation Space
+
+    ``Box`` of float32, ``14 + preview_s // preview_step_s`` entries, always inside the bounds
+    (values are clipped to them). "Next step" is the step from ``cycle.speed_mps[k]`` to ``[k+1]``.
+
+    | Num | Observation | Min | Max | Unit |
+    |-----|-------------|-----|-----|------|
+    | 0 | vehicle speed at the start of the next step (the cycle's; a miss is not carried over) | 0 | 60 | m/s |
+    | 1 | acceleration the cycle demands over the next step | -10 | 10 | m/s² |
+    | 2 | wheel power the cycle demands over the next step (road load, grade, inertia) | -2000 | 2000 | kW |
+    | 3 | battery state of charge | 0 | 1 | - |
+    | 4 | SOC target of the reward (the episode's initial SOC) | 0 | 1 | - |
+    | 5 | motor temperature | -40 | 200 | °C |
+    | 6 | heat index PWM (eq 9): 0 peak torque available, 1 continuous torque only | 0 | 1 | - |
+    | 7 | heat-index integrator state x (eq 9), PWM = clip(x, 0, 1) | -1 | 1 | - |
+    | 8 | motor cut off by its 70 °C protection (1) or not (0) | 0 | 1 | - |
+    | 9 | motor torque envelope of the last step (at reset: of the first step), see below | 0 | peak torque | N·m |
+    | 10 | gear of the next step (shift schedule on speed and load) | 1 | number of gears | - |
+    | 11 | cycle progress k / n_steps | 0 | 1 | - |
+    | 12 | ambient temperature | -40 | 60 | °C |
+    | 13 | coolant heat-transfer multiplier: 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
+    | 14... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
+
+    Entry 9 is the motor's torque limit in the last step: the peak torque at that speed, derated
+    by the heat index (eq 8), 0 while cut off; after reset, the limit for the first step. Its
+    upper bound is the motor's peak torque (240 N·m for ``paper_bus``); that of entry 10 the number
+    of gears (5). The preview is taken from the start of the next step and held at the cycle's last
+    speed past its end; with the defaults (``preview_s=10``, ``preview_step_s=2``) it has 5 entries
+    (+2 to +10 s) and the observation 19. :func:`observation_names` gives the names in order.
+
+    ## Rewards
+
+    :func:`hev_thermal_env.reward.reward_terms` with :class:`~hev_thermal_env.reward.RewardParams`,
+    in grams of diesel equivalent: ``reward = reward_fuel + reward_miss + reward_soc + reward_overheat``:
+    minus the fuel burned, minus the price of missed wheel energy (weight 2 by default), minus the
+    fuel equivalent of the battery energy used and a quadratic deviation of the SOC from the target
+    (the episode's initial SOC), minus an overheating penalty (quadratic above the 60 °C soft limit,
+    20 per step while cut off, optionally per unit PWM). Each term is in ``info``.
+
+    ## Starting State
+
+    The scenario (``"paper"``: 20 °C ambient and motor, coolant on, SOC 0.65; ``"hot"``;
+    ``"random"``: drawn every episode from ``self.np_random``) or ``conditions`` set the ambient
+    temperature, the motor's starting temperature, the SOC and the coolant mode; reset options
+    override them. The heat-index integrator starts at -PWM_initial(T_start) (eq 9). The episode
+    starts at ``start_s`` into the cycle (0, or uniform with ``random_start``).
+
+    ## Episode End
+
+    ``truncated`` is True at the end of the cycle. ``terminated`` is always False: overheating,
+    cutoff and trace misses are priced, not terminal.
+
+    ## Arguments
+
+    ```python
+    gymnasium.make("HevThermal-v0", cycle="hwfet", scenario="paper", config=None, conditions=None,
+                   reward=None, preview_s=10, preview_step_s=2, render_mode=None, thermal=None,
+                   random_start=False)
+    ```
+
+    * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path,
+      a :class:`~hev_thermal_env.cycles.Cycle`, ``"random_bus"`` (a fresh ``generate_bus_cycle`` per
+      episode, seeded from ``self.np_random``), or a list of these (one drawn per episode).
+    * ``scenario``: ``"paper"``, ``"hot"`` or ``"random"`` (:mod:`hev_thermal_env.scenarios`) or a
+      :class:`~hev_thermal_env.scenarios.Scenario`.
+    * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus()``).
+    * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides
+      the scenario).
+    * ``reward``: :class:`~hev_thermal_env.reward.RewardParams` or a dict of its fields.
+    * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds);
+      ``preview_s=0`` removes it.
+    * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor
+      temperature, heat index and split so far) or ``"human"`` (the same in a matplotlib window,
+      redrawn at every step and reset).
+    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting,
+      on for ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra
+      loss, no cutoff), the baseline of its tables.
+    * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
+
+    ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this
+    episode only), ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant``
+    (``"on"``, ``"degraded"``, ``"off"``) and ``start_s`` (whole seconds into the cycle).
+
+    ## Attributes for strategies (``env.unwrapped``)
+
+    ``config``, ``core`` (:class:`~hev_thermal_env.physics.PhysicsCore`), ``conditions`` and
+    ``cycle`` of the episode, ``k`` (index of the next step), ``phys_state`` ((1, N_STATE) state
+    before the next step), ``cond`` ((1, N_COND)), ``reward_params``, ``soc_target``,
+    ``last_out`` ((N_OUT,) outputs of the last step, zeros after reset) and :meth:`peek`, which
+    evaluates candidate actions for the next step without changing the env.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+
+    def __init__(self, cycle: Any = "hwfet", scenario: str | Scenario = "paper", config: VehicleConfig | None = None,
+                 conditions: Conditions | None = None, reward: RewardParams | dict | None = None, preview_s: int = 10,
+                 preview_step_s: int = 2, render_mode: str | None = None, thermal: bool | None = None,
+                 random_start: bool = False):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
+        self.render_mode = render_mode
+        self.config = resolve_config(config, thermal)
+        self.core = C.PhysicsCore(self.config)
+        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
+        self.preview_s = int(preview_s)
+        self.preview_step_s = int(preview_step_s)
+        self.offsets = preview_offsets(preview_s, preview_step_s)
+        low, high = observation_bounds(self.config, self.offsets.size)
+        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self.obs_names = observation_names(self.preview_s, self.preview_step_s)
+        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
+        self._rows = EpisodeRows(self.core, 1, self.offsets, low, high, resolve_reward(reward))
+        self._u = np.zeros(1)
+        self.cycle: Cycle | None = None
+        self.conditions: Conditions | None = None
+        self._history: dict[str, list] | None = None
+        self._plot = None
+
+    # -- contract attributes ---------------------------------------------------------------------
+
+    @property
+    def k(self) -> int:
+        """Index of the next step (from ``cycle.speed_mps[k]`` to ``[k+1]``)."""
+        return int(self._rows.k[0])
+
+    @property
+    def phys_state(self) -> np.ndarray:
+        """State before the next step, shape (1, N_STATE)."""
+        return self._rows.state
+
+    @property
+    def cond(self) -> np.ndarray:
+        """Conditions array of the episode, shape (1, N_COND)."""
+        return self._rows.cond
+
+    @property
+    def soc_target(self) -> float:
+        """SOC target of the reward's deviation term: the episode's initial SOC."""
+        return float(self._rows.soc_target[0])
+
+    @property
+    def reward_params(self) -> RewardParams:
+        return self._rows.reward_params
+
+    @reward_params.setter
+    def reward_params(self, value: RewardParams | dict) -> None:
+        self._rows.reward_params = resolve_reward(value)
+
+    @property
+    def last_out(self) -> np.ndarray:
+        """Outputs (N_OUT,) of the last step (zeros after reset); columns in ``physics.core.OUT_NAMES``."""
+        return self._rows.last_out[0]
+
+    # -- gymnasium API ---------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        ep = self.sampler.sample(self.np_random, options)
+        tab = self._tables.get(ep)
+        self._rows.last_out = np.zeros((1, C.N_OUT))  # a fresh array: references to the last one stay valid
+        self._rows.load([0], [ep], [tab])
+        self.cycle = ep.cycle
+        self.conditions = ep.conditions
+        obs = self._rows.observe()[0]
+        info = reset_info_dict(self._rows, 0, ep)
+        if self.render_mode is not None:
+            self._history = {name: [] for name in ("time_s", "cycle_speed_mps", "speed_mps", "soc", "motor_temp_c",
+                                                    "heat_index", "action")}
+            self._record_reset(ep)
+            if self.render_mode == "human":
+                self.render()
+        return obs, info
+
+    def step(self, action):
+        u, clipped = check_action(action)
+        rows = self._rows
+        if self.cycle is None:
+            raise RuntimeError("call reset() before step()")
+        if rows.k[0] >= rows.end[0]:
+            raise RuntimeError("the episode has ended (truncated at the end of the cycle); call reset()")
+        self._u[0] = u
+        reward, terms, out, obs = rows.step(self._u)
+        k = int(rows.k[0])
+        truncated = k >= rows.end[0]
+        info = step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], float(k), u, clipped)
+        if self._history is not None:
+            self._record_step(info)
+            if self.render_mode == "human":
+                self.render()
+        return obs[0], float(reward[0]), False, bool(truncated), info
+
+    def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Evaluate candidate actions for the next step from the current state, without changing the env.
+
+        ``actions``: n motor shares (any shape with n elements; clipped to [-1, 1] by the core).
+        Returns ``(state_out [n, N_STATE], out [n, N_OUT])`` from one batched call of the physics core.
+        """
+        a = np.array(actions, dtype=np.float64).reshape(-1)
+        if not np.all(np.isfinite(a)):
+            raise ValueError("peek: actions contain NaN or inf")
+        rows = self._rows
+        if self.cycle is None or rows.k[0] >= rows.end[0]:
+            raise RuntimeError("peek: no next step (call reset() first)")
+        n = a.size
+        k = int(rows.k[0])
+        return self.core.step(np.repeat(rows.state, n, axis=0), a, rows.speed[0, k], rows.speed[0, k + 1],
+                              rows.grade[0, k], rows.cond[0])
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        from .render import EpisodePlot  # matplotlib only when rendering
+
+        if self._plot is None:
+            self._plot = EpisodePlot(human=self.render_mode == "human", fps=self.metadata["render_fps"])
+        self._plot.draw(self._history or {}, self.cycle, self.config)
+        return self._plot.to_rgb() if self.render_mode == "rgb_array" else None
+
+    def close(self):
+        if self._plot is not None:
+            self._plot.close()
+            self._plot = None
+
+    # -- rendering history (only with a render_mode) ---------------------------------------------
+
+    def _record_reset(self, ep: Episode) -> None:
+        h = self._history
+        st = self._rows.state[0]
+        h["time_s"].append(float(ep.start_s))
+        h["cycle_speed_mps"].append(float(ep.cycle.speed_mps[ep.start_s]))
+        h["speed_mps"].append(float(ep.cycle.speed_mps[ep.start_s]))
+        h["soc"].append(float(st[C.SOC]))
+        h["motor_temp_c"].append(float(st[C.TEMP_C]))
+        h["heat_index"].append(min(max(float(st[C.HEAT_X]), 0.0), 1.0))
+        h["action"].append(math.nan)
+
+    def _record_step(self, info: dict) -> None:
+        for name, values in self._history.items():
+            values.append(info[name])
+
+
+def resolve_config(config: VehicleConfig | None, thermal: bool | None) -> VehicleConfig:
+    """The vehicle: ``config`` (default ``paper_bus()``), its thermal model switched by ``thermal`` if given."""
+    if config is None:
+        config = paper_bus()
+    if not isinstance(config, VehicleConfig):
+        raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
+    return config if thermal is None else config.with_thermal(bool(thermal))
+
+
+def resolve_reward(reward: RewardParams | dict | None) -> RewardParams:
+    if reward is None:
+        return RewardParams()
+    if isinstance(reward, RewardParams):
+        return reward
+    if isinstance(reward, dict):
+        return RewardParams.from_dict(reward, where="reward")
+    raise TypeError(f"reward: expected RewardParams, a dict or None, got {type(reward).__name__}")
+
+
+def check_action(action: Any) -> tuple[float, bool]:
+    """The motor share of a single-env action (clipped to [-1, 1]) and whether it was clipped."""
+    if type(action) is not np.ndarray:
+        try:
+            action = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"action must be an array of shape (1,) (the motor's share u), got {action!r}") from None
+    if action.shape != (1,):
+        raise ValueError(f"action must have shape (1,) (the motor's share u), got shape {action.shape}")
+    u = float(action[0])
+    if not math.isfinite(u):
+        raise ValueError(f"action must be finite, got {u}")
+    uc = -1.0 if u < -1.0 else (1.0 if u > 1.0 else u)
+    return uc, uc != u

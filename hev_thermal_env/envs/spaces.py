@@ -1,0 +1,159 @@
+"""The observation and info layout of ``HevThermal-v0``: names, bounds, units, and the info builders.
+
+Shared by the single env (:mod:`hev_thermal_env.envs.hev_env`), the batch engine
+(:mod:`hev_thermal_env.envs.batch`) and the vector env, so all three report the same keys and values.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..physics import core as C
+from ..physics.config import VehicleConfig
+from .reward import REWARD_TERMS
+
+RPM_PER_RADPS = 30.0 / math.pi
+
+# --- observation layout ---------------------------------------------------------------------------
+# (name, low, high, unit, meaning); ``None`` bounds are filled from the vehicle.
+_OBS_FIELDS = (
+    ("speed_mps", 0.0, 60.0, "m/s", "vehicle speed at the start of the next step (cycle speed)"),
+    ("accel_mps2", -10.0, 10.0, "m/s²", "acceleration the cycle demands over the next step"),
+    ("wheel_power_demand_kw", -2000.0, 2000.0, "kW", "wheel power the cycle demands over the next step"),
+    ("soc", 0.0, 1.0, "-", "battery state of charge"),
+    ("soc_target", 0.0, 1.0, "-", "SOC target of the reward (the episode's initial SOC)"),
+    ("motor_temp_c", -40.0, 200.0, "°C", "motor temperature"),
+    ("heat_index", 0.0, 1.0, "-", "heat index PWM (eq 9): 0 full peak torque, 1 continuous torque only"),
+    ("heat_x", -1.0, 1.0, "-", "heat-index integrator state x (eq 9); PWM = clip(x, 0, 1)"),
+    ("motor_cutoff", 0.0, 1.0, "-", "1 while the 70 °C protection holds the motor off"),
+    ("motor_torque_avail_nm", 0.0, None, "N·m", "motor torque envelope of the last step (at reset: of the first)"),
+    ("gear", 1.0, None, "-", "gear of the next step (set by the shift schedule from the cycle)"),
+    ("cycle_progress", 0.0, 1.0, "-", "elapsed fraction of the cycle"),
+    ("ambient_temp_c", -40.0, 60.0, "°C", "ambient air temperature"),
+    ("coolant_factor", 0.0, 1.0, "-", "coolant heat-transfer multiplier: 1 on, <1 degraded, 0 off"),
+)
+PREVIEW_MAX_MPS = 60.0
+_OBS_INDEX = {f[0]: i for i, f in enumerate(_OBS_FIELDS)}
+OBS_SPEED = _OBS_INDEX["speed_mps"]
+OBS_ACCEL = _OBS_INDEX["accel_mps2"]
+OBS_DEMAND = _OBS_INDEX["wheel_power_demand_kw"]
+OBS_SOC = _OBS_INDEX["soc"]
+OBS_SOC_TARGET = _OBS_INDEX["soc_target"]
+OBS_TEMP = _OBS_INDEX["motor_temp_c"]
+OBS_PWM = _OBS_INDEX["heat_index"]
+OBS_HEAT_X = _OBS_INDEX["heat_x"]
+OBS_CUTOFF = _OBS_INDEX["motor_cutoff"]
+OBS_AVAIL = _OBS_INDEX["motor_torque_avail_nm"]
+OBS_GEAR = _OBS_INDEX["gear"]
+OBS_PROGRESS = _OBS_INDEX["cycle_progress"]
+OBS_AMBIENT = _OBS_INDEX["ambient_temp_c"]
+OBS_COOLANT = _OBS_INDEX["coolant_factor"]
+N_OBS_BASE = len(_OBS_FIELDS)
+
+# --- info layout ----------------------------------------------------------------------------------
+# Step-info keys straight from an output column of the physics core.
+_INFO_OUT_COLUMNS = (
+    ("fuel_g", C.FUEL_G), ("motor_torque_nm", C.MOTOR_TORQUE), ("motor_heat_w", C.MOTOR_HEAT),
+    ("engine_torque_nm", C.ENGINE_TORQUE), ("speed_mps", C.SPEED), ("trace_miss_mps", C.TRACE_MISS),
+    ("heat_index", C.HEAT_INDEX), ("missed_wheel_energy_j", C.MISSED_J), ("battery_chem_power_w", C.BATT_CHEM),
+    ("battery_power_w", C.BATT_POWER), ("motor_torque_avail_nm", C.MOTOR_AVAIL),
+)
+_INFO_RPM_COLUMNS = (("motor_speed_rpm", C.MOTOR_SPEED), ("engine_speed_rpm", C.ENGINE_SPEED))
+_INFO_BOOL_COLUMNS = (("engine_on", C.ENGINE_ON), ("coolant_on", C.COOLANT_ON),
+                      ("motor_torque_clipped", C.MOTOR_CLIPPED))
+_REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  # DESIGN §4 order
+_REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
+
+INFO_KEYS = (
+    "fuel_g", "soc", "motor_temp_c", "heat_index", "motor_torque_nm", "motor_speed_rpm", "motor_heat_w",
+    "engine_torque_nm", "engine_speed_rpm", "engine_on", "gear", "speed_mps", "trace_miss_mps", "motor_cutoff",
+    "coolant_on", *_REWARD_KEYS, "missed_wheel_energy_j", "battery_chem_power_w", "battery_power_w",
+    "motor_torque_avail_nm", "cycle_speed_mps", "time_s", "action", "action_clipped", "motor_torque_clipped",
+)
+"""Keys of the ``info`` dict of every step (DESIGN §4 contract first, then extras)."""
+
+RESET_INFO_KEYS = ("cycle_name", "start_s", "time_s", "soc", "soc_target", "motor_temp_c", "heat_index",
+                   "motor_cutoff", "ambient_temp_c", "coolant")
+"""Keys of the ``info`` dict returned by ``reset``."""
+
+
+def observation_names(preview_s: int, preview_step_s: int) -> tuple[str, ...]:
+    """Names of the observation entries, in order."""
+    offsets = preview_offsets(preview_s, preview_step_s)
+    return tuple(f[0] for f in _OBS_FIELDS) + tuple(f"preview_speed_{int(o)}s_mps" for o in offsets)
+
+
+def preview_offsets(preview_s: int, preview_step_s: int) -> np.ndarray:
+    """Seconds ahead of the next step's start at which the preview samples the cycle speed."""
+    if preview_s < 0 or preview_step_s < 1 or int(preview_s) != preview_s or int(preview_step_s) != preview_step_s:
+        raise ValueError(f"preview_s must be an integer >= 0 and preview_step_s an integer >= 1, got "
+                         f"preview_s={preview_s!r}, preview_step_s={preview_step_s!r}")
+    return np.arange(int(preview_step_s), int(preview_s) + 1, int(preview_step_s), dtype=np.int64)
+
+
+def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds (float64) of the observation for ``config``."""
+    fill = {"motor_torque_avail_nm": max(config.motor.peak_torque_nm, config.motor.continuous_torque_nm, 1.0),
+            "gear": float(len(config.driveline.gear_ratios))}
+    low = [f[1] for f in _OBS_FIELDS] + [0.0] * n_preview
+    high = [fill.get(f[0], f[2]) for f in _OBS_FIELDS] + [PREVIEW_MAX_MPS] * n_preview
+    return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
+
+
+def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: float,
+                   time_s: float, u: float, clipped: bool) -> dict[str, Any]:
+    """The ``info`` of one step of the single env (same values as the vector env's info arrays)."""
+    o = out.tolist()
+    info = {
+        "fuel_g": o[C.FUEL_G], "soc": float(state[C.SOC]), "motor_temp_c": float(state[C.TEMP_C]),
+        "heat_index": o[C.HEAT_INDEX], "motor_torque_nm": o[C.MOTOR_TORQUE],
+        "motor_speed_rpm": o[C.MOTOR_SPEED] * RPM_PER_RADPS, "motor_heat_w": o[C.MOTOR_HEAT],
+        "engine_torque_nm": o[C.ENGINE_TORQUE], "engine_speed_rpm": o[C.ENGINE_SPEED] * RPM_PER_RADPS,
+        "engine_on": o[C.ENGINE_ON] != 0.0, "gear": int(o[C.GEAR]), "speed_mps": o[C.SPEED],
+        "trace_miss_mps": o[C.TRACE_MISS], "motor_cutoff": bool(state[C.CUTOFF] != 0.0),
+        "coolant_on": o[C.COOLANT_ON] != 0.0,
+    }
+    t = terms.tolist()
+    for key, col in _REWARD_COLUMNS:
+        info[key] = t[col]
+    info.update(
+        missed_wheel_energy_j=o[C.MISSED_J], battery_chem_power_w=o[C.BATT_CHEM], battery_power_w=o[C.BATT_POWER],
+        motor_torque_avail_nm=o[C.MOTOR_AVAIL], cycle_speed_mps=float(cycle_speed), time_s=time_s, action=u,
+        action_clipped=clipped, motor_torque_clipped=o[C.MOTOR_CLIPPED] != 0.0)
+    return info
+
+
+def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.ndarray,
+                     time_s: np.ndarray, u: np.ndarray, clipped: np.ndarray) -> dict[str, np.ndarray]:
+    """The step infos of a batch as one array per key (one column slice per key)."""
+    info = {name: out[:, col] for name, col in _INFO_OUT_COLUMNS}
+    for name, col in _INFO_RPM_COLUMNS:
+        info[name] = out[:, col] * RPM_PER_RADPS
+    for name, col in _INFO_BOOL_COLUMNS:
+        info[name] = out[:, col] != 0.0
+    info["gear"] = out[:, C.GEAR].astype(np.int64)
+    info["soc"] = state[:, C.SOC]
+    info["motor_temp_c"] = state[:, C.TEMP_C]
+    info["motor_cutoff"] = state[:, C.CUTOFF] != 0.0
+    for key, col in _REWARD_COLUMNS:
+        info[key] = terms[:, col]
+    info["cycle_speed_mps"] = cycle_speed
+    info["time_s"] = time_s
+    info["action"] = u
+    info["action_clipped"] = clipped
+    return {key: info[key] for key in INFO_KEYS}
+
+
+
+def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
+    """The ``info`` of a reset: row ``i`` of the batch engine ``rows`` starting episode ``ep``."""
+    st = rows.state[i]
+    return {
+        "cycle_name": ep.cycle.name, "start_s": ep.start_s, "time_s": float(ep.start_s), "soc": float(st[C.SOC]),
+        "soc_target": float(rows.soc_target[i]), "motor_temp_c": float(st[C.TEMP_C]),
+        "heat_index": min(max(float(st[C.HEAT_X]), 0.0), 1.0), "motor_cutoff": bool(st[C.CUTOFF] != 0.0),
+        "ambient_temp_c": float(ep.conditions.ambient_temp_c), "coolant": ep.conditions.coolant,
+    }
