@@ -65,324 +65,29 @@ a coarse DP is not an optimum.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics.jit import jit
-from hev_thermal_env.envs.reward import RewardParams
 
 from .base import Strategy
 from .common import argmin_small_action, default_threads, stage_cost_g
+from .dp_corridor import Corridor, corridor
+from .dp_grid import (
+    DIM_COLUMNS,
+    TEMP_MODES,
+    DPInfeasibleError,
+    DPPlan,
+    DPProblem,
+    DPSettings,
+    fixed_grids,
+    interp_uniform,
+)
 
-DIM_COLUMNS = {"soc": C.SOC, "heat_x": C.HEAT_X, "temp": C.TEMP_C}
-TEMP_MODES = ("auto", "fixed", "trajectory", "state")
-
-
-class DPInfeasibleError(ValueError):
-    """No control sequence reaches the final-SOC band on this cycle from this start."""
-
-
-@jit
-def interp_uniform(values, lo, step, n, states, cols, wall, result):
-    """Multilinear interpolation of ``values`` (flattened, C order, shape ``n``) on a uniform grid.
-
-    ``lo``, ``step``, ``n`` per dimension; the point of row b is ``states[b, cols]``. Dimension 0 (SOC) continues beyond
-    its ends with slope ``wall`` (value at the end + wall × distance); the others are clamped.
-    """
-    d_count = lo.shape[0]
-    stride = np.empty(d_count, dtype=np.int64)
-    s = 1
-    for d in range(d_count - 1, -1, -1):
-        stride[d] = s
-        s *= n[d]
-    idx = np.empty(d_count, dtype=np.int64)
-    w = np.empty(d_count)
-    for b in range(states.shape[0]):
-        excess = 0.0
-        for d in range(d_count):
-            f = (states[b, cols[d]] - lo[d]) / step[d]
-            top = n[d] - 1.0
-            if f < 0.0:
-                if d == 0:
-                    excess = (0.0 - f) * step[d]
-                f = 0.0
-            elif f > top:
-                if d == 0:
-                    excess = (f - top) * step[d]
-                f = top
-            i = min(int(f), n[d] - 2)
-            idx[d] = i
-            w[d] = f - i
-        acc = 0.0
-        for corner in range(1 << d_count):
-            weight = 1.0
-            flat = 0
-            for d in range(d_count):
-                if (corner >> d) & 1:
-                    weight *= w[d]
-                    flat += (idx[d] + 1) * stride[d]
-                else:
-                    weight *= 1.0 - w[d]
-                    flat += idx[d] * stride[d]
-            if weight != 0.0:
-                acc += weight * values[flat]
-        result[b] = acc + wall * excess
-
-
-@dataclass
-class DPPlan:
-    """A solved DP: the cost-to-go on the state grid of every stage, and how it was made.
-
-    The SOC grid of stage i has ``n_soc`` points from ``soc_lo[i]`` to ``soc_hi[i]`` (the corridor);
-    the other dimensions have the fixed grids ``grids[1:]``.
-    """
-
-    dims: tuple[str, ...]
-    grids: list[np.ndarray]  # grids[0] is unused (the SOC grid varies per stage); the others are fixed
-    soc_lo: np.ndarray  # [n_stages + 1]
-    soc_hi: np.ndarray  # [n_stages + 1]
-    cost_to_go: np.ndarray  # [n_stages + 1, n_states], flattened grid in C order (SOC-major)
-    k0: int
-    held: np.ndarray  # [n_stages + 1, N_STATE]: values of the columns that are not DP states, per stage
-    soc_final: float
-    soc_tol: float
-    wall_g_per_soc: float
-    solve_s: float
-    n_evals: int
-    info: dict = field(default_factory=dict)
-
-    @property
-    def n_stages(self) -> int:
-        return self.cost_to_go.shape[0] - 1
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return tuple(len(g) for g in self.grids)
-
-    def soc_grid(self, stage: int) -> np.ndarray:
-        return np.linspace(self.soc_lo[stage], self.soc_hi[stage], len(self.grids[0]))
-
-    def _axes(self, stage: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        n = np.array(self.shape, dtype=np.int64)
-        lo = np.array([self.soc_lo[stage]] + [g[0] for g in self.grids[1:]])
-        step = np.array([(self.soc_hi[stage] - self.soc_lo[stage]) / (n[0] - 1)]
-                        + [g[1] - g[0] for g in self.grids[1:]])
-        return lo, step, n
-
-    def lookup(self, stage: int, states: np.ndarray) -> np.ndarray:
-        """Cost-to-go at ``stage`` (0 = plan start) of full states [B, N_STATE]."""
-        cols = np.array([DIM_COLUMNS[d] for d in self.dims], dtype=np.int64)
-        res = np.empty(states.shape[0])
-        lo, step, n = self._axes(stage)
-        interp_uniform(self.cost_to_go[stage], lo, step, n, np.ascontiguousarray(states), cols, self.wall_g_per_soc,
-                       res)
-        return res
-
-
-@dataclass
-class DPProblem:
-    """What DP needs from an environment: the vehicle, the cycle from step ``k0``, the start, the prices."""
-
-    core: C.PhysicsCore
-    speed_mps: np.ndarray
-    grade: np.ndarray
-    k0: int
-    state0: np.ndarray  # [N_STATE]
-    cond: np.ndarray  # [N_COND]
-    reward_params: RewardParams
-    soc_target: float
-    name: str = "cycle"
-
-    @classmethod
-    def from_env(cls, env: Any) -> DPProblem:
-        e = env.unwrapped if hasattr(env, "unwrapped") else env
-        return cls(core=e.core, speed_mps=np.asarray(e.cycle.speed_mps, dtype=np.float64),
-                   grade=np.asarray(e.cycle.grade, dtype=np.float64), k0=int(e.k),
-                   state0=np.array(e.phys_state[0], dtype=np.float64), cond=np.array(e.cond[0], dtype=np.float64),
-                   reward_params=e.reward_params, soc_target=float(e.soc_target),
-                   name=getattr(e.cycle, "name", "cycle"))
-
-    @property
-    def n_stages(self) -> int:
-        return len(self.speed_mps) - 1 - self.k0
-
-    @property
-    def lhv(self) -> float:
-        return self.core.config.engine.fuel_lhv_j_per_g
-
-    def key(self) -> str:
-        h = hashlib.sha1()
-        for a in (self.speed_mps, self.grade, self.state0, self.cond, *self.core.params):
-            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
-        h.update(repr((self.k0, self.reward_params, self.soc_target, self.core.dt_s)).encode())
-        return h.hexdigest()
-
-    def stage_inputs(self, i: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        k = self.k0 + i
-        return (np.full(b, self.speed_mps[k]), np.full(b, self.speed_mps[k + 1]), np.full(b, self.grade[k]))
-
-    def step(self, states: np.ndarray, actions: np.ndarray, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """The physics step of stage i for a small batch (planning helpers)."""
-        v0, v1, g = self.stage_inputs(i, states.shape[0])
-        return self.core.step(states, actions, v0, v1, g, self.cond)
-
-    def demand_positive(self) -> np.ndarray:
-        """Whether the shaft demand of each stage is positive (else the action has no effect)."""
-        n = self.n_stages
-        k = self.k0
-        _, out = self.core.step(np.repeat(self.state0[None, :], n, axis=0), 0.0, self.speed_mps[k:-1],
-                                self.speed_mps[k + 1:], self.grade[k:k + n], self.cond)
-        return out[:, C.SHAFT_DEMAND] > 0.0
-
-
-@dataclass
-class DPSettings:
-    """Grid and pricing options of a DP solve (see the module docstring)."""
-
-    dims: tuple[str, ...] = ("soc",)
-    n_soc: int = 401
-    n_heat_x: int = 21
-    n_temp: int = 11
-    n_u: int = 41
-    n_u_exec: int = 101
-    temp_range_c: tuple[float, float] | None = None  # default: [min(start, ambient, water), cutoff + 2]
-    soc_final: float | None = None  # default: the initial SOC
-    soc_tol: float = 0.005
-    on_infeasible: str = "raise"
-    penalty_g_per_soc: float = 1e6
-    price_overheat: bool = False
-    price_soc_deviation: bool = False
-    threads: int | None = None
-
-    def sizes(self) -> dict[str, int]:
-        return {"soc": self.n_soc, "heat_x": self.n_heat_x, "temp": self.n_temp}
-
-
-def _fixed_grids(problem: DPProblem, s: DPSettings) -> list[np.ndarray]:
-    """Grids of the non-SOC dimensions (the SOC entry is a placeholder of the right length)."""
-    cfg = problem.core.config
-    grids = []
-    for d in s.dims:
-        n = s.sizes()[d]
-        if n < 2:
-            raise ValueError(f"dp: the {d} grid needs at least 2 points, got {n}")
-        if d == "soc":
-            lo, hi = 0.0, 1.0
-        elif d == "heat_x":
-            lo, hi = float(problem.state0[C.HEAT_X_MIN]), 1.0
-            if hi - lo < 1e-6:
-                lo = hi - 1.0
-        else:
-            t0 = float(problem.state0[C.TEMP_C])
-            lo, hi = s.temp_range_c or (min(t0, float(problem.cond[C.AMBIENT_C]), float(problem.cond[C.WATER_C])),
-                                        cfg.thermal.cutoff_temp_c + 2.0)
-        grids.append(np.linspace(float(lo), float(hi), int(n)))
-    return grids
-
-
-@dataclass
-class Corridor:
-    """Per-stage SOC bounds: forward-reachable [f_lo, f_hi], band-reaching [b_lo, b_hi], and the band."""
-
-    f_lo: np.ndarray
-    f_hi: np.ndarray
-    b_lo: np.ndarray
-    b_hi: np.ndarray
-    band: tuple[float, float]
-
-    @property
-    def lo(self) -> np.ndarray:
-        return np.maximum(self.f_lo, self.b_lo)
-
-    @property
-    def hi(self) -> np.ndarray:
-        return np.minimum(self.f_hi, self.b_hi)
-
-    @property
-    def feasible(self) -> bool:
-        return bool(np.all(self.lo <= self.hi + 1e-9))
-
-    @property
-    def reachable_final(self) -> tuple[float, float]:
-        return float(self.f_lo[-1]), float(self.f_hi[-1])
-
-
-def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest and highest SOC reachable at each stage from the start: u = +1 and u = −1 throughout.
-
-    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the
-    most charge (the engine up to twice the demand or its full load); regeneration is the same for
-    both. The other state columns follow ``held`` (the planning model).
-    """
-    n = problem.n_stages
-    st = np.repeat(problem.state0[None, :], 2, axis=0)
-    a = np.array([1.0, -1.0])
-    lo = np.empty(n + 1)
-    hi = np.empty(n + 1)
-    lo[0] = hi[0] = problem.state0[C.SOC]
-    for i in range(n):
-        st[:] = held[i]
-        st[0, C.SOC], st[1, C.SOC] = lo[i], hi[i]
-        so, _ = problem.step(st, a, i)
-        lo[i + 1], hi[i + 1] = so[0, C.SOC], so[1, C.SOC]
-    return lo, hi
-
-
-def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float],
-                      iterations: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band."""
-    n = problem.n_stages
-    bat = problem.core.config.battery
-    lo = np.empty(n + 1)
-    hi = np.empty(n + 1)
-    lo[n], hi[n] = band
-    st = np.empty((2, C.N_STATE))
-    a = np.array([-1.0, 1.0])
-    for i in range(n - 1, -1, -1):
-        target = np.array([lo[i + 1], hi[i + 1]])
-        guess = target.copy()
-        for _ in range(iterations):
-            st[:] = held[i]
-            st[:, C.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
-            so, _ = problem.step(st, a, i)
-            guess = target - (so[:, C.SOC] - st[:, C.SOC])
-        lo[i] = bat.soc_min if target[0] <= bat.soc_min + 1e-12 else min(max(guess[0], bat.soc_min), bat.soc_max)
-        hi[i] = bat.soc_max if target[1] >= bat.soc_max - 1e-12 else min(max(guess[1], bat.soc_min), bat.soc_max)
-    return lo, hi
-
-
-def corridor(problem: DPProblem, settings: DPSettings, held: np.ndarray) -> tuple[Corridor, dict]:
-    """The SOC corridor for the requested band, or for the nearest reachable one (``on_infeasible="closest"``)."""
-    soc0 = float(problem.state0[C.SOC])
-    target = soc0 if settings.soc_final is None else float(settings.soc_final)
-    tol = settings.soc_tol
-    band = (target - tol, target + tol)
-    f_lo, f_hi = forward_envelope(problem, held)
-    info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
-    cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
-    info["final_soc_feasible"] = cor.feasible
-    if not cor.feasible:
-        if settings.on_infeasible == "raise":
-            raise DPInfeasibleError(
-                f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
-                f"{soc0:.4f}: the reachable final SOC is [{f_lo[-1]:.4f}, {f_hi[-1]:.4f}] (change soc_final or "
-                f"soc_tol, or pass on_infeasible='closest' (evaluate.py run: --dp-on-infeasible closest) to plan for "
-                f"the nearest reachable band)")
-        if f_hi[-1] < band[0]:
-            band = (float(f_hi[-1]) - 2.0 * tol, float(f_hi[-1]))
-        else:
-            band = (float(f_lo[-1]), float(f_lo[-1]) + 2.0 * tol)
-        cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
-        if not cor.feasible:
-            raise DPInfeasibleError(f"dp: even the nearest reachable final-SOC band {band} is infeasible on cycle "
-                                    f"{problem.name!r}")
-    info["soc_band_used"] = [float(band[0]), float(band[1])]
-    return cor, info
+__all__ = ["DPInfeasibleError", "DPPlan", "DPProblem", "DPSettings", "DPStrategy", "Corridor", "ThermalDPStrategy",
+           "choose", "corridor", "rollout", "solve"]
 
 
 def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = None) -> DPPlan:
@@ -390,16 +95,11 @@ def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = No
     t_start = time.perf_counter()
     s = settings
     n_stages = problem.n_stages
-    if n_stages < 1:
-        raise ValueError("dp: the cycle has no step left to plan")
-    if s.dims[0] != "soc":
-        raise ValueError("dp: the first state dimension must be 'soc'")
-    if held is None:
-        held = np.repeat(problem.state0[None, :], n_stages + 1, axis=0)
+    held = _held_columns(problem, s, held)
     cor, info = corridor(problem, s, held)
     soc_lo = cor.lo.copy()
     soc_hi = np.maximum(cor.hi, soc_lo + 1e-9)
-    grids = _fixed_grids(problem, s)
+    grids = fixed_grids(problem, s)
     shape = tuple(len(g) for g in grids)
     cols = [DIM_COLUMNS[d] for d in s.dims]
     n_soc = shape[0]
@@ -468,6 +168,15 @@ def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = No
     plan.info["threads"] = threads
     plan.info["corridor_max_width"] = float(np.max(soc_hi - soc_lo))
     return plan
+
+
+def _held_columns(problem: DPProblem, s: DPSettings, held: np.ndarray | None) -> np.ndarray:
+    """Check the problem and settings; the held (non-state) columns per stage, default the start state's."""
+    if problem.n_stages < 1:
+        raise ValueError("dp: the cycle has no step left to plan")
+    if s.dims[0] != "soc":
+        raise ValueError("dp: the first state dimension must be 'soc'")
+    return np.repeat(problem.state0[None, :], problem.n_stages + 1, axis=0) if held is None else held
 
 
 def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, problem: DPProblem,

@@ -45,8 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.physics import core as C
 from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.physics import core as C
 
 from .base import Strategy
 from .common import REWARD_EQUIVALENCE_FACTOR, argmin_small_action, stage_cost_g

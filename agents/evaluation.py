@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.cycles import Cycle, load_cycle
+from hev_thermal_env.metrics import summarize
 from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.metrics import summarize
 from hev_thermal_env.scenarios import Scenario, get_scenario
 
 from .base import Strategy

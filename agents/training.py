@@ -292,8 +292,8 @@ def validate_config(config: dict[str, Any]) -> None:
     """Fail before any work, with one-line messages, on unknown names and impossible numbers."""
     from hev_thermal_env.cycles import load_cycle
     from hev_thermal_env.envs.episodes import RANDOM_BUS
-    from hev_thermal_env.envs.spaces import observation_names
     from hev_thermal_env.envs.reward import RewardParams
+    from hev_thermal_env.envs.spaces import observation_names
     from hev_thermal_env.scenarios import get_scenario
 
     algorithm_class(config["algo"])
@@ -511,9 +511,9 @@ class PolicyEvaluator:
 
     def run(self, act: Callable[[np.ndarray], np.ndarray]) -> list[dict[str, Any]]:
         """Drive every (cycle, scenario) with ``act(raw_obs [n, dim]) -> actions [n, 1]``; one result per run."""
-        from hev_thermal_env.physics import core as C
-        from hev_thermal_env.metrics import summarize
         from hev_thermal_env.envs import HevThermalVectorEnv
+        from hev_thermal_env.metrics import summarize
+        from hev_thermal_env.physics import core as C
 
         results = []
         keys = ("fuel_g", "battery_chem_power_w", "missed_wheel_energy_j", "soc", "motor_temp_c", "heat_index",

@@ -40,8 +40,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import hev_thermal_env  # noqa: E402  (registers HevThermal-v0)
-from hev_thermal_env.physics import core as C  # noqa: E402
 from hev_thermal_env.envs import HevThermalVectorEnv  # noqa: E402
+from hev_thermal_env.physics import core as C  # noqa: E402
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv  # noqa: E402
 
 TARGET_PENDULUM_RATIO = 1.0  # one env at least as fast as Pendulum-v1 in the same run
@@ -107,7 +107,8 @@ def kernel_rate(num_envs: int, n_steps: int) -> dict:
     envs.reset(seed=0)
     rows = envs._rows
     core = envs.core
-    v0, v1, g = rows.speed[rows.all_rows, rows.k], rows.speed[rows.all_rows, rows.k + 1], rows.grade[rows.all_rows, rows.k]
+    r, k = rows.all_rows, rows.k
+    v0, v1, g = rows.speed[r, k], rows.speed[r, k + 1], rows.grade[r, k]
     u = np.full(num_envs, 0.3)
     st_out = np.empty((num_envs, C.N_STATE))
     out = np.empty((num_envs, C.N_OUT))

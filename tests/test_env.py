@@ -15,8 +15,8 @@ import hev_thermal_env
 from hev_thermal_env import Conditions, load_cycle, paper_bus, simulate
 from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS, HevThermalEnv, observation_names
 from hev_thermal_env.envs.episodes import RESET_OPTIONS
-from hev_thermal_env.physics import core as C
 from hev_thermal_env.envs.reward import REWARD_TERMS, RewardParams, reward_terms
+from hev_thermal_env.physics import core as C
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 
 DESIGN_INFO_KEYS = (

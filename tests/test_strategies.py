@@ -18,9 +18,9 @@ from agents.plots import plot_run
 from agents.rule import RuleBased
 from hev_thermal_env import Conditions, cycle_from_arrays, load_cycle, paper_bus
 from hev_thermal_env.envs import HevThermalEnv
+from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.simulate import simulate
-from hev_thermal_env.envs.reward import RewardParams
 
 ROOT = Path(__file__).resolve().parents[1]
 ALL = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")

@@ -11,10 +11,9 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import hev_thermal_env  # noqa: F401  (registers HevThermal-v0)
-from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS, HevThermalVectorEnv
 from hev_thermal_env.envs.reward import RewardParams
-from hev_thermal_env.envs import HevThermalVectorEnv
+from hev_thermal_env.physics import core as C
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
 
 # randomised everywhere: conditions, cycle choice (lengths differ), random bus cycles, start offsets

@@ -1,0 +1,117 @@
+"""The reachable SOC corridor of dynamic programming: forward and backward envelopes of the SOC.
+
+Each stage's SOC grid spans only the SOCs that are reachable from the start and from which the
+final-SOC band is still reachable (:func:`corridor`), so the grid's resolution goes where paths
+can be and the final-SOC constraint is exact instead of a smeared penalty wall.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.physics import core as C
+
+from .dp_grid import DPInfeasibleError, DPProblem, DPSettings
+
+
+@dataclass
+class Corridor:
+    """Per-stage SOC bounds: forward-reachable [f_lo, f_hi], band-reaching [b_lo, b_hi], and the band."""
+
+    f_lo: np.ndarray
+    f_hi: np.ndarray
+    b_lo: np.ndarray
+    b_hi: np.ndarray
+    band: tuple[float, float]
+
+    @property
+    def lo(self) -> np.ndarray:
+        return np.maximum(self.f_lo, self.b_lo)
+
+    @property
+    def hi(self) -> np.ndarray:
+        return np.minimum(self.f_hi, self.b_hi)
+
+    @property
+    def feasible(self) -> bool:
+        return bool(np.all(self.lo <= self.hi + 1e-9))
+
+    @property
+    def reachable_final(self) -> tuple[float, float]:
+        return float(self.f_lo[-1]), float(self.f_hi[-1])
+
+
+def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest SOC reachable at each stage from the start: u = +1 and u = −1 throughout.
+
+    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the
+    most charge (the engine up to twice the demand or its full load); regeneration is the same for
+    both. The other state columns follow ``held`` (the planning model).
+    """
+    n = problem.n_stages
+    st = np.repeat(problem.state0[None, :], 2, axis=0)
+    a = np.array([1.0, -1.0])
+    lo = np.empty(n + 1)
+    hi = np.empty(n + 1)
+    lo[0] = hi[0] = problem.state0[C.SOC]
+    for i in range(n):
+        st[:] = held[i]
+        st[0, C.SOC], st[1, C.SOC] = lo[i], hi[i]
+        so, _ = problem.step(st, a, i)
+        lo[i + 1], hi[i + 1] = so[0, C.SOC], so[1, C.SOC]
+    return lo, hi
+
+
+def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float],
+                      iterations: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band."""
+    n = problem.n_stages
+    bat = problem.core.config.battery
+    lo = np.empty(n + 1)
+    hi = np.empty(n + 1)
+    lo[n], hi[n] = band
+    st = np.empty((2, C.N_STATE))
+    a = np.array([-1.0, 1.0])
+    for i in range(n - 1, -1, -1):
+        target = np.array([lo[i + 1], hi[i + 1]])
+        guess = target.copy()
+        for _ in range(iterations):
+            st[:] = held[i]
+            st[:, C.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
+            so, _ = problem.step(st, a, i)
+            guess = target - (so[:, C.SOC] - st[:, C.SOC])
+        lo[i] = bat.soc_min if target[0] <= bat.soc_min + 1e-12 else min(max(guess[0], bat.soc_min), bat.soc_max)
+        hi[i] = bat.soc_max if target[1] >= bat.soc_max - 1e-12 else min(max(guess[1], bat.soc_min), bat.soc_max)
+    return lo, hi
+
+
+def corridor(problem: DPProblem, settings: DPSettings, held: np.ndarray) -> tuple[Corridor, dict]:
+    """The SOC corridor for the requested band, or for the nearest reachable one (``on_infeasible="closest"``)."""
+    soc0 = float(problem.state0[C.SOC])
+    target = soc0 if settings.soc_final is None else float(settings.soc_final)
+    tol = settings.soc_tol
+    band = (target - tol, target + tol)
+    f_lo, f_hi = forward_envelope(problem, held)
+    info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
+    cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
+    info["final_soc_feasible"] = cor.feasible
+    if not cor.feasible:
+        if settings.on_infeasible == "raise":
+            raise DPInfeasibleError(
+                f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
+                f"{soc0:.4f}: the reachable final SOC is [{f_lo[-1]:.4f}, {f_hi[-1]:.4f}] (change soc_final or "
+                f"soc_tol, or pass on_infeasible='closest' (evaluate.py run: --dp-on-infeasible closest) to plan for "
+                f"the nearest reachable band)")
+        if f_hi[-1] < band[0]:
+            band = (float(f_hi[-1]) - 2.0 * tol, float(f_hi[-1]))
+        else:
+            band = (float(f_lo[-1]), float(f_lo[-1]) + 2.0 * tol)
+        cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
+        if not cor.feasible:
+            raise DPInfeasibleError(f"dp: even the nearest reachable final-SOC band {band} is infeasible on cycle "
+                                    f"{problem.name!r}")
+    info["soc_band_used"] = [float(band[0]), float(band[1])]
+    return cor, info
