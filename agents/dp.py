@@ -7,12 +7,11 @@ every split u (batch = n_states·n_u), so DP sees exactly the physics the enviro
 including the capped demand and the trace miss. Where the demand is not positive (braking,
 coasting, standing) the action has no effect and the stage is evaluated once per grid state.
 
-Cost (grams of fuel equivalent, as :mod:`hev_thermal_env.reward` prices it, via
-:func:`hev_thermal_env.envs.reward.stage_cost_g`): fuel + missed wheel energy at the reward's miss weight +
-the battery's chemical energy at the reward's battery price; ``dp_thermal`` adds the reward's
-overheat terms by default (soft temperature limit, cutoff, derate weight). Because the battery
-term is priced as in the corrected-fuel metric, DP minimises the corrected fuel (with the miss
-at the reward's weight of 2).
+Cost (grams of fuel equivalent, the env's own reward, :func:`hev_thermal_env.envs.reward.stage_cost_g`):
+fuel + missed wheel energy at the reward's miss price + the battery's chemical energy at the
+reward's battery price; ``dp_thermal`` adds the reward's overheat terms by default (soft
+temperature limit, cutoff, derate weight). With the default weights (1) these are the prices of
+the corrected-fuel metric, so DP minimises the corrected fuel.
 
 Final-SOC constraint: the final SOC must lie in the band [SOC_final − tol, SOC_final + tol]
 (default: SOC_final = the initial SOC, tol = 0.005). The SOC moves far less than a grid cell per

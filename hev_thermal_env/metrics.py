@@ -1,4 +1,4 @@
-"""Per-run metrics (DESIGN §6) from a run's traces: fuel, corrected fuel, SOC, heat, misses.
+"""Per-run metrics from a run's traces: fuel, corrected fuel, SOC, heat, misses.
 
 ``fuel_corrected_l_per_100km`` puts strategies on equal service: fuel plus the fuel equivalents of
 the net battery energy and of the missed wheel energy at :class:`~hev_thermal_env.prices.Prices`

@@ -2,7 +2,7 @@
 
 One configurable place, used by the env's reward (:mod:`hev_thermal_env.envs.reward`), by DP and
 ECMS (through the reward) and by the corrected-fuel metric (:mod:`hev_thermal_env.metrics`), so a
-strategy is optimised for exactly the metric it is judged by (DESIGN §6):
+strategy is optimised for exactly the metric it is judged by:
 
 * battery: the net chemical energy drawn from the battery costs the fuel the engine would burn to
   put it back, 1 / (Q_lhv · η_engine · η_charge) per joule (negative when a run ends with more charge);

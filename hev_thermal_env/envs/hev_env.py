@@ -39,7 +39,7 @@ class HevThermalEnv(gym.Env):
     sustained overload, loses efficiency as it warms and stops at 70 °C until it has cooled. Where
     the powertrain cannot deliver the demand, the step records a trace miss (missed wheel energy,
     speed deficit) and the reward prices it; the next step follows the cycle again. See
-    ``DESIGN.md`` §3-4 and :mod:`hev_thermal_env.physics.core`.
+    :mod:`hev_thermal_env.physics.core` and ``docs/architecture.md``.
 
     ## Action Space
 
@@ -86,7 +86,7 @@ class HevThermalEnv(gym.Env):
 
     :func:`hev_thermal_env.reward.reward_terms` with :class:`~hev_thermal_env.reward.RewardParams`,
     in grams of diesel equivalent: ``reward = reward_fuel + reward_miss + reward_soc + reward_overheat``:
-    minus the fuel burned, minus the price of missed wheel energy (weight 2 by default), minus the
+    minus the fuel burned, minus the price of missed wheel energy (weight 1 by default), minus the
     fuel equivalent of the battery energy used and a quadratic deviation of the SOC from the target
     (the episode's initial SOC), minus an overheating penalty (quadratic above the 60 °C soft limit,
     20 per step while cut off, optionally per unit PWM). Each term is in ``info``.

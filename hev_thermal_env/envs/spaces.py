@@ -64,7 +64,7 @@ _INFO_OUT_COLUMNS = (
 _INFO_RPM_COLUMNS = (("motor_speed_rpm", C.MOTOR_SPEED), ("engine_speed_rpm", C.ENGINE_SPEED))
 _INFO_BOOL_COLUMNS = (("engine_on", C.ENGINE_ON), ("coolant_on", C.COOLANT_ON),
                       ("motor_torque_clipped", C.MOTOR_CLIPPED))
-_REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  # DESIGN §4 order
+_REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  # the documented contract order
 _REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
 
 INFO_KEYS = (
@@ -73,7 +73,7 @@ INFO_KEYS = (
     "coolant_on", *_REWARD_KEYS, "missed_wheel_energy_j", "battery_chem_power_w", "battery_power_w",
     "motor_torque_avail_nm", "cycle_speed_mps", "time_s", "action", "action_clipped", "motor_torque_clipped",
 )
-"""Keys of the ``info`` dict of every step (DESIGN §4 contract first, then extras)."""
+"""Keys of the ``info`` dict of every step (the documented contract first, then extras)."""
 
 RESET_INFO_KEYS = ("cycle_name", "start_s", "time_s", "soc", "soc_target", "motor_temp_c", "heat_index",
                    "motor_cutoff", "ambient_temp_c", "coolant")
