@@ -1,49 +1,129 @@
-"""Small helpers for command-line outputs: atomic writes and clear path errors."""
+"""File outputs shared by the library and the command lines: checks made before any work, atomic writes.
+
+* :func:`check_writable_dir` / :func:`check_output_path` fail at once, in one line naming the
+  directory, when an output cannot be written (a path under a file, a read-only file system, no
+  permission): they create and remove a probe file where the output will go, which is what a write
+  needs (``os.access`` says yes to root on a read-only directory).
+* :func:`atomic_write_bytes` (and ``_text``, ``_json``, ``_yaml``, :func:`save_png`): ``path`` is
+  either the old file or the complete new one, never a partial file. The new file gets the usual
+  permissions (``0o666`` less the umask), as a plain ``open`` would give it. A path that exists
+  and is not a plain regular file (``/dev/stdout``, a pipe, a symbolic link) is written through,
+  as ``open`` would, never replaced.
+* :func:`read_yaml_mapping`: a YAML file that must hold a mapping, with one-line errors.
+"""
 
 from __future__ import annotations
 
+import io
 import json
 import os
-import tempfile
+import secrets
 from pathlib import Path
 from typing import Any
 
+import yaml
+
+
+def _open_temp(directory: Path, name: str) -> tuple[int, Path]:
+    """A new, empty file ``directory/.name.<random>.tmp`` opened for writing, mode 0o666 less the umask."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+    while True:
+        tmp = directory / f".{name}.{secrets.token_hex(4)}.tmp"
+        try:
+            return os.open(tmp, flags, 0o666), tmp
+        except FileExistsError:
+            continue
+
+
+def _reason(exc: OSError) -> str:
+    return (exc.strerror or type(exc).__name__).lower()
+
+
+def check_writable_dir(directory: str | Path) -> Path:
+    """``directory`` (existing or to be created) can receive files; otherwise a one-line ``OSError`` naming it."""
+    d = Path(directory)
+    if d.exists() and not d.is_dir():
+        raise NotADirectoryError(f"{d}: exists and is not a directory")
+    existing = d
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        raise NotADirectoryError(f"{existing}: is a file, not a directory")
+    try:
+        fd, probe = _open_temp(existing, "write-check")
+        os.close(fd)
+        probe.unlink()
+    except OSError as exc:
+        where = f"{d}: not writable" if existing == d else f"{d}: cannot be created, {existing} is not writable"
+        raise PermissionError(f"{where} ({_reason(exc)})") from None
+    return d
+
+
+def _written_through(p: Path) -> bool:
+    """True for an existing output that is not replaced but opened and written: a link, a device, a pipe."""
+    return p.exists() and (p.is_symlink() or not p.is_file())
+
 
 def check_output_path(path: str | Path) -> Path:
-    """Fail early, with a clear message, if ``path`` cannot be written."""
+    """Fail early, with a clear message, if the file ``path`` cannot be written."""
     p = Path(path)
-    if p.exists() and p.is_dir():
+    if p.is_dir():
         raise IsADirectoryError(f"{p}: is a directory, expected a file path")
-    parent = p.parent if str(p.parent) else Path(".")
-    if parent.exists() and not parent.is_dir():
-        raise NotADirectoryError(f"{parent}: is a file, not a directory")
+    if not _written_through(p):
+        check_writable_dir(p.parent)
+        return p
+    try:
+        with open(p, "ab"):
+            pass
+    except OSError as exc:
+        raise PermissionError(f"{p}: not writable ({_reason(exc)})") from None
+    return p
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` so that ``path`` is either the old file or the complete new one (temporary file + rename)."""
+    p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{p}: is a directory, expected a file path")
+    if _written_through(p):
+        with open(p, "wb") as fh:
+            fh.write(data)
+        return p
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = _open_temp(p.parent, p.name)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, p)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return p
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` so that ``path`` is either the old file or the complete new one."""
-    p = check_output_path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, p)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return p
+    return atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def atomic_write_json(path: str | Path, data: Any) -> Path:
     return atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False) + "\n")
 
 
+def atomic_write_yaml(path: str | Path, data: Any) -> Path:
+    return atomic_write_text(path, yaml.safe_dump(data, sort_keys=False, allow_unicode=True))
+
+
+def save_png(fig: Any, path: str | Path, dpi: int = 110) -> Path:
+    """A matplotlib figure as a PNG at ``path``, written atomically."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return atomic_write_bytes(path, buf.getvalue())
+
+
 def read_yaml_mapping(path: str | Path) -> dict:
     """A YAML file that must hold a mapping; errors name the file and what is wrong, in one line."""
-    import yaml
-
     p = Path(path)
     try:
         data = yaml.safe_load(p.read_text())

@@ -7,9 +7,10 @@ import itertools
 import numpy as np
 import pytest
 
-from agents import get_strategy
-from agents.common import stage_cost_g, stage_cost_reference_g
-from agents.dp import (
+from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cycle, paper_bus
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.common import stage_cost_g, stage_cost_reference_g
+from hev_thermal_env.agents.dp import (
     DPInfeasibleError,
     DPProblem,
     DPSettings,
@@ -19,8 +20,7 @@ from agents.dp import (
     rollout,
     solve,
 )
-from agents.evaluation import run_strategy
-from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cycle, paper_bus
+from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.reward import RewardParams
 
@@ -74,7 +74,7 @@ def test_interpolation_is_exact_for_linear_functions_and_walls_the_soc_axis():
 
 
 def test_threaded_kernel_slices_give_the_same_batch():
-    from agents.common import kernel_step
+    from hev_thermal_env.agents.common import kernel_step
     core = PhysicsCore(paper_bus())
     n = 10_000
     rng = np.random.default_rng(3)

@@ -19,11 +19,14 @@ import yaml
 
 import evaluate
 import train
-from agents import get_strategy
-from agents.evaluation import run_strategy
-from agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy, load_policy
-from agents.training import PolicyEvaluator, apply_overrides, load_run_config, parse_overrides
 from hev_thermal_env import load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy
+from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.training.artifacts import load_policy
+from hev_thermal_env.training.config import load_run_config
+from hev_thermal_env.training.evaluator import PolicyEvaluator
+from hev_thermal_env.training.overrides import apply_overrides, parse_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -231,7 +234,7 @@ def test_train_refuses_to_overwrite_a_run(tiny_run, capsys):
 
 
 def _evaluate_ppo(spec: str, capsys) -> str:
-    pytest.importorskip("agents.cli_run")
+    pytest.importorskip("hev_thermal_env.cli.run")
     assert evaluate.main(["run", "--cycle", "us06", "--strategy", spec]) == 2
     return one_line_error(capsys.readouterr().err)
 

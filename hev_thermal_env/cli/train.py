@@ -1,5 +1,4 @@
-#!/usr/bin/env python
-"""Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus.
+"""Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus (``train.py``, ``hev-train``).
 
 Examples::
 
@@ -14,18 +13,25 @@ Hyperparameters come from ``agents/hyperparams/<algo>.yaml`` (or ``--hyperparams
 is accepted too, and dotted keys reach inside mappings (``policy_kwargs.net_arch=[64,64]``,
 ``env.reward.soc_deviation_weight=1.0``). The run directory gets ``model.zip``, ``best_model.zip``,
 ``vecnormalize.pkl``, ``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard),
-``evaluations.csv`` and ``training_curve.png`` (see :mod:`agents.training`).
+``evaluations.csv`` and ``training_curve.png`` (see :mod:`hev_thermal_env.training`).
 
 Ctrl-C saves a checkpoint and exits with status 130; ``--resume DIR`` continues. Errors in the
-input are reported in one line with a non-zero exit status. Torch runs on one thread
-(environment variable ``HEV_TORCH_THREADS`` to change).
+input (an unknown hyperparameter, a value of the wrong type, an output directory that cannot be
+written) are reported in one line with a non-zero exit status before anything is created. Torch
+runs on one thread (environment variable ``HEV_TORCH_THREADS`` to change).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
+import shlex
 import sys
+from collections.abc import Sequence
+from typing import Any
+
+from hev_thermal_env.training import TrainingInterrupted, build_config, parse_overrides, resume, train
+
+from .errors import EXIT_INTERRUPTED, USER_ERRORS, program_name, report
 
 SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "out", "hp", "hyperparams", "vec",
                  "eval_cycles", "eval_scenarios", "eval_freq", "checkpoint_freq")
@@ -38,10 +44,10 @@ class OneLineErrorParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = OneLineErrorParser(prog="train.py", description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter,
-                                epilog="\n\n".join(__doc__.split("\n\n")[1:]))
+def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
+    p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0],
+                           formatter_class=argparse.RawDescriptionHelpFormatter,
+                           epilog="\n\n".join(__doc__.split("\n\n")[1:]))
     p.add_argument("--algo", default=None, help="ppo (default) or sac")
     p.add_argument("--cycles", nargs="+", default=None,
                    help="training cycles: built-in names, CSV paths or random_bus (default from the file)")
@@ -64,41 +70,45 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    from agents.training import TrainingInterrupted, build_config, command_line, parse_overrides, resume, train
+def command_line(argv: Sequence[str]) -> str:
+    """The command as it would be typed again (saved in the run's ``command.txt``)."""
+    line = " ".join(shlex.quote(a) for a in argv)
+    return f"python {line}" if argv and argv[0].endswith(".py") else line
 
-    command = command_line([os.path.basename(sys.argv[0]) if argv is None else "train.py",
-                            *(sys.argv[1:] if argv is None else argv)])
+
+def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
+    """Train or resume as ``args`` say; returns the run's result and its directory."""
     progress, verbose = not args.no_progress, 0 if args.quiet else 1
+    if args.resume is not None:
+        given = [f"--{f.replace('_', '-')}" for f in SETTING_FLAGS if getattr(args, f) is not None]
+        if given:
+            raise ValueError(f"--resume takes every setting from {args.resume}/config.yaml; drop {' '.join(given)}")
+        return resume(args.resume, progress=progress, verbose=verbose, command=command), args.resume
+    if args.out is None:
+        raise ValueError("--out DIR is required (or --resume DIR)")
+    config = build_config(
+        args.algo or "ppo", hyperparams_file=args.hyperparams, overrides=parse_overrides(args.hp or []),
+        cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
+        seed=0 if args.seed is None else args.seed, vec=args.vec or "native", eval_cycles=args.eval_cycles,
+        eval_scenarios=args.eval_scenarios, eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq,
+        command=command)
+    return train(config, args.out, progress=progress, verbose=verbose), args.out
+
+
+def main(argv: list[str] | None = None) -> int:
+    prog = program_name(argv, "train.py")
+    args = build_parser(prog).parse_args(argv)
+    command = command_line([prog, *(sys.argv[1:] if argv is None else argv)])
     try:
-        if args.resume is not None:
-            given = [f"--{f.replace('_', '-')}" for f in SETTING_FLAGS if getattr(args, f) is not None]
-            if given:
-                raise ValueError(f"--resume takes every setting from {args.resume}/config.yaml; "
-                                 f"drop {' '.join(given)}")
-            result = resume(args.resume, progress=progress, verbose=verbose, command=command)
-            out = args.resume
-        else:
-            if args.out is None:
-                raise ValueError("--out DIR is required (or --resume DIR)")
-            config = build_config(
-                args.algo or "ppo", hyperparams_file=args.hyperparams, overrides=parse_overrides(args.hp or []),
-                cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
-                seed=0 if args.seed is None else args.seed, vec=args.vec or "native", eval_cycles=args.eval_cycles,
-                eval_scenarios=args.eval_scenarios, eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq,
-                command=command)
-            result = train(config, args.out, progress=progress, verbose=verbose)
-            out = args.out
+        result, out = run(args, command)
     except TrainingInterrupted as exc:
-        print(f"train.py: {exc}", file=sys.stderr)
+        print(f"{prog}: {exc}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
-        print("train.py: interrupted", file=sys.stderr)
-        return 130
-    except (ValueError, FileNotFoundError, NotADirectoryError, IsADirectoryError, PermissionError) as exc:
-        print(f"train.py: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return 2
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except USER_ERRORS as exc:
+        return report(exc, prog)
     share = result.get("env_share")
     print(f"done: {result['timesteps_done']} timesteps in {result['wall_s']:.1f} s "
           f"({result.get('steps_per_s') or 0:.0f} steps/s this session"
