@@ -6,9 +6,9 @@
   needs (``os.access`` says yes to root on a read-only directory).
 * :func:`atomic_write_bytes` (and ``_text``, ``_json``, ``_yaml``, :func:`save_png`): ``path`` is
   either the old file or the complete new one, never a partial file. The new file gets the usual
-  permissions (``0o666`` less the umask), as a plain ``open`` would give it. A path that exists
-  and is not a plain regular file (``/dev/stdout``, a pipe, a symbolic link) is written through,
-  as ``open`` would, never replaced.
+  permissions (``0o666`` less the umask), as a plain ``open`` would give it. A symbolic link is
+  followed (the file it points to is replaced, the link stays); a path that is not a regular file
+  (``/dev/stdout`` on a pipe or a terminal, a FIFO) is written to as a stream, never replaced.
 * :func:`read_yaml_mapping`: a YAML file that must hold a mapping, with one-line errors.
 """
 
@@ -59,9 +59,15 @@ def check_writable_dir(directory: str | Path) -> Path:
     return d
 
 
-def _written_through(p: Path) -> bool:
-    """True for an existing output that is not replaced but opened and written: a link, a device, a pipe."""
-    return p.exists() and (p.is_symlink() or not p.is_file())
+def _is_stream(p: Path) -> bool:
+    """True for an existing output that is not a regular file (a device, a pipe): written to, never replaced."""
+    return p.exists() and not p.is_file()
+
+
+def _target(path: str | Path) -> Path:
+    """The file a write to ``path`` replaces: ``path``, or the file its symbolic link points to."""
+    p = Path(path)
+    return p.resolve() if p.is_symlink() and p.exists() else p
 
 
 def check_output_path(path: str | Path) -> Path:
@@ -69,8 +75,8 @@ def check_output_path(path: str | Path) -> Path:
     p = Path(path)
     if p.is_dir():
         raise IsADirectoryError(f"{p}: is a directory, expected a file path")
-    if not _written_through(p):
-        check_writable_dir(p.parent)
+    if not _is_stream(p):
+        check_writable_dir(_target(p).parent)
         return p
     try:
         with open(p, "ab"):
@@ -85,10 +91,11 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     p = Path(path)
     if p.is_dir():
         raise IsADirectoryError(f"{p}: is a directory, expected a file path")
-    if _written_through(p):
+    if _is_stream(p):
         with open(p, "wb") as fh:
             fh.write(data)
-        return p
+        return Path(path)
+    p = _target(p)
     p.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = _open_temp(p.parent, p.name)
     try:
@@ -100,7 +107,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    return p
+    return Path(path)
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:

@@ -97,6 +97,10 @@ def check_hyperparams(algo: str, hp: dict[str, Any]) -> None:
     """Names and value types of the ``hyperparams`` of a run config; one-line ValueError on the first problem."""
     cls = algorithm_class(algo)
     params = {k: p for k, p in _parameters(cls.__init__).items() if k not in MANAGED_KEYS}
+    managed = sorted(k for k in hp if k in MANAGED_KEYS and k not in RUN_KEYS)
+    if managed:
+        hint = " (use --seed)" if managed[0] == "seed" else ""
+        raise ValueError(f"hyperparameter {managed[0]!r} is set by the training itself{hint}")
     check_known(f"{cls.__name__} hyperparameter", hp, [*params, *RUN_KEYS])
     policy = hp.get("policy", "MlpPolicy")
     if policy not in cls.policy_aliases:
