@@ -1,6 +1,6 @@
-"""Evaluate energy-management strategies on the hybrid bus (``evaluate.py``, ``hev-evaluate``).
+"""Evaluate energy-management strategies on the hybrid bus.
 
-Subcommands::
+The program behind ``evaluate.py`` and the ``hev-evaluate`` command. Subcommands::
 
     python evaluate.py benchmark --out DIR        # the main job: strategies x cycles x scenarios, table + plots
     python evaluate.py run --cycle hwfet --strategy ecms [--json PATH --trace PATH --plot PATH]

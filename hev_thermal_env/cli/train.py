@@ -1,4 +1,6 @@
-"""Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus (``train.py``, ``hev-train``).
+"""Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus.
+
+The program behind ``train.py`` and the ``hev-train`` command.
 
 Examples::
 
