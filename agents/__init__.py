@@ -1,6 +1,8 @@
-"""Energy-management strategies behind one protocol (see :mod:`agents.base`).
+"""Energy-management strategies behind one protocol (see :mod:`hev_thermal_env.agents.base`).
 
->>> from agents import get_strategy, list_strategies
+Installed as ``hev_thermal_env.agents`` (the source folder is the top-level ``agents/``)::
+
+>>> from hev_thermal_env.agents import get_strategy, list_strategies
 >>> list_strategies()[:3]
 ['engine_only', 'rule', 'ecms']
 >>> dp = get_strategy("dp", n_soc=801)
@@ -9,7 +11,10 @@
 class method (``ppo``: the text after the colon is a model path), that builds it; otherwise the
 run is reported under the label ``"name:arg"`` (one strategy with several settings in a benchmark).
 Other modules may add strategies with :func:`register_strategy`; ``ppo`` is listed when
-:mod:`agents.ppo` (class ``PPOStrategy``) exists.
+:mod:`hev_thermal_env.agents.ppo` (class ``PPOStrategy``) exists.
+
+Beside the strategies: ``policies/`` (the shipped PPO policy) and ``hyperparams/`` (the training
+hyperparameter files, :data:`HYPERPARAMS_DIR`).
 """
 
 from __future__ import annotations
@@ -17,20 +22,24 @@ from __future__ import annotations
 import importlib
 import importlib.util
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from .base import Strategy
 
+HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+"""The hyperparameter files of ``train.py`` (``<algo>.yaml``)."""
+
 _REGISTRY: dict[str, tuple[str, str] | Callable[..., Strategy]] = {
-    "engine_only": ("agents.rule", "EngineOnly"),
-    "rule": ("agents.rule", "RuleBased"),
-    "ecms": ("agents.ecms", "ECMS"),
-    "aecms": ("agents.ecms", "AdaptiveECMS"),
-    "ecms_thermal": ("agents.ecms", "ThermalECMS"),
-    "dp": ("agents.dp", "DPStrategy"),
-    "dp_thermal": ("agents.dp", "ThermalDPStrategy"),
+    "engine_only": ("hev_thermal_env.agents.rule", "EngineOnly"),
+    "rule": ("hev_thermal_env.agents.rule", "RuleBased"),
+    "ecms": ("hev_thermal_env.agents.ecms", "ECMS"),
+    "aecms": ("hev_thermal_env.agents.ecms", "AdaptiveECMS"),
+    "ecms_thermal": ("hev_thermal_env.agents.ecms", "ThermalECMS"),
+    "dp": ("hev_thermal_env.agents.dp", "DPStrategy"),
+    "dp_thermal": ("hev_thermal_env.agents.dp", "ThermalDPStrategy"),
 }
-_OPTIONAL = {"ppo": ("agents.ppo", "PPOStrategy")}
+_OPTIONAL = {"ppo": ("hev_thermal_env.agents.ppo", "PPOStrategy")}
 
 
 def register_strategy(name: str, factory: Callable[..., Strategy]) -> None:
@@ -74,4 +83,4 @@ def get_strategy(name: str, **options: Any) -> Strategy:
     return strategy
 
 
-__all__ = ["Strategy", "get_strategy", "list_strategies", "register_strategy"]
+__all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies", "register_strategy"]

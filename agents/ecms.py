@@ -6,9 +6,9 @@ the next step with ONE ``env.peek`` call (the batched physics step) and picks th
     J(u) = fuel_g + s_eff · E_batt / Q_lhv + miss price
 
 ``E_batt`` is the battery's chemical energy over the step (J, negative when charging), Q_lhv the
-fuel's lower heating value and the miss price is the reward's (:mod:`hev_thermal_env.reward`:
+fuel's lower heating value and the miss price is the reward's (:mod:`hev_thermal_env.envs.reward`:
 ``miss_weight`` × the fuel the engine would burn to deliver the missed wheel energy). An
-equivalence factor s of :data:`~agents.common.REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery
+equivalence factor s of :data:`~hev_thermal_env.agents.common.REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery
 energy exactly as the reward and the corrected-fuel metric do.
 
 SOC feedback (``ecms``): s_eff = s · (1 + k · ((SOC_target − SOC)/0.1)^p) with p = 1

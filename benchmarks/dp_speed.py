@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import get_strategy
-from agents.common import kernel_releases_gil
-from agents.evaluation import run_strategy
 from hev_thermal_env import cycle_from_arrays, load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.common import kernel_releases_gil
+from hev_thermal_env.evaluation.runner import run_strategy
 
 KEEP = ("grid", "n_u", "n_u_exec", "temp_mode", "n_states", "n_stages", "solve_s", "plan_total_s",
         "vehicle_steps_evaluated", "vehicle_steps_per_s", "soc_final_requested", "final_soc_feasible",

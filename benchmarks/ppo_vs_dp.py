@@ -24,7 +24,6 @@ during training, all seeds)::
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import os
 import shlex
@@ -50,7 +49,7 @@ SOC_TARGET = 0.02
 
 
 def train_seed(seed: int, runs: Path, reuse: bool, extra: list[str]) -> dict[str, Any]:
-    from agents.training import load_run_config
+    from hev_thermal_env.training.config import load_run_config
 
     out = runs / f"seed_{seed}"
     if reuse and (out / "model.zip").is_file():
@@ -73,8 +72,8 @@ def train_seed(seed: int, runs: Path, reuse: bool, extra: list[str]) -> dict[str
 
 
 def run(strategy_name: str, cycle: str, scenario: str, **options: Any) -> dict[str, Any]:
-    from agents import get_strategy
-    from agents.evaluation import run_strategy
+    from hev_thermal_env.agents import get_strategy
+    from hev_thermal_env.evaluation.runner import run_strategy
 
     s = run_strategy(get_strategy(strategy_name, **options), cycle, scenario).summary
     keep = ("fuel_corrected_l_per_100km", "fuel_l_per_100km", "delta_soc", "soc_final", "cutoff_s", "derated_s",
@@ -189,7 +188,9 @@ def plot_curves(runs: dict[int, Path], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from agents.training import atomic_write_bytes, load_run_config, read_evaluations
+    from hev_thermal_env.io import save_png
+    from hev_thermal_env.training.artifacts import read_evaluations
+    from hev_thermal_env.training.config import load_run_config
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for seed, d in runs.items():
@@ -209,10 +210,8 @@ def plot_curves(runs: dict[int, Path], path: Path) -> None:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    save_png(fig, path)
     plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -228,8 +227,8 @@ def main(argv: list[str] | None = None) -> int:
 
     import torch
 
-    from agents.ppo import DEFAULT_POLICY_DIR
-    from hev_thermal_env.commands.io import atomic_write_json, atomic_write_text
+    from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR
+    from hev_thermal_env.io import atomic_write_json, atomic_write_text
 
     torch.set_num_threads(1)
     runs = Path(args.runs) if Path(args.runs).is_absolute() else ROOT / args.runs

@@ -1,16 +1,26 @@
 """hev-thermal-env: a Gymnasium environment and energy-management benchmark for a parallel hybrid
 city bus whose permanent-magnet traction motor heats up, derates and cuts out.
 
-``import hev_thermal_env`` registers ``HevThermal-v0``.
+``import hev_thermal_env`` registers ``HevThermal-v0``. The rooms, each imported on demand:
+
+* ``hev_thermal_env.physics``, ``.cycles``, ``.env``, ``.vector_env``: the vehicle and the environments;
+* ``hev_thermal_env.agents``: the strategies (rule, ECMS, DP, PPO) behind one protocol, with the shipped
+  policy and the training hyperparameters (the checkout's top-level ``agents/`` folder);
+* ``hev_thermal_env.evaluation``: run a strategy, the benchmark, the paper report, plots;
+* ``hev_thermal_env.training``: SB3 training (config, artifacts, callbacks, loop, export); imports torch;
+* ``hev_thermal_env.cli``: the ``evaluate.py`` / ``train.py`` programs (``hev-evaluate``, ``hev-train``).
 """
 
 from gymnasium.envs.registration import register, registry
 
+from . import _checkout
 from .cycles import Cycle, cycle_from_arrays, generate_bus_cycle, list_cycles, load_cycle
 from .physics import Conditions, ConfigError, PhysicsCore, VehicleConfig, paper_bus
 from .simulate import SimResult, simulate
 
 __version__ = "0.1.0"
+
+_checkout.install()
 
 if "HevThermal-v0" not in registry:
     register(id="HevThermal-v0", entry_point="hev_thermal_env.envs.hev_env:HevThermalEnv",

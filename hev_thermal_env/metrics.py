@@ -1,4 +1,4 @@
-"""Per-run metrics from a run's traces: fuel, corrected fuel, SOC, heat, misses.
+"""Per-run metrics from a run's traces: fuel, corrected fuel, SOC, heat, misses; the same for every way of driving.
 
 ``fuel_corrected_l_per_100km`` puts strategies on equal service: fuel plus the fuel equivalents of
 the net battery energy and of the missed wheel energy at :class:`~hev_thermal_env.prices.Prices`
@@ -7,6 +7,7 @@ the net battery energy and of the missed wheel energy at :class:`~hev_thermal_en
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -50,3 +51,21 @@ def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: 
         "trace_miss_max_mps": float(trace["trace_miss_mps"].max()) if len(trace["soc"]) else 0.0,
         "engine_on_s": float(trace["engine_on"].sum() * dt_s),
     }
+
+
+def cycle_distance_m(speed_mps: Any, start: int, steps: int) -> float:
+    """Distance of the cycle's speed trace over ``steps`` steps from second ``start`` (trapezoids)."""
+    v = np.asarray(speed_mps, dtype=np.float64)
+    return float(np.sum(0.5 * (v[start:start + steps] + v[start + 1:start + steps + 1])))
+
+
+def run_metrics(trace: Mapping[str, np.ndarray], config: VehicleConfig, soc_initial: float, speed_mps: Any,
+                start: int, steps: int, dt_s: float, prices: Prices | None = None) -> dict[str, Any]:
+    """:func:`summarize` of a run of ``steps`` steps from second ``start`` of a cycle, plus the SOC change.
+
+    What :func:`hev_thermal_env.evaluation.run_strategy` reports and what the evaluation during
+    training scores.
+    """
+    metrics = summarize(trace, config, soc_initial, cycle_distance_m(speed_mps, start, steps), dt_s, prices)
+    metrics["delta_soc"] = metrics["soc_final"] - metrics["soc_initial"]
+    return metrics

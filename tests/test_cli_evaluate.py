@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.benchmark import COLUMNS, run_benchmark
 from hev_thermal_env import load_cycle
+from hev_thermal_env.evaluation.benchmark import COLUMNS, run_benchmark
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -28,7 +28,7 @@ def test_performance_writes_json_and_table(tmp_path):
 
 
 def test_performance_hot_start_slower():
-    from hev_thermal_env.commands.performance import main  # noqa: F401  (import check)
+    from hev_thermal_env.cli.performance import main  # noqa: F401  (import check)
     r30 = run("performance", "--initial-motor-temp-c", "30", "--coolant", "off", "--json", "/dev/stdout")
     r50 = run("performance", "--initial-motor-temp-c", "50", "--coolant", "off", "--json", "/dev/stdout")
     assert r30.returncode == 0 and r50.returncode == 0

@@ -7,14 +7,14 @@ import itertools
 import numpy as np
 import pytest
 
-from agents import get_strategy
-from agents.common import stage_cost_g
-from agents.dp import DPInfeasibleError, DPProblem, DPSettings, rollout, solve
-from agents.dp_corridor import backward_envelope, forward_envelope
-from agents.dp_grid import interp_uniform
-from agents.evaluation import run_strategy
 from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cycle, paper_bus
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.common import stage_cost_g
+from hev_thermal_env.agents.dp import DPInfeasibleError, DPProblem, DPSettings, rollout, solve
+from hev_thermal_env.agents.dp_corridor import backward_envelope, forward_envelope
+from hev_thermal_env.agents.dp_grid import interp_uniform
 from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.physics import core as C
 
 

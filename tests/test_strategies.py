@@ -10,15 +10,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import get_strategy, list_strategies
-from agents.common import REWARD_EQUIVALENCE_FACTOR, stage_cost_g
-from agents.ecms import ECMS, AdaptiveECMS, ecms_cost_g
-from agents.evaluation import SUMMARY_KEYS, run_strategy
-from agents.plots import plot_run
-from agents.rule import RuleBased
 from hev_thermal_env import Conditions, cycle_from_arrays, load_cycle, paper_bus
+from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.agents.common import REWARD_EQUIVALENCE_FACTOR, stage_cost_g
+from hev_thermal_env.agents.ecms import ECMS, AdaptiveECMS, ecms_cost_g
+from hev_thermal_env.agents.rule import RuleBased
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.evaluation.plots import plot_run
+from hev_thermal_env.evaluation.runner import SUMMARY_KEYS, run_strategy
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.simulate import simulate
 

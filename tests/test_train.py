@@ -19,11 +19,15 @@ import yaml
 
 import evaluate
 import train
-from agents import get_strategy
-from agents.evaluation import run_strategy
-from agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy, load_policy
-from agents.training import PolicyEvaluator, apply_overrides, load_run_config, parse_overrides
 from hev_thermal_env import load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy
+from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.training.artifacts import load_policy
+from hev_thermal_env.training.config import load_run_config
+from hev_thermal_env.training.evaluator import PolicyEvaluator
+from hev_thermal_env.training.loop import TrainingRun
+from hev_thermal_env.training.overrides import apply_overrides, parse_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -218,6 +222,48 @@ def test_train_rejects_bad_input_in_one_line(tmp_path, capsys, argv, expected):
     assert not (tmp_path / "run" / "model.zip").exists()
 
 
+@pytest.mark.parametrize("hp, expected", [
+    ("gama=0.9", ["'gama'", "did you mean 'gamma'"]),
+    ("gamma=abc", ["gamma", "'abc'", "expected a number"]),
+    ("n_steps=6.5", ["n_steps", "6.5", "expected an integer"]),
+    ("policy_kwargs.netarch=[8]", ["'netarch'", "did you mean 'net_arch'"]),
+    ("normalize.clipobs=5", ["'clipobs'", "did you mean 'clip_obs'"]),
+    ("env.scenaro=hot", ["'scenaro'", "did you mean 'scenario'"]),
+    ("seed=4", ["'seed'", "--seed"]),
+])
+def test_bad_hyperparameters_fail_before_the_run_directory_exists(tmp_path, capsys, hp, expected):
+    out = tmp_path / "run"
+    assert train.main(["--out", str(out), "--no-progress", "--hp", hp]) == 2
+    line = one_line_error(capsys.readouterr().err)
+    assert line.startswith("train.py: error:")
+    for text in expected:
+        assert text in line, (text, line)
+    assert not out.exists()
+
+
+def test_a_start_that_fails_after_validation_leaves_no_run_directory(tmp_path, monkeypatch, capsys):
+    """Whatever fails while the env and the model are built, the run directory is not created."""
+    def fail(self, resume_from=None):
+        raise ValueError("the model cannot be built")
+
+    monkeypatch.setattr(TrainingRun, "prepare", fail)
+    out = tmp_path / "run"
+    assert train.main(train_args(out, 256, "--eval-cycles")) == 2
+    assert "cannot be built" in one_line_error(capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_train_with_the_progress_bar_as_a_user_runs_it(tmp_path):
+    """The README's command line, progress bar on (SB3 draws it with tqdm and rich)."""
+    out = tmp_path / "run"
+    args = [a for a in train_args(out, 256, "--eval-cycles") if a not in ("--no-progress", "--quiet")]
+    r = subprocess.run([sys.executable, str(ROOT / "train.py"), *args], cwd=ROOT, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stderr
+    assert (out / "model.zip").is_file()
+
+
 def test_resume_rejects_a_directory_without_a_run(tmp_path, capsys):
     assert train.main(["--resume", str(tmp_path)]) == 2
     assert "not a train.py run directory" in one_line_error(capsys.readouterr().err)
@@ -231,7 +277,7 @@ def test_train_refuses_to_overwrite_a_run(tiny_run, capsys):
 
 
 def _evaluate_ppo(spec: str, capsys) -> str:
-    pytest.importorskip("agents.cli_run")
+    pytest.importorskip("hev_thermal_env.cli.run")
     assert evaluate.main(["run", "--cycle", "us06", "--strategy", spec]) == 2
     return one_line_error(capsys.readouterr().err)
 

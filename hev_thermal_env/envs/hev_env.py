@@ -84,7 +84,7 @@ class HevThermalEnv(gym.Env):
 
     ## Rewards
 
-    :func:`hev_thermal_env.reward.reward_terms` with :class:`~hev_thermal_env.reward.RewardParams`,
+    :func:`hev_thermal_env.envs.reward.reward_kernel` with :class:`~hev_thermal_env.envs.reward.RewardParams`,
     in grams of diesel equivalent: ``reward = reward_fuel + reward_miss + reward_soc + reward_overheat``:
     minus the fuel burned, minus the price of missed wheel energy (weight 1 by default), minus the
     fuel equivalent of the battery energy used and a quadratic deviation of the SOC from the target
@@ -120,7 +120,7 @@ class HevThermalEnv(gym.Env):
     * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus()``).
     * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides
       the scenario).
-    * ``reward``: :class:`~hev_thermal_env.reward.RewardParams` or a dict of its fields.
+    * ``reward``: :class:`~hev_thermal_env.envs.reward.RewardParams` or a dict of its fields.
     * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds);
       ``preview_s=0`` removes it.
     * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from .benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES
+from hev_thermal_env.evaluation.benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES, run_benchmark
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -22,8 +22,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .benchmark import run_benchmark
-
     if args.jobs is not None and args.jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
     t0 = time.perf_counter()

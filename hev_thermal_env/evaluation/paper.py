@@ -13,11 +13,15 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.commands.io import atomic_write_json, atomic_write_text
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir, save_png
 from hev_thermal_env.physics import Conditions, ThermalParams, paper_bus
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
+
+from .plots import pyplot
+from .runner import run_strategy
 
 RPM = math.pi / 30.0
 
@@ -28,15 +32,6 @@ PAPER_TABLE3 = {  # thermal off, thermal at 30 °C start, thermal at 50 °C star
 }
 TABLE3_TOLERANCE = {"top_speed_kmh": 0.05, "accel_0_60_s": 0.07, "grade_4pct_speed_kmh": 0.07}
 PAPER_TABLE2 = {"hwfet": (35.3, 35.6), "beijing": (27.1, 27.1)}  # L/100 km without / with thermal model
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def table3(resolution_kmh: float = 0.05, accel_dt_s: float = 0.1) -> dict[str, Any]:
@@ -72,7 +67,7 @@ def fig4(out_dir: Path) -> dict[str, Any]:
     pwm = np.array(pwm)
     leave = float(t_s[np.argmax(pwm > 1e-9)] - 1)  # last second at 0
     full = float(t_s[np.argmax(pwm >= 1.0 - 1e-9)])
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.8))
     ax.plot(t_s, pwm, label="heat index PWM")
     ax.set_xlabel("time (s)")
@@ -85,7 +80,7 @@ def fig4(out_dir: Path) -> dict[str, Any]:
     ax.set_title("Fig. 4 analog: heat index at 2× continuous torque from cold")
     fig.legend(loc="center right", bbox_to_anchor=(0.85, 0.5))
     fig.tight_layout()
-    fig.savefig(out_dir / "fig4_heat_index.png", dpi=110)
+    save_png(fig, out_dir / "fig4_heat_index.png")
     plt.close(fig)
     return {"pwm_leaves_zero_s": leave, "pwm_reaches_one_s": full, "paper_leaves_zero_s": 30.0,
             "paper_reaches_one_s": 130.0, "torque_at_saturation_nm": float(tmax[-1]), "continuous_torque_nm": cont}
@@ -108,7 +103,7 @@ def thermal_cutoff_figure(out_dir: Path) -> dict[str, Any]:
     t_sim = len(temps) - 1
     net = float(np.mean(nets))
     t_an = cfg.thermal.heat_capacity_j_per_k * (cfg.thermal.cutoff_temp_c - 20.0) / net
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.8))
     ax.plot(np.arange(len(temps)), temps, label="simulated (eq 7)")
     ax.plot([0, t_an], [20, cfg.thermal.cutoff_temp_c], ls="--", label=f"m·c_p·ΔT / mean net heat = {t_an:.0f} s")
@@ -118,7 +113,7 @@ def thermal_cutoff_figure(out_dir: Path) -> dict[str, Any]:
     ax.set_title("Motor at peak power (90 kW), coolant off, from 20 °C")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out_dir / "thermal_time_to_cutoff.png", dpi=110)
+    save_png(fig, out_dir / "thermal_time_to_cutoff.png")
     plt.close(fig)
     return {"time_to_cutoff_simulated_s": float(t_sim), "time_to_cutoff_analytic_s": float(t_an),
             "mean_net_heat_w": net, "heat_capacity_j_per_k": cfg.thermal.heat_capacity_j_per_k}
@@ -126,10 +121,7 @@ def thermal_cutoff_figure(out_dir: Path) -> dict[str, Any]:
 
 def table2_and_traces(out_dir: Path, cycles: tuple[str, ...]) -> dict[str, Any]:
     """Table 2 analog (rule strategy, fuel with and without the thermal model) and Figs. 7-10 analogs."""
-    from . import get_strategy
-    from .evaluation import run_strategy
-
-    plt = _plt()
+    plt = pyplot()
     result: dict[str, Any] = {}
     for cycle in cycles:
         row = {}
@@ -158,7 +150,7 @@ def table2_and_traces(out_dir: Path, cycles: tuple[str, ...]) -> dict[str, Any]:
         axes[1].legend()
         fig.suptitle(f"Motor temperature and heat index along {cycle} (rule strategy, paper scenario)")
         fig.tight_layout()
-        fig.savefig(out_dir / f"fig_temperature_heat_index_{cycle}.png", dpi=110)
+        save_png(fig, out_dir / f"fig_temperature_heat_index_{cycle}.png")
         plt.close(fig)
         result[cycle] = row
     return result
@@ -180,7 +172,7 @@ def _table3_md(t3: dict) -> str:
 def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = ("hwfet", "udds", "beijing"),
                  quick: bool = False) -> dict[str, Any]:
     """Compute every section, write the figures, ``paper.json`` and ``report.md``; return the numbers."""
-    out = Path(out_dir)
+    out = check_writable_dir(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     data: dict[str, Any] = {
@@ -190,30 +182,41 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = ("hwfet", "ud
         "table2": table2_and_traces(out, cycles),
     }
     data["wall_s"] = time.perf_counter() - t0
-    t3, f4, tc, t2 = data["table3"], data["fig4"], data["thermal_cutoff"], data["table2"]
-    md = ["# Paper reproduction report", "",
-          "Our `paper_bus` beside the source paper (*Study on the Influence for Hybrid Electric Vehicle "
-          "Performance by the Thermal Effects of Traction Motor*). The bus is our documented vehicle "
-          "(docs/parameters.md), not the paper's unpublished one, so shapes are compared, and numbers "
-          "where the paper gives them.", "",
-          "## Table 3 analog: vehicle performance (coolant closed)", "", _table3_md(t3), "",
-          "Top speed and grade speed are sustained (engine-alone) speeds, hence equal with and without the "
-          "thermal model, as in the paper. The 0-60 km/h time grows with the starting temperature, as in the "
-          "paper, but less: at a 30 °C start our heat index, which starts at −PWM_initial(30 °C) = −0.24 and "
-          "rises at T_gain(T)/T_s per unit of overload, has not left zero within the 16 s run, so only the "
-          "50 °C start (PWM_initial 0.12) derates the motor before 60 km/h. The paper leaves eq 10 (T_gain as "
-          "a function of temperature) unspecified; ours is documented in `physics/thermal.py`.", "",
-          "## Fig. 4 analog: heat index at twice the continuous torque", "",
-          f"PWM leaves 0 at {f4['pwm_leaves_zero_s']:.0f} s (paper 30 s) and reaches 1 at "
-          f"{f4['pwm_reaches_one_s']:.0f} s (paper 130 s); the available torque then equals the continuous "
-          f"torque ({f4['torque_at_saturation_nm']:.1f} N·m). Same as the paper: eq 9 with the paper's "
-          "constants.", "", "![Fig. 4 analog](fig4_heat_index.png)", "",
-          "## Motor at peak power without coolant: time to the 70 °C cutoff", "",
-          f"Simulated {tc['time_to_cutoff_simulated_s']:.0f} s; m·c_p·ΔT / mean net heat flow = "
-          f"{tc['heat_capacity_j_per_k']:.0f} J/K × 50 K / {tc['mean_net_heat_w']:.0f} W = "
-          f"{tc['time_to_cutoff_analytic_s']:.0f} s. (The paper gives no such figure; this checks eq 7.)", "",
-          "![time to cutoff](thermal_time_to_cutoff.png)", "",
-          "## Table 2 analog: fuel with and without the thermal model (rule strategy)", "",
+    atomic_write_json(out / "paper.json", data)
+    atomic_write_text(out / "report.md", "\n".join(_performance_md(data) + _cycles_md(data["table2"])) + "\n")
+    return data
+
+
+def _performance_md(data: dict[str, Any]) -> list[str]:
+    """The report's opening and its vehicle sections: Table 3, Fig. 4 and the time to the cutoff."""
+    t3, f4, tc = data["table3"], data["fig4"], data["thermal_cutoff"]
+    return ["# Paper reproduction report", "",
+           "Our `paper_bus` beside the source paper (*Study on the Influence for Hybrid Electric Vehicle "
+           "Performance by the Thermal Effects of Traction Motor*). The bus is our documented vehicle "
+           "(docs/parameters.md), not the paper's unpublished one, so shapes are compared, and numbers "
+           "where the paper gives them.", "",
+           "## Table 3 analog: vehicle performance (coolant closed)", "", _table3_md(t3), "",
+           "Top speed and grade speed are sustained (engine-alone) speeds, hence equal with and without the "
+           "thermal model, as in the paper. The 0-60 km/h time grows with the starting temperature, as in the "
+           "paper, but less: at a 30 °C start our heat index, which starts at −PWM_initial(30 °C) = −0.24 and "
+           "rises at T_gain(T)/T_s per unit of overload, has not left zero within the 16 s run, so only the "
+           "50 °C start (PWM_initial 0.12) derates the motor before 60 km/h. The paper leaves eq 10 (T_gain as "
+           "a function of temperature) unspecified; ours is documented in `physics/thermal.py`.", "",
+           "## Fig. 4 analog: heat index at twice the continuous torque", "",
+           f"PWM leaves 0 at {f4['pwm_leaves_zero_s']:.0f} s (paper 30 s) and reaches 1 at "
+           f"{f4['pwm_reaches_one_s']:.0f} s (paper 130 s); the available torque then equals the continuous "
+           f"torque ({f4['torque_at_saturation_nm']:.1f} N·m). Same as the paper: eq 9 with the paper's "
+           "constants.", "", "![Fig. 4 analog](fig4_heat_index.png)", "",
+           "## Motor at peak power without coolant: time to the 70 °C cutoff", "",
+           f"Simulated {tc['time_to_cutoff_simulated_s']:.0f} s; m·c_p·ΔT / mean net heat flow = "
+           f"{tc['heat_capacity_j_per_k']:.0f} J/K × 50 K / {tc['mean_net_heat_w']:.0f} W = "
+           f"{tc['time_to_cutoff_analytic_s']:.0f} s. (The paper gives no such figure; this checks eq 7.)", "",
+           "![time to cutoff](thermal_time_to_cutoff.png)", ""]
+
+
+def _cycles_md(t2: dict[str, Any]) -> list[str]:
+    """The report's cycle sections: Table 2 and the Figs. 7-10 analogs."""
+    md = ["## Table 2 analog: fuel with and without the thermal model (rule strategy)", "",
           "| cycle | paper without / with (L/100 km) | ours without | ours with | ours corrected without / with |",
           "|---|---|---|---|---|"]
     for cyc, row in t2.items():
@@ -254,6 +257,4 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = ("hwfet", "ud
            "90 km/h, hot starts or the `hot` scenario, does build it (see the benchmark's hot rows). The "
            "paper's Figs. 7-8 are captioned UDDS although its text says HWFET; on UDDS our heat index "
            "builds between ≈390 and ≈580 s (the paper's curve rises from 387 s), to a lower peak.", ""]
-    atomic_write_json(out / "paper.json", data)
-    atomic_write_text(out / "report.md", "\n".join(md) + "\n")
-    return data
+    return md

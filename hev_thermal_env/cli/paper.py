@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+
+from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.evaluation.paper import build_report
+from hev_thermal_env.io import check_writable_dir
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -15,13 +18,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from hev_thermal_env.cycles import load_cycle
-
-    from .paper import build_report
-
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"{out}: exists and is not a directory")
+    out = check_writable_dir(args.out)
     for c in args.cycles:
         load_cycle(c)  # unknown names fail here, before any work
     data = build_report(out, cycles=tuple(args.cycles), quick=args.quick)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from ..physics import Conditions, VehicleConfig, paper_bus
-from ..physics.performance import performance_report
-from .io import atomic_write_json, check_output_path
+from hev_thermal_env.io import atomic_write_json, check_output_path
+from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
+from hev_thermal_env.physics.performance import performance_report
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -13,6 +13,13 @@ import argparse
 import json
 from typing import Any
 
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.evaluation.plots import plot_run
+from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_output_path
+from hev_thermal_env.scenarios import get_scenario
+
 DP_STRATEGIES = ("dp", "dp_thermal")
 
 
@@ -107,14 +114,6 @@ def _short(v: Any) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from hev_thermal_env.commands.io import atomic_write_json, atomic_write_text, check_output_path
-    from hev_thermal_env.cycles import load_cycle
-    from hev_thermal_env.scenarios import get_scenario
-
-    from . import get_strategy
-    from .evaluation import run_strategy
-    from .plots import plot_run
-
     # validate everything before the (possibly long) run
     scenario = get_scenario(args.scenario)
     cycle = load_cycle(args.cycle)

@@ -12,6 +12,7 @@ into the results. Every file is written atomically.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import multiprocessing
@@ -22,8 +23,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
 
-from hev_thermal_env.commands.io import atomic_write_json, atomic_write_text
+from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
+from hev_thermal_env.scenarios import get_scenario
+
+from .plots import plot_benchmark
+from .runner import run_strategy
 
 DEFAULT_CYCLES = ("hwfet", "beijing")
 DEFAULT_SCENARIOS = ("paper",)
@@ -39,11 +47,6 @@ TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "
 
 def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
     cycle, scenario, strategy, options = task
-    from hev_thermal_env.cycles import load_cycle
-
-    from . import get_strategy
-    from .evaluation import run_strategy
-
     cyc = load_cycle(cycle)
     res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario)
     trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
@@ -54,11 +57,6 @@ def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
 
 def validate(cycles, strategies, scenarios, out: Path) -> None:
     """Fail before any work on unknown names or an unusable output directory."""
-    from hev_thermal_env.cycles import load_cycle
-    from hev_thermal_env.scenarios import get_scenario
-
-    from . import list_strategies
-
     for c in cycles:
         load_cycle(c)
     for s in scenarios:
@@ -68,11 +66,7 @@ def validate(cycles, strategies, scenarios, out: Path) -> None:
         base = s.split(":", 1)[0]
         if base not in known:
             raise ValueError(f"unknown strategy {s!r}; known strategies: {', '.join(known)}")
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"{out}: exists and is not a directory")
-    probe = out if out.exists() else next((p for p in out.parents if p.exists()), Path("."))
-    if not os.access(probe, os.W_OK):
-        raise PermissionError(f"{out}: not writable")
+    check_writable_dir(out)
 
 
 def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT_STRATEGIES,
@@ -84,31 +78,8 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     options = options or {}
     tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in strategies]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
-    # slow runs first so that the pool stays busy
-    order = sorted(range(len(tasks)), key=lambda i: (0 if tasks[i][2].startswith("dp") else 1, i))
-    results: list[Any] = [None] * len(tasks)
     t0 = time.perf_counter()
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-        bar = tqdm(total=len(tasks), desc="benchmark runs", unit="run")
-    if jobs == 1:
-        for i in order:
-            results[i] = _run_one(tasks[i])
-            if bar:
-                bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
-                bar.update()
-    else:
-        # spawn, not fork: a forked child would inherit the parent's thread pools (DP) mid-lock
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = {i: pool.submit(_run_one, tasks[i]) for i in order}
-            for i in order:
-                results[i] = futures[i].result()
-                if bar:
-                    bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
-                    bar.update()
-    if bar:
-        bar.close()
+    results = _run_tasks(tasks, jobs, progress)
     rows = [r[0] for r in results]
     traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}
     dp_fuel = {(r["cycle"], r["scenario"]): r["fuel_corrected_l_per_100km"] for r in rows if r["strategy"] == "dp"}
@@ -118,8 +89,28 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     out.mkdir(parents=True, exist_ok=True)
     write_results(out, rows, wall_s=time.perf_counter() - t0)
     if plots:
-        plot_results(out, rows, traces)
+        plot_benchmark(out, rows, traces)
     return rows
+
+
+def _run_tasks(tasks: list[tuple], jobs: int, progress: bool) -> list[tuple[dict, dict]]:
+    """``_run_one`` of every task (in ``jobs`` processes), results in the order of ``tasks``."""
+    # slow runs first so that the pool stays busy
+    order = sorted(range(len(tasks)), key=lambda i: (0 if tasks[i][2].startswith("dp") else 1, i))
+    results: list[Any] = [None] * len(tasks)
+    with contextlib.ExitStack() as stack:
+        bar = stack.enter_context(tqdm(total=len(tasks), desc="benchmark runs", unit="run", disable=not progress))
+        futures = {}
+        if jobs > 1:
+            # spawn, not fork: a forked child would inherit the parent's thread pools (DP) mid-lock
+            pool = stack.enter_context(ProcessPoolExecutor(max_workers=jobs,
+                                                           mp_context=multiprocessing.get_context("spawn")))
+            futures = {i: pool.submit(_run_one, tasks[i]) for i in order}
+        for i in order:
+            results[i] = futures[i].result() if futures else _run_one(tasks[i])
+            bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
+            bar.update()
+    return results
 
 
 def _fmt(v: Any) -> str:
@@ -157,47 +148,3 @@ def write_results(out: Path, rows: list[dict], wall_s: float) -> None:
            "energy used and of the missed wheel energy (see README, *Metrics*). \"vs DP\" is corrected fuel "
            "relative to the dynamic-programming optimum on the same cycle and scenario."]
     atomic_write_text(out / "results.md", "\n".join(md) + "\n")
-
-
-def _savefig(fig, path: Path) -> None:
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    os.replace(tmp, path)
-
-
-def plot_results(out: Path, rows: list[dict], traces: dict) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .plots import plot_run
-
-    groups = sorted({(r["cycle"], r["scenario"]) for r in rows})
-    for cyc, sc in groups:
-        group = {st: tr for (c, s, st), tr in traces.items() if c == cyc and s == sc}
-        path = out / f"traces_{cyc}_{sc}.png"
-        tmp = path.with_name(f".{path.stem}.tmp.png")
-        plot_run(group, tmp, title=f"{cyc} cycle, {sc} scenario: every strategy")
-        os.replace(tmp, path)
-    # bar chart of corrected fuel relative to DP
-    fig, axes = plt.subplots(1, len(groups), figsize=(4.2 * len(groups), 4.0), squeeze=False)
-    for ax, (cyc, sc) in zip(axes[0], groups):
-        sel = [r for r in rows if r["cycle"] == cyc and r["scenario"] == sc]
-        has_dp = any(r["fuel_vs_dp_pct"] for r in sel)
-        vals = [r["fuel_vs_dp_pct"] if has_dp else r["fuel_corrected_l_per_100km"] for r in sel]
-        names = [r["strategy"] for r in sel]
-        bars = ax.bar(range(len(sel)), vals, color=["tab:grey" if n.startswith("dp") else "tab:blue" for n in names])
-        for b, v in zip(bars, vals):
-            ax.text(b.get_x() + b.get_width() / 2, b.get_height(), f"{v:.1f}", ha="center", va="bottom", fontsize=8)
-        ax.set_xticks(range(len(sel)))
-        ax.set_xticklabels(names, rotation=35, ha="right")
-        if has_dp:
-            ax.axhline(100.0, color="k", lw=0.8)
-            ax.set_ylim(min(95.0, min(vals) - 2), max(vals) * 1.05)
-        ax.set_ylabel("corrected fuel, % of DP" if has_dp else "corrected fuel (L/100 km)")
-        ax.set_title(f"{cyc} / {sc}")
-    fig.suptitle("Corrected fuel relative to the DP optimum (lower is better)")
-    fig.tight_layout()
-    _savefig(fig, out / "fuel_vs_dp.png")
-    plt.close(fig)

@@ -3,8 +3,8 @@
 :func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
 resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
 :class:`RunResult`: the JSON summary (the metrics come from
-:func:`hev_thermal_env.metrics.summarize`, so they match the whole-cycle simulation) and
-per-step traces of every ``info`` field, of every physics output and of the state.
+:func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation)
+and per-step traces of every ``info`` field, of every physics output and of the state.
 """
 
 from __future__ import annotations
@@ -17,13 +17,13 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.cycles import Cycle, load_cycle
-from hev_thermal_env.metrics import summarize
+from hev_thermal_env.envs import HevThermalEnv
+from hev_thermal_env.metrics import run_metrics
 from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.scenarios import Scenario, get_scenario
-
-from .base import Strategy
 
 SUMMARY_KEYS = (
     "cycle", "strategy", "scenario", "distance_km", "duration_s", "fuel_g", "fuel_l_per_100km",
@@ -85,8 +85,6 @@ def _jsonable(x: Any) -> Any:
 def make_env(strategy: Strategy, cycle: Any, scenario: str | Scenario = "paper", *, config: VehicleConfig | None = None,
              conditions: Conditions | None = None, **env_kwargs: Any):
     """``HevThermalEnv`` for ``strategy`` on ``cycle``: the strategy chooses its vehicle (``vehicle_config``)."""
-    from hev_thermal_env.envs import HevThermalEnv
-
     vehicle = strategy.vehicle_config(config if config is not None else paper_bus())
     return HevThermalEnv(cycle=cycle, scenario=scenario, config=vehicle, conditions=conditions, **env_kwargs)
 
@@ -98,7 +96,8 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
 
     Parameters
     ----------
-    strategy : a :class:`agents.base.Strategy` (e.g. from :func:`agents.get_strategy`).
+    strategy : a :class:`hev_thermal_env.agents.base.Strategy` (e.g. from
+        :func:`hev_thermal_env.agents.get_strategy`).
     cycle : a built-in cycle name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`.
     scenario : ``"paper"``, ``"hot"``, ``"random"`` (drawn from ``seed``) or a Scenario.
     config : the vehicle before the strategy's change (default ``paper_bus()``).
@@ -150,14 +149,10 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     for key, values in infos.items():
         trace[key] = np.asarray(values)
     trace["u"] = us[:steps]
-    v = np.asarray(e.cycle.speed_mps, dtype=np.float64)
-    distance_m = float(np.sum(0.5 * (v[k0:k0 + steps] + v[k0 + 1:k0 + steps + 1])))
-    vehicle = e.config
-    metrics = summarize(trace, vehicle, soc0, distance_m, e.core.dt_s)
+    metrics = run_metrics(trace, e.config, soc0, e.cycle.speed_mps, k0, steps, e.core.dt_s)
     summary = {
         "cycle": e.cycle.name, "strategy": getattr(strategy, "label", strategy.name), "scenario": scen.name,
         **metrics,
-        "delta_soc": metrics["soc_final"] - metrics["soc_initial"],
         "wall_s": wall, "plan_s": plan_s, "thermal_aware": bool(strategy.thermal_aware), "seed": seed,
         "conditions": e.conditions.to_dict(), "strategy_settings": strategy.describe(),
     }

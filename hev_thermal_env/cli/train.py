@@ -1,0 +1,122 @@
+"""Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus.
+
+The program behind ``train.py`` and the ``hev-train`` command.
+
+Examples::
+
+    python train.py --algo ppo --cycles hwfet random_bus --scenario random --timesteps 5000000 \\
+        --n-envs 32 --seed 0 --out runs/ppo_s0
+    python train.py --algo ppo --hp gamma=0.99 'policy_kwargs={net_arch: [128, 128]}' --out runs/ppo_wide
+    python train.py --resume runs/ppo_s0          # continue an interrupted run to its total
+
+Hyperparameters come from ``agents/hyperparams/<algo>.yaml`` (or ``--hyperparams FILE``);
+``--hp key=value`` overrides any of them: values are YAML (``0.99``, ``[64, 64]``,
+``{net_arch: [64, 64], activation_fn: tanh}``, ``lin_3e-4`` for a linear decay), ``dict(k=v, ...)``
+is accepted too, and dotted keys reach inside mappings (``policy_kwargs.net_arch=[64,64]``,
+``env.reward.soc_deviation_weight=1.0``). The run directory gets ``model.zip``, ``best_model.zip``,
+``vecnormalize.pkl``, ``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard),
+``evaluations.csv`` and ``training_curve.png`` (see :mod:`hev_thermal_env.training`).
+
+Ctrl-C saves a checkpoint and exits with status 130; ``--resume DIR`` continues. Errors in the
+input (an unknown hyperparameter, a value of the wrong type, an output directory that cannot be
+written) are reported in one line with a non-zero exit status before anything is created. Torch
+runs on one thread (environment variable ``HEV_TORCH_THREADS`` to change).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from hev_thermal_env.training import TrainingInterrupted, build_config, parse_overrides, resume, train
+
+from .errors import EXIT_INTERRUPTED, USER_ERRORS, program_name, report
+
+SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "out", "hp", "hyperparams", "vec",
+                 "eval_cycles", "eval_scenarios", "eval_freq", "checkpoint_freq")
+
+
+class OneLineErrorParser(argparse.ArgumentParser):
+    """Usage errors in one line (``train.py: error: ...``), exit status 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
+    p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0],
+                           formatter_class=argparse.RawDescriptionHelpFormatter,
+                           epilog="\n\n".join(__doc__.split("\n\n")[1:]))
+    p.add_argument("--algo", default=None, help="ppo (default) or sac")
+    p.add_argument("--cycles", nargs="+", default=None,
+                   help="training cycles: built-in names, CSV paths or random_bus (default from the file)")
+    p.add_argument("--scenario", default=None, help="paper, hot or random (default from the hyperparameter file)")
+    p.add_argument("--timesteps", type=int, default=None, help="total env-steps (default from the hyperparameter file)")
+    p.add_argument("--n-envs", type=int, default=None, help="parallel environments (default from the file)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the model and the environments (default 0)")
+    p.add_argument("--out", default=None, help="run directory (new or empty)")
+    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE", help="hyperparameter overrides")
+    p.add_argument("--hyperparams", default=None, metavar="FILE", help="hyperparameter YAML file")
+    p.add_argument("--vec", default=None, help="native (batched env, default), subproc or dummy")
+    p.add_argument("--eval-cycles", nargs="*", default=None,
+                   help="evaluation cycles, not trained on (default beijing us06; none disables evaluation)")
+    p.add_argument("--eval-scenarios", nargs="+", default=None, help="evaluation scenarios (default paper)")
+    p.add_argument("--eval-freq", type=int, default=None, help="evaluate every N env-steps")
+    p.add_argument("--checkpoint-freq", type=int, default=None, help="checkpoint every N env-steps")
+    p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no evaluation lines")
+    return p
+
+
+def command_line(argv: Sequence[str]) -> str:
+    """The command as it would be typed again (saved in the run's ``command.txt``)."""
+    line = " ".join(shlex.quote(a) for a in argv)
+    return f"python {line}" if argv and argv[0].endswith(".py") else line
+
+
+def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
+    """Train or resume as ``args`` say; returns the run's result and its directory."""
+    progress, verbose = not args.no_progress, 0 if args.quiet else 1
+    if args.resume is not None:
+        given = [f"--{f.replace('_', '-')}" for f in SETTING_FLAGS if getattr(args, f) is not None]
+        if given:
+            raise ValueError(f"--resume takes every setting from {args.resume}/config.yaml; drop {' '.join(given)}")
+        return resume(args.resume, progress=progress, verbose=verbose, command=command), args.resume
+    if args.out is None:
+        raise ValueError("--out DIR is required (or --resume DIR)")
+    config = build_config(
+        args.algo or "ppo", hyperparams_file=args.hyperparams, overrides=parse_overrides(args.hp or []),
+        cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
+        seed=0 if args.seed is None else args.seed, vec=args.vec or "native", eval_cycles=args.eval_cycles,
+        eval_scenarios=args.eval_scenarios, eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq,
+        command=command)
+    return train(config, args.out, progress=progress, verbose=verbose), args.out
+
+
+def main(argv: list[str] | None = None) -> int:
+    prog = program_name(argv, "train.py")
+    args = build_parser(prog).parse_args(argv)
+    command = command_line([prog, *(sys.argv[1:] if argv is None else argv)])
+    try:
+        result, out = run(args, command)
+    except TrainingInterrupted as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except USER_ERRORS as exc:
+        return report(exc, prog)
+    share = result.get("env_share")
+    print(f"done: {result['timesteps_done']} timesteps in {result['wall_s']:.1f} s "
+          f"({result.get('steps_per_s') or 0:.0f} steps/s this session"
+          f"{f', env step {100 * share:.1f} % of it' if share is not None else ''}); model in {out}/model.zip")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,1 +1,0 @@
-"""Command-line subcommands that need only the physics (no strategies)."""

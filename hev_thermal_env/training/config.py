@@ -1,0 +1,176 @@
+"""The config of a training run: one plain dict, saved as ``DIR/config.yaml``.
+
+:func:`build_config` makes it from the algorithm's hyperparameter file
+(:func:`~hev_thermal_env.training.hyperparams.load_hyperparams`), the ``--hp`` overrides
+(:mod:`~hev_thermal_env.training.overrides`) and the command-line settings, and checks all of it
+(:func:`validate_config`) before anything is created: unknown names, wrong types and impossible
+numbers are one-line ``ValueError`` s. Sections: ``algo``, ``seed``, ``total_timesteps``,
+``n_envs``, ``vec``, ``env`` (the training env's settings), ``normalize`` (``VecNormalize``),
+``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``command``, ``created``,
+``versions``, and after training ``result``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import inspect
+import platform
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium
+import numpy as np
+import stable_baselines3
+import torch
+from stable_baselines3.common.vec_env import VecNormalize
+
+import hev_thermal_env
+from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.envs.episodes import RANDOM_BUS
+from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.envs.spaces import observation_names
+from hev_thermal_env.io import atomic_write_yaml, read_yaml_mapping
+from hev_thermal_env.scenarios import get_scenario
+
+from .hyperparams import check_hyperparams, check_known, load_hyperparams
+from .overrides import apply_overrides
+
+VEC_MODES = ("native", "subproc", "dummy")
+DEFAULT_EVAL_CYCLES = ("beijing", "us06")
+
+#: Settings of the environment a run trains on (the ``env`` section of the config).
+ENV_KEYS = ("cycles", "scenario", "random_start", "preview_s", "preview_step_s", "thermal", "reward")
+#: Settings of the periodic evaluation (the ``eval`` section).
+EVAL_KEYS = ("cycles", "scenarios", "freq", "dp_reference")
+#: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's).
+NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters
+                       if k not in ("self", "venv", "gamma"))
+
+
+def versions() -> dict[str, str]:
+    return {"python": platform.python_version(), "numpy": str(np.__version__), "torch": str(torch.__version__),
+            "stable_baselines3": str(stable_baselines3.__version__), "gymnasium": str(gymnasium.__version__),
+            "hev_thermal_env": hev_thermal_env.__version__, "platform": platform.platform()}
+
+
+def whole_number(key: str, value: Any) -> int:
+    """``int(value)``, or a one-line ValueError naming ``key`` and ``value``."""
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{key}={value!r}: expected a whole number") from None
+
+
+def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overrides: dict[str, Any] | None = None,
+                 cycles: Sequence[str] | None = None, scenario: str | None = None, timesteps: int | None = None,
+                 n_envs: int | None = None, seed: int = 0, vec: str = "native",
+                 eval_cycles: Sequence[str] | None = None, eval_scenarios: Sequence[str] | None = None,
+                 eval_freq: int | None = None, checkpoint_freq: int | None = None,
+                 command: str | None = None) -> dict[str, Any]:
+    """The complete config of a run (validated), from the hyperparameter file, overrides and settings."""
+    algo = str(algo).lower()
+    hp = apply_overrides(load_hyperparams(algo, hyperparams_file), overrides or {})
+    env = dict(hp.pop("env", None) or {})
+    ev = dict(hp.pop("eval", None) or {})
+    normalize = hp.pop("normalize", None)
+    total = hp.pop("n_timesteps", None)
+    envs = hp.pop("n_envs", None)
+    ckpt = hp.pop("checkpoint_freq", None)
+    if cycles is not None:
+        env["cycles"] = list(cycles)
+    if scenario is not None:
+        env["scenario"] = scenario
+    for key, value in (("cycles", ["hwfet", "random_bus"]), ("scenario", "random"), ("random_start", True),
+                       ("preview_s", 10), ("preview_step_s", 2), ("thermal", True), ("reward", {})):
+        env.setdefault(key, value)
+    if eval_cycles is not None:
+        ev["cycles"] = list(eval_cycles)
+    if eval_scenarios is not None:
+        ev["scenarios"] = list(eval_scenarios)
+    if eval_freq is not None:
+        ev["freq"] = eval_freq
+    for key, value in (("cycles", list(DEFAULT_EVAL_CYCLES)), ("scenarios", ["paper"]), ("freq", 100_000)):
+        ev.setdefault(key, value)
+    hp.setdefault("policy", "MlpPolicy")
+    if normalize is None or normalize is True:
+        normalize = {}
+    if normalize is not False:
+        if not isinstance(normalize, dict):
+            raise ValueError(f"normalize={normalize!r}: expected true, false or a mapping")
+        normalize = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0, **normalize}
+    config = {
+        "algo": algo,
+        "seed": whole_number("seed", seed),
+        "total_timesteps": whole_number("n_timesteps", timesteps if timesteps is not None else (total or 1_000_000)),
+        "n_envs": whole_number("n_envs", n_envs if n_envs is not None else (envs or 1)),
+        "vec": vec,
+        "env": env,
+        "normalize": normalize,
+        "hyperparams": hp,
+        "eval": ev,
+        "checkpoint_freq": whole_number("checkpoint_freq", checkpoint_freq if checkpoint_freq is not None
+                                        else (ckpt or 500_000)),
+        "command": command,
+        "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "versions": versions(),
+    }
+    validate_config(config)
+    return config
+
+
+def validate_config(config: dict[str, Any]) -> None:
+    """Fail before any work, with one-line messages, on unknown names, wrong types and impossible numbers.
+
+    Fills ``env.observation_size`` and ``env.observation_names`` (what a trained policy expects)."""
+    if config["vec"] not in VEC_MODES:
+        raise ValueError(f"unknown --vec {config['vec']!r}; choose one of {', '.join(VEC_MODES)}")
+    _validate_env(config["env"])
+    ev = config["eval"]
+    check_known("eval setting", ev, EVAL_KEYS)
+    for c in ev["cycles"]:
+        load_cycle(c)
+    for s in ev["scenarios"]:
+        get_scenario(s)
+    if config["normalize"] is not False:
+        check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
+    for key, value, least in (("total_timesteps", config["total_timesteps"], 1), ("n_envs", config["n_envs"], 1),
+                              ("checkpoint_freq", config["checkpoint_freq"], 1), ("eval.freq", ev["freq"], 0)):
+        if whole_number(key, value) < least:
+            raise ValueError(f"{key} must be at least {least}, got {value}")
+    check_hyperparams(config["algo"], config["hyperparams"])
+
+
+def _validate_env(env: dict[str, Any]) -> None:
+    check_known("env setting", env, (*ENV_KEYS, "observation_size", "observation_names"))
+    cycles = env["cycles"] if isinstance(env["cycles"], list) else [env["cycles"]]
+    if not cycles:
+        raise ValueError("no training cycles given")
+    for c in cycles:
+        if str(c).strip().lower() != RANDOM_BUS:
+            load_cycle(c)
+    env["cycles"] = [str(c) for c in cycles]
+    get_scenario(env["scenario"])
+    RewardParams.from_dict(dict(env.get("reward") or {}), where="env.reward")
+    names = observation_names(whole_number("env.preview_s", env["preview_s"]),
+                              whole_number("env.preview_step_s", env["preview_step_s"]))
+    env["observation_size"] = len(names)
+    env["observation_names"] = list(names)
+
+
+def save_run_config(run_dir: str | Path, config: dict[str, Any]) -> Path:
+    """Write ``DIR/config.yaml`` atomically."""
+    return atomic_write_yaml(Path(run_dir) / "config.yaml", config)
+
+
+def load_run_config(run_dir: str | Path) -> dict[str, Any]:
+    """The config of the run in ``run_dir`` (one-line errors when it is not a run directory)."""
+    p = Path(run_dir) / "config.yaml"
+    if not Path(run_dir).is_dir():
+        raise FileNotFoundError(f"run directory {run_dir} not found")
+    if not p.is_file():
+        raise FileNotFoundError(f"{p} not found: {run_dir} is not a train.py run directory")
+    data = read_yaml_mapping(p)
+    if "algo" not in data or "env" not in data:
+        raise ValueError(f"{p}: not a train.py config")
+    return data

@@ -1,0 +1,80 @@
+"""The training environments: the vector env of a run config, timed, and its ``VecNormalize``.
+
+By default the native batched vector env through its SB3 adapter
+(:class:`hev_thermal_env.wrappers.Sb3VecEnv`, ``vec="native"``); ``"subproc"`` and ``"dummy"``
+run SB3's ``SubprocVecEnv`` / ``DummyVecEnv`` over single ``HevThermal-v0`` envs. The time spent
+inside the environment is measured (:class:`TimedVecEnv`) and reported as a share of training.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnvWrapper, VecMonitor, VecNormalize
+
+from hev_thermal_env.envs import HevThermalEnv
+from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
+
+
+def env_kwargs(env_cfg: dict[str, Any], *, for_eval: bool = False) -> dict[str, Any]:
+    """Keyword arguments of ``HevThermalEnv`` / ``HevThermalVectorEnv`` for the config's env section."""
+    return {"cycle": list(env_cfg["cycles"]), "scenario": env_cfg["scenario"],
+            "random_start": False if for_eval else bool(env_cfg.get("random_start", True)),
+            "preview_s": int(env_cfg["preview_s"]), "preview_step_s": int(env_cfg["preview_step_s"]),
+            "thermal": bool(env_cfg.get("thermal", True)), "reward": dict(env_cfg.get("reward") or {})}
+
+
+class TimedVecEnv(VecEnvWrapper):
+    """Measures the wall time spent in the wrapped env's ``reset`` and ``step`` (``seconds``)."""
+
+    def __init__(self, venv):
+        super().__init__(venv)
+        self.seconds = 0.0
+        self.steps = 0
+
+    def reset(self):
+        t = time.perf_counter()
+        obs = self.venv.reset()
+        self.seconds += time.perf_counter() - t
+        return obs
+
+    def step_async(self, actions):
+        t = time.perf_counter()
+        self.venv.step_async(actions)
+        self.seconds += time.perf_counter() - t
+
+    def step_wait(self):
+        t = time.perf_counter()
+        result = self.venv.step_wait()
+        self.seconds += time.perf_counter() - t
+        self.steps += self.num_envs
+        return result
+
+
+def make_vec_env(config: dict[str, Any]) -> tuple[VecMonitor, TimedVecEnv]:
+    """The raw training VecEnv of the config (no normalisation), and the timer inside it."""
+    kwargs = env_kwargs(config["env"])
+    n = int(config["n_envs"])
+    if config["vec"] == "native":
+        raw = Sb3VecEnv(n, info_keys=(), **kwargs)
+    else:
+        cls = SubprocVecEnv if config["vec"] == "subproc" else DummyVecEnv
+        raw = cls([functools.partial(HevThermalEnv, **kwargs) for _ in range(n)])
+    timed = TimedVecEnv(raw)
+    return VecMonitor(timed), timed
+
+
+def wrap_normalize(venv, config: dict[str, Any], stats_path: Path | None = None):
+    """``VecNormalize`` over ``venv`` (fresh, or with the statistics saved at ``stats_path``)."""
+    norm = config["normalize"]
+    if norm is False:
+        return venv
+    if stats_path is not None:
+        vn = VecNormalize.load(str(stats_path), venv)
+        vn.training = True
+        return vn
+    gamma = float(config["hyperparams"].get("gamma", 0.99))
+    return VecNormalize(venv, gamma=gamma, **norm)

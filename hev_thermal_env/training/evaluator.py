@@ -1,0 +1,70 @@
+"""The evaluation during training: deterministic runs of the current policy on cycles it does not train on."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.envs import HevThermalVectorEnv
+from hev_thermal_env.metrics import run_metrics
+from hev_thermal_env.physics import core as C
+
+from .envs import env_kwargs
+
+#: The per-step info fields the metrics need.
+TRACE_KEYS = ("fuel_g", "battery_chem_power_w", "missed_wheel_energy_j", "soc", "motor_temp_c", "heat_index",
+              "motor_cutoff", "trace_miss_mps", "engine_on")
+
+
+class PolicyEvaluator:
+    """Deterministic runs of a policy over fixed cycles × scenarios, every cycle of a scenario in one batch.
+
+    Each (cycle, scenario) runs from the cycle's start with the scenario's conditions (random
+    scenarios draw them from ``seed``), in a :class:`~hev_thermal_env.envs.HevThermalVectorEnv`
+    built with the run's env settings (preview, reward, thermal model). The metrics are those of
+    :func:`hev_thermal_env.evaluation.runner.run_strategy`
+    (:func:`hev_thermal_env.metrics.run_metrics`).
+    """
+
+    def __init__(self, env_cfg: dict[str, Any], cycles: Sequence[str], scenarios: Sequence[str], seed: int = 0):
+        self.env_cfg = env_cfg
+        self.cycles = [load_cycle(c) for c in cycles]
+        self.cycle_names = list(cycles)
+        self.scenarios = list(scenarios)
+        self.seed = int(seed)
+
+    def run(self, act: Callable[[np.ndarray], np.ndarray]) -> list[dict[str, Any]]:
+        """Drive every (cycle, scenario) with ``act(raw_obs [n, dim]) -> actions [n, 1]``; one result per run."""
+        return [r for scenario in self.scenarios for r in self.run_scenario(act, scenario)]
+
+    def run_scenario(self, act: Callable[[np.ndarray], np.ndarray], scenario: str) -> list[dict[str, Any]]:
+        """Every cycle in ``scenario``, in one batched env."""
+        kwargs = env_kwargs({**self.env_cfg, "scenario": scenario}, for_eval=True)
+        kwargs["cycle"] = self.cycles
+        n = len(self.cycles)
+        venv = HevThermalVectorEnv(n, **kwargs)
+        obs, _ = venv.reset(seed=self.seed, options=[{"cycle": c} for c in self.cycles])
+        soc0 = venv.phys_state[:, C.SOC].copy()
+        lengths = np.array([c.n_steps for c in self.cycles])
+        horizon = int(lengths.max())
+        traces = {k: np.zeros((horizon, n)) for k in TRACE_KEYS}
+        returns = np.zeros(n)
+        for t in range(horizon):
+            obs, reward, _, _, info = venv.step(act(obs))
+            returns += np.where(t < lengths, reward, 0.0)
+            for k in TRACE_KEYS:
+                traces[k][t] = info[k]
+        results = []
+        for i, (name, cyc) in enumerate(zip(self.cycle_names, self.cycles)):
+            m = int(lengths[i])
+            trace = {k: traces[k][:m, i] for k in TRACE_KEYS}
+            s = run_metrics(trace, venv.config, float(soc0[i]), cyc.speed_mps, 0, m, venv.core.dt_s)
+            results.append({"cycle": name, "scenario": scenario, "return_g": float(returns[i]),
+                            "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
+                            "delta_soc": s["delta_soc"], "cutoff_s": s["cutoff_s"],
+                            "trace_miss_max_mps": s["trace_miss_max_mps"]})
+        venv.close()
+        return results
