@@ -54,8 +54,6 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
     t0 = time.perf_counter()
     for si, scenario in enumerate(scenarios):
         env = HevThermalVectorEnv(num_envs, cycle=cycles, scenario=scenario, random_start=True)
-        bat = env.config.battery
-        space = env.single_observation_space
         obs, _ = env.reset(seed=seed * 1000 + si)
         e_in = np.zeros(num_envs)
         e_out = np.zeros(num_envs)
@@ -78,23 +76,8 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
             stepped = ~resetting
             out = env.last_out
             state = env.phys_state
-            _check_finite(obs, rew, info, out)
-            if not np.all((obs >= space.low) & (obs <= space.high)):
-                bad = np.argwhere(~((obs >= space.low) & (obs <= space.high)))[0]
-                raise AssertionError(f"{scenario}: observation {bad[1]} = {obs[bad[0], bad[1]]} outside its bounds")
-            soc = state[:, C.SOC]
-            if np.any(soc < bat.soc_min - 1e-12) or np.any(soc > bat.soc_max + 1e-12):
-                raise AssertionError(f"{scenario}: SOC {soc.min()}..{soc.max()} left [{bat.soc_min}, {bat.soc_max}]")
+            soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, state, sink, stepped, temp_tol_c)
             hi = info["heat_index"]
-            if np.any(hi < 0) or np.any(hi > 1):
-                raise AssertionError(f"{scenario}: heat index {hi.min()}..{hi.max()} outside [0, 1]")
-            if np.any(info["fuel_g"] < 0):
-                raise AssertionError(f"{scenario}: negative fuel {info['fuel_g'].min()}")
-            temp = state[:, C.TEMP_C]
-            margin = temp - sink
-            if np.any(margin[stepped] < -temp_tol_c):
-                i = int(np.argmin(np.where(stepped, margin, np.inf)))
-                raise AssertionError(f"{scenario}: motor at {temp[i]:.6f} °C below its coolest heat sink {sink[i]:.6f}")
             a, b, s = _balance_terms(out)
             e_in[stepped] += a[stepped]
             e_out[stepped] += b[stepped]
@@ -128,6 +111,31 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
     report["wall_s"] = time.perf_counter() - t0
     report["steps_per_s"] = report["steps"] / report["wall_s"]
     return report
+
+
+def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, temp_tol_c: float):
+    """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink."""
+    bat = env.config.battery
+    space = env.single_observation_space
+    _check_finite(obs, rew, info, out)
+    inside = (obs >= space.low) & (obs <= space.high)
+    if not np.all(inside):
+        bad = np.argwhere(~inside)[0]
+        raise AssertionError(f"{scenario}: observation {bad[1]} = {obs[bad[0], bad[1]]} outside its bounds")
+    soc = state[:, C.SOC]
+    if np.any(soc < bat.soc_min - 1e-12) or np.any(soc > bat.soc_max + 1e-12):
+        raise AssertionError(f"{scenario}: SOC {soc.min()}..{soc.max()} left [{bat.soc_min}, {bat.soc_max}]")
+    hi = info["heat_index"]
+    if np.any(hi < 0) or np.any(hi > 1):
+        raise AssertionError(f"{scenario}: heat index {hi.min()}..{hi.max()} outside [0, 1]")
+    if np.any(info["fuel_g"] < 0):
+        raise AssertionError(f"{scenario}: negative fuel {info['fuel_g'].min()}")
+    temp = state[:, C.TEMP_C]
+    margin = temp - sink
+    if np.any(margin[stepped] < -temp_tol_c):
+        i = int(np.argmin(np.where(stepped, margin, np.inf)))
+        raise AssertionError(f"{scenario}: motor at {temp[i]:.6f} °C below its coolest heat sink {sink[i]:.6f}")
+    return soc, temp, margin
 
 
 def _sinks(env) -> np.ndarray:

@@ -39,7 +39,7 @@ class HevThermalEnv(gym.Env):
     sustained overload, loses efficiency as it warms and stops at 70 °C until it has cooled. Where
     the powertrain cannot deliver the demand, the step records a trace miss (missed wheel energy,
     speed deficit) and the reward prices it; the next step follows the cycle again. See
-    :mod:`hev_thermal_env.physics.core` and ``docs/architecture.md``.
+    :mod:`hev_thermal_env.physics.core` and the README's Architecture section.
 
     ## Action Space
 

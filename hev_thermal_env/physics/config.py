@@ -12,7 +12,7 @@ Where the ``paper_bus`` numbers come from
 * Glider: ADVISOR VEH_RTS06 (Cd 0.79, A 7.8965 m²) and WH_HEAVY (Crr 0.00938, r 0.5 m).
   Test mass 15 000 kg: ADVISOR's 40-ft bus (12 156 kg glider + 1 837 kg cargo) plus the hybrid
   powertrain, fine-tuned with the final drive so that Table 3's top speed, 0-60 km/h time and
-  4 % grade speed are met with the thermal model off (``tests/test_performance.py``).
+  4 % grade speed are met with the thermal model off (``tests/test_physics.py``, Table 3 tests).
 * Engine: ADVISOR FC_CI119 (6.5 L, 119 kW diesel) full-load curve and fitted fuel surface.
 * Driveline: 5-speed AMT (ratios 5.0/3.3/2.37/1.45/1.0, final drive 5.6, chosen so the
   engine runs near its peak power on the 4 % grade in third gear), lossless coupler with

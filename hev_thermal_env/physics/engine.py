@@ -5,7 +5,7 @@ Fuel rate (Willans-type surface in speed ω [rad/s] and brake power P [kW])::
     fuel_gps = c0 + c1·ω + c2·ω² + (c3 + c4·ω)·P + c5·P²
 
 Coefficients are a least-squares fit to ADVISOR's FC_CI119 (6.5 L, 119 kW) fuel map
-(``benchmarks/calibrate_engine.py`` refits and reports the error: 2.1 % RMS, 5.1 % max over
+(``tests/test_physics.py::test_engine_fit_against_advisor`` checks the error: 2.1 % RMS, 5.1 % max over
 the 54 map points). The constant-plus-speed terms give the fuel at zero load (idle and
 motoring with accessories only). Fuel is cut on overrun (no positive torque requested while the
 shaft turns above idle) and zero when the engine is off.
