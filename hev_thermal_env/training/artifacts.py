@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import csv
 import io
+import logging
 import pickle
 import re
 import warnings
@@ -38,6 +39,7 @@ import numpy as np
 import yaml
 
 from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
+from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
 from .hyperparams import algorithm_class
 from .schedules import custom_objects
@@ -204,7 +206,30 @@ def load_policy(path: str | Path, *, normalize: bool = True) -> LoadedPolicy:
     if wants_stats:
         stats = load_obs_normalizer(stats_path_for(model_path))
     model = load_sb3_model(model_path, algo, (config or {}).get("hyperparams"))
+    warn_if_other_physics(model_path, config)
     return LoadedPolicy(model, stats, config, model_path)
+
+
+def warn_if_other_physics(model_path: Path, config: dict[str, Any] | None) -> str | None:
+    """Log one warning line if the policy was trained on physics that behave differently from today's.
+
+    The run's ``config.yaml`` records ``versions.physics_fingerprint``
+    (:func:`hev_thermal_env.physics.fingerprint.physics_fingerprint`); returns the warning, or None.
+    """
+    trained = ((config or {}).get("versions") or {}).get("physics_fingerprint")
+    current = physics_fingerprint()
+    if trained == current:
+        return None
+    what = "an unrecorded physics version" if trained is None else f"physics {trained}"
+    message = (f"{model_path}: this policy was trained on {what}; the physics now is {current}: "
+               "retrain it for figures that hold on today's physics")
+    if message not in _WARNED:
+        _WARNED.add(message)
+        logging.getLogger("hev_thermal_env").warning(message)
+    return message
+
+
+_WARNED: set[str] = set()
 
 
 # --- writing models and evaluations -------------------------------------------------------------------

@@ -31,6 +31,7 @@ from hev_thermal_env.envs.episodes import RANDOM_BUS
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.envs.spaces import observation_names
 from hev_thermal_env.io import atomic_write_yaml, read_yaml_mapping
+from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
 
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
@@ -51,7 +52,8 @@ NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).param
 def versions() -> dict[str, str]:
     return {"python": platform.python_version(), "numpy": str(np.__version__), "torch": str(torch.__version__),
             "stable_baselines3": str(stable_baselines3.__version__), "gymnasium": str(gymnasium.__version__),
-            "hev_thermal_env": hev_thermal_env.__version__, "platform": platform.platform()}
+            "hev_thermal_env": hev_thermal_env.__version__, "platform": platform.platform(),
+            "physics_fingerprint": physics_fingerprint()}
 
 
 def whole_number(key: str, value: Any) -> int:
