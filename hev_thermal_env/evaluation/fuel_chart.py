@@ -17,6 +17,7 @@ from hev_thermal_env.io import save_png
 from .styles import (
     LEARNED_BAND_COLOUR,
     close,
+    figure_title,
     is_learned,
     legend_outside,
     ordered,
@@ -92,7 +93,7 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
                       marker="D", ls="none", label="learned policy"),
                Patch(facecolor=LEARNED_BAND_COLOUR, label="learned policies (set apart)")]
     legend_outside(fig, handles, [h.get_label() for h in handles])
-    fig.suptitle("Corrected fuel relative to the dynamic-programming optimum" if ratio else "Corrected fuel",
+    figure_title(fig, "Corrected fuel relative to the dynamic-programming optimum" if ratio else "Corrected fuel",
                  fontsize=12)
     return fig
 

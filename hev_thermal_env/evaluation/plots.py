@@ -28,7 +28,7 @@ from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import save_png
 
 from .fuel_chart import plot_fuel_vs_dp
-from .styles import CYCLE_COLOUR, close, legend_outside, ordered, pyplot, short_label, strategy_styles
+from .styles import CYCLE_COLOUR, close, figure_title, legend_outside, ordered, pyplot, short_label, strategy_styles
 
 __all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure", "temperature_limits_c"]
 
@@ -107,7 +107,7 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
         legend_outside(fig, limit_handles, [h.get_label() for h in limit_handles], title="motor temperature",
                        where="right lower")
     if title:
-        fig.suptitle(title, fontsize=12)
+        figure_title(fig, title, fontsize=12)
     return fig
 
 

@@ -109,5 +109,10 @@ def legend_outside(fig, handles: Sequence[Any], labels: Sequence[str], *, ncol: 
                       frameon=False)
 
 
+def figure_title(fig, text: str, fontsize: float = 11.0):
+    """The figure's title, left-aligned so that it never runs into a legend on the upper right."""
+    return fig.suptitle(text, x=0.01, ha="left", fontsize=fontsize)
+
+
 def close(fig) -> None:
     pyplot().close(fig)

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.evaluation.styles import close, legend_outside, pyplot
+from hev_thermal_env.evaluation.styles import close, figure_title, legend_outside, pyplot
 from hev_thermal_env.io import save_png
 
 from .artifacts import read_evaluations
@@ -92,7 +92,7 @@ def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | 
     axes[-1].xaxis.set_major_formatter(EngFormatter(sep=""))
     legend_outside(fig, handles, [h.get_label() for h in handles])
     cfg = load_run_config(out)
-    fig.suptitle(f"{str(cfg['algo']).upper()} seed {cfg['seed']}: training return and evaluation on cycles not "
+    figure_title(fig, f"{str(cfg['algo']).upper()} seed {cfg['seed']}: training return and evaluation on cycles not "
                  f"trained on", fontsize=11)
     return fig
 
