@@ -69,6 +69,12 @@ def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]
     return series
 
 
+def _display(by_step: dict[int, dict[str, Any]]) -> str:
+    """``cycle / scenario`` of a series, a cycle given as a CSV path shortened to its file name."""
+    r = next(iter(by_step.values()))
+    return f"{Path(str(r['cycle'])).name} / {r['scenario']}"
+
+
 def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | None = None):
     """The figure of the run in ``run_dir`` (see the module docstring); returns the matplotlib figure."""
     plt = pyplot()
@@ -88,6 +94,7 @@ def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | 
             ax.axvline(best, color="0.35", ls=":", lw=1.2, zorder=0)
     for ax in axes:
         ax.grid(alpha=0.3)
+        ax.ticklabel_format(axis="y", useOffset=False)
     axes[-1].set_xlabel("env-steps")
     axes[-1].xaxis.set_major_formatter(EngFormatter(sep=""))
     legend_outside(fig, handles, [h.get_label() for h in handles])
@@ -122,7 +129,7 @@ def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, d
         steps = sorted(by_step)
         colour = f"C{k % 10}"
         handles += ax_ret.plot(steps, [by_step[s]["return_g"] for s in steps], color=colour, lw=1.0, marker=".",
-                               label=f"evaluation: {label}")
+                               label=f"evaluation: {_display(by_step)}")
         fuel = np.array([by_step[s]["fuel_corrected_l_per_100km"] for s in steps])
         if ratio:
             fuel = 100.0 * fuel / dp_reference[label]
