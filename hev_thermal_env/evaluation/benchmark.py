@@ -2,8 +2,9 @@
 
 ``python evaluate.py benchmark --out DIR`` writes ``results.csv``, ``results.json``, ``results.md``
 (one row per cycle × scenario × strategy, with fuel relative to DP on the same cycle and scenario)
-and PNGs: per cycle and scenario, speed / SOC / motor temperature / heat index / split over time
-for every strategy on shared axes, and a bar chart of corrected fuel relative to DP.
+and PNGs: per cycle and scenario, speed / missed wheel energy / SOC / motor temperature / heat
+index / split over time for every strategy on shared axes (:mod:`.plots`), and a dot chart of
+corrected fuel relative to DP, one row of panels per scenario (:mod:`.fuel_chart`).
 
 Independent runs are spread over processes; each run is deterministic (fixed seed, no shared
 state), so the results equal a serial run's, byte for byte: wall times go to ``timings.json``, not

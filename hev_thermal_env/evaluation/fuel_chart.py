@@ -43,7 +43,7 @@ def _value_range(values: list[float], ratio: bool) -> tuple[float, float]:
     """One x range for every panel: from 100 % (or 0 L/100 km) to the largest value, with room for labels."""
     lo, hi = (min(min(values), 100.0), max(max(values), 100.0)) if ratio else (0.0, max(values))
     span = max(hi - lo, 1.0)
-    return (lo - 0.03 * span if ratio else 0.0), hi + 0.16 * span
+    return (lo - (0.12 if lo < 100.0 else 0.03) * span if ratio else 0.0), hi + 0.16 * span
 
 
 def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: list[str] | None = None):
@@ -114,8 +114,9 @@ def _panel(ax, sel: dict[str, dict], key: str, pos: dict[str, float], styles: di
                 solid_capstyle="butt")
         ax.plot([v], [y], marker="D" if is_learned(name) else "o", ms=7 if is_learned(name) else 6, color=colour,
                 zorder=3)
-        ax.annotate(f"{v:.1f} %" if ratio else f"{v:.2f}", (max(v, base), y), xytext=(6, 0),
-                    textcoords="offset points", va="center", fontsize=8,
+        below = v < base  # a value below the reference is labelled on its left, away from the line
+        ax.annotate(f"{v:.1f} %" if ratio else f"{v:.2f}", (v, y), xytext=(-7 if below else 7, 0),
+                    textcoords="offset points", va="center", ha="right" if below else "left", fontsize=8,
                     fontweight="bold" if is_learned(name) else "normal")
     ax.grid(axis="x", alpha=0.3)
     ax.tick_params(axis="y", length=0)
