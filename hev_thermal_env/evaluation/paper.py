@@ -26,6 +26,7 @@ from .paper_table import (
     verdict_rows,
 )
 from .paper_targets import PAPER_FIGURE_BY_NAME, VERDICT_CYCLES
+from .runner import _jsonable
 
 __all__ = ["build_report", "table3"]
 
@@ -71,7 +72,7 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = VERDICT_CYCLE
         "table2": runs,
     }
     data["wall_s"] = time.perf_counter() - t0
-    atomic_write_json(out / "paper.json", data)
+    atomic_write_json(out / "paper.json", _jsonable(data))  # strict JSON: a never-seen return is null
     md = _opening_md(data) + _performance_md(data) + _cycles_md(runs) + _checks_md(data)
     atomic_write_text(out / "report.md", "\n".join(md) + "\n")
     return data
