@@ -112,8 +112,19 @@ def test_paper_report_quick_within_tolerances(tmp_path, tiny_cycles):
     assert tc["time_to_cutoff_simulated_s"] == pytest.approx(tc["time_to_cutoff_analytic_s"], rel=0.02)
     assert "beijing" in data["table2"]
     report = (out / "report.md").read_text()
-    for png in ("fig4_heat_index.png", "thermal_time_to_cutoff.png", "fig_temperature_heat_index_beijing.png"):
+    for png in ("fig4_heat_index.png", "thermal_time_to_cutoff.png", "fig_temperature_heat_index_beijing.png",
+                "verdicts.png", "fig_table2_fuel.png", "fig_temperature_heat_index_udds.png"):
         assert (out / png).is_file() and png in report
+    # the report opens with the verdicts: one per paper figure, a summary line, then the fuel levels
+    sections = [ln for ln in report.splitlines() if ln.startswith("## ")]
+    assert sections[:2] == ["## Verdicts", "## Absolute fuel levels against Table 2"]
+    agr = data["agreement"]
+    assert f"Agreement: {agr['within']} of {agr['total']} paper figures within tolerance" in report
+    assert agr["total"] == len(data["verdicts"]) >= 19
+    verdict_lines = [ln for ln in report.splitlines() if ln.endswith(("| within tolerance |", "| OUTSIDE tolerance |"))]
+    assert len(verdict_lines) == agr["total"]
+    assert {"accel_30c_delta_s", "accel_50c_delta_s", "udds_fuel_delta_l100"} <= {v["name"] for v in data["verdicts"]}
+    assert {r["cycle"] for r in data["fuel_levels"]} == {"hwfet", "udds", "beijing"}
 
 
 def test_paper_bad_input(tmp_path):

@@ -28,5 +28,7 @@ def main(args: argparse.Namespace) -> int:
     for cyc, row in data["table2"].items():
         print(f"{cyc}: rule fuel {row['without_thermal']['fuel_l_per_100km']:.2f} -> "
               f"{row['with_thermal']['fuel_l_per_100km']:.2f} L/100 km with the thermal model")
+    agr = data["agreement"]
+    print(f"agreement: {agr['within']} of {agr['total']} paper figures within tolerance")
     print(f"wrote {out / 'report.md'} ({data['wall_s']:.1f} s)")
     return 0

@@ -2,8 +2,11 @@
 
 * :mod:`.runner`: :func:`run_strategy` drives one cycle with one strategy (:class:`RunResult`);
 * :mod:`.benchmark`: every strategy on every cycle and scenario, the result table (``run_benchmark``);
-* :mod:`.plots`: :func:`plot_run` and the benchmark figures;
-* :mod:`.paper`: the paper reproduction report (``build_report``).
+* :mod:`.plots`: :func:`plot_run` (the trace figure) and the benchmark figures; :mod:`.fuel_chart`:
+  ``fuel_vs_dp.png``; :mod:`.styles`: strategy order, colours and legends shared by every figure;
+* :mod:`.paper`: the paper reproduction report (``build_report``), with :mod:`.paper_targets` (the
+  paper's figures and tolerances), :mod:`.paper_measure` (the runs), :mod:`.paper_table` (verdicts)
+  and :mod:`.paper_figures`.
 
 Nothing here imports torch: the PPO strategy loads it when it is asked for.
 """

@@ -2,8 +2,9 @@
 
 ``python evaluate.py benchmark --out DIR`` writes ``results.csv``, ``results.json``, ``results.md``
 (one row per cycle × scenario × strategy, with fuel relative to DP on the same cycle and scenario)
-and PNGs: per cycle and scenario, speed / SOC / motor temperature / heat index / split over time
-for every strategy on shared axes, and a bar chart of corrected fuel relative to DP.
+and PNGs: per cycle and scenario, speed / missed wheel energy / SOC / motor temperature / heat
+index / split over time for every strategy on shared axes (:mod:`.plots`), and a dot chart of
+corrected fuel relative to DP, one row of panels per scenario (:mod:`.fuel_chart`).
 
 Independent runs are spread over processes; each run is deterministic (fixed seed, no shared
 state), so the results equal a serial run's, byte for byte: wall times go to ``timings.json``, not
@@ -27,6 +28,7 @@ from tqdm.auto import tqdm
 
 from hev_thermal_env.agents import get_strategy, list_strategies
 from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
 from hev_thermal_env.scenarios import get_scenario
 
@@ -41,8 +43,9 @@ COLUMNS = ("cycle", "scenario", "strategy", "distance_km", "fuel_g", "fuel_l_per
            "fuel_vs_dp_pct", "soc_correction_l_per_100km", "miss_correction_l_per_100km", "missed_wheel_energy_kwh",
            "soc_initial", "soc_final", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s",
            "trace_miss_max_mps")
-TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", "action",
-              "motor_torque_nm", "engine_torque_nm", "fuel_g")
+TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", SPLIT_INFO_KEY,
+              "motor_torque_nm", "engine_torque_nm", "fuel_g", "missed_wheel_energy_j", "motor_cutoff",
+              "shaft_torque_demand_nm")
 
 
 def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:

@@ -1,9 +1,19 @@
-"""Plots of runs: speed against the cycle, SOC, motor temperature, heat index and split over time.
+"""Trace figures: every strategy of one cycle and scenario on shared time axes.
 
-:func:`plot_run` overlays any number of runs (one per strategy) on shared axes, so the benchmark
-and ``evaluate.py run`` draw the same figure; :func:`plot_benchmark` draws the benchmark's figures
-(one :func:`plot_run` per cycle and scenario, and the corrected fuel relative to DP). Every PNG is
-written atomically (:func:`hev_thermal_env.io.save_png`).
+:func:`plot_run` draws any number of runs (one per strategy), so the benchmark and
+``evaluate.py run`` draw the same figure. Panels, top to bottom:
+
+* speed: the cycle's demanded speed as a thick light line, each strategy's delivered speed thin;
+* missed wheel energy, cumulative: where and how much a strategy could not follow the cycle;
+* battery SOC;
+* motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the motor comes near
+  them (and a mark on each strategy's line wherever its motor is cut off);
+* heat index, 0 to 1;
+* the split, one strip per strategy (colour = motor share u; grey where no traction torque is
+  demanded and u has no effect), readable on long stop-and-go cycles.
+
+:func:`plot_benchmark` draws one such figure per cycle and scenario and the fuel chart
+(:mod:`.fuel_chart`). Every PNG is written atomically (:func:`hev_thermal_env.io.save_png`).
 """
 
 from __future__ import annotations
@@ -14,112 +24,190 @@ from pathlib import Path
 
 import numpy as np
 
+from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import save_png
 
-NON_INTERACTIVE_BACKENDS = ("agg", "pdf", "svg", "ps", "cairo")
+from .fuel_chart import plot_fuel_vs_dp
+from .styles import CYCLE_COLOUR, close, figure_title, legend_outside, ordered, pyplot, short_label, strategy_styles
 
-PANELS = (
-    ("speed_mps", "speed (km/h)", 3.6),
-    ("soc", "battery SOC (-)", 1.0),
-    ("motor_temp_c", "motor temperature (°C)", 1.0),
-    ("heat_index", "heat index PWM (-)", 1.0),
-    ("action", "split u: motor share (-)", 1.0),
-)
+__all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure", "temperature_limits_c"]
+
+CUTOFF_COLOUR, SOFT_LIMIT_COLOUR = "#6a3d9a", "#e08214"
+
+#: The temperature lines are drawn when the hottest motor comes within this of the soft limit.
+LIMITS_SHOWN_WITHIN_K = 20.0
 
 
-def pyplot():
-    """``matplotlib.pyplot``, drawing off screen (Agg) unless a non-interactive backend is already chosen."""
-    import matplotlib
+def temperature_limits_c() -> tuple[float, float]:
+    """(soft limit of the reward's overheat penalty, motor cutoff) of the default vehicle and reward, °C."""
+    from hev_thermal_env.envs.reward import RewardParams
+    from hev_thermal_env.physics import paper_bus
 
-    if matplotlib.get_backend().lower() not in NON_INTERACTIVE_BACKENDS:
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return float(RewardParams().overheat_soft_limit_c), float(paper_bus().thermal.cutoff_temp_c)
 
 
 def _series(trace: Mapping[str, np.ndarray], key: str) -> np.ndarray | None:
     if key in trace:
         return np.asarray(trace[key], dtype=float)
-    if key == "action" and "u" in trace:
+    if key == SPLIT_INFO_KEY and "u" in trace:
         return np.asarray(trace["u"], dtype=float)
     return None
 
 
-def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.PathLike, title: str = "") -> Path:
-    """Draw one or more runs (``{label: trace}``) into a PNG at ``path``; returns the path.
+def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
+    if "time_s" in trace:
+        return np.asarray(trace["time_s"], dtype=float)
+    n = len(next(iter(trace.values())))
+    return np.arange(1, n + 1, dtype=float)
 
-    Each trace needs per-step arrays ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and
-    ``action`` (or ``u``); ``time_s`` and ``cycle_speed_mps`` are used when present (the cycle's
-    speed is drawn once, dashed, from the first trace that has it).
+
+def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
+               temp_limits_c: tuple[float, float] | None = None):
+    """The trace figure of ``{label: trace}`` (see the module docstring); returns the matplotlib figure.
+
+    Each trace needs per-step arrays ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and the
+    split (``action`` or ``u``); ``time_s``, ``cycle_speed_mps``, ``missed_wheel_energy_j``,
+    ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. ``temp_limits_c`` is
+    (soft limit, cutoff), by default those of ``paper_bus`` and the default reward.
     """
-    plt = pyplot()
     if not traces:
         raise ValueError("plot_run: no traces to plot")
-    fig, axes = plt.subplots(len(PANELS), 1, figsize=(10, 11), sharex=True)
-    cycle_drawn = False
-    for label, tr in traces.items():
-        n = len(next(iter(tr.values())))
-        t = np.asarray(tr["time_s"], dtype=float) if "time_s" in tr else np.arange(1, n + 1, dtype=float)
-        if not cycle_drawn and "cycle_speed_mps" in tr:
-            axes[0].plot(t, np.asarray(tr["cycle_speed_mps"], dtype=float) * 3.6, color="k", lw=1.6, ls="--",
-                         alpha=0.6, label="cycle")
-            cycle_drawn = True
-        for ax, (key, _, scale) in zip(axes, PANELS):
-            y = _series(tr, key)
-            if y is not None:
-                ax.plot(t, y * scale, lw=1.0, label=str(label))
-    for ax, (_, ylabel, _) in zip(axes, PANELS):
-        ax.set_ylabel(ylabel)
-        ax.grid(alpha=0.3)
-    axes[3].set_ylim(-0.03, 1.03)
-    axes[4].set_ylim(-1.05, 1.05)
-    axes[0].legend(loc="upper right", fontsize=8, ncol=min(4, len(traces) + 1))
-    axes[0].set_title("vehicle speed vs the cycle")
-    axes[1].set_title("battery state of charge")
-    axes[2].set_title("motor temperature")
-    axes[3].set_title("heat index (0 = full peak torque, 1 = continuous torque only)")
-    axes[4].set_title("torque split (u > 0 motor assists, u < 0 engine charges the battery)")
-    axes[-1].set_xlabel("time (s)")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    path = save_png(fig, path)
-    plt.close(fig)
-    return path
-
-
-def plot_benchmark(out: Path, rows: list[dict], traces: dict) -> None:
-    """``out/traces_<cycle>_<scenario>.png`` (every strategy of a cycle and scenario on shared axes) and
-    ``out/fuel_vs_dp.png``; ``traces`` maps (cycle, scenario, strategy) to a run's trace."""
-    groups = sorted({(r["cycle"], r["scenario"]) for r in rows})
-    for cyc, sc in groups:
-        group = {st: tr for (c, s, st), tr in traces.items() if c == cyc and s == sc}
-        plot_run(group, out / f"traces_{cyc}_{sc}.png", title=f"{cyc} cycle, {sc} scenario: every strategy")
-    plot_fuel_vs_dp(rows, groups, out / "fuel_vs_dp.png")
-
-
-def plot_fuel_vs_dp(rows: list[dict], groups: list[tuple[str, str]], path: Path) -> Path:
-    """Bar chart per (cycle, scenario): corrected fuel relative to DP (in L/100 km when DP did not run)."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(groups), figsize=(4.2 * len(groups), 4.0), squeeze=False)
-    for ax, (cyc, sc) in zip(axes[0], groups):
-        sel = [r for r in rows if r["cycle"] == cyc and r["scenario"] == sc]
-        has_dp = any(r["fuel_vs_dp_pct"] for r in sel)
-        vals = [r["fuel_vs_dp_pct"] if has_dp else r["fuel_corrected_l_per_100km"] for r in sel]
-        names = [r["strategy"] for r in sel]
-        bars = ax.bar(range(len(sel)), vals, color=["tab:grey" if n.startswith("dp") else "tab:blue" for n in names])
-        for b, v in zip(bars, vals):
-            ax.text(b.get_x() + b.get_width() / 2, b.get_height(), f"{v:.1f}", ha="center", va="bottom", fontsize=8)
-        ax.set_xticks(range(len(sel)))
-        ax.set_xticklabels(names, rotation=35, ha="right")
-        if has_dp:
-            ax.axhline(100.0, color="k", lw=0.8)
-            ax.set_ylim(min(95.0, min(vals) - 2), max(vals) * 1.05)
-        ax.set_ylabel("corrected fuel, % of DP" if has_dp else "corrected fuel (L/100 km)")
-        ax.set_title(f"{cyc} / {sc}")
-    fig.suptitle("Corrected fuel relative to the DP optimum (lower is better)")
-    fig.tight_layout()
-    save_png(fig, path)
-    plt.close(fig)
-    return path
+    labels = ordered(traces)
+    styles = strategy_styles(labels)
+    n = len(labels)
+    heights = [3.0, 1.5, 1.8, 2.0, 1.4, max(0.32 * n, 0.9)]
+    fig, axes = plt.subplots(len(heights), 1, figsize=(12.5, 13.0 + 0.25 * n), sharex=True, layout="constrained",
+                             gridspec_kw={"height_ratios": heights})
+    ax_v, ax_miss, ax_soc, ax_temp, ax_hi, ax_split = axes
+    handles = _speed_panel(ax_v, traces, labels, styles)
+    limit_handles = _temperature_panel(ax_temp, traces, labels, styles, temp_limits_c or temperature_limits_c())
+    for label in labels:
+        tr, st = traces[label], styles[label]
+        t = _time(tr)
+        miss = _series(tr, "missed_wheel_energy_j")
+        if miss is not None:
+            ax_miss.plot(t, np.cumsum(miss) / 3.6e6, **st)
+        ax_soc.plot(t, _series(tr, "soc"), **st)
+        ax_hi.plot(t, _series(tr, "heat_index"), clip_on=False, **st)
+    _split_panel(fig, ax_split, traces, labels, styles)
+    ax_miss.set_title("missed wheel energy, cumulative: what the powertrain could not deliver", fontsize=10)
+    ax_miss.set_ylabel("missed (kWh)")
+    ax_miss.set_ylim(bottom=0.0)
+    ax_soc.set_title("battery state of charge", fontsize=10)
+    ax_soc.set_ylabel("SOC (-)")
+    ax_hi.set_title("heat index (0: full peak torque available, 1: continuous torque only)", fontsize=10)
+    ax_hi.set_ylabel("heat index (-)")
+    ax_hi.set_ylim(0.0, 1.0)
+    for ax in axes[:-1]:
+        ax.grid(alpha=0.3)
+    ax_split.set_xlabel("time (s)")
+    legend_outside(fig, handles, [h.get_label() for h in handles], title="speed and strategies")
+    if limit_handles:
+        legend_outside(fig, limit_handles, [h.get_label() for h in limit_handles], title="motor temperature",
+                       where="right lower")
+    if title:
+        figure_title(fig, title, fontsize=12)
+    return fig
+
+
+def _speed_panel(ax, traces, labels, styles) -> list:
+    handles = []
+    for label in labels:
+        if "cycle_speed_mps" in traces[label]:
+            tr = traces[label]
+            handles += ax.plot(_time(tr), np.asarray(tr["cycle_speed_mps"], dtype=float) * 3.6, color=CYCLE_COLOUR,
+                               lw=5.0, solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
+            break
+    for label in labels:
+        tr = traces[label]
+        handles += ax.plot(_time(tr), _series(tr, "speed_mps") * 3.6, label=short_label(label), **styles[label])
+    ax.set_title("speed: the cycle (thick, light) and what each strategy delivered (thin)", fontsize=10)
+    ax.set_ylabel("speed (km/h)")
+    ax.set_ylim(bottom=0.0)
+    return handles
+
+
+def _temperature_panel(ax, traces, labels, styles, limits_c: tuple[float, float]) -> list:
+    soft_c, cutoff_c = limits_c
+    hottest = -np.inf
+    for label in labels:
+        tr = traces[label]
+        t, temp = _time(tr), _series(tr, "motor_temp_c")
+        hottest = max(hottest, float(np.nanmax(temp)))
+        ax.plot(t, temp, **styles[label])
+        cut = _series(tr, "motor_cutoff")
+        if cut is not None and cut.any():
+            on = cut > 0
+            ax.plot(t[on], temp[on], ls="none", marker="|", ms=7, mew=1.2, color=styles[label]["color"], zorder=6)
+    handles = []
+    if hottest >= soft_c - LIMITS_SHOWN_WITHIN_K:
+        handles.append(ax.axhline(cutoff_c, color=CUTOFF_COLOUR, lw=2.0, ls="-.", label=f"cutoff {cutoff_c:g} °C"))
+        handles.append(ax.axhline(soft_c, color=SOFT_LIMIT_COLOUR, lw=1.4, ls=":",
+                                  label=f"soft limit {soft_c:g} °C\n(overheat penalty)"))
+        handles += ax.plot([], [], ls="none", marker="|", ms=7, mew=1.2, color="0.3",
+                           label="motor cut off\n(mark on its line)")
+        ax.set_ylim(top=cutoff_c + 4.0)
+        ax.set_title("motor temperature", fontsize=10)
+    else:
+        ax.set_title(f"motor temperature (peak {hottest:.1f} °C: far below the {soft_c:g} °C soft limit and the "
+                     f"{cutoff_c:g} °C cutoff, not drawn)", fontsize=10)
+    ax.set_ylabel("motor (°C)")
+    return handles
+
+
+def _split_panel(fig, ax, traces, labels, styles) -> None:
+    """One strip per strategy: u in colour, grey where no traction torque is demanded."""
+    from matplotlib.colors import ListedColormap
+
+    t_all = [_time(traces[label]) for label in labels]
+    t0, t1 = min(float(t[0]) for t in t_all), max(float(t[-1]) for t in t_all)
+    n_cols = int(round(t1 - t0)) + 1
+    grid = np.full((len(labels), n_cols), np.nan)
+    idle = np.zeros((len(labels), n_cols))
+    for i, (label, t) in enumerate(zip(labels, t_all)):
+        tr = traces[label]
+        col = np.clip(np.round(t - t0).astype(int), 0, n_cols - 1)
+        grid[i, col] = _series(tr, SPLIT_INFO_KEY)
+        demand = _series(tr, "shaft_torque_demand_nm")
+        if demand is not None:
+            no_traction = demand <= 0.0
+            grid[i, col[no_traction]] = np.nan
+            idle[i, col[no_traction]] = 1.0
+    extent = (t0 - 0.5, t1 + 0.5, len(labels) - 0.5, -0.5)
+    ax.imshow(np.where(idle > 0, 1.0, np.nan), aspect="auto", extent=extent, interpolation="nearest",
+              cmap=ListedColormap(["#e0e0e0"]), vmin=0, vmax=1)
+    img = ax.imshow(grid, aspect="auto", extent=extent, interpolation="nearest", cmap="RdBu_r", vmin=-1.0, vmax=1.0)
+    ax.set_yticks(range(len(labels)))
+    ax.set_yticklabels([short_label(x) for x in labels], fontsize=8)
+    for tick, label in zip(ax.get_yticklabels(), labels):
+        tick.set_color(styles[label]["color"])
+    ax.set_title("torque split u per strategy (red: motor assists, blue: engine charges the battery, "
+                 "grey: braking or standing, u has no effect)", fontsize=10)
+    cbar = fig.colorbar(img, ax=ax, fraction=0.03, pad=0.01, ticks=[-1, 0, 1])
+    cbar.ax.set_yticklabels(["-1 charge", "0", "+1 motor"], fontsize=7)
+
+
+def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.PathLike, title: str = "",
+             temp_limits_c: tuple[float, float] | None = None) -> Path:
+    """Draw one or more runs (``{label: trace}``) into a PNG at ``path`` (see :func:`run_figure`); returns the path."""
+    fig = run_figure(traces, title, temp_limits_c)
+    try:
+        return save_png(fig, path)
+    finally:
+        close(fig)
+
+
+def plot_benchmark(out: Path, rows: list[dict], traces: dict, cycles: list[str] | None = None,
+                   scenarios: list[str] | None = None) -> None:
+    """``out/traces_<cycle>_<scenario>.png`` (every strategy of a cycle and scenario on shared axes) and
+    ``out/fuel_vs_dp.png``; ``traces`` maps (cycle, scenario, strategy) to a run's trace. Cycles and
+    scenarios in the order given (default: as they first appear in ``rows``)."""
+    cycles = list(dict.fromkeys(cycles or [r["cycle"] for r in rows]))
+    scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in rows]))
+    for cyc in cycles:
+        for sc in scenarios:
+            group = {st: tr for (c, s, st), tr in traces.items() if c == cyc and s == sc}
+            if group:
+                plot_run(group, out / f"traces_{cyc}_{sc}.png", title=f"{cyc} cycle, {sc} scenario: every strategy")
+    plot_fuel_vs_dp(rows, out / "fuel_vs_dp.png", cycles, scenarios)

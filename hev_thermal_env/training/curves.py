@@ -1,48 +1,171 @@
-"""``DIR/training_curve.png``: the evaluation during training, against timesteps."""
+"""``DIR/training_curve.png``: the training return and the evaluation during training, against env-steps.
+
+Three panels share the env-step axis:
+
+* training: the mean return of the last 100 training episodes (SB3's ``rollout/ep_rew_mean``,
+  read from the run's TensorBoard logs; raw rewards in grams, before normalisation), with the mean
+  episode length beside it (episodes start at random points of their cycle, so their length, and
+  with it the return, varies);
+* evaluation return: per evaluation cycle and scenario, and their mean, which is the metric the run
+  selects ``best_model.zip`` on; the selected evaluation is starred;
+* evaluation fuel: corrected fuel per evaluation cycle, in % of DP on the same cycle when the DP
+  reference is known (the axis then includes 100 %), else in L/100 km.
+
+A dotted vertical line marks the selected (best) evaluation on every panel and says which metric
+chose it, so a checkpoint that is best by return but not by fuel is not mistaken for the best fuel.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
-from hev_thermal_env.evaluation.plots import pyplot
+import numpy as np
+
+from hev_thermal_env.evaluation.styles import close, figure_title, legend_outside, pyplot
 from hev_thermal_env.io import save_png
 
 from .artifacts import read_evaluations
 from .config import load_run_config
 
+RETURN_TAG, LENGTH_TAG = "rollout/ep_rew_mean", "rollout/ep_len_mean"
+SELECTION_METRIC = "mean evaluation return"
 
-def plot_training_curve(run_dir: str | Path, dp_reference: dict[str, float] | None = None) -> Path:
-    """``DIR/training_curve.png``: per evaluation cycle and scenario, the episode return (training
-    reward) and the corrected fuel (with DP's as a dashed line when known) against timesteps."""
-    plt = pyplot()
-    out = Path(run_dir)
-    rows = read_evaluations(out / "evaluations.csv")
+
+def read_training_returns(run_dir: str | Path) -> dict[str, np.ndarray]:
+    """``steps``, ``return_g`` and ``length`` of the training episodes logged in ``run_dir/tb`` (empty arrays
+    when nothing is logged yet). Later sessions of a resumed run override the steps they repeat."""
+    found: dict[str, dict[int, float]] = {RETURN_TAG: {}, LENGTH_TAG: {}}
+    files = sorted(Path(run_dir, "tb").rglob("events.out.tfevents.*"), key=lambda p: (p.stat().st_mtime, p.name))
+    if files:
+        from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+        for f in files:
+            acc = EventAccumulator(str(f), size_guidance={"scalars": 0})
+            acc.Reload()
+            tags = set(acc.Tags().get("scalars", []))
+            for tag, series in found.items():
+                if tag in tags:
+                    series.update({int(e.step): float(e.value) for e in acc.Scalars(tag)})
+    steps = sorted(found[RETURN_TAG])
+    return {"steps": np.array(steps, dtype=float),
+            "return_g": np.array([found[RETURN_TAG][s] for s in steps], dtype=float),
+            "length": np.array([found[LENGTH_TAG].get(s, np.nan) for s in steps], dtype=float)}
+
+
+def selected_step(rows: list[dict[str, Any]]) -> int | None:
+    """The env-step of the evaluation whose model is ``best_model.zip``: the last one flagged a new best
+    of the mean evaluation return (the highest mean return when no row is flagged)."""
+    if not rows:
+        return None
+    flagged = [r["timesteps"] for r in rows if r["best"]]
+    return int(flagged[-1]) if flagged else int(max(rows, key=lambda r: r["mean_return_g"])["timesteps"])
+
+
+def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]]]:
     series: dict[str, dict[int, dict[str, Any]]] = {}
     for r in rows:  # a resumed run may evaluate the same step twice: the later row wins
         series.setdefault(f"{r['cycle']} / {r['scenario']}", {})[r["timesteps"]] = r
-    n = max(len(series), 1)
-    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 6), sharex=True, squeeze=False)
-    for j, (label, by_step) in enumerate(series.items()):
-        steps = sorted(by_step)
-        best = [s for s in steps if by_step[s]["best"]]
-        axes[0, j].plot(steps, [by_step[s]["return_g"] for s in steps], marker=".")
-        axes[0, j].set_title(label, fontsize=10)
-        axes[1, j].plot(steps, [by_step[s]["fuel_corrected_l_per_100km"] for s in steps], marker=".", label="policy")
-        axes[1, j].plot(best, [by_step[s]["fuel_corrected_l_per_100km"] for s in best], "o", mfc="none", ms=8,
-                        label="new best (mean return)")
-        if dp_reference and label in dp_reference:
-            axes[1, j].axhline(dp_reference[label], color="k", ls="--", lw=1, label="DP")
-        axes[1, j].set_xlabel("timesteps")
-        axes[1, j].legend(fontsize=8)
-    axes[0, 0].set_ylabel("episode return (training reward, g)")
-    axes[1, 0].set_ylabel("corrected fuel (L/100 km)")
-    for ax in axes.ravel():
+    return series
+
+
+def _display(by_step: dict[int, dict[str, Any]]) -> str:
+    """``cycle / scenario`` of a series, a cycle given as a CSV path shortened to its file name."""
+    r = next(iter(by_step.values()))
+    return f"{Path(str(r['cycle'])).name} / {r['scenario']}"
+
+
+def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | None = None):
+    """The figure of the run in ``run_dir`` (see the module docstring); returns the matplotlib figure."""
+    plt = pyplot()
+    from matplotlib.ticker import EngFormatter
+
+    out = Path(run_dir)
+    rows = read_evaluations(out / "evaluations.csv")
+    training = read_training_returns(out)
+    fig, axes = plt.subplots(3 if rows else 1, 1, figsize=(11, 9.5 if rows else 4.2), sharex=True, squeeze=False,
+                             layout="constrained")
+    axes = axes[:, 0]
+    handles = _training_panel(axes[0], training)
+    best = selected_step(rows)
+    if rows:
+        handles += _evaluation_panels(axes[1], axes[2], rows, best, dp_reference or {})
+        for ax in axes:
+            ax.axvline(best, color="0.35", ls=":", lw=1.2, zorder=0)
+    for ax in axes:
         ax.grid(alpha=0.3)
+        ax.ticklabel_format(axis="y", useOffset=False)
+    axes[-1].set_xlabel("env-steps")
+    axes[-1].xaxis.set_major_formatter(EngFormatter(sep=""))
+    legend_outside(fig, handles, [h.get_label() for h in handles])
     cfg = load_run_config(out)
-    fig.suptitle(f"{cfg['algo'].upper()} seed {cfg['seed']}: deterministic evaluation on cycles not trained on",
-                 fontsize=10)
-    fig.tight_layout()
-    path = save_png(fig, out / "training_curve.png")
-    plt.close(fig)
-    return path
+    figure_title(fig, f"{str(cfg['algo']).upper()} seed {cfg['seed']}: training return and evaluation on cycles not "
+                 f"trained on", fontsize=11)
+    return fig
+
+
+def _training_panel(ax, training: dict[str, np.ndarray]) -> list:
+    ax.set_title("training: mean return of the last 100 episodes (raw reward)", fontsize=10)
+    ax.set_ylabel("episode return (g)")
+    if not len(training["steps"]):
+        ax.text(0.5, 0.5, "no training episode has finished yet", transform=ax.transAxes, ha="center",
+                va="center", color="0.4")
+        return []
+    handles = ax.plot(training["steps"], training["return_g"], color="#d62728", lw=1.6,
+                      label="training episode return\n(mean of the last 100)")
+    twin = ax.twinx()
+    handles += twin.plot(training["steps"], training["length"], color="0.6", lw=1.0, ls="--",
+                         label="training episode length\n(right axis; random starts)")
+    twin.set_ylabel("episode length (steps)", color="0.45")
+    twin.set_ylim(bottom=0.0)
+    return handles
+
+
+def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, dp_reference: dict[str, float]) -> list:
+    series = _by_series(rows)
+    ratio = all(label in dp_reference for label in series)
+    handles = []
+    for k, (label, by_step) in enumerate(series.items()):
+        steps = sorted(by_step)
+        colour = f"C{k % 10}"
+        handles += ax_ret.plot(steps, [by_step[s]["return_g"] for s in steps], color=colour, lw=1.0, marker=".",
+                               label=f"evaluation: {_display(by_step)}")
+        fuel = np.array([by_step[s]["fuel_corrected_l_per_100km"] for s in steps])
+        if ratio:
+            fuel = 100.0 * fuel / dp_reference[label]
+        ax_fuel.plot(steps, fuel, color=colour, lw=1.0, marker=".")
+        if not ratio and label in dp_reference:
+            ax_fuel.axhline(dp_reference[label], color=colour, ls="--", lw=1.0)
+    mean = {r["timesteps"]: r["mean_return_g"] for r in rows}
+    steps = sorted(mean)
+    handles += ax_ret.plot(steps, [mean[s] for s in steps], color="k", lw=2.0,
+                           label=f"{SELECTION_METRIC}\n(selects best_model.zip)")
+    star = f"best_model.zip: step {best}\n(chosen on the highest\n{SELECTION_METRIC}, not on fuel)"
+    handles += ax_ret.plot([best], [mean[best]], ls="none", marker="*", ms=16, color="#ffbf00", mec="k", zorder=5,
+                           label=star)
+    ax_ret.set_title("evaluation return per cycle and their mean (the metric best_model.zip is chosen on)",
+                     fontsize=10)
+    ax_ret.set_ylabel("episode return (g)")
+    if ratio:
+        ax_fuel.axhline(100.0, color="k", lw=1.0)
+        handles += ax_fuel.plot([], [], color="k", lw=1.0, label="DP on the same cycle = 100 %")
+        lo, hi = ax_fuel.get_ylim()
+        ax_fuel.set_ylim(min(lo, 99.5), max(hi, 100.5))
+        ax_fuel.set_title("evaluation: corrected fuel relative to DP on the same cycle (lower is better)", fontsize=10)
+        ax_fuel.set_ylabel("corrected fuel, % of DP")
+    else:
+        if dp_reference:
+            handles += ax_fuel.plot([], [], color="0.3", ls="--", lw=1.0, label="DP (dashed, cycle's colour)")
+        ax_fuel.set_title("evaluation: corrected fuel (lower is better)", fontsize=10)
+        ax_fuel.set_ylabel("corrected fuel (L/100 km)")
+    handles += ax_fuel.plot([], [], color="0.35", ls=":", lw=1.2, label="selected evaluation (all panels)")
+    return handles
+
+
+def plot_training_curve(run_dir: str | Path, dp_reference: dict[str, float] | None = None) -> Path:
+    """Write ``DIR/training_curve.png`` (:func:`training_curve_figure`); returns its path."""
+    fig = training_curve_figure(run_dir, dp_reference)
+    try:
+        return save_png(fig, Path(run_dir) / "training_curve.png")
+    finally:
+        close(fig)

@@ -228,8 +228,7 @@ class TrainingRun:
         self.checkpoint(model)
         self.record_session(result, finished=True)
         session.raw.close()
-        if self.eval_rows:
-            plot_training_curve(self.out, (cfg.get("result") or {}).get("dp_reference_l_per_100km"))
+        plot_training_curve(self.out, (cfg.get("result") or {}).get("dp_reference_l_per_100km"))
         return self.config["result"]
 
     def session_summary(self, model, done_before: int, train_s: float, env_s: float) -> dict[str, Any]:

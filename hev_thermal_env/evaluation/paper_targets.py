@@ -1,0 +1,124 @@
+"""The paper's figures and the tolerances we judge ours against: one table, :data:`PAPER_FIGURES`.
+
+Each row names one quantity (the key of our measured value), the paper's figure it comes from, the
+paper's value and how far ours may be from it:
+
+* ``kind="abs"``: within ``paper ± tol`` (in the row's unit);
+* ``kind="rel"``: within ``paper × (1 ± tol)``;
+* ``kind="max"``: at most ``tol`` (the paper gives a value or a shape; the limit is what we ask);
+* ``tol=None``: reported with its gap, not judged (the absolute fuel levels of Table 2: our bus and
+  our synthetic Beijing cycle are not the paper's).
+
+Where the figures come from: Table 3 (coolant closed; 0-60 km/h, top speed and 4 % grade speed,
+thermal model off and at a 30 / 50 °C start), Table 2 (fuel with and without the thermal model,
+``rule``; its highway row is labelled UDDS while the text says HWFET), Figs 7-8 (heat index and
+motor temperature, captioned UDDS) and Figs 9-10 (Beijing), and Fig. 4 (the heat index at twice
+the continuous torque from cold).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+
+@dataclasses.dataclass(frozen=True)
+class PaperFigure:
+    """One of the paper's figures, its value and the tolerance of ours (see the module docstring)."""
+
+    name: str
+    figure: str
+    description: str
+    paper: float
+    unit: str
+    tol: float | None
+    kind: str = "abs"
+
+    @property
+    def judged(self) -> bool:
+        return self.tol is not None
+
+    def limits(self) -> tuple[float, float]:
+        """The accepted range of ours (``-inf`` / ``inf`` where open)."""
+        if self.tol is None:
+            return -math.inf, math.inf
+        if self.kind == "rel":
+            return self.paper * (1.0 - self.tol), self.paper * (1.0 + self.tol)
+        if self.kind == "max":
+            return -math.inf, self.tol
+        return self.paper - self.tol, self.paper + self.tol
+
+    def within(self, value: float | None) -> bool | None:
+        """Whether ``value`` meets the tolerance (None: not judged; a missing value does not meet it)."""
+        if self.tol is None:
+            return None
+        if value is None or not math.isfinite(value):
+            return False
+        lo, hi = self.limits()
+        return lo - 1e-9 <= value <= hi + 1e-9
+
+    def residual(self, value: float) -> float:
+        """Signed distance from the paper in tolerances: within the tolerance when in [-1, 1]."""
+        if self.kind == "max":
+            return value / self.tol
+        if self.kind == "rel":
+            return (value / self.paper - 1.0) / self.tol
+        return (value - self.paper) / self.tol
+
+    def tolerance_text(self) -> str:
+        if self.tol is None:
+            return "not judged"
+        if self.kind == "rel":
+            return f"± {100 * self.tol:g} %"
+        if self.kind == "max":
+            return f"≤ {self.tol:g} {self.unit}".rstrip(" -")
+        return f"± {self.tol:g} {self.unit}".rstrip(" -")
+
+
+PAPER_FIGURES: tuple[PaperFigure, ...] = (
+    PaperFigure("top_speed_off_kmh", "Table 3", "top speed, thermal model off", 89.0, "km/h", 0.07, "rel"),
+    PaperFigure("top_speed_30c_kmh", "Table 3", "top speed, 30 °C start", 89.0, "km/h", 0.07, "rel"),
+    PaperFigure("top_speed_50c_kmh", "Table 3", "top speed, 50 °C start", 89.0, "km/h", 0.07, "rel"),
+    PaperFigure("accel_off_s", "Table 3", "0-60 km/h, thermal model off", 16.4, "s", 0.05, "rel"),
+    PaperFigure("accel_30c_delta_s", "Table 3", "0-60 km/h: 30 °C start − thermal off (16.8 − 16.4 s)", 0.4, "s",
+                0.2),
+    PaperFigure("accel_50c_delta_s", "Table 3", "0-60 km/h: 50 °C start − thermal off (17.1 − 16.4 s)", 0.7, "s",
+                0.2),
+    PaperFigure("grade_off_kmh", "Table 3", "speed on a 4 % grade, thermal model off", 48.3, "km/h", 0.07, "rel"),
+    PaperFigure("grade_30c_kmh", "Table 3", "speed on a 4 % grade, 30 °C start", 48.3, "km/h", 0.07, "rel"),
+    PaperFigure("grade_50c_kmh", "Table 3", "speed on a 4 % grade, 50 °C start", 48.3, "km/h", 0.07, "rel"),
+    PaperFigure("udds_fuel_delta_l100", "Table 2", "UDDS: raw fuel with − without thermal model", 0.3, "L/100 km",
+                0.15),
+    PaperFigure("hwfet_fuel_delta_l100", "Table 2", "HWFET (the text's cycle): raw fuel with − without thermal model",
+                0.3, "L/100 km", 0.15),
+    PaperFigure("beijing_fuel_delta_l100", "Table 2", "beijing: raw fuel with − without thermal model", 0.0,
+                "L/100 km", 0.1),
+    PaperFigure("udds_hi_onset_s", "Figs 7-8", "UDDS: heat index first above 0", 387.0, "s", 40.0),
+    PaperFigure("udds_hi_peak", "Figs 7-8", "UDDS: heat index peak", 0.35, "-", 0.07),
+    PaperFigure("udds_hi_return_s", "Figs 7-8", "UDDS: heat index back to 0, seconds after its peak", 300.0, "s",
+                400.0, "max"),
+    PaperFigure("udds_temp_peak_c", "Figs 7-8", "UDDS: motor temperature peak", 44.0, "°C", 2.0),
+    PaperFigure("udds_temp_last300_c", "Figs 7-8", "UDDS: motor temperature, mean of the last 300 s", 37.5, "°C",
+                1.5),
+    PaperFigure("beijing_temp_c", "Figs 9-10", "beijing: motor temperature after warm-up (mean)", 35.0, "°C", 1.5),
+    PaperFigure("beijing_hi_peak", "Figs 9-10", "beijing: heat index peak", 0.0, "-", 0.05, "max"),
+    PaperFigure("fig4_leaves_zero_s", "Fig. 4", "2× continuous torque from cold: heat index leaves 0", 30.0, "s",
+                1.0),
+    PaperFigure("fig4_reaches_one_s", "Fig. 4", "2× continuous torque from cold: heat index reaches 1", 130.0, "s",
+                1.0),
+    PaperFigure("highway_fuel_without_l100", "Table 2", "highway row, thermal model off", 35.3, "L/100 km", None),
+    PaperFigure("highway_fuel_with_l100", "Table 2", "highway row, thermal model on", 35.6, "L/100 km", None),
+    PaperFigure("beijing_fuel_without_l100", "Table 2", "Beijing, thermal model off", 27.1, "L/100 km", None),
+    PaperFigure("beijing_fuel_with_l100", "Table 2", "Beijing, thermal model on", 27.1, "L/100 km", None),
+)
+PAPER_FIGURE_BY_NAME = {f.name: f for f in PAPER_FIGURES}
+
+#: Our cycles compared with the paper's Table 2 rows: (our cycle, the paper's row).
+TABLE2_ROWS = (("hwfet", "highway"), ("udds", "highway"), ("beijing", "beijing"))
+#: Cycles every verdict needs (Table 2 and Figs 7-10).
+VERDICT_CYCLES = ("hwfet", "udds", "beijing")
+
+
+def paper(name: str) -> float:
+    """The paper's value of the figure ``name``."""
+    return PAPER_FIGURE_BY_NAME[name].paper

@@ -1,0 +1,118 @@
+"""The look shared by every figure: the pyplot door, the order and colours of the strategies, legends
+outside the data.
+
+Strategies are drawn from the simplest to the optimum (:data:`STRATEGY_ORDER`; names not listed
+go after the classic ones and before DP), and the learned policies (``ppo``, ``ppo:PATH``) last,
+set apart in warm colours with thicker lines so that a reader finds them at once. A strategy has
+the same colour in every figure.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+NON_INTERACTIVE_BACKENDS = ("agg", "pdf", "svg", "ps", "cairo")
+
+#: Classic strategies from the simplest to the optimum.
+STRATEGY_ORDER = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")
+#: Strategies whose names start with one of these are learned policies (``ppo``, ``ppo:PATH``).
+LEARNED_PREFIXES = ("ppo",)
+#: Strategies that are the optimum (the reference of the fuel ratio).
+OPTIMUM = ("dp", "dp_thermal")
+
+_CLASSIC_COLOURS = {"engine_only": "#8c564b", "rule": "#bcbd22", "ecms": "#1f77b4", "aecms": "#17becf",
+                    "ecms_thermal": "#9467bd", "dp": "#000000", "dp_thermal": "#7f7f7f"}
+_OTHER_COLOURS = ("#2ca02c", "#98df8a", "#aec7e8", "#c5b0d5", "#c49c94")
+_LEARNED_COLOURS = ("#d62728", "#ff7f0e", "#e377c2", "#8b0000", "#ff9896")
+LEARNED_BAND_COLOUR = "#fde0dd"
+CYCLE_COLOUR = "#bdbdbd"
+
+
+def pyplot():
+    """``matplotlib.pyplot``, drawing off screen (Agg) unless a non-interactive backend is already chosen."""
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in NON_INTERACTIVE_BACKENDS:
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def base_name(strategy: str) -> str:
+    """``"ppo:runs/x"`` → ``"ppo"``."""
+    return str(strategy).split(":", 1)[0]
+
+
+def is_learned(strategy: str) -> bool:
+    return base_name(strategy) in LEARNED_PREFIXES
+
+
+def ordered(strategies: Iterable[str]) -> list[str]:
+    """The strategies from the simplest to the optimum, then the learned ones (each group stable)."""
+    names = list(dict.fromkeys(strategies))
+
+    def rank(name: str) -> tuple[int, int]:
+        if is_learned(name):
+            return (3, names.index(name))
+        base = base_name(name)
+        if base in OPTIMUM:
+            return (2, STRATEGY_ORDER.index(base) * 1000 + names.index(name))
+        if base in STRATEGY_ORDER:
+            return (0, STRATEGY_ORDER.index(base) * 1000 + names.index(name))
+        return (1, names.index(name))
+
+    return sorted(names, key=rank)
+
+
+def short_label(strategy: str, width: int = 24) -> str:
+    """The strategy's name, a long model path shortened from the left (``ppo:…/run/model.zip``)."""
+    s = str(strategy)
+    if len(s) <= width:
+        return s
+    if ":" in s:
+        head = s[: s.index(":") + 1]
+        return head + "…" + s[-max(width - len(head) - 1, 4):]
+    return s[: width - 1] + "…"
+
+
+def strategy_styles(strategies: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """``{strategy: matplotlib line keywords}``: colour, width and drawing order for each strategy."""
+    styles: dict[str, dict[str, Any]] = {}
+    others = learned = 0
+    for name in strategies:
+        base = base_name(name)
+        if is_learned(name):
+            colour = _LEARNED_COLOURS[learned % len(_LEARNED_COLOURS)]
+            learned += 1
+            styles[name] = {"color": colour, "lw": 1.6, "zorder": 5}
+        elif base in _CLASSIC_COLOURS and name == base:
+            styles[name] = {"color": _CLASSIC_COLOURS[base], "lw": 0.9, "zorder": 3}
+        else:
+            styles[name] = {"color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)], "lw": 0.9, "zorder": 3}
+            others += 1
+        if base in OPTIMUM:
+            styles[name]["ls"] = "--" if base == "dp_thermal" else "-"
+    return styles
+
+
+LEGEND_PLACES = {"right": "outside right upper", "right lower": "outside right lower", "top": "outside upper center",
+                 "bottom": "outside lower center"}
+
+
+def legend_outside(fig, handles: Sequence[Any], labels: Sequence[str], *, ncol: int = 1, title: str | None = None,
+                   where: str = "right", fontsize: float = 8.5):
+    """A figure legend outside every axes (``where``: a key of :data:`LEGEND_PLACES`); needs a constrained layout."""
+    loc = LEGEND_PLACES[where]
+    return fig.legend(handles, labels, loc=loc, ncol=ncol, title=title, fontsize=fontsize, title_fontsize=fontsize,
+                      frameon=False)
+
+
+def figure_title(fig, text: str, fontsize: float = 11.0):
+    """The figure's title, left-aligned so that it never runs into a legend on the upper right."""
+    return fig.suptitle(text, x=0.01, ha="left", fontsize=fontsize)
+
+
+def close(fig) -> None:
+    pyplot().close(fig)

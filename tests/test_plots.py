@@ -1,0 +1,244 @@
+"""The figures: produced, legends outside the data, honest axes, limits drawn, the learned policy set
+apart, a training-return curve and a best marker on the selection metric; the env's frame uncut."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+import yaml
+
+from hev_thermal_env.evaluation.fuel_chart import fuel_figure, plot_fuel_vs_dp
+from hev_thermal_env.evaluation.plots import SPLIT_INFO_KEY, plot_benchmark, run_figure
+from hev_thermal_env.evaluation.styles import close, is_learned, ordered
+from hev_thermal_env.training.artifacts import EVAL_COLUMNS
+from hev_thermal_env.training.curves import read_training_returns, selected_step, training_curve_figure
+
+STRATEGIES = ("ppo", "dp", "rule", "engine_only", "ecms", "ppo:runs/a/model.zip")
+
+
+def assert_legends_outside_axes(fig) -> None:
+    """No legend's box overlaps the data area (axes patch) of any axes of ``fig``."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    legends = list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    assert legends, "the figure has no legend"
+    for leg in legends:
+        box = leg.get_window_extent(renderer)
+        for ax in fig.axes:
+            assert not box.overlaps(ax.get_window_extent(renderer)), (leg.get_title().get_text(), ax.get_title())
+
+
+def rows_for(cycles=("hwfet", "beijing"), scenarios=("paper", "hot")) -> list[dict]:
+    rows = []
+    for c in cycles:
+        for s in scenarios:
+            for i, st in enumerate(STRATEGIES):
+                pct = 100.0 if st == "dp" else 100.5 + 3.0 * i
+                rows.append({"cycle": c, "scenario": s, "strategy": st, "fuel_vs_dp_pct": pct,
+                             "fuel_corrected_l_per_100km": 30.0 * pct / 100})
+    return rows
+
+
+def fake_trace(n: int = 200, hot: bool = False, split: float = 0.3) -> dict[str, np.ndarray]:
+    t = np.arange(1, n + 1, dtype=float)
+    temp = (50.0 + 20.5 * t / n) if hot else 20.0 + 15.0 * t / n
+    v = 10.0 + 5.0 * np.sin(t / 20)
+    return {"time_s": t, "speed_mps": v - 0.1, "cycle_speed_mps": v, "soc": 0.65 - 0.01 * t / n,
+            "motor_temp_c": temp, "heat_index": np.clip((t - n / 2) / n, 0, 1), SPLIT_INFO_KEY: np.full(n, split),
+            "missed_wheel_energy_j": np.full(n, 1000.0), "motor_cutoff": temp >= 70.0,
+            "shaft_torque_demand_nm": np.where(t % 10 < 3, -1.0, 100.0)}
+
+
+# --- strategy order ---------------------------------------------------------------------------------
+
+def test_strategies_run_from_the_simplest_to_the_optimum_then_learned():
+    got = ordered(["ppo", "dp", "my_rule", "rule", "engine_only", "dp_thermal", "ppo:x", "ecms"])
+    assert got == ["engine_only", "rule", "ecms", "my_rule", "dp", "dp_thermal", "ppo", "ppo:x"]
+    assert is_learned("ppo:runs/x") and not is_learned("dp")
+
+
+# --- fuel_vs_dp.png ---------------------------------------------------------------------------------
+
+def test_fuel_chart_ratio_axis_from_100_shared_and_ordered(tmp_path):
+    rows = rows_for()
+    fig = fuel_figure(rows)
+    try:
+        axes = [ax for ax in fig.axes if ax.get_title()]
+        assert [ax.get_title() for ax in axes] == ["hwfet cycle, paper scenario", "beijing cycle, paper scenario",
+                                                   "hwfet cycle, hot scenario", "beijing cycle, hot scenario"]
+        lims = {ax.get_xlim() for ax in axes}
+        assert len(lims) == 1  # one range for every panel
+        lo, hi = lims.pop()
+        assert lo <= 100.0 <= hi and lo > 95.0 and hi >= max(r["fuel_vs_dp_pct"] for r in rows)
+        labels = [t.get_text() for t in axes[0].get_yticklabels()]
+        assert labels[:5] == ["engine_only", "rule", "ecms", "dp", "ppo"]
+        ticks = axes[0].get_yticks()
+        assert ticks[4] - ticks[3] > 1.5  # the learned policies stand apart
+        learned_colour = axes[0].get_yticklabels()[4].get_color()
+        assert learned_colour != axes[0].get_yticklabels()[2].get_color()
+        assert_legends_outside_axes(fig)
+    finally:
+        close(fig)
+    path = plot_fuel_vs_dp(rows, tmp_path / "fuel_vs_dp.png")
+    assert path.stat().st_size > 20_000
+
+
+def test_fuel_chart_grows_one_row_per_scenario():
+    fig = fuel_figure(rows_for(cycles=("hwfet", "beijing", "udds"), scenarios=("paper", "hot", "random", "x")))
+    try:
+        panels = [ax for ax in fig.axes if ax.get_title()]
+        assert len(panels) == 12
+        rows = sorted({round(ax.get_position().y0, 3) for ax in panels}, reverse=True)
+        assert len(rows) == 4
+        assert_legends_outside_axes(fig)
+    finally:
+        close(fig)
+
+
+def test_fuel_chart_without_dp_starts_at_zero():
+    rows = [dict(r, fuel_vs_dp_pct=None) for r in rows_for() if r["strategy"] != "dp"]
+    fig = fuel_figure(rows)
+    try:
+        assert fig.axes[0].get_xlim()[0] == 0.0
+    finally:
+        close(fig)
+
+
+# --- traces_<cycle>_<scenario>.png --------------------------------------------------------------------
+
+def _lines_at(ax, y: float) -> list:
+    return [ln for ln in ax.get_lines() if len(ln.get_ydata()) == 2 and np.allclose(ln.get_ydata(), y)]
+
+
+def test_hot_trace_draws_the_cutoff_and_soft_limit():
+    fig = run_figure({"rule": fake_trace(hot=True), "dp": fake_trace(hot=True), "ppo": fake_trace(hot=True)},
+                     title="hot", temp_limits_c=(60.0, 70.0))
+    try:
+        ax_temp = fig.axes[3]
+        assert _lines_at(ax_temp, 70.0) and _lines_at(ax_temp, 60.0)
+        assert ax_temp.get_ylim()[1] > 70.0
+        assert fig.axes[4].get_ylim() == (0.0, 1.0)  # heat index from 0 to 1
+        assert len(fig.legends) == 2  # strategies, and the temperature limits
+        assert_legends_outside_axes(fig)
+    finally:
+        close(fig)
+
+
+def test_cool_trace_says_the_limits_are_far():
+    fig = run_figure({"rule": fake_trace(), "ecms": fake_trace()}, temp_limits_c=(60.0, 70.0))
+    try:
+        assert not _lines_at(fig.axes[3], 70.0)
+        assert "far below" in fig.axes[3].get_title()
+        assert_legends_outside_axes(fig)
+    finally:
+        close(fig)
+
+
+def test_trace_panels_show_missed_energy_and_one_split_strip_per_strategy():
+    traces = {"rule": fake_trace(split=0.5), "ecms": fake_trace(split=-0.5), "ppo": fake_trace()}
+    fig = run_figure(traces)
+    try:
+        miss = fig.axes[1].get_lines()
+        assert miss and max(ln.get_ydata()[-1] for ln in miss) == pytest.approx(200 * 1000 / 3.6e6)
+        strips = fig.axes[5].get_images()[-1].get_array()
+        assert strips.shape == (3, 200)
+        assert strips.mask[:, 0].all()  # no traction torque demanded: u has no effect, drawn grey
+        assert strips[0, 5] == 0.5 and strips[1, 5] == -0.5
+        cycle_line = [ln for ln in fig.axes[0].get_lines() if ln.get_label().startswith("cycle")]
+        assert len(cycle_line) == 1 and cycle_line[0].get_linewidth() > 3 * fig.axes[0].get_lines()[1].get_linewidth()
+    finally:
+        close(fig)
+
+
+def test_plot_benchmark_writes_every_figure(tmp_path):
+    rows = rows_for(cycles=("hwfet",), scenarios=("hot",))
+    traces = {("hwfet", "hot", r["strategy"]): fake_trace(hot=True) for r in rows}
+    plot_benchmark(tmp_path, rows, traces)
+    for name in ("fuel_vs_dp.png", "traces_hwfet_hot.png"):
+        assert (tmp_path / name).stat().st_size > 30_000, name
+
+
+# --- training_curve.png -----------------------------------------------------------------------------
+
+@pytest.fixture
+def fake_run(tmp_path):
+    """A run directory whose best mean return (step 2000) has the worst fuel."""
+    from stable_baselines3.common.logger import configure
+
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump({"algo": "ppo", "seed": 1, "env": {}}))
+    logger = configure(str(tmp_path / "tb" / "PPO_1"), ["tensorboard"])
+    for step in (500, 1000, 1500, 2000, 2500, 3000):
+        logger.record("rollout/ep_rew_mean", -100.0 + step / 100)
+        logger.record("rollout/ep_len_mean", 300.0)
+        logger.dump(step)
+    logger.close()
+    evals = [(1000, -50.0, 35.0, True), (2000, -40.0, 36.0, True), (3000, -45.0, 34.0, False)]
+    with open(tmp_path / "evaluations.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=EVAL_COLUMNS)
+        w.writeheader()
+        for step, ret, fuel, best in evals:
+            w.writerow({"timesteps": step, "wall_s": 1.0, "cycle": "beijing", "scenario": "paper", "return_g": ret,
+                        "fuel_corrected_l_per_100km": fuel, "delta_soc": 0.0, "cutoff_s": 0.0,
+                        "trace_miss_max_mps": 0.0, "mean_return_g": ret, "best": int(best)})
+    return tmp_path
+
+
+def test_training_curve_has_a_training_return_line(fake_run):
+    tr = read_training_returns(fake_run)
+    assert list(tr["steps"]) == [500, 1000, 1500, 2000, 2500, 3000]
+    fig = training_curve_figure(fake_run, {"beijing / paper": 33.0})
+    try:
+        line = [ln for ln in fig.axes[0].get_lines() if ln.get_label().startswith("training episode return")]
+        assert len(line) == 1 and list(line[0].get_xdata()) == list(tr["steps"])
+        assert_legends_outside_axes(fig)
+    finally:
+        close(fig)
+
+
+def test_training_curve_marks_the_best_by_the_selection_metric(fake_run):
+    assert selected_step([{"timesteps": 1, "best": True, "mean_return_g": 0}]) == 1
+    fig = training_curve_figure(fake_run, {"beijing / paper": 33.0})
+    try:
+        ret_axis = next(ax for ax in fig.axes if ax.get_title().startswith("evaluation return"))
+        stars = [ln for ln in ret_axis.get_lines() if ln.get_marker() == "*"]
+        assert len(stars) == 1 and list(stars[0].get_xdata()) == [2000]  # best mean return, though worst fuel
+        assert "mean evaluation return" in stars[0].get_label() and "new best" not in stars[0].get_label()
+        fuel_axis = next(ax for ax in fig.axes if "corrected fuel" in ax.get_title())
+        assert fuel_axis.get_ylim()[0] <= 100.0  # % of DP: the axis includes 100 %
+        fuel_stars = [ln for ln in fuel_axis.get_lines() if ln.get_marker() in ("*", "o")]
+        assert not fuel_stars  # nothing on the fuel panel claims to be best
+    finally:
+        close(fig)
+
+
+def test_training_curve_without_logged_episodes(tmp_path):
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump({"algo": "sac", "seed": 0, "env": {}}))
+    fig = training_curve_figure(tmp_path)
+    try:
+        assert "no training episode" in fig.axes[0].texts[0].get_text()
+    finally:
+        close(fig)
+
+
+# --- the env's rgb_array frame ----------------------------------------------------------------------
+
+def test_render_frame_title_and_legend_inside_the_frame():
+    import gymnasium as gym
+
+    env = gym.make("HevThermal-v0", cycle="beijing", scenario="hot", render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(30):
+        env.step(np.array([0.5], np.float32))
+    frame = env.render()
+    plot = env.unwrapped._plot
+    fig = plot.fig
+    renderer = fig.canvas.get_renderer()
+    w, h = frame.shape[1], frame.shape[0]
+    for artist in (plot._title, *fig.legends):
+        box = artist.get_window_extent(renderer)
+        assert box.x0 >= 0 and box.y0 >= 0 and box.x1 <= w and box.y1 <= h, box
+    assert "beijing" in plot._title.get_text()
+    assert_legends_outside_axes(fig)
+    env.close()
