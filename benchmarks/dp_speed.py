@@ -28,8 +28,8 @@ import numpy as np
 
 from hev_thermal_env import cycle_from_arrays, load_cycle
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.agents.common import kernel_releases_gil
 from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.physics.core import step_kernel
 
 KEEP = ("grid", "n_u", "n_u_exec", "temp_mode", "n_states", "n_stages", "solve_s", "plan_total_s",
         "vehicle_steps_evaluated", "vehicle_steps_per_s", "soc_final_requested", "final_soc_feasible",
@@ -98,7 +98,7 @@ def main() -> None:
                         "runs plan for the nearest reachable band (on_infeasible='closest').")
     results["machine"] = {"python": platform.python_version(), "cpu_count": os.cpu_count(),
                           "processor": platform.processor() or platform.machine(),
-                          "kernel_releases_gil": kernel_releases_gil()}
+                          "kernel_releases_gil": bool(step_kernel.targetoptions.get("nogil"))}
     path = Path(args.json)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(results, indent=2, default=lambda o: o.item() if isinstance(o, np.generic) else str(o))

@@ -262,7 +262,8 @@ def main(argv: list[str] | None = None) -> int:
     data = {
         "seeds": args.seeds, "paper_cycles": list(PAPER_CYCLES), "hot_cycles": list(HOT_CYCLES),
         "targets": {"corrected_fuel_vs_dp": TARGETS, "abs_delta_soc": SOC_TARGET, "cutoff_s_paper": 0},
-        "shipped_policy": str(DEFAULT_POLICY_DIR.relative_to(ROOT)),
+        "shipped_policy": str(DEFAULT_POLICY_DIR.relative_to(ROOT) if DEFAULT_POLICY_DIR.is_relative_to(ROOT)
+                              else DEFAULT_POLICY_DIR),
         "dp_settings": f"grid {grid}, n_u {dp_settings.get('n_u')}, on_infeasible closest" if grid else "defaults",
         "training": training, "paper": paper, "hot": hot, "eval_wall_s": round(time.perf_counter() - t0, 1),
         "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, torch threads 1",
