@@ -30,10 +30,16 @@ CYCLE_COLOUR = "#bdbdbd"
 
 
 def pyplot():
-    """``matplotlib.pyplot``, drawing off screen (Agg) unless a non-interactive backend is already chosen."""
+    """``matplotlib.pyplot``, drawing off screen (Agg) unless the caller already chose how to draw.
+
+    A session that imported pyplot itself (a notebook's inline backend, an interactive window)
+    keeps its backend; otherwise the figures are drawn off screen, as a command-line run needs.
+    """
+    import sys
+
     import matplotlib
 
-    if matplotlib.get_backend().lower() not in NON_INTERACTIVE_BACKENDS:
+    if "matplotlib.pyplot" not in sys.modules and matplotlib.get_backend().lower() not in NON_INTERACTIVE_BACKENDS:
         matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
