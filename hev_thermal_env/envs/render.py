@@ -55,7 +55,7 @@ class EpisodePlot:
         self._lines["heat_index"], = ax_hi.plot([], [], color="C1")
         ax_hi.set_ylabel("heat\nindex [-]")
         ax_hi.set_ylim(-0.05, 1.05)
-        self._lines["action"], = ax_u.plot([], [], color="C4", lw=0.8)
+        self._lines["motor_share"], = ax_u.plot([], [], color="C4", lw=0.8)
         ax_u.set_ylabel("split u [-]")
         ax_u.set_ylim(-1.05, 1.05)
         ax_u.set_xlabel("time [s]")

@@ -41,7 +41,7 @@ COLUMNS = ("cycle", "scenario", "strategy", "distance_km", "fuel_g", "fuel_l_per
            "fuel_vs_dp_pct", "soc_correction_l_per_100km", "miss_correction_l_per_100km", "missed_wheel_energy_kwh",
            "soc_initial", "soc_final", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s",
            "trace_miss_max_mps")
-TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", "action",
+TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", "motor_share",
               "motor_torque_nm", "engine_torque_nm", "fuel_g")
 
 

@@ -23,7 +23,7 @@ PANELS = (
     ("soc", "battery SOC (-)", 1.0),
     ("motor_temp_c", "motor temperature (°C)", 1.0),
     ("heat_index", "heat index PWM (-)", 1.0),
-    ("action", "split u: motor share (-)", 1.0),
+    ("motor_share", "split u: motor share (-)", 1.0),
 )
 
 
@@ -41,7 +41,7 @@ def pyplot():
 def _series(trace: Mapping[str, np.ndarray], key: str) -> np.ndarray | None:
     if key in trace:
         return np.asarray(trace[key], dtype=float)
-    if key == "action" and "u" in trace:
+    if key == "motor_share" and "u" in trace:
         return np.asarray(trace["u"], dtype=float)
     return None
 
@@ -50,7 +50,7 @@ def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.Path
     """Draw one or more runs (``{label: trace}``) into a PNG at ``path``; returns the path.
 
     Each trace needs per-step arrays ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and
-    ``action`` (or ``u``); ``time_s`` and ``cycle_speed_mps`` are used when present (the cycle's
+    ``motor_share`` (or ``u``); ``time_s`` and ``cycle_speed_mps`` are used when present (the cycle's
     speed is drawn once, dashed, from the first trace that has it).
     """
     plt = pyplot()
