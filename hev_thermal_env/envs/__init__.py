@@ -10,8 +10,8 @@
 from .codes import coolant_mode, cycle_name
 from .hev_env import HevThermalEnv
 from .reward import REWARD_TERMS, RewardParams
-from .spaces import INFO_KEYS, RESET_INFO_KEYS, observation_names
+from .spaces import EPISODE_INFO_KEYS, INFO_KEYS, RESET_INFO_KEYS, observation_names
 from .vector_env import HevThermalVectorEnv
 
-__all__ = ["INFO_KEYS", "REWARD_TERMS", "RESET_INFO_KEYS", "HevThermalEnv", "HevThermalVectorEnv", "RewardParams",
-           "coolant_mode", "cycle_name", "observation_names"]
+__all__ = ["EPISODE_INFO_KEYS", "INFO_KEYS", "REWARD_TERMS", "RESET_INFO_KEYS", "HevThermalEnv", "HevThermalVectorEnv",
+           "RewardParams", "coolant_mode", "cycle_name", "observation_names"]
