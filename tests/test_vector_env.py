@@ -255,6 +255,7 @@ def test_sb3_adapter_attrs_methods_and_info_keys():
         Sb3VecEnv(2, info_keys=("nope",))
 
 
+@pytest.mark.filterwarnings("ignore::hev_thermal_env.cycles.ImplausibleCycleWarning")  # US06: 3.8 m/s²
 def test_sb3_ppo_learns_on_the_batched_core():
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor
