@@ -77,17 +77,23 @@ def single_env_rate(env_id: str, n_steps: int, seed: int = 0, **kwargs) -> dict:
 
 def sync_vector_rate(num_envs: int, n_steps: int, seed: int = 0, **kwargs) -> dict:
     envs = gym.make_vec("HevThermal-v0", num_envs, vectorization_mode="sync", **kwargs)
-    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(8, num_envs, 1)).astype(np.float32)
     envs.reset(seed=seed)
-    for i in range(50):
-        envs.step(actions[i % 8])
-    t0 = time.perf_counter()
-    for i in range(n_steps):
-        envs.step(actions[i % 8])
-    wall = time.perf_counter() - t0
+    wall, _ = timed_steps(envs, num_envs, n_steps, warmup=50, seed=seed)
     envs.close()
     return {"num_envs": num_envs, "vector_steps": n_steps, "env_steps": n_steps * num_envs, "wall_s": wall,
             "env_steps_per_s": n_steps * num_envs / wall}
+
+
+def timed_steps(envs, num_envs: int, n_steps: int, warmup: int, seed: int = 0) -> tuple[float, int]:
+    """Wall time of ``n_steps`` steps of a vector env after ``warmup`` steps, and the episodes ended meanwhile."""
+    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(8, num_envs, 1)).astype(np.float32)
+    for i in range(warmup):
+        envs.step(actions[i % 8])
+    ended = 0
+    t0 = time.perf_counter()
+    for i in range(n_steps):
+        ended += int(np.sum(envs.step(actions[i % 8])[3]))
+    return time.perf_counter() - t0, ended
 
 
 def best_of(repeats: int, runs: dict) -> dict:
@@ -105,16 +111,8 @@ def best_of(repeats: int, runs: dict) -> dict:
 
 def vector_rate(num_envs: int, n_steps: int, seed: int = 0, **kwargs) -> dict:
     envs = HevThermalVectorEnv(num_envs, **kwargs)
-    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(8, num_envs, 1)).astype(np.float32)
     envs.reset(seed=seed)
-    for i in range(20):
-        envs.step(actions[i % 8])
-    resets = 0
-    t0 = time.perf_counter()
-    for i in range(n_steps):
-        _, _, term, trunc, _ = envs.step(actions[i % 8])
-        resets += int(trunc.sum())
-    wall = time.perf_counter() - t0
+    wall, resets = timed_steps(envs, num_envs, n_steps, warmup=20, seed=seed)
     return {"num_envs": num_envs, "vector_steps": n_steps, "env_steps": n_steps * num_envs, "wall_s": wall,
             "env_steps_per_s": n_steps * num_envs / wall, "episodes_ended": resets}
 

@@ -135,23 +135,24 @@ def warn_implausible(time_s: np.ndarray, speed_mps: np.ndarray, *, origin: str,
     """Warn (:class:`ImplausibleCycleWarning`) about speeds above :data:`PLAUSIBLE_SPEED_MAX_MPS` and
     accelerations beyond ±:data:`PLAUSIBLE_ACCEL_MAX_MPS2`, naming the first such sample, its value and how
     many there are. Samples that passed :func:`check_samples`; real but odd data stays usable."""
+    accel = np.diff(speed_mps) / np.diff(time_s)
+    findings = []
     fast = np.flatnonzero(speed_mps > PLAUSIBLE_SPEED_MAX_MPS)
     if fast.size:
         i = int(fast[0])
-        warnings.warn(
-            f"{origin}: {locate(i)}: speed_mps = {float(speed_mps[i]):g} is beyond a bus's range "
-            f"(above {PLAUSIBLE_SPEED_MAX_MPS:g} m/s = {3.6 * PLAUSIBLE_SPEED_MAX_MPS:g} km/h; {fast.size} sample(s), "
-            f"up to {float(speed_mps.max()):g}); km/h values under a speed_mps header? The cycle is used as given",
-            ImplausibleCycleWarning, stacklevel=3)
-    accel = np.diff(speed_mps) / np.diff(time_s)
+        findings.append((i, f"speed_mps = {float(speed_mps[i]):g} is beyond a bus's range (above "
+                            f"{PLAUSIBLE_SPEED_MAX_MPS:g} m/s = {3.6 * PLAUSIBLE_SPEED_MAX_MPS:g} km/h; {fast.size} "
+                            f"sample(s), up to {float(speed_mps.max()):g}); km/h values under a speed_mps header?"))
     hard = np.flatnonzero(np.abs(accel) > PLAUSIBLE_ACCEL_MAX_MPS2)
     if hard.size:
         i = int(hard[0])
-        warnings.warn(
-            f"{origin}: {locate(i + 1)}: acceleration {float(accel[i]):+g} m/s² (speed_mps {float(speed_mps[i]):g} "
-            f"-> {float(speed_mps[i + 1]):g}) is beyond a bus's range (|a| above {PLAUSIBLE_ACCEL_MAX_MPS2:g} m/s²; "
-            f"{hard.size} step(s), up to {float(np.abs(accel).max()):g}); the cycle is used as given",
-            ImplausibleCycleWarning, stacklevel=3)
+        findings.append((i + 1, f"acceleration {float(accel[i]):+g} m/s² (speed_mps {float(speed_mps[i]):g} -> "
+                                f"{float(speed_mps[i + 1]):g}) is beyond a bus's range (|a| above "
+                                f"{PLAUSIBLE_ACCEL_MAX_MPS2:g} m/s²; {hard.size} step(s), up to "
+                                f"{float(np.abs(accel).max()):g})."))
+    for row, finding in findings:
+        warnings.warn(f"{origin}: {locate(row)}: {finding} The cycle is used as given.", ImplausibleCycleWarning,
+                      stacklevel=3)
 
 
 def regrid_to_1s(

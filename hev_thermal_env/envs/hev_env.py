@@ -21,20 +21,10 @@ from ..cycles import Cycle
 from ..physics import core as C
 from ..physics.config import Conditions, VehicleConfig, paper_bus
 from ..scenarios import Scenario
+from . import spaces as S
 from .batch import EpisodeRows
 from .episodes import Episode, EpisodeSampler, TableCache
 from .reward import RewardParams
-from .spaces import (
-    EPISODE_INFO_KEYS,
-    INFO_KEYS,
-    check_info_keys,
-    observation_bounds,
-    observation_names,
-    preview_offsets,
-    reset_info_dict,
-    reset_info_keys,
-    step_info_dict,
-)
 
 
 class HevThermalEnv(gym.Env):
@@ -190,18 +180,18 @@ class HevThermalEnv(gym.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
-        self.info_keys = check_info_keys(info_keys)
-        self.reset_info_keys = reset_info_keys(self.info_keys)
+        self.info_keys = S.check_info_keys(info_keys)
+        self.reset_info_keys = S.reset_info_keys(self.info_keys)
         self.config = resolve_config(config, thermal)
         self.core = C.PhysicsCore(self.config)
         self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
         self.preview_s = int(preview_s)
         self.preview_step_s = int(preview_step_s)
-        self.offsets = preview_offsets(preview_s, preview_step_s)
-        low, high = observation_bounds(self.config, self.offsets.size)
+        self.offsets = S.preview_offsets(preview_s, preview_step_s)
+        low, high = S.observation_bounds(self.config, self.offsets.size)
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self.obs_names = observation_names(self.preview_s, self.preview_step_s)
+        self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
         self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
         self._rows = EpisodeRows(self.core, 1, self.offsets, low, high, resolve_reward(reward))
         self._u = np.zeros(1)
@@ -257,9 +247,9 @@ class HevThermalEnv(gym.Env):
         self.cycle = ep.cycle
         self.conditions = ep.conditions
         obs = self._rows.observe()[0]
-        info = reset_info_dict(self._rows, 0, ep)
-        self._episode_info = {key: info[key] for key in EPISODE_INFO_KEYS}
-        if self.info_keys is not INFO_KEYS:
+        info = S.reset_info_dict(self._rows, 0, ep)
+        self._episode_info = {key: info[key] for key in S.EPISODE_INFO_KEYS}
+        if self.info_keys is not S.INFO_KEYS:
             info = {key: info[key] for key in self.reset_info_keys}
         if self.render_mode is not None:
             self._history = {name: [] for name in ("time_s", "cycle_speed_mps", "speed_mps", "soc", "motor_temp_c",
@@ -282,13 +272,13 @@ class HevThermalEnv(gym.Env):
         truncated = k >= rows.end[0]
         info = {}
         if self.info_keys or self._history is not None:
-            info = step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], float(k), u, clipped,
+            info = S.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], float(k), u, clipped,
                                   self._episode_info)
             if self._history is not None:
                 self._record_step(info)
                 if self.render_mode == "human":
                     self.render()
-            if self.info_keys is not INFO_KEYS:
+            if self.info_keys is not S.INFO_KEYS:
                 info = {key: info[key] for key in self.info_keys}
         return obs[0], float(reward[0]), False, bool(truncated), info
 
