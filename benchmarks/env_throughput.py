@@ -199,6 +199,7 @@ def main(argv: list[str] | None = None) -> dict:
         "quick": args.quick, "python": platform.python_version(), "numpy": np.__version__,
         "numba": numba.__version__, "gymnasium": gym.__version__, "hev_thermal_env": hev_thermal_env.__version__,
         "machine": platform.machine(), "cpu_count": os.cpu_count(), "total_wall_s": time.perf_counter() - t_import,
+        "load_average_1min_at_end": os.getloadavg()[0],  # other work on the machine slows every figure
     }
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(results, indent=2) + "\n")
