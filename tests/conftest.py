@@ -25,6 +25,16 @@ def pytest_runtest_makereport(item, call):
         rep.longrepr = f"skipped, and --fail-on-skip forbids skips: {reason}"
 
 
+def pytest_sessionfinish(session, exitstatus):
+    """With --fail-on-skip, whole modules skipped at collection (``importorskip``) fail the run too."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    skipped = reporter.stats.get("skipped", []) if reporter is not None else []
+    if skipped and session.config.getoption("fail_on_skip"):
+        for rep in skipped:
+            reporter.write_line(f"SKIPPED, and --fail-on-skip forbids skips: {rep.nodeid} {rep.longrepr}", red=True)
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
 @pytest.fixture(scope="session")
 def reference_dir() -> Path:
     return REFERENCE
