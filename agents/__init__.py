@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import inspect
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -66,7 +67,11 @@ def list_strategies() -> list[str]:
 
 
 def get_strategy(name: str, **options: Any) -> Strategy:
-    """A new strategy by name, with its options; an unknown name raises ValueError listing the valid ones."""
+    """A new strategy by name, with its options.
+
+    An unknown name, an unknown option or an option value of the wrong type raises ``ValueError``
+    naming the strategy and listing the valid names or options.
+    """
     if not isinstance(name, str):
         raise ValueError(f"strategy name must be a string, got {type(name).__name__}")
     base, _, label = name.partition(":")
@@ -75,12 +80,32 @@ def get_strategy(name: str, **options: Any) -> Strategy:
         raise ValueError(f"unknown strategy {name!r}; valid strategies: {', '.join(list_strategies())}")
     factory = entry if callable(entry) else getattr(importlib.import_module(entry[0]), entry[1])
     from_label = getattr(factory, "from_label", None)
-    if label and from_label is not None:
-        return from_label(label, **options)
-    strategy = factory(**options)
-    if label:
+    build = from_label if label and from_label is not None else factory
+    _check_options(base, build, options, skip=1 if build is from_label else 0)
+    try:
+        strategy = build(label, **options) if build is from_label else build(**options)
+    except (TypeError, ValueError) as exc:  # a value of the wrong type or out of range
+        if str(exc).startswith(base):  # the strategy's own message names it already
+            raise
+        raise ValueError(f"strategy {base!r}: bad option value ({exc}); options given: {options}") from None
+    if label and build is not from_label:
         strategy.label = name
     return strategy
+
+
+def _check_options(base: str, build: Callable[..., Any], options: dict[str, Any], skip: int) -> None:
+    """Unknown option names raise ValueError listing the options ``build`` takes (after ``skip`` positionals)."""
+    try:
+        params = list(inspect.signature(build).parameters.values())[skip:]
+    except (TypeError, ValueError):
+        return
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
+        return
+    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    known = [p.name for p in params if p.kind in named]
+    unknown = [k for k in options if k not in known]
+    if unknown:
+        raise ValueError(f"strategy {base!r}: unknown option(s) {unknown}; valid options: {', '.join(known) or 'none'}")
 
 
 __all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies", "register_strategy"]

@@ -48,8 +48,12 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
     (``soc``, ``motor_temp_c``, ``heat_x``, ``motor_cutoff``), and :func:`summarize`'s metrics.
     """
     cyc = load_cycle(cycle)
-    config = config or paper_bus()
-    conditions = conditions or Conditions()
+    config = paper_bus() if config is None else config
+    conditions = Conditions() if conditions is None else conditions
+    if not isinstance(config, VehicleConfig):
+        raise TypeError(f"simulate: config must be a VehicleConfig or None, got {type(config).__name__}")
+    if not isinstance(conditions, Conditions):
+        raise TypeError(f"simulate: conditions must be a Conditions or None, got {type(conditions).__name__}")
     phys = C.PhysicsCore(config, dt_s=1.0)
     n = cyc.n_steps
     state = phys.initial_state(conditions, 1)
@@ -60,9 +64,7 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
     g = np.asarray(cyc.grade, dtype=np.float64)
     const = not callable(split)
     if const:
-        u_all = np.broadcast_to(np.asarray(split, dtype=np.float64), (n,)).copy()
-        if not np.all(np.isfinite(u_all)):
-            raise ValueError("split: contains NaN or inf")
+        u_all = _split_array(split, n)
     a = np.empty(1)
     t0 = time.perf_counter()
     st_out = np.empty((1, C.N_STATE))
@@ -109,3 +111,16 @@ def energy_balance(trace: dict[str, np.ndarray], config: VehicleConfig, dt_s: fl
     fuel_j = float(trace["fuel_g"].sum() * config.engine.fuel_lhv_j_per_g)
     return {"energy_in_j": e_in, "energy_out_j": e_out, "relative_error": abs(e_in - e_out) / max(scale, 1.0),
             "fuel_energy_j": fuel_j, **parts}
+
+
+def _split_array(split: Any, n: int) -> np.ndarray:
+    """A constant or per-step ``split`` as n finite values (one-line ValueError otherwise)."""
+    try:
+        u = np.asarray(split, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"split: expected a number, an array of {n} numbers or a callable, got {split!r}") from None
+    if u.ndim > 1 or (u.ndim == 1 and u.size != n):
+        raise ValueError(f"split: an array needs one value per step ({n} for this cycle), got shape {u.shape}")
+    if not np.all(np.isfinite(u)):
+        raise ValueError("split: contains NaN or inf")
+    return np.broadcast_to(u, (n,)).copy()

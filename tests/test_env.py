@@ -12,8 +12,8 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import hev_thermal_env
-from hev_thermal_env import Conditions, load_cycle, paper_bus, simulate
-from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS, HevThermalEnv, observation_names
+from hev_thermal_env import Conditions, list_cycles, load_cycle, paper_bus, simulate
+from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS, HevThermalEnv, coolant_mode, cycle_name, observation_names
 from hev_thermal_env.envs.episodes import RESET_OPTIONS
 from hev_thermal_env.envs.reward import REWARD_TERMS, RewardParams, reward_terms
 from hev_thermal_env.physics import core as C
@@ -88,7 +88,8 @@ def test_cycle_argument(kind, tmp_path):
     if kind in ("name", "path", "cycle"):
         np.testing.assert_array_equal(cyc.speed_mps, hwfet.speed_mps)
     if kind == "random_bus":
-        assert cyc.synthetic and info["cycle_name"].startswith("bus_seed")
+        assert cyc.synthetic and cycle_name(info["cycle_id"]).startswith("bus_seed")
+        assert cycle_name(info["cycle_id"]) == cyc.name
     env.step(np.array([0.0], np.float32))
 
 
@@ -161,9 +162,9 @@ def test_out_of_range_action_is_clipped():
         o2, r2, _, _, i2 = results[edge]
         np.testing.assert_array_equal(o1, o2)
         assert r1 == r2
-        assert i1["action_clipped"] and not i2["action_clipped"]
-        assert {k: v for k, v in i1.items() if k != "action_clipped"} == \
-               {k: v for k, v in i2.items() if k != "action_clipped"}
+        assert i1["motor_share_clipped"] and not i2["motor_share_clipped"]
+        assert {k: v for k, v in i1.items() if k != "motor_share_clipped"} == \
+               {k: v for k, v in i2.items() if k != "motor_share_clipped"}
 
 
 # --- the physics it wraps -------------------------------------------------------------------------
@@ -332,7 +333,8 @@ def test_reset_options():
     c = env.conditions
     assert (c.ambient_temp_c, c.initial_motor_temp_c, c.initial_soc, c.coolant) == (35.0, 45.0, 0.55, "off")
     assert env.soc_target == 0.55 and env.phys_state[0, C.TEMP_C] == 45.0
-    assert info["coolant"] == "off" and info["soc_target"] == 0.55
+    assert coolant_mode(info["coolant_code"]) == "off" and info["soc_target"] == 0.55
+    assert cycle_name(info["cycle_id"]) == "us06" and info["cycle_id"] == list_cycles().index("us06")
     env.reset()
     assert env.cycle.name == "hwfet" and env.k == 0 and env.conditions == Conditions()
     with pytest.raises(ValueError, match="valid options") as exc:

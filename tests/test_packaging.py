@@ -82,3 +82,10 @@ def test_the_wheel_installs_agents_under_hev_thermal_env_only(tmp_path):
     text = zipfile.ZipFile(wheel).read(entry_points).decode()
     assert "hev-evaluate = hev_thermal_env.cli.evaluate:main" in text
     assert "hev-train = hev_thermal_env.cli.train:main" in text
+
+
+def test_licence_files_match_the_metadata():
+    assert PYPROJECT["project"]["license"] == {"text": "MIT"}
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
+    vendored = ROOT / "tests" / "data" / "advisor"
+    assert (vendored / "ADVISOR-LICENSE.txt").is_file() and list(vendored.glob("*.json"))

@@ -82,7 +82,7 @@ def test_each_strategy_runs_the_short_cycle(runs, name):
     assert np.isfinite(s["fuel_corrected_l_per_100km"]) and s["fuel_g"] > 0
     assert len(res.trace["soc"]) == 200
     json.dumps(res.to_json_dict())  # JSON-ready
-    assert np.all(np.abs(res.trace["action"]) <= 1.0)
+    assert np.all(np.abs(res.trace["motor_share"]) <= 1.0)
 
 
 def test_engine_only_is_the_conventional_bus(runs, city200):

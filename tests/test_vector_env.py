@@ -56,7 +56,7 @@ def test_next_step_autoreset_matches_single_envs():
             if done[i]:
                 obs, info = env.reset()
                 n_resets += 1
-                assert rew_v[i] == 0.0 and not trunc_v[i] and not info_v["_fuel_g"][i] and info_v["_cycle_name"][i]
+                assert rew_v[i] == 0.0 and not trunc_v[i] and not info_v["_fuel_g"][i] and info_v["_cycle_id"][i]
                 for key in RESET_INFO_KEYS:
                     assert info_v[key][i] == info[key], key
             else:
@@ -135,7 +135,7 @@ def test_different_cycle_lengths_truncate_per_env():
     with pytest.raises(RuntimeError, match="reset_mask"):
         vec.step(a)
     obs, info = vec.reset(options={"reset_mask": np.array([True, False])})
-    assert info["_cycle_name"].tolist() == [True, False] and vec.k.tolist() == [0, 760]
+    assert info["_cycle_id"].tolist() == [True, False] and vec.k.tolist() == [0, 760]
     truncs = [vec.step(a)[3].copy() for _ in range(5)]
     assert truncs[4].tolist() == [False, True]
 
@@ -183,7 +183,7 @@ def test_bad_actions_raise():
     with pytest.raises(ValueError, match="finite"):
         vec.step(bad)
     clipped = vec.step(np.full((4, 1), 3.0, np.float32))[4]
-    assert clipped["action_clipped"].all() and (clipped["action"] == 1.0).all()
+    assert clipped["motor_share_clipped"].all() and (clipped["motor_share"] == 1.0).all()
 
 
 def test_observations_inside_bounds():
@@ -255,6 +255,7 @@ def test_sb3_adapter_attrs_methods_and_info_keys():
         Sb3VecEnv(2, info_keys=("nope",))
 
 
+@pytest.mark.filterwarnings("ignore::hev_thermal_env.cycles.ImplausibleCycleWarning")  # US06: 3.8 m/s²
 def test_sb3_ppo_learns_on_the_batched_core():
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor

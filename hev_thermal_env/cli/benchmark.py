@@ -3,21 +3,38 @@
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
+from hev_thermal_env.cycles import list_cycles
 from hev_thermal_env.evaluation.benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES, run_benchmark
+from hev_thermal_env.scenarios import list_scenarios
+
+from .parsing import HelpFormatter, examples
+from .run import strategies_help
+
+EXAMPLES = (
+    "python evaluate.py benchmark --out results                       # the README's table",
+    "python evaluate.py benchmark --cycles hwfet beijing --scenarios paper hot --out results_hot",
+    "python evaluate.py benchmark --strategies rule dp ppo ppo:runs/ppo --cycles udds --jobs 2 --out cmp",
+)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("benchmark", help="every strategy on every cycle and scenario: table + plots",
-                       description="Run strategies on cycles and scenarios; write results.csv/json/md and PNGs.")
-    p.add_argument("--cycles", nargs="+", default=list(DEFAULT_CYCLES), help="cycle names or CSV paths")
-    p.add_argument("--strategies", nargs="+", default=list(DEFAULT_STRATEGIES),
-                   help="strategy names (ppo:PATH for a trained model)")
-    p.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), help="scenario names")
-    p.add_argument("--out", default="results", help="output directory (default results)")
-    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
+                       description="Run every strategy on every cycle in every scenario; write results.csv, "
+                                   "results.json, results.md, timings.json and PNG plots into --out.",
+                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+    p.add_argument("--cycles", nargs="+", default=list(DEFAULT_CYCLES), metavar="CYCLE",
+                   help=f"built-in cycles ({', '.join(list_cycles())}) or CSV paths")
+    p.add_argument("--strategies", nargs="+", default=list(DEFAULT_STRATEGIES), metavar="STRATEGY",
+                   help=strategies_help())
+    p.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), metavar="SCENARIO",
+                   help=f"scenarios ({', '.join(list_scenarios())})")
+    p.add_argument("--out", default="results", metavar="DIR", help="output directory")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help=f"parallel processes (default: the number of cores, {os.cpu_count() or 1} here)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
 
 

@@ -2,12 +2,16 @@
 
 Problems with the input (unknown names, malformed files, out-of-range values) are ``ValueError`` s;
 problems with files (missing, not a directory, read-only file system, no permission) are
-``OSError`` s. Either is printed as one line, without a traceback, with exit status 2.
+``OSError`` s. Either is printed as one line, without a traceback, with exit status 2. Warnings
+(implausible cycle data, ...) are printed as one ``warning:`` line each.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 #: Exceptions that mean "the input is wrong", reported in one line.
@@ -35,3 +39,14 @@ def report(exc: BaseException, prog: str | None = None) -> int:
     """Print ``error: MESSAGE`` (``PROG: error: MESSAGE`` with ``prog``) on stderr; returns the exit status."""
     print(f"{f'{prog}: ' if prog else ''}error: {one_line(exc)}", file=sys.stderr)
     return EXIT_USER_ERROR
+
+
+@contextlib.contextmanager
+def one_line_warnings(prog: str | None = None) -> Iterator[None]:
+    """Within the block, each warning is printed as ``warning: MESSAGE`` (``PROG: warning: ...``) on stderr."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"{f'{prog}: ' if prog else ''}warning: {' '.join(str(message).split())}", file=file or sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield

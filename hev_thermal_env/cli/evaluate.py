@@ -1,14 +1,11 @@
 """Evaluate energy-management strategies on the hybrid bus.
 
-The program behind ``evaluate.py`` and the ``hev-evaluate`` command. Subcommands::
-
-    python evaluate.py benchmark --out DIR        # the main job: strategies x cycles x scenarios, table + plots
-    python evaluate.py run --cycle hwfet --strategy ecms [--json PATH --trace PATH --plot PATH]
-    python evaluate.py paper --out DIR            # the paper reproduction report
-    python evaluate.py performance --json PATH    # top speed, 0-60 km/h, 4 % grade (paper Table 3)
-
-``python evaluate.py SUBCOMMAND --help`` lists every option. Errors in the input, and output paths
-that cannot be written (checked before any work), are reported in one line with a non-zero exit status.
+The program behind ``evaluate.py`` and the ``hev-evaluate`` command, with one subcommand per job
+(one module each): ``benchmark`` (the main job: strategies x cycles x scenarios, table + plots),
+``run`` (one strategy on one cycle), ``paper`` (the paper reproduction report) and ``performance``
+(top speed, 0-60 km/h, 4 % grade: the paper's Table 3). ``python evaluate.py SUBCOMMAND --help``
+lists every option with its default. Errors in the input, and output paths that cannot be written
+(checked before any work), are reported in one line with a non-zero exit status.
 """
 
 from __future__ import annotations
@@ -17,15 +14,27 @@ import argparse
 import sys
 
 from . import benchmark, paper, performance, run
-from .errors import EXIT_INTERRUPTED, USER_ERRORS, program_name, report
+from .errors import EXIT_INTERRUPTED, USER_ERRORS, one_line_warnings, program_name, report
+from .parsing import HelpFormatter, OneLineErrorParser, examples
 
 #: subcommand name -> module providing add_parser(subparsers) and main(args) -> int
 SUBCOMMANDS = {"benchmark": benchmark, "run": run, "paper": paper, "performance": performance}
 
 
+EXAMPLES = (
+    "python evaluate.py benchmark --out results                  # shipped PPO + classic strategies",
+    "python evaluate.py benchmark --scenarios paper hot --strategies rule dp dp_thermal ppo:runs/ppo",
+    "python evaluate.py run --cycle hwfet --strategy ecms --json r.json --trace r.csv --plot r.png",
+    "python evaluate.py paper --out results/paper",
+    "python evaluate.py performance --initial-motor-temp-c 50 --coolant off",
+)
+
+
 def build_parser(prog: str = "evaluate.py") -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog=prog, description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND")
+    epilog = examples(EXAMPLES) + "\n\nevery subcommand's options: python evaluate.py SUBCOMMAND --help"
+    parser = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
+                                epilog=epilog)
+    sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND")  # subparsers: OneLineErrorParser too
     sub.required = True
     for module in SUBCOMMANDS.values():
         module.add_parser(sub)
@@ -35,7 +44,8 @@ def build_parser(prog: str = "evaluate.py") -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser(program_name(argv, "evaluate.py")).parse_args(argv)
     try:
-        return int(SUBCOMMANDS[args.command].main(args) or 0)
+        with one_line_warnings():
+            return int(SUBCOMMANDS[args.command].main(args) or 0)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -8,13 +8,24 @@ from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.evaluation.paper import build_report
 from hev_thermal_env.io import check_writable_dir
 
+from .parsing import HelpFormatter, examples
+
+EXAMPLES = (
+    "python evaluate.py paper --out results/paper",
+    "python evaluate.py paper --cycles hwfet beijing --out results/paper",
+    "python evaluate.py paper --quick --out /tmp/paper             # reduced resolution, a quick look",
+)
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("paper", help="paper reproduction report (markdown + PNG)",
-                       description="Our results beside the paper's Tables 2-3 and Figs. 4, 7-10.")
-    p.add_argument("--out", default="results/paper", help="output directory (default results/paper)")
-    p.add_argument("--cycles", nargs="+", default=["hwfet", "udds", "beijing"], help="cycles for Table 2 / Figs 7-10")
-    p.add_argument("--quick", action="store_true", help="reduced resolution (for tests)")
+                       description="Our results beside the paper's Tables 2-3 and Figs. 4, 7-10: report.md, "
+                                   "paper.json and the figures, written into --out.",
+                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+    p.add_argument("--out", default="results/paper", metavar="DIR", help="output directory")
+    p.add_argument("--cycles", nargs="+", default=["hwfet", "udds", "beijing"], metavar="CYCLE",
+                   help="cycles for Table 2 and Figs. 7-10 (built-in names or CSV paths)")
+    p.add_argument("--quick", action="store_true", help="reduced resolution (for tests and a quick look)")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -1,10 +1,8 @@
 """``evaluate.py run``: one strategy on one cycle; a printed summary, JSON, a per-second trace CSV and a plot.
 
-    python evaluate.py run --cycle hwfet --strategy ecms [--scenario hot] [--json run.json]
-                           [--trace run.csv] [--plot run.png] [--dp-soc-points 801 --dp-actions 81]
-
-Unknown strategy, scenario or cycle: one line listing the valid values and exit status 2 (the
-errors are ``ValueError`` s, reported by ``evaluate.py``).
+Examples in :data:`EXAMPLES` (shown by ``evaluate.py run --help``). Unknown strategy, scenario or
+cycle: one line listing the valid values and exit status 2 (the errors are ``ValueError`` s,
+reported by ``evaluate.py``).
 """
 
 from __future__ import annotations
@@ -13,37 +11,57 @@ import argparse
 import json
 from typing import Any
 
-from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.cycles import list_cycles, load_cycle
 from hev_thermal_env.evaluation.plots import plot_run
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_output_path
-from hev_thermal_env.scenarios import get_scenario
+from hev_thermal_env.scenarios import get_scenario, list_scenarios
+
+from .parsing import HelpFormatter, examples
 
 DP_STRATEGIES = ("dp", "dp_thermal")
+
+
+EXAMPLES = (
+    "python evaluate.py run --cycle hwfet --strategy ecms",
+    "python evaluate.py run --cycle beijing --strategy ppo:runs/ppo --json r.json --trace r.csv --plot r.png",
+    "python evaluate.py run --cycle udds --strategy dp --dp-soc-points 801 --dp-actions 81",
+    "python evaluate.py run --cycle my_route.csv --strategy rule --scenario hot",
+    "python evaluate.py run --cycle hwfet --strategy aecms --option kp=10",
+)
+
+
+def strategies_help() -> str:
+    """The strategy names for the help texts, with the ``ppo:PATH`` form."""
+    names = [n for n in list_strategies() if n != "ppo"]
+    return f"{', '.join(names)}, ppo (the shipped policy) or ppo:PATH (a train.py run directory or model zip)"
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="one strategy on one cycle: summary, JSON, trace CSV, plot",
                        description="Drive one cycle with one energy-management strategy in HevThermal-v0 and "
                                    "report fuel, corrected fuel, SOC, motor temperature, heat index, derating "
-                                   "and cutoff time.")
+                                   "and cutoff time.",
+                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
     p.add_argument("--cycle", required=True, metavar="NAME",
-                   help="built-in cycle (hwfet, udds, us06, wltc_3b, beijing) or a CSV path")
-    p.add_argument("--strategy", required=True, metavar="NAME",
-                   help="engine_only, rule, ecms, aecms, ecms_thermal, dp, dp_thermal (and ppo when installed)")
-    p.add_argument("--scenario", default="paper", metavar="S", help="paper (default), hot or random")
-    p.add_argument("--seed", type=int, default=0, help="reset seed (matters for the random scenario; default 0)")
+                   help=f"built-in cycle ({', '.join(list_cycles())}) or a CSV path (time_s,speed_mps[,grade])")
+    p.add_argument("--strategy", required=True, metavar="NAME", help=strategies_help())
+    p.add_argument("--scenario", default="paper", metavar="S", help=f"one of {', '.join(list_scenarios())}")
+    p.add_argument("--seed", type=int, default=0, help="reset seed, 0 or more (draws the random scenario)")
     p.add_argument("--json", metavar="PATH", help="write the summary as JSON here")
     p.add_argument("--trace", metavar="PATH.csv", help="write the per-second info fields as CSV here")
     p.add_argument("--plot", metavar="PATH.png", help="draw speed, SOC, motor temperature, heat index and split")
-    p.add_argument("--dp-soc-points", type=int, metavar="N", help="dp/dp_thermal: SOC grid points per stage")
-    p.add_argument("--dp-actions", type=int, metavar="M", help="dp/dp_thermal: splits u in the backward pass")
+    p.add_argument("--dp-soc-points", type=int, metavar="N",
+                   help="dp/dp_thermal: SOC grid points per stage (the strategy's default: 401)")
+    p.add_argument("--dp-actions", type=int, metavar="M",
+                   help="dp/dp_thermal: splits u in the backward pass (the strategy's default: 41)")
     p.add_argument("--dp-on-infeasible", choices=["raise", "closest"], default=None,
-                   help="dp/dp_thermal when the final-SOC band is unreachable: raise (default) or plan for the "
+                   help="dp/dp_thermal when the final-SOC band is unreachable: raise (the default) or plan for the "
                         "nearest reachable band")
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                   help="extra strategy option (value parsed as JSON when possible), repeatable")
+                   help="extra strategy option (value parsed as JSON when possible), repeatable; an unknown key "
+                        "lists the strategy's options")
 
 
 def _parse_value(text: str) -> Any:
@@ -115,6 +133,8 @@ def _short(v: Any) -> str:
 
 def main(args: argparse.Namespace) -> int:
     # validate everything before the (possibly long) run
+    if args.seed < 0:
+        raise ValueError(f"--seed must be 0 or more, got {args.seed}")
     scenario = get_scenario(args.scenario)
     cycle = load_cycle(args.cycle)
     strategy = get_strategy(args.strategy, **strategy_options(args))

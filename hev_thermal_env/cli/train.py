@@ -1,21 +1,12 @@
 """Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus.
 
-The program behind ``train.py`` and the ``hev-train`` command.
-
-Examples::
-
-    python train.py --algo ppo --cycles hwfet random_bus --scenario random --timesteps 5000000 \\
-        --n-envs 32 --seed 0 --out runs/ppo_s0
-    python train.py --algo ppo --hp gamma=0.99 'policy_kwargs={net_arch: [128, 128]}' --out runs/ppo_wide
-    python train.py --resume runs/ppo_s0          # continue an interrupted run to its total
-
-Hyperparameters come from ``agents/hyperparams/<algo>.yaml`` (or ``--hyperparams FILE``);
-``--hp key=value`` overrides any of them: values are YAML (``0.99``, ``[64, 64]``,
-``{net_arch: [64, 64], activation_fn: tanh}``, ``lin_3e-4`` for a linear decay), ``dict(k=v, ...)``
-is accepted too, and dotted keys reach inside mappings (``policy_kwargs.net_arch=[64,64]``,
-``env.reward.soc_deviation_weight=1.0``). The run directory gets ``model.zip``, ``best_model.zip``,
-``vecnormalize.pkl``, ``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard),
-``evaluations.csv`` and ``training_curve.png`` (see :mod:`hev_thermal_env.training`).
+The program behind ``train.py`` and the ``hev-train`` command; ``--help`` shows the examples
+(:data:`EXAMPLES`) and every default, the run settings taken from the algorithm's hyperparameter
+file (``agents/hyperparams/<algo>.yaml``, :data:`~hev_thermal_env.agents.HYPERPARAMS_DIR`).
+``--hp key=value`` overrides any hyperparameter (values are YAML; dotted keys reach inside
+mappings). The run directory gets ``model.zip``, ``best_model.zip``, ``vecnormalize.pkl``,
+``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard), ``evaluations.csv`` and
+``training_curve.png`` (see :mod:`hev_thermal_env.training`).
 
 Ctrl-C saves a checkpoint and exits with status 130; ``--resume DIR`` continues. Errors in the
 input (an unknown hyperparameter, a value of the wrong type, an output directory that cannot be
@@ -31,41 +22,94 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from hev_thermal_env.agents import HYPERPARAMS_DIR
+from hev_thermal_env.cycles import list_cycles
+from hev_thermal_env.io import read_yaml_mapping
+from hev_thermal_env.scenarios import list_scenarios
 from hev_thermal_env.training import TrainingInterrupted, build_config, parse_overrides, resume, train
+from hev_thermal_env.training.config import DEFAULT_EVAL_CYCLES, VEC_MODES
+from hev_thermal_env.training.hyperparams import ALGORITHMS
 
-from .errors import EXIT_INTERRUPTED, USER_ERRORS, program_name, report
+from .errors import EXIT_INTERRUPTED, USER_ERRORS, one_line_warnings, program_name, report
+from .parsing import HelpFormatter, OneLineErrorParser, examples
+
+ALGOS = tuple(ALGORITHMS)
 
 SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "out", "hp", "hyperparams", "vec",
                  "eval_cycles", "eval_scenarios", "eval_freq", "checkpoint_freq")
 
 
-class OneLineErrorParser(argparse.ArgumentParser):
-    """Usage errors in one line (``train.py: error: ...``), exit status 2."""
+EXAMPLES = (
+    "python train.py --algo ppo --cycles hwfet random_bus --scenario random --timesteps 5000000 \\",
+    "    --n-envs 32 --seed 0 --out runs/ppo_s0",
+    "python train.py --algo ppo --hp gamma=0.99 'policy_kwargs={net_arch: [128, 128]}' --out runs/ppo_wide",
+    "python train.py --algo sac --hp learning_rate=lin_3e-4 env.reward.soc_deviation_weight=10 --out runs/sac",
+    "python train.py --resume runs/ppo_s0                 # continue an interrupted run to its total",
+    "python evaluate.py run --cycle beijing --strategy ppo:runs/ppo_s0   # drive a trained run",
+)
 
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+NOTES = """\
+hyperparameters: agents/hyperparams/<algo>.yaml (or --hyperparams FILE); --hp key=value overrides
+any of them. Values are YAML: 0.99, [64, 64], {net_arch: [64, 64], activation_fn: tanh}, lin_3e-4
+(a linear decay); dict(k=v, ...) is accepted too; dotted keys reach inside mappings
+(policy_kwargs.net_arch=[64,64], env.reward.soc_deviation_weight=1.0).
+
+outputs in --out: model.zip, best_model.zip, vecnormalize.pkl, config.yaml, command.txt,
+checkpoints/, tb/ (TensorBoard), evaluations.csv, training_curve.png.
+
+Ctrl-C saves a checkpoint (exit status 130); --resume DIR continues."""
+
+
+def file_defaults() -> dict[str, dict[str, Any]]:
+    """The run settings of each algorithm's hyperparameter file (what the options default to)."""
+    out = {}
+    for algo in ALGOS:
+        hp = read_yaml_mapping(HYPERPARAMS_DIR / f"{algo}.yaml")
+        env, ev = hp.get("env") or {}, hp.get("eval") or {}
+        out[algo] = {"cycles": " ".join(map(str, env.get("cycles", []))), "scenario": env.get("scenario"),
+                     "timesteps": hp.get("n_timesteps"), "n_envs": hp.get("n_envs"),
+                     "eval_cycles": " ".join(map(str, ev.get("cycles", DEFAULT_EVAL_CYCLES))),
+                     "eval_scenarios": " ".join(map(str, ev.get("scenarios", ["paper"]))),
+                     "eval_freq": ev.get("freq"), "checkpoint_freq": hp.get("checkpoint_freq")}
+    return out
+
+
+def _per_algo(defaults: dict[str, dict[str, Any]], key: str) -> str:
+    values = [f"{defaults[a][key]} ({a})" for a in ALGOS]
+    return "default from the hyperparameter file: " + ", ".join(values)
 
 
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
-    p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0],
-                           formatter_class=argparse.RawDescriptionHelpFormatter,
-                           epilog="\n\n".join(__doc__.split("\n\n")[1:]))
-    p.add_argument("--algo", default=None, help="ppo (default) or sac")
-    p.add_argument("--cycles", nargs="+", default=None,
-                   help="training cycles: built-in names, CSV paths or random_bus (default from the file)")
-    p.add_argument("--scenario", default=None, help="paper, hot or random (default from the hyperparameter file)")
-    p.add_argument("--timesteps", type=int, default=None, help="total env-steps (default from the hyperparameter file)")
-    p.add_argument("--n-envs", type=int, default=None, help="parallel environments (default from the file)")
-    p.add_argument("--seed", type=int, default=None, help="seed of the model and the environments (default 0)")
-    p.add_argument("--out", default=None, help="run directory (new or empty)")
-    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE", help="hyperparameter overrides")
-    p.add_argument("--hyperparams", default=None, metavar="FILE", help="hyperparameter YAML file")
-    p.add_argument("--vec", default=None, help="native (batched env, default), subproc or dummy")
-    p.add_argument("--eval-cycles", nargs="*", default=None,
-                   help="evaluation cycles, not trained on (default beijing us06; none disables evaluation)")
-    p.add_argument("--eval-scenarios", nargs="+", default=None, help="evaluation scenarios (default paper)")
-    p.add_argument("--eval-freq", type=int, default=None, help="evaluate every N env-steps")
-    p.add_argument("--checkpoint-freq", type=int, default=None, help="checkpoint every N env-steps")
+    d = file_defaults()
+    p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
+                           epilog=examples(EXAMPLES) + "\n\n" + NOTES)
+    p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(ALGOS)} (default: ppo)")
+    p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
+                   help=f"training cycles: built-in names ({', '.join(list_cycles())}), CSV paths or random_bus "
+                        f"(a fresh synthetic bus cycle per episode); {_per_algo(d, 'cycles')}")
+    p.add_argument("--scenario", default=None, metavar="S",
+                   help=f"one of {', '.join(list_scenarios())}; {_per_algo(d, 'scenario')}")
+    p.add_argument("--timesteps", type=int, default=None, metavar="N",
+                   help=f"total env-steps; {_per_algo(d, 'timesteps')}")
+    p.add_argument("--n-envs", type=int, default=None, metavar="N",
+                   help=f"parallel environments; {_per_algo(d, 'n_envs')}")
+    p.add_argument("--seed", type=int, default=None, help="seed of the model and the environments, 0 or more "
+                                                          "(default: 0)")
+    p.add_argument("--out", default=None, metavar="DIR", help="run directory, new or empty (required unless --resume)")
+    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE", help="hyperparameter overrides (see below)")
+    p.add_argument("--hyperparams", default=None, metavar="FILE",
+                   help="hyperparameter YAML file (default: agents/hyperparams/<algo>.yaml)")
+    p.add_argument("--vec", default=None, metavar="MODE",
+                   help=f"vector env, one of {', '.join(VEC_MODES)}: native is one batched env (the default), "
+                        "subproc and dummy SB3's vector envs")
+    p.add_argument("--eval-cycles", nargs="*", default=None, metavar="CYCLE",
+                   help=f"evaluation cycles, not trained on; none disables evaluation; {_per_algo(d, 'eval_cycles')}")
+    p.add_argument("--eval-scenarios", nargs="+", default=None, metavar="S",
+                   help=f"evaluation scenarios; {_per_algo(d, 'eval_scenarios')}")
+    p.add_argument("--eval-freq", type=int, default=None, metavar="N",
+                   help=f"evaluate every N env-steps; {_per_algo(d, 'eval_freq')}")
+    p.add_argument("--checkpoint-freq", type=int, default=None, metavar="N",
+                   help=f"checkpoint every N env-steps; {_per_algo(d, 'checkpoint_freq')}")
     p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--quiet", action="store_true", help="no evaluation lines")
@@ -102,7 +146,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser(prog).parse_args(argv)
     command = command_line([prog, *(sys.argv[1:] if argv is None else argv)])
     try:
-        result, out = run(args, command)
+        with one_line_warnings(prog):
+            result, out = run(args, command)
     except TrainingInterrupted as exc:
         print(f"{prog}: {exc}", file=sys.stderr)
         return exc.exit_code

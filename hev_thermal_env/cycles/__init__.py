@@ -9,6 +9,8 @@ A :class:`Cycle` is a speed trace [m/s] and road grade (rise/run) sampled every 
   columns ``time_s,speed_mps[,grade]``.
 * :func:`cycle_from_arrays`: a validated cycle from arrays.
 * :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles.
+* :class:`ImplausibleCycleWarning`: user data beyond a bus's range (speed above
+  :data:`PLAUSIBLE_SPEED_MAX_MPS`, acceleration beyond :data:`PLAUSIBLE_ACCEL_MAX_MPS2`).
 
 Examples
 --------
@@ -18,8 +20,9 @@ Examples
 11.99
 """
 
-from .cycle import Cycle
+from .cycle import PLAUSIBLE_ACCEL_MAX_MPS2, PLAUSIBLE_SPEED_MAX_MPS, Cycle, ImplausibleCycleWarning
 from .generator import generate_bus_cycle
 from .loader import cycle_from_arrays, list_cycles, load_cycle
 
-__all__ = ["Cycle", "cycle_from_arrays", "generate_bus_cycle", "list_cycles", "load_cycle"]
+__all__ = ["PLAUSIBLE_ACCEL_MAX_MPS2", "PLAUSIBLE_SPEED_MAX_MPS", "Cycle", "ImplausibleCycleWarning",
+           "cycle_from_arrays", "generate_bus_cycle", "list_cycles", "load_cycle"]

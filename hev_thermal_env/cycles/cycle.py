@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,19 @@ MAX_ABS_GRADE = 0.5
 
 #: Tolerance on the time grid [s] (time stamps written with a few decimals still pass).
 TIME_TOL_S = 1e-6
+
+#: Speed above which a user cycle sample is implausible for a city bus [m/s] (126 km/h; the paper's bus
+#: tops out at 89 km/h). A cycle in km/h under a ``speed_mps`` header exceeds it at any highway speed.
+PLAUSIBLE_SPEED_MAX_MPS = 35.0
+
+#: Largest plausible |acceleration| of a bus over one step of a user cycle [m/s²] (hard braking is about
+#: 3 m/s², a city bus accelerates at 1-1.5 m/s²). Speeds in km/h read as m/s multiply it by 3.6.
+PLAUSIBLE_ACCEL_MAX_MPS2 = 3.5
+
+
+class ImplausibleCycleWarning(UserWarning):
+    """User cycle data beyond a bus's range (speed or acceleration): used as given, but most likely a unit
+    mistake (km/h under a ``speed_mps`` header) or a glitch in the recording."""
 
 Locate = Callable[[int], str]
 
@@ -114,6 +128,31 @@ def check_samples(
             "(only uniformly sampled cycles are supported)",
         )
     return dt0
+
+
+def warn_implausible(time_s: np.ndarray, speed_mps: np.ndarray, *, origin: str,
+                     locate: Locate = _index_locator) -> None:
+    """Warn (:class:`ImplausibleCycleWarning`) about speeds above :data:`PLAUSIBLE_SPEED_MAX_MPS` and
+    accelerations beyond ±:data:`PLAUSIBLE_ACCEL_MAX_MPS2`, naming the first such sample, its value and how
+    many there are. Samples that passed :func:`check_samples`; real but odd data stays usable."""
+    accel = np.diff(speed_mps) / np.diff(time_s)
+    findings = []
+    fast = np.flatnonzero(speed_mps > PLAUSIBLE_SPEED_MAX_MPS)
+    if fast.size:
+        i = int(fast[0])
+        findings.append((i, f"speed_mps = {float(speed_mps[i]):g} is beyond a bus's range (above "
+                            f"{PLAUSIBLE_SPEED_MAX_MPS:g} m/s = {3.6 * PLAUSIBLE_SPEED_MAX_MPS:g} km/h; {fast.size} "
+                            f"sample(s), up to {float(speed_mps.max()):g}); km/h values under a speed_mps header?"))
+    hard = np.flatnonzero(np.abs(accel) > PLAUSIBLE_ACCEL_MAX_MPS2)
+    if hard.size:
+        i = int(hard[0])
+        findings.append((i + 1, f"acceleration {float(accel[i]):+g} m/s² (speed_mps {float(speed_mps[i]):g} -> "
+                                f"{float(speed_mps[i + 1]):g}) is beyond a bus's range (|a| above "
+                                f"{PLAUSIBLE_ACCEL_MAX_MPS2:g} m/s²; {hard.size} step(s), up to "
+                                f"{float(np.abs(accel).max()):g})."))
+    for row, finding in findings:
+        warnings.warn(f"{origin}: {locate(row)}: {finding} The cycle is used as given.", ImplausibleCycleWarning,
+                      stacklevel=3)
 
 
 def regrid_to_1s(

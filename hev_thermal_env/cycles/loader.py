@@ -17,6 +17,13 @@ User CSV format
 * Errors raise ``ValueError`` naming the file, the position as ``data row N (line M)`` (data
   rows count from 1 after the header; lines count from 1 at the top of the file) and the
   problem.
+* Data that is valid but implausible for a bus, speeds above
+  :data:`~hev_thermal_env.cycles.cycle.PLAUSIBLE_SPEED_MAX_MPS` (35 m/s: km/h values under a
+  ``speed_mps`` header) or accelerations beyond
+  ±:data:`~hev_thermal_env.cycles.cycle.PLAUSIBLE_ACCEL_MAX_MPS2` (3.5 m/s²), gives an
+  :class:`~hev_thermal_env.cycles.cycle.ImplausibleCycleWarning` naming the file, the first such row
+  and its value (also for :func:`cycle_from_arrays`); the cycle is used as given. The built-in
+  cycles are not checked (``us06`` and ``wltc_3b`` are car cycles above a bus's top speed).
 """
 
 from __future__ import annotations
@@ -31,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from .cycle import Cycle, check_samples, regrid_to_1s
+from .cycle import Cycle, check_samples, regrid_to_1s, warn_implausible
 from .generator import BEIJING_KWARGS, BEIJING_SEED, BEIJING_TARGETS, bus_cycle_params
 
 _FASTSIM_SOURCE = (
@@ -121,9 +128,12 @@ def _load_builtin(name: str) -> Cycle:
 
 
 def _parse_csv_text(
-    text: str, *, origin: str
+    text: str, *, origin: str, plausibility: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-    """Parse and check CSV text; return 1-s arrays and resampling information."""
+    """Parse and check CSV text; return 1-s arrays and resampling information.
+
+    ``plausibility``: also warn about speeds and accelerations beyond a bus's range (user files).
+    """
     text = text.removeprefix("\ufeff")
     rows: list[tuple[int, list[str]]] = []
     for line_no, fields in enumerate(csv.reader(io.StringIO(text)), start=1):
@@ -176,6 +186,8 @@ def _parse_csv_text(
     speed_mps = values["speed_mps"]
     grade = values["grade"] if "grade" in values else np.zeros(len(data))
     dt_s = check_samples(time_s, speed_mps, grade, origin=origin, locate=where)
+    if plausibility:
+        warn_implausible(time_s, speed_mps, origin=origin, locate=where)
     info = {"original_time_step_s": dt_s, "time_offset_s": float(time_s[0])}
     time_s, speed_mps, grade, resampled = regrid_to_1s(time_s, speed_mps, grade, dt_s)
     if len(time_s) < 2:
@@ -190,7 +202,7 @@ def _load_csv(path: Path) -> Cycle:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise ValueError(f"{origin}: not a UTF-8 text file ({exc.reason})") from None
-    time_s, speed_mps, grade, info = _parse_csv_text(text, origin=origin)
+    time_s, speed_mps, grade, info = _parse_csv_text(text, origin=origin, plausibility=True)
     description = f"User cycle from {path.name}"
     if info["resampled"]:
         description += f" (resampled from {info['original_time_step_s']:g} s to 1 s)"
@@ -246,6 +258,8 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     path = Path(name_or_path)
     if path.is_file():
         return _load_csv(path)
+    if path.is_dir():
+        raise ValueError(f"cycle file '{path}': is a directory, expected a CSV file")
     raise ValueError(
         f"unknown cycle {str(name_or_path)!r}: not a built-in name and not an existing file; "
         f"built-in cycles: {', '.join(list_cycles())}. "
@@ -322,6 +336,7 @@ def cycle_from_arrays(
         else _as_float_vector("time_s", time_s, origin)
     )
     dt_s = check_samples(t, speed, grd, origin=origin)
+    warn_implausible(t, speed, origin=origin)
     info = {"original_time_step_s": dt_s, "time_offset_s": float(t[0])}
     t, speed, grd, resampled = regrid_to_1s(t, speed, grd, dt_s)
     if len(t) < 2:

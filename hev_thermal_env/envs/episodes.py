@@ -92,6 +92,9 @@ class EpisodeSampler:
                    if k in options}
         if "coolant" in changes and changes["coolant"] not in COOLANT_MODES:
             raise ValueError(f"reset option coolant: {changes['coolant']!r} is not one of {list(COOLANT_MODES)}")
+        for key, value in changes.items():
+            if key != "coolant" and (isinstance(value, bool) or not isinstance(value, (int, float, np.number))):
+                raise ValueError(f"reset option {key}: expected a number, got {value!r}")
         if changes:
             cond = cond.replace(**changes)
         choice = CycleChoice(options["cycle"]) if "cycle" in options else self.cycles

@@ -10,6 +10,7 @@ by :mod:`hev_thermal_env.envs.episodes` from the scenario (:mod:`hev_thermal_env
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -20,10 +21,10 @@ from ..cycles import Cycle
 from ..physics import core as C
 from ..physics.config import Conditions, VehicleConfig, paper_bus
 from ..scenarios import Scenario
+from . import spaces as S
 from .batch import EpisodeRows
 from .episodes import Episode, EpisodeSampler, TableCache
 from .reward import RewardParams
-from .spaces import observation_bounds, observation_names, preview_offsets, reset_info_dict, step_info_dict
 
 
 class HevThermalEnv(gym.Env):
@@ -49,8 +50,8 @@ class HevThermalEnv(gym.Env):
     and the battery's limits and lets the engine cover the rest up to its full load; what is
     still missing is a priced trace miss (the motor never tops up by itself). Braking is
     regenerative by rule (the action has no effect while braking or standing). Values outside
-    [-1, 1] are clipped (``info["action_clipped"]``); NaN or inf, or a shape other than ``(1,)``,
-    raise ``ValueError``.
+    [-1, 1] are clipped (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share
+    applied); NaN or inf, or a shape other than ``(1,)``, raise ``ValueError``.
 
     ## Observation Space
 
@@ -69,7 +70,7 @@ class HevThermalEnv(gym.Env):
     | 7 | heat-index integrator state x (eq 9), PWM = clip(x, 0, 1) | -1 | 1 | - |
     | 8 | motor cut off by its 70 °C protection (1) or not (0) | 0 | 1 | - |
     | 9 | motor torque envelope of the last step (at reset: of the first step), see below | 0 | peak torque | N·m |
-    | 10 | gear of the next step (shift schedule on speed and load) | 1 | number of gears | - |
+    | 10 | gear of the next step (shift schedule on speed and load), 1 or more | 0 | number of gears | - |
     | 11 | cycle progress k / n_steps | 0 | 1 | - |
     | 12 | ambient temperature | -40 | 60 | °C |
     | 13 | coolant heat-transfer multiplier: 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
@@ -78,8 +79,11 @@ class HevThermalEnv(gym.Env):
     Entry 9 is the motor's torque limit in the last step: the peak torque at that speed, derated
     by the heat index (eq 8), 0 while cut off; after reset, the limit for the first step. Its
     upper bound is the motor's peak torque (240 N·m for ``paper_bus``); that of entry 10 the number
-    of gears (5). The preview is taken from the start of the next step and held at the cycle's last
-    speed past its end; with the defaults (``preview_s=10``, ``preview_step_s=2``) it has 5 entries
+    of gears (5). The gear is always 1 or more, but its declared lower bound is 0, so that an
+    all-zero observation lies inside the space (torchrl, for one, fills the final observation of a
+    batch with zeros and checks it against the space); every other entry's range holds 0 already.
+    The preview is taken from the start of the next step and held at the cycle's last speed past
+    its end; with the defaults (``preview_s=10``, ``preview_step_s=2``) it has 5 entries
     (+2 to +10 s) and the observation 19. :func:`observation_names` gives the names in order.
 
     ## Rewards
@@ -90,6 +94,21 @@ class HevThermalEnv(gym.Env):
     fuel equivalent of the battery energy used and a quadratic deviation of the SOC from the target
     (the episode's initial SOC), minus an overheating penalty (quadratic above the 60 °C soft limit,
     20 per step while cut off, optionally per unit PWM). Each term is in ``info``.
+
+    ## Info
+
+    ``step`` returns the keys of :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the contract of
+    DESIGN §4 first: fuel, SOC, motor and engine operating points, heat index, cutoff, reward terms;
+    then extras such as ``motor_share``, the share u applied after clipping, and
+    ``motor_share_clipped``, and the episode's keys, :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`),
+    or those chosen by ``info_keys``. ``reset`` returns
+    :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS` (those among ``info_keys``). Every value is
+    a number or a bool, so that libraries that turn each info value into a tensor (torchrl) read
+    them: the cycle and the coolant mode are codes, ``cycle_id``
+    (:func:`~hev_thermal_env.envs.codes.cycle_name` gives the name, as does
+    ``env.unwrapped.cycle.name``) and ``coolant_code``
+    (:func:`~hev_thermal_env.envs.codes.coolant_mode`). Every key of a reset's info is also a
+    step's, so a vector wrapper that merges an autoreset into a step's info adds no new key.
 
     ## Starting State
 
@@ -109,7 +128,7 @@ class HevThermalEnv(gym.Env):
     ```python
     gymnasium.make("HevThermal-v0", cycle="hwfet", scenario="paper", config=None, conditions=None,
                    reward=None, preview_s=10, preview_step_s=2, render_mode=None, thermal=None,
-                   random_start=False)
+                   random_start=False, info_keys="all")
     ```
 
     * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path,
@@ -130,6 +149,10 @@ class HevThermalEnv(gym.Env):
       on for ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra
       loss, no cutoff), the baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
+    * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence
+      of names from :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean
+      path for gymnasium's vector wrappers (``gymnasium.make_vec(..., vectorization_mode="sync",
+      info_keys=())`` merges no infos per step) and trainers that read none.
 
     ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this
     episode only), ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant``
@@ -153,26 +176,29 @@ class HevThermalEnv(gym.Env):
     def __init__(self, cycle: Any = "hwfet", scenario: str | Scenario = "paper", config: VehicleConfig | None = None,
                  conditions: Conditions | None = None, reward: RewardParams | dict | None = None, preview_s: int = 10,
                  preview_step_s: int = 2, render_mode: str | None = None, thermal: bool | None = None,
-                 random_start: bool = False):
+                 random_start: bool = False, info_keys: str | Sequence[str] = "all"):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
+        self.info_keys = S.check_info_keys(info_keys)
+        self.reset_info_keys = S.reset_info_keys(self.info_keys)
         self.config = resolve_config(config, thermal)
         self.core = C.PhysicsCore(self.config)
         self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
         self.preview_s = int(preview_s)
         self.preview_step_s = int(preview_step_s)
-        self.offsets = preview_offsets(preview_s, preview_step_s)
-        low, high = observation_bounds(self.config, self.offsets.size)
+        self.offsets = S.preview_offsets(preview_s, preview_step_s)
+        low, high = S.observation_bounds(self.config, self.offsets.size)
         self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self.obs_names = observation_names(self.preview_s, self.preview_step_s)
+        self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
         self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
         self._rows = EpisodeRows(self.core, 1, self.offsets, low, high, resolve_reward(reward))
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
         self.conditions: Conditions | None = None
         self._history: dict[str, list] | None = None
+        self._episode_info: dict[str, Any] = {}
         self._plot = None
 
     # -- contract attributes ---------------------------------------------------------------------
@@ -221,10 +247,13 @@ class HevThermalEnv(gym.Env):
         self.cycle = ep.cycle
         self.conditions = ep.conditions
         obs = self._rows.observe()[0]
-        info = reset_info_dict(self._rows, 0, ep)
+        info = S.reset_info_dict(self._rows, 0, ep)
+        self._episode_info = {key: info[key] for key in S.EPISODE_INFO_KEYS}
+        if self.info_keys is not S.INFO_KEYS:
+            info = {key: info[key] for key in self.reset_info_keys}
         if self.render_mode is not None:
             self._history = {name: [] for name in ("time_s", "cycle_speed_mps", "speed_mps", "soc", "motor_temp_c",
-                                                    "heat_index", "action")}
+                                                    "heat_index", "motor_share")}
             self._record_reset(ep)
             if self.render_mode == "human":
                 self.render()
@@ -241,11 +270,16 @@ class HevThermalEnv(gym.Env):
         reward, terms, out, obs = rows.step(self._u)
         k = int(rows.k[0])
         truncated = k >= rows.end[0]
-        info = step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], float(k), u, clipped)
-        if self._history is not None:
-            self._record_step(info)
-            if self.render_mode == "human":
-                self.render()
+        info = {}
+        if self.info_keys or self._history is not None:
+            info = S.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], float(k), u, clipped,
+                                  self._episode_info)
+            if self._history is not None:
+                self._record_step(info)
+                if self.render_mode == "human":
+                    self.render()
+            if self.info_keys is not S.INFO_KEYS:
+                info = {key: info[key] for key in self.info_keys}
         return obs[0], float(reward[0]), False, bool(truncated), info
 
     def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -292,7 +326,7 @@ class HevThermalEnv(gym.Env):
         h["soc"].append(float(st[C.SOC]))
         h["motor_temp_c"].append(float(st[C.TEMP_C]))
         h["heat_index"].append(min(max(float(st[C.HEAT_X]), 0.0), 1.0))
-        h["action"].append(math.nan)
+        h["motor_share"].append(math.nan)
 
     def _record_step(self, info: dict) -> None:
         for name, values in self._history.items():

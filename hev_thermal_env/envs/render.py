@@ -19,7 +19,7 @@ WIDTH_IN, HEIGHT_IN, DPI = 8.0, 8.0, 80  # 640 × 640 pixels
 FONT_PT = 9.5
 
 #: The step-info key (and history key) of the torque split chosen by the agent.
-SPLIT_INFO_KEY = "action"
+SPLIT_INFO_KEY = "motor_share"
 
 
 

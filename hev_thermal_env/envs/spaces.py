@@ -13,6 +13,7 @@ import numpy as np
 
 from ..physics import core as C
 from ..physics.config import VehicleConfig
+from .codes import coolant_code, cycle_id
 from .reward import REWARD_TERMS
 
 RPM_PER_RADPS = 30.0 / math.pi
@@ -30,7 +31,7 @@ _OBS_FIELDS = (
     ("heat_x", -1.0, 1.0, "-", "heat-index integrator state x (eq 9); PWM = clip(x, 0, 1)"),
     ("motor_cutoff", 0.0, 1.0, "-", "1 while the 70 °C protection holds the motor off"),
     ("motor_torque_avail_nm", 0.0, None, "N·m", "motor torque envelope of the last step (at reset: of the first)"),
-    ("gear", 1.0, None, "-", "gear of the next step (set by the shift schedule from the cycle)"),
+    ("gear", 0.0, None, "-", "gear of the next step (set by the shift schedule from the cycle); never below 1"),
     ("cycle_progress", 0.0, 1.0, "-", "elapsed fraction of the cycle"),
     ("ambient_temp_c", -40.0, 60.0, "°C", "ambient air temperature"),
     ("coolant_factor", 0.0, 1.0, "-", "coolant heat-transfer multiplier: 1 on, <1 degraded, 0 off"),
@@ -67,17 +68,49 @@ _INFO_BOOL_COLUMNS = (("engine_on", C.ENGINE_ON), ("coolant_on", C.COOLANT_ON),
 _REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  # the documented contract order
 _REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
 
+EPISODE_INFO_KEYS = ("cycle_id", "start_s", "soc_target", "ambient_temp_c", "coolant_code")
+"""Keys of the reset info that every step repeats (the episode's cycle, start and conditions), so that each
+key of a reset's info is also a step's: a vector wrapper that merges a reset into a step's info (gymnasium's
+autoreset) adds no key that the other steps lack, which is what libraries with fixed info specs need."""
+
 INFO_KEYS = (
     "fuel_g", "soc", "motor_temp_c", "heat_index", "motor_torque_nm", "motor_speed_rpm", "motor_heat_w",
     "engine_torque_nm", "engine_speed_rpm", "engine_on", "gear", "speed_mps", "trace_miss_mps", "motor_cutoff",
     "coolant_on", *_REWARD_KEYS, "missed_wheel_energy_j", "battery_chem_power_w", "battery_power_w",
-    "motor_torque_avail_nm", "cycle_speed_mps", "time_s", "action", "action_clipped", "motor_torque_clipped",
+    "motor_torque_avail_nm", "cycle_speed_mps", "time_s", "motor_share", "motor_share_clipped", "motor_torque_clipped",
+    *EPISODE_INFO_KEYS,
 )
-"""Keys of the ``info`` dict of every step (the documented contract first, then extras)."""
+"""Keys of the ``info`` dict of every step (the documented contract first, then extras), numbers and bools only."""
 
-RESET_INFO_KEYS = ("cycle_name", "start_s", "time_s", "soc", "soc_target", "motor_temp_c", "heat_index",
-                   "motor_cutoff", "ambient_temp_c", "coolant")
-"""Keys of the ``info`` dict returned by ``reset``."""
+RESET_INFO_KEYS = ("cycle_id", "start_s", "time_s", "soc", "soc_target", "motor_temp_c", "heat_index",
+                   "motor_cutoff", "ambient_temp_c", "coolant_code")
+"""Keys of the ``info`` dict returned by ``reset``: numbers only (``cycle_id`` and ``coolant_code`` are codes,
+see :mod:`hev_thermal_env.envs.codes`)."""
+
+
+def check_info_keys(info_keys: Any) -> tuple[str, ...]:
+    """The info keys an env reports: ``"all"`` (:data:`INFO_KEYS`) or a sequence of them (``()``: none).
+
+    The choice applies to every info, a step's and a reset's (which has the chosen keys of
+    :data:`RESET_INFO_KEYS`), so that a vector wrapper merging the two meets no key it did not see before.
+    """
+    if isinstance(info_keys, str):
+        if info_keys != "all":
+            raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}")
+        return INFO_KEYS
+    try:
+        keys = tuple(info_keys)
+    except TypeError:
+        raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}") from None
+    unknown = [k for k in keys if k not in INFO_KEYS]
+    if unknown:
+        raise ValueError(f"info_keys: unknown key(s) {unknown}; known: {', '.join(INFO_KEYS)}")
+    return keys
+
+
+def reset_info_keys(info_keys: tuple[str, ...]) -> tuple[str, ...]:
+    """The reset-info keys among ``info_keys`` (every key of a reset's info is also a step's)."""
+    return tuple(key for key in RESET_INFO_KEYS if key in info_keys)
 
 
 def observation_names(preview_s: int, preview_step_s: int) -> tuple[str, ...]:
@@ -104,8 +137,9 @@ def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarra
 
 
 def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: float,
-                   time_s: float, u: float, clipped: bool) -> dict[str, Any]:
-    """The ``info`` of one step of the single env (same values as the vector env's info arrays)."""
+                   time_s: float, u: float, clipped: bool, episode: dict[str, Any]) -> dict[str, Any]:
+    """The ``info`` of one step of the single env (same values as the vector env's info arrays);
+    ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (:func:`episode_info`)."""
     o = out.tolist()
     info = {
         "fuel_g": o[C.FUEL_G], "soc": float(state[C.SOC]), "motor_temp_c": float(state[C.TEMP_C]),
@@ -121,14 +155,17 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
         info[key] = t[col]
     info.update(
         missed_wheel_energy_j=o[C.MISSED_J], battery_chem_power_w=o[C.BATT_CHEM], battery_power_w=o[C.BATT_POWER],
-        motor_torque_avail_nm=o[C.MOTOR_AVAIL], cycle_speed_mps=float(cycle_speed), time_s=time_s, action=u,
-        action_clipped=clipped, motor_torque_clipped=o[C.MOTOR_CLIPPED] != 0.0)
+        motor_torque_avail_nm=o[C.MOTOR_AVAIL], cycle_speed_mps=float(cycle_speed), time_s=time_s, motor_share=u,
+        motor_share_clipped=clipped, motor_torque_clipped=o[C.MOTOR_CLIPPED] != 0.0)
+    info.update(episode)
     return info
 
 
 def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.ndarray,
-                     time_s: np.ndarray, u: np.ndarray, clipped: np.ndarray) -> dict[str, np.ndarray]:
-    """The step infos of a batch as one array per key (one column slice per key)."""
+                     time_s: np.ndarray, u: np.ndarray, clipped: np.ndarray,
+                     episode: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The step infos of a batch as one array per key (one column slice per key); ``episode``: an array per
+    :data:`EPISODE_INFO_KEYS` key (copied)."""
     info = {name: out[:, col] for name, col in _INFO_OUT_COLUMNS}
     for name, col in _INFO_RPM_COLUMNS:
         info[name] = out[:, col] * RPM_PER_RADPS
@@ -142,18 +179,23 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
         info[key] = terms[:, col]
     info["cycle_speed_mps"] = cycle_speed
     info["time_s"] = time_s
-    info["action"] = u
-    info["action_clipped"] = clipped
+    info["motor_share"] = u
+    info["motor_share_clipped"] = clipped
+    for key in EPISODE_INFO_KEYS:
+        info[key] = episode[key].copy()
     return {key: info[key] for key in INFO_KEYS}
 
+
+def episode_info(rows: Any, i: int, ep: Any) -> dict[str, Any]:
+    """The :data:`EPISODE_INFO_KEYS` values of episode ``ep`` started in row ``i`` of the batch engine ``rows``."""
+    return {"cycle_id": cycle_id(ep.cycle.name), "start_s": ep.start_s, "soc_target": float(rows.soc_target[i]),
+            "ambient_temp_c": float(ep.conditions.ambient_temp_c), "coolant_code": coolant_code(ep.conditions.coolant)}
 
 
 def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
     """The ``info`` of a reset: row ``i`` of the batch engine ``rows`` starting episode ``ep``."""
     st = rows.state[i]
-    return {
-        "cycle_name": ep.cycle.name, "start_s": ep.start_s, "time_s": float(ep.start_s), "soc": float(st[C.SOC]),
-        "soc_target": float(rows.soc_target[i]), "motor_temp_c": float(st[C.TEMP_C]),
-        "heat_index": min(max(float(st[C.HEAT_X]), 0.0), 1.0), "motor_cutoff": bool(st[C.CUTOFF] != 0.0),
-        "ambient_temp_c": float(ep.conditions.ambient_temp_c), "coolant": ep.conditions.coolant,
-    }
+    info = episode_info(rows, i, ep)
+    info.update(time_s=float(ep.start_s), soc=float(st[C.SOC]), motor_temp_c=float(st[C.TEMP_C]),
+                heat_index=min(max(float(st[C.HEAT_X]), 0.0), 1.0), motor_cutoff=bool(st[C.CUTOFF] != 0.0))
+    return {key: info[key] for key in RESET_INFO_KEYS}

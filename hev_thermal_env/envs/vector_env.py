@@ -33,14 +33,18 @@ from .episodes import EpisodeSampler, TableCache
 from .hev_env import resolve_config, resolve_reward
 from .reward import RewardParams
 from .spaces import (
-    INFO_KEYS,
+    EPISODE_INFO_KEYS,
     RESET_INFO_KEYS,
+    check_info_keys,
     observation_bounds,
     observation_names,
     preview_offsets,
     reset_info_dict,
+    reset_info_keys,
     step_info_arrays,
 )
+
+_FLOAT_EPISODE_KEYS = ("soc_target", "ambient_temp_c")
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
@@ -75,13 +79,17 @@ class HevThermalVectorEnv(VectorEnv):
     applied to every reset sub-environment, ``reset_mask`` (bool array: reset only these), or a list
     of one options dict per sub-environment.
 
-    * ``info_keys``: the step-info keys to report, ``"all"`` (default,
+    * ``info_keys``: the info keys to report, ``"all"`` (default,
       :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`) or a sequence of them; ``()`` is the lean
-      path for wrappers and trainers that read no step infos (merging many keys per step costs more
-      than the physics).
+      path for wrappers and trainers that read no infos (merging many keys per step costs more
+      than the physics). As in the single env, the choice applies to reset infos too.
 
-    Infos are dicts of arrays with ``_key`` masks (gymnasium vector format); step keys are
-    ``info_keys``, reset keys :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS`.
+    Infos are dicts of arrays with ``_key`` masks (gymnasium vector format), numbers and bools only;
+    step keys are ``info_keys``, reset keys those of :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS`
+    among them (``reset_info_keys``). Every reset key is also a step key, so the set of keys does not
+    change when sub-environments reset: torchrl, for one, reads a batch through fixed info specs
+    (``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v0", n, autoreset_mode="SameStep"))``;
+    torchrl accepts the ``SAME_STEP`` and ``DISABLED`` autoreset modes).
     The batch attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``,
     ``k`` [n], ``phys_state`` [n, N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and
     ``last_out`` [n, N_OUT] mirror the single env's.
@@ -101,7 +109,8 @@ class HevThermalVectorEnv(VectorEnv):
             raise ValueError("HevThermalVectorEnv does not render; use render_mode=None (render single envs instead)")
         if max_episode_steps is not None and (int(max_episode_steps) != max_episode_steps or max_episode_steps < 1):
             raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
-        self.info_keys = _check_info_keys(info_keys)
+        self.info_keys = check_info_keys(info_keys)
+        self.reset_info_keys = reset_info_keys(self.info_keys)
         self.autoreset_mode = AutoresetMode(autoreset_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
         self.num_envs = int(num_envs)
@@ -122,6 +131,8 @@ class HevThermalVectorEnv(VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._started = np.zeros(self.num_envs, dtype=bool)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._episode_cols = {key: np.zeros(self.num_envs, dtype=np.float64 if key in _FLOAT_EPISODE_KEYS else np.int64)
+                              for key in EPISODE_INFO_KEYS}
 
     # -- batch attributes --------------------------------------------------------------------------
 
@@ -325,12 +336,15 @@ class HevThermalVectorEnv(VectorEnv):
         tables = [self._tables.get(ep) for ep in episodes]
         self._rows.load(idx, episodes, tables, self.max_episode_steps)
         self._started[idx] = True
-        return [reset_info_dict(self._rows, i, ep) for i, ep in zip(idx, episodes)]
+        infos = [reset_info_dict(self._rows, i, ep) for i, ep in zip(idx, episodes)]
+        for key, col in self._episode_cols.items():
+            col[idx] = [info[key] for info in infos]
+        return infos
 
     def _step_infos(self, out, state, terms, cycle_speed, time_s, u, clipped, mask) -> dict[str, np.ndarray]:
         if not self.info_keys:
             return {}
-        arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped)
+        arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped, self._episode_cols)
         infos = {}
         for key in self.info_keys:
             infos[key] = arrays[key]
@@ -342,14 +356,11 @@ class HevThermalVectorEnv(VectorEnv):
             return infos
         mask = np.zeros(self.num_envs, dtype=bool)
         mask[idx] = True
-        for key in RESET_INFO_KEYS:
+        for key in self.reset_info_keys:
             values = [ri[key] for ri in reset_infos]
             arr = infos.get(key)
             if arr is None:
-                if isinstance(values[0], str):
-                    arr = np.full(self.num_envs, None, dtype=object)
-                else:
-                    arr = np.zeros(self.num_envs, dtype=type(values[0]))
+                arr = np.zeros(self.num_envs, dtype=type(values[0]))
                 key_mask = mask
             else:
                 key_mask = infos["_" + key] | mask
@@ -366,14 +377,3 @@ def _check_mask(mask: Any, n: int) -> np.ndarray:
         raise ValueError("options['reset_mask'] must select at least one sub-environment")
     return mask
 
-
-def _check_info_keys(info_keys: str | Sequence[str]) -> tuple[str, ...]:
-    if isinstance(info_keys, str):
-        if info_keys != "all":
-            raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}")
-        return INFO_KEYS
-    keys = tuple(info_keys)
-    unknown = sorted(set(keys) - set(INFO_KEYS))
-    if unknown:
-        raise ValueError(f"info_keys: unknown key(s) {unknown}; known: {list(INFO_KEYS)}")
-    return keys

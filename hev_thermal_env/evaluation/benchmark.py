@@ -19,6 +19,7 @@ import io
 import multiprocessing
 import os
 import time
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -26,8 +27,8 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from hev_thermal_env.agents import get_strategy, list_strategies
-from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.cycles import ImplausibleCycleWarning, load_cycle
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
 from hev_thermal_env.scenarios import get_scenario
@@ -50,7 +51,9 @@ TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "
 
 def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
     cycle, scenario, strategy, options = task
-    cyc = load_cycle(cycle)
+    with warnings.catch_warnings():  # the main process warned about implausible cycle data when validating
+        warnings.simplefilter("ignore", ImplausibleCycleWarning)
+        cyc = load_cycle(cycle)
     res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario)
     trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
     summary = dict(res.summary)
@@ -58,17 +61,15 @@ def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
     return summary, trace
 
 
-def validate(cycles, strategies, scenarios, out: Path) -> None:
-    """Fail before any work on unknown names or an unusable output directory."""
+def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None) -> None:
+    """Fail before any work on unknown names, strategies that cannot be built (a missing model, an unknown
+    option) or an unusable output directory."""
     for c in cycles:
         load_cycle(c)
     for s in scenarios:
         get_scenario(s)
-    known = list_strategies()
     for s in strategies:
-        base = s.split(":", 1)[0]
-        if base not in known:
-            raise ValueError(f"unknown strategy {s!r}; known strategies: {', '.join(known)}")
+        get_strategy(s, **(options or {}).get(s, {}))
     check_writable_dir(out)
 
 
@@ -77,7 +78,7 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
                   progress: bool = True, plots: bool = True) -> list[dict]:
     """Run every combination, write the result files and plots, return the rows."""
     out = Path(out_dir)
-    validate(cycles, strategies, scenarios, out)
+    validate(cycles, strategies, scenarios, out, options)
     options = options or {}
     tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in strategies]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))

@@ -66,7 +66,7 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
     """The trace figure of ``{label: trace}`` (see the module docstring); returns the matplotlib figure.
 
     Each trace needs per-step arrays ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and the
-    split (``action`` or ``u``); ``time_s``, ``cycle_speed_mps``, ``missed_wheel_energy_j``,
+    split (``motor_share`` or ``u``); ``time_s``, ``cycle_speed_mps``, ``missed_wheel_energy_j``,
     ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. ``temp_limits_c`` is
     (soft limit, cutoff), by default those of ``paper_bus`` and the default reward.
     """

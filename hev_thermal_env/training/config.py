@@ -140,7 +140,20 @@ def validate_config(config: dict[str, Any]) -> None:
                               ("checkpoint_freq", config["checkpoint_freq"], 1), ("eval.freq", ev["freq"], 0)):
         if whole_number(key, value) < least:
             raise ValueError(f"{key} must be at least {least}, got {value}")
+    if not 0 <= config["seed"] < 2**32:
+        raise ValueError(f"seed must be in [0, 2**32 - 1], got {config['seed']} (--seed)")
     check_hyperparams(config["algo"], config["hyperparams"])
+    _check_batch_sizes(config)
+
+
+def _check_batch_sizes(config: dict[str, Any]) -> None:
+    """The rollout and minibatch sizes SB3 asserts on, as one-line errors before any work."""
+    hp, n_envs = config["hyperparams"], config["n_envs"]
+    if config["algo"] == "ppo" and "n_steps" in hp and whole_number("n_steps", hp["n_steps"]) * n_envs < 2:
+        raise ValueError(f"n_steps={hp['n_steps']} with n_envs={n_envs}: PPO needs n_steps × n_envs of at least 2")
+    least = 2 if config["algo"] == "ppo" else 1
+    if "batch_size" in hp and whole_number("batch_size", hp["batch_size"]) < least:
+        raise ValueError(f"batch_size must be at least {least}, got {hp['batch_size']}")
 
 
 def _validate_env(env: dict[str, Any]) -> None:

@@ -169,7 +169,10 @@ class TrainingRun:
             set_random_seed(seed)
             kwargs = algorithm_kwargs(cfg["algo"], cfg["hyperparams"])
             policy = cfg["hyperparams"].get("policy", "MlpPolicy")
-            return cls(policy, venv, seed=seed, tensorboard_log=tb, verbose=0, device="cpu", **kwargs)
+            try:
+                return cls(policy, venv, seed=seed, tensorboard_log=tb, verbose=0, device="cpu", **kwargs)
+            except AssertionError as exc:  # SB3 checks some hyperparameters with asserts
+                raise ValueError(f"{cfg['algo'].upper()} rejects the hyperparameters: {exc}") from None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model = cls.load(resume_from[1], env=venv, device="cpu", custom_objects=custom_objects(cfg["hyperparams"]))

@@ -12,7 +12,6 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv
 
-from ..envs.spaces import RESET_INFO_KEYS
 from ..envs.vector_env import HevThermalVectorEnv
 
 
@@ -25,8 +24,8 @@ class Sb3VecEnv(VecEnv):
     and ``reset_infos[i]`` the new episode's reset info. ``seed()`` and ``set_options()`` apply at
     the next ``reset()`` (SB3 convention).
 
-    ``info_keys`` selects the step-info keys copied into SB3's per-env info dicts: ``"all"``
-    (default) or a sequence of names; ``()`` is fastest when only the SB3 keys are needed (PPO and
+    ``info_keys`` selects the info keys copied into SB3's per-env info dicts (and ``reset_infos``):
+    ``"all"`` (default) or a sequence of names; ``()`` is fastest when only the SB3 keys are needed (PPO and
     ``VecMonitor`` need no others). Other arguments build the vector env; or pass ``venv``, a vector
     env created with ``autoreset_mode=SAME_STEP``.
 
@@ -55,7 +54,8 @@ class Sb3VecEnv(VecEnv):
         seeds = self._seeds if any(s is not None for s in self._seeds) else None
         options = list(self._options) if any(self._options) else None
         obs, infos = self.venv.reset(seed=seeds, options=options)
-        self.reset_infos = [{key: _item(infos[key][i]) for key in RESET_INFO_KEYS} for i in range(self.num_envs)]
+        keys = self.venv.reset_info_keys
+        self.reset_infos = [{key: _item(infos[key][i]) for key in keys} for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
         return obs
@@ -81,7 +81,7 @@ class Sb3VecEnv(VecEnv):
                 d["terminal_observation"] = infos["final_obs"][i]
                 d["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
                 dicts[i] = d
-                self.reset_infos[i] = {key: _item(infos[key][i]) for key in RESET_INFO_KEYS}
+                self.reset_infos[i] = {key: _item(infos[key][i]) for key in self.venv.reset_info_keys}
         return obs, reward.astype(np.float32), dones, dicts
 
     def close(self) -> None:
