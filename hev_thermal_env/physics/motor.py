@@ -10,9 +10,23 @@ Losses (motor + inverter), a function of torque T [N·m] and speed ω [rad/s]::
 
 copper ∝ T², iron ∝ ω^1.5, friction and windage ∝ ω. The defaults give a peak efficiency of
 ≈95 % and an efficiency shape close to ADVISOR's UQM PowerPhase 100 map scaled to 90 kW
-(``tests/test_physics.py`` checks the peak and the shape). Electrical power is
-``P_elec = T·ω + P_loss_total``; the thermal model adds its extra losses on top (``thermal.py``):
-``P_loss_total = (1 + extra)·P_loss + derate·|T·ω|``.
+(``tests/test_physics.py`` checks the peak and the shape).
+
+Thermal effects (``thermal.py``) enter through two numbers: ``extra``, the paper's extra loss
+fraction (5 %: noise, friction), and ``derate`` = δ, the efficiency lost in percentage points
+(the paper: one point per 15 °C above 35 °C). With L = (1 + extra)·P_loss:
+
+* generating (T·ω < 0): η₀ = (|T·ω| − L)/|T·ω|, η' = η₀ − δ, so
+  ``P_elec = −|T·ω|·η' = T·ω + L + δ·|T·ω|``;
+* motoring (T·ω > 0): η₀ = T·ω/(T·ω + L), η' = η₀ − δ·min(1, (η₀/η_k)²) with η_k = 0.5, and
+  ``P_elec = T·ω/η'``. Wherever the motor runs at η₀ ≥ 50 % (every loaded operating point) the
+  efficiency falls by exactly δ, as the paper states; below, the derate fades out with η₀² so
+  that the loss stays finite and continuous at zero torque (where η₀ = 0 and a fixed δ would
+  ask for an efficiency below zero).
+
+The loss is always ``P_elec − T·ω``. Torque envelopes are 0 above the maximum speed, the peak
+and the continuous one alike, so a derated motor (eq 8 blends the two) never gets more torque
+than a cold one.
 """
 
 from __future__ import annotations
@@ -28,6 +42,10 @@ from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0
 
+#: Efficiency below which the temperature derate fades out (motoring), see the module docstring.
+DERATE_KNEE_EFF = 0.5
+#: Newton iterations of the motoring torque limit under a derate (converges from above, quadratically).
+_NEWTON_ITERS = 4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,11 +106,12 @@ def peak_torque_nm(mo, speed_radps):
 
 @jit
 def continuous_torque_nm(mo, speed_radps):
-    """Continuous torque envelope (T_cont(ω) of eq 8); never zero so eq 9 stays finite."""
+    """Continuous torque envelope (T_cont(ω) of eq 8): constant to base speed, constant power above,
+    0 beyond the maximum speed like the peak envelope."""
     w = abs(speed_radps)
-    if w * mo[CONT_TORQUE] <= mo[CONT_POWER]:
-        return mo[CONT_TORQUE]
-    return mo[CONT_POWER] / w
+    over = w > mo[MAX_RADPS] * (1.0 + 1e-9) or mo[ENABLED] == 0.0
+    t = mo[CONT_TORQUE] if w * mo[CONT_TORQUE] <= mo[CONT_POWER] else mo[CONT_POWER] / w
+    return 0.0 if over else t
 
 
 @jit
@@ -105,14 +124,40 @@ def base_loss_w(mo, torque_nm, speed_radps):
 
 
 @jit
+def core_loss_w(mo, speed_radps):
+    """Iron + friction part of :func:`base_loss_w` (heats the stator and housing, not the winding)."""
+    if mo[ENABLED] == 0.0:
+        return 0.0
+    w = abs(speed_radps)
+    return mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w
+
+
+@jit
+def _derated_loss_w(p_mech, loss, derate):
+    """Loss P_elec − T·ω under the derate: motoring T·ω/η' − T·ω (module docstring), generating L + δ·|T·ω|."""
+    if p_mech <= 0.0:
+        return loss - derate * p_mech
+    tot = p_mech + loss
+    if p_mech >= DERATE_KNEE_EFF * tot:  # η₀ ≥ η_k: η' = η₀ − δ
+        return p_mech * (loss + derate * tot) / (p_mech - derate * tot)
+    k = derate / (DERATE_KNEE_EFF * DERATE_KNEE_EFF)  # η' = η₀ − δ·(η₀/η_k)²
+    return (tot * loss + k * p_mech * p_mech) / (tot - k * p_mech)
+
+
+@jit
 def total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
-    """Loss including the thermal model's extra loss fraction and efficiency derate."""
-    return (1.0 + extra_frac) * base_loss_w(mo, torque_nm, speed_radps) + derate_frac * abs(torque_nm * speed_radps)
+    """Loss including the thermal model's extra loss fraction and efficiency derate: P_elec − T·ω."""
+    if mo[ENABLED] == 0.0:
+        return 0.0
+    loss = (1.0 + extra_frac) * base_loss_w(mo, torque_nm, speed_radps)
+    if derate_frac <= 0.0:
+        return loss
+    return _derated_loss_w(torque_nm * speed_radps, loss, derate_frac)
 
 
 @jit
 def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
-    """Electrical input power (negative when generating)."""
+    """Electrical input power (negative when generating), with the extra loss and the derate."""
     if mo[ENABLED] == 0.0:
         return 0.0
     return torque_nm * speed_radps + total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac)
@@ -122,24 +167,65 @@ def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
 def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_frac, derate_frac):
     """Torque range [t_lo, t_hi] whose electrical power stays within [-p_chg_max_w, p_dis_max_w].
 
-    Solves the quadratic P_elec(T) = limit on each side of T = 0. Returns (0, 0) when even zero
-    torque exceeds the discharge limit.
+    Without a derate both sides are quadratics in T. Motoring with a derate, P_elec(T) = T·ω/η'
+    is solved by Newton's method from the no-derate root (an upper bound: the derate only adds
+    loss); P_elec is convex there, so the iterates descend onto the root.
+
+    When even zero torque needs more than ``p_dis_max_w`` (the spinning motor's iron and friction
+    loss with an empty battery), t_hi < 0: the motor must brake the shaft enough to cover its own
+    loss (P_elec = the limit), the shaft pays for it, and the battery never gives energy it does not
+    have.
     """
     w = abs(speed_radps)
     f = 1.0 + extra_frac
     a = f * mo[K_CU]
     c0 = f * (mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w)
-    if c0 > p_dis_max_w:
-        return 0.0, 0.0
-    # motoring side: a T² + w(1+d) T + c0 - p_dis = 0, positive root
-    b = w * (1.0 + derate_frac)
+    if c0 > p_dis_max_w and w > 0.0:
+        # generating side: a T² + w(1-d) T + c0 - p_dis = 0, the larger (negative) root, or the vertex
+        b = w * (1.0 - derate_frac)
+        c = c0 - p_dis_max_w
+        disc = b * b - 4.0 * a * c
+        if a > 0.0:
+            t_drag = -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
+        else:
+            t_drag = -c / b
+        c = c0 + p_chg_max_w
+        disc = b * b - 4.0 * a * c
+        if a > 0.0:
+            t_gen = -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
+        else:
+            t_gen = -c / b
+        return min(t_gen, t_drag), t_drag
+    # motoring side without derate: a T² + w T + c0 - p_dis = 0, positive root
     c = c0 - p_dis_max_w
     if a > 0.0:
-        t_hi = (-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a)
-    elif b > 0.0:
-        t_hi = -c / b
+        t_hi = (-w + math.sqrt(w * w - 4.0 * a * c)) / (2.0 * a)
+    elif w > 0.0:
+        t_hi = -c / w
     else:
         t_hi = 1e12
+    if derate_frac > 0.0 and w > 1e-6 and t_hi > 1e-9:
+        d = derate_frac
+        k = d / (DERATE_KNEE_EFF * DERATE_KNEE_EFF)
+        for _ in range(_NEWTON_ITERS):
+            pm = t_hi * w
+            tot = pm + a * t_hi * t_hi + c0
+            dtot = w + 2.0 * a * t_hi
+            if pm >= DERATE_KNEE_EFF * tot:
+                num = pm * tot
+                den = pm - d * tot
+                dnum = w * tot + pm * dtot
+                dden = w - d * dtot
+            else:
+                num = tot * tot
+                den = tot - k * pm
+                dnum = 2.0 * tot * dtot
+                dden = dtot - k * w
+            g = num / den - p_dis_max_w
+            dg = (dnum * den - num * dden) / (den * den)
+            if not (dg > 0.0 and den > 0.0):
+                break
+            t_hi = max(t_hi - g / dg, 0.0)
     # generating side: a T² + w(1-d) T + c0 + p_chg = 0; allowed T >= larger root, and never
     # beyond the vertex where more braking torque would return less power
     b = w * (1.0 - derate_frac)

@@ -1,0 +1,126 @@
+"""The motor's lumped thermal network, and the one thermal step both thermal models go through.
+
+Nodes and heat flows of ``ThermalParams.model = "network"`` (the default of ``paper_bus``)::
+
+     copper loss          G_w                 G_j·open·f_c                UA(v, fan)·f_c
+    ───────────► winding ─────► housing ───────────────► coolant ──────────────────► ambient
+                 T_w, C_w       T_h, C_h   iron+friction   T_c, C_c     (radiator)
+                                   │  ◄──────────────
+                                   │  h_air(v)·A·(T_h − T_a) + ε·σ·A·(T_h⁴ − T_a⁴)
+                                   └───────────────────────────────────────────────► ambient
+
+* Winding node: copper, insulation and resin (C_w), heated by the copper loss (k_cu·T², with the
+  paper's extra 5 % and the temperature derate's extra loss: more current for the same torque).
+  Its temperature is **the motor temperature**: the winding sensor that motor controllers read for
+  protection and derating, and what the heat index, the derate, the valve and the 70 °C cutoff
+  use. Conductance G_w to the housing through the slot insulation.
+* Housing node: stator iron, frame and rotor, the rest of Table 1's m·c_p (100 kg × 430 J/(kg·K)),
+  heated by the iron and friction losses (with the extra 5 %), cooled by air convection (eqs 1, 4)
+  and radiation (eq 6) over the paper's cooling area, as in the paper, and by the coolant jacket.
+* Thermostat valve: coolant flows through the jacket in proportion to
+  open = clip((T_w − 35 °C)/band, 0, 1): the paper's "cooling water opened when the motor
+  temperature exceeds 35 °C", proportional as a valve is. Jacket conductance G_j: at most the
+  paper's h_water·A = 1282 W/K (the film alone), lower for the jacket wall and the stator's
+  conduction.
+* Coolant node: the loop's water-glycol, radiator and pump (C_c), starting at the run's coolant
+  temperature (``Conditions.coolant_temp_c``, default the motor's start).
+* Radiator: UA(v, fan) = UA_ref·(v_face/v_ref)^n with the face air speed
+  v_face = max(ram_air_frac·v, fan·v_fan, v_still): ram air grows with vehicle speed; the fan
+  runs from ``fan_on_temp_c`` of the coolant, at full speed ``fan_band_k`` above it (the run's
+  ``fan_factor`` 0: a failed fan).
+* The coolant mode of the run (``coolant_factor`` f_c: on 1, degraded < 1, off 0) scales both
+  flow-dependent conductances, G_j and UA: a weak pump, a clogged radiator, no coolant.
+
+Integration: the conductances are evaluated at the start of the step (h_air at the old ΔT, the
+radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin, the valve and the fan at the old
+temperatures); the three temperatures then take one backward-Euler step (a tridiagonal 3 × 3
+solve): stable at any step, and the reported flows close the balance exactly,
+C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt.
+
+``"paper_eqs"`` keeps the paper's node as written (``thermal.temperature_step``: explicit Euler,
+perfect radiator at the run's water temperature): the housing is the same node as the winding
+and the coolant is held.
+"""
+
+from __future__ import annotations
+
+from . import thermal as thm
+from .jit import jit
+
+
+@jit
+def valve_open_frac(th, motor_temp_c):
+    """Thermostat valve opening: 0 up to ``thermostat_temp_c``, 1 from ``thermostat_band_k`` above."""
+    return min(max((motor_temp_c - th[thm.THERMOSTAT_C]) / th[thm.VALVE_BAND_K], 0.0), 1.0)
+
+
+@jit
+def radiator_ua_w_per_k(th, coolant_temp_c, speed_mps, fan_factor):
+    """Radiator conductance (W/K) at the vehicle speed, with the fan as the coolant temperature asks."""
+    fan = min(max((coolant_temp_c - th[thm.FAN_ON_C]) / th[thm.FAN_BAND_K], 0.0), 1.0) * fan_factor
+    v_face = max(max(th[thm.RAM_FRAC] * max(speed_mps, 0.0), fan * th[thm.FAN_MPS]), th[thm.STILL_AIR_MPS])
+    return th[thm.UA_RAD] * (v_face / th[thm.RAD_REF_MPS]) ** th[thm.RAD_EXP]
+
+
+@jit
+def network_step(th, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, coolant_factor,
+                 fan_factor, speed_mps, dt_s):
+    """One backward-Euler step of the network.
+
+    Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool housing→coolant,
+    Q_radiator coolant→ambient, valve opening).
+    """
+    c_w = th[thm.C_WINDING]
+    a_w = c_w / dt_s
+    a_h = (th[thm.MASS_KG] * th[thm.CP] - c_w) / dt_s
+    a_c = th[thm.C_COOLANT] / dt_s
+    g_w = th[thm.G_WINDING]
+    g_jacket = th[thm.G_JACKET] * coolant_factor
+    tk = housing_c + thm.KELVIN
+    ta = ambient_c + thm.KELVIN
+    g_rad = th[thm.EMISSIVITY] * thm.SIGMA * th[thm.AREA_M2] * (tk * tk + ta * ta) * (tk + ta)
+    g_air = thm.air_conductance_w_per_k(th, housing_c, ambient_c, speed_mps)
+    valve = valve_open_frac(th, winding_c)
+    ua = radiator_ua_w_per_k(th, coolant_c, speed_mps, fan_factor) * coolant_factor
+    g = g_jacket * valve
+    # tridiagonal system in (T_w', T_h', T_c'): eliminate the winding and the coolant into the housing row
+    d_w = a_w + g_w
+    r_w = a_w * winding_c + q_winding_w
+    d_c = a_c + g + ua
+    r_c = a_c * coolant_c + ua * ambient_c
+    d_h = a_h + g_w + g_air + g_rad + g - g_w * g_w / d_w - g * g / d_c
+    t_h = (a_h * housing_c + q_housing_w + (g_air + g_rad) * ambient_c + g_w * r_w / d_w + g * r_c / d_c) / d_h
+    t_w = (r_w + g_w * t_h) / d_w
+    t_c = (r_c + g * t_h) / d_c
+    q_air = g_air * (t_h - ambient_c)
+    q_rad = g_rad * (t_h - ambient_c)
+    q_cool = g * (t_h - t_c)
+    q_radiator = ua * (t_c - ambient_c)
+    return t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, valve
+
+
+@jit
+def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, water_c, coolant_factor,
+                 fan_factor, speed_mps, dt_s):
+    """One step of the selected thermal model (``ThermalParams.model``).
+
+    ``temp_c`` is the motor temperature (the winding node of the network). Returns (motor,
+    housing, coolant temperature, Q_air, Q_rad, Q_cool, Q_radiator, coolant on), where Q_cool
+    leaves the motor into the coolant and Q_radiator leaves the coolant into the air. For
+    ``paper_eqs`` the whole motor is one node heated by both loss parts, the coolant is the run's
+    water temperature (a perfect radiator: Q_radiator = Q_cool) and the coolant node is held.
+    """
+    network = th[thm.MODEL] == thm.MODEL_NETWORK
+    if network:
+        t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, valve = network_step(
+            th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, coolant_factor, fan_factor,
+            speed_mps, dt_s)
+        on = valve > 0.0 and coolant_factor > 0.0
+    else:
+        t_w, q_air, q_rad, q_cool = thm.temperature_step(th, temp_c, q_winding_w + q_housing_w, ambient_c, water_c,
+                                                         coolant_factor, speed_mps, dt_s)
+        t_h = t_w
+        t_c = coolant_c
+        q_radiator = q_cool
+        on = q_cool != 0.0
+    return t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, 1.0 if on else 0.0
