@@ -126,11 +126,11 @@ def test_tgain_and_pwm_initial_functions():
     assert thm.pwm_initial(th, cal.pwm_initial_temp_hi_c) == 0.0
 
 
-# --- thermal node (eqs 1-7) ------------------------------------------------------------------------------
+# --- the paper's thermal node as written (eqs 1-7) -----------------------------------------------------------
 
 def test_time_to_cutoff_matches_energy_balance():
-    """Coolant off, motor at peak power: the simulated time to 70 °C agrees with m·c_p·ΔT / net heat flow."""
-    cfg = paper_bus()
+    """Paper's node, coolant off, motor at peak power: the time to 70 °C agrees with m·c_p·ΔT / net heat flow."""
+    cfg = paper_bus("paper_eqs")
     th = cfg.thermal.pack()
     mo = cfg.motor.pack()
     w = 3600 * RPM
@@ -153,7 +153,7 @@ def test_time_to_cutoff_matches_energy_balance():
 
 
 def test_coolant_on_rated_power_settles_below_cutoff():
-    cfg = paper_bus()
+    cfg = paper_bus("paper_eqs")
     th = cfg.thermal.pack()
     mo = cfg.motor.pack()
     w = 3600 * RPM
