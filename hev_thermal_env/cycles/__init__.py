@@ -9,6 +9,8 @@ A :class:`Cycle` is a speed trace [m/s] and road grade (rise/run) sampled every 
   columns ``time_s,speed_mps[,grade]``.
 * :func:`cycle_from_arrays`: a validated cycle from arrays.
 * :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles.
+* :func:`generate_grade_profile`, :func:`with_grade_profile`, :func:`hilly_route`: seeded hilly
+  roads under any cycle; ``hilly_route()`` is ``beijing`` over rolling hills (synthetic).
 
 Examples
 --------
@@ -19,7 +21,8 @@ Examples
 """
 
 from .cycle import Cycle
-from .generator import generate_bus_cycle
+from .generator import generate_bus_cycle, generate_grade_profile, hilly_route, with_grade_profile
 from .loader import cycle_from_arrays, list_cycles, load_cycle
 
-__all__ = ["Cycle", "cycle_from_arrays", "generate_bus_cycle", "list_cycles", "load_cycle"]
+__all__ = ["Cycle", "cycle_from_arrays", "generate_bus_cycle", "generate_grade_profile", "hilly_route",
+           "list_cycles", "load_cycle", "with_grade_profile"]

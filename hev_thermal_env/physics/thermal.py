@@ -288,9 +288,8 @@ def t_gain(th, temp_c):
 @jit
 def derate_frac(th, temp_c):
     """Efficiency points lost (as a fraction) at ``temp_c``; 0 with the model off."""
-    if th[ENABLED] == 0.0:
-        return 0.0
-    return max(temp_c - th[DERATE_START_C], 0.0) * th[DERATE_PER_C]
+    d = max(temp_c - th[DERATE_START_C], 0.0) * th[DERATE_PER_C]
+    return d if th[ENABLED] != 0.0 else 0.0
 
 
 @jit
@@ -302,7 +301,8 @@ def torque_factor(th, temp_c):
 
 @jit
 def extra_loss_frac(th):
-    return th[EXTRA_LOSS] if th[ENABLED] != 0.0 else 0.0
+    extra = th[EXTRA_LOSS]
+    return extra if th[ENABLED] != 0.0 else 0.0
 
 
 @jit
@@ -316,10 +316,9 @@ def available_torque_nm(th, peak_nm, cont_nm, heat_x, cutoff):
     """Torque limit under the heat index (eq 8) and the cutoff, never above the peak; the peak with the model off."""
     pwm = heat_index_pwm(heat_x)
     blended = min(cont_nm * pwm + peak_nm * (1.0 - pwm), peak_nm)
+    limited = 0.0 if cutoff != 0.0 else blended
     # one return (speed rule in jit.py)
-    if th[ENABLED] == 0.0:
-        return peak_nm
-    return 0.0 if cutoff != 0.0 else blended
+    return limited if th[ENABLED] != 0.0 else peak_nm
 
 
 @jit
@@ -335,29 +334,39 @@ def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
 
 
 @jit
+def air_conductance_core(h_still0, h_natural, h_forced, v_ref_kmh, v_exp, area, temp_c, ambient_c, speed_mps):
+    """h_air·A of eqs 1 and 4 (W/K) from scalar parameters (the kernels' form: no array in a branch)."""
+    h_still = h_still0 + h_natural * math.sqrt(math.sqrt(abs(temp_c - ambient_c) / 1000.0))
+    v_rel = max(speed_mps, 0.0) * 3.6 / v_ref_kmh
+    forced = h_forced * v_rel ** v_exp if v_rel > 0.0 else 0.0
+    return (h_still + forced) * area
+
+
+@jit
 def air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps):
     """h_air·A of eqs 1 and 4 (W/K) at the motor's temperature and the vehicle speed."""
-    area = th[AREA_M2]
-    h_still = th[H_AIR0] + th[H_AIR_NAT] * math.sqrt(math.sqrt(abs(temp_c - ambient_c) / 1000.0))
-    forced_coef = th[H_AIR_FORCED]
-    v_rel = max(speed_mps, 0.0) * 3.6 / th[V_REF_KMH]
-    expo = th[V_EXP]  # last read of ``th``, outside any branch (speed rule in jit.py)
-    forced = forced_coef * v_rel ** expo if v_rel > 0.0 else 0.0
-    return (h_still + forced) * area
+    return air_conductance_core(th[H_AIR0], th[H_AIR_NAT], th[H_AIR_FORCED], th[V_REF_KMH], th[V_EXP], th[AREA_M2],
+                                temp_c, ambient_c, speed_mps)
+
+
+@jit
+def paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c, ambient_c, water_c, coolant_factor):
+    """(Q_air, Q_rad, Q_cool) of the paper's node (eqs 1, 5, 6) from scalars; ``g_air`` = h_air·A."""
+    q_air = g_air * (temp_c - ambient_c)
+    q_cool = h_water_area * coolant_factor * (temp_c - water_c) if (temp_c > thermostat_c
+                                                                   and coolant_factor > 0.0) else 0.0
+    tk = temp_c + KELVIN
+    ta = ambient_c + KELVIN
+    q_rad = eps_sigma_area * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
+    return q_air, q_rad, q_cool
 
 
 @jit
 def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
     """(Q_air, Q_rad, Q_cool) leaving the paper's node at ``temp_c`` (eqs 1, 4, 5, 6)."""
-    q_air = air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps) * (temp_c - ambient_c)
-    q_cool = 0.0
-    if temp_c > th[THERMOSTAT_C] and coolant_factor > 0.0:
-        q_cool = th[H_WATER] * coolant_factor * th[AREA_M2] * (temp_c - water_c)
-    tk = temp_c + KELVIN
-    ta = ambient_c + KELVIN
-    # ``th`` is read for the last time outside any branch (speed rule in jit.py)
-    q_rad = th[EMISSIVITY] * SIGMA * th[AREA_M2] * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
-    return q_air, q_rad, q_cool
+    g_air = air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps)
+    return paper_node_core(g_air, th[EMISSIVITY] * SIGMA * th[AREA_M2], th[H_WATER] * th[AREA_M2], th[THERMOSTAT_C],
+                           temp_c, ambient_c, water_c, coolant_factor)
 
 
 @jit

@@ -55,33 +55,34 @@ def valve_open_frac(th, motor_temp_c):
 
 
 @jit
-def radiator_ua_w_per_k(th, coolant_temp_c, speed_mps, fan_factor):
-    """Radiator conductance (W/K) at the vehicle speed, with the fan as the coolant temperature asks."""
-    fan = min(max((coolant_temp_c - th[thm.FAN_ON_C]) / th[thm.FAN_BAND_K], 0.0), 1.0) * fan_factor
-    v_face = max(max(th[thm.RAM_FRAC] * max(speed_mps, 0.0), fan * th[thm.FAN_MPS]), th[thm.STILL_AIR_MPS])
-    return th[thm.UA_RAD] * (v_face / th[thm.RAD_REF_MPS]) ** th[thm.RAD_EXP]
+def radiator_core(ua_ref, ref_mps, expo, ram_frac, still_mps, fan_mps, fan_on_c, fan_band_k, coolant_temp_c,
+                  speed_mps, fan_factor):
+    """Radiator conductance (W/K) from scalars: ram air, fan (by the coolant temperature) or still air."""
+    fan = min(max((coolant_temp_c - fan_on_c) / fan_band_k, 0.0), 1.0) * fan_factor
+    v_face = max(max(ram_frac * max(speed_mps, 0.0), fan * fan_mps), still_mps)
+    return ua_ref * (v_face / ref_mps) ** expo
 
 
 @jit
-def network_step(th, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, coolant_factor,
-                 fan_factor, speed_mps, dt_s):
-    """One backward-Euler step of the network.
+def radiator_ua_w_per_k(th, coolant_temp_c, speed_mps, fan_factor):
+    """Radiator conductance (W/K) at the vehicle speed, with the fan as the coolant temperature asks."""
+    return radiator_core(th[thm.UA_RAD], th[thm.RAD_REF_MPS], th[thm.RAD_EXP], th[thm.RAM_FRAC], th[thm.STILL_AIR_MPS],
+                         th[thm.FAN_MPS], th[thm.FAN_ON_C], th[thm.FAN_BAND_K], coolant_temp_c, speed_mps, fan_factor)
 
-    Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool housing→coolant,
-    Q_radiator coolant→ambient, valve opening).
+
+@jit
+def network_core(c_w, c_h, c_c, g_w, g_jacket, g_air, eps_sigma_area, valve, ua, winding_c, housing_c, coolant_c,
+                 q_winding_w, q_housing_w, ambient_c, dt_s):
+    """One backward-Euler step of the three nodes from scalars (conductances at the start of the step).
+
+    Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool, Q_radiator).
     """
-    c_w = th[thm.C_WINDING]
     a_w = c_w / dt_s
-    a_h = (th[thm.MASS_KG] * th[thm.CP] - c_w) / dt_s
-    a_c = th[thm.C_COOLANT] / dt_s
-    g_w = th[thm.G_WINDING]
-    g_jacket = th[thm.G_JACKET] * coolant_factor
+    a_h = c_h / dt_s
+    a_c = c_c / dt_s
     tk = housing_c + thm.KELVIN
     ta = ambient_c + thm.KELVIN
-    g_rad = th[thm.EMISSIVITY] * thm.SIGMA * th[thm.AREA_M2] * (tk * tk + ta * ta) * (tk + ta)
-    g_air = thm.air_conductance_w_per_k(th, housing_c, ambient_c, speed_mps)
-    valve = valve_open_frac(th, winding_c)
-    ua = radiator_ua_w_per_k(th, coolant_c, speed_mps, fan_factor) * coolant_factor
+    g_rad = eps_sigma_area * (tk * tk + ta * ta) * (tk + ta)
     g = g_jacket * valve
     # tridiagonal system in (T_w', T_h', T_c'): eliminate the winding and the coolant into the housing row
     d_w = a_w + g_w
@@ -92,10 +93,25 @@ def network_step(th, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w, 
     t_h = (a_h * housing_c + q_housing_w + (g_air + g_rad) * ambient_c + g_w * r_w / d_w + g * r_c / d_c) / d_h
     t_w = (r_w + g_w * t_h) / d_w
     t_c = (r_c + g * t_h) / d_c
-    q_air = g_air * (t_h - ambient_c)
-    q_rad = g_rad * (t_h - ambient_c)
-    q_cool = g * (t_h - t_c)
-    q_radiator = ua * (t_c - ambient_c)
+    return t_w, t_h, t_c, g_air * (t_h - ambient_c), g_rad * (t_h - ambient_c), g * (t_h - t_c), ua * (t_c - ambient_c)
+
+
+@jit
+def network_step(th, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, coolant_factor,
+                 fan_factor, speed_mps, dt_s):
+    """One backward-Euler step of the network.
+
+    Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool housing→coolant,
+    Q_radiator coolant→ambient, valve opening).
+    """
+    g_air = thm.air_conductance_w_per_k(th, housing_c, ambient_c, speed_mps)
+    valve = valve_open_frac(th, winding_c)
+    ua = radiator_ua_w_per_k(th, coolant_c, speed_mps, fan_factor) * coolant_factor
+    c_w = th[thm.C_WINDING]
+    t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
+        c_w, th[thm.MASS_KG] * th[thm.CP] - c_w, th[thm.C_COOLANT], th[thm.G_WINDING], th[thm.G_JACKET] * coolant_factor,
+        g_air, th[thm.EMISSIVITY] * thm.SIGMA * th[thm.AREA_M2], valve, ua, winding_c, housing_c, coolant_c,
+        q_winding_w, q_housing_w, ambient_c, dt_s)
     return t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, valve
 
 
@@ -109,16 +125,35 @@ def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, amb
     leaves the motor into the coolant and Q_radiator leaves the coolant into the air. For
     ``paper_eqs`` the whole motor is one node heated by both loss parts, the coolant is the run's
     water temperature (a perfect radiator: Q_radiator = Q_cool) and the coolant node is held.
+
+    Every parameter is read once, before any branch, and both models run on scalars (speed rule
+    in jit.py: no packed vector inside a branch of the per-row code).
     """
     network = th[thm.MODEL] == thm.MODEL_NETWORK
+    c_m = th[thm.MASS_KG] * th[thm.CP]
+    c_w = th[thm.C_WINDING]
+    c_c = th[thm.C_COOLANT]
+    g_w = th[thm.G_WINDING]
+    g_jacket = th[thm.G_JACKET] * coolant_factor
+    eps_sigma_area = th[thm.EMISSIVITY] * thm.SIGMA * th[thm.AREA_M2]
+    h_water_area = th[thm.H_WATER] * th[thm.AREA_M2]
+    thermostat_c = th[thm.THERMOSTAT_C]
+    valve = min(max((temp_c - thermostat_c) / th[thm.VALVE_BAND_K], 0.0), 1.0)
+    surface_c = housing_c if network else temp_c
+    g_air = thm.air_conductance_core(th[thm.H_AIR0], th[thm.H_AIR_NAT], th[thm.H_AIR_FORCED], th[thm.V_REF_KMH],
+                                     th[thm.V_EXP], th[thm.AREA_M2], surface_c, ambient_c, speed_mps)
+    ua = radiator_core(th[thm.UA_RAD], th[thm.RAD_REF_MPS], th[thm.RAD_EXP], th[thm.RAM_FRAC], th[thm.STILL_AIR_MPS],
+                       th[thm.FAN_MPS], th[thm.FAN_ON_C], th[thm.FAN_BAND_K], coolant_c, speed_mps,
+                       fan_factor) * coolant_factor
     if network:
-        t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, valve = network_step(
-            th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, coolant_factor, fan_factor,
-            speed_mps, dt_s)
+        t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
+            c_w, c_m - c_w, c_c, g_w, g_jacket, g_air, eps_sigma_area, valve, ua, temp_c, housing_c, coolant_c,
+            q_winding_w, q_housing_w, ambient_c, dt_s)
         on = valve > 0.0 and coolant_factor > 0.0
     else:
-        t_w, q_air, q_rad, q_cool = thm.temperature_step(th, temp_c, q_winding_w + q_housing_w, ambient_c, water_c,
-                                                         coolant_factor, speed_mps, dt_s)
+        q_air, q_rad, q_cool = thm.paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c,
+                                                   ambient_c, water_c, coolant_factor)
+        t_w = temp_c + dt_s * (q_winding_w + q_housing_w - q_air - q_rad - q_cool) / c_m
         t_h = t_w
         t_c = coolant_c
         q_radiator = q_cool
