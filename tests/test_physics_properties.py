@@ -67,7 +67,7 @@ def test_more_heat_index_less_torque(w, x1, x2):
 @fast
 @given(speeds, st.floats(0.0, 150e3), st.floats(0.0, 150e3), st.floats(0.0, 0.05))
 def test_motor_power_limits_respected(w, p_dis, p_chg, derate):
-    t_lo, t_hi = mot.torque_limits_for_power(MO, w, p_dis, p_chg, 0.05, derate)
+    t_lo, t_hi = mot.torque_limits_for_power(MO, w, p_dis, p_chg, 0.05, derate, 1e12)
     assert t_lo <= min(t_hi, 0.0)
     if t_hi < 0.0:  # only when even zero torque needs more than the battery gives: the motor brakes on its loss
         assert mot.electric_power_w(MO, 0.0, w, 0.05, derate) > p_dis

@@ -121,7 +121,7 @@ def test_power_limit_solve_under_derate_is_exact():
     mo = paper_bus().motor.pack()
     for rpm, p_dis in ((1000.0, 20e3), (3000.0, 60e3), (5500.0, 90e3), (300.0, 5e3)):
         for d in (0.0, 0.01, 0.03):
-            _, t_hi = mot.torque_limits_for_power(mo, rpm * RPM, p_dis, 50e3, 0.05, d)
+            _, t_hi = mot.torque_limits_for_power(mo, rpm * RPM, p_dis, 50e3, 0.05, d, 1e12)
             assert mot.electric_power_w(mo, t_hi, rpm * RPM, 0.05, d) == pytest.approx(p_dis, rel=1e-9)
 
 

@@ -25,6 +25,8 @@ the rest. The action has no effect while braking or at standstill.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import battery as bat
@@ -83,6 +85,15 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
     below: they were ~60 % of the time (≈270 ns/row, now ≈50-90 ns). Scalars and the component
     functions (small, inlined by LLVM) cost none.
     """
+    inv_dt = 1.0 / dt
+    # the speed's factors of the thermal model (two powers), recomputed only when the speed changes from the
+    # previous row: every row of a DP stage or of a batch over one cycle step shares them
+    log_air_per_mps, air_exp = math.log(th[thm.AIR_SPEED_PER_MPS]), th[thm.V_EXP]
+    log_ram_per_mps, ram_exp = math.log(th[thm.RAM_AIR_PER_MPS]), th[thm.RAD_EXP]
+    network = th[thm.MODEL] == thm.MODEL_NETWORK
+    v_memo = -1.0
+    forced_term = 0.0
+    ram_term = 0.0
     for b in range(action.shape[0]):
         # --- one row ---------------------------------------------------------------------------
         soc = state[b, SOC]
@@ -146,7 +157,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
             if not engine_on and engine_avail and p_dis < acc_w:
                 engine_on = True  # the battery cannot carry the accessories
             acc_elec = 0.0 if engine_on else acc_w
-            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate)
+            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate, t_env)
             t_m_min = max(-t_env, t_lo)
             t_m_max = min(t_env, t_hi)
             t_m_req = u * t_s_dem / rho
@@ -154,7 +165,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
             t_e = t_s_dem - rho * t_m
             if t_e > 1e-9 and not engine_on and engine_avail:
                 engine_on = True
-                t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis, p_chg, extra, derate)
+                t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis, p_chg, extra, derate, t_env)
                 t_m_min = max(-t_env, t_lo)
                 t_m_max = min(t_env, t_hi)
                 t_m = min(max(t_m, t_m_min), t_m_max)
@@ -191,7 +202,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 t_e_max = max(eng.max_torque_nm(en, w_e) - acc_w / w_e, 0.0)
                 fuel_rate = eng.fuel_rate_gps(en, w_e, t_acc) if acc_from_engine > 1e-9 else 0.0
             acc_elec = 0.0 if engine_on else acc_w
-            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate)
+            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate, t_env)
             t_m_max = min(t_env, t_hi)
             t_s_free = t_s_dem + (acc_take / w_s if acc_take > 0.0 else 0.0)
             if pt[REGEN] != 0.0 and t_s_free < 0.0:
@@ -214,7 +225,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
 
         # --- motor, battery ---------------------------------------------------------------------------
         motor_loss = mot.total_loss_w(mo, t_m, w_m, extra, derate)
-        p_elec = mot.electric_power_w(mo, t_m, w_m, extra, derate)
+        p_elec = t_m * w_m + motor_loss  # = mot.electric_power_w (0 without a motor: its torque and loss are 0)
         acc_elec = 0.0 if engine_on else acc_w
         p_batt = p_elec + acc_elec
         current = bat.current_a(ba, soc, p_batt)
@@ -225,9 +236,14 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         # --- thermal: temperatures (paper's eq 7 or the network), heat index (eq 9), protection ----------
         heat_w = motor_loss
         q_housing = (1.0 + extra) * mot.core_loss_w(mo, w_m)  # iron and friction: the rest heats the winding
+        if v != v_memo:  # (k·v)^n = exp(n·(log k + log v)): one logarithm for both factors
+            v_memo = v
+            log_v = math.log(v) if v > 0.0 else 0.0
+            forced_term = math.exp(air_exp * (log_air_per_mps + log_v)) if v > 0.0 else 0.0
+            ram_term = math.exp(ram_exp * (log_ram_per_mps + log_v)) if (v > 0.0 and network) else 0.0
         temp_new, housing_new, coolant_new, q_air, q_rad, q_cool, q_radiator, coolant_on = tnet.thermal_step(
-            th, temp, housing, coolant, heat_w - q_housing, q_housing, ambient, water, coolant_factor, fan_factor, v,
-            dt)
+            th, temp, housing, coolant, heat_w - q_housing, q_housing, ambient, water, coolant_factor, fan_factor,
+            forced_term, ram_term, inv_dt)
         cont = mot.continuous_torque_nm(mo, w_m)
         hx_min_new = thm.heat_index_floor(th, temp_new)  # the floor follows the motor's temperature
         hx_new = thm.heat_index_step(th, hx, hx_min_new, t_m, cont, temp, dt)

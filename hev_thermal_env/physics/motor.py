@@ -18,11 +18,11 @@ fraction (5 %: noise, friction), and ``derate`` = δ, the efficiency lost in per
 
 * generating (T·ω < 0): η₀ = (|T·ω| − L)/|T·ω|, η' = η₀ − δ, so
   ``P_elec = −|T·ω|·η' = T·ω + L + δ·|T·ω|``;
-* motoring (T·ω > 0): η₀ = T·ω/(T·ω + L), η' = η₀ − δ·min(1, (η₀/η_k)²) with η_k = 0.5, and
-  ``P_elec = T·ω/η'``. Wherever the motor runs at η₀ ≥ 50 % (every loaded operating point) the
-  efficiency falls by exactly δ, as the paper states; below, the derate fades out with η₀² so
-  that the loss stays finite and continuous at zero torque (where η₀ = 0 and a fixed δ would
-  ask for an efficiency below zero).
+* motoring (T·ω > 0): η₀ = T·ω/(T·ω + L), η' = η₀ − δ·s(η₀/η_k) with η_k = 0.5, s(x) = 1 for
+  x ≥ 1 and the smoothstep x²(3 − 2x) below, and ``P_elec = T·ω/η'``. Wherever the motor runs at
+  η₀ ≥ 50 % (every loaded operating point) the efficiency falls by exactly δ, as the paper states;
+  below, the derate fades out smoothly (s and s' continuous) so that the loss stays finite and
+  continuous at zero torque (where η₀ = 0 and a fixed δ would ask for an efficiency below zero).
 
 The loss is always ``P_elec − T·ω``. Torque envelopes are 0 above the maximum speed, the peak
 and the continuous one alike, so a derated motor (eq 8 blends the two) never gets more torque
@@ -44,8 +44,8 @@ RPM = math.pi / 30.0
 
 #: Efficiency below which the temperature derate fades out (motoring), see the module docstring.
 DERATE_KNEE_EFF = 0.5
-#: Newton iterations of the motoring torque limit under a derate (converges from above, quadratically).
-_NEWTON_ITERS = 4
+#: Newton iterations of the motoring torque limit under a derate (from a close start, quadratically).
+_NEWTON_ITERS = 3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,14 +134,21 @@ def core_loss_w(mo, speed_radps):
 
 @jit
 def _derated_loss_w(p_mech, loss, derate):
-    """Loss P_elec − T·ω under the derate: motoring T·ω/η' − T·ω (module docstring), generating L + δ·|T·ω|."""
+    """Loss P_elec − T·ω under the derate: motoring T·ω/η' − T·ω (module docstring), generating L + δ·|T·ω|.
+
+    With u = T·ω, v = u + L and K = η_k: above the knee P = u·v/(u − δ·v); below it
+    P = K³v³/(K³v² − δ·u·(3K·v − 2u)), so P − u = L + v·δ·u·(3K·v − 2u)/(K³v² − δ·u·(3K·v − 2u)).
+    """
     if p_mech <= 0.0:
         return loss - derate * p_mech
-    tot = p_mech + loss
-    if p_mech >= DERATE_KNEE_EFF * tot:  # η₀ ≥ η_k: η' = η₀ − δ
-        return p_mech * (loss + derate * tot) / (p_mech - derate * tot)
-    k = derate / (DERATE_KNEE_EFF * DERATE_KNEE_EFF)  # η' = η₀ − δ·(η₀/η_k)²
-    return (tot * loss + k * p_mech * p_mech) / (tot - k * p_mech)
+    u = p_mech
+    v = p_mech + loss
+    if u >= DERATE_KNEE_EFF * v:  # η₀ ≥ η_k: η' = η₀ − δ
+        return u * (loss + derate * v) / (u - derate * v)
+    k = DERATE_KNEE_EFF
+    q = derate * u * (3.0 * k * v - 2.0 * u)
+    den = k * k * k * v * v - q
+    return loss + v * q / den if den > 0.0 else loss  # den underflows only where the power is ~0
 
 
 @jit
@@ -164,12 +171,14 @@ def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
 
 
 @jit
-def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_frac, derate_frac):
+def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_frac, derate_frac, t_cap_nm):
     """Torque range [t_lo, t_hi] whose electrical power stays within [-p_chg_max_w, p_dis_max_w].
 
     Without a derate both sides are quadratics in T. Motoring with a derate, P_elec(T) = T·ω/η'
-    is solved by Newton's method from the no-derate root (an upper bound: the derate only adds
-    loss); P_elec is convex there, so the iterates descend onto the root.
+    is solved by Newton's method from the root for the loss L + δ·T·ω (a close start just above
+    the exact root). ``t_cap_nm`` is the torque envelope the motor cannot exceed anyway: where the
+    exact power at the cap is within the limit, the power limit does not bind and t_hi is that
+    start (at or above the cap) without iterating. So t_hi is exact wherever it is below the cap.
 
     When even zero torque needs more than ``p_dis_max_w`` (the spinning motor's iron and friction
     loss with an empty battery), t_hi < 0: the motor must brake the shaft enough to cover its own
@@ -178,8 +187,15 @@ def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_fra
     """
     w = abs(speed_radps)
     f = 1.0 + extra_frac
-    a = f * mo[K_CU]
-    c0 = f * (mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w)
+    # the packed vector is read here only: the solve below takes scalars (speed rule in jit.py; it is too
+    # large to be inlined, and a call taking the array would reference-count it)
+    return _torque_limits(f * mo[K_CU], f * (mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w), w, p_dis_max_w, p_chg_max_w,
+                          derate_frac, t_cap_nm)
+
+
+@jit
+def _torque_limits(a, c0, w, p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm):
+    """:func:`torque_limits_for_power` on scalars: P_loss = a·T² + c0 at speed ``w``."""
     if c0 > p_dis_max_w and w > 0.0:
         # generating side: a T² + w(1-d) T + c0 - p_dis = 0, the larger (negative) root, or the vertex
         b = w * (1.0 - derate_frac)
@@ -196,36 +212,44 @@ def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_fra
         else:
             t_gen = -c / b
         return min(t_gen, t_drag), t_drag
-    # motoring side without derate: a T² + w T + c0 - p_dis = 0, positive root
+    # motoring side: a T² + w(1 + d) T + c0 - p_dis = 0, positive root: exact without a derate; with one, the
+    # root of the loss L + d·T·ω, a little above the exact root (the exact loss is larger), which Newton's
+    # method then reaches from above in two steps (the error ~d²/100 squares twice)
     c = c0 - p_dis_max_w
+    b1 = w * (1.0 + derate_frac)
     if a > 0.0:
-        t_hi = (-w + math.sqrt(w * w - 4.0 * a * c)) / (2.0 * a)
+        t_hi = (-b1 + math.sqrt(b1 * b1 - 4.0 * a * c)) / (2.0 * a)
     elif w > 0.0:
-        t_hi = -c / w
+        t_hi = -c / b1
     else:
         t_hi = 1e12
-    if derate_frac > 0.0 and w > 1e-6 and t_hi > 1e-9:
+    binds = True
+    if derate_frac > 0.0 and t_hi > t_cap_nm > 0.0:  # does the exact power at the cap stay within the limit?
+        u = t_cap_nm * w
+        binds = u + _derated_loss_w(u, a * t_cap_nm * t_cap_nm + c0, derate_frac) > p_dis_max_w
+    if derate_frac > 0.0 and w > 1e-6 and t_hi > 1e-9 and binds:
         d = derate_frac
-        k = d / (DERATE_KNEE_EFF * DERATE_KNEE_EFF)
+        k = DERATE_KNEE_EFF
+        k3 = k * k * k
         for _ in range(_NEWTON_ITERS):
-            pm = t_hi * w
-            tot = pm + a * t_hi * t_hi + c0
-            dtot = w + 2.0 * a * t_hi
-            if pm >= DERATE_KNEE_EFF * tot:
-                num = pm * tot
-                den = pm - d * tot
-                dnum = w * tot + pm * dtot
-                dden = w - d * dtot
-            else:
-                num = tot * tot
-                den = tot - k * pm
-                dnum = 2.0 * tot * dtot
-                dden = dtot - k * w
-            g = num / den - p_dis_max_w
-            dg = (dnum * den - num * dden) / (den * den)
-            if not (dg > 0.0 and den > 0.0):
+            u = t_hi * w
+            v = u + a * t_hi * t_hi + c0
+            dv = w + 2.0 * a * t_hi
+            if u >= k * v:  # P = u·v/(u − δ·v)
+                num = u * v
+                den = u - d * v
+                dnum = w * v + u * dv
+                dden = w - d * dv
+            else:  # P = K³v³/(K³v² − δ·u·(3K·v − 2u))
+                num = k3 * v * v * v
+                den = k3 * v * v - d * u * (3.0 * k * v - 2.0 * u)
+                dnum = 3.0 * k3 * v * v * dv
+                dden = 2.0 * k3 * v * dv - d * (3.0 * k * (w * v + u * dv) - 4.0 * u * w)
+            # Newton on P = num/den: T -= (num/den − p)/P' with P' = (dnum·den − num·dden)/den², one division
+            slope = dnum * den - num * dden
+            if not (slope > 0.0 and den > 0.0):
                 break
-            t_hi = max(t_hi - g / dg, 0.0)
+            t_hi = max(t_hi - (num - p_dis_max_w * den) * den / slope, 0.0)
     # generating side: a T² + w(1-d) T + c0 + p_chg = 0; allowed T >= larger root, and never
     # beyond the vertex where more braking torque would return less power
     b = w * (1.0 - derate_frac)

@@ -216,8 +216,27 @@ class ThermalParams(Params):
 
 LAYOUT = Layout.of_fields(ThermalParams, replace={
     "model": Slot("model", fill=lambda p: float(THERMAL_MODELS.index(p.model))),
-})
-"""Packed thermal parameters: one slot per field, in field order (the model as its index)."""
+}, derived=(
+    # constants of the per-row code, computed once here (the kernel has ~100 ns per row; a division is ~5)
+    Slot("motor_heat_capacity_j_per_k", fill=lambda p: p.mass_kg * p.cp_j_per_kgk, fields=()),
+    Slot("housing_heat_capacity_j_per_k", fill=lambda p: p.mass_kg * p.cp_j_per_kgk - p.winding_heat_capacity_j_per_k,
+         fields=()),
+    Slot("eps_sigma_area", fill=lambda p: p.emissivity * SIGMA * p.area_m2, fields=()),
+    Slot("h_water_area_w_per_k", fill=lambda p: p.h_water_w_per_m2k * p.area_m2, fields=()),
+    Slot("inv_valve_band_per_k", fill=lambda p: 1.0 / p.thermostat_band_k, fields=()),
+    Slot("inv_fan_band_per_k", fill=lambda p: 1.0 / p.fan_band_k, fields=()),
+    Slot("inv_radiator_ref_air_speed", fill=lambda p: 1.0 / p.radiator_ref_air_speed_mps, fields=()),
+    Slot("air_speed_per_mps", fill=lambda p: 3.6 / p.air_ref_speed_kmh, fields=()),
+    Slot("ram_air_per_mps", fill=lambda p: p.ram_air_frac / p.radiator_ref_air_speed_mps, fields=()),
+    Slot("still_air_term", fill=lambda p: (p.still_air_speed_mps / p.radiator_ref_air_speed_mps)
+         ** p.radiator_air_exponent, fields=()),
+    Slot("tgain_slope_per_c", fill=lambda p: (p.t_gain_hot - p.t_gain_cold) / (p.t_gain_temp_hi_c - p.t_gain_temp_lo_c),
+         fields=()),
+    Slot("pwm0_slope_per_c", fill=lambda p: -p.pwm_initial_cold / (p.pwm_initial_temp_hi_c - p.pwm_initial_temp_lo_c),
+         fields=()),
+    Slot("inv_t_s", fill=lambda p: 1.0 / p.t_s_s, fields=()),
+))
+"""Packed thermal parameters: one slot per field, in field order (the model as its index), then derived constants."""
 MODEL = LAYOUT["model"]
 ENABLED = LAYOUT["enabled"]
 MASS_KG = LAYOUT["mass_kg"]
@@ -259,18 +278,31 @@ STILL_AIR_MPS = LAYOUT["still_air_speed_mps"]
 FAN_MPS = LAYOUT["fan_air_speed_mps"]
 FAN_ON_C = LAYOUT["fan_on_temp_c"]
 FAN_BAND_K = LAYOUT["fan_band_k"]
+C_MOTOR = LAYOUT["motor_heat_capacity_j_per_k"]
+C_HOUSING = LAYOUT["housing_heat_capacity_j_per_k"]
+EPS_SIGMA_AREA = LAYOUT["eps_sigma_area"]
+H_WATER_AREA = LAYOUT["h_water_area_w_per_k"]
+INV_VALVE_BAND = LAYOUT["inv_valve_band_per_k"]
+INV_FAN_BAND = LAYOUT["inv_fan_band_per_k"]
+INV_RAD_REF_MPS = LAYOUT["inv_radiator_ref_air_speed"]
+AIR_SPEED_PER_MPS = LAYOUT["air_speed_per_mps"]
+RAM_AIR_PER_MPS = LAYOUT["ram_air_per_mps"]
+STILL_AIR_TERM = LAYOUT["still_air_term"]
+TGAIN_SLOPE = LAYOUT["tgain_slope_per_c"]
+PWM0_SLOPE = LAYOUT["pwm0_slope_per_c"]
+INV_T_S = LAYOUT["inv_t_s"]
 
 
 @jit
-def _ramp(x, x_lo, x_hi, y_lo, y_hi):
-    f = min(max((x - x_lo) / (x_hi - x_lo), 0.0), 1.0)
-    return y_lo + f * (y_hi - y_lo)
+def _ramp(x, x_lo, x_hi, y_lo, slope):
+    """y_lo up to x_lo, then rising with ``slope`` to x_hi, constant beyond (slope precomputed: no division)."""
+    return y_lo + slope * (min(max(x, x_lo), x_hi) - x_lo)
 
 
 @jit
 def pwm_initial(th, temp_c):
     """PWM_initial, the overload reserve, of a motor at ``temp_c`` (our eq 10 companion)."""
-    return _ramp(temp_c, th[PWM0_LO_C], th[PWM0_HI_C], th[PWM0_COLD], 0.0)
+    return _ramp(temp_c, th[PWM0_LO_C], th[PWM0_HI_C], th[PWM0_COLD], th[PWM0_SLOPE])
 
 
 @jit
@@ -282,7 +314,7 @@ def heat_index_floor(th, temp_c):
 @jit
 def t_gain(th, temp_c):
     """T_gain = f(T_mc) (eq 10), linear between the cold and hot values."""
-    return _ramp(temp_c, th[TGAIN_LO_C], th[TGAIN_HI_C], th[TGAIN_COLD], th[TGAIN_HOT])
+    return _ramp(temp_c, th[TGAIN_LO_C], th[TGAIN_HI_C], th[TGAIN_COLD], th[TGAIN_SLOPE])
 
 
 @jit
@@ -329,24 +361,29 @@ def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
     overload ratio is then taken as 0 (the index relaxes).
     """
     ratio = abs(torque_nm) / cont_nm if cont_nm > 0.0 else 0.0
-    dx = t_gain(th, temp_c) / th[T_S] * (ratio - 1.0)
+    dx = t_gain(th, temp_c) * th[INV_T_S] * (ratio - 1.0)
     return min(max(heat_x + dx * dt_s, heat_x_min), 1.0)
 
 
 @jit
-def air_conductance_core(h_still0, h_natural, h_forced, v_ref_kmh, v_exp, area, temp_c, ambient_c, speed_mps):
-    """h_air·A of eqs 1 and 4 (W/K) from scalar parameters (the kernels' form: no array in a branch)."""
-    h_still = h_still0 + h_natural * math.sqrt(math.sqrt(abs(temp_c - ambient_c) / 1000.0))
-    v_rel = max(speed_mps, 0.0) * 3.6 / v_ref_kmh
-    forced = h_forced * v_rel ** v_exp if v_rel > 0.0 else 0.0
-    return (h_still + forced) * area
+def forced_air_term(air_speed_per_mps, v_exp, speed_mps):
+    """(V/48.27)^0.63 of eq 4 (V in km/h); ``air_speed_per_mps`` = 3.6 / 48.27. 0 at standstill."""
+    v_rel = max(speed_mps, 0.0) * air_speed_per_mps
+    return v_rel ** v_exp if v_rel > 0.0 else 0.0
+
+
+@jit
+def air_conductance_core(h_still0, h_natural, h_forced, forced_term, area, temp_c, ambient_c):
+    """h_air·A of eqs 1 and 4 (W/K) from scalars, the speed's term precomputed (:func:`forced_air_term`)."""
+    h_still = h_still0 + h_natural * math.sqrt(math.sqrt(abs(temp_c - ambient_c) * 1e-3))
+    return (h_still + h_forced * forced_term) * area
 
 
 @jit
 def air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps):
     """h_air·A of eqs 1 and 4 (W/K) at the motor's temperature and the vehicle speed."""
-    return air_conductance_core(th[H_AIR0], th[H_AIR_NAT], th[H_AIR_FORCED], th[V_REF_KMH], th[V_EXP], th[AREA_M2],
-                                temp_c, ambient_c, speed_mps)
+    term = forced_air_term(th[AIR_SPEED_PER_MPS], th[V_EXP], speed_mps)
+    return air_conductance_core(th[H_AIR0], th[H_AIR_NAT], th[H_AIR_FORCED], term, th[AREA_M2], temp_c, ambient_c)
 
 
 @jit
@@ -365,15 +402,15 @@ def paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c, a
 def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
     """(Q_air, Q_rad, Q_cool) leaving the paper's node at ``temp_c`` (eqs 1, 4, 5, 6)."""
     g_air = air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps)
-    return paper_node_core(g_air, th[EMISSIVITY] * SIGMA * th[AREA_M2], th[H_WATER] * th[AREA_M2], th[THERMOSTAT_C],
-                           temp_c, ambient_c, water_c, coolant_factor)
+    return paper_node_core(g_air, th[EPS_SIGMA_AREA], th[H_WATER_AREA], th[THERMOSTAT_C], temp_c, ambient_c, water_c,
+                           coolant_factor)
 
 
 @jit
 def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, speed_mps, dt_s):
     """One Euler step of the paper's eq 7. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
     q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
-    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / (th[MASS_KG] * th[CP])
+    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[C_MOTOR]
     return new, q_air, q_rad, q_cool
 
 
