@@ -9,8 +9,12 @@ at every step that
 * the motor temperature is finite and never below the coolest heat sink (ambient, coolant, or
   its own starting temperature) minus ``temp_tol_c``;
 
-and at the end of every episode that the energy balance closes within ``balance_tol`` (fuel
-energy through the engine + battery energy = wheel energy + losses + brakes + accessories).
+* the battery's chemical power of every step equals −ΔSOC·capacity·V_oc (coulomb counting from the
+  SOC itself, independent of the step's power bookkeeping: a SOC held in its window by a clamp
+  while current flows fails here, see ``physics/audit.py``);
+
+and at the end of every episode that the energy balance closes within ``balance_tol`` (engine
+shaft energy + battery energy = wheel energy + losses + brakes + accessories).
 
 ``python benchmarks/fuzz.py --steps 1000000`` runs the long version and writes JSON.
 """
@@ -23,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from .cycles import list_cycles
+from .physics import battery as bat_mod
 from .physics import core as C
 from .scenarios import list_scenarios
 
@@ -64,6 +69,7 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
         aggressive = rng.random(num_envs) < 0.33
         done_steps = 0
         while done_steps < per_scenario:
+            soc_before = env.phys_state[:, C.SOC].copy()
             kind = rng.random(num_envs)
             act = rng.uniform(-1.0, 1.0, num_envs)
             act[kind < 0.1] = -1.0
@@ -76,7 +82,8 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
             stepped = ~resetting
             out = env.last_out
             state = env.phys_state
-            soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, state, sink, stepped, temp_tol_c)
+            soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, state, sink, stepped, temp_tol_c,
+                                            soc_before)
             hi = info["heat_index"]
             a, b, s = _balance_terms(out)
             e_in[stepped] += a[stepped]
@@ -113,8 +120,11 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
     return report
 
 
-def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, temp_tol_c: float):
-    """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink."""
+def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, temp_tol_c: float, soc_before):
+    """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink.
+
+    Coulomb counting too: the battery's chemical power equals −ΔSOC·capacity·V_oc(SOC before).
+    """
     bat = env.config.battery
     space = env.single_observation_space
     _check_finite(obs, rew, info, out)
@@ -125,6 +135,13 @@ def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, t
     soc = state[:, C.SOC]
     if np.any(soc < bat.soc_min - 1e-12) or np.any(soc > bat.soc_max + 1e-12):
         raise AssertionError(f"{scenario}: SOC {soc.min()}..{soc.max()} left [{bat.soc_min}, {bat.soc_max}]")
+    voc_table = env.core.ba[bat_mod.VOC0:bat_mod.VOC0 + bat_mod.N_SOC]
+    voc = np.interp(soc_before, np.linspace(0.0, 1.0, bat_mod.N_SOC), voc_table)
+    chem_from_soc = -(soc - soc_before) * env.core.ba[bat_mod.CAPACITY_AS] * voc / env.core.dt_s
+    chem_err = np.abs(chem_from_soc - out[:, C.BATT_CHEM])[stepped]
+    if chem_err.size and chem_err.max() > 1e-6 * max(float(np.abs(out[:, C.BATT_CHEM]).max()), 1.0):
+        raise AssertionError(f"{scenario}: battery chemical power differs from −ΔSOC·capacity·V_oc by "
+                             f"{chem_err.max():.3g} W")
     hi = info["heat_index"]
     if np.any(hi < 0) or np.any(hi > 1):
         raise AssertionError(f"{scenario}: heat index {hi.min()}..{hi.max()} outside [0, 1]")

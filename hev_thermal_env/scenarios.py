@@ -1,21 +1,37 @@
 """Named scenarios: the run conditions (and how they are randomised) for the same vehicle.
 
-* ``paper``: the paper's assumptions. Ambient and motor at 20 °C, coolant on (3000 W/(m²·K),
-  perfect radiator), SOC 0.65.
+* ``paper``: the paper's assumptions. Ambient and motor at 20 °C, coolant on, SOC 0.65.
 * ``hot``: a hot day with a failing cooling loop. Ambient 40 °C, motor starting at 50 °C, coolant
-  degraded to 3 % of its heat transfer with water at 45 °C. A thermal-blind aggressive split
-  derates and reaches the 70 °C cutoff on HWFET and on ``beijing``; the engine alone (u = 0) does not,
-  so a thermally aware strategy can avoid it at a price in fuel.
+  degraded to 3 % of its conductances (jacket and radiator) with the coolant at 45 °C. A
+  thermal-blind aggressive split derates and reaches the 70 °C cutoff on HWFET and on
+  ``beijing``; the engine alone (u = 0) does not, so a thermally aware strategy can avoid it at a
+  price in fuel.
+* ``summer``: a summer day in service, cooling intact. Ambient 38 °C (the 35-40 °C of a hot
+  summer afternoon), the bus parked in the sun: motor and coolant start at 38 °C. The ambient
+  is above the 35 °C thermostat: the valve is open from the start, the coolant runs warm enough
+  for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets lose
+  torque, so every overload derates at once.
+* ``hilly``: the paper's conditions on a hilly road: the cycle is laid over the rolling hills of
+  :func:`~hev_thermal_env.cycles.generate_grade_profile` (seed
+  :data:`~hev_thermal_env.cycles.generator.HILLY_SEED`, grades up to ±7 %, no net climb) by
+  :meth:`Scenario.prepare_cycle`; ``hilly_route()`` is ``beijing`` prepared so.
+* ``full_bus``: the paper's conditions with a full bus: 4.5 t of passengers (about 65) on top of
+  the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo): 19.5 t, about the gross
+  weight of a 12 m city bus.
 * ``random``: for training. Each episode draws ambient 10-40 °C, motor start ambient + 0-30 °C,
   SOC 0.55-0.75 and the coolant on (60 %), degraded (30 %) or nearly failed (10 %), all from
   the env's ``np_random``.
 
-A scenario is a small record of deltas, not a code path (DESIGN §2, STYLE.md).
+A scenario is a small record of deltas, not a code path (DESIGN §2, STYLE.md): run conditions,
+and for ``hilly`` a road profile that :meth:`Scenario.prepare_cycle` lays under the cycle (a
+runner calls it on the cycle before building the episode; the conditions alone do not carry
+the road).
 """
 
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
@@ -24,12 +40,17 @@ from .physics.config import Conditions
 
 @dataclasses.dataclass(frozen=True)
 class Scenario:
-    """A named set of run conditions; ``randomized`` scenarios draw new ones each episode."""
+    """A named set of run conditions; ``randomized`` scenarios draw new ones each episode.
+
+    ``grade_profile``: keyword arguments of :func:`~hev_thermal_env.cycles.with_grade_profile`
+    (``seed`` and the profile's parameters) for a scenario on a hilly road, else None.
+    """
 
     name: str
     description: str
     conditions: Conditions
     randomized: bool = False
+    grade_profile: dict[str, Any] | None = None
 
     def sample(self, rng: np.random.Generator) -> Conditions:
         """The conditions of one episode (the fixed ones unless ``randomized``)."""
@@ -48,12 +69,37 @@ class Scenario:
         return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=motor, initial_soc=soc, coolant=coolant,
                           coolant_degraded_factor=factor, coolant_temp_c=ambient + 5.0)
 
+    def prepare_cycle(self, cycle: Any) -> Any:
+        """The cycle this scenario drives: ``cycle`` itself, or laid over the scenario's road profile.
+
+        A cycle that already has a grade keeps it (the scenario's road would replace the real one).
+        """
+        from .cycles import load_cycle, with_grade_profile
+
+        cyc = load_cycle(cycle)
+        if self.grade_profile is None or np.any(np.asarray(cyc.grade) != 0.0):
+            return cyc
+        kwargs = dict(self.grade_profile)
+        return with_grade_profile(cyc, kwargs.pop("seed"), **kwargs)
+
+
+def _hilly_profile() -> dict[str, Any]:
+    from .cycles.generator import HILLY_KWARGS, HILLY_SEED
+
+    return {"seed": HILLY_SEED, **HILLY_KWARGS}
+
 
 SCENARIOS: dict[str, Scenario] = {
     "paper": Scenario("paper", "the paper's assumptions: 20 °C, coolant on", Conditions()),
     "hot": Scenario("hot", "hot ambient (40 °C), hot start (50 °C), cooling degraded to 3 %",
                     Conditions(ambient_temp_c=40.0, initial_motor_temp_c=50.0, coolant="degraded",
                                coolant_degraded_factor=0.03, coolant_temp_c=45.0)),
+    "summer": Scenario("summer", "summer day: 38 °C ambient, motor and coolant start at 38 °C, cooling intact",
+                       Conditions(ambient_temp_c=38.0, initial_motor_temp_c=38.0)),
+    "hilly": Scenario("hilly", "the paper's conditions on a hilly road (grades up to ±7 %, no net climb)",
+                      Conditions(), grade_profile=_hilly_profile()),
+    "full_bus": Scenario("full_bus", "the paper's conditions with 4.5 t of passengers (19.5 t in all)",
+                         Conditions(payload_kg=4500.0)),
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",
                        Conditions(), randomized=True),
 }

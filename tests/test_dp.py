@@ -90,10 +90,12 @@ def test_backward_envelope_edge_just_reaches_the_band(city200):
     held = np.repeat(p.state0[None, :], p.n_stages + 1, axis=0)
     band = (0.645, 0.655)
     lo, hi = backward_envelope(p, held, band)
-    st = np.repeat(p.state0[None, :], 2, axis=0)
-    st[:, C.SOC] = [lo[0], hi[0]]
+    soc = np.array([lo[0], hi[0]])
     for i in range(p.n_stages):
-        st, _ = p.step(st, np.array([-1.0, 1.0]), i)
+        x = np.repeat(held[i][None, :], 2, axis=0)  # the planning model: thermal state held
+        x[:, C.SOC] = soc
+        st, _ = p.step(x, np.array([-1.0, 1.0]), i)
+        soc = st[:, C.SOC]
     assert st[0, C.SOC] == pytest.approx(band[0], abs=2e-6)
     assert st[1, C.SOC] == pytest.approx(band[1], abs=2e-6)
 

@@ -107,20 +107,30 @@ def test_heat_index_through_the_core_limits_motor_torque():
 
 
 def test_tgain_and_pwm_initial_functions():
-    th = ThermalParams().pack()
+    p = ThermalParams(t_gain_temp_lo_c=35.0, t_gain_temp_hi_c=70.0, pwm_initial_cold=0.3, pwm_initial_temp_lo_c=20.0,
+                      pwm_initial_temp_hi_c=70.0, t_gain_cold=0.1, t_gain_hot=0.3)
+    th = p.pack()
     assert thm.t_gain(th, 20.0) == pytest.approx(0.1)
     assert thm.t_gain(th, 80.0) == pytest.approx(0.3)
     assert 0.1 < thm.t_gain(th, 50.0) < 0.3
     assert thm.pwm_initial(th, 20.0) == pytest.approx(0.3)
     assert thm.pwm_initial(th, 70.0) == pytest.approx(0.0)
     assert thm.pwm_initial(th, 30.0) > thm.pwm_initial(th, 50.0)
+    # the calibrated closures stay inside the paper's T_gain range and give the full reserve at the 20 °C start
+    cal = ThermalParams()
+    th = cal.pack()
+    assert thm.t_gain(th, 20.0) == pytest.approx(cal.t_gain_cold)
+    assert thm.t_gain(th, 70.0) == pytest.approx(cal.t_gain_hot)
+    assert all(0.1 <= thm.t_gain(th, t) <= 0.3 for t in range(0, 100, 5))
+    assert thm.pwm_initial(th, 20.0) == pytest.approx(cal.pwm_initial_cold)
+    assert thm.pwm_initial(th, cal.pwm_initial_temp_hi_c) == 0.0
 
 
-# --- thermal node (eqs 1-7) ------------------------------------------------------------------------------
+# --- the paper's thermal node as written (eqs 1-7) -----------------------------------------------------------
 
 def test_time_to_cutoff_matches_energy_balance():
-    """Coolant off, motor at peak power: the simulated time to 70 °C agrees with m·c_p·ΔT / net heat flow."""
-    cfg = paper_bus()
+    """Paper's node, coolant off, motor at peak power: the time to 70 °C agrees with m·c_p·ΔT / net heat flow."""
+    cfg = paper_bus("paper_eqs")
     th = cfg.thermal.pack()
     mo = cfg.motor.pack()
     w = 3600 * RPM
@@ -143,7 +153,7 @@ def test_time_to_cutoff_matches_energy_balance():
 
 
 def test_coolant_on_rated_power_settles_below_cutoff():
-    cfg = paper_bus()
+    cfg = paper_bus("paper_eqs")
     th = cfg.thermal.pack()
     mo = cfg.motor.pack()
     w = 3600 * RPM

@@ -11,6 +11,8 @@ A :class:`Cycle` is a speed trace [m/s] and road grade (rise/run) sampled every 
 * :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles.
 * :class:`ImplausibleCycleWarning`: user data beyond a bus's range (speed above
   :data:`PLAUSIBLE_SPEED_MAX_MPS`, acceleration beyond :data:`PLAUSIBLE_ACCEL_MAX_MPS2`).
+* :func:`generate_grade_profile`, :func:`with_grade_profile`, :func:`hilly_route`: seeded hilly
+  roads under any cycle; ``hilly_route()`` is ``beijing`` over rolling hills (synthetic).
 
 Examples
 --------
@@ -21,8 +23,9 @@ Examples
 """
 
 from .cycle import PLAUSIBLE_ACCEL_MAX_MPS2, PLAUSIBLE_SPEED_MAX_MPS, Cycle, ImplausibleCycleWarning
-from .generator import generate_bus_cycle
+from .generator import generate_bus_cycle, generate_grade_profile, hilly_route, with_grade_profile
 from .loader import cycle_from_arrays, list_cycles, load_cycle
 
 __all__ = ["PLAUSIBLE_ACCEL_MAX_MPS2", "PLAUSIBLE_SPEED_MAX_MPS", "Cycle", "ImplausibleCycleWarning",
-           "cycle_from_arrays", "generate_bus_cycle", "list_cycles", "load_cycle"]
+           "cycle_from_arrays", "generate_bus_cycle", "generate_grade_profile", "hilly_route", "list_cycles",
+           "load_cycle", "with_grade_profile"]

@@ -29,19 +29,22 @@ class CycleChoice:
     """What the ``cycle`` argument asks for: fixed cycles (drawn uniformly if several) or random bus cycles.
 
     Accepts a built-in name, a CSV path, a :class:`Cycle`, ``"random_bus"``, or a non-empty list of these.
-    Named and file cycles are loaded once, here, so errors show at construction.
+    Named and file cycles are loaded once, here, so errors show at construction. A scenario with a
+    road profile (``hilly``) lays it under every flat cycle (:meth:`Scenario.prepare_cycle`).
     """
 
-    def __init__(self, cycle: Any):
+    def __init__(self, cycle: Any, scenario: Scenario | None = None):
         items = list(cycle) if isinstance(cycle, (list, tuple)) else [cycle]
         if not items:
             raise ValueError("cycle: the list of cycles is empty")
+        self.scenario = scenario
         self.items: list[Cycle | None] = []
         for item in items:
             if isinstance(item, str) and item.strip().lower() == RANDOM_BUS:
                 self.items.append(None)
             elif isinstance(item, (str, os.PathLike, Cycle)):
-                self.items.append(load_cycle(item))
+                cyc = load_cycle(item)
+                self.items.append(cyc if scenario is None else scenario.prepare_cycle(cyc))
             else:
                 raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, {RANDOM_BUS!r} or a list of these, "
                                 f"got {type(item).__name__}")
@@ -49,7 +52,8 @@ class CycleChoice:
     def draw(self, rng: np.random.Generator) -> Cycle:
         item = self.items[int(rng.integers(len(self.items)))] if len(self.items) > 1 else self.items[0]
         if item is None:
-            return generate_bus_cycle(int(rng.integers(2**31 - 1)))
+            cyc = generate_bus_cycle(int(rng.integers(2**31 - 1)))
+            return cyc if self.scenario is None else self.scenario.prepare_cycle(cyc)
         return item
 
     def fixed_cycles(self) -> list[Cycle]:
@@ -73,8 +77,8 @@ class EpisodeSampler:
     """
 
     def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool):
-        self.cycles = CycleChoice(cycle)
         self.scenario = get_scenario(scenario)
+        self.cycles = CycleChoice(cycle, self.scenario)
         if conditions is not None and not isinstance(conditions, Conditions):
             raise TypeError(f"conditions: expected Conditions or None, got {type(conditions).__name__}")
         self.conditions = conditions
@@ -97,7 +101,7 @@ class EpisodeSampler:
                 raise ValueError(f"reset option {key}: expected a number, got {value!r}")
         if changes:
             cond = cond.replace(**changes)
-        choice = CycleChoice(options["cycle"]) if "cycle" in options else self.cycles
+        choice = CycleChoice(options["cycle"], self.scenario) if "cycle" in options else self.cycles
         cycle = choice.draw(rng)
         if "start_s" in options:
             start = options["start_s"]

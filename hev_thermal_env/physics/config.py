@@ -8,7 +8,12 @@ Where the ``paper_bus`` numbers come from
 -----------------------------------------
 * Motor: the paper's Table 1 (rated/peak power swapped back: 30/90 kW), thermal data Table 1 and
   the paper's text (h_water 3000 W/(m²·K), thermostat 35 °C, cutoff 70 °C, 5 % extra loss, T_s 30 s,
-  PWM_initial 0.3, T_gain in [0.1, 0.3], efficiency −1 point per 15 °C).
+  PWM_initial 0.3 at the 20 °C start, T_gain in [0.1, 0.3], efficiency −1 point per 15 °C).
+* Motor thermal model: the lumped network (motor + coolant loop + thermostat + radiator,
+  ``thermal_network.py``), its free parameters and the eq 10 closures fitted to the paper's
+  Figs 7-10 and Tables 2-3 by ``python -m hev_thermal_env.calibration`` within documented bounds
+  (``docs/thermal_model.md``); ``paper_bus(thermal_model="paper_eqs")`` is the paper's one-node
+  model as written.
 * Glider: ADVISOR VEH_RTS06 (Cd 0.79, A 7.8965 m²) and WH_HEAVY (Crr 0.00938, r 0.5 m).
   Test mass 15 000 kg: ADVISOR's 40-ft bus (12 156 kg glider + 1 837 kg cargo) plus the hybrid
   powertrain, fine-tuned with the final drive so that Table 3's top speed, 0-60 km/h time and
@@ -76,20 +81,29 @@ class VehicleConfig(Params):
         """The same vehicle with the thermal model on or off (off = the paper's ADVISOR baseline)."""
         return self.replace(thermal=self.thermal.replace(enabled=enabled))
 
+    def with_thermal_model(self, model: str) -> VehicleConfig:
+        """The same vehicle with the thermal model ``"network"`` or ``"paper_eqs"`` (the paper's node as written)."""
+        return self.replace(thermal=self.thermal.replace(model=model))
+
     def conventional(self) -> VehicleConfig:
         """The conventional bus: no motor, no regeneration, the engine idles instead of stopping."""
         return self.replace(motor=self.motor.replace(enabled=False),
                             powertrain=self.powertrain.replace(stop_start=False, regen_enabled=False))
 
 
-def paper_bus() -> VehicleConfig:
-    """The default vehicle: the paper's parallel hybrid city bus (see the module docstring)."""
-    return VehicleConfig()
+def paper_bus(thermal_model: str = "network") -> VehicleConfig:
+    """The default vehicle: the paper's parallel hybrid city bus (see the module docstring).
+
+    ``thermal_model="paper_eqs"`` gives the same bus with the paper's one-node thermal model as
+    written (eqs 1-7), for the "equations as written" comparison.
+    """
+    config = VehicleConfig()
+    return config if thermal_model == "network" else config.with_thermal_model(thermal_model)
 
 
 @dataclasses.dataclass(frozen=True)
 class Conditions(Params):
-    """Conditions of one run: ambient, starting state and coolant mode."""
+    """Conditions of one run: ambient, starting state, coolant mode, payload and fan."""
 
     ambient_temp_c: float = spec(20.0, "ambient air temperature (paper: 20 °C)", min=-40.0, max=60.0)
     initial_motor_temp_c: float = spec(20.0, "motor temperature at the start (paper: 20 °C)", min=-40.0, max=150.0)
@@ -97,7 +111,11 @@ class Conditions(Params):
                               min=0.0, max=1.0)
     coolant: str = "on"
     coolant_temp_c: float | None = None
-    coolant_degraded_factor: float = spec(0.1, "h_water multiplier when the coolant is degraded", min=0.0, max=1.0)
+    coolant_degraded_factor: float = spec(0.1, "coolant conductance multiplier when degraded (network: jacket and "
+                                                     "radiator; paper_eqs: h_water)", min=0.0, max=1.0)
+    payload_kg: float = spec(0.0, "passengers on top of the 15 t test mass (which carries ADVISOR's 1.84 t cargo); "
+                                  "a full 12 m bus adds up to about 5 t", min=0.0, max=5000.0)
+    fan: bool = spec(True, "the radiator fan works (False: failed fan; network model)")
 
     def validate(self) -> None:
         if self.coolant not in COOLANT_MODES:
@@ -107,7 +125,8 @@ class Conditions(Params):
 
     @property
     def water_temp_c(self) -> float:
-        """Coolant return temperature: the paper's perfect radiator brings it back to the start value."""
+        """Coolant temperature at the start (network), and the paper's perfect-radiator return temperature
+        (paper_eqs); default the motor's starting temperature."""
         return self.initial_motor_temp_c if self.coolant_temp_c is None else self.coolant_temp_c
 
     @property

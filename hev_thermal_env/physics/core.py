@@ -25,6 +25,7 @@ the rest. The action has no effect while braking or at standstill.
 
 from __future__ import annotations
 
+import math
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -35,17 +36,23 @@ from . import engine as eng
 from . import glider as gli
 from . import motor as mot
 from . import thermal as thm
+from . import thermal_network as tnet
 from .config import ACC_W, REGEN, STOP_START, Conditions, VehicleConfig
 from .jit import jit
 
-# state columns
-SOC, TEMP_C, HEAT_X, HEAT_X_MIN, CUTOFF = range(5)
-N_STATE = 5
-STATE_NAMES = ("soc", "motor_temp_c", "heat_x", "heat_x_min", "motor_cutoff")
+# state columns (``motor_temp_c``: the winding of the network, the one node of the paper's model;
+# ``heat_x_min``: the heat index's anti-windup floor, −PWM_initial at the motor's temperature;
+# ``housing_temp_c``, ``coolant_temp_c``: the network's other nodes, the paper's model holds the
+# housing equal to the motor and the coolant at the run's water temperature)
+SOC, TEMP_C, HEAT_X, HEAT_X_MIN, CUTOFF, HOUSING_C, COOLANT_C = range(7)
+N_STATE = 7
+STATE_NAMES = ("soc", "motor_temp_c", "heat_x", "heat_x_min", "motor_cutoff", "housing_temp_c", "coolant_temp_c")
 
-# condition columns
-AMBIENT_C, WATER_C, COOLANT_FACTOR = range(3)
-N_COND = 3
+# condition columns (``water_c``: the coolant's starting temperature, and the paper's perfect-radiator
+# water temperature; ``coolant_factor``: 1 on, < 1 degraded, 0 off; ``payload_kg`` on top of the test
+# mass; ``fan_factor``: 1 the radiator fan works, 0 it has failed)
+AMBIENT_C, WATER_C, COOLANT_FACTOR, PAYLOAD_KG, FAN_FACTOR = range(5)
+N_COND = 5
 
 # output columns (per step; powers are means over the step, energies in J)
 OUT_NAMES = (
@@ -56,11 +63,13 @@ OUT_NAMES = (
     "missed_wheel_energy_j", "trace_miss_mps", "brake_power_w", "clutch_loss_w", "driveline_loss_w",
     "accessory_power_w", "coolant_on", "heat_index", "q_air_w", "q_rad_w", "q_cool_w",
     "shaft_torque_demand_nm", "motor_torque_clipped", "engine_torque_max_nm", "motor_torque_max_nm",
+    "q_radiator_w",
 )
 (FUEL_G, ENGINE_ON, ENGINE_SPEED, ENGINE_TORQUE, ENGINE_POWER, MOTOR_TORQUE, MOTOR_SPEED, MOTOR_ELEC,
  MOTOR_LOSS, MOTOR_HEAT, MOTOR_AVAIL, MOTOR_REQ, BATT_POWER, BATT_CHEM, BATT_LOSS, BATT_CURRENT, GEAR,
  SPEED, WHEEL_DEMAND, WHEEL_POWER, MISSED_J, TRACE_MISS, BRAKE_POWER, CLUTCH_LOSS, DRIVELINE_LOSS, ACC,
- COOLANT_ON, HEAT_INDEX, Q_AIR, Q_RAD, Q_COOL, SHAFT_DEMAND, MOTOR_CLIPPED, ENGINE_MAX, MOTOR_MAX) = range(35)
+ COOLANT_ON, HEAT_INDEX, Q_AIR, Q_RAD, Q_COOL, SHAFT_DEMAND, MOTOR_CLIPPED, ENGINE_MAX, MOTOR_MAX,
+ Q_RADIATOR) = range(36)
 N_OUT = len(OUT_NAMES)
 
 
@@ -77,16 +86,28 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
     below: they were ~60 % of the time (≈270 ns/row, now ≈50-90 ns). Scalars and the component
     functions (small, inlined by LLVM) cost none.
     """
+    inv_dt = 1.0 / dt
+    # the speed's factors of the thermal model (two powers), recomputed only when the speed changes from the
+    # previous row: every row of a DP stage or of a batch over one cycle step shares them
+    log_air_per_mps, air_exp = math.log(th[thm.AIR_SPEED_PER_MPS]), th[thm.V_EXP]
+    log_ram_per_mps, ram_exp = math.log(th[thm.RAM_AIR_PER_MPS]), th[thm.RAD_EXP]
+    network = th[thm.MODEL] == thm.MODEL_NETWORK
+    v_memo = -1.0
+    forced_term = 0.0
+    ram_term = 0.0
     for b in range(action.shape[0]):
         # --- one row ---------------------------------------------------------------------------
         soc = state[b, SOC]
         temp = state[b, TEMP_C]
         hx = state[b, HEAT_X]
-        hx_min = state[b, HEAT_X_MIN]
         cutoff = state[b, CUTOFF]
+        housing = state[b, HOUSING_C]
+        coolant = state[b, COOLANT_C]
         ambient = cond[b, AMBIENT_C]
         water = cond[b, WATER_C]
         coolant_factor = cond[b, COOLANT_FACTOR]
+        payload = cond[b, PAYLOAD_KG]
+        fan_factor = cond[b, FAN_FACTOR]
         acc_w = pt[ACC_W]
         stop_start = pt[STOP_START] != 0.0
         u = min(max(action[b], -1.0), 1.0)
@@ -98,7 +119,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         v = 0.5 * (v_start + v_end)
         accel = (v_end - v_start) / dt
         moving = v > 1e-6
-        force = gli.road_force_n(gl, v, accel, slope) if moving else 0.0
+        force = gli.road_force_n(gl, v, accel, slope, payload) if moving else 0.0
         r_w = gl[gli.WHEEL_R_M]
         t_wheel = force * r_w
         w_wheel = v / r_w
@@ -112,8 +133,9 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         # --- motor envelope at the start of the step ------------------------------------------------
         extra = thm.extra_loss_frac(th)
         derate = thm.derate_frac(th, temp)
-        t_env = thm.available_torque_nm(th, mot.peak_torque_nm(mo, w_m), mot.continuous_torque_nm(mo, w_m), hx,
-                                        cutoff)
+        k_temp = thm.torque_factor(th, temp)
+        t_env = thm.available_torque_nm(th, k_temp * mot.peak_torque_nm(mo, w_m),
+                                        k_temp * mot.continuous_torque_nm(mo, w_m), hx, cutoff)
         p_dis, p_chg = bat.power_limits_w(ba, soc, dt)
         engine_avail = w_s <= en[eng.MAX_RADPS] + 1e-9
 
@@ -136,7 +158,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
             if not engine_on and engine_avail and p_dis < acc_w:
                 engine_on = True  # the battery cannot carry the accessories
             acc_elec = 0.0 if engine_on else acc_w
-            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate)
+            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate, t_env)
             t_m_min = max(-t_env, t_lo)
             t_m_max = min(t_env, t_hi)
             t_m_req = u * t_s_dem / rho
@@ -144,7 +166,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
             t_e = t_s_dem - rho * t_m
             if t_e > 1e-9 and not engine_on and engine_avail:
                 engine_on = True
-                t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis, p_chg, extra, derate)
+                t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis, p_chg, extra, derate, t_env)
                 t_m_min = max(-t_env, t_lo)
                 t_m_max = min(t_env, t_hi)
                 t_m = min(max(t_m, t_m_min), t_m_max)
@@ -181,20 +203,30 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 t_e_max = max(eng.max_torque_nm(en, w_e) - acc_w / w_e, 0.0)
                 fuel_rate = eng.fuel_rate_gps(en, w_e, t_acc) if acc_from_engine > 1e-9 else 0.0
             acc_elec = 0.0 if engine_on else acc_w
-            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate)
+            t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate, t_env)
             t_m_max = min(t_env, t_hi)
             t_s_free = t_s_dem + (acc_take / w_s if acc_take > 0.0 else 0.0)
             if pt[REGEN] != 0.0 and t_s_free < 0.0:
                 t_m_req = t_s_free / rho
                 t_m = max(t_m_req, max(-t_env, t_lo))
+            t_m = min(t_m, t_hi)  # an empty battery: the motor's spinning loss brakes the shaft
             t_s_used = rho * t_m - (acc_take / w_s if acc_take > 0.0 else 0.0)
+            if moving and engine_on and t_s_used < t_s_dem:
+                # that drag beyond the braking asked for: the running engine turns the motor
+                t_e = t_s_dem - t_s_used
+                fuel_rate = eng.fuel_rate_gps(en, w_e, t_e + t_acc)
+                clutch_loss = t_e * (w_e - w_s)
+                t_s_used = t_s_dem
             t_w_used = drv.wheel_torque_nm(dl, t_s_used, gear)
             brake_w = -(t_wheel - t_w_used) * w_wheel if moving else 0.0
+            if brake_w < 0.0:  # braked harder than asked (the engine cannot turn the motor): a trace miss
+                missed_force = -brake_w / max(v, 1e-9)
+                brake_w = 0.0
             driveline_loss = t_s_used * w_s - t_w_used * w_wheel
 
         # --- motor, battery ---------------------------------------------------------------------------
         motor_loss = mot.total_loss_w(mo, t_m, w_m, extra, derate)
-        p_elec = mot.electric_power_w(mo, t_m, w_m, extra, derate)
+        p_elec = t_m * w_m + motor_loss  # = mot.electric_power_w (0 without a motor: its torque and loss are 0)
         acc_elec = 0.0 if engine_on else acc_w
         p_batt = p_elec + acc_elec
         current = bat.current_a(ba, soc, p_batt)
@@ -202,21 +234,31 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         p_chem = voc * current
         soc_new = bat.soc_step(ba, soc, current, dt)
 
-        # --- thermal: heat index (eq 9), temperature (eq 7), protection --------------------------------
-        cont = mot.continuous_torque_nm(mo, w_m)
-        hx_new = thm.heat_index_step(th, hx, hx_min, t_m, cont, temp, dt)
+        # --- thermal: temperatures (paper's eq 7 or the network), heat index (eq 9), protection ----------
         heat_w = motor_loss
-        temp_new, q_air, q_rad, q_cool = thm.temperature_step(th, temp, heat_w, ambient, water, coolant_factor, v, dt)
-        coolant_on = q_cool != 0.0
+        q_housing = (1.0 + extra) * mot.core_loss_w(mo, w_m)  # iron and friction: the rest heats the winding
+        if v != v_memo:  # (k·v)^n = exp(n·(log k + log v)): one logarithm for both factors
+            v_memo = v
+            log_v = math.log(v) if v > 0.0 else 0.0
+            forced_term = math.exp(air_exp * (log_air_per_mps + log_v)) if v > 0.0 else 0.0
+            ram_term = math.exp(ram_exp * (log_ram_per_mps + log_v)) if (v > 0.0 and network) else 0.0
+        temp_new, housing_new, coolant_new, q_air, q_rad, q_cool, q_radiator, coolant_on = tnet.thermal_step(
+            th, temp, housing, coolant, heat_w - q_housing, q_housing, ambient, water, coolant_factor, fan_factor,
+            forced_term, ram_term, inv_dt)
+        cont = mot.continuous_torque_nm(mo, w_m)
+        hx_min_new = thm.heat_index_floor(th, temp_new)  # the floor follows the motor's temperature
+        hx_new = thm.heat_index_step(th, hx, hx_min_new, t_m, cont, temp, dt)
         cutoff_new = thm.cutoff_step(th, cutoff, temp_new)
 
         state_out[b, SOC] = soc_new
         state_out[b, TEMP_C] = temp_new
         state_out[b, HEAT_X] = hx_new
-        state_out[b, HEAT_X_MIN] = hx_min
+        state_out[b, HEAT_X_MIN] = hx_min_new
         state_out[b, CUTOFF] = cutoff_new
+        state_out[b, HOUSING_C] = housing_new
+        state_out[b, COOLANT_C] = coolant_new
 
-        m_eff = gli.effective_mass_kg(gl)
+        m_eff = gli.effective_mass_kg(gl, payload)
         out[b, FUEL_G] = fuel_rate * dt
         out[b, ENGINE_ON] = 1.0 if engine_on else 0.0
         out[b, ENGINE_SPEED] = w_e
@@ -243,7 +285,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         out[b, CLUTCH_LOSS] = clutch_loss
         out[b, DRIVELINE_LOSS] = driveline_loss
         out[b, ACC] = acc_w
-        out[b, COOLANT_ON] = 1.0 if coolant_on else 0.0
+        out[b, COOLANT_ON] = coolant_on
         out[b, HEAT_INDEX] = thm.heat_index_pwm(hx_new)
         out[b, Q_AIR] = q_air
         out[b, Q_RAD] = q_rad
@@ -252,6 +294,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         out[b, MOTOR_CLIPPED] = 1.0 if abs(t_m - t_m_req) > 1e-6 else 0.0
         out[b, ENGINE_MAX] = t_e_max
         out[b, MOTOR_MAX] = t_m_max
+        out[b, Q_RADIATOR] = q_radiator
 
 
 @jit
@@ -298,6 +341,8 @@ class PhysicsCore:
         st[:, HEAT_X_MIN] = st[:, HEAT_X]
         st[:, CUTOFF] = 1.0 if (self.config.thermal.enabled
                                 and conditions.initial_motor_temp_c >= self.config.thermal.cutoff_temp_c) else 0.0
+        st[:, HOUSING_C] = conditions.initial_motor_temp_c
+        st[:, COOLANT_C] = conditions.water_temp_c
         return st
 
     @staticmethod
@@ -306,6 +351,8 @@ class PhysicsCore:
         cond[:, AMBIENT_C] = conditions.ambient_temp_c
         cond[:, WATER_C] = conditions.water_temp_c
         cond[:, COOLANT_FACTOR] = conditions.coolant_factor
+        cond[:, PAYLOAD_KG] = conditions.payload_kg
+        cond[:, FAN_FACTOR] = 1.0 if conditions.fan else 0.0
         return cond
 
     def step(self, state, action, speed_start_mps, speed_end_mps, grade, cond, *, state_out=None, out=None,

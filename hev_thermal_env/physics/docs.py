@@ -34,7 +34,8 @@ def parameters_markdown(config: VehicleConfig | None = None) -> str:
         lines.append("")
     lines += ["## Run conditions: `Conditions`", "", "| field | default | meaning |", "|---|---|---|"]
     extra = {"coolant": "on, degraded or off",
-             "coolant_temp_c": "coolant return temperature; default: the initial motor temperature (perfect radiator)"}
+             "coolant_temp_c": "coolant temperature at the start (network) and the paper's perfect-radiator water "
+                               "temperature (paper_eqs); default: the initial motor temperature"}
     for name, default, doc in Conditions.describe():
         lines.append(f"| `{name}` | {_fmt(default)} | {doc or extra.get(name, '')} |")
     return "\n".join(lines) + "\n"

@@ -6,6 +6,8 @@ Road load (DESIGN §3)::
 
 with θ = atan(grade). Defaults are the 40-ft transit-bus glider of ADVISOR (VEH_RTS06 body,
 WH_HEAVY tyres); the test mass is calibrated to the paper's Table 3 (see ``config.paper_bus``).
+m is the test mass plus the run's payload (``Conditions.payload_kg``: passengers on top of the
+test mass, which already carries ADVISOR's 1.84 t of cargo).
 """
 
 from __future__ import annotations
@@ -51,15 +53,15 @@ GRAVITY = LAYOUT["gravity_mps2"]
 
 
 @jit
-def effective_mass_kg(gl):
-    """Mass plus the equivalent mass of the rotating parts."""
-    return gl[MASS_KG] * (1.0 + gl[ROT_FRAC])
+def effective_mass_kg(gl, payload_kg):
+    """Mass (test mass + payload) plus the equivalent mass of the rotating parts."""
+    return (gl[MASS_KG] + payload_kg) * (1.0 + gl[ROT_FRAC])
 
 
 @jit
-def resistance_force_n(gl, speed_mps, grade):
+def resistance_force_n(gl, speed_mps, grade, payload_kg):
     """Rolling + grade + aerodynamic force at ``speed_mps`` on ``grade`` (rise/run)."""
-    m_g = gl[MASS_KG] * gl[GRAVITY]
+    m_g = (gl[MASS_KG] + payload_kg) * gl[GRAVITY]
     if grade == 0.0:
         cos_t, sin_t = 1.0, 0.0
     else:  # θ = atan(grade)
@@ -71,6 +73,6 @@ def resistance_force_n(gl, speed_mps, grade):
 
 
 @jit
-def road_force_n(gl, speed_mps, accel_mps2, grade):
+def road_force_n(gl, speed_mps, accel_mps2, grade, payload_kg):
     """Total tractive force needed at the wheels (positive drives, negative brakes)."""
-    return effective_mass_kg(gl) * accel_mps2 + resistance_force_n(gl, speed_mps, grade)
+    return effective_mass_kg(gl, payload_kg) * accel_mps2 + resistance_force_n(gl, speed_mps, grade, payload_kg)

@@ -10,9 +10,23 @@ Losses (motor + inverter), a function of torque T [N·m] and speed ω [rad/s]::
 
 copper ∝ T², iron ∝ ω^1.5, friction and windage ∝ ω. The defaults give a peak efficiency of
 ≈95 % and an efficiency shape close to ADVISOR's UQM PowerPhase 100 map scaled to 90 kW
-(``tests/test_physics.py`` checks the peak and the shape). Electrical power is
-``P_elec = T·ω + P_loss_total``; the thermal model adds its extra losses on top (``thermal.py``):
-``P_loss_total = (1 + extra)·P_loss + derate·|T·ω|``.
+(``tests/test_physics.py`` checks the peak and the shape).
+
+Thermal effects (``thermal.py``) enter through two numbers: ``extra``, the paper's extra loss
+fraction (5 %: noise, friction), and ``derate`` = δ, the efficiency lost in percentage points
+(the paper: one point per 15 °C above 35 °C). With L = (1 + extra)·P_loss:
+
+* generating (T·ω < 0): η₀ = (|T·ω| − L)/|T·ω|, η' = η₀ − δ, so
+  ``P_elec = −|T·ω|·η' = T·ω + L + δ·|T·ω|``;
+* motoring (T·ω > 0): η₀ = T·ω/(T·ω + L), η' = η₀ − δ·s(η₀/η_k) with η_k = 0.5, s(x) = 1 for
+  x ≥ 1 and the smoothstep x²(3 − 2x) below, and ``P_elec = T·ω/η'``. Wherever the motor runs at
+  η₀ ≥ 50 % (every loaded operating point) the efficiency falls by exactly δ, as the paper states;
+  below, the derate fades out smoothly (s and s' continuous) so that the loss stays finite and
+  continuous at zero torque (where η₀ = 0 and a fixed δ would ask for an efficiency below zero).
+
+The loss is always ``P_elec − T·ω``. Torque envelopes are 0 above the maximum speed, the peak
+and the continuous one alike, so a derated motor (eq 8 blends the two) never gets more torque
+than a cold one.
 """
 
 from __future__ import annotations
@@ -28,6 +42,10 @@ from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0
 
+#: Efficiency below which the temperature derate fades out (motoring), see the module docstring.
+DERATE_KNEE_EFF = 0.5
+#: Newton iterations of the motoring torque limit under a derate (from a close start, quadratically).
+_NEWTON_ITERS = 3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,11 +106,12 @@ def peak_torque_nm(mo, speed_radps):
 
 @jit
 def continuous_torque_nm(mo, speed_radps):
-    """Continuous torque envelope (T_cont(ω) of eq 8); never zero so eq 9 stays finite."""
+    """Continuous torque envelope (T_cont(ω) of eq 8): constant to base speed, constant power above,
+    0 beyond the maximum speed like the peak envelope."""
     w = abs(speed_radps)
-    if w * mo[CONT_TORQUE] <= mo[CONT_POWER]:
-        return mo[CONT_TORQUE]
-    return mo[CONT_POWER] / w
+    over = w > mo[MAX_RADPS] * (1.0 + 1e-9) or mo[ENABLED] == 0.0
+    t = mo[CONT_TORQUE] if w * mo[CONT_TORQUE] <= mo[CONT_POWER] else mo[CONT_POWER] / w
+    return 0.0 if over else t
 
 
 @jit
@@ -105,41 +124,132 @@ def base_loss_w(mo, torque_nm, speed_radps):
 
 
 @jit
+def core_loss_w(mo, speed_radps):
+    """Iron + friction part of :func:`base_loss_w` (heats the stator and housing, not the winding)."""
+    if mo[ENABLED] == 0.0:
+        return 0.0
+    w = abs(speed_radps)
+    return mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w
+
+
+@jit
+def _derated_loss_w(p_mech, loss, derate):
+    """Loss P_elec − T·ω under the derate: motoring T·ω/η' − T·ω (module docstring), generating L + δ·|T·ω|.
+
+    With u = T·ω, v = u + L and K = η_k: above the knee P = u·v/(u − δ·v); below it
+    P = K³v³/(K³v² − δ·u·(3K·v − 2u)), so P − u = L + v·δ·u·(3K·v − 2u)/(K³v² − δ·u·(3K·v − 2u)).
+    """
+    if p_mech <= 0.0:
+        return loss - derate * p_mech
+    u = p_mech
+    v = p_mech + loss
+    if u >= DERATE_KNEE_EFF * v:  # η₀ ≥ η_k: η' = η₀ − δ
+        return u * (loss + derate * v) / (u - derate * v)
+    k = DERATE_KNEE_EFF
+    q = derate * u * (3.0 * k * v - 2.0 * u)
+    den = k * k * k * v * v - q
+    return loss + v * q / den if den > 0.0 else loss  # den underflows only where the power is ~0
+
+
+@jit
 def total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
-    """Loss including the thermal model's extra loss fraction and efficiency derate."""
-    return (1.0 + extra_frac) * base_loss_w(mo, torque_nm, speed_radps) + derate_frac * abs(torque_nm * speed_radps)
+    """Loss including the thermal model's extra loss fraction and efficiency derate: P_elec − T·ω."""
+    if mo[ENABLED] == 0.0:
+        return 0.0
+    loss = (1.0 + extra_frac) * base_loss_w(mo, torque_nm, speed_radps)
+    if derate_frac <= 0.0:
+        return loss
+    return _derated_loss_w(torque_nm * speed_radps, loss, derate_frac)
 
 
 @jit
 def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
-    """Electrical input power (negative when generating)."""
+    """Electrical input power (negative when generating), with the extra loss and the derate."""
     if mo[ENABLED] == 0.0:
         return 0.0
     return torque_nm * speed_radps + total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac)
 
 
 @jit
-def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_frac, derate_frac):
+def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_frac, derate_frac, t_cap_nm):
     """Torque range [t_lo, t_hi] whose electrical power stays within [-p_chg_max_w, p_dis_max_w].
 
-    Solves the quadratic P_elec(T) = limit on each side of T = 0. Returns (0, 0) when even zero
-    torque exceeds the discharge limit.
+    Without a derate both sides are quadratics in T. Motoring with a derate, P_elec(T) = T·ω/η'
+    is solved by Newton's method from the root for the loss L + δ·T·ω (a close start just above
+    the exact root). ``t_cap_nm`` is the torque envelope the motor cannot exceed anyway: where the
+    exact power at the cap is within the limit, the power limit does not bind and t_hi is that
+    start (at or above the cap) without iterating. So t_hi is exact wherever it is below the cap.
+
+    When even zero torque needs more than ``p_dis_max_w`` (the spinning motor's iron and friction
+    loss with an empty battery), t_hi < 0: the motor must brake the shaft enough to cover its own
+    loss (P_elec = the limit), the shaft pays for it, and the battery never gives energy it does not
+    have.
     """
     w = abs(speed_radps)
     f = 1.0 + extra_frac
-    a = f * mo[K_CU]
-    c0 = f * (mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w)
-    if c0 > p_dis_max_w:
-        return 0.0, 0.0
-    # motoring side: a T² + w(1+d) T + c0 - p_dis = 0, positive root
-    b = w * (1.0 + derate_frac)
+    # the packed vector is read here only: the solve below takes scalars (speed rule in jit.py; it is too
+    # large to be inlined, and a call taking the array would reference-count it)
+    return _torque_limits(f * mo[K_CU], f * (mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w), w, p_dis_max_w, p_chg_max_w,
+                          derate_frac, t_cap_nm)
+
+
+@jit
+def _torque_limits(a, c0, w, p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm):
+    """:func:`torque_limits_for_power` on scalars: P_loss = a·T² + c0 at speed ``w``."""
+    if c0 > p_dis_max_w and w > 0.0:
+        # generating side: a T² + w(1-d) T + c0 - p_dis = 0, the larger (negative) root, or the vertex
+        b = w * (1.0 - derate_frac)
+        c = c0 - p_dis_max_w
+        disc = b * b - 4.0 * a * c
+        if a > 0.0:
+            t_drag = -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
+        else:
+            t_drag = -c / b
+        c = c0 + p_chg_max_w
+        disc = b * b - 4.0 * a * c
+        if a > 0.0:
+            t_gen = -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
+        else:
+            t_gen = -c / b
+        return min(t_gen, t_drag), t_drag
+    # motoring side: a T² + w(1 + d) T + c0 - p_dis = 0, positive root: exact without a derate; with one, the
+    # root of the loss L + d·T·ω, a little above the exact root (the exact loss is larger), which Newton's
+    # method then reaches from above in two steps (the error ~d²/100 squares twice)
     c = c0 - p_dis_max_w
+    b1 = w * (1.0 + derate_frac)
     if a > 0.0:
-        t_hi = (-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a)
-    elif b > 0.0:
-        t_hi = -c / b
+        t_hi = (-b1 + math.sqrt(b1 * b1 - 4.0 * a * c)) / (2.0 * a)
+    elif w > 0.0:
+        t_hi = -c / b1
     else:
         t_hi = 1e12
+    binds = True
+    if derate_frac > 0.0 and t_hi > t_cap_nm > 0.0:  # does the exact power at the cap stay within the limit?
+        u = t_cap_nm * w
+        binds = u + _derated_loss_w(u, a * t_cap_nm * t_cap_nm + c0, derate_frac) > p_dis_max_w
+    if derate_frac > 0.0 and w > 1e-6 and t_hi > 1e-9 and binds:
+        d = derate_frac
+        k = DERATE_KNEE_EFF
+        k3 = k * k * k
+        for _ in range(_NEWTON_ITERS):
+            u = t_hi * w
+            v = u + a * t_hi * t_hi + c0
+            dv = w + 2.0 * a * t_hi
+            if u >= k * v:  # P = u·v/(u − δ·v)
+                num = u * v
+                den = u - d * v
+                dnum = w * v + u * dv
+                dden = w - d * dv
+            else:  # P = K³v³/(K³v² − δ·u·(3K·v − 2u))
+                num = k3 * v * v * v
+                den = k3 * v * v - d * u * (3.0 * k * v - 2.0 * u)
+                dnum = 3.0 * k3 * v * v * dv
+                dden = 2.0 * k3 * v * dv - d * (3.0 * k * (w * v + u * dv) - 4.0 * u * w)
+            # Newton on P = num/den: T -= (num/den − p)/P' with P' = (dnum·den − num·dden)/den², one division
+            slope = dnum * den - num * dden
+            if not (slope > 0.0 and den > 0.0):
+                break
+            t_hi = max(t_hi - (num - p_dis_max_w * den) * den / slope, 0.0)
     # generating side: a T² + w(1-d) T + c0 + p_chg = 0; allowed T >= larger root, and never
     # beyond the vertex where more braking torque would return less power
     b = w * (1.0 - derate_frac)

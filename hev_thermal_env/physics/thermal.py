@@ -1,6 +1,15 @@
-"""The paper's motor thermal model (eqs 1-7), heat index (eqs 8-9) and protection.
+"""The motor's thermal parameters and effects: the paper's eqs 1-10, and the switch to the network.
 
-One lumped node of mass m and heat capacity c_p (eq 7)::
+Two thermal models share one parameter record (:class:`ThermalParams`) and one interface
+(``thermal_network.thermal_step``); ``ThermalParams.model`` selects one by name:
+
+* ``"paper_eqs"``, the paper's equations as written: one lumped node, here below.
+* ``"network"`` (the default of ``paper_bus``): the motor node plus a coolant loop with its own
+  heat capacity, a thermostat and a finite radiator (``thermal_network.py``). Why: with the
+  paper's h_water·A = 1282 W/K and a perfect radiator the coolant clamps the motor at the 35 °C
+  thermostat, so the literal model cannot show the paper's own Figs 7-8 (44 °C, heat index 0.35).
+
+The paper's node (eq 7)::
 
     m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool
 
@@ -14,23 +23,38 @@ One lumped node of mass m and heat capacity c_p (eq 7)::
 * Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
 
 Heat index (eqs 8-9): an integrator x with dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1),
-x(0) = −PWM_initial, held in [−PWM_initial, 1] (anti-windup); PWM = clip(x, 0, 1) and the
-available torque is T_max = T_cont·PWM + T_peak·(1 − PWM).
+PWM = clip(x, 0, 1); the available torque is T_max = T_cont·PWM + T_peak·(1 − PWM), never above
+T_peak (both envelopes are 0 beyond the maximum speed). x starts at −PWM_initial(T₀) and is held
+in [x_min, 1] (anti-windup), where the floor **follows the motor's state**:
+x_min = −PWM_initial(T), T the motor temperature now. The negative part of x is the overload
+reserve, and a motor has the reserve its temperature allows: a hot-started motor regains it as
+it cools, a cold-started one loses it as it heats (the floor rises and pushes x up).
 
-Eq 10 (T_gain = f(T_mc)) is left open by the paper, which states only that T_gain lies in
-[0.1, 0.3] in the vehicle simulation. Our choice: T_gain rises linearly from ``t_gain_cold``
-at ``t_gain_temp_lo_c`` to ``t_gain_hot`` at ``t_gain_temp_hi_c`` (a hotter magnet loses its
-overload reserve faster). PWM_initial "relates to the initial temperature": it falls linearly
-from ``pwm_initial_cold`` at ``pwm_initial_temp_lo_c`` to 0 at ``pwm_initial_temp_hi_c``.
+Eq 10 (T_gain = f(T_mc, t)) is left open by the paper, which states only that T_gain lies in
+[0.1, 0.3] in the vehicle simulation. Our closures (time enters through the temperature, which
+integrates the load history):
+
+* T_gain rises linearly from ``t_gain_cold`` at ``t_gain_temp_lo_c`` to ``t_gain_hot`` at
+  ``t_gain_temp_hi_c`` (a hotter magnet loses its overload reserve faster);
+* PWM_initial(T) is ``pwm_initial_cold`` up to ``pwm_initial_temp_lo_c`` and falls linearly to 0
+  at ``pwm_initial_temp_hi_c``: the reserve is the thermal headroom below the temperature where
+  the overload capability is used up (the paper: 0.3 at its 20 °C start).
+
+Both are fitted to the paper's figures within the bounds in their ``spec`` (``python -m
+hev_thermal_env.calibration``).
 
 Efficiency derate: −1 percentage point per 15 °C above 35 °C (the paper's simulation, consistent
-with eq 10's NdFeB remanence loss of ≈12.6 %/100 K), applied as an extra loss of that fraction of
-the mechanical power. Protection: at ``cutoff_temp_c`` (70 °C) the motor stops (torque 0) until it
-has cooled to ``cutoff_release_temp_c``.
+with eq 10's NdFeB remanence loss of ≈12.6 %/100 K): η' = η − δ with δ = ``derate_frac_per_c``·
+(T − 35 °C), the losses following from η' (``motor.py``). Protection: at ``cutoff_temp_c``
+(70 °C) the motor stops (torque 0) until it has cooled to ``cutoff_release_temp_c``.
 
 With ``enabled=False`` the motor is ADVISOR's unmodified one (the paper's baseline): no derate,
-no extra loss, no cutoff, peak torque always; temperature and heat index are still computed
+no extra loss, no cutoff, peak torque always; temperatures and heat index are still computed
 and reported.
+
+Calibrated defaults: the fields marked "fitted" hold the values written by
+``python -m hev_thermal_env.calibration --out DIR`` (``DIR/fitted_params.yaml``); re-running it
+reproduces them.
 """
 
 from __future__ import annotations
@@ -41,68 +65,179 @@ import math
 import numpy as np
 
 from .jit import jit
-from .layout import Layout
+from .layout import Layout, Slot
 from .params import ConfigError, Params, spec
 
 SIGMA = 5.67e-8
 KELVIN = 273.15
 
+#: Thermal models by name; the packed ``model`` slot holds the index.
+THERMAL_MODELS = ("paper_eqs", "network")
+MODEL_PAPER_EQS = 0.0
+MODEL_NETWORK = 1.0
+
 
 @dataclasses.dataclass(frozen=True)
 class ThermalParams(Params):
-    """Lumped thermal node, heat index and protection of the traction motor."""
+    """Motor thermal model (paper's node or lumped network), heat index and protection of the traction motor.
 
+    Fields marked "fitted" are calibrated to the paper's figures (module docstring); their
+    ``min``/``max`` are the plausible ranges the fit never leaves.
+    """
+
+    model: str = spec("network", "thermal model: 'network' (motor + coolant loop + radiator, calibrated) or "
+                                 "'paper_eqs' (the paper's one-node eqs 1-7 as written)")
     enabled: bool = spec(True, "thermal effects on (derate, extra loss, cutoff); False = unmodified ADVISOR motor")
+    # --- the motor node (paper Table 1, eqs 1-7) ---
     mass_kg: float = spec(100.0, "thermal mass of the motor (Table 1)", min=0.0, min_exclusive=True)
     cp_j_per_kgk: float = spec(430.0, "specific heat (Table 1)", min=0.0, min_exclusive=True)
     area_m2: float = spec(0.4273, "cooling area (Table 1; ADVISOR 0.4·(m/91)^0.7)", min=0.0, min_exclusive=True)
-    h_water_w_per_m2k: float = spec(3000.0, "coolant heat-transfer coefficient (paper)", min=0.0)
+    h_water_w_per_m2k: float = spec(3000.0, "coolant heat-transfer coefficient (paper eq 5; paper_eqs model)",
+                                    min=0.0)
     thermostat_temp_c: float = spec(35.0, "coolant flows above this motor temperature (paper)")
     emissivity: float = spec(0.9, "radiation emissivity (paper eq 6)", min=0.0, max=1.0)
     cutoff_temp_c: float = spec(70.0, "the motor stops at this temperature (paper)")
     cutoff_release_temp_c: float = spec(60.0, "the motor runs again once cooled to this (hysteresis)")
     derate_start_temp_c: float = spec(35.0, "efficiency derate starts above this temperature (paper)")
-    derate_frac_per_c: float = spec(0.01 / 15.0, "efficiency lost per °C above the start (1 point per 15 °C)",
+    derate_frac_per_c: float = spec(0.01 / 15.0, "efficiency points lost per °C above the start (paper: 1 per 15 °C)",
                                     min=0.0, max=0.1)
     extra_loss_frac: float = spec(0.05, "extra heat as a fraction of losses: noise, friction (paper: 5 %)",
                                   min=0.0, max=1.0)
-    t_s_s: float = spec(30.0, "T_s of eq 9: longest run time at peak torque", min=0.0, min_exclusive=True)
-    t_gain_cold: float = spec(0.1, "T_gain at and below t_gain_temp_lo_c (eq 10 choice)", min=0.0, max=10.0)
-    t_gain_hot: float = spec(0.3, "T_gain at and above t_gain_temp_hi_c (eq 10 choice)", min=0.0, max=10.0)
-    t_gain_temp_lo_c: float = spec(35.0, "temperature where T_gain starts to rise")
-    t_gain_temp_hi_c: float = spec(70.0, "temperature where T_gain reaches t_gain_hot")
-    pwm_initial_cold: float = spec(0.3, "PWM_initial for a motor starting at or below pwm_initial_temp_lo_c",
-                                   min=0.0, max=1.0)
-    pwm_initial_temp_lo_c: float = spec(20.0, "start temperature giving pwm_initial_cold")
-    pwm_initial_temp_hi_c: float = spec(70.0, "start temperature giving PWM_initial = 0")
+    # Fields whose doc starts with "fitted:" hold the values written by
+    #     python -m hev_thermal_env.calibration --out DIR   (DIR/fitted_params.yaml; docs/calibration/)
+    # within the bounds of their spec, the plausible ranges documented beside them.
+    torque_temp_coeff_per_c: float = spec(
+        0.001873, "fitted: fraction of the torque envelopes lost per °C above torque_ref_temp_c (magnet "
+                  "remanence: NdFeB flux −0.126 %/K (paper); the paper's Prius data −0.32 %/K of peak torque)",
+        min=0.0, max=0.0032)
+    torque_ref_temp_c: float = spec(20.0, "temperature of the unmodified (cold) torque envelopes (magnet data: 20 °C)")
+    # --- heat index, eqs 8-10 ---
+    t_s_s: float = spec(30.0, "T_s of eq 9: longest run time at peak torque (paper)", min=0.0, min_exclusive=True)
+    t_gain_cold: float = spec(
+        0.1105, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3])",
+        min=0.1, max=0.3)
+    t_gain_hot: float = spec(
+        0.2742, "fitted: T_gain at and above t_gain_temp_hi_c (paper: T_gain in [0.1, 0.3])",
+        min=0.1, max=0.3)
+    t_gain_temp_lo_c: float = spec(
+        35.05, "fitted: temperature where T_gain starts to rise (from the 20 °C start to 10 K above the paper's "
+               "35 °C, where its torque and efficiency corrections start)",
+        min=20.0, max=45.0)
+    t_gain_temp_hi_c: float = spec(
+        35.79, "fitted: temperature where T_gain reaches t_gain_hot (at most the 70 °C cutoff)",
+        min=25.0, max=70.0)
+    pwm_initial_cold: float = spec(
+        0.5792, "fitted: PWM_initial up to pwm_initial_temp_lo_c, the cold overload reserve: from the paper's 0.3 "
+                "up to 0.6, the reserve for 30 s at peak torque (the paper's HEV motor) at the highest T_gain 0.3",
+        min=0.3, max=0.6)
+    pwm_initial_temp_lo_c: float = spec(
+        38.51, "fitted: the full cold reserve holds up to this temperature (from the paper's 20 °C start to 5 K "
+               "above its 35 °C thermostat)",
+        min=20.0, max=40.0)
+    pwm_initial_temp_hi_c: float = spec(
+        63.47, "fitted: temperature where the overload reserve PWM_initial reaches 0 (from 10 K above the "
+               "paper's start up to the 70 °C cutoff)",
+        min=30.0, max=70.0)
+    # --- air convection, eq 4 ---
     h_air_base: float = spec(6.0, "eq 4: still-air coefficient W/(m²·K)", min=0.0)
     h_air_natural: float = spec(6.0, "eq 4: natural convection term at ΔT = 1000 K", min=0.0)
     h_air_forced: float = spec(60.0, "eq 4: forced convection at the reference speed", min=0.0)
     air_ref_speed_kmh: float = spec(48.27, "eq 4: reference air speed", min=0.0, min_exclusive=True)
     air_speed_exponent: float = spec(0.63, "eq 4: speed exponent", min=0.0)
+    # --- the network: winding, housing, coolant loop, thermostat, radiator, fan (thermal_network.py) ---
+    winding_heat_capacity_j_per_k: float = spec(
+        3384.0, "fitted: heat capacity of the winding node (copper 8-15 kg at 385 J/(kg·K), with insulation and "
+                "resin); the housing node holds the rest of Table 1's m·c_p",
+        min=2500.0, max=10000.0)
+    winding_conductance_w_per_k: float = spec(
+        536.7, "fitted: winding-to-housing conductance through the slot insulation (the winding 1-30 K above "
+               "the housing at the continuous copper loss of 624 W)",
+        min=20.0, max=600.0)
+    jacket_conductance_w_per_k: float = spec(
+        482.4, "fitted: housing-to-coolant conductance, valve fully open; at most the paper's h_water·A = "
+               "1282 W/K (whole cooling area wetted), at least 100 W/K (a 2 kW loss 20 K above the coolant)",
+        min=100.0, max=1282.0)
+    thermostat_band_k: float = spec(
+        5.63, "fitted: proportional band of the thermostat valve: closed at thermostat_temp_c, fully open this "
+              "much above (wax thermostats: 2-12 K)",
+        min=2.0, max=12.0)
+    coolant_heat_capacity_j_per_k: float = spec(
+        62810.0, "fitted: coolant loop heat capacity: 4-20 L of 50 % glycol (3.5 kJ/(kg·K)) plus radiator and "
+                 "pump metal",
+        min=15e3, max=80e3)
+    radiator_ua_w_per_k: float = spec(
+        335.5, "fitted: radiator conductance at the reference face air speed (a low-temperature radiator for a "
+               "30 kW-continuous motor: 2-4 kW at 10-40 K)",
+        min=50.0, max=600.0)
+    radiator_ref_air_speed_mps: float = spec(5.0, "face air speed at which radiator_ua_w_per_k holds (design "
+                                                  "point of automotive radiators, 3-8 m/s)",
+                                             min=1.0, max=10.0)
+    radiator_air_exponent: float = spec(0.7, "UA ∝ (face air speed)^n: air-side Nusselt ∝ Re^0.6-0.8",
+                                        min=0.5, max=0.9)
+    ram_air_frac: float = spec(0.25, "face air speed per unit vehicle speed (ram air; a bus's side or rear "
+                                     "cooling pack sees 0.1-0.5)", min=0.1, max=0.5)
+    still_air_speed_mps: float = spec(0.5, "equivalent face air speed at standstill with the fan off (natural "
+                                           "draught)", min=0.0, max=1.0)
+    fan_air_speed_mps: float = spec(4.0, "face air speed the fan gives at full speed (2-6 m/s)", min=2.0, max=6.0)
+    fan_on_temp_c: float = spec(40.0, "the fan starts at this coolant temperature (5 K above the valve)",
+                                min=0.0, max=100.0)
+    fan_band_k: float = spec(5.0, "the fan reaches full speed this much above fan_on_temp_c", min=0.5, max=20.0)
 
     def validate(self) -> None:
+        if self.model not in THERMAL_MODELS:
+            raise ConfigError(f"ThermalParams.model: {self.model!r} is not one of {list(THERMAL_MODELS)}")
         if self.cutoff_release_temp_c >= self.cutoff_temp_c:
             raise ConfigError("ThermalParams.cutoff_release_temp_c: must be below cutoff_temp_c")
         if self.t_gain_temp_hi_c <= self.t_gain_temp_lo_c:
             raise ConfigError("ThermalParams.t_gain_temp_hi_c: must exceed t_gain_temp_lo_c")
         if self.pwm_initial_temp_hi_c <= self.pwm_initial_temp_lo_c:
             raise ConfigError("ThermalParams.pwm_initial_temp_hi_c: must exceed pwm_initial_temp_lo_c")
-        tau = self.mass_kg * self.cp_j_per_kgk / max(self.h_water_w_per_m2k * self.area_m2, 1e-12)
-        if tau < 2.0:
-            raise ConfigError(f"ThermalParams.h_water_w_per_m2k: thermal time constant {tau:.2f} s is below "
-                              "2 s, too stiff for the 1 s step")
+        if self.winding_heat_capacity_j_per_k >= 0.5 * self.heat_capacity_j_per_k:
+            raise ConfigError("ThermalParams.winding_heat_capacity_j_per_k: must be below half the motor's m·c_p")
+        if self.model == "paper_eqs":
+            # the paper's node is integrated explicitly: its fastest time constant must exceed the step
+            tau = self.mass_kg * self.cp_j_per_kgk / max(self.h_water_w_per_m2k * self.area_m2, 1e-12)
+            if tau < 2.0:
+                raise ConfigError(f"ThermalParams.h_water_w_per_m2k: thermal time constant {tau:.2f} s is below "
+                                  "2 s, too stiff for the 1 s step")
 
     @property
     def heat_capacity_j_per_k(self) -> float:
+        """Heat capacity of the motor node, m·c_p."""
         return self.mass_kg * self.cp_j_per_kgk
+
+    def paper_equations(self) -> ThermalParams:
+        """The same motor with the paper's one-node model as written (eqs 1-7): the comparison model."""
+        return self.replace(model="paper_eqs")
 
     def pack(self) -> np.ndarray:
         return LAYOUT.pack(self)
 
 
-LAYOUT = Layout.of_fields(ThermalParams)
-"""Packed thermal parameters: one slot per field, in field order."""
+LAYOUT = Layout.of_fields(ThermalParams, replace={
+    "model": Slot("model", fill=lambda p: float(THERMAL_MODELS.index(p.model))),
+}, derived=(
+    # constants of the per-row code, computed once here (the kernel has ~100 ns per row; a division is ~5)
+    Slot("motor_heat_capacity_j_per_k", fill=lambda p: p.mass_kg * p.cp_j_per_kgk, fields=()),
+    Slot("housing_heat_capacity_j_per_k", fill=lambda p: p.mass_kg * p.cp_j_per_kgk - p.winding_heat_capacity_j_per_k,
+         fields=()),
+    Slot("eps_sigma_area", fill=lambda p: p.emissivity * SIGMA * p.area_m2, fields=()),
+    Slot("h_water_area_w_per_k", fill=lambda p: p.h_water_w_per_m2k * p.area_m2, fields=()),
+    Slot("inv_valve_band_per_k", fill=lambda p: 1.0 / p.thermostat_band_k, fields=()),
+    Slot("inv_fan_band_per_k", fill=lambda p: 1.0 / p.fan_band_k, fields=()),
+    Slot("inv_radiator_ref_air_speed", fill=lambda p: 1.0 / p.radiator_ref_air_speed_mps, fields=()),
+    Slot("air_speed_per_mps", fill=lambda p: 3.6 / p.air_ref_speed_kmh, fields=()),
+    Slot("ram_air_per_mps", fill=lambda p: p.ram_air_frac / p.radiator_ref_air_speed_mps, fields=()),
+    Slot("still_air_term", fill=lambda p: (p.still_air_speed_mps / p.radiator_ref_air_speed_mps)
+         ** p.radiator_air_exponent, fields=()),
+    Slot("tgain_slope_per_c", fill=lambda p: (p.t_gain_hot - p.t_gain_cold) / (p.t_gain_temp_hi_c - p.t_gain_temp_lo_c),
+         fields=()),
+    Slot("pwm0_slope_per_c", fill=lambda p: -p.pwm_initial_cold / (p.pwm_initial_temp_hi_c - p.pwm_initial_temp_lo_c),
+         fields=()),
+    Slot("inv_t_s", fill=lambda p: 1.0 / p.t_s_s, fields=()),
+))
+"""Packed thermal parameters: one slot per field, in field order (the model as its index), then derived constants."""
+MODEL = LAYOUT["model"]
 ENABLED = LAYOUT["enabled"]
 MASS_KG = LAYOUT["mass_kg"]
 CP = LAYOUT["cp_j_per_kgk"]
@@ -115,6 +250,8 @@ RELEASE_C = LAYOUT["cutoff_release_temp_c"]
 DERATE_START_C = LAYOUT["derate_start_temp_c"]
 DERATE_PER_C = LAYOUT["derate_frac_per_c"]
 EXTRA_LOSS = LAYOUT["extra_loss_frac"]
+TORQUE_COEFF = LAYOUT["torque_temp_coeff_per_c"]
+TORQUE_REF_C = LAYOUT["torque_ref_temp_c"]
 T_S = LAYOUT["t_s_s"]
 TGAIN_COLD = LAYOUT["t_gain_cold"]
 TGAIN_HOT = LAYOUT["t_gain_hot"]
@@ -128,37 +265,76 @@ H_AIR_NAT = LAYOUT["h_air_natural"]
 H_AIR_FORCED = LAYOUT["h_air_forced"]
 V_REF_KMH = LAYOUT["air_ref_speed_kmh"]
 V_EXP = LAYOUT["air_speed_exponent"]
+C_WINDING = LAYOUT["winding_heat_capacity_j_per_k"]
+G_WINDING = LAYOUT["winding_conductance_w_per_k"]
+G_JACKET = LAYOUT["jacket_conductance_w_per_k"]
+VALVE_BAND_K = LAYOUT["thermostat_band_k"]
+C_COOLANT = LAYOUT["coolant_heat_capacity_j_per_k"]
+UA_RAD = LAYOUT["radiator_ua_w_per_k"]
+RAD_REF_MPS = LAYOUT["radiator_ref_air_speed_mps"]
+RAD_EXP = LAYOUT["radiator_air_exponent"]
+RAM_FRAC = LAYOUT["ram_air_frac"]
+STILL_AIR_MPS = LAYOUT["still_air_speed_mps"]
+FAN_MPS = LAYOUT["fan_air_speed_mps"]
+FAN_ON_C = LAYOUT["fan_on_temp_c"]
+FAN_BAND_K = LAYOUT["fan_band_k"]
+C_MOTOR = LAYOUT["motor_heat_capacity_j_per_k"]
+C_HOUSING = LAYOUT["housing_heat_capacity_j_per_k"]
+EPS_SIGMA_AREA = LAYOUT["eps_sigma_area"]
+H_WATER_AREA = LAYOUT["h_water_area_w_per_k"]
+INV_VALVE_BAND = LAYOUT["inv_valve_band_per_k"]
+INV_FAN_BAND = LAYOUT["inv_fan_band_per_k"]
+INV_RAD_REF_MPS = LAYOUT["inv_radiator_ref_air_speed"]
+AIR_SPEED_PER_MPS = LAYOUT["air_speed_per_mps"]
+RAM_AIR_PER_MPS = LAYOUT["ram_air_per_mps"]
+STILL_AIR_TERM = LAYOUT["still_air_term"]
+TGAIN_SLOPE = LAYOUT["tgain_slope_per_c"]
+PWM0_SLOPE = LAYOUT["pwm0_slope_per_c"]
+INV_T_S = LAYOUT["inv_t_s"]
 
 
 @jit
-def _ramp(x, x_lo, x_hi, y_lo, y_hi):
-    f = min(max((x - x_lo) / (x_hi - x_lo), 0.0), 1.0)
-    return y_lo + f * (y_hi - y_lo)
+def _ramp(x, x_lo, x_hi, y_lo, slope):
+    """y_lo up to x_lo, then rising with ``slope`` to x_hi, constant beyond (slope precomputed: no division)."""
+    return y_lo + slope * (min(max(x, x_lo), x_hi) - x_lo)
 
 
 @jit
-def pwm_initial(th, initial_temp_c):
-    """PWM_initial as a function of the motor's starting temperature (our eq 10 companion)."""
-    return _ramp(initial_temp_c, th[PWM0_LO_C], th[PWM0_HI_C], th[PWM0_COLD], 0.0)
+def pwm_initial(th, temp_c):
+    """PWM_initial, the overload reserve, of a motor at ``temp_c`` (our eq 10 companion)."""
+    return _ramp(temp_c, th[PWM0_LO_C], th[PWM0_HI_C], th[PWM0_COLD], th[PWM0_SLOPE])
+
+
+@jit
+def heat_index_floor(th, temp_c):
+    """Anti-windup floor of the heat-index integrator: −PWM_initial at the motor's present temperature."""
+    return -pwm_initial(th, temp_c)
 
 
 @jit
 def t_gain(th, temp_c):
     """T_gain = f(T_mc) (eq 10), linear between the cold and hot values."""
-    return _ramp(temp_c, th[TGAIN_LO_C], th[TGAIN_HI_C], th[TGAIN_COLD], th[TGAIN_HOT])
+    return _ramp(temp_c, th[TGAIN_LO_C], th[TGAIN_HI_C], th[TGAIN_COLD], th[TGAIN_SLOPE])
 
 
 @jit
 def derate_frac(th, temp_c):
-    """Efficiency lost (as a fraction of mechanical power) at ``temp_c``; 0 with the model off."""
-    if th[ENABLED] == 0.0:
-        return 0.0
-    return max(temp_c - th[DERATE_START_C], 0.0) * th[DERATE_PER_C]
+    """Efficiency points lost (as a fraction) at ``temp_c``; 0 with the model off."""
+    d = max(temp_c - th[DERATE_START_C], 0.0) * th[DERATE_PER_C]
+    return d if th[ENABLED] != 0.0 else 0.0
+
+
+@jit
+def torque_factor(th, temp_c):
+    """Share of the cold torque envelopes a motor at ``temp_c`` can give (magnet remanence); 1 with the model off."""
+    k = 1.0 - max(temp_c - th[TORQUE_REF_C], 0.0) * th[TORQUE_COEFF]
+    return max(k, 0.0) if th[ENABLED] != 0.0 else 1.0
 
 
 @jit
 def extra_loss_frac(th):
-    return th[EXTRA_LOSS] if th[ENABLED] != 0.0 else 0.0
+    extra = th[EXTRA_LOSS]
+    return extra if th[ENABLED] != 0.0 else 0.0
 
 
 @jit
@@ -169,46 +345,72 @@ def heat_index_pwm(heat_x):
 
 @jit
 def available_torque_nm(th, peak_nm, cont_nm, heat_x, cutoff):
-    """Torque limit under the heat index (eq 8) and the cutoff; the peak with the model off."""
-    if th[ENABLED] == 0.0:
-        return peak_nm
-    if cutoff != 0.0:
-        return 0.0
+    """Torque limit under the heat index (eq 8) and the cutoff, never above the peak; the peak with the model off."""
     pwm = heat_index_pwm(heat_x)
-    return cont_nm * pwm + peak_nm * (1.0 - pwm)
+    blended = min(cont_nm * pwm + peak_nm * (1.0 - pwm), peak_nm)
+    limited = 0.0 if cutoff != 0.0 else blended
+    # one return (speed rule in jit.py)
+    return limited if th[ENABLED] != 0.0 else peak_nm
 
 
 @jit
 def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
-    """One Euler step of eq 9 with anti-windup to [x_min, 1]."""
-    dx = t_gain(th, temp_c) / th[T_S] * (abs(torque_nm) / cont_nm - 1.0)
+    """One Euler step of eq 9 with anti-windup to [heat_x_min, 1]; T_gain at ``temp_c``.
+
+    Beyond the maximum speed the continuous envelope is 0 and the motor gives no torque: the
+    overload ratio is then taken as 0 (the index relaxes).
+    """
+    ratio = abs(torque_nm) / cont_nm if cont_nm > 0.0 else 0.0
+    dx = t_gain(th, temp_c) * th[INV_T_S] * (ratio - 1.0)
     return min(max(heat_x + dx * dt_s, heat_x_min), 1.0)
 
 
 @jit
-def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
-    """(Q_air, Q_rad, Q_cool) leaving the motor at ``temp_c`` (eqs 1, 4, 5, 6)."""
-    dT = temp_c - ambient_c
-    v_kmh = max(speed_mps, 0.0) * 3.6
-    h_air = th[H_AIR0] + th[H_AIR_NAT] * math.sqrt(math.sqrt(abs(dT) / 1000.0))
-    if v_kmh > 0.0:
-        h_air += th[H_AIR_FORCED] * (v_kmh / th[V_REF_KMH]) ** th[V_EXP]
-    q_cool = 0.0
-    if temp_c > th[THERMOSTAT_C] and coolant_factor > 0.0:
-        q_cool = th[H_WATER] * coolant_factor * th[AREA_M2] * (temp_c - water_c)
-    q_air = h_air * th[AREA_M2] * dT
+def forced_air_term(air_speed_per_mps, v_exp, speed_mps):
+    """(V/48.27)^0.63 of eq 4 (V in km/h); ``air_speed_per_mps`` = 3.6 / 48.27. 0 at standstill."""
+    v_rel = max(speed_mps, 0.0) * air_speed_per_mps
+    return v_rel ** v_exp if v_rel > 0.0 else 0.0
+
+
+@jit
+def air_conductance_core(h_still0, h_natural, h_forced, forced_term, area, temp_c, ambient_c):
+    """h_air·A of eqs 1 and 4 (W/K) from scalars, the speed's term precomputed (:func:`forced_air_term`)."""
+    h_still = h_still0 + h_natural * math.sqrt(math.sqrt(abs(temp_c - ambient_c) * 1e-3))
+    return (h_still + h_forced * forced_term) * area
+
+
+@jit
+def air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps):
+    """h_air·A of eqs 1 and 4 (W/K) at the motor's temperature and the vehicle speed."""
+    term = forced_air_term(th[AIR_SPEED_PER_MPS], th[V_EXP], speed_mps)
+    return air_conductance_core(th[H_AIR0], th[H_AIR_NAT], th[H_AIR_FORCED], term, th[AREA_M2], temp_c, ambient_c)
+
+
+@jit
+def paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c, ambient_c, water_c, coolant_factor):
+    """(Q_air, Q_rad, Q_cool) of the paper's node (eqs 1, 5, 6) from scalars; ``g_air`` = h_air·A."""
+    q_air = g_air * (temp_c - ambient_c)
+    q_cool = h_water_area * coolant_factor * (temp_c - water_c) if (temp_c > thermostat_c
+                                                                   and coolant_factor > 0.0) else 0.0
     tk = temp_c + KELVIN
     ta = ambient_c + KELVIN
-    # ``th`` is read for the last time outside any branch (speed rule in jit.py)
-    q_rad = th[EMISSIVITY] * SIGMA * th[AREA_M2] * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
+    q_rad = eps_sigma_area * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
     return q_air, q_rad, q_cool
 
 
 @jit
+def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
+    """(Q_air, Q_rad, Q_cool) leaving the paper's node at ``temp_c`` (eqs 1, 4, 5, 6)."""
+    g_air = air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps)
+    return paper_node_core(g_air, th[EPS_SIGMA_AREA], th[H_WATER_AREA], th[THERMOSTAT_C], temp_c, ambient_c, water_c,
+                           coolant_factor)
+
+
+@jit
 def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, speed_mps, dt_s):
-    """One Euler step of eq 7. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
+    """One Euler step of the paper's eq 7. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
     q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
-    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / (th[MASS_KG] * th[CP])
+    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[C_MOTOR]
     return new, q_air, q_rad, q_cool
 
 

@@ -1,0 +1,187 @@
+"""The motor's lumped thermal network, and the one thermal step both thermal models go through.
+
+Nodes and heat flows of ``ThermalParams.model = "network"`` (the default of ``paper_bus``)::
+
+     copper loss          G_w                 G_j·open·f_c                UA(v, fan)·f_c
+    ───────────► winding ─────► housing ───────────────► coolant ──────────────────► ambient
+                 T_w, C_w       T_h, C_h   iron+friction   T_c, C_c     (radiator)
+                                   │  ◄──────────────
+                                   │  h_air(v)·A·(T_h − T_a) + ε·σ·A·(T_h⁴ − T_a⁴)
+                                   └───────────────────────────────────────────────► ambient
+
+* Winding node: copper, insulation and resin (C_w), heated by the copper loss (k_cu·T², with the
+  paper's extra 5 % and the temperature derate's extra loss: more current for the same torque).
+  Its temperature is **the motor temperature**: the winding sensor that motor controllers read for
+  protection and derating, and what the heat index, the derate, the valve and the 70 °C cutoff
+  use. Conductance G_w to the housing through the slot insulation.
+* Housing node: stator iron, frame and rotor, the rest of Table 1's m·c_p (100 kg × 430 J/(kg·K)),
+  heated by the iron and friction losses (with the extra 5 %), cooled by air convection (eqs 1, 4)
+  and radiation (eq 6) over the paper's cooling area, as in the paper, and by the coolant jacket.
+* Thermostat valve: coolant flows through the jacket in proportion to
+  open = clip((T_w − 35 °C)/band, 0, 1): the paper's "cooling water opened when the motor
+  temperature exceeds 35 °C", proportional as a valve is. Jacket conductance G_j: at most the
+  paper's h_water·A = 1282 W/K (the film alone), lower for the jacket wall and the stator's
+  conduction.
+* Coolant node: the loop's water-glycol, radiator and pump (C_c), starting at the run's coolant
+  temperature (``Conditions.coolant_temp_c``, default the motor's start).
+* Radiator: UA(v, fan) = UA_ref·(v_face/v_ref)^n with the face air speed
+  v_face = max(ram_air_frac·v, fan·v_fan, v_still): ram air grows with vehicle speed; the fan
+  runs from ``fan_on_temp_c`` of the coolant, at full speed ``fan_band_k`` above it (the run's
+  ``fan_factor`` 0: a failed fan).
+* The coolant mode of the run (``coolant_factor`` f_c: on 1, degraded < 1, off 0) scales both
+  flow-dependent conductances, G_j and UA: a weak pump, a clogged radiator, no coolant.
+
+Integration: the conductances are evaluated at the start of the step (h_air at the old ΔT, the
+radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin, the valve and the fan at the old
+temperatures); the three temperatures then take one backward-Euler step (a tridiagonal 3 × 3
+solve): stable at any step, and the reported flows close the balance exactly,
+C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt.
+
+``"paper_eqs"`` keeps the paper's node as written (``thermal.temperature_step``: explicit Euler,
+perfect radiator at the run's water temperature): the housing is the same node as the winding
+and the coolant is held.
+"""
+
+from __future__ import annotations
+
+from . import thermal as thm
+from .jit import jit
+
+
+@jit
+def valve_open_frac(th, motor_temp_c):
+    """Thermostat valve opening: 0 up to ``thermostat_temp_c``, 1 from ``thermostat_band_k`` above."""
+    return min(max((motor_temp_c - th[thm.THERMOSTAT_C]) * th[thm.INV_VALVE_BAND], 0.0), 1.0)
+
+
+@jit
+def ram_air_term(ram_air_per_mps, expo, speed_mps):
+    """(ram_air_frac·v / v_ref)^n: the radiator's ram-air factor at the vehicle speed (0 standing)."""
+    x = max(speed_mps, 0.0) * ram_air_per_mps
+    return x ** expo if x > 0.0 else 0.0
+
+
+@jit
+def radiator_core(ua_ref, ram_term, still_term, inv_ref_mps, expo, fan_mps, fan_on_c, inv_fan_band, coolant_temp_c,
+                  fan_factor):
+    """UA_ref·(v_face/v_ref)^n with v_face = max(ram air, fan, still air), from scalars.
+
+    The power is monotone, so the factor is the largest of the three factors: ram air
+    (:func:`ram_air_term`, by speed) and still air (a constant) come precomputed; the fan's is
+    computed only while the fan runs.
+    """
+    fan = min(max((coolant_temp_c - fan_on_c) * inv_fan_band, 0.0), 1.0) * fan_factor
+    factor = max(ram_term, still_term)
+    if fan > 0.0:
+        factor = max(factor, (fan * fan_mps * inv_ref_mps) ** expo)
+    return ua_ref * factor
+
+
+@jit
+def radiator_ua_w_per_k(th, coolant_temp_c, speed_mps, fan_factor):
+    """Radiator conductance (W/K) at the vehicle speed, with the fan as the coolant temperature asks."""
+    expo = th[thm.RAD_EXP]
+    ram = ram_air_term(th[thm.RAM_AIR_PER_MPS], expo, speed_mps)
+    return radiator_core(th[thm.UA_RAD], ram, th[thm.STILL_AIR_TERM], th[thm.INV_RAD_REF_MPS], expo, th[thm.FAN_MPS],
+                         th[thm.FAN_ON_C], th[thm.INV_FAN_BAND], coolant_temp_c, fan_factor)
+
+
+@jit
+def network_core(a_w, a_h, a_c, g_w, g, g_air, g_rad, ua, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w,
+                 ambient_c):
+    """One backward-Euler step of the three nodes from scalars.
+
+    ``a_*`` = heat capacity / step, ``g`` the jacket conductance at the valve's opening; every
+    conductance is taken at the start of the step. Returns (winding, housing, coolant
+    temperature, Q_air, Q_rad, Q_cool, Q_radiator).
+    """
+    # tridiagonal system in (T_w', T_h', T_c'): eliminate the winding and the coolant into the housing row
+    inv_w = 1.0 / (a_w + g_w)
+    inv_c = 1.0 / (a_c + g + ua)
+    r_w = a_w * winding_c + q_winding_w
+    r_c = a_c * coolant_c + ua * ambient_c
+    g_a = g_air + g_rad
+    t_h = ((a_h * housing_c + q_housing_w + g_a * ambient_c + g_w * r_w * inv_w + g * r_c * inv_c)
+           / (a_h + g_w + g_a + g - g_w * g_w * inv_w - g * g * inv_c))
+    t_w = (r_w + g_w * t_h) * inv_w
+    t_c = (r_c + g * t_h) * inv_c
+    return t_w, t_h, t_c, g_air * (t_h - ambient_c), g_rad * (t_h - ambient_c), g * (t_h - t_c), ua * (t_c - ambient_c)
+
+
+@jit
+def _radiation_conductance(eps_sigma_area, temp_c, ambient_c):
+    """ε·σ·A·(T⁴ − T_a⁴)/(T − T_a) = ε·σ·A·(T² + T_a²)(T + T_a), kelvin: radiation linearised at T."""
+    tk = temp_c + thm.KELVIN
+    ta = ambient_c + thm.KELVIN
+    return eps_sigma_area * (tk * tk + ta * ta) * (tk + ta)
+
+
+@jit
+def network_step(th, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, coolant_factor,
+                 fan_factor, speed_mps, dt_s):
+    """One backward-Euler step of the network.
+
+    Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool housing→coolant,
+    Q_radiator coolant→ambient, valve opening).
+    """
+    g_air = thm.air_conductance_w_per_k(th, housing_c, ambient_c, speed_mps)
+    valve = valve_open_frac(th, winding_c)
+    ua = radiator_ua_w_per_k(th, coolant_c, speed_mps, fan_factor) * coolant_factor
+    g_rad = _radiation_conductance(th[thm.EPS_SIGMA_AREA], housing_c, ambient_c)
+    t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
+        th[thm.C_WINDING] / dt_s, th[thm.C_HOUSING] / dt_s, th[thm.C_COOLANT] / dt_s, th[thm.G_WINDING],
+        th[thm.G_JACKET] * coolant_factor * valve, g_air, g_rad, ua, winding_c, housing_c, coolant_c, q_winding_w,
+        q_housing_w, ambient_c)
+    return t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, valve
+
+
+@jit
+def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, water_c, coolant_factor,
+                 fan_factor, forced_term, ram_term, inv_dt):
+    """One step of the selected thermal model (``ThermalParams.model``); ``inv_dt`` = 1 / step.
+
+    ``temp_c`` is the motor temperature (the winding node of the network). ``forced_term`` and
+    ``ram_term`` are the speed's factors of eq 4 and of the radiator (``thermal.forced_air_term``,
+    :func:`ram_air_term`): the step kernel computes them once per distinct speed, since every row
+    of a DP stage (or of a batch over one cycle step) shares it. Returns (motor, housing, coolant
+    temperature, Q_air, Q_rad, Q_cool, Q_radiator, coolant on), where Q_cool leaves the motor
+    into the coolant and Q_radiator leaves the coolant into the air. For ``paper_eqs`` the whole
+    motor is one node heated by both loss parts, the coolant is the run's water temperature (a
+    perfect radiator: Q_radiator = Q_cool) and the coolant node is held.
+
+    Every parameter is read once, before any branch, and both models run on scalars (speed rule
+    in jit.py: no packed vector inside a branch of the per-row code).
+    """
+    network = th[thm.MODEL] == thm.MODEL_NETWORK
+    c_m = th[thm.C_MOTOR]
+    c_w = th[thm.C_WINDING]
+    c_h = th[thm.C_HOUSING]
+    c_c = th[thm.C_COOLANT]
+    g_w = th[thm.G_WINDING]
+    g_jacket = th[thm.G_JACKET] * coolant_factor
+    eps_sigma_area = th[thm.EPS_SIGMA_AREA]
+    h_water_area = th[thm.H_WATER_AREA]
+    thermostat_c = th[thm.THERMOSTAT_C]
+    valve = min(max((temp_c - thermostat_c) * th[thm.INV_VALVE_BAND], 0.0), 1.0)
+    surface_c = housing_c if network else temp_c
+    g_air = thm.air_conductance_core(th[thm.H_AIR0], th[thm.H_AIR_NAT], th[thm.H_AIR_FORCED], forced_term,
+                                     th[thm.AREA_M2], surface_c, ambient_c)
+    ua_ref, still, inv_ref, expo = th[thm.UA_RAD], th[thm.STILL_AIR_TERM], th[thm.INV_RAD_REF_MPS], th[thm.RAD_EXP]
+    fan_mps, fan_on, inv_fan_band = th[thm.FAN_MPS], th[thm.FAN_ON_C], th[thm.INV_FAN_BAND]
+    if network:
+        ua = radiator_core(ua_ref, ram_term, still, inv_ref, expo, fan_mps, fan_on, inv_fan_band, coolant_c,
+                           fan_factor) * coolant_factor
+        g_rad = _radiation_conductance(eps_sigma_area, housing_c, ambient_c)
+        t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
+            c_w * inv_dt, c_h * inv_dt, c_c * inv_dt, g_w, g_jacket * valve, g_air, g_rad, ua, temp_c, housing_c,
+            coolant_c, q_winding_w, q_housing_w, ambient_c)
+        on = valve > 0.0 and coolant_factor > 0.0
+    else:
+        q_air, q_rad, q_cool = thm.paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c,
+                                                   ambient_c, water_c, coolant_factor)
+        t_w = temp_c + (q_winding_w + q_housing_w - q_air - q_rad - q_cool) / (c_m * inv_dt)
+        t_h = t_w
+        t_c = coolant_c
+        q_radiator = q_cool
+        on = q_cool != 0.0
+    return t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, 1.0 if on else 0.0
