@@ -13,7 +13,7 @@
   torque, so every overload derates at once.
 * ``hilly``: the paper's conditions on a hilly road: the cycle is laid over the rolling hills of
   :func:`~hev_thermal_env.cycles.generate_grade_profile` (seed
-  :data:`~hev_thermal_env.cycles.generator.HILLY_SEED`, grades up to ±7 %, no net climb) by
+  :data:`~hev_thermal_env.cycles.grades.HILLY_SEED`, grades up to ±7 %, no net climb) by
   :meth:`Scenario.prepare_cycle`; ``hilly_route()`` is ``beijing`` prepared so.
 * ``full_bus``: the paper's conditions with a full bus: 4.5 t of passengers (about 65) on top of
   the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo): 19.5 t, about the gross
@@ -84,7 +84,7 @@ class Scenario:
 
 
 def _hilly_profile() -> dict[str, Any]:
-    from .cycles.generator import HILLY_KWARGS, HILLY_SEED
+    from .cycles.grades import HILLY_KWARGS, HILLY_SEED
 
     return {"seed": HILLY_SEED, **HILLY_KWARGS}
 

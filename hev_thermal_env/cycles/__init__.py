@@ -23,7 +23,8 @@ Examples
 """
 
 from .cycle import PLAUSIBLE_ACCEL_MAX_MPS2, PLAUSIBLE_SPEED_MAX_MPS, Cycle, ImplausibleCycleWarning
-from .generator import generate_bus_cycle, generate_grade_profile, hilly_route, with_grade_profile
+from .generator import generate_bus_cycle
+from .grades import generate_grade_profile, hilly_route, with_grade_profile
 from .loader import cycle_from_arrays, list_cycles, load_cycle
 
 __all__ = ["PLAUSIBLE_ACCEL_MAX_MPS2", "PLAUSIBLE_SPEED_MAX_MPS", "Cycle", "ImplausibleCycleWarning",

@@ -179,7 +179,7 @@ def bus_cycle_params(**kwargs: Any) -> dict[str, Any]:
     return {k: list(v) if isinstance(v, tuple) else v for k, v in params.items()}
 
 
-def _check_range(name: str, rng_: tuple[float, float], lo: float = 0.0) -> tuple[float, float]:
+def check_range(name: str, rng_: tuple[float, float], lo: float = 0.0) -> tuple[float, float]:
     a, b = (float(x) for x in rng_)
     if not (math.isfinite(a) and math.isfinite(b)) or a < lo or b < a:
         raise ValueError(f"{name} must be a finite (low, high) pair with {lo} <= low <= high")
@@ -272,16 +272,16 @@ def generate_bus_cycle(
         raise ValueError(f"duration_s must be at least 60 s, got {duration_s!r}")
     if not (math.isfinite(max_speed_kmh) and max_speed_kmh > 0.0):
         raise ValueError(f"max_speed_kmh must be positive, got {max_speed_kmh!r}")
-    cruise_lo, cruise_hi = _check_range("cruise_speed_kmh_range", cruise_speed_kmh_range)
+    cruise_lo, cruise_hi = check_range("cruise_speed_kmh_range", cruise_speed_kmh_range)
     if cruise_lo <= 0.0 or cruise_hi > max_speed_kmh:
         raise ValueError("cruise_speed_kmh_range must lie in (0, max_speed_kmh]")
     cruise_mode = float(cruise_speed_mode_kmh)
     if not (cruise_lo <= cruise_mode <= cruise_hi):
         raise ValueError("cruise_speed_mode_kmh must lie within cruise_speed_kmh_range")
-    cruise_s_lo, cruise_s_hi = _check_range("cruise_s_range", cruise_s_range)
-    dwell_lo, dwell_hi = _check_range("dwell_s_range", dwell_s_range)
-    scale_lo, scale_hi = _check_range("accel_scale_range", accel_scale_range)
-    decel_lo, decel_hi = _check_range("decel_mps2_range", decel_mps2_range)
+    cruise_s_lo, cruise_s_hi = check_range("cruise_s_range", cruise_s_range)
+    dwell_lo, dwell_hi = check_range("dwell_s_range", dwell_s_range)
+    scale_lo, scale_hi = check_range("accel_scale_range", accel_scale_range)
+    decel_lo, decel_hi = check_range("decel_mps2_range", decel_mps2_range)
     if scale_lo <= 0.0 or decel_lo <= 0.0:
         raise ValueError("accel_scale_range and decel_mps2_range must be positive")
     for label, value in (
@@ -400,99 +400,3 @@ def generate_bus_cycle(
         source="hev_thermal_env.cycles.generator.generate_bus_cycle",
         metadata=metadata,
     )
-
-
-#: Seed of the road profile of :func:`hilly_route`.
-HILLY_SEED = 2024
-
-#: Keyword arguments of :func:`generate_grade_profile` for :func:`hilly_route`: rolling city hills.
-HILLY_KWARGS: dict[str, Any] = {"max_grade": 0.07, "grade_std": 0.035, "segment_m_range": (150.0, 600.0),
-                                "transition_m": 40.0, "closed": True}
-
-
-def generate_grade_profile(
-    seed: int,
-    length_m: float,
-    *,
-    max_grade: float = 0.07,
-    grade_std: float = 0.035,
-    segment_m_range: tuple[float, float] = (150.0, 600.0),
-    transition_m: float = 40.0,
-    closed: bool = True,
-) -> tuple[np.ndarray, np.ndarray]:
-    """A seeded road profile: (positions [m], grade there) from 0 to at least ``length_m``.
-
-    Grades (rise/run) are constant on segments with linear vertical curves of ``transition_m``
-    between them; with ``closed`` the length-weighted mean grade is removed (no net climb). The
-    profile is piecewise linear in the returned points; interpolate between them.
-    """
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"seed must be an integer, got {seed!r}")
-    if not (math.isfinite(length_m) and length_m > 0.0):
-        raise ValueError(f"length_m must be positive, got {length_m!r}")
-    if not (0.0 < max_grade <= 0.3) or not (grade_std >= 0.0):
-        raise ValueError("max_grade must lie in (0, 0.3] and grade_std be >= 0")
-    seg_lo, seg_hi = _check_range("segment_m_range", segment_m_range)
-    if seg_lo <= 0.0 or not (0.0 <= transition_m < seg_lo):
-        raise ValueError("segment_m_range must be positive and transition_m in [0, its low end)")
-    rng = np.random.default_rng(int(seed))
-    lengths: list[float] = []
-    while sum(lengths) < length_m:
-        lengths.append(float(rng.uniform(seg_lo, seg_hi)))
-    seg = np.asarray(lengths)
-    grades = np.clip(rng.normal(0.0, grade_std, len(seg)), -max_grade, max_grade)
-    if closed:
-        for _ in range(50):  # remove the net climb, re-clipping; converges in a few rounds
-            grades = np.clip(grades - np.sum(grades * seg) / np.sum(seg), -max_grade, max_grade)
-    ends = np.cumsum(seg)
-    starts = ends - seg
-    half = 0.5 * transition_m
-    pos = [0.0]
-    val = [float(grades[0])]
-    for i in range(len(seg)):
-        if i > 0:  # vertical curve around the boundary at starts[i]
-            pos += [starts[i] - half, starts[i] + half]
-            val += [float(grades[i - 1]), float(grades[i])]
-    pos.append(float(ends[-1]))
-    val.append(float(grades[-1]))
-    return np.asarray(pos), np.asarray(val)
-
-
-def with_grade_profile(cycle: Cycle, seed: int, *, name: str | None = None, **kwargs: Any) -> Cycle:
-    """``cycle``'s speeds over the road of :func:`generate_grade_profile` (``seed``, ``kwargs``).
-
-    Step k (from ``speed[k]`` to ``speed[k + 1]``) climbs the grade at the middle of the distance
-    it covers; the last sample repeats the last step's grade. The cycle's own grade is replaced.
-    """
-    v = np.asarray(cycle.speed_mps, dtype=np.float64)
-    step_m = 0.5 * (v[1:] + v[:-1])
-    start_m = np.concatenate([[0.0], np.cumsum(step_m)[:-1]])
-    mid_m = start_m + 0.5 * step_m
-    pos, val = generate_grade_profile(seed, max(float(np.sum(step_m)), 1.0), **kwargs)
-    g = np.interp(mid_m, pos, val)
-    grade = np.round(np.concatenate([g, g[-1:]]), 9) + 0.0
-    params = {k: list(x) if isinstance(x, tuple) else x for k, x in kwargs.items()}
-    metadata = {**cycle.metadata, "grade_profile": {"seed": int(seed), "params": params,
-                                                    "generator": "hev_thermal_env.cycles.generate_grade_profile"}}
-    return Cycle(
-        name=name if name is not None else f"{cycle.name}_hilly{int(seed)}",
-        time_s=np.asarray(cycle.time_s, dtype=np.float64),
-        speed_mps=v,
-        grade=grade,
-        synthetic=True,
-        description=f"{cycle.description or cycle.name} over a generated hilly road (seed {int(seed)}, synthetic)",
-        source=f"{cycle.source}; grade from hev_thermal_env.cycles.generate_grade_profile(seed={int(seed)})",
-        metadata=metadata,
-    )
-
-
-def hilly_route(seed: int = HILLY_SEED, base: Cycle | None = None) -> Cycle:
-    """The hilly route: ``base`` (default the built-in ``beijing``) over the rolling hills of ``seed``.
-
-    Named ``"hilly"`` for the default seed and base. Synthetic: generated speeds on a generated road.
-    """
-    from .loader import load_cycle
-
-    cyc = base if base is not None else load_cycle("beijing")
-    name = "hilly" if (base is None and seed == HILLY_SEED) else None
-    return with_grade_profile(cyc, seed, name=name, **HILLY_KWARGS)

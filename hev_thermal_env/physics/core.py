@@ -26,7 +26,6 @@ the rest. The action has no effect while braking or at standstill.
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -38,6 +37,7 @@ from . import motor as mot
 from . import thermal as thm
 from . import thermal_network as tnet
 from .config import ACC_W, REGEN, STOP_START, Conditions, VehicleConfig
+from .door_arrays import MIN_THREAD_BATCH, as_batch, as_float64, checked_out, thread_pool
 from .jit import jit
 
 # state columns (``motor_temp_c``: the winding of the network, the one node of the paper's model;
@@ -364,21 +364,21 @@ class PhysicsCore:
         ``state_out``/``out`` (float64, C-contiguous) are filled if given. ``threads`` > 1 splits
         batches of at least :data:`MIN_THREAD_BATCH` rows over that many threads.
         """
-        state = _f64(state, "state")
+        state = as_float64(state, "state")
         if state.ndim != 2 or state.shape[1] != N_STATE:
             raise ValueError(f"PhysicsCore.step: state must have shape (B, {N_STATE}), got {state.shape}")
         b = state.shape[0]
-        action = _batch(action, b, "action")
-        v0 = _batch(speed_start_mps, b, "speed_start_mps")
-        v1 = _batch(speed_end_mps, b, "speed_end_mps")
-        grade = _batch(grade, b, "grade")
-        cond = _f64(cond, "cond")
+        action = as_batch(action, b, "action")
+        v0 = as_batch(speed_start_mps, b, "speed_start_mps")
+        v1 = as_batch(speed_end_mps, b, "speed_end_mps")
+        grade = as_batch(grade, b, "grade")
+        cond = as_float64(cond, "cond")
         if cond.shape == (N_COND,):
             cond = np.ascontiguousarray(np.broadcast_to(cond, (b, N_COND)))
         if cond.shape != (b, N_COND):
             raise ValueError(f"PhysicsCore.step: cond must have shape ({b}, {N_COND}), got {cond.shape}")
-        state_out = np.empty((b, N_STATE)) if state_out is None else _out(state_out, (b, N_STATE), "state_out")
-        out = np.empty((b, N_OUT)) if out is None else _out(out, (b, N_OUT), "out")
+        state_out = np.empty((b, N_STATE)) if state_out is None else checked_out(state_out, (b, N_STATE), "state_out")
+        out = np.empty((b, N_OUT)) if out is None else checked_out(out, (b, N_OUT), "out")
         n = max(1, int(threads))
         if n == 1 or b < MIN_THREAD_BATCH:
             step_kernel(*self.params, state, action, v0, v1, grade, cond, self.dt_s, state_out, out)
@@ -390,39 +390,5 @@ class PhysicsCore:
             step_kernel(*self.params, state[s], action[s], v0[s], v1[s], grade[s], cond[s], self.dt_s, state_out[s],
                         out[s])
 
-        list(_thread_pool(n).map(run, range(n)))
+        list(thread_pool(n).map(run, range(n)))
         return state_out, out
-
-
-#: Batches smaller than this are not split over threads (thread start-up would dominate).
-MIN_THREAD_BATCH = 4096
-
-_POOLS: dict[int, ThreadPoolExecutor] = {}
-
-
-def _thread_pool(n: int) -> ThreadPoolExecutor:
-    if n not in _POOLS:
-        _POOLS[n] = ThreadPoolExecutor(max_workers=n, thread_name_prefix="hev-kernel")
-    return _POOLS[n]
-
-
-def _f64(x, name: str) -> np.ndarray:
-    try:
-        return np.ascontiguousarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"PhysicsCore.step: {name} must be numeric, got {type(x).__name__}") from None
-
-
-def _batch(x, b: int, name: str) -> np.ndarray:
-    a = _f64(x, name)
-    if a.shape == (b,):
-        return a
-    if a.ndim == 0 or a.shape == (1,):
-        return np.full(b, float(a.reshape(-1)[0]))
-    raise ValueError(f"PhysicsCore.step: {name} must be a scalar or have shape ({b},), got {a.shape}")
-
-
-def _out(x: np.ndarray, shape: tuple[int, int], name: str) -> np.ndarray:
-    if not (isinstance(x, np.ndarray) and x.dtype == np.float64 and x.flags.c_contiguous and x.shape == shape):
-        raise ValueError(f"PhysicsCore.step: {name} must be a C-contiguous float64 array of shape {shape}")
-    return x
