@@ -7,6 +7,9 @@ import time
 from pathlib import Path
 
 from hev_thermal_env.evaluation.benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES, run_benchmark
+from hev_thermal_env.evaluation.executors import EXECUTORS, ExecutorError
+
+from .errors import report
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -17,7 +20,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="strategy names (ppo:PATH for a trained model)")
     p.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), help="scenario names")
     p.add_argument("--out", default="results", help="output directory (default results)")
-    p.add_argument("--jobs", type=int, default=None, help="parallel processes (default: all cores)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="parallel processes, or CPUs of the local Ray runtime (default: all cores)")
+    p.add_argument("--executor", choices=EXECUTORS, default="local",
+                   help="local: this machine's processes (default); ray: one Ray task per run (needs the ray extra)")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="with --executor ray: join the Ray cluster at HOST:PORT (started with 'ray start --head') "
+                        "instead of starting a local runtime")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
 
 
@@ -25,8 +34,11 @@ def main(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
     t0 = time.perf_counter()
-    rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
-                         plots=not args.no_plots)
+    try:
+        rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
+                             plots=not args.no_plots, executor=args.executor, address=args.address)
+    except ExecutorError as exc:
+        return report(exc)
     print((Path(args.out) / "results.md").read_text())
     print(f"{len(rows)} runs in {time.perf_counter() - t0:.1f} s")
     print(f"table: {Path(args.out) / 'results.md'} (also results.csv, results.json)")

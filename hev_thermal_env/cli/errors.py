@@ -7,6 +7,7 @@ problems with files (missing, not a directory, read-only file system, no permiss
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -15,6 +16,13 @@ USER_ERRORS = (ValueError, OSError)
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
+
+
+class OneLineErrorParser(argparse.ArgumentParser):
+    """Usage errors in one line (``train.py: error: ...``), exit status 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
 def program_name(argv: list[str] | None, default: str) -> str:

@@ -8,6 +8,7 @@ Examples::
         --n-envs 32 --seed 0 --out runs/ppo_s0
     python train.py --algo ppo --hp gamma=0.99 'policy_kwargs={net_arch: [128, 128]}' --out runs/ppo_wide
     python train.py --resume runs/ppo_s0          # continue an interrupted run to its total
+    python train.py sweep --out sweeps/ppo        # Ray Tune over hyperparameters and seeds (train.py sweep --help)
 
 Hyperparameters come from ``agents/hyperparams/<algo>.yaml`` (or ``--hyperparams FILE``);
 ``--hp key=value`` overrides any of them: values are YAML (``0.99``, ``[64, 64]``,
@@ -33,17 +34,10 @@ from typing import Any
 
 from hev_thermal_env.training import TrainingInterrupted, build_config, parse_overrides, resume, train
 
-from .errors import EXIT_INTERRUPTED, USER_ERRORS, program_name, report
+from .errors import EXIT_INTERRUPTED, USER_ERRORS, OneLineErrorParser, program_name, report
 
 SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "out", "hp", "hyperparams", "vec",
                  "eval_cycles", "eval_scenarios", "eval_freq", "checkpoint_freq")
-
-
-class OneLineErrorParser(argparse.ArgumentParser):
-    """Usage errors in one line (``train.py: error: ...``), exit status 2."""
-
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
@@ -99,8 +93,14 @@ def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
 
 def main(argv: list[str] | None = None) -> int:
     prog = program_name(argv, "train.py")
+    given = list(sys.argv[1:] if argv is None else argv)
+    command = command_line([prog, *given])
+    if given[:1] == ["sweep"] or "--sweep" in given:
+        from .sweep import main as sweep_main
+
+        rest = given[1:] if given[:1] == ["sweep"] else given
+        return sweep_main([a for a in rest if a != "--sweep"], prog=f"{prog} sweep", command=command)
     args = build_parser(prog).parse_args(argv)
-    command = command_line([prog, *(sys.argv[1:] if argv is None else argv)])
     try:
         result, out = run(args, command)
     except TrainingInterrupted as exc:
