@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from matplotlib.ticker import MaxNLocator
+
 from hev_thermal_env.evaluation.plots import pyplot
 from hev_thermal_env.io import save_png
 
@@ -43,7 +45,8 @@ def plot_sweep(trials, configs, best, path: Path) -> Path:
         if c.ci_low is not None:
             ax_seeds.plot([c.ci_low, c.ci_high], [y, y], color=colour, lw=1.2)
     ax_seeds.set_yticks(range(len(shown)), [f"{c.config_id} ({len(c.scores)} seeds)" for c in shown])
-    ax_seeds.invert_yaxis()
+    ax_seeds.set_ylim(len(shown) - 0.4, -0.6)
+    ax_seeds.xaxis.set_major_locator(MaxNLocator(4))
     ax_seeds.set_xlabel(f"last {METRIC} (g)")
     ax_seeds.set_title("seeds (dots), IQM (bar), 95 % bootstrap CI")
     ax_seeds.grid(alpha=0.3, axis="x")
