@@ -159,12 +159,12 @@ class SweepProgress(tune.Callback):
             return
         done = sum(t.status in (Trial.TERMINATED, Trial.ERROR) for t in trials)
         scores = [t.last_result[METRIC] for t in trials if t.last_result and METRIC in t.last_result]
-        best = max(scores) if scores else None
+        best = max([*scores, *([] if self.shown[1] is None else [self.shown[1]])], default=None)
         if (done, best) != self.shown:
             self.bar.update(done - self.bar.n)
             running = sum(t.status == Trial.RUNNING for t in trials)
             if best is not None:
-                self.bar.set_postfix_str(f"best {METRIC} {best:.1f}, {running} running")
+                self.bar.set_postfix_str(f"best {METRIC} so far {best:.1f}, {running} running")
             self.shown = (done, best)
 
     def on_experiment_end(self, trials, **info):

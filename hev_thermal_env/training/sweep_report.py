@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from hev_thermal_env.evaluation.benchmark import _fmt  # the benchmark tables' cell format
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
 
 from .artifacts import checkpoint_files
@@ -154,14 +155,6 @@ def write_report(out: Path, trials: list[TrialRecord], settings: dict[str, Any],
 
         files.append(plot_sweep(trials, configs, best, out / "sweep.png"))
     return SweepReport(trials, configs, best, files)
-
-
-def _fmt(v: Any) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    return str(v)
 
 
 def _write_trials_csv(path: Path, trials: list[TrialRecord], keys: list[str]) -> Path:
