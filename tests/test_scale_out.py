@@ -183,6 +183,25 @@ def test_search_space_and_seed_statistics(tmp_path):
     assert iqm_ci([3.0]) == (None, None)
 
 
+def test_a_fixed_space_is_a_seed_grid_and_a_searched_one_goes_to_optuna():
+    from ray.tune.schedulers import ASHAScheduler, MedianStoppingRule
+    from ray.tune.search import Repeater
+    from ray.tune.search.optuna import OptunaSearch
+
+    from hev_thermal_env.training.sweep import _scheduler, _search, build_sweep, check_settings, total_trials
+
+    train = dict(timesteps=1024, n_envs=2, eval_freq=256)
+    fixed = build_sweep("ppo", space={"gamma": 0.97}, seeds=3, train=train)
+    space, search, samples = _search(fixed)
+    assert search is None and samples == 1 and space == {"__trial_index__": {"grid_search": [0, 1, 2]}}
+    assert total_trials(fixed) == 3 and isinstance(_scheduler(fixed, check_settings(fixed)), ASHAScheduler)
+    searched = build_sweep("ppo", samples=4, seeds=2, scheduler="median", train=train)
+    space, search, samples = _search(searched)
+    assert isinstance(search, Repeater) and isinstance(search.searcher, OptunaSearch) and samples == 8
+    assert set(space) == {"learning_rate", "gamma", "gae_lambda", "clip_range", "n_epochs"}
+    assert isinstance(_scheduler(searched, check_settings(searched)), MedianStoppingRule)
+
+
 def test_sweep_bad_input_is_one_line(tmp_path, capsys):
     (tmp_path / "space.yaml").write_text("gama: {uniform: [0.9, 0.99]}\n")
     base = ["sweep", "--out", str(tmp_path / "s"), "--no-progress", "--timesteps", "256", "--n-envs", "2"]
