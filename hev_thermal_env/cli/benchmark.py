@@ -9,8 +9,10 @@ from pathlib import Path
 
 from hev_thermal_env.cycles import list_cycles
 from hev_thermal_env.evaluation.benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES, run_benchmark
+from hev_thermal_env.evaluation.executors import EXECUTORS, ExecutorError
 from hev_thermal_env.scenarios import list_scenarios
 
+from .errors import report
 from .parsing import HelpFormatter, examples
 from .run import strategies_help
 
@@ -18,6 +20,8 @@ EXAMPLES = (
     "python evaluate.py benchmark --out results                       # the README's table",
     "python evaluate.py benchmark --cycles hwfet beijing --scenarios paper hot --out results_hot",
     "python evaluate.py benchmark --strategies rule dp ppo ppo:runs/ppo --cycles udds --jobs 2 --out cmp",
+    "python evaluate.py benchmark --executor ray --out results_ray        # one Ray task per run",
+    "python evaluate.py benchmark --executor ray --address HEAD:6379 --out results   # on a Ray cluster",
 )
 
 
@@ -34,7 +38,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help=f"scenarios ({', '.join(list_scenarios())})")
     p.add_argument("--out", default="results", metavar="DIR", help="output directory")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
-                   help=f"parallel processes (default: the number of cores, {os.cpu_count() or 1} here)")
+                   help=f"parallel processes, or CPUs of the local Ray runtime (default: the number of cores, "
+                        f"{os.cpu_count() or 1} here)")
+    p.add_argument("--executor", choices=EXECUTORS, default="local",
+                   help="local: this machine's processes; ray: one Ray task per run (needs the ray extra)")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="with --executor ray: join the Ray cluster at HOST:PORT (started with 'ray start --head') "
+                        "instead of starting a local runtime")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
 
 
@@ -42,8 +52,11 @@ def main(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
     t0 = time.perf_counter()
-    rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
-                         plots=not args.no_plots)
+    try:
+        rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
+                             plots=not args.no_plots, executor=args.executor, address=args.address)
+    except ExecutorError as exc:
+        return report(exc)
     print((Path(args.out) / "results.md").read_text())
     print(f"{len(rows)} runs in {time.perf_counter() - t0:.1f} s")
     print(f"table: {Path(args.out) / 'results.md'} (also results.csv, results.json)")

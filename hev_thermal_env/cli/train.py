@@ -46,6 +46,7 @@ EXAMPLES = (
     "python train.py --algo sac --hp learning_rate=lin_3e-4 env.reward.soc_deviation_weight=10 --out runs/sac",
     "python train.py --resume runs/ppo_s0                 # continue an interrupted run to its total",
     "python evaluate.py run --cycle beijing --strategy ppo:runs/ppo_s0   # drive a trained run",
+    "python train.py sweep --out sweeps/ppo        # Ray Tune over hyperparameters and seeds (train.py sweep --help)",
 )
 
 NOTES = """\
@@ -143,8 +144,14 @@ def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
 
 def main(argv: list[str] | None = None) -> int:
     prog = program_name(argv, "train.py")
+    given = list(sys.argv[1:] if argv is None else argv)
+    command = command_line([prog, *given])
+    if given[:1] == ["sweep"] or "--sweep" in given:
+        from .sweep import main as sweep_main
+
+        rest = given[1:] if given[:1] == ["sweep"] else given
+        return sweep_main([a for a in rest if a != "--sweep"], prog=f"{prog} sweep", command=command)
     args = build_parser(prog).parse_args(argv)
-    command = command_line([prog, *(sys.argv[1:] if argv is None else argv)])
     try:
         with one_line_warnings(prog):
             result, out = run(args, command)

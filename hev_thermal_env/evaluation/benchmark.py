@@ -6,21 +6,18 @@ and PNGs: per cycle and scenario, speed / missed wheel energy / SOC / motor temp
 index / split over time for every strategy on shared axes (:mod:`.plots`), and a dot chart of
 corrected fuel relative to DP, one row of panels per scenario (:mod:`.fuel_chart`).
 
-Independent runs are spread over processes; each run is deterministic (fixed seed, no shared
-state), so the results equal a serial run's, byte for byte: wall times go to ``timings.json``, not
-into the results. Every file is written atomically.
+Independent runs are spread over processes or Ray tasks (:mod:`.executors`); each run is
+deterministic (fixed seed, no shared state), so the results equal a serial run's, byte for byte:
+wall times go to ``timings.json``, not into the results. Every file is written atomically.
 """
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
-import multiprocessing
 import os
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +30,7 @@ from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
 from hev_thermal_env.scenarios import get_scenario
 
+from .executors import make_executor
 from .plots import plot_benchmark
 from .runner import run_strategy
 
@@ -75,15 +73,22 @@ def validate(cycles, strategies, scenarios, out: Path, options: dict | None = No
 
 def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT_STRATEGIES,
                   scenarios=DEFAULT_SCENARIOS, *, jobs: int | None = None, options: dict | None = None,
-                  progress: bool = True, plots: bool = True) -> list[dict]:
-    """Run every combination, write the result files and plots, return the rows."""
+                  progress: bool = True, plots: bool = True, executor: str = "local",
+                  address: str | None = None) -> list[dict]:
+    """Run every combination, write the result files and plots, return the rows.
+
+    ``executor`` is where the runs happen (:mod:`.executors`): ``local`` processes (``jobs`` of
+    them) or ``ray`` tasks (a local Ray runtime of ``jobs`` CPUs, or the cluster at ``address``);
+    the files are the same, byte for byte."""
     out = Path(out_dir)
     validate(cycles, strategies, scenarios, out, options)
     options = options or {}
     tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in strategies]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
+    runner = make_executor(executor, jobs=jobs, address=address)
     t0 = time.perf_counter()
-    results = _run_tasks(tasks, jobs, progress)
+    with runner:
+        results = _run_tasks(tasks, runner, progress)
     rows = [r[0] for r in results]
     traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}
     dp_fuel = {(r["cycle"], r["scenario"]): r["fuel_corrected_l_per_100km"] for r in rows if r["strategy"] == "dp"}
@@ -97,21 +102,14 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     return rows
 
 
-def _run_tasks(tasks: list[tuple], jobs: int, progress: bool) -> list[tuple[dict, dict]]:
-    """``_run_one`` of every task (in ``jobs`` processes), results in the order of ``tasks``."""
-    # slow runs first so that the pool stays busy
+def _run_tasks(tasks: list[tuple], executor, progress: bool) -> list[tuple[dict, dict]]:
+    """``_run_one`` of every task (on ``executor``, see :mod:`.executors`), results in the order of ``tasks``."""
+    # slow runs first so that the workers stay busy
     order = sorted(range(len(tasks)), key=lambda i: (0 if tasks[i][2].startswith("dp") else 1, i))
     results: list[Any] = [None] * len(tasks)
-    with contextlib.ExitStack() as stack:
-        bar = stack.enter_context(tqdm(total=len(tasks), desc="benchmark runs", unit="run", disable=not progress))
-        futures = {}
-        if jobs > 1:
-            # spawn, not fork: a forked child would inherit the parent's thread pools (DP) mid-lock
-            pool = stack.enter_context(ProcessPoolExecutor(max_workers=jobs,
-                                                           mp_context=multiprocessing.get_context("spawn")))
-            futures = {i: pool.submit(_run_one, tasks[i]) for i in order}
-        for i in order:
-            results[i] = futures[i].result() if futures else _run_one(tasks[i])
+    with tqdm(total=len(tasks), desc="benchmark runs", unit="run", disable=not progress) as bar:
+        for i, result in executor.map(_run_one, tasks, order):
+            results[i] = result
             bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
             bar.update()
     return results

@@ -17,7 +17,10 @@ Modules, each named for what it holds:
 * :mod:`.evaluator`: deterministic evaluation on cycles not trained on;
 * :mod:`.callbacks`: checkpoints, evaluation and signals during ``learn``;
 * :mod:`.loop`: :func:`train` and :func:`resume`;
-* :mod:`.curves`: ``training_curve.png``; :mod:`.export`: :func:`export_policy`.
+* :mod:`.curves`: ``training_curve.png``; :mod:`.export`: :func:`export_policy`;
+* :mod:`.sweep`: Ray Tune sweeps over hyperparameters and seeds (the ``ray`` extra; not imported
+  here), with :mod:`.sweep_space` (search spaces), :mod:`.sweep_trial` (the trainable),
+  :mod:`.sweep_report` (tables, IQM and bootstrap intervals, export) and :mod:`.sweep_plot`.
 
 Importing this package imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
 """

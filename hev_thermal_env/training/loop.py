@@ -276,18 +276,20 @@ def check_new_run_dir(out_dir: str | Path, overwrite: bool = False) -> Path:
 
 
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
-          overwrite: bool = False, log: Callable[[str], None] | None = None) -> dict[str, Any]:
+          overwrite: bool = False, log: Callable[[str], None] | None = None,
+          run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
     """Train a new run into ``out_dir``; returns the ``result`` section of its config.
 
     ``out_dir`` must not hold a run already (unless ``overwrite``): continue one with :func:`resume`.
     The config and the directory are checked, and the environment and model built, before the
     directory is created. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped
-    by a signal.
+    by a signal. ``run_class`` (a :class:`TrainingRun`) is what runs the session (a sweep's trial
+    reports its evaluations to Ray Tune through its own).
     """
     out = check_new_run_dir(out_dir, overwrite)
     validate_config(config)
     _limit_threads()
-    run = TrainingRun(config, out, progress=progress, verbose=verbose, log=log)
+    run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     session = run.prepare()
     save_run_config(out, config)
     _append_command(out, config.get("command"))
@@ -295,7 +297,7 @@ def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True,
 
 
 def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, command: str | None = None,
-           log: Callable[[str], None] | None = None) -> dict[str, Any]:
+           log: Callable[[str], None] | None = None, run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
     """Continue the run in ``run_dir`` from its latest complete checkpoint up to its total timesteps."""
     out = Path(run_dir)
     config = load_run_config(out)
@@ -313,7 +315,7 @@ def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, comm
         log(f"{out}: no checkpoint yet; starting the run over")
     else:
         log(f"{out}: resuming from {start[1].name} ({start[0]} of {config['total_timesteps']} timesteps)")
-    run = TrainingRun(config, out, progress=progress, verbose=verbose, log=log)
+    run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     return run.execute(run.prepare(resume_from=start))
 
 

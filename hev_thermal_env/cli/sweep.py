@@ -1,0 +1,132 @@
+"""Sweep hyperparameters and seeds with Ray Tune: Optuna search, ASHA stopping, the best trial exported.
+
+``train.py sweep`` (or ``train.py --sweep``); needs the ``ray`` extra.
+
+Examples::
+
+    python train.py sweep --out sweeps/ppo --samples 8 --seeds 3 --timesteps 2000000
+    python train.py sweep --out sweeps/lr --space space.yaml --hp n_envs=16
+    python train.py sweep --resume sweeps/ppo                  # continue an interrupted sweep
+    python train.py sweep --out sweeps/ppo --address HEAD:6379 # on a cluster (ray start --head)
+
+The search space (``--space FILE``, YAML) maps ``--hp`` keys to a sampler or a fixed value::
+
+    learning_rate: {loguniform: [1.0e-4, 1.0e-3]}
+    gamma: {uniform: [0.95, 0.99]}
+    n_epochs: {int: [3, 10]}
+    policy_kwargs.net_arch: {choice: [[64, 64], [128, 128]]}
+
+(default: a small PPO or SAC space). A space with fixed values only is a multi-seed study of one
+configuration. Every trial is a train.py run with a seed of its own (``--seed``, ``--seed`` + 1, ...)
+that reports its validation return (mean over the evaluation cycles) at every evaluation, with a
+checkpoint; ASHA (``--scheduler``) stops the trials that fall behind. The sweep directory gets
+``sweep.yaml``, ``tune/`` (one folder per trial, its run in ``run/``), ``sweep_trials.csv``,
+``sweep_configs.csv``/``.md``/``.json`` (per configuration: IQM over seeds, 95 % bootstrap CI),
+``sweep.png`` and ``best_policy/`` (load it with ``--strategy ppo:DIR/best_policy``).
+
+Ctrl-C stops the sweep after saving its state (exit status 130); ``--resume DIR`` continues it.
+On a cluster, ``--out`` must be on storage that every node sees at the same path.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from hev_thermal_env.evaluation.executors import ExecutorError, import_ray
+
+from .errors import EXIT_INTERRUPTED, USER_ERRORS, report
+from .parsing import OneLineErrorParser
+
+#: Options that describe a sweep (taken from ``sweep.yaml`` on --resume).
+SETTING_FLAGS = ("algo", "space", "samples", "seeds", "seed", "scheduler", "grace", "max_concurrent", "cycles",
+                 "scenario", "timesteps", "n_envs", "vec", "eval_cycles", "eval_scenarios", "eval_freq", "hp",
+                 "hyperparams", "out")
+
+
+def build_parser(prog: str) -> argparse.ArgumentParser:
+    p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0],
+                           formatter_class=argparse.RawDescriptionHelpFormatter,
+                           epilog="\n\n".join(__doc__.split("\n\n")[1:]))
+    p.add_argument("--out", default=None, help="sweep directory (new or empty)")
+    p.add_argument("--resume", default=None, metavar="DIR", help="continue the interrupted sweep in DIR")
+    p.add_argument("--algo", default=None, help="ppo (default) or sac")
+    p.add_argument("--space", default=None, metavar="FILE", help="search space (YAML; default: a small space)")
+    p.add_argument("--samples", type=int, default=None, help="configurations Optuna draws (default 8)")
+    p.add_argument("--seeds", type=int, default=None, help="trials (seeds) per configuration (default 3)")
+    p.add_argument("--seed", type=int, default=None, help="first seed, and Optuna's (default 0)")
+    p.add_argument("--scheduler", default=None, help="asha (default), median or none: early stopping")
+    p.add_argument("--grace", type=int, default=None, metavar="STEPS",
+                   help="env-steps before a trial can be stopped (default: two evaluations)")
+    p.add_argument("--max-concurrent", type=int, default=None, help="trials at once (default: one per CPU)")
+    p.add_argument("--cycles", nargs="+", default=None, help="training cycles (default from the hyperparameter file)")
+    p.add_argument("--scenario", default=None, help="training scenario (default from the hyperparameter file)")
+    p.add_argument("--timesteps", type=int, default=None, help="env-steps per trial (default from the file)")
+    p.add_argument("--n-envs", type=int, default=None, help="parallel environments per trial (default from the file)")
+    p.add_argument("--vec", default=None, help="native (default), subproc or dummy")
+    p.add_argument("--eval-cycles", nargs="+", default=None, help="validation cycles (default beijing us06)")
+    p.add_argument("--eval-scenarios", nargs="+", default=None, help="validation scenarios (default paper)")
+    p.add_argument("--eval-freq", type=int, default=None, help="evaluate (and report to Tune) every N env-steps")
+    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE", help="fixed hyperparameter overrides")
+    p.add_argument("--hyperparams", default=None, metavar="FILE", help="hyperparameter YAML file")
+    p.add_argument("--address", default=None, metavar="ADDR", help="join the Ray cluster at HOST:PORT")
+    p.add_argument("--cpus", type=int, default=None, help="CPUs of the local Ray runtime (default: all)")
+    p.add_argument("--export", default=None, metavar="DIR", help="where the best policy goes (default DIR/best_policy)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+def run(args: argparse.Namespace, command: str):
+    """Start or resume the sweep that ``args`` describe; returns its outcome and directory."""
+    import_ray()
+    from hev_thermal_env.training import parse_overrides
+    from hev_thermal_env.training.sweep import build_sweep, resume_sweep, run_sweep
+
+    common = dict(address=args.address, num_cpus=args.cpus, progress=not args.no_progress, export=args.export)
+    if args.cpus is not None and args.cpus < 1:
+        raise ValueError(f"--cpus must be at least 1, got {args.cpus}")
+    if args.resume is not None:
+        given = [f"--{f.replace('_', '-')}" for f in SETTING_FLAGS if getattr(args, f) is not None]
+        if given:
+            raise ValueError(f"--resume takes every setting from {args.resume}/sweep.yaml; drop {' '.join(given)}")
+        return resume_sweep(args.resume, **common), args.resume
+    if args.out is None:
+        raise ValueError("--out DIR is required (or --resume DIR)")
+    train = dict(cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
+                 vec=args.vec, eval_cycles=args.eval_cycles, eval_scenarios=args.eval_scenarios,
+                 eval_freq=args.eval_freq)
+    settings = build_sweep(
+        args.algo or "ppo", space_file=args.space, samples=8 if args.samples is None else args.samples,
+        seeds=3 if args.seeds is None else args.seeds, seed=args.seed or 0, scheduler=args.scheduler or "asha",
+        grace_timesteps=args.grace, max_concurrent=args.max_concurrent, hyperparams_file=args.hyperparams,
+        overrides=parse_overrides(args.hp or []), train=train, command=command)
+    return run_sweep(settings, args.out, **common), args.out
+
+
+def main(argv: list[str], prog: str = "train.py sweep", command: str | None = None) -> int:
+    args = build_parser(prog).parse_args(argv)
+    try:
+        outcome, out = run(args, command or prog)
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (*USER_ERRORS, ExecutorError) as exc:
+        return report(exc, prog)
+    rep = outcome.report
+    md = next((p for p in rep.files if p.name == "sweep_configs.md"), None)
+    if md is not None:
+        print(md.read_text())
+    failed = sum(t.status == "error" for t in rep.trials)
+    if failed:
+        print(f"{failed} of {len(rep.trials)} trials failed; see error.txt in their folders under {out}/tune")
+    if not outcome.complete:
+        print(f"{prog}: interrupted; {sum(t.status in ('finished', 'stopped') for t in rep.trials)} trials done; "
+              f"continue with: {prog} --resume {out}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    stopped = sum(t.status == "stopped" for t in rep.trials)
+    print(f"{len(rep.trials)} trials ({stopped} stopped early); tables and plot in {out} "
+          f"(sweep_configs.md, sweep_trials.csv, sweep.png)")
+    if outcome.exported is not None:
+        print(f"best trial {rep.best.trial_id} exported to {outcome.exported}: "
+              f"evaluate.py run --strategy ppo:{outcome.exported}")
+    return 0 if rep.best is not None else 1

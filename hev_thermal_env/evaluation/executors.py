@@ -1,0 +1,189 @@
+"""Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
+
+An executor runs one function over a list of independent tasks and yields ``(index, result)`` as the
+cells finish; the benchmark puts each result in its place and writes the files itself, so the
+files do not depend on the executor (nor on the order in which cells finish).
+
+* :class:`LocalExecutor` (the default, needs nothing beyond the package): the cells in this process
+  (``jobs=1``) or in a pool of ``jobs`` spawned processes.
+* :class:`RayExecutor`: one Ray task per cell (one CPU each). Without an address it starts a local
+  Ray runtime with ``jobs`` CPUs; with one it joins a running cluster (``ray start --head`` on
+  one machine, ``ray start --address=HOST:PORT`` on the others; every node needs this package,
+  ``pip install "hev-thermal-env[ray]"``) and uses every CPU the cluster has. A runtime already
+  started in this process (``ray.init`` before the call) is used as it is. A task whose worker
+  process dies (killed, out of memory, node lost) is run again on another worker, up to
+  ``max_retries`` times: the cells are deterministic, so a re-run gives the same result.
+
+Ray is an optional dependency (the ``ray`` extra); asking for it without it installed, or for an
+address where no cluster answers, raises :class:`ExecutorError` with a one-line message.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import socket
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+EXECUTORS = ("local", "ray")
+RAY_INSTALL = 'pip install "hev-thermal-env[ray]" (in a source tree: pip install -e ".[ray]")'
+#: Seconds to wait for a TCP answer from ``--address`` before giving up.
+CONNECT_TIMEOUT_S = 5.0
+#: Port of a Ray head's GCS when the address names only a host.
+DEFAULT_RAY_PORT = 6379
+#: Times a cell is run again after its worker process died.
+MAX_RETRIES = 3
+
+
+class ExecutorError(RuntimeError):
+    """The executor cannot run: Ray missing, a cluster unreachable, a cell lost after every retry."""
+
+
+def import_ray():
+    """The ``ray`` module, or :class:`ExecutorError` saying how to install it."""
+    try:
+        import ray
+    except ImportError:
+        raise ExecutorError(f"--executor ray needs Ray, which is not installed: {RAY_INSTALL}") from None
+    return ray
+
+
+def make_executor(name: str, *, jobs: int = 1, address: str | None = None):
+    """The executor called ``name`` (``local`` or ``ray``); checks what it needs before any work."""
+    if name == "local":
+        if address is not None:
+            raise ValueError("--address needs --executor ray")
+        return LocalExecutor(jobs)
+    if name == "ray":
+        return RayExecutor(jobs, address)
+    raise ValueError(f"unknown executor {name!r}; choose one of {', '.join(EXECUTORS)}")
+
+
+class LocalExecutor:
+    """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes."""
+
+    def __init__(self, jobs: int = 1):
+        self.jobs = max(1, int(jobs))
+        self.pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> LocalExecutor:
+        if self.jobs > 1:
+            # spawn, not fork: a forked child would inherit the parent's thread pools (DP) mid-lock
+            self.pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=multiprocessing.get_context("spawn"))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(cancel_futures=True)
+            self.pool = None
+
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int]) -> Iterator[tuple[int, Any]]:
+        """``(i, fn(tasks[i]))`` for every ``i`` of ``order`` (submitted in that order)."""
+        if self.pool is None:
+            for i in order:
+                yield i, fn(tasks[i])
+            return
+        futures = {i: self.pool.submit(fn, tasks[i]) for i in order}
+        for i in order:
+            yield i, futures[i].result()
+
+
+class RayExecutor:
+    """One Ray task per cell; a local runtime of ``jobs`` CPUs, or the cluster at ``address``."""
+
+    def __init__(self, jobs: int = 1, address: str | None = None, max_retries: int = MAX_RETRIES):
+        self.ray = import_ray()
+        self.jobs = max(1, int(jobs))
+        self.address = address
+        self.max_retries = int(max_retries)
+        self.started = False
+
+    def __enter__(self) -> RayExecutor:
+        self.started = start_ray(self.ray, self.jobs, self.address)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.started:
+            self.ray.shutdown()
+            self.started = False
+
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int]) -> Iterator[tuple[int, Any]]:
+        """``(i, fn(tasks[i]))`` as the tasks finish (submitted in ``order``)."""
+        ray = self.ray
+        remote = ray.remote(num_cpus=1, max_retries=self.max_retries)(fn)
+        pending = {remote.remote(tasks[i]): i for i in order}
+        while pending:
+            (ref,), _ = ray.wait(list(pending), num_returns=1)
+            i = pending.pop(ref)
+            try:
+                result = ray.get(ref)
+            except ray.exceptions.RayTaskError as exc:
+                # the cell's own error (a ValueError from bad input...), as the local executor raises it
+                if exc.cause is not None:
+                    raise exc.cause from None
+                raise ExecutorError(f"cell {describe(tasks[i])} failed: {' '.join(str(exc).split())}") from None
+            except ray.exceptions.RayError as exc:
+                first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+                raise ExecutorError(f"cell {describe(tasks[i])} lost after {self.max_retries} retries "
+                                    f"({type(exc).__name__}: {first})") from None
+            yield i, result
+
+
+def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
+    """Make sure this process is connected to Ray: a runtime already started here is used as it is;
+    otherwise a local runtime of ``num_cpus`` CPUs (all when None) is started, or the cluster at
+    ``address`` joined. Returns whether it started or joined one (and so should shut it down)."""
+    if ray.is_initialized():
+        return False
+    kwargs: dict[str, Any] = dict(logging_level=logging.WARNING, log_to_driver=False, include_dashboard=False)
+    if address is None:
+        ray.init(num_cpus=num_cpus, **kwargs)
+        return True
+    check_reachable(address)
+    try:
+        ray.init(address=address, **kwargs)
+    except Exception as exc:  # noqa: BLE001 - any failure to join is reported in one line
+        raise ExecutorError(f"--address {address}: cannot join a Ray cluster there "
+                            f"({' '.join(str(exc).split()) or type(exc).__name__})") from None
+    return True
+
+
+def describe(task: Any) -> str:
+    """A short name of a task (``cycle/scenario/strategy`` for the benchmark's tuples)."""
+    if isinstance(task, tuple):
+        return "/".join(str(x) for x in task if isinstance(x, str))
+    return str(task)
+
+
+def split_address(address: str) -> tuple[str, int]:
+    """``(host, port)`` of ``HOST[:PORT]`` or ``ray://HOST[:PORT]`` (port 6379, or 10001 for ``ray://``)."""
+    text = address.strip()
+    default = DEFAULT_RAY_PORT
+    if text.startswith("ray://"):
+        text, default = text[len("ray://"):], 10001
+    host, sep, port = text.rpartition(":") if ":" in text else (text, "", "")
+    host = host.strip("[]")
+    if not host:
+        raise ExecutorError(f"--address {address!r}: expected HOST:PORT (e.g. 192.168.1.10:6379) or auto")
+    if not sep:
+        return host, default
+    try:
+        return host, int(port)
+    except ValueError:
+        raise ExecutorError(f"--address {address!r}: port {port!r} is not a number") from None
+
+
+def check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """Fail fast, in one line, when nothing answers at ``address`` (``auto`` is left to Ray)."""
+    if address.strip() == "auto":
+        return
+    host, port = split_address(address)
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or str(exc) or type(exc).__name__
+        raise ExecutorError(f"--address {address}: no Ray cluster reachable at {host}:{port} ({reason.lower()}); "
+                            f"start one with 'ray start --head' or check the address") from None
