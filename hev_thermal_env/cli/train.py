@@ -46,7 +46,6 @@ EXAMPLES = (
     "python train.py --algo sac --hp learning_rate=lin_3e-4 env.reward.soc_deviation_weight=10 --out runs/sac",
     "python train.py --resume runs/ppo_s0                 # continue an interrupted run to its total",
     "python evaluate.py run --cycle beijing --strategy ppo:runs/ppo_s0   # drive a trained run",
-    "python train.py sweep --out sweeps/ppo        # Ray Tune over hyperparameters and seeds (train.py sweep --help)",
 )
 
 NOTES = """\
@@ -58,7 +57,9 @@ any of them. Values are YAML: 0.99, [64, 64], {net_arch: [64, 64], activation_fn
 outputs in --out: model.zip, best_model.zip, vecnormalize.pkl, config.yaml, command.txt,
 checkpoints/, tb/ (TensorBoard), evaluations.csv, training_curve.png.
 
-Ctrl-C saves a checkpoint (exit status 130); --resume DIR continues."""
+Ctrl-C saves a checkpoint (exit status 130); --resume DIR continues.
+
+sweeps: train.py sweep --out DIR runs Ray Tune over hyperparameters and seeds (train.py sweep --help)."""
 
 
 def file_defaults() -> dict[str, dict[str, Any]]:
