@@ -38,7 +38,7 @@ _REGISTRY: dict[str, tuple[str, str] | Callable[..., Strategy]] = {
     "aecms": ("hev_thermal_env.agents.ecms", "AdaptiveECMS"),
     "ecms_thermal": ("hev_thermal_env.agents.ecms", "ThermalECMS"),
     "dp": ("hev_thermal_env.agents.dp", "DPStrategy"),
-    "dp_thermal": ("hev_thermal_env.agents.dp", "ThermalDPStrategy"),
+    "dp_thermal": ("hev_thermal_env.agents.optimum", "ThermalOptimumStrategy"),
 }
 _OPTIONAL = {"ppo": ("hev_thermal_env.agents.ppo", "PPOStrategy")}
 

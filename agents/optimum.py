@@ -1,0 +1,178 @@
+"""``dp_thermal``: the thermal optimum over a known cycle, and its fuel-versus-final-SOC frontier.
+
+The yardstick of the benchmark. It plans over the whole state that matters (SOC, the thermal
+network's winding, housing and coolant temperatures, the heat-index integrator and the cutoff
+flag) with the environment's own physics core and reward, by the forward search of
+:mod:`.optimum_search`, then drives the cheapest planned path that ends in the final-SOC band
+(default: the initial SOC ± 0.005). The path is an exact action sequence, so in the environment
+it realises the planned cost (the physics is deterministic; ``describe()`` reports both).
+
+Cost. The search prices fuel, missed wheel energy and the reward's overheat terms (soft
+temperature limit, cutoff, derate weight); within the band the path is chosen by that cost plus
+the battery energy at the reward's battery price, as the SOC-state ``dp`` and the reward do.
+``describe()["frontier"]`` is the cost as a function of final SOC over ``frontier_halfwidth``
+around the target: the benchmark divides each strategy's cost by the frontier at the strategy's
+own final SOC (comparison at equal charge, no battery price involved).
+
+Grid and error. Bins of ΔSOC 2.5·10⁻⁴, winding 4 K, housing 2 K, coolant 4 K, heat index 0.1
+and 31 splits by default (:class:`~.optimum_search.SearchGrid`), then a refining pass that adds 21
+splits within ±0.05 of the first pass's path at every stage; ``grid_scale=2`` halves every bin
+and doubles the split grid. The error comes from pruning, not interpolation:
+``benchmarks/optimum.py`` measures it (grid doubling; a much finer search on short cycles).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.physics import core as C
+
+from .base import Strategy
+from .common import stage_cost_g
+from .dp_grid import DPInfeasibleError, DPProblem
+from .optimum_search import SearchGrid, SearchResult, search
+
+__all__ = ["ThermalOptimumStrategy", "pick_final", "replay"]
+
+
+def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, float], on_infeasible: str) -> int:
+    """The final survivor to drive to: cheapest (cost + battery energy at the reward's price) in ``band``."""
+    soc = result.final_state[:, C.SOC]
+    rp = problem.reward_params
+    adj = result.final_cost_g + rp.soc_energy_weight * rp.prices.battery_g_per_j(problem.lhv) * result.final_battery_j
+    inside = np.flatnonzero((soc >= band[0]) & (soc <= band[1]))
+    if inside.size:
+        return int(inside[np.argmin(adj[inside])])
+    if on_infeasible == "raise":
+        raise DPInfeasibleError(
+            f"dp_thermal: no path on cycle {problem.name!r} ends in the final-SOC band [{band[0]:.4f}, {band[1]:.4f}]; "
+            f"planned paths end in [{soc.min():.4f}, {soc.max():.4f}] (change soc_final or soc_tol, or pass "
+            f"on_infeasible='closest')")
+    dist = np.maximum(band[0] - soc, soc - band[1])
+    near = np.flatnonzero(dist <= dist.min() + 1e-12)
+    return int(near[np.argmin(adj[near])])
+
+
+def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
+    """Drive the action sequence ``u`` on the physics from the start: states, outputs and the yardstick cost."""
+    n = u.size
+    st = problem.state0[None, :].copy()
+    states = np.empty((n + 1, C.N_STATE))
+    outs = np.empty((n, C.N_OUT))
+    states[0] = st[0]
+    for i in range(n):
+        st, out = problem.step(st, np.array([u[i]]), i)
+        states[i + 1], outs[i] = st[0], out[0]
+    cost = stage_cost_g(problem.reward_params, outs, states[1:], problem.soc_target, problem.lhv,
+                        problem.core.dt_s, battery=False, overheat=True)
+    return {"state": states, "out": outs, "cost_g": float(cost.sum())}
+
+
+class ThermalOptimumStrategy(Strategy):
+    """The thermal optimum (see the module docstring).
+
+    Options: ``grid_scale`` (every bin divided by it, splits multiplied), the bin widths
+    ``soc_bin``, ``winding_bin_k``, ``housing_bin_k``, ``coolant_bin_k``, ``heat_index_bin``,
+    ``n_u`` (splits), ``soc_final`` (default: the initial SOC) and ``soc_tol``, ``on_infeasible``
+    (``"raise"`` or ``"closest"``), ``frontier_halfwidth`` (final SOCs kept around the target),
+    ``dominance`` (drop states dominated within their SOC bin), ``refine`` (a second pass that adds
+    ``n_local`` splits within ± ``local_halfwidth`` of the first pass's path at every stage),
+    ``threads``.
+    """
+
+    name = "dp_thermal"
+    thermal_aware = True
+
+    def __init__(self, grid_scale: float = 1.0, soc_bin: float | None = None, winding_bin_k: float | None = None,
+                 housing_bin_k: float | None = None, coolant_bin_k: float | None = None,
+                 heat_index_bin: float | None = None, n_u: int | None = None, soc_final: float | None = None,
+                 soc_tol: float = 0.005, on_infeasible: str = "raise", frontier_halfwidth: float = 0.08,
+                 dominance: bool = True, refine: bool = True, local_halfwidth: float = 0.05, n_local: int = 21,
+                 threads: int | None = None, **extra: Any):
+        if extra:
+            raise ValueError(f"{self.name}: unknown option(s) {sorted(extra)}")
+        if on_infeasible not in ("raise", "closest"):
+            raise ValueError(f"{self.name}: on_infeasible {on_infeasible!r} is not one of ['raise', 'closest']")
+        if not grid_scale > 0.0:
+            raise ValueError(f"{self.name}: grid_scale must be > 0, got {grid_scale}")
+        if soc_tol < 0.0 or not frontier_halfwidth > soc_tol:
+            raise ValueError(f"{self.name}: need 0 <= soc_tol < frontier_halfwidth, got {soc_tol}, {frontier_halfwidth}")
+        base = SearchGrid(dominance=bool(dominance)).scaled(float(grid_scale))
+        given = {"soc": soc_bin, "winding_k": winding_bin_k, "housing_k": housing_bin_k, "coolant_k": coolant_bin_k,
+                 "heat_index": heat_index_bin, "n_u": n_u}
+        for key, value in given.items():
+            if value is not None and not value > (1 if key == "n_u" else 0):
+                raise ValueError(f"{self.name}: {key} must be {'at least 2' if key == 'n_u' else '> 0'}, got {value}")
+        fields = {k: (int(v) if k == "n_u" else float(v)) for k, v in given.items() if v is not None}
+        self.grid = SearchGrid(**{**base.__dict__, **fields})
+        self.soc_final, self.soc_tol, self.on_infeasible = soc_final, float(soc_tol), on_infeasible
+        self.frontier_halfwidth, self.threads = float(frontier_halfwidth), threads
+        self.refine, self.local_halfwidth, self.n_local = bool(refine), float(local_halfwidth), int(n_local)
+        self.result: SearchResult | None = None
+        self.u_plan = np.zeros(0)
+        self._k0 = 0
+        self._key: str | None = None
+        self._report: dict[str, Any] = {}
+
+    def plan_for(self, problem: DPProblem) -> np.ndarray:
+        """Search (or reuse the last search for the same problem) and return the planned action sequence."""
+        key = problem.key() + repr((self.grid, self.soc_final, self.soc_tol, self.frontier_halfwidth, self.refine,
+                                    self.local_halfwidth, self.n_local))
+        if key == self._key:
+            return self.u_plan
+        t0 = time.perf_counter()
+        target = float(problem.state0[C.SOC]) if self.soc_final is None else float(self.soc_final)
+        window = (target - self.frontier_halfwidth, target + self.frontier_halfwidth)
+        band = (target - self.soc_tol, target + self.soc_tol)
+        result = search(problem, self.grid, window, threads=self.threads)
+        first_pass = {"solve_s": result.solve_s, "cost_g": float(result.final_cost_g[pick_final(
+            result, problem, band, self.on_infeasible)])}
+        if self.refine:
+            u_first = result.path(pick_final(result, problem, band, self.on_infeasible))
+            second = search(problem, self.grid, window, threads=self.threads, u_center=u_first,
+                            local_halfwidth=self.local_halfwidth, n_local=self.n_local)
+            second.solve_s += result.solve_s
+            second.n_evals += result.n_evals
+            result = second
+        j = pick_final(result, problem, band, self.on_infeasible)
+        u = result.path(j)
+        run = replay(problem, u)
+        soc_f, cost_f = result.frontier()
+        self._report = {
+            "planned_cost_g": float(result.final_cost_g[j]), "replayed_cost_g": run["cost_g"],
+            "planned_soc_final": float(result.final_state[j, C.SOC]),
+            "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
+            "solve_s": result.solve_s, "plan_total_s": time.perf_counter() - t0, "first_pass": first_pass,
+            "vehicle_steps_evaluated": int(result.n_evals), "max_states": int(result.max_states),
+            "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(), "grid": self.grid.describe(),
+                         "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
+        }
+        self.result, self.u_plan, self._key = result, u, key
+        return u
+
+    def reset(self, env: Any) -> None:
+        super().reset(env)
+        problem = DPProblem.from_env(self.env)
+        self._k0 = problem.k0
+        self.plan_for(problem)
+
+    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
+        i = int(self.env.k) - self._k0
+        u = float(self.u_plan[i]) if 0 <= i < self.u_plan.size else 0.0
+        return np.array([u], dtype=np.float32)
+
+    def describe(self) -> dict[str, Any]:
+        g = self.grid
+        return {
+            "name": self.name, "method": g.describe(),
+            "state": ["soc", "motor_temp_c", "housing_temp_c", "coolant_temp_c", "heat_x", "motor_cutoff"],
+            "grid": {"soc": g.soc, "winding_k": g.winding_k, "housing_k": g.housing_k, "coolant_k": g.coolant_k,
+                     "heat_index": g.heat_index, "n_u": g.n_u, "dominance": g.dominance, "refine": self.refine,
+                     "n_local": self.n_local, "local_halfwidth": self.local_halfwidth},
+            "soc_tol": self.soc_tol, "on_infeasible": self.on_infeasible,
+            "frontier_halfwidth": self.frontier_halfwidth, "thermal_planning": "exact state (forward search)",
+            **self._report,
+        }

@@ -1,0 +1,310 @@
+"""The thermal optimum's search: forward dynamic programming over exact physics states (cost-to-come).
+
+Why forward, and why exact states. The thermal state that matters is five numbers (SOC, winding,
+housing and coolant temperatures, heat-index integrator, plus the cutoff flag with its 60-70 °C
+hysteresis). A backward DP must interpolate its cost-to-go between grid points in every one of
+them, and with six dimensions either the grid is too coarse to be an optimum or the solve takes
+hours. This search runs the other way:
+
+1. Start from the run's exact initial state. At each stage every surviving state is expanded by
+   every split u of a uniform grid (one split where the shaft demand is not positive: the action
+   has no effect), all in ONE batched call of the physics core
+   (:meth:`~hev_thermal_env.physics.PhysicsCore.step`), so every candidate is an exact state of
+   the environment's physics and every cost is the environment's reward.
+2. The candidates are binned on a grid over (SOC, winding, housing, coolant temperature, heat
+   index, cutoff flag); in each occupied bin ONE state survives: the one with the lowest
+   cost-to-come *including the battery energy at the reward's battery price* (so two states a
+   fraction of a bin apart in SOC are compared on equal charge, to first order).
+3. States that cannot reach the final-SOC window any more (outside the backward SOC envelope,
+   :mod:`.dp_corridor`) are dropped.
+
+Nothing is interpolated: a surviving path is a real action sequence whose planned cost *is* its
+realised cost (replayed in the env, the same kernel gives the same numbers). What the grid costs
+is pruning: two states in one bin are treated as interchangeable, so the search can drop a state
+that is cheaper later. That error shrinks with the bin widths; ``benchmarks/optimum.py`` measures
+it by halving every bin and doubling the split grid, and against a very fine search on short cycles.
+
+The frontier comes from the same pass: at the last stage the survivors give the lowest cost for
+every final SOC, F(s) = min{cost of a surviving path whose final SOC ≥ s}, monotone by
+construction (ending with more charge than asked is allowed). Cost = the yardstick cost: fuel +
+missed wheel energy at the miss price + the reward's overheat terms (battery and SOC-deviation
+terms off): the frontier prices charge by SOC, not by a chosen battery price.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.jit import jit
+
+from .common import default_threads, stage_cost_g
+from .dp_corridor import backward_envelope
+from .dp_grid import DPProblem
+
+#: State columns the search bins on, in key order, and the bits each gets in the 64-bit key.
+KEY_COLUMNS = (C.SOC, C.TEMP_C, C.HOUSING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF)
+KEY_BITS = (17, 11, 11, 11, 12, 1)
+
+
+@dataclass(frozen=True)
+class SearchGrid:
+    """Bin widths of the search (state units) and the split grid; ``scaled(f)`` divides every width by f."""
+
+    soc: float = 2.5e-4
+    winding_k: float = 4.0
+    housing_k: float = 2.0
+    coolant_k: float = 4.0
+    heat_index: float = 0.1
+    n_u: int = 31
+    dominance: bool = True
+
+    def widths(self) -> np.ndarray:
+        return np.array([self.soc, self.winding_k, self.housing_k, self.coolant_k, self.heat_index, 1.0])
+
+    def scaled(self, factor: float) -> SearchGrid:
+        """Every bin ``factor`` times narrower and ``factor`` times as many split intervals."""
+        return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor,
+                          self.coolant_k / factor, self.heat_index / factor,
+                          int(round((self.n_u - 1) * factor)) + 1, self.dominance)
+
+    def describe(self) -> str:
+        return (f"forward DP over exact states, bins ΔSOC {self.soc:g}, winding {self.winding_k:g} K, housing "
+                f"{self.housing_k:g} K, coolant {self.coolant_k:g} K, heat index {self.heat_index:g}, "
+                f"{self.n_u} splits")
+
+
+@dataclass
+class SearchResult:
+    """The survivors of the last stage and how to get to each of them."""
+
+    final_state: np.ndarray  # [M, N_STATE]
+    final_cost_g: np.ndarray  # [M] yardstick cost
+    final_battery_j: np.ndarray  # [M] net battery chemical energy
+    parents: list[np.ndarray]  # per stage: index of each survivor's parent in the previous stage's survivors
+    actions: list[np.ndarray]  # per stage: the split each survivor took
+    grid: SearchGrid
+    solve_s: float
+    n_evals: int
+    max_states: int
+    info: dict = field(default_factory=dict)
+
+    def path(self, j: int) -> np.ndarray:
+        """The action sequence that ends in final survivor ``j``."""
+        n = len(self.actions)
+        u = np.empty(n)
+        for i in range(n - 1, -1, -1):
+            u[i] = self.actions[i][j]
+            j = self.parents[i][j]
+        return u
+
+    def frontier(self) -> tuple[np.ndarray, np.ndarray]:
+        """(final SOC ascending, F) with F(s) = the lowest cost of a survivor ending at SOC ≥ s; one point per SOC
+        bin, non-decreasing."""
+        soc = self.final_state[:, C.SOC]
+        order = np.argsort(-soc, kind="stable")
+        best = np.minimum.accumulate(self.final_cost_g[order])
+        s, f = soc[order][::-1], best[::-1]
+        bins = np.floor(s / self.grid.soc)
+        last = np.r_[bins[1:] != bins[:-1], True]  # highest SOC of each bin carries the bin's F
+        return s[last], f[last]
+
+
+@jit
+def keep_best_per_bin(states, adj_cost, hotness, key_cols, widths, bits, out_idx):
+    """The cheapest row (by ``adj_cost``) and the coolest row (by ``hotness``) of every occupied bin.
+
+    Writes their indices to ``out_idx`` (one index where both are the same row) and returns how
+    many. Keeping the coolest too stops the drift a cheapest-only merge has: within a bin the
+    cheaper state is usually the hotter one (it used the motor more), and choosing it at every
+    stage walks the whole search a fraction of a bin hotter each step. The bin of a row is
+    floor(state / width) per key column, packed into one 64-bit key; an open-addressing hash table
+    finds the bin in O(1).
+    """
+    n = states.shape[0]
+    cap = 1
+    while cap < 2 * n + 2:
+        cap *= 2
+    mask = cap - 1
+    table_key = np.full(cap, -1, dtype=np.int64)
+    cheap = np.zeros(cap, dtype=np.int64)
+    cool = np.zeros(cap, dtype=np.int64)
+    for b in range(n):
+        key = 0
+        for d in range(key_cols.shape[0]):
+            q = int(np.floor(states[b, key_cols[d]] / widths[d])) + (1 << (bits[d] - 1))
+            q = min(max(q, 0), (1 << bits[d]) - 1)
+            key = (key << bits[d]) | q
+        z = np.uint64(key)  # splitmix64 finaliser: every key bit reaches the low bits the mask keeps
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        h = np.int64((z ^ (z >> np.uint64(31))) & np.uint64(mask))
+        while True:
+            k = table_key[h]
+            if k == -1:
+                table_key[h] = key
+                cheap[h] = b
+                cool[h] = b
+                break
+            if k == key:
+                if adj_cost[b] < adj_cost[cheap[h]]:
+                    cheap[h] = b
+                if hotness[b] < hotness[cool[h]]:
+                    cool[h] = b
+                break
+            h = (h + 1) & mask
+    j = 0
+    for h in range(cap):
+        if table_key[h] != -1:
+            out_idx[j] = cheap[h]
+            j += 1
+            if cool[h] != cheap[h]:
+                out_idx[j] = cool[h]
+                j += 1
+    return j
+
+
+@jit
+def pareto_per_soc_bin(soc_bin, q, order, keep):
+    """Drop every state dominated within its SOC bin; returns how many survive (written to ``keep``).
+
+    ``order`` sorts the rows by (SOC bin, adjusted cost). A row is dominated when a cheaper row of
+    the same SOC bin lies in a cooler thermal bin: no hotter bin in any thermal coordinate and a
+    cooler one in at least one (``q`` [M, D], bin indices: winding, housing, coolant, heat index,
+    cutoff). Rows of the same bin (the bin's cheapest and its coolest) do not dominate each other. Cooler is never worse in this physics (less derate,
+    lower copper loss, stronger magnets, no cutoff), so the dominated state cannot lead to a
+    cheaper path.
+    """
+    n = order.shape[0]
+    d_count = q.shape[1]
+    kept = 0
+    start = 0
+    while start < n:
+        stop = start
+        while stop < n and soc_bin[order[stop]] == soc_bin[order[start]]:
+            stop += 1
+        first = kept
+        for t in range(start, stop):
+            b = order[t]
+            dominated = False
+            for j in range(first, kept):
+                k = keep[j]
+                worse = True
+                strict = False
+                for d in range(d_count):
+                    if q[k, d] > q[b, d]:
+                        worse = False
+                        break
+                    if q[k, d] < q[b, d]:
+                        strict = True
+                if worse and strict:
+                    dominated = True
+                    break
+            if not dominated:
+                keep[kept] = b
+                kept += 1
+        start = stop
+    return kept
+
+
+def hotness(states: np.ndarray) -> np.ndarray:
+    """One number per state for "cooler" within a bin: winding + housing + half the coolant temperature (K), plus
+    20 K per unit heat index and 100 K when cut off."""
+    return (states[:, C.TEMP_C] + states[:, C.HOUSING_C] + 0.5 * states[:, C.COOLANT_C] + 20.0 * states[:, C.HEAT_X]
+            + 100.0 * states[:, C.CUTOFF])
+
+
+def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable.
+
+    Computed with the motor at full capability (no heat index, not cut off), which can only widen
+    the range, and widened by ``margin``.
+    """
+    ref = problem.state0.copy()
+    ref[C.HEAT_X] = min(ref[C.HEAT_X], ref[C.HEAT_X_MIN])
+    ref[C.CUTOFF] = 0.0
+    held = np.repeat(ref[None, :], problem.n_stages + 1, axis=0)
+    lo, hi = backward_envelope(problem, held, (lo_final, hi_final))
+    return lo - margin, hi + margin
+
+
+def _non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``rows`` without the states dominated within their SOC bin (:func:`pareto_per_soc_bin`)."""
+    bins = np.floor(states[:, list(KEY_COLUMNS)] / widths).astype(np.int64)
+    order = np.lexsort((adj, bins[:, 0]))
+    out = np.empty(rows.size, dtype=np.int64)
+    k = pareto_per_soc_bin(bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:]), order, out)
+    return rows[out[:k]]
+
+
+def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
+           progress=None, record: list | None = None, u_center: np.ndarray | None = None,
+           local_halfwidth: float = 0.05, n_local: int = 21) -> SearchResult:
+    """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
+
+    ``u_center`` (one split per stage, e.g. a previous pass's path) adds ``n_local`` splits within
+    ± ``local_halfwidth`` of it to the uniform grid at every stage: a refining pass.
+    ``progress(stage, n_stages, n_states)`` is called after every stage; ``record``, if a list, gets
+    (states, cost-to-come + battery energy at the reward's price) of every stage's survivors.
+    """
+    t0 = time.perf_counter()
+    n = problem.n_stages
+    if n < 1:
+        raise ValueError("dp_thermal: the cycle has no step left to plan")
+    threads = default_threads() if threads is None else threads
+    lo_win, hi_win = soc_window(problem, final_window[0], final_window[1], margin=2.0 * grid.soc)
+    u_grid = np.linspace(-1.0, 1.0, grid.n_u).astype(np.float32).astype(np.float64)  # replayable exactly
+    u_idle = np.zeros(1)
+    active = problem.demand_positive()
+    lhv, dt = problem.lhv, problem.core.dt_s
+    batt_g_per_j = problem.reward_params.prices.battery_g_per_j(lhv) * problem.reward_params.soc_energy_weight
+    key_cols = np.array(KEY_COLUMNS, dtype=np.int64)
+    widths, bits = grid.widths(), np.array(KEY_BITS, dtype=np.int64)
+    states = problem.state0[None, :].copy()
+    cost = np.zeros(1)
+    batt_j = np.zeros(1)
+    parents: list[np.ndarray] = []
+    actions: list[np.ndarray] = []
+    n_evals = 0
+    max_states = 1
+    local = np.linspace(-local_halfwidth, local_halfwidth, n_local)
+    for i in range(n):
+        u = u_grid if active[i] else u_idle
+        if u_center is not None and active[i]:
+            u = np.unique(np.r_[u_grid, np.clip(u_center[i] + local, -1.0, 1.0)].astype(np.float32)).astype(np.float64)
+        m = u.size
+        x = np.repeat(states, m, axis=0)
+        a = np.tile(u, states.shape[0])
+        v0, v1, g = problem.stage_inputs(i, x.shape[0])
+        so, out = problem.core.step(x, a, v0, v1, g, problem.cond, threads=threads)
+        n_evals += x.shape[0]
+        parent = np.repeat(np.arange(states.shape[0]), m)
+        c = cost[parent] + stage_cost_g(problem.reward_params, out, so, problem.soc_target, lhv, dt, battery=False,
+                                        overheat=True)
+        e = batt_j[parent] + out[:, C.BATT_CHEM] * dt
+        soc = so[:, C.SOC]
+        inside = (soc >= lo_win[i + 1]) & (soc <= hi_win[i + 1])
+        if not np.any(inside):
+            inside[np.argmin(np.minimum(np.abs(soc - lo_win[i + 1]), np.abs(soc - hi_win[i + 1])))] = True
+        rows = np.flatnonzero(inside)
+        keep = np.empty(rows.size, dtype=np.int64)
+        k = keep_best_per_bin(np.ascontiguousarray(so[rows]), (c + batt_g_per_j * e)[rows], hotness(so[rows]),
+                              key_cols, widths, bits, keep)
+        keep = rows[keep[:k]]
+        if grid.dominance and keep.size > 1:
+            keep = _non_dominated(so[keep], (c + batt_g_per_j * e)[keep], widths, keep)
+        keep = np.sort(keep)
+        states, cost, batt_j = so[keep], c[keep], e[keep]
+        parents.append(parent[keep].astype(np.int32))
+        actions.append(a[keep].astype(np.float32) if active[i] else np.zeros(keep.size, dtype=np.float32))
+        max_states = max(max_states, keep.size)
+        if record is not None:
+            record.append((states, (c + batt_g_per_j * e)[keep]))
+        if progress is not None:
+            progress(i + 1, n, keep.size)
+    return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents,
+                        actions=actions, grid=grid, solve_s=time.perf_counter() - t0, n_evals=n_evals,
+                        max_states=max_states, info={"threads": threads, "final_soc_window": list(final_window)})
