@@ -10,8 +10,10 @@ coasting, standing) the action has no effect and the stage is evaluated once per
 Cost (grams of fuel equivalent, the env's own reward, :func:`hev_thermal_env.envs.reward.stage_cost_g`):
 fuel + missed wheel energy at the reward's miss price + the battery's chemical energy at the
 reward's battery price; ``dp_thermal`` adds the reward's overheat terms by default (soft
-temperature limit, cutoff, derate weight). With the default weights (1) these are the prices of
-the corrected-fuel metric, so DP minimises the corrected fuel.
+temperature limit, cutoff, derate weight). ``price_soc_deviation`` adds the reward's SOC terms: the
+quadratic deviation per stage, and the band settlement, which adds up to a charge on the final SOC
+and is charged there (:func:`hev_thermal_env.envs.reward.soc_band_charge_g`). With the default
+weights (1) these are the prices of the corrected-fuel metric, so DP minimises the corrected fuel.
 
 Final-SOC constraint: the final SOC must lie in the band [SOC_final − tol, SOC_final + tol]
 (default: SOC_final = the initial SOC, tol = 0.005). The SOC moves far less than a grid cell per
@@ -69,6 +71,7 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.envs.reward import soc_band_charge_g
 from hev_thermal_env.physics import core as C
 
 from .base import Strategy
@@ -136,6 +139,9 @@ def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = No
     step = np.array([1.0] + [g[1] - g[0] for g in grids[1:]])
     J = np.empty((n_stages + 1, n_states))
     J[n_stages] = 0.0  # the last stage's grid lies inside the band
+    if s.price_soc_deviation:  # the reward's band settlement adds up to a charge on the final SOC: paid there
+        final_soc = soc_lo[-1] + unit[idx_mesh[:, 0]] * (soc_hi[-1] - soc_lo[-1])
+        J[n_stages] = soc_band_charge_g(problem.reward_params, final_soc, problem.soc_target)
     active = problem.demand_positive()
     n_evals = 0
     threads = default_threads() if s.threads is None else s.threads
@@ -154,7 +160,7 @@ def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = No
         problem.core.step(x, a, v0, v1, g, cond, state_out=so, out=out, threads=threads)
         n_evals += x.shape[0]
         cost = stage_cost_g(problem.reward_params, out, so, problem.soc_target, problem.lhv, problem.core.dt_s,
-                            soc_deviation=s.price_soc_deviation, overheat=s.price_overheat)
+                            soc_deviation=s.price_soc_deviation, overheat=s.price_overheat, soc_band=False)
         lo[0] = soc_lo[i + 1]
         step[0] = (soc_hi[i + 1] - soc_lo[i + 1]) / (n_soc - 1)
         interp_uniform(J[i + 1], lo, step, n_arr, so, cols_arr, s.penalty_g_per_soc, jn)
@@ -183,7 +189,7 @@ def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, p
     """Index of the cheapest candidate: stage cost + interpolated cost-to-go of its next state."""
     cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv,
                         problem.core.dt_s, soc_deviation=settings.price_soc_deviation,
-                        overheat=settings.price_overheat)
+                        overheat=settings.price_overheat, soc_band=False)
     return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions)
 
 

@@ -207,7 +207,7 @@ def test_info_contract_and_reward_terms():
     assert isinstance(info["engine_on"], bool) and isinstance(info["gear"], int)
     assert info["time_s"] == env.k and info["cycle_speed_mps"] == env.cycle.speed_mps[env.k]
     terms = reward_terms(env.reward_params, out[None, :], env.phys_state, env.soc_target,
-                         env.config.engine.fuel_lhv_j_per_g)
+                         env.config.engine.fuel_lhv_j_per_g, state_before=state_before)
     terms, _ = terms
     for i, key in enumerate(REWARD_TERMS):
         assert info[key] == terms[0, i]

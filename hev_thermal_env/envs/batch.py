@@ -79,7 +79,7 @@ def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, s
         v1[r] = tables[0, r, k[r] + 1]
         g[r] = tables[1, r, k[r]]
     C.step_kernel(gl, dl, en, mo, th, ba, pt, state, u, v0, v1, g, cond, dt_s, state_out, out)
-    reward_kernel(w, out, state_out, soc_target, dt_s, terms, total)
+    reward_kernel(w, out, state, state_out, soc_target, dt_s, terms, total)
     for r in range(n):
         k[r] += 1
         avail[r] = out[r, C.MOTOR_AVAIL]

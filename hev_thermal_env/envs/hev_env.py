@@ -91,9 +91,19 @@ class HevThermalEnv(gym.Env):
     :func:`hev_thermal_env.envs.reward.reward_kernel` with :class:`~hev_thermal_env.envs.reward.RewardParams`,
     in grams of diesel equivalent: ``reward = reward_fuel + reward_miss + reward_soc + reward_overheat``:
     minus the fuel burned, minus the price of missed wheel energy (weight 1 by default), minus the
-    fuel equivalent of the battery energy used and a quadratic deviation of the SOC from the target
-    (the episode's initial SOC), minus an overheating penalty (quadratic above the 60 °C soft limit,
-    20 per step while cut off, optionally per unit PWM). Each term is in ``info``.
+    fuel equivalent of the battery energy used plus the SOC band settlement, minus an overheating
+    penalty (quadratic above the 60 °C soft limit, 20 per step while cut off, optionally per unit
+    PWM). Each term is in ``info``.
+
+    The band settlement is the step's change of Φ(SOC) = −10,000 g · max(|SOC − target| − 0.01, 0),
+    the target being the episode's initial SOC: zero while the SOC stays within ±0.01 of it, a cost
+    in the step that takes it further out, a refund in the step that brings it back. Over an
+    episode it adds up to −10,000 g per unit SOC that the final SOC lies beyond the band, so the
+    optimum of the reward is charge-sustaining (it ends inside the band: DP with a free final SOC,
+    ``benchmarks/reward_optimum.py``), and a run that ends inside the band returns exactly minus
+    its corrected fuel (:mod:`hev_thermal_env.metrics`) and the overheat terms. Without it the
+    stated battery price lets storing charge with a loaded engine pay. A per-step quadratic
+    deviation term (``soc_deviation_weight``) is available and off by default.
 
     ## Info
 
