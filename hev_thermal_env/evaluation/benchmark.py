@@ -75,8 +75,15 @@ def validate(cycles, strategies, scenarios, out: Path, options: dict | None = No
         if f.name in names:
             raise ValueError(f"--family {f.name!r}: the name is taken (a strategy or another family); choose another")
         names.add(f.name)
-    for s in dict.fromkeys([*strategies, *(m for f in families or [] for m in f.members)]):
+    for s in strategies:
         get_strategy(s, **(options or {}).get(s, {}))
+    for f in families or []:
+        for path, member in zip(f.paths, f.members):
+            try:
+                get_strategy(member, **(options or {}).get(member, {}))
+            except (ValueError, OSError) as exc:  # say which member of which family
+                kind = ValueError if isinstance(exc, ValueError) else OSError
+                raise kind(f"--family {f.name}: {path}: {' '.join(str(exc).split())}") from None
     check_writable_dir(out)
 
 

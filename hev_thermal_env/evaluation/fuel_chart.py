@@ -172,8 +172,8 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         colour = styles[name]["color"]
         if r.get(key) is None:
             why = "final SOC off the frontier" if "outside" in str(r.get("frontier_note")) else "see results.md"
-            ax.annotate(f"n/a ({why})", (origin, y), xytext=(5, 0), textcoords="offset points", va="center", fontsize=7.5,
-                        color="0.45", style="italic")
+            ax.annotate(f"n/a ({why})", (origin, y), xytext=(5, 0), textcoords="offset points", va="center",
+                        fontsize=7.5, color="0.45", style="italic")
             continue
         v = float(r[key])
         if name in families:
