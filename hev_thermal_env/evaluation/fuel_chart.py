@@ -109,6 +109,7 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     height = 0.27 * (max(pos.values()) + 1.0) + 1.1
     fig, axes = plt.subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
                              figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2), layout="constrained")
+    axes[0, 0].set_xlim(*_value_range(values or [1.0], base, bool(families)))  # shared: before the labels
     for i, sc in enumerate(scenarios):
         for j, cyc in enumerate(cycles):
             sel = {r["strategy"]: r for r in drawn if r["cycle"] == cyc and r["scenario"] == sc}
@@ -116,7 +117,6 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
             _panel(axes[i, j], sel, seeds, key, pos, styles, base, families)
             axes[i, j].set_title(f"{cyc} cycle, {sc} scenario", fontsize=10)
     ax0 = axes[0, 0]
-    ax0.set_xlim(*_value_range(values or [1.0], base, bool(families)))
     ax0.ticklabel_format(axis="x", useOffset=False, style="plain")
     ax0.set_ylim(max(pos.values()) + 0.7, -0.7)
     ax0.set_yticks(list(pos.values()))
@@ -184,10 +184,11 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
             ax.plot([v], [y], marker="D" if is_learned(name, families) else "o",
                     ms=7 if is_learned(name, families) else 6, color=colour, zorder=3)
             left = right = v
-        # a value below the reference is labelled on its left, away from the line; a family's longer label (with
-        # its interval) always goes right, past the 1 line if need be
-        below = right < origin and name not in families
-        right = max(right, origin) if name in families else right
+        # a value clearly below the reference is labelled on its left, away from the line; others (and a family's
+        # longer label, with its interval) on the right, past the reference line if need be
+        lo, hi = ax.get_xlim()
+        below = right < origin - 0.08 * (hi - lo) and name not in families
+        right = max(right, origin)
         text = f"{v:.3f}" if base is not None else f"{v:.2f}"
         if name in families and r.get(f"{key}_ci_low") is not None:
             text += f" [{r[f'{key}_ci_low']:.3f}, {r[f'{key}_ci_high']:.3f}]"

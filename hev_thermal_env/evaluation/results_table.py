@@ -136,11 +136,15 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
     if any(_is_family_row(r) for r in rows):
         md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "
                    "brackets; each seed's row is in results.csv and results.json (column `family`)."]
-    missing = [r for r in rows if r.get("frontier_note") and r["cycle"] != OVERALL]
+    missing: dict[str, list[str]] = {}  # note -> the rows it concerns (a family's members: on the family's row)
+    for r in shown:
+        if r.get("frontier_note"):
+            missing.setdefault(r["frontier_note"], []).append(
+                f"{r['cycle']} / {r['scenario']} / {display_name(r['strategy'])}")
     if missing:
         md += ["", "No frontier ratio:", ""]
-        md += [f"* {r['cycle']} / {r['scenario']} / {display_name(r['strategy'])}: {r['frontier_note']}"
-               for r in missing]
+        md += [f"* {'every row' if len(where) == len(shown) else ', '.join(where)}: {note}"
+               for note, where in missing.items()]
     if notes:
         md += ["", *notes]
     return "\n".join(md) + "\n"

@@ -52,7 +52,7 @@ class Frontier:
         """The frontier a reference run published in its ``strategy_settings``, None if it published none.
 
         Raises ``ValueError`` naming the problem when the frontier is malformed (lengths differ, no
-        points, not finite, SOC not increasing)."""
+        points, not finite, not sorted by SOC)."""
         data = (settings or {}).get("frontier")
         if data is None:
             return None
@@ -67,8 +67,8 @@ class Frontier:
                              "expected the same number, at least one")
         if not (np.all(np.isfinite(soc)) and np.all(np.isfinite(cost))):
             raise ValueError("the reference's frontier holds values that are not finite")
-        if np.any(np.diff(soc) <= 0.0):
-            raise ValueError("the reference's frontier is not sorted by soc_final (strictly increasing)")
+        if np.any(np.diff(soc) < 0.0):
+            raise ValueError("the reference's frontier is not sorted by soc_final")
         return cls(soc, cost, str(data.get("grid", "")).strip())
 
     def cost_at(self, soc_final: float) -> float | None:
