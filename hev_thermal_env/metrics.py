@@ -3,6 +3,16 @@
 ``fuel_corrected_l_per_100km`` puts strategies on equal service: fuel plus the fuel equivalents of
 the net battery energy and of the missed wheel energy at :class:`~hev_thermal_env.prices.Prices`
 (the reward's prices), each correction also reported on its own.
+
+Two more yardsticks:
+
+* :func:`charge_sustaining`: the SAE J1711 test of a charge-sustaining run, |net battery energy| ≤
+  1 % of the fuel energy (fuel g × lower heating value); the net battery energy is the chemical
+  energy drawn over the run (``battery_energy_kwh``; J1711 measures it at the terminals).
+* :func:`yardstick_cost_g`: the run's cost in fuel-equivalent grams as the thermal optimum
+  (``dp_thermal``) prices it: fuel + missed wheel energy at the miss price + the reward's overheat
+  terms, with the battery and SOC-deviation terms off (the benchmark compares it with the optimum's
+  cost at the same final SOC, :mod:`hev_thermal_env.evaluation.yardstick`).
 """
 
 from __future__ import annotations
@@ -12,8 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from .envs.reward import RewardParams, stage_cost_g
 from .physics.config import VehicleConfig
 from .prices import Prices
+
+J1711_TOLERANCE = 0.01
+"""SAE J1711: a run is charge-sustaining when |net battery energy| ≤ this fraction of the fuel energy."""
 
 
 def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: float, distance_m: float,
@@ -28,6 +42,7 @@ def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: 
     batt_j = float(trace["battery_chem_power_w"].sum() * dt_s)
     miss_j = float(trace["missed_wheel_energy_j"].sum())
     corr_batt_g, corr_miss_g = (prices or Prices()).corrections_g(batt_j, miss_j, lhv)
+    ratio, sustaining = charge_sustaining(batt_j, fuel_g, lhv)
 
     def l100(g: float) -> float:
         return g / 1000.0 / dens / dist_km * 100.0
@@ -41,6 +56,8 @@ def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: 
         "soc_correction_l_per_100km": l100(corr_batt_g),
         "miss_correction_l_per_100km": l100(corr_miss_g),
         "battery_energy_kwh": batt_j / 3.6e6,
+        "net_energy_ratio": ratio,
+        "charge_sustaining": sustaining,
         "missed_wheel_energy_kwh": miss_j / 3.6e6,
         "soc_initial": float(soc_initial),
         "soc_final": float(trace["soc"][-1]) if len(trace["soc"]) else float(soc_initial),
@@ -51,6 +68,39 @@ def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: 
         "trace_miss_max_mps": float(trace["trace_miss_mps"].max()) if len(trace["soc"]) else 0.0,
         "engine_on_s": float(trace["engine_on"].sum() * dt_s),
     }
+
+
+def charge_sustaining(battery_energy_j: float, fuel_g: float, lhv_j_per_g: float) -> tuple[float | None, bool]:
+    """(net energy ratio, charge-sustaining flag) of SAE J1711.
+
+    The ratio is the net chemical energy drawn from the battery (J, positive when the run ends with
+    less charge) over the fuel energy ``fuel_g`` × ``lhv_j_per_g``; the run is charge-sustaining
+    when its magnitude is at most :data:`J1711_TOLERANCE`. Without fuel the ratio is None and only a
+    run that leaves the battery's energy unchanged is charge-sustaining.
+    """
+    fuel_j = float(fuel_g) * float(lhv_j_per_g)
+    if fuel_j <= 0.0:
+        return None, float(battery_energy_j) == 0.0
+    ratio = float(battery_energy_j) / fuel_j
+    return ratio, abs(ratio) <= J1711_TOLERANCE
+
+
+def yardstick_cost_g(out: np.ndarray, state_after: np.ndarray, reward_params: RewardParams, lhv_j_per_g: float,
+                     dt_s: float, soc_target: float | np.ndarray = 0.0) -> float:
+    """The run's cost (g of fuel equivalent) as the thermal optimum prices it, from its per-step traces.
+
+    ``out`` [n, N_OUT] are the physics outputs of each step and ``state_after`` [n, N_STATE] the
+    state after it (:mod:`hev_thermal_env.physics.core`): the sum over the steps of
+    :func:`~hev_thermal_env.envs.reward.stage_cost_g` with ``battery=False, soc_deviation=False,
+    overheat=True``, i.e. fuel + the missed wheel energy at the miss price + the overheat terms (soft
+    limit, cutoff, derate) of ``reward_params``. ``soc_target`` does not enter (the SOC terms are off).
+    """
+    out = np.asarray(out, dtype=np.float64)
+    if out.shape[0] == 0:
+        return 0.0
+    cost = stage_cost_g(reward_params, out, np.asarray(state_after, dtype=np.float64), soc_target, lhv_j_per_g,
+                        dt_s, battery=False, soc_deviation=False, overheat=True)
+    return float(cost.sum())
 
 
 def cycle_distance_m(speed_mps: Any, start: int, steps: int) -> float:

@@ -35,30 +35,42 @@ def tiny_cycles(tmp_path_factory) -> list[str]:
     return paths
 
 
+TEXT_OR_OPTIONAL = {"cycle", "scenario", "strategy", "family", "seeds", "reference", "frontier_note", "frontier_ratio",
+                    "charge_sustaining", *(c for c in COLUMNS if "_ci_" in c)}
+
+
 def test_benchmark_writes_every_file_and_column(tiny_cycles, tmp_path):
     out = tmp_path / "bench"
     r = run("benchmark", "--cycles", *tiny_cycles, "--strategies", "rule", "dp", "--scenarios", "paper",
             "--out", str(out), "--jobs", "1")
     assert r.returncode == 0, r.stderr
-    for f in ("results.csv", "results.json", "results.md", "timings.json", "fuel_vs_dp.png",
+    assert "dp_thermal was added" in r.stdout  # the reference joins every benchmark, and the output says so
+    for f in ("results.csv", "results.json", "results.md", "timings.json", "fuel_vs_optimum.png",
               "traces_hwfet_tiny_paper.png", "traces_beijing_tiny_paper.png"):
         assert (out / f).is_file() and (out / f).stat().st_size > 0, f
     rows = list(csv.DictReader((out / "results.csv").open()))
-    assert len(rows) == 4
+    assert len(rows) == 6 and [row["strategy"] for row in rows[:3]] == ["rule", "dp", "dp_thermal"]
     assert tuple(rows[0]) == COLUMNS
     for row in rows:
         for c in COLUMNS:
-            if c in ("cycle", "scenario", "strategy"):
-                continue
-            assert np.isfinite(float(row[c])), (c, row[c])
+            if c not in TEXT_OR_OPTIONAL:
+                assert np.isfinite(float(row[c])), (c, row[c])
+        assert row["reference"].startswith("dp_thermal") and row["charge_sustaining"] in ("True", "False")
         if row["strategy"] == "dp":
-            assert float(row["fuel_vs_dp_pct"]) == pytest.approx(100.0)
-        else:
-            assert float(row["fuel_vs_dp_pct"]) >= 100.0 - 1e-6
+            assert float(row["fuel_vs_thermal_blind_dp_pct"]) == pytest.approx(100.0)
+        if row["strategy"] == "dp_thermal":
+            assert float(row["fixed_price_ratio"]) == pytest.approx(1.0)
+            if row["frontier_ratio"]:  # the optimum's own run lies on its frontier
+                assert float(row["frontier_ratio"]) == pytest.approx(1.0, abs=0.01)
+            else:  # a dp_thermal that publishes no frontier: no ratio, and the note says why
+                assert "no frontier" in row["frontier_note"]
+        if row["strategy"] == "rule":
+            assert float(row["fuel_vs_thermal_blind_dp_pct"]) >= 100.0 - 1e-6
     data = json.loads((out / "results.json").read_text())
-    assert data["columns"] == list(COLUMNS) and len(data["rows"]) == 4
+    assert data["columns"] == list(COLUMNS) and len(data["rows"]) == 6
     md = (out / "results.md").read_text()
-    assert sum(line.startswith("| ") for line in md.splitlines()) == 5 and "vs DP" in md
+    assert sum(line.startswith("| ") for line in md.splitlines()) == 7
+    assert "| dp (thermal-blind) |" in md and "frontier ratio" in md and "J1711" in md
 
 
 def test_benchmark_parallel_equals_serial_byte_for_byte(tiny_cycles, tmp_path):

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 import yaml
 
-from hev_thermal_env.evaluation.fuel_chart import fuel_figure, plot_fuel_vs_dp
+from hev_thermal_env.evaluation.fuel_chart import FUEL_CHART_FILE, fuel_figure, plot_fuel_chart
 from hev_thermal_env.evaluation.plots import SPLIT_INFO_KEY, plot_benchmark, run_figure
 from hev_thermal_env.evaluation.styles import close, is_learned, ordered
 from hev_thermal_env.training.artifacts import EVAL_COLUMNS
 from hev_thermal_env.training.curves import read_training_returns, selected_step, training_curve_figure
 
-STRATEGIES = ("ppo", "dp", "rule", "engine_only", "ecms", "ppo:runs/a/model.zip")
+STRATEGIES = ("ppo", "dp", "rule", "engine_only", "ecms", "ppo:runs/a/model.zip", "dp_thermal")
 
 
 def assert_legends_outside_axes(fig) -> None:
@@ -35,9 +35,24 @@ def rows_for(cycles=("hwfet", "beijing"), scenarios=("paper", "hot")) -> list[di
     for c in cycles:
         for s in scenarios:
             for i, st in enumerate(STRATEGIES):
-                pct = 100.0 if st == "dp" else 100.5 + 3.0 * i
-                rows.append({"cycle": c, "scenario": s, "strategy": st, "fuel_vs_dp_pct": pct,
-                             "fuel_corrected_l_per_100km": 30.0 * pct / 100})
+                ratio = 1.0 if st == "dp_thermal" else 1.005 + 0.03 * i
+                rows.append({"cycle": c, "scenario": s, "strategy": st, "frontier_ratio": ratio,
+                             "fixed_price_ratio": ratio, "fuel_corrected_l_per_100km": 30.0 * ratio,
+                             "reference": "dp_thermal: a grid"})
+    return rows
+
+
+def family_rows_for(cycles=("hwfet",), scenarios=("paper",), seeds=(1.02, 1.03, 1.05, 1.10)) -> list[dict]:
+    """Benchmark rows plus a seed family "fam": its members' rows and its IQM row with an interval."""
+    rows = rows_for(cycles, scenarios)
+    for c in cycles:
+        for s in scenarios:
+            for k, v in enumerate(seeds):
+                rows.append({"cycle": c, "scenario": s, "strategy": f"ppo:runs/s{k}", "family": "fam",
+                             "frontier_ratio": v, "fuel_corrected_l_per_100km": 30.0 * v})
+            rows.append({"cycle": c, "scenario": s, "strategy": "fam", "family": "fam", "frontier_ratio": 1.04,
+                         "frontier_ratio_ci_low": 1.025, "frontier_ratio_ci_high": 1.08,
+                         "fuel_corrected_l_per_100km": 31.2, "reference": "dp_thermal: a grid"})
     return rows
 
 
@@ -59,9 +74,9 @@ def test_strategies_run_from_the_simplest_to_the_optimum_then_learned():
     assert is_learned("ppo:runs/x") and not is_learned("dp")
 
 
-# --- fuel_vs_dp.png ---------------------------------------------------------------------------------
+# --- fuel_vs_optimum.png ----------------------------------------------------------------------------
 
-def test_fuel_chart_ratio_axis_from_100_shared_and_ordered(tmp_path):
+def test_fuel_chart_frontier_ratio_axis_from_1_shared_and_ordered(tmp_path):
     rows = rows_for()
     fig = fuel_figure(rows)
     try:
@@ -71,18 +86,42 @@ def test_fuel_chart_ratio_axis_from_100_shared_and_ordered(tmp_path):
         lims = {ax.get_xlim() for ax in axes}
         assert len(lims) == 1  # one range for every panel
         lo, hi = lims.pop()
-        assert lo <= 100.0 <= hi and lo > 95.0 and hi >= max(r["fuel_vs_dp_pct"] for r in rows)
+        assert lo <= 1.0 <= hi and lo > 0.95 and hi >= max(r["frontier_ratio"] for r in rows)
+        assert "frontier ratio" in fig.get_supxlabel() and "1 = dp_thermal: a grid" in fig.get_supxlabel()
         labels = [t.get_text() for t in axes[0].get_yticklabels()]
-        assert labels[:5] == ["engine_only", "rule", "ecms", "dp", "ppo"]
+        assert labels[:6] == ["engine_only", "rule", "ecms", "dp (thermal-blind)", "dp_thermal", "ppo"]
         ticks = axes[0].get_yticks()
-        assert ticks[4] - ticks[3] > 1.5  # the learned policies stand apart
-        learned_colour = axes[0].get_yticklabels()[4].get_color()
+        assert ticks[5] - ticks[4] > 1.5  # the learned policies stand apart
+        learned_colour = axes[0].get_yticklabels()[5].get_color()
         assert learned_colour != axes[0].get_yticklabels()[2].get_color()
         assert_legends_outside_axes(fig)
     finally:
         close(fig)
-    path = plot_fuel_vs_dp(rows, tmp_path / "fuel_vs_dp.png")
+    path = plot_fuel_chart(rows, tmp_path / FUEL_CHART_FILE)
     assert path.stat().st_size > 20_000
+
+
+def test_fuel_chart_shows_a_family_as_iqm_whiskers_and_seed_dots(tmp_path):
+    rows = family_rows_for()
+    fig = fuel_figure(rows)
+    try:
+        ax = fig.axes[0]
+        labels = [t.get_text() for t in ax.get_yticklabels()]
+        assert labels[-1] == "fam (4 seeds)" and not any(label.startswith("ppo:runs/s") for label in labels)
+        y = ax.get_yticks()[-1]
+        seeds = [ln for ln in ax.get_lines() if ln.get_marker() == "o" and len(ln.get_xdata()) == 4]
+        assert len(seeds) == 1 and sorted(seeds[0].get_xdata()) == [1.02, 1.03, 1.05, 1.10]
+        assert np.all(np.abs(np.asarray(seeds[0].get_ydata()) - y) < 0.5)  # on the family's row
+        whiskers = [c for c in ax.collections if len(c.get_segments()) == 1
+                    and np.allclose(sorted(np.asarray(c.get_segments()[0])[:, 0]), [1.025, 1.08])]
+        assert whiskers  # the interval, from its low to its high end
+        iqm = [ln for ln in ax.get_lines() if ln.get_marker() == "D" and list(ln.get_xdata()) == [1.04]]
+        assert iqm and iqm[0].get_ydata()[0] == y
+        assert any("1.040 [1.025, 1.080]" in t.get_text() for t in ax.texts)
+        assert_legends_outside_axes(fig)
+    finally:
+        close(fig)
+    assert plot_fuel_chart(rows, tmp_path / FUEL_CHART_FILE).stat().st_size > 20_000
 
 
 def test_fuel_chart_grows_one_row_per_scenario():
@@ -97,11 +136,29 @@ def test_fuel_chart_grows_one_row_per_scenario():
         close(fig)
 
 
-def test_fuel_chart_without_dp_starts_at_zero():
-    rows = [dict(r, fuel_vs_dp_pct=None) for r in rows_for() if r["strategy"] != "dp"]
+def test_fuel_chart_falls_back_to_the_fixed_price_ratio_then_to_fuel_from_zero():
+    rows = [dict(r, frontier_ratio=None) for r in rows_for()]
+    fig = fuel_figure(rows)
+    try:
+        assert "fixed-price ratio" in fig.get_supxlabel() and fig.axes[0].get_xlim()[0] > 0.9
+        assert not any(t.get_text().startswith("n/a") for t in fig.axes[0].texts)
+    finally:
+        close(fig)
+    rows = [dict(r, frontier_ratio=None, fixed_price_ratio=None) for r in rows_for() if r["strategy"] != "dp_thermal"]
     fig = fuel_figure(rows)
     try:
         assert fig.axes[0].get_xlim()[0] == 0.0
+    finally:
+        close(fig)
+
+
+def test_fuel_chart_marks_a_missing_ratio():
+    rows = rows_for(cycles=("hwfet",), scenarios=("paper",))
+    rows[2] = dict(rows[2], frontier_ratio=None, frontier_note="final SOC 0.5 outside the frontier's range")
+    fig = fuel_figure(rows)
+    try:
+        assert [t.get_text() for t in fig.axes[0].texts if t.get_text().startswith("n/a")] == [
+            "n/a (final SOC off the frontier)"]
     finally:
         close(fig)
 
@@ -156,7 +213,7 @@ def test_plot_benchmark_writes_every_figure(tmp_path):
     rows = rows_for(cycles=("hwfet",), scenarios=("hot",))
     traces = {("hwfet", "hot", r["strategy"]): fake_trace(hot=True) for r in rows}
     plot_benchmark(tmp_path, rows, traces)
-    for name in ("fuel_vs_dp.png", "traces_hwfet_hot.png"):
+    for name in (FUEL_CHART_FILE, "traces_hwfet_hot.png"):
         assert (tmp_path / name).stat().st_size > 30_000, name
 
 

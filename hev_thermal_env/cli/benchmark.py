@@ -7,9 +7,18 @@ import os
 import time
 from pathlib import Path
 
+from hev_thermal_env.agents import list_strategies
 from hev_thermal_env.cycles import list_cycles
-from hev_thermal_env.evaluation.benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES, run_benchmark
+from hev_thermal_env.evaluation.benchmark import (
+    DEFAULT_CYCLES,
+    DEFAULT_SCENARIOS,
+    DEFAULT_STRATEGIES,
+    run_benchmark,
+)
 from hev_thermal_env.evaluation.executors import EXECUTORS, ExecutorError
+from hev_thermal_env.evaluation.families import MIN_SEEDS, parse_family
+from hev_thermal_env.evaluation.fuel_chart import FUEL_CHART_FILE
+from hev_thermal_env.evaluation.yardstick import REFERENCE
 from hev_thermal_env.scenarios import list_scenarios
 
 from .errors import report
@@ -20,6 +29,8 @@ EXAMPLES = (
     "python evaluate.py benchmark --out results                       # the README's table",
     "python evaluate.py benchmark --cycles hwfet beijing --scenarios paper hot --out results_hot",
     "python evaluate.py benchmark --strategies rule dp ppo ppo:runs/ppo --cycles udds --jobs 2 --out cmp",
+    "python evaluate.py benchmark --strategies rule --family ppo5=runs/s0,runs/s1,runs/s2,runs/s3,runs/s4 --out fam",
+    "python evaluate.py benchmark --family ppo_hot=runs/hot_seeds --out fam   # every train.py run in the folder",
     "python evaluate.py benchmark --executor ray --out results_ray        # one Ray task per run",
     "python evaluate.py benchmark --executor ray --address HEAD:6379 --out results   # on a Ray cluster",
 )
@@ -28,12 +39,18 @@ EXAMPLES = (
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("benchmark", help="every strategy on every cycle and scenario: table + plots",
                        description="Run every strategy on every cycle in every scenario; write results.csv, "
-                                   "results.json, results.md, timings.json and PNG plots into --out.",
+                                   "results.json, results.md, timings.json and PNG plots into --out. Every run "
+                                   f"is measured against the thermal optimum {REFERENCE} of its cycle and scenario "
+                                   "(frontier ratio, fixed-price ratio); dp is thermal-blind.",
                        formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
     p.add_argument("--cycles", nargs="+", default=list(DEFAULT_CYCLES), metavar="CYCLE",
                    help=f"built-in cycles ({', '.join(list_cycles())}) or CSV paths")
     p.add_argument("--strategies", nargs="+", default=list(DEFAULT_STRATEGIES), metavar="STRATEGY",
-                   help=strategies_help())
+                   help=f"{strategies_help()}; {REFERENCE}, the reference of the ratios, is added if missing")
+    p.add_argument("--family", action="append", default=[], metavar="NAME=PATH,PATH,...",
+                   help=f"a seed family: at least {MIN_SEEDS} trained runs (what ppo:PATH loads) of one training "
+                        "setup, or one directory holding such runs; reported as the interquartile mean over the "
+                        "seeds with a 95 %% bootstrap interval (repeat for several families)")
     p.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), metavar="SCENARIO",
                    help=f"scenarios ({', '.join(list_scenarios())})")
     p.add_argument("--out", default="results", metavar="DIR", help="output directory")
@@ -51,14 +68,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def main(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
+    families, taken = [], set(list_strategies()) | set(args.strategies)
+    for text in args.family:
+        family = parse_family(text, taken)
+        families.append(family)
+        taken.add(family.name)
     t0 = time.perf_counter()
     try:
         rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
-                             plots=not args.no_plots, executor=args.executor, address=args.address)
+                             plots=not args.no_plots, executor=args.executor, address=args.address,
+                             families=families)
     except ExecutorError as exc:
         return report(exc)
     print((Path(args.out) / "results.md").read_text())
-    print(f"{len(rows)} runs in {time.perf_counter() - t0:.1f} s")
+    n_runs = sum(1 for r in rows if r.get("family") is None or r["family"] != r["strategy"])
+    print(f"{n_runs} runs in {time.perf_counter() - t0:.1f} s")
     print(f"table: {Path(args.out) / 'results.md'} (also results.csv, results.json)")
-    print(f"plots: {Path(args.out) / 'fuel_vs_dp.png'}, {Path(args.out)}/traces_<cycle>_<scenario>.png")
+    print(f"plots: {Path(args.out) / FUEL_CHART_FILE}, {Path(args.out)}/traces_<cycle>_<scenario>.png")
     return 0

@@ -103,7 +103,10 @@ def format_summary(summary: dict[str, Any]) -> str:
         ("corrected fuel", f"{s['fuel_corrected_l_per_100km']:.3f}", "L/100 km"),
         ("  SOC correction", f"{s['soc_correction_l_per_100km']:+.3f}", "L/100 km"),
         ("  miss correction", f"{s['miss_correction_l_per_100km']:+.3f}", "L/100 km"),
+        ("yardstick cost", f"{s['cost_g']:.1f}", "g (fuel + priced miss + overheat)"),
         ("SOC start -> end", f"{s['soc_initial']:.4f} -> {s['soc_final']:.4f}", f"(delta {s['delta_soc']:+.4f})"),
+        ("J1711 charge-sustaining", "yes" if s["charge_sustaining"] else "no",
+         f"(net battery / fuel energy {_percent(s['net_energy_ratio'])})"),
         ("missed wheel energy", f"{s['missed_wheel_energy_kwh']:.3f}", "kWh"),
         ("max speed deficit", f"{s['trace_miss_max_mps']:.3f}", "m/s"),
         ("max motor temperature", f"{s['max_motor_temp_c']:.1f}", "degC"),
@@ -121,6 +124,10 @@ def format_summary(summary: dict[str, Any]) -> str:
     if shown:
         lines.append("  settings: " + ", ".join(f"{k}={_short(v)}" for k, v in shown.items()))
     return "\n".join(lines)
+
+
+def _percent(ratio: float | None) -> str:
+    return "n/a" if ratio is None else f"{100.0 * ratio:+.2f} %"
 
 
 def _short(v: Any) -> str:

@@ -1,11 +1,15 @@
-"""``fuel_vs_dp.png``: corrected fuel of every strategy relative to DP, one panel per cycle and scenario.
+"""``fuel_vs_optimum.png``: every strategy against the thermal optimum, one panel per cycle and scenario.
 
 A dot chart that stays readable as the benchmark grows: one row of panels per scenario, one
 column per cycle (both in the benchmark's order), the strategies from the simplest (top) to the
-optimum, and the learned policies below a gap on a shaded band. Every panel shares one x axis,
-which always includes 100 % (the DP optimum), so a dot's distance from the 100 % line reads the
-same everywhere; each dot carries its value. Without DP in the benchmark the chart shows the
-corrected fuel in L/100 km on an axis from 0.
+optimum, and the learned policies below a gap on a shaded band. The x axis is the frontier ratio
+(:mod:`.yardstick`: the run's cost over the thermal optimum's at the same final SOC; 1 = the
+optimum), shared by every panel and always including 1, so a dot's distance from the 1 line reads
+the same everywhere; each dot carries its value. A seed family (:mod:`.families`) is one row: its
+interquartile mean (diamond), the 95 % bootstrap interval (whiskers) and each seed (small dots).
+A strategy without a ratio on a panel (final SOC outside the frontier) is marked "n/a" there.
+Without any frontier the chart shows the fixed-price ratio (corrected fuel over ``dp_thermal``'s),
+and without ``dp_thermal`` the corrected fuel in L/100 km on an axis from 0.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from pathlib import Path
 
 from hev_thermal_env.io import save_png
 
+from .families import OVERALL
 from .styles import (
     LEARNED_BAND_COLOUR,
     close,
@@ -25,106 +30,193 @@ from .styles import (
     short_label,
     strategy_styles,
 )
+from .yardstick import REFERENCE
 
+FUEL_CHART_FILE = "fuel_vs_optimum.png"
 LEARNED_GAP = 0.8  # extra rows of space between the classic strategies and the learned policies
+SEED_SPREAD = 0.32  # vertical spread of a family's seed dots (rows are 1 apart)
+
+#: What the x axis shows, in order of preference: (row key, axis label, title, 1 line's legend label).
+MEASURES = (
+    ("frontier_ratio", "frontier ratio: cost / the thermal optimum's cost at the same final SOC (lower is better)",
+     "Every strategy against the thermal optimum (1 = the optimum at the run's final SOC)",
+     "thermal optimum = 1"),
+    ("fixed_price_ratio", f"fixed-price ratio: corrected fuel / {REFERENCE}'s (lower is better; no frontier)",
+     f"Corrected fuel relative to {REFERENCE} (fixed battery price)", f"{REFERENCE} = 1"),
+    ("fuel_corrected_l_per_100km", f"corrected fuel (L/100 km, lower is better; no {REFERENCE} in this benchmark)",
+     "Corrected fuel", "0 L/100 km"),
+)
 
 
-def _positions(strategies: list[str]) -> dict[str, float]:
+def _positions(strategies: list[str], learned: set[str]) -> dict[str, float]:
     pos, y = {}, 0.0
     for i, name in enumerate(strategies):
-        if i and is_learned(name) and not is_learned(strategies[i - 1]):
+        if i and is_learned(name, learned) and not is_learned(strategies[i - 1], learned):
             y += LEARNED_GAP
         pos[name] = y
         y += 1.0
     return pos
 
 
-def _value_range(values: list[float], ratio: bool) -> tuple[float, float]:
-    """One x range for every panel: from 100 % (or 0 L/100 km) to the largest value, with room for labels."""
-    lo, hi = (min(min(values), 100.0), max(max(values), 100.0)) if ratio else (0.0, max(values))
-    span = max(hi - lo, 1.0)
-    return (lo - (0.12 if lo < 100.0 else 0.03) * span if ratio else 0.0), hi + 0.16 * span
+def _value_range(values: list[float], base: float | None, wide_right: bool = False) -> tuple[float, float]:
+    """One x range for every panel: from the reference 1 (or 0 L/100 km) to the largest value, room for labels
+    (more on the right with ``wide_right``: a family's label carries its interval)."""
+    right = 0.38 if wide_right else 0.16
+    if base is None:
+        return 0.0, max(values) * (1.0 + right)
+    lo, hi = min(min(values), base), max(max(values), base)
+    span = max(hi - lo, 0.01)
+    return lo - (0.12 if lo < base else 0.03) * span, hi + right * span
+
+
+def _split(rows: list[dict]) -> tuple[list[dict], dict[str, list[dict]]]:
+    """(rows drawn as rows: runs and per-panel family rows, {family: its members' rows})."""
+    drawn, members = [], {}
+    for r in rows:
+        fam = r.get("family")
+        if fam is None:
+            drawn.append(r)
+        elif r["strategy"] == fam:
+            if r["cycle"] != OVERALL:
+                drawn.append(r)
+        else:
+            members.setdefault(fam, []).append(r)
+    return drawn, members
 
 
 def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: list[str] | None = None):
-    """The chart of ``rows`` (benchmark rows with ``cycle``, ``scenario``, ``strategy``, ``fuel_vs_dp_pct``,
-    ``fuel_corrected_l_per_100km``); returns the matplotlib figure."""
-    if not rows:
+    """The chart of benchmark ``rows`` (``cycle``, ``scenario``, ``strategy``, ``frontier_ratio``,
+    ``fixed_price_ratio``, ``fuel_corrected_l_per_100km``; family rows with ``family`` and the
+    ``_ci_low``/``_ci_high`` columns); returns the matplotlib figure."""
+    drawn, members = _split(rows)
+    if not drawn:
         raise ValueError("fuel chart: no benchmark rows")
     plt = pyplot()
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
-    from matplotlib.ticker import PercentFormatter
 
-    cycles = list(dict.fromkeys(cycles or [r["cycle"] for r in rows]))
-    scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in rows]))
-    ratio = any(r.get("fuel_vs_dp_pct") for r in rows)
-    key = "fuel_vs_dp_pct" if ratio else "fuel_corrected_l_per_100km"
-    strategies = ordered(r["strategy"] for r in rows)
-    styles = strategy_styles(strategies)
-    pos = _positions(strategies)
-    values = [float(r[key]) for r in rows if r.get(key) is not None]
-    xlim = _value_range(values, ratio)
+    cycles = list(dict.fromkeys(cycles or [r["cycle"] for r in drawn]))
+    scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in drawn]))
+    key, xlabel, title, base_label = next((m for m in MEASURES if any(r.get(m[0]) is not None for r in drawn)),
+                                          MEASURES[-1])
+    base = None if key == MEASURES[-1][0] else 1.0
+    families = set(members) | {r["family"] for r in drawn if r.get("family")}
+    strategies = ordered((r["strategy"] for r in drawn), families)
+    styles = strategy_styles(strategies, families)
+    pos = _positions(strategies, families)
+    values = [float(r[k]) for r in drawn for k in (key, f"{key}_ci_low", f"{key}_ci_high") if r.get(k) is not None]
+    values += [float(m[key]) for ms in members.values() for m in ms if m.get(key) is not None]
     height = 0.27 * (max(pos.values()) + 1.0) + 1.1
     fig, axes = plt.subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
                              figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2), layout="constrained")
+    axes[0, 0].set_xlim(*_value_range(values or [1.0], base, bool(families)))  # shared: before the labels
     for i, sc in enumerate(scenarios):
         for j, cyc in enumerate(cycles):
-            sel = {r["strategy"]: r for r in rows if r["cycle"] == cyc and r["scenario"] == sc}
-            _panel(axes[i, j], sel, key, pos, styles, ratio)
+            sel = {r["strategy"]: r for r in drawn if r["cycle"] == cyc and r["scenario"] == sc}
+            seeds = {f: [m for m in ms if m["cycle"] == cyc and m["scenario"] == sc] for f, ms in members.items()}
+            _panel(axes[i, j], sel, seeds, key, pos, styles, base, families)
             axes[i, j].set_title(f"{cyc} cycle, {sc} scenario", fontsize=10)
     ax0 = axes[0, 0]
-    ax0.set_xlim(*xlim)
-    if ratio:
-        ax0.xaxis.set_major_formatter(PercentFormatter(decimals=0))
+    ax0.ticklabel_format(axis="x", useOffset=False, style="plain")
     ax0.set_ylim(max(pos.values()) + 0.7, -0.7)
     ax0.set_yticks(list(pos.values()))
     for ax in axes[:, 0]:
-        ax.set_yticklabels([short_label(s) for s in pos], fontsize=9)
+        ax.set_yticklabels([_row_label(s, families, members) for s in pos], fontsize=9)
         for tick, name in zip(ax.get_yticklabels(), pos):
             tick.set_color(styles[name]["color"])
-            tick.set_fontweight("bold" if is_learned(name) else "normal")
-    xlabel = ("corrected fuel, % of DP on the same cycle and scenario (lower is better; 100 % = optimum)" if ratio
-              else "corrected fuel (L/100 km, lower is better; no DP in this benchmark)")
-    fig.supxlabel(xlabel, fontsize=10)
-    handles = [Line2D([], [], color="k", lw=1.0, label="DP optimum = 100 %" if ratio else "0 L/100 km"),
-               Line2D([], [], color="0.4", marker="o", ls="-", lw=1.0, label="classic strategy"),
-               Line2D([], [], color=styles[strategies[-1]]["color"] if is_learned(strategies[-1]) else "0.4",
-                      marker="D", ls="none", label="learned policy"),
-               Patch(facecolor=LEARNED_BAND_COLOUR, label="learned policies (set apart)")]
+            tick.set_fontweight("bold" if is_learned(name, families) else "normal")
+    fig.supxlabel(xlabel + _reference_line(drawn, key), fontsize=10)
+    handles = [Line2D([], [], color="k", lw=1.0, label=base_label),
+               Line2D([], [], color="0.4", marker="o", ls="-", lw=1.0, label="classic strategy")]
+    any_learned = any(is_learned(s, families) for s in strategies)
+    if any(is_learned(s, families) and s not in families for s in strategies):
+        handles.append(Line2D([], [], color="0.4", marker="D", ls="none", label="learned policy"))
+    if families:
+        handles += [Line2D([], [], color="0.4", marker="D", ms=7, ls="-", lw=2.0,
+                           label="seed family: IQM (diamond),\n95 % bootstrap CI (whiskers)"),
+                    Line2D([], [], color="0.4", marker="o", ms=3.5, ls="none", alpha=0.6, label="one seed")]
+    if any_learned:
+        handles.append(Patch(facecolor=LEARNED_BAND_COLOUR, label="learned policies (set apart)"))
     legend_outside(fig, handles, [h.get_label() for h in handles])
-    figure_title(fig, "Corrected fuel relative to the dynamic-programming optimum" if ratio else "Corrected fuel",
-                 fontsize=12)
+    figure_title(fig, title, fontsize=12)
     return fig
 
 
-def _panel(ax, sel: dict[str, dict], key: str, pos: dict[str, float], styles: dict, ratio: bool) -> None:
-    base = 100.0 if ratio else 0.0
-    learned = [p for s, p in pos.items() if is_learned(s)]
+def _row_label(name: str, families: set[str], members: dict[str, list[dict]]) -> str:
+    if name in families:
+        n = len({m["strategy"] for m in members.get(name, [])})
+        return f"{name} ({n} seeds)"
+    return short_label(name)
+
+
+def _reference_line(rows: list[dict], key: str) -> str:
+    """A second x-label line naming the reference, when the ratio has one reference everywhere."""
+    refs = {r.get("reference") for r in rows if r.get("reference")}
+    if key == MEASURES[-1][0] or len(refs) != 1:
+        return ""
+    ref = refs.pop()
+    return "\n1 = " + (ref if len(ref) <= 110 else ref[:109] + "…")
+
+
+def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos: dict[str, float], styles: dict,
+           base: float | None, families: set[str]) -> None:
+    origin = 0.0 if base is None else base
+    learned = [p for s, p in pos.items() if is_learned(s, families)]
     if learned:
         ax.axhspan(min(learned) - 0.5, max(learned) + 0.5, color=LEARNED_BAND_COLOUR, zorder=0, lw=0)
-    ax.axvline(base, color="k", lw=1.0, zorder=1)
+    ax.axvline(origin, color="k", lw=1.0, zorder=1)
     for name, y in pos.items():
         r = sel.get(name)
-        if r is None or r.get(key) is None:
+        if r is None:
+            continue
+        colour = styles[name]["color"]
+        if r.get(key) is None:
+            why = "final SOC off the frontier" if "outside" in str(r.get("frontier_note")) else "see results.md"
+            ax.annotate(f"n/a ({why})", (origin, y), xytext=(5, 0), textcoords="offset points", va="center",
+                        fontsize=7.5, color="0.45", style="italic")
             continue
         v = float(r[key])
-        colour = styles[name]["color"]
-        ax.plot([base, v], [y, y], color=colour, lw=2.2 if is_learned(name) else 1.4, zorder=2,
-                solid_capstyle="butt")
-        ax.plot([v], [y], marker="D" if is_learned(name) else "o", ms=7 if is_learned(name) else 6, color=colour,
-                zorder=3)
-        below = v < base  # a value below the reference is labelled on its left, away from the line
-        ax.annotate(f"{v:.1f} %" if ratio else f"{v:.2f}", (v, y), xytext=(-7 if below else 7, 0),
+        if name in families:
+            left, right = _family(ax, r, seeds.get(name, []), key, y, colour)
+        else:
+            ax.plot([origin, v], [y, y], color=colour, lw=2.2 if is_learned(name, families) else 1.4, zorder=2,
+                    solid_capstyle="butt")
+            ax.plot([v], [y], marker="D" if is_learned(name, families) else "o",
+                    ms=7 if is_learned(name, families) else 6, color=colour, zorder=3)
+            left = right = v
+        # a value clearly below the reference is labelled on its left, away from the line; others (and a family's
+        # longer label, with its interval) on the right, past the reference line if need be
+        lo, hi = ax.get_xlim()
+        below = right < origin - 0.08 * (hi - lo) and name not in families
+        right = max(right, origin)
+        text = f"{v:.3f}" if base is not None else f"{v:.2f}"
+        if name in families and r.get(f"{key}_ci_low") is not None:
+            text += f" [{r[f'{key}_ci_low']:.3f}, {r[f'{key}_ci_high']:.3f}]"
+        ax.annotate(text, (left if below else right, y), xytext=(-7 if below else 7, 0),
                     textcoords="offset points", va="center", ha="right" if below else "left", fontsize=8,
-                    fontweight="bold" if is_learned(name) else "normal")
+                    fontweight="bold" if is_learned(name, families) else "normal")
     ax.grid(axis="x", alpha=0.3)
     ax.tick_params(axis="y", length=0)
     for side in ("top", "right"):
         ax.spines[side].set_visible(False)
 
 
-def plot_fuel_vs_dp(rows: list[dict], path: Path, cycles: list[str] | None = None,
+def _family(ax, r: dict, seeds: list[dict], key: str, y: float, colour: str) -> tuple[float, float]:
+    """Draw a family's seeds, interval and IQM on row ``y``; returns its left and right ends (for the label)."""
+    xs = [float(m[key]) for m in seeds if m.get(key) is not None]
+    n = len(xs)
+    offsets = [SEED_SPREAD * ((i + 0.5) / n - 0.5) for i in range(n)]
+    ax.plot(xs, [y + o for o in offsets], ls="none", marker="o", ms=3.5, color=colour, alpha=0.6, zorder=3)
+    v, low, high = float(r[key]), r.get(f"{key}_ci_low"), r.get(f"{key}_ci_high")
+    if low is not None and high is not None:
+        ax.errorbar([v], [y], xerr=[[v - float(low)], [float(high) - v]], fmt="none", ecolor=colour, elinewidth=2.0,
+                    capsize=4, capthick=1.6, zorder=4)
+    ax.plot([v], [y], marker="D", ms=7.5, color=colour, markeredgecolor="white", markeredgewidth=0.8, zorder=5)
+    ends = [v, *xs, *(float(e) for e in (low, high) if e is not None)]
+    return min(ends), max(ends)
+
+
+def plot_fuel_chart(rows: list[dict], path: Path, cycles: list[str] | None = None,
                     scenarios: list[str] | None = None) -> Path:
     """Write :func:`fuel_figure` of ``rows`` to ``path``; returns the path."""
     fig = fuel_figure(rows, cycles, scenarios)

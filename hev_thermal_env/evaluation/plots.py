@@ -13,13 +13,14 @@
   demanded and u has no effect), readable on long stop-and-go cycles.
 
 :func:`plot_benchmark` draws one such figure per cycle and scenario and the fuel chart
-(:mod:`.fuel_chart`). Every PNG is written atomically (:func:`hev_thermal_env.io.save_png`).
+(:mod:`.fuel_chart`); the benchmark passes a seed family's member nearest the family's IQM. Every
+PNG is written atomically (:func:`hev_thermal_env.io.save_png`).
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,7 @@ import numpy as np
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import save_png
 
-from .fuel_chart import plot_fuel_vs_dp
+from .fuel_chart import FUEL_CHART_FILE, plot_fuel_chart
 from .styles import CYCLE_COLOUR, close, figure_title, legend_outside, ordered, pyplot, short_label, strategy_styles
 
 __all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure", "temperature_limits_c"]
@@ -62,19 +63,20 @@ def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
 
 
 def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
-               temp_limits_c: tuple[float, float] | None = None):
+               temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()):
     """The trace figure of ``{label: trace}`` (see the module docstring); returns the matplotlib figure.
 
     Each trace needs per-step arrays ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and the
     split (``motor_share`` or ``u``); ``time_s``, ``cycle_speed_mps``, ``missed_wheel_energy_j``,
     ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. ``temp_limits_c`` is
-    (soft limit, cutoff), by default those of ``paper_bus`` and the default reward.
+    (soft limit, cutoff), by default those of ``paper_bus`` and the default reward. ``learned``:
+    more names drawn as learned policies (seed families; ``ppo`` and ``ppo:PATH`` always are).
     """
     if not traces:
         raise ValueError("plot_run: no traces to plot")
     plt = pyplot()
-    labels = ordered(traces)
-    styles = strategy_styles(labels)
+    labels = ordered(traces, learned)
+    styles = strategy_styles(labels, learned)
     n = len(labels)
     heights = [3.0, 1.5, 1.8, 2.0, 1.4, max(0.32 * n, 0.9)]
     fig, axes = plt.subplots(len(heights), 1, figsize=(12.5, 13.0 + 0.25 * n), sharex=True, layout="constrained",
@@ -189,9 +191,9 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
 
 
 def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.PathLike, title: str = "",
-             temp_limits_c: tuple[float, float] | None = None) -> Path:
+             temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()) -> Path:
     """Draw one or more runs (``{label: trace}``) into a PNG at ``path`` (see :func:`run_figure`); returns the path."""
-    fig = run_figure(traces, title, temp_limits_c)
+    fig = run_figure(traces, title, temp_limits_c, learned)
     try:
         return save_png(fig, path)
     finally:
@@ -201,13 +203,16 @@ def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.Path
 def plot_benchmark(out: Path, rows: list[dict], traces: dict, cycles: list[str] | None = None,
                    scenarios: list[str] | None = None) -> None:
     """``out/traces_<cycle>_<scenario>.png`` (every strategy of a cycle and scenario on shared axes) and
-    ``out/fuel_vs_dp.png``; ``traces`` maps (cycle, scenario, strategy) to a run's trace. Cycles and
-    scenarios in the order given (default: as they first appear in ``rows``)."""
-    cycles = list(dict.fromkeys(cycles or [r["cycle"] for r in rows]))
-    scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in rows]))
+    ``out/fuel_vs_optimum.png`` (:mod:`.fuel_chart`); ``traces`` maps (cycle, scenario, strategy) to a run's
+    trace. Cycles and scenarios in the order given (default: as they first appear in the run rows)."""
+    runs = [r for r in rows if r.get("family") is None]
+    cycles = list(dict.fromkeys(cycles or [r["cycle"] for r in runs]))
+    scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in runs]))
+    families = {r["family"] for r in rows if r.get("family") is not None}
     for cyc in cycles:
         for sc in scenarios:
             group = {st: tr for (c, s, st), tr in traces.items() if c == cyc and s == sc}
             if group:
-                plot_run(group, out / f"traces_{cyc}_{sc}.png", title=f"{cyc} cycle, {sc} scenario: every strategy")
-    plot_fuel_vs_dp(rows, out / "fuel_vs_dp.png", cycles, scenarios)
+                plot_run(group, out / f"traces_{cyc}_{sc}.png", title=f"{cyc} cycle, {sc} scenario: every strategy",
+                         learned=families)
+    plot_fuel_chart(rows, out / FUEL_CHART_FILE, cycles, scenarios)

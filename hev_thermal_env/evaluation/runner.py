@@ -3,8 +3,9 @@
 :func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
 resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
 :class:`RunResult`: the JSON summary (the metrics come from
-:func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation)
-and per-step traces of every ``info`` field, of every physics output and of the state.
+:func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation, and
+``cost_g``, the yardstick cost of :func:`hev_thermal_env.metrics.yardstick_cost_g` at the env's
+reward weights) and per-step traces of every ``info`` field, of every physics output and of the state.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.cycles import Cycle, load_cycle
 from hev_thermal_env.envs import HevThermalEnv
-from hev_thermal_env.metrics import run_metrics
+from hev_thermal_env.metrics import run_metrics, yardstick_cost_g
 from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.scenarios import Scenario, get_scenario
@@ -28,7 +29,8 @@ from hev_thermal_env.scenarios import Scenario, get_scenario
 SUMMARY_KEYS = (
     "cycle", "strategy", "scenario", "distance_km", "duration_s", "fuel_g", "fuel_l_per_100km",
     "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km",
-    "battery_energy_kwh", "missed_wheel_energy_kwh", "soc_initial", "soc_final", "delta_soc", "max_motor_temp_c",
+    "cost_g", "battery_energy_kwh", "net_energy_ratio", "charge_sustaining", "missed_wheel_energy_kwh",
+    "soc_initial", "soc_final", "delta_soc", "max_motor_temp_c",
     "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps", "engine_on_s", "wall_s", "plan_s",
     "thermal_aware", "seed", "conditions", "strategy_settings",
 )
@@ -150,6 +152,8 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
         trace[key] = np.asarray(values)
     trace["u"] = us[:steps]
     metrics = run_metrics(trace, e.config, soc0, e.cycle.speed_mps, k0, steps, e.core.dt_s)
+    metrics["cost_g"] = yardstick_cost_g(outs[:steps], states[:steps], e.reward_params,
+                                         e.config.engine.fuel_lhv_j_per_g, e.core.dt_s, e.soc_target)
     summary = {
         "cycle": e.cycle.name, "strategy": getattr(strategy, "label", strategy.name), "scenario": scen.name,
         **metrics,

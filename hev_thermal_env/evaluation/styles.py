@@ -3,14 +3,17 @@ outside the data.
 
 Strategies are drawn from the simplest to the optimum (:data:`STRATEGY_ORDER`; names not listed
 go after the classic ones and before DP), and the learned policies (``ppo``, ``ppo:PATH``) last,
-set apart in warm colours with thicker lines so that a reader finds them at once. A strategy has
-the same colour in every figure.
+set apart in warm colours with thicker lines so that a reader finds them at once (seed families,
+named by the user, are passed as ``learned``). A strategy has the same colour in every figure.
+Labels mark ``dp`` thermal-blind (:func:`short_label`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from typing import Any
+
+from .yardstick import display_name
 
 NON_INTERACTIVE_BACKENDS = ("agg", "pdf", "svg", "ps", "cairo")
 
@@ -51,16 +54,17 @@ def base_name(strategy: str) -> str:
     return str(strategy).split(":", 1)[0]
 
 
-def is_learned(strategy: str) -> bool:
-    return base_name(strategy) in LEARNED_PREFIXES
+def is_learned(strategy: str, learned: Collection[str] = ()) -> bool:
+    """A learned policy: ``ppo``, ``ppo:PATH``, or a name (before any ``:``) in ``learned`` (seed families)."""
+    return base_name(strategy) in LEARNED_PREFIXES or base_name(strategy) in learned
 
 
-def ordered(strategies: Iterable[str]) -> list[str]:
+def ordered(strategies: Iterable[str], learned: Collection[str] = ()) -> list[str]:
     """The strategies from the simplest to the optimum, then the learned ones (each group stable)."""
     names = list(dict.fromkeys(strategies))
 
     def rank(name: str) -> tuple[int, int]:
-        if is_learned(name):
+        if is_learned(name, learned):
             return (3, names.index(name))
         base = base_name(name)
         if base in OPTIMUM:
@@ -73,25 +77,27 @@ def ordered(strategies: Iterable[str]) -> list[str]:
 
 
 def short_label(strategy: str, width: int = 24) -> str:
-    """The strategy's name, a long model path shortened from the left (``ppo:…/run/model.zip``)."""
+    """The strategy's name, a long model path shortened from the left (``ppo:…/run/model.zip``); ``dp`` marked
+    ``(thermal-blind)`` (:func:`~hev_thermal_env.evaluation.yardstick.display_name`, not counted in ``width``)."""
     s = str(strategy)
+    suffix = display_name(s)[len(s):]
     if len(s) <= width:
-        return s
+        return s + suffix
     if ":" in s:
         head = s[: s.index(":") + 1]
-        return head + "…" + s[-max(width - len(head) - 1, 4):]
-    return s[: width - 1] + "…"
+        return head + "…" + s[-max(width - len(head) - 1, 4):] + suffix
+    return s[: width - 1] + "…" + suffix
 
 
-def strategy_styles(strategies: Sequence[str]) -> dict[str, dict[str, Any]]:
+def strategy_styles(strategies: Sequence[str], learned: Collection[str] = ()) -> dict[str, dict[str, Any]]:
     """``{strategy: matplotlib line keywords}``: colour, width and drawing order for each strategy."""
     styles: dict[str, dict[str, Any]] = {}
-    others = learned = 0
+    others = n_learned = 0
     for name in strategies:
         base = base_name(name)
-        if is_learned(name):
-            colour = _LEARNED_COLOURS[learned % len(_LEARNED_COLOURS)]
-            learned += 1
+        if is_learned(name, learned):
+            colour = _LEARNED_COLOURS[n_learned % len(_LEARNED_COLOURS)]
+            n_learned += 1
             styles[name] = {"color": colour, "lw": 1.6, "zorder": 5}
         elif base in _CLASSIC_COLOURS and name == base:
             styles[name] = {"color": _CLASSIC_COLOURS[base], "lw": 0.9, "zorder": 3}

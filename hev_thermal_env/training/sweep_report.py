@@ -2,11 +2,11 @@
 
 A configuration's score is the interquartile mean (IQM) over its seeds of each trial's last
 validation return, with a 95 % bootstrap confidence interval (``scipy.stats.bootstrap``, percentile
-method, 2,000 resamples, fixed random seed; none for a single seed). Trials stopped early by the
-scheduler count with the return they had when stopped. The best configuration is the one with the
-highest IQM; the best trial is its seed with the highest last return (among those that ran to the
-end, if any did), and its final model (the latest checkpoint when stopped early) is exported as a
-policy that ``ppo:PATH`` loads.
+method, 2,000 resamples, fixed random seed; none for a single seed; both from
+:mod:`hev_thermal_env.stats`). Trials stopped early by the scheduler count with the return they had
+when stopped. The best configuration is the one with the highest IQM; the best trial is its seed
+with the highest last return (among those that ran to the end, if any did), and its final model
+(the latest checkpoint when stopped early) is exported as a policy that ``ppo:PATH`` loads.
 """
 
 from __future__ import annotations
@@ -17,11 +17,9 @@ import io
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from scipy import stats
-
 from hev_thermal_env.evaluation.benchmark import _fmt  # the benchmark tables' cell format
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
+from hev_thermal_env.stats import CONFIDENCE, iqm, iqm_ci
 
 from .artifacts import checkpoint_files
 from .export import export_policy
@@ -31,8 +29,6 @@ from .sweep_trial import METRIC, RUN_DIR, SEED_INDEX, TIME_ATTR, trial_config
 #: Tune's trial statuses, as the tables name them ("stopped" = stopped early by the scheduler).
 STATUS = {"TERMINATED": "finished", "ERROR": "error", "RUNNING": "running", "PENDING": "pending",
           "PAUSED": "paused"}
-CONFIDENCE = 0.95
-BOOTSTRAP_RESAMPLES = 2000
 
 
 @dataclasses.dataclass
@@ -69,23 +65,6 @@ class SweepReport:
     configs: list[ConfigSummary]  # best first
     best: TrialRecord | None
     files: list[Path]
-
-
-def iqm(values) -> float:
-    """Interquartile mean: the mean of the middle 50 % (``scipy.stats.trim_mean`` cutting 25 % each side)."""
-    return float(stats.trim_mean(np.asarray(values, dtype=float), 0.25))
-
-
-def iqm_ci(values, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[float | None, float | None]:
-    """The ``confidence`` bootstrap interval of the IQM of ``values`` (None, None for fewer than two)."""
-    x = np.asarray(values, dtype=float)
-    if x.size < 2:
-        return None, None
-    if np.all(x == x[0]):
-        return float(x[0]), float(x[0])
-    res = stats.bootstrap((x,), lambda s, axis: stats.trim_mean(s, 0.25, axis=axis), confidence_level=confidence,
-                          n_resamples=BOOTSTRAP_RESAMPLES, method="percentile", rng=np.random.default_rng(seed))
-    return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
 def collect_trials(analysis, settings: dict[str, Any]) -> list[TrialRecord]:

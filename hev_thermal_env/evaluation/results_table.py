@@ -1,0 +1,164 @@
+"""The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` and ``timings.json``.
+
+One row per cycle × scenario × strategy run (seed-family members included, ``family`` naming their
+family), then the seed families' rows (:mod:`.families`): per cycle × scenario and over every one
+(cycle and scenario ``all``), with the IQM in the ratio columns and the interval in the ``_ci_low`` /
+``_ci_high`` columns. ``results.md`` shows the runs and the families (not the members one by one),
+then the families over every cycle × scenario, then what the columns mean and why a ratio is
+missing. Every file is written atomically; wall times go to ``timings.json`` only, so the other
+files are the same byte for byte run after run.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.io import atomic_write_json, atomic_write_text
+from hev_thermal_env.stats import CONFIDENCE
+
+from .families import OVERALL
+from .yardstick import REFERENCE, display_name
+
+COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "fuel_g", "fuel_l_per_100km",
+           "fuel_corrected_l_per_100km", "cost_g", "frontier_ratio", "frontier_ratio_ci_low", "frontier_ratio_ci_high",
+           "fixed_price_ratio", "fixed_price_ratio_ci_low", "fixed_price_ratio_ci_high",
+           "fuel_vs_thermal_blind_dp_pct", "reference", "charge_sustaining", "net_energy_ratio",
+           "soc_correction_l_per_100km", "miss_correction_l_per_100km", "missed_wheel_energy_kwh", "soc_initial",
+           "soc_final", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps",
+           "frontier_note")
+"""Columns of ``results.csv`` and ``results.json``, in order."""
+
+MD_HEAD = ("cycle", "scenario", "strategy", "fuel L/100 km", "corrected L/100 km", "frontier ratio",
+           "fixed-price ratio", "vs dp (thermal-blind)", "J1711 charge-sustaining", "SOC start → end", "max motor °C",
+           "heat index max", "derated s", "cutoff s", "missed kWh")
+
+EXPLANATION = (
+    "*frontier ratio*: the run's cost (fuel + missed wheel energy at the miss price + overheat terms, no "
+    "battery price; g) over the thermal optimum's cost at the same final SOC (its frontier, linearly "
+    "interpolated): 1 is the optimum. *fixed-price ratio*: corrected fuel (battery energy at the fixed "
+    f"price) over the {REFERENCE} run's. *vs dp (thermal-blind)*: corrected fuel as a percentage of `dp`'s, "
+    "whose plan holds the thermal state at its start (labelled thermal-blind everywhere). *J1711*: SAE J1711 "
+    "charge-sustaining test, |net battery energy| ≤ 1 % of the fuel energy; in brackets the signed ratio "
+    "(positive: the battery ends with less energy). See README, *Metrics*.")
+
+
+def _fmt(v: Any) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def _plain(v: Any) -> Any:
+    return v.item() if isinstance(v, (np.floating, np.integer, np.bool_)) else v
+
+
+def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[str] = ()) -> None:
+    """Write the four files of ``rows`` (run rows, then family rows) into ``out``; ``notes``: extra lines for
+    ``results.md`` (e.g. that the reference was added)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_fmt(r.get(c)) for c in COLUMNS])
+    atomic_write_text(out / "results.csv", buf.getvalue())
+    clean = [{c: _plain(r.get(c)) for c in COLUMNS} for r in rows]
+    atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean, "notes": list(notes)})
+    runs = [r for r in rows if not _is_family_row(r)]
+    atomic_write_json(out / "timings.json", {
+        "total_wall_s": wall_s,
+        "runs": [{"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
+                 for r in runs]})
+    atomic_write_text(out / "results.md", markdown(rows, notes))
+
+
+def _is_family_row(r: dict) -> bool:
+    return r.get("family") is not None and r["strategy"] == r["family"]
+
+
+def _ratio_cell(r: dict, key: str) -> str:
+    v = r.get(key)
+    if v is None:
+        return "-"
+    low, high = r.get(f"{key}_ci_low"), r.get(f"{key}_ci_high")
+    return f"{v:.3f} [{low:.3f}, {high:.3f}]" if low is not None and high is not None else f"{v:.3f}"
+
+
+def _j1711_cell(r: dict) -> str:
+    if _is_family_row(r):
+        return f"{r.get('charge_sustaining_runs', 0)}/{r.get('runs', 0)} runs"
+    ratio = r.get("net_energy_ratio")
+    flag = "yes" if r.get("charge_sustaining") else "no"
+    return flag if ratio is None else f"{flag} ({100.0 * ratio:+.2f} %)"
+
+
+def _run_line(r: dict) -> list[str]:
+    pct = r.get("fuel_vs_thermal_blind_dp_pct")
+    return [r["cycle"], r["scenario"], display_name(r["strategy"]), f"{r['fuel_l_per_100km']:.2f}",
+            f"{r['fuel_corrected_l_per_100km']:.2f}", _ratio_cell(r, "frontier_ratio"),
+            _ratio_cell(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
+            f"{r['soc_initial']:.3f} → {r['soc_final']:.3f}", f"{r['max_motor_temp_c']:.1f}",
+            f"{r['heat_index_max']:.2f}", f"{r['derated_s']:.0f}", f"{r['cutoff_s']:.0f}",
+            f"{r['missed_wheel_energy_kwh']:.3f}"]
+
+
+def _family_line(r: dict) -> list[str]:
+    fuel = r.get("fuel_corrected_l_per_100km")
+    return [r["cycle"], r["scenario"], f"**{r['strategy']}** (IQM of {r['seeds']} seeds)", "-",
+            f"{fuel:.2f}" if fuel is not None else "-", _ratio_cell(r, "frontier_ratio"),
+            _ratio_cell(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-"]
+
+
+def _table(head: Sequence[str], lines: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)] + ["| " + " | ".join(x) + " |" for x in lines]
+
+
+def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
+    """``results.md``: the table, the families over every cycle × scenario, the notes."""
+    shown = [r for r in rows if r.get("family") is None or (_is_family_row(r) and r["cycle"] != OVERALL)]
+    lines = [_family_line(r) if _is_family_row(r) else _run_line(r) for r in shown]
+    md = _table(MD_HEAD, lines)
+    overall = [r for r in rows if _is_family_row(r) and r["cycle"] == OVERALL]
+    if overall:
+        md += ["", f"Seed families over every cycle × scenario (IQM over seeds and cycles × scenarios, "
+                   f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval):", ""]
+        md += _table(("family", "seeds", "runs", "frontier ratio", "fixed-price ratio", "J1711 charge-sustaining"),
+                     [[r["strategy"], str(r["seeds"]), str(r["runs"]), _ratio_cell(r, "frontier_ratio"),
+                       _ratio_cell(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
+    md += ["", *_reference_lines(rows), "", EXPLANATION]
+    if any(_is_family_row(r) for r in rows):
+        md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "
+                   "brackets; each seed's row is in results.csv and results.json (column `family`)."]
+    missing: dict[str, list[str]] = {}  # note -> the rows it concerns (a family's members: on the family's row)
+    for r in shown:
+        if r.get("frontier_note"):
+            missing.setdefault(r["frontier_note"], []).append(
+                f"{r['cycle']} / {r['scenario']} / {display_name(r['strategy'])}")
+    if missing:
+        md += ["", "No frontier ratio:", ""]
+        md += [f"* {'every row' if len(where) == len(shown) else ', '.join(where)}: {note}"
+               for note, where in missing.items()]
+    if notes:
+        md += ["", *notes]
+    return "\n".join(md) + "\n"
+
+
+def _reference_lines(rows: list[dict]) -> list[str]:
+    refs: dict[str, list[str]] = {}
+    for r in rows:
+        if r.get("reference") and r["cycle"] != OVERALL:
+            refs.setdefault(r["reference"], [])
+            where = f"{r['cycle']} / {r['scenario']}"
+            if where not in refs[r["reference"]]:
+                refs[r["reference"]].append(where)
+    if len(refs) == 1:
+        return [f"Reference of both ratios (1.000): {next(iter(refs))}."]
+    return ["Reference of both ratios (1.000), per cycle / scenario:", ""] + [
+        f"* {', '.join(where)}: {ref}" for ref, where in refs.items()]

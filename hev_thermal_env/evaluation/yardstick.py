@@ -1,0 +1,154 @@
+"""The benchmark's yardstick: every run against the thermal optimum (``dp_thermal``) of its cycle and scenario.
+
+The reference run, ``dp_thermal``, publishes in its settings (``describe()``, the summary's
+``strategy_settings``) the optimum's cost as a function of the final SOC::
+
+    "frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}
+
+sorted by final SOC, the cost (g of fuel equivalent, :func:`hev_thermal_env.metrics.yardstick_cost_g`:
+fuel + priced missed wheel energy + overheat terms, no battery price) non-decreasing in it. Each
+row of the same cycle and scenario gets:
+
+* ``frontier_ratio`` = ``cost_g`` / F(``soc_final``), F linearly interpolated on the frontier: 1 is
+  the optimum, whatever SOC the run ends at, with no price on battery energy. None when the run's
+  final SOC is outside the frontier's range (or there is no frontier); ``frontier_note`` says why.
+* ``fixed_price_ratio`` = corrected fuel / the reference run's corrected fuel: the fixed battery
+  price of the corrected-fuel metric decides, as in the earlier benchmark.
+* ``fuel_vs_thermal_blind_dp_pct``: corrected fuel as a percentage of the thermal-blind ``dp``'s
+  (the earlier ``fuel_vs_dp_pct``), when ``dp`` ran.
+* ``reference``: which optimum and grid (the frontier's ``grid`` text).
+
+``dp`` plans with the thermal state held at its start (thermal-blind, :mod:`hev_thermal_env.agents.dp`);
+the tables and figures always label it so (:data:`BLIND_SUFFIX`), whether or not the thermal state
+binds on a given cycle.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import numpy as np
+
+REFERENCE = "dp_thermal"
+"""The strategy whose run is the yardstick (added to every benchmark)."""
+BLIND_DP = "dp"
+"""The thermal-blind DP, kept as the reference of ``fuel_vs_thermal_blind_dp_pct``."""
+BLIND_SUFFIX = " (thermal-blind)"
+SOC_TOLERANCE = 1e-9  # a final SOC this close to the frontier's end is on it (float round-off)
+
+
+@dataclasses.dataclass(frozen=True)
+class Frontier:
+    """The optimum's cost (g) against the final SOC, sorted by SOC; ``grid`` names the method and grid."""
+
+    soc_final: np.ndarray
+    cost_g: np.ndarray
+    grid: str
+
+    @classmethod
+    def from_settings(cls, settings: Mapping[str, Any] | None) -> Frontier | None:
+        """The frontier a reference run published in its ``strategy_settings``, None if it published none.
+
+        Raises ``ValueError`` naming the problem when the frontier is malformed (lengths differ, no
+        points, not finite, not sorted by SOC)."""
+        data = (settings or {}).get("frontier")
+        if data is None:
+            return None
+        try:
+            soc = np.asarray(data["soc_final"], dtype=float).ravel()
+            cost = np.asarray(data["cost_g"], dtype=float).ravel()
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"the reference's frontier is malformed ({exc!r}): expected soc_final and cost_g "
+                             "lists") from None
+        if soc.size == 0 or soc.size != cost.size:
+            raise ValueError(f"the reference's frontier has {soc.size} soc_final and {cost.size} cost_g values; "
+                             "expected the same number, at least one")
+        if not (np.all(np.isfinite(soc)) and np.all(np.isfinite(cost))):
+            raise ValueError("the reference's frontier holds values that are not finite")
+        if np.any(np.diff(soc) < 0.0):
+            raise ValueError("the reference's frontier is not sorted by soc_final")
+        return cls(soc, cost, str(data.get("grid", "")).strip())
+
+    def cost_at(self, soc_final: float) -> float | None:
+        """F(``soc_final``) by linear interpolation; None outside [first, last] SOC of the frontier."""
+        lo, hi = float(self.soc_final[0]), float(self.soc_final[-1])
+        if not lo - SOC_TOLERANCE <= soc_final <= hi + SOC_TOLERANCE:
+            return None
+        return float(np.interp(soc_final, self.soc_final, self.cost_g))
+
+    def range_text(self) -> str:
+        return f"[{self.soc_final[0]:.4f}, {self.soc_final[-1]:.4f}]"
+
+
+def frontier_ratio(cost_g: float, soc_final: float, frontier: Frontier | None) -> tuple[float | None, str | None]:
+    """(``cost_g`` / F(``soc_final``), None), or (None, why not)."""
+    if frontier is None:
+        return None, f"{REFERENCE} published no frontier"
+    ref = frontier.cost_at(float(soc_final))
+    if ref is None:
+        return None, f"final SOC {soc_final:.4f} outside the frontier's range {frontier.range_text()}"
+    if ref <= 0.0:
+        return None, f"the frontier's cost at final SOC {soc_final:.4f} is {ref:.6g} g, not positive"
+    return float(cost_g) / ref, None
+
+
+def with_reference(strategies: Iterable[str]) -> tuple[list[str], bool]:
+    """``strategies`` with :data:`REFERENCE` added (last) if missing; and whether it was added."""
+    names = list(dict.fromkeys(strategies))
+    if REFERENCE in names:
+        return names, False
+    return names + [REFERENCE], True
+
+
+def display_name(strategy: str) -> str:
+    """The name tables and figures show: ``dp`` (and ``dp:LABEL``) marked thermal-blind."""
+    s = str(strategy)
+    return s + BLIND_SUFFIX if s.split(":", 1)[0] == BLIND_DP else s
+
+
+def reference_text(ref_row: Mapping[str, Any] | None, frontier: Frontier | None) -> str:
+    """What the ratios of a cycle and scenario are measured against, for the ``reference`` column."""
+    if ref_row is None:
+        return f"none ({REFERENCE} did not run)"
+    if frontier is not None and frontier.grid:
+        return f"{REFERENCE}: {frontier.grid}"
+    grid = (ref_row.get("strategy_settings") or {}).get("grid")
+    grid_text = " x ".join(f"{k} {v}" for k, v in grid.items()) if isinstance(grid, Mapping) else str(grid or "")
+    what = "no frontier published" if frontier is None else "frontier without a grid description"
+    return f"{REFERENCE} ({what}{'; grid ' + grid_text if grid_text else ''})"
+
+
+def add_yardstick_columns(rows: list[dict]) -> None:
+    """Fill ``frontier_ratio``, ``frontier_note``, ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and
+    ``reference`` of every run row, from the ``dp_thermal`` and ``dp`` rows of its cycle and scenario."""
+    refs = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == REFERENCE}
+    blind = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == BLIND_DP}
+    frontiers: dict[tuple[str, str], tuple[Frontier | None, str | None]] = {}
+    for key, ref in refs.items():
+        try:
+            frontiers[key] = (Frontier.from_settings(ref.get("strategy_settings")), None)
+        except ValueError as exc:
+            frontiers[key] = (None, str(exc))
+    for r in rows:
+        key = (r["cycle"], r["scenario"])
+        ref = refs.get(key)
+        frontier, problem = frontiers.get(key, (None, None))
+        if ref is None:
+            r["frontier_ratio"], r["frontier_note"] = None, f"{REFERENCE} did not run on this cycle and scenario"
+        elif problem is not None:
+            r["frontier_ratio"], r["frontier_note"] = None, problem
+        else:
+            r["frontier_ratio"], r["frontier_note"] = frontier_ratio(r["cost_g"], r["soc_final"], frontier)
+        r["fixed_price_ratio"] = _ratio(r, ref)
+        pct = _ratio(r, blind.get(key))
+        r["fuel_vs_thermal_blind_dp_pct"] = None if pct is None else 100.0 * pct
+        r["reference"] = reference_text(ref, frontier)
+
+
+def _ratio(row: Mapping[str, Any], ref: Mapping[str, Any] | None) -> float | None:
+    """Corrected fuel of ``row`` over that of ``ref`` (None without a reference or with a non-positive one)."""
+    if ref is None or not ref.get("fuel_corrected_l_per_100km") or ref["fuel_corrected_l_per_100km"] <= 0.0:
+        return None
+    return float(row["fuel_corrected_l_per_100km"]) / float(ref["fuel_corrected_l_per_100km"])

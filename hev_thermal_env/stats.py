@@ -1,0 +1,76 @@
+"""Statistics over training seeds: the interquartile mean (IQM) and its bootstrap confidence interval.
+
+A learned policy's score is a random variable of its training seed, so a result over several seeds
+is reported as the IQM (the mean of the middle 50 %, robust to one bad seed yet less noisy than the
+median) with a 95 % percentile bootstrap interval (``scipy.stats.bootstrap``, 2,000 resamples, a
+fixed random seed, so the same scores give the same interval), as recommended by Agarwal et al.,
+*Deep RL at the edge of the statistical precipice* (NeurIPS 2021).
+
+Over several tasks (cycle × scenario), :func:`stratified_iqm_ci` pools the scores of every task into
+one IQM and resamples the seeds within each task (a stratified bootstrap), so a task with many
+seeds cannot stand in for one with few. Used by the sweep reports
+(:mod:`hev_thermal_env.training.sweep_report`) and the benchmark's seed families
+(:mod:`hev_thermal_env.evaluation.families`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy import stats
+
+CONFIDENCE = 0.95
+BOOTSTRAP_RESAMPLES = 2000
+TRIM = 0.25  # cut from each side: the IQM is the mean of the middle 50 %
+
+
+def iqm(values) -> float:
+    """Interquartile mean: the mean of the middle 50 % (``scipy.stats.trim_mean`` cutting 25 % each side)."""
+    return float(stats.trim_mean(np.asarray(values, dtype=float).ravel(), TRIM))
+
+
+def iqm_ci(values, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[float | None, float | None]:
+    """The ``confidence`` bootstrap interval of the IQM of ``values`` (None, None for fewer than two)."""
+    x = np.asarray(values, dtype=float)
+    if x.size < 2:
+        return None, None
+    if np.all(x == x[0]):
+        return float(x[0]), float(x[0])
+    res = stats.bootstrap((x,), lambda s, axis: stats.trim_mean(s, TRIM, axis=axis), confidence_level=confidence,
+                          n_resamples=BOOTSTRAP_RESAMPLES, method="percentile", rng=np.random.default_rng(seed))
+    return float(res.confidence_interval.low), float(res.confidence_interval.high)
+
+
+def stratified_iqm_ci(groups: Sequence[Sequence[float]], confidence: float = CONFIDENCE,
+                      seed: int = 0) -> tuple[float | None, float | None, float | None]:
+    """(IQM, CI low, CI high) of the pooled scores of ``groups`` (one group per task, the seeds' scores).
+
+    The bootstrap resamples each group on its own (with replacement, its own size) and takes the IQM
+    of the pooled resample; a group of one score enters every resample as it is. Non-finite scores
+    are dropped. (None, None, None) without scores; the interval is None with fewer than two.
+    """
+    clean = [x[np.isfinite(x)] for x in (np.asarray(g, dtype=float).ravel() for g in groups)]
+    clean = [x for x in clean if x.size]
+    if not clean:
+        return None, None, None
+    pooled = np.concatenate(clean)
+    centre = iqm(pooled)
+    if pooled.size < 2:
+        return centre, None, None
+    if np.all(pooled == pooled[0]):
+        return centre, centre, centre
+    varying = tuple(x for x in clean if x.size > 1)
+    fixed = np.concatenate([x for x in clean if x.size == 1] or [np.empty(0)])
+    if not varying:  # one score per task: nothing to resample within a task
+        return centre, centre, centre
+
+    def statistic(*samples, axis):
+        batch = np.broadcast_shapes(*(s.shape[:-1] for s in samples))
+        parts = [np.broadcast_to(s, batch + s.shape[-1:]) for s in samples]
+        parts.append(np.broadcast_to(fixed, batch + fixed.shape))
+        return stats.trim_mean(np.concatenate(parts, axis=-1), TRIM, axis=-1)
+
+    res = stats.bootstrap(varying, statistic, confidence_level=confidence, n_resamples=BOOTSTRAP_RESAMPLES,
+                          method="percentile", rng=np.random.default_rng(seed), axis=-1)
+    return centre, float(res.confidence_interval.low), float(res.confidence_interval.high)
