@@ -7,7 +7,7 @@ import os
 import time
 from pathlib import Path
 
-from hev_thermal_env.cycles import list_cycles
+from hev_thermal_env.cycles import expand_cycle_names, list_cycles
 from hev_thermal_env.evaluation.benchmark import DEFAULT_CYCLES, DEFAULT_SCENARIOS, DEFAULT_STRATEGIES, run_benchmark
 from hev_thermal_env.evaluation.executors import EXECUTORS, ExecutorError
 from hev_thermal_env.scenarios import list_scenarios
@@ -31,7 +31,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "results.json, results.md, timings.json and PNG plots into --out.",
                        formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
     p.add_argument("--cycles", nargs="+", default=list(DEFAULT_CYCLES), metavar="CYCLE",
-                   help=f"built-in cycles ({', '.join(list_cycles())}) or CSV paths")
+                   help=f"built-in cycles ({', '.join(list_cycles())}), generated ones (FAMILY:SEED, "
+                        f"validation_bus:K), sets (validation_bus, validation_bus:A..B) or CSV paths")
     p.add_argument("--strategies", nargs="+", default=list(DEFAULT_STRATEGIES), metavar="STRATEGY",
                    help=strategies_help())
     p.add_argument("--scenarios", nargs="+", default=list(DEFAULT_SCENARIOS), metavar="SCENARIO",
@@ -53,7 +54,7 @@ def main(args: argparse.Namespace) -> int:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
     t0 = time.perf_counter()
     try:
-        rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
+        rows = run_benchmark(Path(args.out), expand_cycle_names(args.cycles), args.strategies, args.scenarios, jobs=args.jobs,
                              plots=not args.no_plots, executor=args.executor, address=args.address)
     except ExecutorError as exc:
         return report(exc)
