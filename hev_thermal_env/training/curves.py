@@ -19,6 +19,7 @@ states the rule. A dotted vertical line marks the selected evaluation on every p
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -149,7 +150,10 @@ def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, d
     steps = sorted(mean)
     handles += ax_ret.plot(steps, [mean[s] for s in steps], color="k", lw=2.0,
                            label=SELECTION_METRIC + ("\n(selects best_model.zip)" if on_return else ""))
-    star = f"best_model.zip: step {best}\n(chosen on the {rule}" + (", not on fuel)" if on_return else ")")
+    star = textwrap.fill(f"best_model.zip: step {best}, chosen on the {rule}" + (", not on fuel" if on_return else ""),
+                         42)
+    if not all(r["qualified"] for r in rows if r["timesteps"] == best):
+        star += "\n(no evaluation qualified: the least penalised)"
     if on_return:
         handles += ax_ret.plot([best], [mean[best]], ls="none", marker="*", ms=16, color="#ffbf00", mec="k",
                                zorder=5, label=star)
@@ -178,19 +182,19 @@ def _selection_panel(ax, series: dict[str, dict[int, dict[str, Any]]], rows: lis
     steps = sorted(by_step)
     score = np.array([100.0 * np.mean([r["fuel_ratio"] for r in by_step[s]]) for s in steps])
     handles = ax.plot(steps, score, color="k", lw=2.0, label=f"selection score: mean fuel in % of {ref}\n"
-                                                               f"(selects best_model.zip)")
+                                                               f"(lowest selects best_model.zip)")
     bad = [i for i, s in enumerate(steps) if not all(r["qualified"] for r in by_step[s])]
     if bad:
-        handles += ax.plot([steps[i] for i in bad], score[bad], ls="none", marker="x", ms=9, mew=2, color="#d62728",
-                           zorder=6, label="disqualified: |ΔSOC| over the limit on a run")
+        handles += ax.plot([steps[i] for i in bad], score[bad], ls="none", marker="x", ms=8, mew=2, color="#d62728",
+                           zorder=8, label="disqualified: |ΔSOC| over\nthe limit on a run")
     if best in steps:
         handles += ax.plot([best], [score[steps.index(best)]], ls="none", marker="*", ms=16, color="#ffbf00",
                            mec="k", zorder=7, label=star)
     ax.axhline(100.0, color="0.2", lw=0.8)
     lo, hi = ax.get_ylim()
     ax.set_ylim(min(lo, 99.5), max(hi, 100.5))
-    ax.set_title(f"evaluation: corrected fuel in % of {ref} on the same run (lower is better; "
-                 f"the metric best_model.zip is chosen on)", fontsize=10)
+    ax.set_title(f"evaluation: corrected fuel, % of {ref} on the same run (lower is better; selects the best)",
+                 fontsize=10)
     ax.set_ylabel(f"corrected fuel, % of {ref}")
     return handles
 

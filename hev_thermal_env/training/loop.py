@@ -145,10 +145,8 @@ class TrainingRun:
                     logger.record(f"eval/{key}_{tag}", r[key])
         if self.verbose:
             worst = max(abs(r["delta_soc"]) for r in results)
-            self.log(f"eval @ {n}: {self.scorer.short} {score.value:.4f}"
-                     f"{'' if score.qualified else f' (disqualified: {score.violations} run(s) over the SOC limit)'}"
-                     f"{' (new best)' if best else ''}; mean return {mean_return:.1f} g, max |dSOC| {worst:.3f} "
-                     f"over {len(results)} runs")
+            self.log(f"eval @ {n}: {score.describe(self.scorer.short)}{' (new best)' if best else ''}; "
+                     f"mean return {mean_return:.1f} g, max |dSOC| {worst:.3f} over {len(results)} runs")
         return results
 
     def references(self) -> dict[str, float]:

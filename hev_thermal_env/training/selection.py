@@ -45,6 +45,13 @@ class Score:
     ratios: tuple[float, ...]
     violations: int = 0
 
+    def describe(self, short: str) -> str:
+        """One line: the mean fuel ratio (or the value) and, if so, the disqualification."""
+        ratios = np.asarray(self.ratios, dtype=float)
+        text = f"{short} {np.mean(ratios):.4f}" if ratios.size and np.all(np.isfinite(ratios)) else \
+            f"{short} score {self.value:.4g}"
+        return text if self.qualified else f"{text} (disqualified: {self.violations} run(s) over the SOC limit)"
+
 
 @dataclasses.dataclass(frozen=True)
 class Scorer:

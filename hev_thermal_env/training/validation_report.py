@@ -38,6 +38,7 @@ def final_validation(run: Any) -> dict[str, Any]:
     res["selection_reference"] = ref
     rows: list[dict[str, Any]] = []
     models: dict[str, Any] = {}
+    described: dict[str, str] = {}
     for name in MODELS:
         if not (run.out / name).is_file():
             continue
@@ -47,6 +48,7 @@ def final_validation(run: Any) -> dict[str, Any]:
             rows.append({"model": name, **{k: r[k] for k in VALIDATION_COLUMNS if k in r},
                          "reference_l_per_100km": ref.get(run_key(r["cycle"], r["scenario"]), np.nan),
                          "fuel_ratio": ratio})
+        described[name] = score.describe(run.scorer.short)
         ratios = np.asarray(score.ratios, dtype=float)
         models[name] = {"score": round(score.value, 6), "qualified": score.qualified, "violations": score.violations,
                         "mean_fuel_ratio": round(float(np.mean(ratios)), 6) if np.all(np.isfinite(ratios)) else None,
@@ -63,8 +65,8 @@ def final_validation(run: Any) -> dict[str, Any]:
                "models": models}
     res["validation"] = summary
     if run.verbose:
-        parts = "; ".join(f"{name}: {run.scorer.short} {m['score']:.4f}, max |dSOC| {m['max_abs_delta_soc']:.3f}"
-                          f"{'' if m['qualified'] else ' (disqualified)'}" for name, m in models.items())
+        parts = "; ".join(f"{name}: {text}, max |dSOC| {models[name]['max_abs_delta_soc']:.3f}"
+                          for name, text in described.items())
         run.log(f"validation on {summary['runs']} runs ({', '.join(summary['cycles'])} × "
                 f"{', '.join(summary['scenarios'])}): {parts}")
     return summary
