@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from .cycles.families import PAYLOAD_KG_RANGE
 from .physics.config import Conditions
 
 
@@ -122,7 +123,7 @@ SCENARIOS: dict[str, Scenario] = {
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",
                        Conditions(), randomized=True),
     "random_service": Scenario("random_service", "as random, plus a payload of 0-4.5 t per episode (training)",
-                               Conditions(), randomized=True, payload_kg_range=(0.0, 4500.0)),
+                               Conditions(), randomized=True, payload_kg_range=PAYLOAD_KG_RANGE),
 }
 
 

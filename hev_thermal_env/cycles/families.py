@@ -74,6 +74,34 @@ LAUNCH_POWER_W_PER_KG = (9.0, 12.0)
 MIXED_KINDS = {"city": 0.35, "congested": 0.25, "launch": 0.2, "suburban": 0.2}
 
 
+#: The documented envelope of each family's :func:`cycle_statistics` (low, high), for every seed: exact for
+#: durations, top speeds, accelerations and grades (limits of the draws), measured with a margin for the
+#: rest (``benchmarks/cycle_families.py`` gives the ranges over 300 seeds). Payload: 0-4,500 kg for every
+#: family, from the training scenario (``random_service``), not from the cycle.
+FAMILY_BOUNDS: dict[str, dict[str, tuple[float, float]]] = {
+    "random_bus": {"duration_s": (1300, 1300), "mean_speed_kmh": (10, 25), "max_speed_kmh": (30, 60),
+                   "stops_per_km": (1.5, 6.5), "idle_fraction": (0.15, 0.40), "max_accel_mps2": (0.9, 1.0),
+                   "max_decel_mps2": (0.85, 1.0), "grade_min": (0, 0), "grade_max": (0, 0)},
+    "bus_long": {"duration_s": (3000, 4200), "mean_speed_kmh": (12, 28), "max_speed_kmh": (40, 70),
+                 "stops_per_km": (1.2, 5.0), "idle_fraction": (0.15, 0.35), "max_accel_mps2": (0.9, 1.0),
+                 "max_decel_mps2": (0.85, 1.0), "grade_min": (0, 0), "grade_max": (0, 0)},
+    "bus_congested": {"duration_s": (1200, 2400), "mean_speed_kmh": (5, 9), "max_speed_kmh": (20, 35),
+                      "stops_per_km": (9, 20), "idle_fraction": (0.30, 0.50), "max_accel_mps2": (0.7, 0.8),
+                      "max_decel_mps2": (0.8, 0.9), "grade_min": (0, 0), "grade_max": (0, 0)},
+    "bus_launch": {"duration_s": (1200, 2000), "mean_speed_kmh": (10, 19), "max_speed_kmh": (30, 60),
+                   "stops_per_km": (3, 9), "idle_fraction": (0.25, 0.50), "max_accel_mps2": (1.3, 2.2),
+                   "max_decel_mps2": (1.6, 2.0), "grade_min": (0, 0), "grade_max": (0, 0)},
+    "bus_hilly": {"duration_s": (1200, 2400), "mean_speed_kmh": (10, 25), "max_speed_kmh": (30, 60),
+                  "stops_per_km": (1.5, 6.5), "idle_fraction": (0.15, 0.40), "max_accel_mps2": (0.9, 1.0),
+                  "max_decel_mps2": (0.85, 1.0), "grade_min": (-0.08, -0.01), "grade_max": (0.01, 0.08)},
+    "bus_mixed": {"duration_s": (3000, 4500), "mean_speed_kmh": (5, 36), "max_speed_kmh": (25, 70),
+                  "stops_per_km": (0.5, 18), "idle_fraction": (0.10, 0.50), "max_accel_mps2": (0.75, 2.2),
+                  "max_decel_mps2": (0.8, 2.0), "grade_min": (-0.07, 0), "grade_max": (0, 0.07)},
+}
+#: Payload range [kg] the training scenario draws under every family (``random_service``).
+PAYLOAD_KG_RANGE = (0.0, 4500.0)
+
+
 @dataclasses.dataclass(frozen=True)
 class Plan:
     """What a family draws for one seed: segments ``(kind, duration_s)`` and the road's highest grade (or None)."""
@@ -239,3 +267,12 @@ def cycle_statistics(cycle: Cycle) -> dict[str, float]:
             "max_speed_kmh": cycle.max_speed_kmh, "stops_per_km": stops / km if km > 0 else 0.0,
             "idle_fraction": cycle.idle_fraction, "max_accel_mps2": float(a.max()), "max_decel_mps2": float(-a.min()),
             "grade_min": float(np.min(cycle.grade)), "grade_max": float(np.max(cycle.grade))}
+
+
+def family_statistics(family: str, seeds: Any) -> dict[str, dict[str, float]]:
+    """``min``, ``mean`` and ``max`` over ``seeds`` of each :func:`cycle_statistics` of ``family``'s cycles."""
+    rows = [cycle_statistics(generate_family_cycle(family, int(s))) for s in seeds]
+    if not rows:
+        raise ValueError("family_statistics needs at least one seed")
+    return {k: {"min": float(np.min([r[k] for r in rows])), "mean": float(np.mean([r[k] for r in rows])),
+                "max": float(np.max([r[k] for r in rows]))} for k in rows[0]}
