@@ -18,7 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from hev_thermal_env.cycles import cycle_statistics, expand_cycle_names, generate_family_cycle, list_families, load_cycle
+from hev_thermal_env.cycles import (
+    cycle_statistics,
+    expand_cycle_names,
+    generate_family_cycle,
+    list_families,
+    load_cycle,
+)
 from hev_thermal_env.cycles.families import FAMILY_BOUNDS, PAYLOAD_KG_RANGE, training_seed
 
 COLUMNS = (("duration_s", "duration (s)", "{:.0f}"), ("mean_speed_kmh", "mean speed (km/h)", "{:.1f}"),

@@ -54,8 +54,8 @@ def main(args: argparse.Namespace) -> int:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
     t0 = time.perf_counter()
     try:
-        rows = run_benchmark(Path(args.out), expand_cycle_names(args.cycles), args.strategies, args.scenarios, jobs=args.jobs,
-                             plots=not args.no_plots, executor=args.executor, address=args.address)
+        rows = run_benchmark(Path(args.out), expand_cycle_names(args.cycles), args.strategies, args.scenarios,
+                             jobs=args.jobs, plots=not args.no_plots, executor=args.executor, address=args.address)
     except ExecutorError as exc:
         return report(exc)
     print((Path(args.out) / "results.md").read_text())

@@ -4,9 +4,9 @@
   (:func:`~hev_thermal_env.cycles.families.generate_family_cycle`).
 * ``validation_bus:K``: validation cycle ``K`` (:mod:`~hev_thermal_env.cycles.validation`).
 * ``validation_bus`` (every validation cycle), ``validation_bus:A..B`` (cycles A to B, inclusive) and
-  ``FAMILY:A..B`` (seeds A to B of a family, at most :data:`MAX_RANGE` of them) are *sets*: :func:`expand_cycle_names` replaces them by their cycles' names wherever a list of cycles
-  is accepted (the env's ``cycle``, ``train.py --cycles`` / ``--eval-cycles``, ``evaluate.py benchmark
-  --cycles``).
+  ``FAMILY:A..B`` (seeds A to B of a family, at most :data:`MAX_RANGE` of them) are *sets*:
+  :func:`expand_cycle_names` replaces them by their cycles' names wherever a list of cycles is accepted
+  (the env's ``cycle``, ``train.py --cycles`` / ``--eval-cycles``, ``evaluate.py benchmark --cycles``).
 * A bare family name (``bus_long``) is not one cycle: in an env's or training run's cycle list it draws
   a fresh cycle of the family every episode.
 """

@@ -142,7 +142,7 @@ def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, d
     on_return = scorer is None or scorer.name == LEGACY_SCORER
     rule = scorer.label if scorer is not None else "the run's eval.selection"
     handles = []
-    for k, (label, by_step) in enumerate(series.items()):
+    for k, by_step in enumerate(series.values()):
         steps = sorted(by_step)
         handles += ax_ret.plot(steps, [by_step[s]["return_g"] for s in steps], color=f"C{k % 10}", lw=1.0,
                                marker=".", label=f"evaluation: {_display(by_step)}")
@@ -171,7 +171,7 @@ def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, d
 
 def _selection_panel(ax, series: dict[str, dict[int, dict[str, Any]]], rows: list[dict[str, Any]], best: int,
                      scorer: Scorer, star: str) -> list:
-    """Corrected fuel in % of the scorer's reference per run, the score (their mean) and the disqualified evaluations."""
+    """Corrected fuel in % of the scorer's reference per run, the score (their mean), disqualified evaluations."""
     ref = scorer.reference_name or "the reference"
     for k, by_step in enumerate(series.values()):
         steps = sorted(by_step)

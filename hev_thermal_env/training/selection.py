@@ -92,7 +92,7 @@ def strategy_reference(strategy: str, **options: Any) -> Callable[[str, str], fl
 
 def fuel_ratio_score(results: Sequence[dict[str, Any]], reference: dict[str, float],
                      soc_limit: float = SOC_LIMIT) -> Score:
-    """Mean corrected-fuel ratio to the reference, plus :data:`VIOLATION_PENALTY` per run with ``|ΔSOC| > soc_limit``."""
+    """Mean fuel ratio to the reference plus :data:`VIOLATION_PENALTY` per run with |ΔSOC| > ``soc_limit``."""
     if not results:
         raise ValueError("no evaluation results to score")
     ratios = []
@@ -129,7 +129,7 @@ SCORERS: dict[str, Scorer] = {
 
 
 def get_scorer(name: str) -> Scorer:
-    """The scorer ``name``: registered, or ``package.module:attr`` naming a :class:`Scorer` or a function returning one."""
+    """The scorer ``name``: registered, or ``package.module:attr`` naming a :class:`Scorer` or a function giving one."""
     if name in SCORERS:
         return SCORERS[name]
     if ":" not in str(name):
