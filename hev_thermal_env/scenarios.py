@@ -21,6 +21,8 @@
 * ``random``: for training. Each episode draws ambient 10-40 °C, motor start ambient + 0-30 °C,
   SOC 0.55-0.75 and the coolant on (60 %), degraded (30 %) or nearly failed (10 %), all from
   the env's ``np_random``.
+* ``random_service``: for training on buses in service: the draws of ``random``, then a payload of
+  0-4,500 kg (empty to ``full_bus``), uniform, per episode.
 
 A scenario is a small record of deltas, not a code path (DESIGN §2, STYLE.md): run conditions,
 and for ``hilly`` a road profile that :meth:`Scenario.prepare_cycle` lays under the cycle (a
@@ -35,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from .cycles.families import PAYLOAD_KG_RANGE
 from .physics.config import Conditions
 
 
@@ -44,6 +47,8 @@ class Scenario:
 
     ``grade_profile``: keyword arguments of :func:`~hev_thermal_env.cycles.with_grade_profile`
     (``seed`` and the profile's parameters) for a scenario on a hilly road, else None.
+    ``payload_kg_range``: (low, high) of a payload drawn uniformly per episode after the other draws
+    (randomized scenarios only), else None.
     """
 
     name: str
@@ -51,11 +56,26 @@ class Scenario:
     conditions: Conditions
     randomized: bool = False
     grade_profile: dict[str, Any] | None = None
+    payload_kg_range: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.payload_kg_range is not None:
+            lo, hi = (float(x) for x in self.payload_kg_range)
+            if not (self.randomized and 0.0 <= lo <= hi):
+                raise ValueError(f"scenario {self.name!r}: payload_kg_range {self.payload_kg_range!r} needs "
+                                 f"randomized=True and 0 <= low <= high")
 
     def sample(self, rng: np.random.Generator) -> Conditions:
         """The conditions of one episode (the fixed ones unless ``randomized``)."""
         if not self.randomized:
             return self.conditions
+        cond = self._sample_thermal(rng)
+        if self.payload_kg_range is not None:
+            cond = cond.replace(payload_kg=float(rng.uniform(*self.payload_kg_range)))
+        return cond
+
+    @staticmethod
+    def _sample_thermal(rng: np.random.Generator) -> Conditions:
         ambient = float(rng.uniform(10.0, 40.0))
         motor = ambient + float(rng.uniform(0.0, 30.0))
         soc = float(rng.uniform(0.55, 0.75))
@@ -102,6 +122,8 @@ SCENARIOS: dict[str, Scenario] = {
                          Conditions(payload_kg=4500.0)),
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",
                        Conditions(), randomized=True),
+    "random_service": Scenario("random_service", "as random, plus a payload of 0-4.5 t per episode (training)",
+                               Conditions(), randomized=True, payload_kg_range=PAYLOAD_KG_RANGE),
 }
 
 

@@ -88,8 +88,9 @@ def test_cycle_argument(kind, tmp_path):
     if kind in ("name", "path", "cycle"):
         np.testing.assert_array_equal(cyc.speed_mps, hwfet.speed_mps)
     if kind == "random_bus":
-        assert cyc.synthetic and cycle_name(info["cycle_id"]).startswith("bus_seed")
+        assert cyc.synthetic and cycle_name(info["cycle_id"]).startswith("random_bus:")
         assert cycle_name(info["cycle_id"]) == cyc.name
+        np.testing.assert_array_equal(load_cycle(cyc.name).speed_mps, cyc.speed_mps)  # the name reloads the cycle
     env.step(np.array([0.0], np.float32))
 
 

@@ -42,7 +42,8 @@ def tiny_cycle_csv(path: Path, name: str = "beijing", start: int = 100, n: int =
 
 
 def train_args(out: Path, timesteps: int, *extra: str, hp: tuple[str, ...] = ()) -> list[str]:
-    return ["--algo", "ppo", "--cycles", "hwfet", "random_bus", "--scenario", "random", "--timesteps", str(timesteps),
+    return ["--algo", "ppo", "--cycles", "random_bus", "bus_launch", "--scenario", "random_service", "--timesteps",
+            str(timesteps),
             "--n-envs", "4", "--seed", "3", "--out", str(out), "--no-progress", "--quiet",
             "--hp", *TINY_HP, *hp, *extra]
 
@@ -59,7 +60,8 @@ def tiny_run(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("train")
     cyc = tiny_cycle_csv(d / "short.csv")
     out = d / "run"
-    code = train.main(train_args(out, 1024, "--eval-cycles", cyc, "--eval-freq", "512", "--checkpoint-freq", "512"))
+    code = train.main(train_args(out, 1024, "--eval-cycles", cyc, "--eval-freq", "512", "--checkpoint-freq", "512",
+                                 hp=("eval.final_cycles=[validation_bus:0..1]",)))
     assert code == 0
     return out
 
@@ -68,14 +70,14 @@ def tiny_run(tmp_path_factory) -> Path:
 
 def test_smoke_run_writes_the_zoo_layout(tiny_run):
     for f in ("model.zip", "best_model.zip", "vecnormalize.pkl", "best_vecnormalize.pkl", "config.yaml",
-              "command.txt", "evaluations.csv", "training_curve.png"):
+              "command.txt", "evaluations.csv", "validation.csv", "training_curve.png"):
         assert (tiny_run / f).is_file() and (tiny_run / f).stat().st_size > 0, f
     assert any((tiny_run / "tb").rglob("events.out.tfevents.*"))
     assert sorted(p.name for p in (tiny_run / "checkpoints").glob("*.zip")) == ["ckpt_1024_steps.zip",
                                                                                 "ckpt_512_steps.zip"]
     cfg = load_run_config(tiny_run)
     assert cfg["algo"] == "ppo" and cfg["seed"] == 3 and cfg["total_timesteps"] == 1024 and cfg["n_envs"] == 4
-    assert cfg["env"]["cycles"] == ["hwfet", "random_bus"] and cfg["env"]["scenario"] == "random"
+    assert cfg["env"]["cycles"] == ["random_bus", "bus_launch"] and cfg["env"]["scenario"] == "random_service"
     assert cfg["env"]["preview_s"] == 10 and cfg["env"]["observation_size"] == 19
     assert cfg["hyperparams"]["n_steps"] == 64 and cfg["hyperparams"]["policy_kwargs"]["net_arch"] == [16, 16]
     assert {"torch", "stable_baselines3", "gymnasium", "hev_thermal_env"} <= set(cfg["versions"])
@@ -83,8 +85,21 @@ def test_smoke_run_writes_the_zoo_layout(tiny_run):
     assert res["finished"] and res["timesteps_done"] == 1024 and 0.0 < res["env_share"] < 1.0
     assert "--timesteps 1024" in (tiny_run / "command.txt").read_text()
     rows = list(csv.DictReader((tiny_run / "evaluations.csv").open()))
-    assert [int(r["timesteps"]) for r in rows] == [512, 1024]
+    assert [(int(r["timesteps"]), r["scenario"]) for r in rows] == [(512, "paper"), (512, "full_bus"),
+                                                                    (1024, "paper"), (1024, "full_bus")]
     assert all(math.isfinite(float(r["fuel_corrected_l_per_100km"])) for r in rows)
+    # selection by corrected fuel relative to ECMS on the same run (ECMS computed once, kept in the config)
+    assert cfg["eval"]["selection"] == "fuel_vs_ecms" and len(res["selection_reference"]) == 2 + 4
+    for r in rows:
+        ref = res["selection_reference"][f"{r['cycle']} / {r['scenario']}"]
+        assert float(r["fuel_ratio"]) == pytest.approx(float(r["fuel_corrected_l_per_100km"]) / ref, rel=1e-5)
+    assert res["best_eval"]["selection"] == "fuel_vs_ecms"
+    val = list(csv.DictReader((tiny_run / "validation.csv").open()))
+    assert [(r["model"], r["cycle"], r["scenario"]) for r in val[:4]] == [
+        ("best_model.zip", "validation_bus:0", "paper"), ("best_model.zip", "validation_bus:1", "paper"),
+        ("best_model.zip", "validation_bus:0", "full_bus"), ("best_model.zip", "validation_bus:1", "full_bus")]
+    assert len(val) == 8 and set(res["validation"]["models"]) == {"best_model.zip", "model.zip"}
+    assert res["validation"]["runs"] == 4
 
 
 def test_resuming_a_finished_run_does_nothing(tiny_run, capsys):

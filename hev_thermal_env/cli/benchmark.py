@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from hev_thermal_env.agents import list_strategies
-from hev_thermal_env.cycles import list_cycles
+from hev_thermal_env.cycles import expand_cycle_names, list_cycles
 from hev_thermal_env.evaluation.benchmark import (
     DEFAULT_CYCLES,
     DEFAULT_SCENARIOS,
@@ -44,7 +44,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "(frontier ratio, fixed-price ratio); dp is thermal-blind.",
                        formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
     p.add_argument("--cycles", nargs="+", default=list(DEFAULT_CYCLES), metavar="CYCLE",
-                   help=f"built-in cycles ({', '.join(list_cycles())}) or CSV paths")
+                   help=f"built-in cycles ({', '.join(list_cycles())}), generated ones (FAMILY:SEED, "
+                        f"validation_bus:K), sets (validation_bus, validation_bus:A..B) or CSV paths")
     p.add_argument("--strategies", nargs="+", default=list(DEFAULT_STRATEGIES), metavar="STRATEGY",
                    help=f"{strategies_help()}; {REFERENCE}, the reference of the ratios, is added if missing")
     p.add_argument("--family", action="append", default=[], metavar="NAME=PATH,PATH,...",
@@ -75,8 +76,8 @@ def main(args: argparse.Namespace) -> int:
         taken.add(family.name)
     t0 = time.perf_counter()
     try:
-        rows = run_benchmark(Path(args.out), args.cycles, args.strategies, args.scenarios, jobs=args.jobs,
-                             plots=not args.no_plots, executor=args.executor, address=args.address,
+        rows = run_benchmark(Path(args.out), expand_cycle_names(args.cycles), args.strategies, args.scenarios,
+                             jobs=args.jobs, plots=not args.no_plots, executor=args.executor, address=args.address,
                              families=families)
     except ExecutorError as exc:
         return report(exc)

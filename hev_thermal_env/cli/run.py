@@ -45,7 +45,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                    "and cutoff time.",
                        formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
     p.add_argument("--cycle", required=True, metavar="NAME",
-                   help=f"built-in cycle ({', '.join(list_cycles())}) or a CSV path (time_s,speed_mps[,grade])")
+                   help=f"built-in cycle ({', '.join(list_cycles())}), a generated one (FAMILY:SEED, e.g. "
+                        f"bus_long:7, or validation_bus:K) or a CSV path (time_s,speed_mps[,grade])")
     p.add_argument("--strategy", required=True, metavar="NAME", help=strategies_help())
     p.add_argument("--scenario", default="paper", metavar="S", help=f"one of {', '.join(list_scenarios())}")
     p.add_argument("--seed", type=int, default=0, help="reset seed, 0 or more (draws the random scenario)")

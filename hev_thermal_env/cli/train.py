@@ -5,8 +5,8 @@ The program behind ``train.py`` and the ``hev-train`` command; ``--help`` shows 
 file (``agents/hyperparams/<algo>.yaml``, :data:`~hev_thermal_env.agents.HYPERPARAMS_DIR`).
 ``--hp key=value`` overrides any hyperparameter (values are YAML; dotted keys reach inside
 mappings). The run directory gets ``model.zip``, ``best_model.zip``, ``vecnormalize.pkl``,
-``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard), ``evaluations.csv`` and
-``training_curve.png`` (see :mod:`hev_thermal_env.training`).
+``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard), ``evaluations.csv``,
+``validation.csv`` and ``training_curve.png`` (see :mod:`hev_thermal_env.training`).
 
 Ctrl-C saves a checkpoint and exits with status 130; ``--resume DIR`` continues. Errors in the
 input (an unknown hyperparameter, a value of the wrong type, an output directory that cannot be
@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from hev_thermal_env.agents import HYPERPARAMS_DIR
-from hev_thermal_env.cycles import list_cycles
+from hev_thermal_env.cycles import list_cycles, list_families
 from hev_thermal_env.io import read_yaml_mapping
 from hev_thermal_env.scenarios import list_scenarios
 from hev_thermal_env.training import TrainingInterrupted, build_config, parse_overrides, resume, train
@@ -40,7 +40,8 @@ SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "o
 
 
 EXAMPLES = (
-    "python train.py --algo ppo --cycles hwfet random_bus --scenario random --timesteps 5000000 \\",
+    "python train.py --algo ppo --cycles bus_long bus_congested bus_mixed --scenario random_service \\",
+    "    --timesteps 5000000 --eval-cycles validation_bus:0..4 --eval-scenarios paper full_bus \\",
     "    --n-envs 32 --seed 0 --out runs/ppo_s0",
     "python train.py --algo ppo --hp gamma=0.99 'policy_kwargs={net_arch: [128, 128]}' --out runs/ppo_wide",
     "python train.py --algo sac --hp learning_rate=lin_3e-4 env.reward.soc_deviation_weight=10 --out runs/sac",
@@ -54,8 +55,12 @@ any of them. Values are YAML: 0.99, [64, 64], {net_arch: [64, 64], activation_fn
 (a linear decay); dict(k=v, ...) is accepted too; dotted keys reach inside mappings
 (policy_kwargs.net_arch=[64,64], env.reward.soc_deviation_weight=1.0).
 
+selection: best_model.zip is the checkpoint with the best eval.selection score on the evaluation
+cycles (default fuel_vs_ecms: lowest mean corrected fuel / ECMS, |dSOC| > 0.02 disqualifies); at the
+end the best and final models are scored on eval.final_cycles (validation.csv).
+
 outputs in --out: model.zip, best_model.zip, vecnormalize.pkl, config.yaml, command.txt,
-checkpoints/, tb/ (TensorBoard), evaluations.csv, training_curve.png.
+checkpoints/, tb/ (TensorBoard), evaluations.csv, validation.csv, training_curve.png.
 
 Ctrl-C saves a checkpoint (exit status 130); --resume DIR continues.
 
@@ -87,8 +92,9 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
                            epilog=examples(EXAMPLES) + "\n\n" + NOTES)
     p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(ALGOS)} (default: ppo)")
     p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
-                   help=f"training cycles: built-in names ({', '.join(list_cycles())}), CSV paths or random_bus "
-                        f"(a fresh synthetic bus cycle per episode); {_per_algo(d, 'cycles')}")
+                   help=f"training cycles: cycle families ({', '.join(list_families())}: a fresh generated cycle "
+                        f"per episode), built-in names ({', '.join(list_cycles())}), FAMILY:SEED or CSV paths; "
+                        f"{_per_algo(d, 'cycles')}")
     p.add_argument("--scenario", default=None, metavar="S",
                    help=f"one of {', '.join(list_scenarios())}; {_per_algo(d, 'scenario')}")
     p.add_argument("--timesteps", type=int, default=None, metavar="N",
@@ -105,7 +111,8 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
                    help=f"vector env, one of {', '.join(VEC_MODES)}: native is one batched env (the default), "
                         "subproc and dummy SB3's vector envs")
     p.add_argument("--eval-cycles", nargs="*", default=None, metavar="CYCLE",
-                   help=f"evaluation cycles, not trained on; none disables evaluation; {_per_algo(d, 'eval_cycles')}")
+                   help=f"evaluation cycles the checkpoints are scored on, not trained on (validation_bus:A..B: "
+                        f"validation cycles A to B); none disables evaluation; {_per_algo(d, 'eval_cycles')}")
     p.add_argument("--eval-scenarios", nargs="+", default=None, metavar="S",
                    help=f"evaluation scenarios; {_per_algo(d, 'eval_scenarios')}")
     p.add_argument("--eval-freq", type=int, default=None, metavar="N",

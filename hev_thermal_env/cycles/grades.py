@@ -72,6 +72,21 @@ def generate_grade_profile(
     return np.asarray(pos), np.asarray(val)
 
 
+def grade_along(speed_mps: np.ndarray, seed: int, **kwargs: Any) -> np.ndarray:
+    """The grade under each sample of a 1-s speed trace driven over the road of :func:`generate_grade_profile`.
+
+    Step k (from ``speed[k]`` to ``speed[k + 1]``) climbs the grade at the middle of the distance it
+    covers; the last sample repeats the last step's grade. Rounded to 1e-9 (a CSV round trip keeps it).
+    """
+    v = np.asarray(speed_mps, dtype=np.float64)
+    step_m = 0.5 * (v[1:] + v[:-1])
+    start_m = np.concatenate([[0.0], np.cumsum(step_m)[:-1]])
+    mid_m = start_m + 0.5 * step_m
+    pos, val = generate_grade_profile(seed, max(float(np.sum(step_m)), 1.0), **kwargs)
+    g = np.interp(mid_m, pos, val)
+    return np.round(np.concatenate([g, g[-1:]]), 9) + 0.0
+
+
 def with_grade_profile(cycle: Cycle, seed: int, *, name: str | None = None, **kwargs: Any) -> Cycle:
     """``cycle``'s speeds over the road of :func:`generate_grade_profile` (``seed``, ``kwargs``).
 
@@ -79,12 +94,7 @@ def with_grade_profile(cycle: Cycle, seed: int, *, name: str | None = None, **kw
     it covers; the last sample repeats the last step's grade. The cycle's own grade is replaced.
     """
     v = np.asarray(cycle.speed_mps, dtype=np.float64)
-    step_m = 0.5 * (v[1:] + v[:-1])
-    start_m = np.concatenate([[0.0], np.cumsum(step_m)[:-1]])
-    mid_m = start_m + 0.5 * step_m
-    pos, val = generate_grade_profile(seed, max(float(np.sum(step_m)), 1.0), **kwargs)
-    g = np.interp(mid_m, pos, val)
-    grade = np.round(np.concatenate([g, g[-1:]]), 9) + 0.0
+    grade = grade_along(v, seed, **kwargs)
     params = {k: list(x) if isinstance(x, tuple) else x for k, x in kwargs.items()}
     metadata = {**cycle.metadata, "grade_profile": {"seed": int(seed), "params": params,
                                                     "generator": "hev_thermal_env.cycles.generate_grade_profile"}}

@@ -40,6 +40,7 @@ import numpy as np
 
 from .cycle import Cycle, check_samples, regrid_to_1s, warn_implausible
 from .generator import BEIJING_KWARGS, BEIJING_SEED, BEIJING_TARGETS, bus_cycle_params
+from .names import generated_cycle
 
 _FASTSIM_SOURCE = (
     "fastsim==2.1.5 wheel from PyPI, fastsim/resources/cycles/{file} "
@@ -224,8 +225,9 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     Parameters
     ----------
     name_or_path : str, os.PathLike or Cycle
-        A built-in name from :func:`list_cycles` (case-insensitive), a path to a CSV file
-        with columns ``time_s,speed_mps[,grade]`` (see the module docstring), or a
+        A built-in name from :func:`list_cycles` (case-insensitive), a generated cycle's name
+        (``FAMILY:SEED`` or ``validation_bus:K``, see :mod:`~hev_thermal_env.cycles.names`), a path
+        to a CSV file with columns ``time_s,speed_mps[,grade]`` (see the module docstring), or a
         :class:`Cycle`, returned unchanged.
 
     Returns
@@ -236,8 +238,9 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     Raises
     ------
     ValueError
-        If the name is neither built-in nor an existing file (the message lists the built-in
-        names), or if the file is invalid (the message names the file, the data row and line,
+        If the name is neither built-in, nor a generated cycle's, nor an existing file (the message
+        lists the built-in names), if it names a family or a set rather than one cycle, or if the file
+        is invalid (the message names the file, the data row and line,
         and the problem).
     TypeError
         If ``name_or_path`` has another type.
@@ -255,6 +258,10 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
         )
     if isinstance(name_or_path, str) and name_or_path.strip().lower() in _BUILTINS:
         return _load_builtin(name_or_path.strip().lower())
+    if isinstance(name_or_path, str) and not Path(name_or_path).is_file():
+        generated = generated_cycle(name_or_path)
+        if generated is not None:
+            return generated
     path = Path(name_or_path)
     if path.is_file():
         return _load_csv(path)
@@ -263,7 +270,8 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     raise ValueError(
         f"unknown cycle {str(name_or_path)!r}: not a built-in name and not an existing file; "
         f"built-in cycles: {', '.join(list_cycles())}. "
-        "Random synthetic bus cycles come from generate_bus_cycle(seed)."
+        "Generated bus cycles: FAMILY:SEED (families: random_bus, bus_long, bus_congested, bus_launch, "
+        "bus_hilly, bus_mixed) and validation_bus:K; generate_bus_cycle(seed) in Python."
     )
 
 

@@ -13,51 +13,57 @@ from typing import Any
 
 import numpy as np
 
-from ..cycles import Cycle, generate_bus_cycle, load_cycle
+from ..cycles import Cycle, expand_cycle_names, generate_family_cycle, load_cycle
+from ..cycles.families import training_seed
+from ..cycles.names import is_family
 from ..physics import core as C
 from ..physics.config import COOLANT_MODES, Conditions
 from ..scenarios import Scenario, get_scenario
 
 RANDOM_BUS = "random_bus"
-"""Cycle name that draws a fresh synthetic bus cycle (``generate_bus_cycle``) every episode."""
+"""Cycle name that draws a fresh synthetic bus cycle (``generate_bus_cycle``) every episode; like every family
+name of :func:`~hev_thermal_env.cycles.list_families` (``bus_long``, ``bus_congested``, ...)."""
 
 RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
 """Keys accepted in ``reset(options=...)``."""
 
 
 class CycleChoice:
-    """What the ``cycle`` argument asks for: fixed cycles (drawn uniformly if several) or random bus cycles.
+    """What the ``cycle`` argument asks for: fixed cycles and cycle families, one drawn uniformly per episode.
 
-    Accepts a built-in name, a CSV path, a :class:`Cycle`, ``"random_bus"``, or a non-empty list of these.
-    Named and file cycles are loaded once, here, so errors show at construction. A scenario with a
-    road profile (``hilly``) lays it under every flat cycle (:meth:`Scenario.prepare_cycle`).
+    Accepts a built-in name, a generated cycle's name (``bus_long:7``, ``validation_bus:3``), a set of
+    them (``validation_bus``: every validation cycle), a CSV path, a :class:`Cycle`, a family name
+    (``"random_bus"``, ``"bus_long"``, ...: a fresh cycle of the family every episode, its seed drawn by
+    :func:`~hev_thermal_env.cycles.families.training_seed`, never a validation seed), or a non-empty list
+    of these. Named and file cycles are loaded once, here, so errors show at construction. A scenario
+    with a road profile (``hilly``) lays it under every flat cycle (:meth:`Scenario.prepare_cycle`).
     """
 
     def __init__(self, cycle: Any, scenario: Scenario | None = None):
-        items = list(cycle) if isinstance(cycle, (list, tuple)) else [cycle]
+        items = expand_cycle_names(list(cycle) if isinstance(cycle, (list, tuple)) else [cycle])
         if not items:
             raise ValueError("cycle: the list of cycles is empty")
         self.scenario = scenario
-        self.items: list[Cycle | None] = []
+        self.items: list[Cycle | str] = []
         for item in items:
-            if isinstance(item, str) and item.strip().lower() == RANDOM_BUS:
-                self.items.append(None)
+            if is_family(item):
+                self.items.append(item.strip().lower())
             elif isinstance(item, (str, os.PathLike, Cycle)):
                 cyc = load_cycle(item)
                 self.items.append(cyc if scenario is None else scenario.prepare_cycle(cyc))
             else:
-                raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, {RANDOM_BUS!r} or a list of these, "
-                                f"got {type(item).__name__}")
+                raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, a family such as {RANDOM_BUS!r} "
+                                f"or a list of these, got {type(item).__name__}")
 
     def draw(self, rng: np.random.Generator) -> Cycle:
         item = self.items[int(rng.integers(len(self.items)))] if len(self.items) > 1 else self.items[0]
-        if item is None:
-            cyc = generate_bus_cycle(int(rng.integers(2**31 - 1)))
+        if isinstance(item, str):
+            cyc = generate_family_cycle(item, training_seed(rng, item))
             return cyc if self.scenario is None else self.scenario.prepare_cycle(cyc)
         return item
 
     def fixed_cycles(self) -> list[Cycle]:
-        return [c for c in self.items if c is not None]
+        return [c for c in self.items if isinstance(c, Cycle)]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -138,21 +144,25 @@ class CycleTables:
 
 
 class TableCache:
-    """Cycle tables of the env's fixed cycles, computed once; other cycles (random, from options) fresh."""
+    """Cycle tables of the env's fixed cycles, computed once per payload; other cycles (random, from options) fresh.
+
+    The demanded wheel power and the gear depend on the cycle and the payload (the mass) alone, so a table
+    is kept per (cycle, payload): a scenario that draws the payload per episode gets the right one.
+    """
 
     def __init__(self, core: C.PhysicsCore, fixed: Sequence[Cycle]):
         self.core = core
         self._fixed = {id(c): c for c in fixed}
-        self._cache: dict[int, CycleTables] = {}
+        self._cache: dict[tuple[int, float], CycleTables] = {}
 
     def get(self, ep: Episode) -> CycleTables:
-        key = id(ep.cycle)
+        key = (id(ep.cycle), float(ep.conditions.payload_kg))
         tab = self._cache.get(key)
         if tab is not None:
             return tab
         st = self.core.initial_state(ep.conditions, 1)[0]
         tab = CycleTables(self.core, ep.cycle, st, self.core.conditions_array(ep.conditions, 1)[0])
-        if self._fixed.get(key) is ep.cycle:
+        if self._fixed.get(key[0]) is ep.cycle and len(self._cache) < 256:
             self._cache[key] = tab
         return tab
 

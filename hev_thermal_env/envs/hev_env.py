@@ -142,8 +142,11 @@ class HevThermalEnv(gym.Env):
     ```
 
     * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path,
-      a :class:`~hev_thermal_env.cycles.Cycle`, ``"random_bus"`` (a fresh ``generate_bus_cycle`` per
-      episode, seeded from ``self.np_random``), or a list of these (one drawn per episode).
+      a :class:`~hev_thermal_env.cycles.Cycle`, a generated cycle's name (``bus_long:7``,
+      ``validation_bus:3``) or set (``validation_bus``), a cycle family (``"random_bus"``, ``"bus_long"``,
+      ``"bus_congested"``, ``"bus_launch"``, ``"bus_hilly"``, ``"bus_mixed"``: a fresh cycle of the family
+      per episode, seeded from ``self.np_random``; :mod:`hev_thermal_env.cycles.families`), or a list of
+      these (one drawn per episode).
     * ``scenario``: ``"paper"``, ``"hot"`` or ``"random"`` (:mod:`hev_thermal_env.scenarios`) or a
       :class:`~hev_thermal_env.scenarios.Scenario`.
     * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus()``).

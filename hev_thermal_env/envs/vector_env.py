@@ -70,7 +70,7 @@ class HevThermalVectorEnv(VectorEnv):
       - ``DISABLED``: stepping an ended sub-environment raises; reset it with
         ``reset(options={"reset_mask": mask})``.
 
-    Sub-environments may run different cycles (lists of cycles, ``"random_bus"``) of different
+    Sub-environments may run different cycles (lists of cycles, families such as ``"random_bus"``) of different
     lengths; each truncates at the end of its own. Rendering is not supported (``render_mode=None``).
 
     Seeding follows gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each

@@ -15,6 +15,8 @@ Modules, each named for what it holds:
 * :mod:`.artifacts`: the run directory's files, models and statistics, :class:`LoadedPolicy`;
 * :mod:`.envs`: the training vector env (native batched env by default) and ``VecNormalize``;
 * :mod:`.evaluator`: deterministic evaluation on cycles not trained on;
+* :mod:`.selection`: the rule that picks ``best_model.zip`` (corrected fuel relative to ECMS by default,
+  SOC drift disqualifies); :mod:`.validation_report`: the best and final models on the full validation set;
 * :mod:`.callbacks`: checkpoints, evaluation and signals during ``learn``;
 * :mod:`.loop`: :func:`train` and :func:`resume`;
 * :mod:`.curves`: ``training_curve.png``; :mod:`.export`: :func:`export_policy`;

@@ -7,6 +7,7 @@ A run directory (rl-baselines3-zoo-like; written by :func:`hev_thermal_env.train
     DIR/config.yaml, DIR/command.txt               the full config (incl. versions) and the command(s)
     DIR/checkpoints/ckpt_N_steps.zip (+ _vecnormalize.pkl, + _replay_buffer.pkl for SAC)
     DIR/evaluations.csv, DIR/training_curve.png    periodic deterministic evaluation, and its plot
+    DIR/validation.csv                             best and final model on the full validation set
     DIR/tb/                                        TensorBoard logs
 
 Models and statistics are written atomically, statistics first and the model last, so a present
@@ -48,7 +49,9 @@ CHECKPOINTS = "checkpoints"
 _CKPT_RE = re.compile(r"^ckpt_(\d+)_steps\.zip$")
 
 EVAL_COLUMNS = ("timesteps", "wall_s", "cycle", "scenario", "return_g", "fuel_corrected_l_per_100km", "delta_soc",
-                "cutoff_s", "trace_miss_max_mps", "mean_return_g", "best")
+                "cutoff_s", "trace_miss_max_mps", "fuel_ratio", "mean_return_g", "score", "qualified", "best")
+#: Columns of ``DIR/evaluations.csv`` added with fuel selection, and their value in older files.
+_LATER_COLUMNS = {"fuel_ratio": "nan", "qualified": "1"}
 
 
 # --- where a trained policy is ------------------------------------------------------------------------
@@ -264,11 +267,17 @@ def read_evaluations(path: Path) -> list[dict[str, Any]]:
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     for r in rows:
+        for k, default in _LATER_COLUMNS.items():
+            if r.get(k) in (None, ""):
+                r[k] = default
+        if r.get("score") in (None, ""):
+            r["score"] = str(-float(r["mean_return_g"]))  # older runs selected on the mean return
         r["timesteps"] = int(float(r["timesteps"]))
         for k in ("wall_s", "return_g", "fuel_corrected_l_per_100km", "delta_soc", "cutoff_s", "trace_miss_max_mps",
-                  "mean_return_g"):
+                  "fuel_ratio", "mean_return_g", "score"):
             r[k] = float(r[k])
-        r["best"] = str(r["best"]).lower() in ("1", "true")
+        for k in ("best", "qualified"):
+            r[k] = str(r[k]).lower() in ("1", "true")
     return rows
 
 
@@ -277,5 +286,5 @@ def write_evaluations(path: Path, rows: list[dict[str, Any]]) -> None:
     w = csv.DictWriter(buf, fieldnames=EVAL_COLUMNS, lineterminator="\n")
     w.writeheader()
     for r in rows:
-        w.writerow({k: (int(r[k]) if k == "best" else r[k]) for k in EVAL_COLUMNS})
+        w.writerow({k: (int(r[k]) if k in ("best", "qualified") else r[k]) for k in EVAL_COLUMNS})
     atomic_write_text(path, buf.getvalue())

@@ -26,8 +26,8 @@ import torch
 from stable_baselines3.common.vec_env import VecNormalize
 
 import hev_thermal_env
-from hev_thermal_env.cycles import load_cycle
-from hev_thermal_env.envs.episodes import RANDOM_BUS
+from hev_thermal_env.cycles import expand_cycle_names, load_cycle
+from hev_thermal_env.cycles.names import is_family
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.envs.spaces import observation_names
 from hev_thermal_env.io import atomic_write_yaml, read_yaml_mapping
@@ -36,14 +36,20 @@ from hev_thermal_env.scenarios import get_scenario
 
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
 from .overrides import apply_overrides
+from .selection import DEFAULT_SCORER, LEGACY_SCORER, get_scorer
 
 VEC_MODES = ("native", "subproc", "dummy")
-DEFAULT_EVAL_CYCLES = ("beijing", "us06")
+#: Training cycles when the hyperparameter file names none: every family of generated bus cycles.
+DEFAULT_TRAIN_CYCLES = ("random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed")
+#: Cycles the checkpoints are scored on during training (one of each validation family) and at the end.
+DEFAULT_EVAL_CYCLES = ("validation_bus:0..4",)
+DEFAULT_FINAL_CYCLES = ("validation_bus",)
+DEFAULT_EVAL_SCENARIOS = ("paper", "full_bus")
 
 #: Settings of the environment a run trains on (the ``env`` section of the config).
 ENV_KEYS = ("cycles", "scenario", "random_start", "preview_s", "preview_step_s", "thermal", "reward")
 #: Settings of the periodic evaluation (the ``eval`` section).
-EVAL_KEYS = ("cycles", "scenarios", "freq", "dp_reference")
+EVAL_KEYS = ("cycles", "scenarios", "freq", "dp_reference", "selection", "final_cycles")
 #: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's).
 NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters
                        if k not in ("self", "venv", "gamma"))
@@ -83,7 +89,7 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
         env["cycles"] = list(cycles)
     if scenario is not None:
         env["scenario"] = scenario
-    for key, value in (("cycles", ["hwfet", "random_bus"]), ("scenario", "random"), ("random_start", True),
+    for key, value in (("cycles", list(DEFAULT_TRAIN_CYCLES)), ("scenario", "random_service"), ("random_start", True),
                        ("preview_s", 10), ("preview_step_s", 2), ("thermal", True), ("reward", {})):
         env.setdefault(key, value)
     if eval_cycles is not None:
@@ -92,7 +98,8 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
         ev["scenarios"] = list(eval_scenarios)
     if eval_freq is not None:
         ev["freq"] = eval_freq
-    for key, value in (("cycles", list(DEFAULT_EVAL_CYCLES)), ("scenarios", ["paper"]), ("freq", 100_000)):
+    for key, value in (("cycles", list(DEFAULT_EVAL_CYCLES)), ("scenarios", list(DEFAULT_EVAL_SCENARIOS)),
+                       ("freq", 100_000), ("selection", DEFAULT_SCORER), ("final_cycles", list(DEFAULT_FINAL_CYCLES))):
         ev.setdefault(key, value)
     hp.setdefault("policy", "MlpPolicy")
     if normalize is None or normalize is True:
@@ -128,12 +135,8 @@ def validate_config(config: dict[str, Any]) -> None:
     if config["vec"] not in VEC_MODES:
         raise ValueError(f"unknown --vec {config['vec']!r}; choose one of {', '.join(VEC_MODES)}")
     _validate_env(config["env"])
+    _validate_eval(config["eval"], config["env"])
     ev = config["eval"]
-    check_known("eval setting", ev, EVAL_KEYS)
-    for c in ev["cycles"]:
-        load_cycle(c)
-    for s in ev["scenarios"]:
-        get_scenario(s)
     if config["normalize"] is not False:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
     for key, value, least in (("total_timesteps", config["total_timesteps"], 1), ("n_envs", config["n_envs"], 1),
@@ -156,13 +159,34 @@ def _check_batch_sizes(config: dict[str, Any]) -> None:
         raise ValueError(f"batch_size must be at least {least}, got {hp['batch_size']}")
 
 
+def _validate_eval(ev: dict[str, Any], env: dict[str, Any]) -> None:
+    """The evaluation settings: cycles load, scenarios exist, the scorer resolves, nothing is both trained and
+    evaluated on. A run made before fuel selection (no ``selection`` key) keeps selecting on the return."""
+    check_known("eval setting", ev, EVAL_KEYS)
+    ev.setdefault("selection", LEGACY_SCORER)
+    ev.setdefault("final_cycles", [])
+    scorer = get_scorer(str(ev["selection"]))
+    for s in ev["scenarios"]:
+        if get_scenario(s).randomized and scorer.reference is not None and ev["cycles"]:
+            raise ValueError(f"eval.selection {scorer.name} compares with a reference on the same conditions: the "
+                             f"evaluation scenarios must be fixed, and {s!r} draws them at random")
+    trained = {str(c).strip().lower() for c in expand_cycle_names(env["cycles"]) if not is_family(c)}
+    for key in ("cycles", "final_cycles"):
+        ev[key] = [str(c) for c in (ev[key] or [])]
+        for c in expand_cycle_names(ev[key]):
+            load_cycle(c)
+            if str(c).strip().lower() in trained:
+                raise ValueError(f"eval.{key}: {c!r} is also a training cycle; a run must be scored on cycles it does "
+                                 f"not train on")
+
+
 def _validate_env(env: dict[str, Any]) -> None:
     check_known("env setting", env, (*ENV_KEYS, "observation_size", "observation_names"))
     cycles = env["cycles"] if isinstance(env["cycles"], list) else [env["cycles"]]
     if not cycles:
         raise ValueError("no training cycles given")
-    for c in cycles:
-        if str(c).strip().lower() != RANDOM_BUS:
+    for c in expand_cycle_names(cycles):
+        if not is_family(c):
             load_cycle(c)
     env["cycles"] = [str(c) for c in cycles]
     get_scenario(env["scenario"])

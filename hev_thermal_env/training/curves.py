@@ -6,17 +6,20 @@ Three panels share the env-step axis:
   read from the run's TensorBoard logs; raw rewards in grams, before normalisation), with the mean
   episode length beside it (episodes start at random points of their cycle, so their length, and
   with it the return, varies);
-* evaluation return: per evaluation cycle and scenario, and their mean, which is the metric the run
-  selects ``best_model.zip`` on; the selected evaluation is starred;
-* evaluation fuel: corrected fuel per evaluation cycle, in % of DP on the same cycle when the DP
+* evaluation return: per evaluation cycle and scenario, and their mean;
+* evaluation fuel: corrected fuel per evaluation cycle and scenario in % of the selection's reference
+  on the same run (``fuel_vs_ecms``: ECMS) with the selection score, their mean, in black, and the
+  evaluations disqualified by their SOC marked; without a reference, in % of DP when the DP
   reference is known (the axis then includes 100 %), else in L/100 km.
 
-A dotted vertical line marks the selected (best) evaluation on every panel and says which metric
-chose it, so a checkpoint that is best by return but not by fuel is not mistaken for the best fuel.
+``best_model.zip`` is starred on the panel of the metric the run selects on (:mod:`.selection`, the
+config's ``eval.selection``; the return panel for runs that select on the mean return), and the legend
+states the rule. A dotted vertical line marks the selected evaluation on every panel.
 """
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +30,7 @@ from hev_thermal_env.io import save_png
 
 from .artifacts import read_evaluations
 from .config import load_run_config
+from .selection import LEGACY_SCORER, Scorer, get_scorer
 
 RETURN_TAG, LENGTH_TAG = "rollout/ep_rew_mean", "rollout/ep_len_mean"
 SELECTION_METRIC = "mean evaluation return"
@@ -55,11 +59,22 @@ def read_training_returns(run_dir: str | Path) -> dict[str, np.ndarray]:
 
 def selected_step(rows: list[dict[str, Any]]) -> int | None:
     """The env-step of the evaluation whose model is ``best_model.zip``: the last one flagged a new best
-    of the mean evaluation return (the highest mean return when no row is flagged)."""
+    (the lowest selection score when no row is flagged; the highest mean return for rows without a score)."""
     if not rows:
         return None
     flagged = [r["timesteps"] for r in rows if r["best"]]
-    return int(flagged[-1]) if flagged else int(max(rows, key=lambda r: r["mean_return_g"])["timesteps"])
+    if flagged:
+        return int(flagged[-1])
+    key = (lambda r: r["score"]) if all("score" in r for r in rows) else (lambda r: -r["mean_return_g"])
+    return int(min(rows, key=key)["timesteps"])
+
+
+def run_scorer(cfg: dict[str, Any]) -> Scorer | None:
+    """The run's selection rule (None if its scorer cannot be imported here)."""
+    try:
+        return get_scorer(str((cfg.get("eval") or {}).get("selection", LEGACY_SCORER)))
+    except ValueError:
+        return None
 
 
 def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]]]:
@@ -88,8 +103,9 @@ def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | 
     axes = axes[:, 0]
     handles = _training_panel(axes[0], training)
     best = selected_step(rows)
+    cfg = load_run_config(out)
     if rows:
-        handles += _evaluation_panels(axes[1], axes[2], rows, best, dp_reference or {})
+        handles += _evaluation_panels(axes[1], axes[2], rows, best, dp_reference or {}, run_scorer(cfg))
         for ax in axes:
             ax.axvline(best, color="0.35", ls=":", lw=1.2, zorder=0)
     for ax in axes:
@@ -98,7 +114,6 @@ def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | 
     axes[-1].set_xlabel("env-steps")
     axes[-1].xaxis.set_major_formatter(EngFormatter(sep=""))
     legend_outside(fig, handles, [h.get_label() for h in handles])
-    cfg = load_run_config(out)
     figure_title(fig, f"{str(cfg['algo']).upper()} seed {cfg['seed']}: training return and evaluation on cycles not "
                  f"trained on", fontsize=11)
     return fig
@@ -121,31 +136,82 @@ def _training_panel(ax, training: dict[str, np.ndarray]) -> list:
     return handles
 
 
-def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, dp_reference: dict[str, float]) -> list:
+def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, dp_reference: dict[str, float],
+                       scorer: Scorer | None) -> list:
     series = _by_series(rows)
+    on_return = scorer is None or scorer.name == LEGACY_SCORER
+    rule = scorer.label if scorer is not None else "the run's eval.selection"
+    handles = []
+    for k, by_step in enumerate(series.values()):
+        steps = sorted(by_step)
+        handles += ax_ret.plot(steps, [by_step[s]["return_g"] for s in steps], color=f"C{k % 10}", lw=1.0,
+                               marker=".", label=f"evaluation: {_display(by_step)}")
+    mean = {r["timesteps"]: r["mean_return_g"] for r in rows}
+    steps = sorted(mean)
+    handles += ax_ret.plot(steps, [mean[s] for s in steps], color="k", lw=2.0,
+                           label=SELECTION_METRIC + ("\n(selects best_model.zip)" if on_return else ""))
+    star = textwrap.fill(f"best_model.zip: step {best}, chosen on the {rule}" + (", not on fuel" if on_return else ""),
+                         42)
+    if not all(r["qualified"] for r in rows if r["timesteps"] == best):
+        star += "\n(no evaluation qualified: the least penalised)"
+    if on_return:
+        handles += ax_ret.plot([best], [mean[best]], ls="none", marker="*", ms=16, color="#ffbf00", mec="k",
+                               zorder=5, label=star)
+    ax_ret.set_title("evaluation return per cycle and their mean" +
+                     (" (the metric best_model.zip is chosen on)" if on_return else ""), fontsize=10)
+    ax_ret.set_ylabel("episode return (g)")
+    ratios = np.array([r.get("fuel_ratio", np.nan) for r in rows], dtype=float)
+    if not on_return and ratios.size and np.all(np.isfinite(ratios)):
+        handles += _selection_panel(ax_fuel, series, rows, best, scorer, star)
+    else:
+        handles += _fuel_panel(ax_fuel, series, dp_reference)
+    handles += ax_fuel.plot([], [], color="0.35", ls=":", lw=1.2, label="selected evaluation (all panels)")
+    return handles
+
+
+def _selection_panel(ax, series: dict[str, dict[int, dict[str, Any]]], rows: list[dict[str, Any]], best: int,
+                     scorer: Scorer, star: str) -> list:
+    """Corrected fuel in % of the scorer's reference per run, the score (their mean), disqualified evaluations."""
+    ref = scorer.reference_name or "the reference"
+    for k, by_step in enumerate(series.values()):
+        steps = sorted(by_step)
+        ax.plot(steps, [100.0 * by_step[s]["fuel_ratio"] for s in steps], color=f"C{k % 10}", lw=1.0, marker=".")
+    by_step: dict[int, list[dict[str, Any]]] = {}
+    for r in rows:
+        by_step.setdefault(r["timesteps"], []).append(r)
+    steps = sorted(by_step)
+    score = np.array([100.0 * np.mean([r["fuel_ratio"] for r in by_step[s]]) for s in steps])
+    handles = ax.plot(steps, score, color="k", lw=2.0, label=f"selection score: mean fuel in % of {ref}\n"
+                                                               f"(lowest selects best_model.zip)")
+    bad = [i for i, s in enumerate(steps) if not all(r["qualified"] for r in by_step[s])]
+    if bad:
+        handles += ax.plot([steps[i] for i in bad], score[bad], ls="none", marker="x", ms=8, mew=2, color="#d62728",
+                           zorder=8, label="disqualified: |ΔSOC| over\nthe limit on a run")
+    if best in steps:
+        handles += ax.plot([best], [score[steps.index(best)]], ls="none", marker="*", ms=16, color="#ffbf00",
+                           mec="k", zorder=7, label=star)
+    ax.axhline(100.0, color="0.2", lw=0.8)
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(min(lo, 99.5), max(hi, 100.5))
+    ax.set_title(f"evaluation: corrected fuel, % of {ref} on the same run (lower is better; selects the best)",
+                 fontsize=10)
+    ax.set_ylabel(f"corrected fuel, % of {ref}")
+    return handles
+
+
+def _fuel_panel(ax_fuel, series: dict[str, dict[int, dict[str, Any]]], dp_reference: dict[str, float]) -> list:
+    """Corrected fuel per run, in % of DP when every run has a DP reference, else in L/100 km."""
     ratio = all(label in dp_reference for label in series)
     handles = []
     for k, (label, by_step) in enumerate(series.items()):
         steps = sorted(by_step)
         colour = f"C{k % 10}"
-        handles += ax_ret.plot(steps, [by_step[s]["return_g"] for s in steps], color=colour, lw=1.0, marker=".",
-                               label=f"evaluation: {_display(by_step)}")
         fuel = np.array([by_step[s]["fuel_corrected_l_per_100km"] for s in steps])
         if ratio:
             fuel = 100.0 * fuel / dp_reference[label]
         ax_fuel.plot(steps, fuel, color=colour, lw=1.0, marker=".")
         if not ratio and label in dp_reference:
             ax_fuel.axhline(dp_reference[label], color=colour, ls="--", lw=1.0)
-    mean = {r["timesteps"]: r["mean_return_g"] for r in rows}
-    steps = sorted(mean)
-    handles += ax_ret.plot(steps, [mean[s] for s in steps], color="k", lw=2.0,
-                           label=f"{SELECTION_METRIC}\n(selects best_model.zip)")
-    star = f"best_model.zip: step {best}\n(chosen on the highest\n{SELECTION_METRIC}, not on fuel)"
-    handles += ax_ret.plot([best], [mean[best]], ls="none", marker="*", ms=16, color="#ffbf00", mec="k", zorder=5,
-                           label=star)
-    ax_ret.set_title("evaluation return per cycle and their mean (the metric best_model.zip is chosen on)",
-                     fontsize=10)
-    ax_ret.set_ylabel("episode return (g)")
     if ratio:
         ax_fuel.axhline(100.0, color="k", lw=1.0)
         handles += ax_fuel.plot([], [], color="k", lw=1.0, label="DP on the same cycle = 100 %")
@@ -158,7 +224,6 @@ def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, d
             handles += ax_fuel.plot([], [], color="0.3", ls="--", lw=1.0, label="DP (dashed, cycle's colour)")
         ax_fuel.set_title("evaluation: corrected fuel (lower is better)", fontsize=10)
         ax_fuel.set_ylabel("corrected fuel (L/100 km)")
-    handles += ax_fuel.plot([], [], color="0.35", ls=":", lw=1.2, label="selected evaluation (all panels)")
     return handles
 
 

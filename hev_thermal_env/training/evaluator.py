@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.cycles import expand_cycle_names, load_cycle
 from hev_thermal_env.envs import HevThermalVectorEnv
 from hev_thermal_env.metrics import run_metrics
 from hev_thermal_env.physics import core as C
@@ -24,15 +24,16 @@ class PolicyEvaluator:
 
     Each (cycle, scenario) runs from the cycle's start with the scenario's conditions (random
     scenarios draw them from ``seed``), in a :class:`~hev_thermal_env.envs.HevThermalVectorEnv`
-    built with the run's env settings (preview, reward, thermal model). The metrics are those of
+    built with the run's env settings (preview, reward, thermal model). Cycle sets (``validation_bus``,
+    ``validation_bus:0..4``) are expanded into their cycles. The metrics are those of
     :func:`hev_thermal_env.evaluation.runner.run_strategy`
     (:func:`hev_thermal_env.metrics.run_metrics`).
     """
 
     def __init__(self, env_cfg: dict[str, Any], cycles: Sequence[str], scenarios: Sequence[str], seed: int = 0):
         self.env_cfg = env_cfg
-        self.cycles = [load_cycle(c) for c in cycles]
-        self.cycle_names = list(cycles)
+        self.cycle_names = [str(c) for c in expand_cycle_names(list(cycles))]  # sets (validation_bus) expanded
+        self.cycles = [load_cycle(c) for c in self.cycle_names]
         self.scenarios = list(scenarios)
         self.seed = int(seed)
 

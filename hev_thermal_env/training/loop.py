@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import math
 import os
 import signal
 import time
@@ -51,6 +50,8 @@ from .envs import make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .schedules import custom_objects
+from .selection import LEGACY_SCORER, best_row_score, compute_references, get_scorer, is_better
+from .validation_report import final_validation
 
 
 @dataclasses.dataclass
@@ -78,7 +79,8 @@ class TrainingRun:
         self.checkpoint_freq = int(config["checkpoint_freq"])
         self.eval_freq = int(config["eval"]["freq"])
         self.eval_rows = read_evaluations(self.out / "evaluations.csv")
-        self.best_score = max((r["mean_return_g"] for r in self.eval_rows), default=-math.inf)
+        self.scorer = get_scorer(config["eval"].get("selection", LEGACY_SCORER))
+        self.best_score = best_row_score(self.eval_rows)
         self.eval_seconds = 0.0
         self.session_start = time.perf_counter()
         self.wall_before = float((config.get("result") or {}).get("wall_s", 0.0))
@@ -121,27 +123,42 @@ class TrainingRun:
         stats = self.stats_of(model)
         results = self.evaluator.run(LoadedPolicy(model, stats).act)
         self.eval_seconds += time.perf_counter() - t
-        score = float(np.mean([r["return_g"] for r in results]))
-        best = score > self.best_score
+        mean_return = float(np.mean([r["return_g"] for r in results]))
+        score = self.scorer.score(results, self.references())
+        best = is_better(score.value, self.best_score)
         n = int(model.num_timesteps)
         wall = self.wall_before + time.perf_counter() - self.session_start
-        for r in results:
-            self.eval_rows.append({"timesteps": n, "wall_s": round(wall, 2), **r, "mean_return_g": score, "best": best})
+        for r, ratio in zip(results, score.ratios):
+            self.eval_rows.append({"timesteps": n, "wall_s": round(wall, 2), **r, "fuel_ratio": ratio,
+                                   "mean_return_g": mean_return, "score": score.value, "qualified": score.qualified,
+                                   "best": best})
         write_evaluations(self.out / "evaluations.csv", self.eval_rows)
         if best:
-            self.best_score = score
+            self.best_score = score.value
             save_model_and_stats(model, stats, self.out / "best_model.zip", self.out / "best_vecnormalize.pkl")
         if logger is not None:
-            logger.record("eval/mean_return_g", score)
+            logger.record("eval/mean_return_g", mean_return)
+            logger.record("eval/selection_score", score.value)
             for r in results:
                 tag = f"{r['cycle']}_{r['scenario']}"
                 for key in ("return_g", "fuel_corrected_l_per_100km", "delta_soc", "cutoff_s"):
                     logger.record(f"eval/{key}_{tag}", r[key])
         if self.verbose:
-            parts = ", ".join(f"{r['cycle']}/{r['scenario']} {r['fuel_corrected_l_per_100km']:.2f} L/100km "
-                              f"dSOC {r['delta_soc']:+.3f}" for r in results)
-            self.log(f"eval @ {n}: mean return {score:.1f} g{' (new best)' if best else ''}; {parts}")
+            worst = max(abs(r["delta_soc"]) for r in results)
+            self.log(f"eval @ {n}: {score.describe(self.scorer.short)}{' (new best)' if best else ''}; "
+                     f"mean return {mean_return:.1f} g, max |dSOC| {worst:.3f} over {len(results)} runs")
         return results
+
+    def references(self) -> dict[str, float]:
+        """The scorer's reference on the evaluation runs, computed once per run and kept in the config."""
+        res = self.config.setdefault("result", {})
+        known = res.get("selection_reference") or {}
+        ev = self.config["eval"]
+        ref = compute_references(self.scorer, self.evaluator.cycle_names if self.evaluator else [], ev["scenarios"],
+                                 known)
+        if ref != known:
+            res["selection_reference"] = ref
+        return ref
 
     def dp_reference(self) -> None:
         """Corrected fuel of ``dp`` on the evaluation cycles (fixed scenarios), for the training curve."""
@@ -195,6 +212,8 @@ class TrainingRun:
             raise FileNotFoundError(f"{resume_from[2]} not found: the checkpoint has no normalisation statistics")
         if resume_from is None and self.evaluator is not None:
             self.dp_reference()
+        if self.evaluator is not None:
+            self.references()
         raw, timed = make_vec_env(cfg)
         venv = wrap_normalize(raw, cfg, resume_from[2] if resume_from and normalized else None)
         return Session(raw, timed, venv, self.make_model(venv, resume_from), resume_from)
@@ -229,6 +248,8 @@ class TrainingRun:
             save_model_and_stats(model, self.stats_of(model), self.out / "best_model.zip",
                                  self.out / "best_vecnormalize.pkl")
         self.checkpoint(model)
+        if self.evaluator is not None and self.config["eval"].get("final_cycles"):
+            final_validation(self)
         self.record_session(result, finished=True)
         session.raw.close()
         plot_training_curve(self.out, (cfg.get("result") or {}).get("dp_reference_l_per_100km"))
@@ -256,8 +277,9 @@ class TrainingRun:
         res.update(finished=finished, timesteps_done=session["timesteps_done"], wall_s=round(wall, 2),
                    sessions=sessions, env_share=session["env_share"], steps_per_s=session["steps_per_s"])
         if self.eval_rows:
-            best = max(self.eval_rows, key=lambda r: r["mean_return_g"])
-            res["best_eval"] = {"timesteps": best["timesteps"], "mean_return_g": best["mean_return_g"]}
+            best = min(self.eval_rows, key=lambda r: r["score"])
+            res["best_eval"] = {"timesteps": best["timesteps"], "mean_return_g": best["mean_return_g"],
+                                "score": best["score"], "qualified": best["qualified"], "selection": self.scorer.name}
         cfg["result"] = res
         save_run_config(self.out, cfg)
 

@@ -10,6 +10,8 @@ Tune (an interrupted sweep resumed, a failed worker) copies the snapshot back an
 
 The metric is the mean return over the evaluation cycles × scenarios (:data:`METRIC`, grams of
 diesel equivalent, higher is better), at :data:`TIME_ATTR` env-steps; schedulers stop trials on it.
+Each report also carries the run's checkpoint-selection score (``selection_score``, lower is better;
+:mod:`.selection`).
 """
 
 from __future__ import annotations
@@ -70,7 +72,7 @@ class TuneTrainingRun(TrainingRun):
         n = int(model.num_timesteps)
         if results and n < int(self.config["total_timesteps"]):  # the last one is reported after the final save
             self.checkpoint(model)
-            self.report(eval_metrics(results, n), n)
+            self.report({**eval_metrics(results, n), "selection_score": self.eval_rows[-1]["score"]}, n)
         return results
 
     def execute(self, session):
@@ -78,7 +80,7 @@ class TuneTrainingRun(TrainingRun):
         n = int(result["timesteps_done"])
         last = [r for r in self.eval_rows if int(r["timesteps"]) == n]
         if last:
-            self.report(eval_metrics(last, n), n)
+            self.report({**eval_metrics(last, n), "selection_score": last[-1]["score"]}, n)
         return result
 
     def report(self, metrics: dict[str, Any], timesteps: int) -> None:

@@ -1,0 +1,100 @@
+"""Names of generated cycles: one cycle (``FAMILY:SEED``, ``validation_bus:K``), a family, or a set.
+
+* ``FAMILY:SEED`` (``bus_long:7``, ``random_bus:3``): one cycle of a family
+  (:func:`~hev_thermal_env.cycles.families.generate_family_cycle`).
+* ``validation_bus:K``: validation cycle ``K`` (:mod:`~hev_thermal_env.cycles.validation`).
+* ``validation_bus`` (every validation cycle), ``validation_bus:A..B`` (cycles A to B, inclusive) and
+  ``FAMILY:A..B`` (seeds A to B of a family, at most :data:`MAX_RANGE` of them) are *sets*:
+  :func:`expand_cycle_names` replaces them by their cycles' names wherever a list of cycles is accepted
+  (the env's ``cycle``, ``train.py --cycles`` / ``--eval-cycles``, ``evaluate.py benchmark --cycles``).
+* A bare family name (``bus_long``) is not one cycle: in an env's or training run's cycle list it draws
+  a fresh cycle of the family every episode.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from typing import Any
+
+from .cycle import Cycle
+from .families import FAMILIES, generate_family_cycle
+from .validation import VALIDATION_SET, VALIDATION_SIZE, validation_cycle, validation_names
+
+#: The most cycles one ``FAMILY:A..B`` range may name.
+MAX_RANGE = 1000
+
+_ONE = re.compile(r"^([a-z_]+):(\d+)$")
+_RANGE = re.compile(r"^([a-z_]+):(\d+)\.\.(\d+)$")
+
+
+def _key(name: str) -> str:
+    return name.strip().lower()
+
+
+def is_family(name: Any) -> bool:
+    """Whether ``name`` is a bare family name (a fresh cycle per episode in a cycle list)."""
+    return isinstance(name, str) and _key(name) in FAMILIES
+
+
+def is_cycle_set(name: Any) -> bool:
+    """Whether ``name`` names a set of cycles (``validation_bus``, ``validation_bus:A..B``, ``FAMILY:A..B``)."""
+    if not isinstance(name, str):
+        return False
+    key = _key(name)
+    m = _RANGE.match(key)
+    return key == VALIDATION_SET or (m is not None and (m.group(1) == VALIDATION_SET or m.group(1) in FAMILIES))
+
+
+def generated_cycle(name: str) -> Cycle | None:
+    """The cycle named ``FAMILY:SEED`` or ``validation_bus:K``, or None if ``name`` is neither.
+
+    Raises ``ValueError`` for a bare family name or a set (not one cycle) and for an index outside the
+    validation set.
+    """
+    key = _key(name)
+    if key in FAMILIES:
+        raise ValueError(f"{name!r} is a family of generated cycles, not one cycle: name one as {key}:SEED "
+                         f"(e.g. {key}:0), or list {key!r} as an env or training cycle for a fresh one per episode "
+                         f"(generate_bus_cycle / generate_family_cycle)")
+    if is_cycle_set(key):
+        raise ValueError(f"{name!r} is a set of cycles ({VALIDATION_SET} holds {VALIDATION_SIZE}), not one cycle: "
+                         f"pass it where a list of cycles is accepted, or name one cycle (FAMILY:SEED, "
+                         f"{VALIDATION_SET}:K)")
+    m = _ONE.match(key)
+    if m is None:
+        return None
+    prefix, number = m.group(1), int(m.group(2))
+    if prefix == VALIDATION_SET:
+        return validation_cycle(number)
+    if prefix in FAMILIES:
+        return generate_family_cycle(prefix, number)
+    return None
+
+
+def expand_cycle_names(cycles: Any) -> list[Any]:
+    """``cycles`` (one item or a list) with every set name replaced by the names of its cycles, in order.
+
+    Other items (built-in names, paths, ``FAMILY:SEED``, family names, :class:`Cycle` objects) pass through.
+
+    >>> expand_cycle_names(["beijing", "validation_bus:0..2"])
+    ['beijing', 'validation_bus:0', 'validation_bus:1', 'validation_bus:2']
+    """
+    items: Iterable[Any] = cycles if isinstance(cycles, (list, tuple)) else [cycles]
+    out: list[Any] = []
+    for item in items:
+        if not is_cycle_set(item):
+            out.append(item)
+            continue
+        m = _RANGE.match(_key(item))
+        if m is None:
+            out += validation_names()
+            continue
+        prefix, first, last = m.group(1), int(m.group(2)), int(m.group(3))
+        if prefix == VALIDATION_SET:
+            out += validation_names(first, last)
+            continue
+        if not 0 < last - first + 1 <= MAX_RANGE:
+            raise ValueError(f"{item!r}: a range of seeds must name 1 to {MAX_RANGE} cycles (first <= last)")
+        out += [f"{prefix}:{seed}" for seed in range(first, last + 1)]
+    return out

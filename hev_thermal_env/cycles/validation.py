@@ -1,0 +1,53 @@
+"""The validation set ``validation_bus``: fixed generated bus cycles that training never draws.
+
+:data:`VALIDATION_SIZE` cycles; cycle ``k`` (named ``validation_bus:k``) is the family cycle
+``VALIDATION_FAMILIES[k % 5]`` with seed ``VALIDATION_SEED_BASE + k``. So any five consecutive
+cycles hold one of each family (long, congested, hard launches, hilly, mixed), and
+``validation_bus:0..4`` is the quick subset a training run selects its checkpoints on.
+
+Training draws family seeds from ``[0, TRAINING_SEED_LIMIT)``
+(:func:`~hev_thermal_env.cycles.families.training_seed`), below :data:`VALIDATION_SEED_BASE`, and a
+family cycle's generator seeds are an injective map of (family, seed)
+(:func:`~hev_thermal_env.cycles.families.inner_seed`): no training episode can drive a validation cycle,
+nor a stretch generated from the same seed. :func:`validation_seed` asserts it.
+"""
+
+from __future__ import annotations
+
+from .cycle import Cycle
+from .families import TRAINING_SEED_LIMIT, VALIDATION_SEED_BASE, generate_family_cycle
+
+#: The name of the set (``validation_bus``: all; ``validation_bus:k``: one; ``validation_bus:a..b``: a range).
+VALIDATION_SET = "validation_bus"
+#: The families of the validation cycles, in turn.
+VALIDATION_FAMILIES = ("bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed")
+#: Number of validation cycles.
+VALIDATION_SIZE = 25
+
+
+def validation_seed(k: int) -> int:
+    """The seed of validation cycle ``k`` (above every training seed)."""
+    if not 0 <= int(k) < VALIDATION_SIZE:
+        raise ValueError(f"{VALIDATION_SET}:{k}: the validation set has cycles 0-{VALIDATION_SIZE - 1}")
+    seed = VALIDATION_SEED_BASE + int(k)
+    assert seed >= TRAINING_SEED_LIMIT, "validation seeds must lie above every training seed"
+    return seed
+
+
+def validation_family(k: int) -> str:
+    """The family of validation cycle ``k``."""
+    return VALIDATION_FAMILIES[int(k) % len(VALIDATION_FAMILIES)]
+
+
+def validation_cycle(k: int) -> Cycle:
+    """Validation cycle ``k``, named ``validation_bus:k``."""
+    return generate_family_cycle(validation_family(k), validation_seed(k), name=f"{VALIDATION_SET}:{int(k)}")
+
+
+def validation_names(first: int = 0, last: int = VALIDATION_SIZE - 1) -> list[str]:
+    """The names ``validation_bus:first`` ... ``validation_bus:last`` (inclusive)."""
+    for k in (first, last):
+        validation_seed(k)
+    if last < first:
+        raise ValueError(f"{VALIDATION_SET}:{first}..{last}: the range is empty (the first index is above the last)")
+    return [f"{VALIDATION_SET}:{k}" for k in range(first, last + 1)]

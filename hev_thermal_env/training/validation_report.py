@@ -1,0 +1,72 @@
+"""The final report of a run: the best and the final model on the full validation set.
+
+During training the checkpoints are scored on a few validation cycles (``eval.cycles``, e.g.
+``validation_bus:0..4``); at the end, ``best_model.zip`` and ``model.zip`` are driven over
+``eval.final_cycles`` (e.g. ``validation_bus``, every validation cycle) in every evaluation scenario,
+scored by the run's selection rule (:mod:`.selection`), and written to ``DIR/validation.csv`` (one row per
+model × cycle × scenario) with a summary in the ``result.validation`` section of ``DIR/config.yaml``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.io import atomic_write_text
+
+from .artifacts import load_policy
+from .evaluator import PolicyEvaluator
+from .selection import compute_references, run_key
+
+VALIDATION_COLUMNS = ("model", "cycle", "scenario", "fuel_corrected_l_per_100km", "reference_l_per_100km",
+                      "fuel_ratio", "delta_soc", "cutoff_s", "trace_miss_max_mps", "return_g")
+MODELS = ("best_model.zip", "model.zip")
+
+
+def final_validation(run: Any) -> dict[str, Any]:
+    """Score the run's best and final models on ``eval.final_cycles``; writes ``validation.csv``, returns the summary.
+
+    ``run`` is the :class:`~hev_thermal_env.training.loop.TrainingRun` (its config, directory, scorer, log).
+    """
+    cfg, ev = run.config, run.config["eval"]
+    evaluator = PolicyEvaluator(cfg["env"], ev["final_cycles"], ev["scenarios"], seed=int(cfg["seed"]))
+    res = cfg.setdefault("result", {})
+    ref = compute_references(run.scorer, evaluator.cycle_names, ev["scenarios"], res.get("selection_reference"))
+    res["selection_reference"] = ref
+    rows: list[dict[str, Any]] = []
+    models: dict[str, Any] = {}
+    described: dict[str, str] = {}
+    for name in MODELS:
+        if not (run.out / name).is_file():
+            continue
+        results = evaluator.run(load_policy(run.out / name).act)
+        score = run.scorer.score(results, ref)
+        for r, ratio in zip(results, score.ratios):
+            rows.append({"model": name, **{k: r[k] for k in VALIDATION_COLUMNS if k in r},
+                         "reference_l_per_100km": ref.get(run_key(r["cycle"], r["scenario"]), np.nan),
+                         "fuel_ratio": ratio})
+        described[name] = score.describe(run.scorer.short)
+        ratios = np.asarray(score.ratios, dtype=float)
+        models[name] = {"score": round(score.value, 6), "qualified": score.qualified, "violations": score.violations,
+                        "mean_fuel_ratio": round(float(np.mean(ratios)), 6) if np.all(np.isfinite(ratios)) else None,
+                        "max_abs_delta_soc": round(max(abs(r["delta_soc"]) for r in results), 6),
+                        "mean_fuel_corrected_l_per_100km":
+                            round(float(np.mean([r["fuel_corrected_l_per_100km"] for r in results])), 4)}
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=VALIDATION_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    atomic_write_text(run.out / "validation.csv", buf.getvalue())
+    summary = {"selection": run.scorer.name, "rule": run.scorer.label, "cycles": list(ev["final_cycles"]),
+               "runs": len(evaluator.cycle_names) * len(ev["scenarios"]), "scenarios": list(ev["scenarios"]),
+               "models": models}
+    res["validation"] = summary
+    if run.verbose:
+        parts = "; ".join(f"{name}: {text}, max |dSOC| {models[name]['max_abs_delta_soc']:.3f}"
+                          for name, text in described.items())
+        run.log(f"validation on {summary['runs']} runs ({', '.join(summary['cycles'])} × "
+                f"{', '.join(summary['scenarios'])}): {parts}")
+    return summary
