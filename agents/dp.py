@@ -1,6 +1,7 @@
-"""Deterministic dynamic programming over a known cycle: ``dp`` (SOC state) and ``dp_thermal``.
+"""Deterministic dynamic programming over a known cycle with SOC as the state: ``dp``, thermal-blind.
 
-The optimum the other strategies are measured against. Backward recursion over the stages
+The optimum of the SOC-only problem; the yardstick of the benchmark is the thermal optimum
+``dp_thermal`` (:mod:`.optimum`), which plans over the whole thermal state. Backward recursion over the stages
 k = N−1 … 0 of the cycle on a grid of states; for every stage ONE batched call of the physics
 step (:meth:`~hev_thermal_env.physics.PhysicsCore.step`, split over threads) evaluates every grid state ×
 every split u (batch = n_states·n_u), so DP sees exactly the physics the environment runs,
@@ -9,8 +10,8 @@ coasting, standing) the action has no effect and the stage is evaluated once per
 
 Cost (grams of fuel equivalent, the env's own reward, :func:`hev_thermal_env.envs.reward.stage_cost_g`):
 fuel + missed wheel energy at the reward's miss price + the battery's chemical energy at the
-reward's battery price; ``dp_thermal`` adds the reward's overheat terms by default (soft
-temperature limit, cutoff, derate weight). ``price_soc_deviation`` adds the reward's SOC terms: the
+reward's battery price; ``price_overheat`` adds the reward's overheat terms (soft temperature
+limit, cutoff, derate weight). ``price_soc_deviation`` adds the reward's SOC terms: the
 quadratic deviation per stage, and the band settlement, which adds up to a charge on the final SOC
 and is charged there (:func:`hev_thermal_env.envs.reward.soc_band_charge_g`). With the default
 weights (1) these are the prices of the corrected-fuel metric, so DP minimises the corrected fuel.
@@ -36,28 +37,13 @@ evaluates every candidate from the actual state and the cheapest stage cost + in
 cost-to-go wins. So the policy is applied at the actual SOC (and heat index, temperature) even
 when the real run departs from the plan.
 
-State and the thermal model:
-
-* ``dp``: state SOC only. The thermal state (temperature, heat-index integrator, cutoff) is held
-  at its initial value while planning: the plan is thermal-blind (no heat index build-up, no
-  cutoff), then executed forward in the real environment with the thermal model on, where the
-  one-step re-optimisation sees the real derating. In the ``paper`` scenario the coolant pins the
-  temperature near 35 °C, so the held temperature costs little; the heat index is what the plan
-  ignores.
-* ``dp_thermal``: state SOC × heat-index integrator x (eq 9) on [x_min, 1], plus the motor
-  temperature as a third dimension (``temp_mode="state"``) or held along a trajectory
-  (``temp_mode="trajectory"``: first held at its start value, then re-planned along the
-  temperature trace of the previous plan's forward run, ``temp_iterations`` times; or
-  ``"fixed"``). With temperature as a state the cutoff flag is taken as T ≥ cutoff temperature:
-  the 60-70 °C hysteresis after a trip is not a DP state, so after a trip the plan is optimistic
-  (it expects the motor back below 70 °C, the environment holds it off until 60 °C); the
-  execution step sees the real cutoff.
-  ``temp_mode="auto"`` (default) uses ``"fixed"`` when the coolant is on and ``"state"``
-  otherwise (hot or coolant-off runs, where the temperature and the cutoff bind). With the
-  coolant on the thermostat pins the motor near 35 °C, where T_gain (eq 10) and the efficiency
-  derate have not started to rise, so holding the start temperature changes nothing the heat
-  index sees: on HWFET (paper) ``"trajectory"`` gave the same run as ``"fixed"`` (34.021 L/100 km
-  corrected both) at twice the solve time.
+The thermal model: the state is SOC only. The thermal state (temperatures, heat-index integrator,
+cutoff) is held at its initial value while planning: the plan is thermal-blind (no heat index
+build-up, no cutoff), then executed forward in the real environment with the thermal model on,
+where the one-step re-optimisation sees the real derating. Where heat binds (the ``hot`` and
+``summer`` scenarios, long climbs) it is not an optimum: the benchmark labels it thermal-blind and
+measures every strategy against ``dp_thermal``. The backward solver (:func:`solve`) takes more
+state dimensions (``DPSettings.dims``: ``heat_x``, ``temp``) on fixed grids for experiments.
 
 ``describe()`` records the grid sizes, the solve time and the number of vehicle-steps evaluated:
 a coarse DP is not an optimum.
@@ -79,7 +65,6 @@ from .common import argmin_small_action, default_threads, stage_cost_g
 from .dp_corridor import Corridor, corridor
 from .dp_grid import (
     DIM_COLUMNS,
-    TEMP_MODES,
     DPInfeasibleError,
     DPPlan,
     DPProblem,
@@ -88,8 +73,8 @@ from .dp_grid import (
     interp_uniform,
 )
 
-__all__ = ["DPInfeasibleError", "DPPlan", "DPProblem", "DPSettings", "DPStrategy", "Corridor", "ThermalDPStrategy",
-           "choose", "corridor", "rollout", "solve"]
+__all__ = ["DPInfeasibleError", "DPPlan", "DPProblem", "DPSettings", "DPStrategy", "Corridor", "choose", "corridor",
+           "rollout", "solve"]
 
 
 def solve(problem: DPProblem, settings: DPSettings, held: np.ndarray | None = None) -> DPPlan:
@@ -326,82 +311,4 @@ class DPStrategy(Strategy):
                 "n_states": int(np.prod(p.shape)), "n_stages": p.n_stages, "solve_s": p.solve_s,
                 "vehicle_steps_evaluated": int(p.n_evals), "vehicle_steps_per_s": p.n_evals / max(p.solve_s, 1e-9),
                 **p.info, **self._report})
-        return d
-
-
-class ThermalDPStrategy(DPStrategy):
-    """DP whose state carries the heat-index integrator (and the motor temperature): the optimum under derating.
-
-    Extra options: ``n_heat_x``, ``n_temp``, ``temp_mode`` (``auto``/``fixed``/``trajectory``/``state``,
-    see the module docstring), ``temp_iterations``, ``temp_range_c``. ``price_overheat`` defaults to True:
-    the cost is the reward's (fuel, battery energy, miss and the overheat terms), so the plan weighs
-    fuel against time near or past the 70 °C cutoff the way the environment's reward does.
-    Default grids (SOC × heat index [× temperature] × splits): 101 × 21 × 41 with the temperature
-    held, 41 × 11 × 13 × 21 with the temperature as a state (a 3-D grid: ~6 k states).
-    """
-
-    name = "dp_thermal"
-    thermal_aware = True
-    default_dims = ("soc", "heat_x")
-
-    #: default grids per temperature mode: (n_soc, n_heat_x, n_temp, n_u)
-    GRID_DEFAULTS = {"fixed": (101, 21, 11, 41), "trajectory": (101, 21, 11, 41), "state": (41, 11, 13, 21)}
-
-    def __init__(self, n_soc: int | None = None, n_heat_x: int | None = None, n_temp: int | None = None,
-                 n_u: int | None = None, n_u_exec: int = 101, temp_mode: str = "auto", temp_iterations: int = 1,
-                 temp_range_c: tuple[float, float] | None = None, price_overheat: bool = True, **options: Any):
-        if temp_mode not in TEMP_MODES:
-            raise ValueError(f"dp_thermal: temp_mode {temp_mode!r} is not one of {list(TEMP_MODES)}")
-        self._grid_request = {"n_soc": n_soc, "n_heat_x": n_heat_x, "n_temp": n_temp, "n_u": n_u}
-        for key, value in self._grid_request.items():
-            if value is not None and value < 2:
-                raise ValueError(f"dp_thermal: {key} must be at least 2, got {value}")
-        super().__init__(n_soc=n_soc or 101, n_u=n_u or 41, n_u_exec=n_u_exec, price_overheat=price_overheat,
-                         **options)
-        self.settings.temp_range_c = None if temp_range_c is None else tuple(temp_range_c)
-        self.temp_mode = temp_mode
-        self.temp_iterations = int(temp_iterations)
-        self._resolved_mode = temp_mode
-
-    def _settings_key(self) -> str:
-        return super()._settings_key() + self.temp_mode + str(self.temp_iterations) + repr(self._grid_request)
-
-    def _mode_for(self, problem: DPProblem) -> str:
-        if self.temp_mode != "auto":
-            return self.temp_mode
-        return "fixed" if problem.cond[C.COOLANT_FACTOR] >= 1.0 else "state"
-
-    def _solve(self, problem: DPProblem, settings: DPSettings) -> DPPlan:
-        mode = self._mode_for(problem)
-        self._resolved_mode = mode
-        settings.dims = ("soc", "heat_x", "temp") if mode == "state" else ("soc", "heat_x")
-        defaults = dict(zip(("n_soc", "n_heat_x", "n_temp", "n_u"), self.GRID_DEFAULTS[mode]))
-        for key, value in self._grid_request.items():
-            setattr(settings, key, int(value if value is not None else defaults[key]))
-        t0 = time.perf_counter()
-        plan = solve(problem, settings)
-        evals = plan.n_evals
-        iterations = 0
-        if mode == "trajectory":
-            for _ in range(self.temp_iterations):
-                run = rollout(plan, problem, settings, free=True)
-                held = np.repeat(problem.state0[None, :], plan.n_stages + 1, axis=0)
-                held[:, C.TEMP_C] = run["state"][:, C.TEMP_C]
-                held[:, C.CUTOFF] = run["state"][:, C.CUTOFF]
-                plan = solve(problem, settings, held=held)
-                evals += plan.n_evals
-                iterations += 1
-        plan.n_evals = evals
-        plan.info.update({"temp_mode": mode, "temp_iterations": iterations, "last_solve_s": plan.solve_s})
-        plan.solve_s = time.perf_counter() - t0
-        return plan
-
-    def describe(self) -> dict[str, Any]:
-        d = super().describe()
-        d["temp_mode"] = self._resolved_mode
-        d["thermal_planning"] = {
-            "state": "SOC x heat-index integrator x temperature (cutoff = T >= cutoff temperature)",
-            "trajectory": "SOC x heat-index integrator; temperature held along the previous plan's trace",
-            "fixed": "SOC x heat-index integrator; temperature held at its start value",
-        }.get(self._resolved_mode, self._resolved_mode)
         return d

@@ -20,7 +20,6 @@ from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.jit import jit
 
 DIM_COLUMNS = {"soc": C.SOC, "heat_x": C.HEAT_X, "temp": C.TEMP_C}
-TEMP_MODES = ("auto", "fixed", "trajectory", "state")
 
 
 class DPInfeasibleError(ValueError):

@@ -14,7 +14,7 @@ the battery energy at the reward's battery price, as the SOC-state ``dp`` and th
 around the target: the benchmark divides each strategy's cost by the frontier at the strategy's
 own final SOC (comparison at equal charge, no battery price involved).
 
-Grid and error. Bins of ΔSOC 2.5·10⁻⁴, winding 4 K, housing 2 K, coolant 4 K, heat index 0.1
+Grid and error. Bins of ΔSOC 1.5·10⁻⁴, winding 4 K, housing 2 K, coolant 4 K, heat index 0.1
 and 31 splits by default (:class:`~.optimum_search.SearchGrid`), then a refining pass that adds 21
 splits within ±0.05 of the first pass's path at every stage; ``grid_scale=2`` halves every bin
 and doubles the split grid. The error comes from pruning, not interpolation:

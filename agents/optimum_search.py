@@ -12,9 +12,12 @@ hours. This search runs the other way:
    (:meth:`~hev_thermal_env.physics.PhysicsCore.step`), so every candidate is an exact state of
    the environment's physics and every cost is the environment's reward.
 2. The candidates are binned on a grid over (SOC, winding, housing, coolant temperature, heat
-   index, cutoff flag); in each occupied bin ONE state survives: the one with the lowest
-   cost-to-come *including the battery energy at the reward's battery price* (so two states a
-   fraction of a bin apart in SOC are compared on equal charge, to first order).
+   index, cutoff flag); in each occupied bin at most three states survive: the lowest
+   cost-to-come *including the battery energy at the reward's battery price* (two states a
+   fraction of a bin apart in SOC compared on equal charge, to first order), the lowest with the
+   battery at 0.8 of that price, and the coolest (:func:`keep_best_per_bin`). Then, within each
+   SOC bin, a state is dropped when a cheaper one lies in a cooler thermal bin
+   (:func:`pareto_per_soc_bin`): cooler is never worse in this physics.
 3. States that cannot reach the final-SOC window any more (outside the backward SOC envelope,
    :mod:`.dp_corridor`) are dropped.
 
@@ -52,15 +55,21 @@ KEY_BITS = (17, 11, 11, 11, 12, 1)
 
 @dataclass(frozen=True)
 class SearchGrid:
-    """Bin widths of the search (state units) and the split grid; ``scaled(f)`` divides every width by f."""
+    """Bin widths of the search (state units) and the split grid; ``scaled(f)`` divides every width by f.
 
-    soc: float = 2.5e-4
+    ``second_price``: each bin also keeps its cheapest state with the battery priced at this fraction
+    of the reward's price (see :func:`keep_best_per_bin`); ``dominance``: drop states dominated
+    within their SOC bin (:func:`pareto_per_soc_bin`).
+    """
+
+    soc: float = 1.5e-4
     winding_k: float = 4.0
     housing_k: float = 2.0
     coolant_k: float = 4.0
     heat_index: float = 0.1
     n_u: int = 31
     dominance: bool = True
+    second_price: float = 0.8
 
     def widths(self) -> np.ndarray:
         return np.array([self.soc, self.winding_k, self.housing_k, self.coolant_k, self.heat_index, 1.0])
@@ -69,7 +78,7 @@ class SearchGrid:
         """Every bin ``factor`` times narrower and ``factor`` times as many split intervals."""
         return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor,
                           self.coolant_k / factor, self.heat_index / factor,
-                          int(round((self.n_u - 1) * factor)) + 1, self.dominance)
+                          int(round((self.n_u - 1) * factor)) + 1, self.dominance, self.second_price)
 
     def describe(self) -> str:
         return (f"forward DP over exact states, bins ΔSOC {self.soc:g}, winding {self.winding_k:g} K, housing "
@@ -102,25 +111,31 @@ class SearchResult:
         return u
 
     def frontier(self) -> tuple[np.ndarray, np.ndarray]:
-        """(final SOC ascending, F) with F(s) = the lowest cost of a survivor ending at SOC ≥ s; one point per SOC
-        bin, non-decreasing."""
+        """The frontier's breakpoints (final SOC ascending, cost non-decreasing): the final survivors that no other
+        survivor beats with both more final charge and a lower cost.
+
+        F(s) = the lowest cost of a survivor ending at SOC >= s is the cost of the first breakpoint at or above s;
+        linear interpolation between breakpoints never exceeds it.
+        """
         soc = self.final_state[:, C.SOC]
-        order = np.argsort(-soc, kind="stable")
-        best = np.minimum.accumulate(self.final_cost_g[order])
-        s, f = soc[order][::-1], best[::-1]
-        bins = np.floor(s / self.grid.soc)
-        last = np.r_[bins[1:] != bins[:-1], True]  # highest SOC of each bin carries the bin's F
-        return s[last], f[last]
+        order = np.argsort(soc, kind="stable")
+        s, c = soc[order], self.final_cost_g[order]
+        after = np.r_[np.minimum.accumulate(c[::-1])[::-1][1:], np.inf]  # lowest cost strictly above in order
+        keep = c < after
+        return s[keep], c[keep]
 
 
 @jit
-def keep_best_per_bin(states, adj_cost, hotness, key_cols, widths, bits, out_idx):
-    """The cheapest row (by ``adj_cost``) and the coolest row (by ``hotness``) of every occupied bin.
+def keep_best_per_bin(states, adj_cost, adj_cost2, hotness, key_cols, widths, bits, out_idx):
+    """The cheapest row by ``adj_cost``, the cheapest by ``adj_cost2`` and the coolest (``hotness``) of every bin.
 
-    Writes their indices to ``out_idx`` (one index where both are the same row) and returns how
-    many. Keeping the coolest too stops the drift a cheapest-only merge has: within a bin the
-    cheaper state is usually the hotter one (it used the motor more), and choosing it at every
-    stage walks the whole search a fraction of a bin hotter each step. The bin of a row is
+    Writes their indices to ``out_idx`` (once where they are the same row) and returns how many.
+    One representative per bin drifts: within a bin the state that is cheaper now is usually the
+    hotter one (it used the motor more) or the emptier one, and choosing it at every stage walks
+    the search a fraction of a bin hotter (or emptier) each step. ``adj_cost`` prices the battery
+    at the reward's price and ``adj_cost2`` lower; when the true value of charge on this cycle lies
+    between the two, the better lineage survives. On 200 s of Beijing in the ``hot`` scenario one
+    representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 % below the frontier; three at 1.5·10⁻⁴, 0.06 %. The bin of a row is
     floor(state / width) per key column, packed into one 64-bit key; an open-addressing hash table
     finds the bin in O(1).
     """
@@ -132,6 +147,7 @@ def keep_best_per_bin(states, adj_cost, hotness, key_cols, widths, bits, out_idx
     table_key = np.full(cap, -1, dtype=np.int64)
     cheap = np.zeros(cap, dtype=np.int64)
     cool = np.zeros(cap, dtype=np.int64)
+    second = np.zeros(cap, dtype=np.int64)
     for b in range(n):
         key = 0
         for d in range(key_cols.shape[0]):
@@ -148,12 +164,15 @@ def keep_best_per_bin(states, adj_cost, hotness, key_cols, widths, bits, out_idx
                 table_key[h] = key
                 cheap[h] = b
                 cool[h] = b
+                second[h] = b
                 break
             if k == key:
                 if adj_cost[b] < adj_cost[cheap[h]]:
                     cheap[h] = b
                 if hotness[b] < hotness[cool[h]]:
                     cool[h] = b
+                if adj_cost2[b] < adj_cost2[second[h]]:
+                    second[h] = b
                 break
             h = (h + 1) & mask
     j = 0
@@ -163,6 +182,9 @@ def keep_best_per_bin(states, adj_cost, hotness, key_cols, widths, bits, out_idx
             j += 1
             if cool[h] != cheap[h]:
                 out_idx[j] = cool[h]
+                j += 1
+            if second[h] != cheap[h] and second[h] != cool[h]:
+                out_idx[j] = second[h]
                 j += 1
     return j
 
@@ -286,23 +308,25 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
                                         overheat=True)
         e = batt_j[parent] + out[:, C.BATT_CHEM] * dt
         soc = so[:, C.SOC]
+        adj = c + batt_g_per_j * e
         inside = (soc >= lo_win[i + 1]) & (soc <= hi_win[i + 1])
         if not np.any(inside):
             inside[np.argmin(np.minimum(np.abs(soc - lo_win[i + 1]), np.abs(soc - hi_win[i + 1])))] = True
         rows = np.flatnonzero(inside)
         keep = np.empty(rows.size, dtype=np.int64)
-        k = keep_best_per_bin(np.ascontiguousarray(so[rows]), (c + batt_g_per_j * e)[rows], hotness(so[rows]),
+        k = keep_best_per_bin(np.ascontiguousarray(so[rows]), adj[rows], (c + grid.second_price * batt_g_per_j * e)[rows],
+                              hotness(so[rows]),
                               key_cols, widths, bits, keep)
         keep = rows[keep[:k]]
         if grid.dominance and keep.size > 1:
-            keep = _non_dominated(so[keep], (c + batt_g_per_j * e)[keep], widths, keep)
+            keep = _non_dominated(so[keep], adj[keep], widths, keep)
         keep = np.sort(keep)
         states, cost, batt_j = so[keep], c[keep], e[keep]
         parents.append(parent[keep].astype(np.int32))
         actions.append(a[keep].astype(np.float32) if active[i] else np.zeros(keep.size, dtype=np.float32))
         max_states = max(max_states, keep.size)
         if record is not None:
-            record.append((states, (c + batt_g_per_j * e)[keep]))
+            record.append((states, adj[keep]))
         if progress is not None:
             progress(i + 1, n, keep.size)
     return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents,

@@ -144,22 +144,6 @@ def test_dp_is_converged_in_grid_size(city200):
     assert abs(fine - base) / fine < 0.003
 
 
-def test_dp_thermal_state_mode_on_a_hot_short_cycle(city200):
-    s = get_strategy("dp_thermal", n_soc=21, n_heat_x=6, n_temp=6, n_u=11)
-    res = run_strategy(s, city200, "hot")
-    d = res.summary["strategy_settings"]
-    assert d["temp_mode"] == "state" and d["grid"] == {"soc": 21, "heat_x": 6, "temp": 6}
-    assert d["price_overheat"] is True and d["solve_s"] > 0
-    assert abs(res.summary["delta_soc"]) <= 0.005 + 1e-3
-
-
-def test_dp_thermal_holds_temperature_with_the_coolant_on(city200):
-    s = get_strategy("dp_thermal", n_soc=21, n_heat_x=6, n_u=11)
-    res = run_strategy(s, city200, "paper")
-    assert res.summary["strategy_settings"]["temp_mode"] == "fixed"
-    assert res.summary["strategy_settings"]["grid"] == {"soc": 21, "heat_x": 6}
-
-
 def test_plan_is_reused_for_the_same_episode(city200):
     from hev_thermal_env.envs import HevThermalEnv
     env = HevThermalEnv(cycle=city200)

@@ -244,6 +244,7 @@ def test_evaluate_run_end_to_end(tmp_path):
     (["--cycle", "beijing", "--strategy", "rule", "--scenario", "arctic"], ["paper", "hot", "random"]),
     (["--cycle", "mars", "--strategy", "rule"], ["hwfet", "beijing"]),
     (["--cycle", "beijing", "--strategy", "rule", "--dp-soc-points", "101"], ["dp", "dp_thermal"]),
+    (["--cycle", "beijing", "--strategy", "dp_thermal", "--dp-soc-points", "101"], ["dp", "--dp-grid-scale"]),
 ])
 def test_evaluate_run_bad_input(args, listed, capsys):
     sys.path.insert(0, str(ROOT))

@@ -54,9 +54,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trace", metavar="PATH.csv", help="write the per-second info fields as CSV here")
     p.add_argument("--plot", metavar="PATH.png", help="draw speed, SOC, motor temperature, heat index and split")
     p.add_argument("--dp-soc-points", type=int, metavar="N",
-                   help="dp/dp_thermal: SOC grid points per stage (the strategy's default: 401)")
+                   help="dp: SOC grid points per stage (the strategy's default: 401)")
     p.add_argument("--dp-actions", type=int, metavar="M",
-                   help="dp/dp_thermal: splits u in the backward pass (the strategy's default: 41)")
+                   help="dp/dp_thermal: splits u in the backward pass / the search (defaults: 41 / 31)")
+    p.add_argument("--dp-grid-scale", type=float, metavar="F",
+                   help="dp_thermal: divide every bin of the search by F and multiply its splits (default: 1)")
     p.add_argument("--dp-on-infeasible", choices=["raise", "closest"], default=None,
                    help="dp/dp_thermal when the final-SOC band is unreachable: raise (the default) or plan for the "
                         "nearest reachable band")
@@ -80,12 +82,19 @@ def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
         if not sep or not key.strip():
             raise ValueError(f"--option {item!r}: expected KEY=VALUE")
         options[key.strip()] = _parse_value(value)
-    dp_flags = {"n_soc": args.dp_soc_points, "n_u": args.dp_actions, "on_infeasible": args.dp_on_infeasible}
+    dp_flags = {"n_soc": args.dp_soc_points, "n_u": args.dp_actions, "on_infeasible": args.dp_on_infeasible,
+                "grid_scale": args.dp_grid_scale}
     given = {k: v for k, v in dp_flags.items() if v is not None}
     base = args.strategy.partition(":")[0]
     if given and base not in DP_STRATEGIES:
-        raise ValueError(f"--dp-soc-points/--dp-actions/--dp-on-infeasible apply to {', '.join(DP_STRATEGIES)} only, "
-                         f"not to {args.strategy!r}")
+        raise ValueError(f"--dp-soc-points/--dp-actions/--dp-grid-scale/--dp-on-infeasible apply to "
+                         f"{', '.join(DP_STRATEGIES)} only, not to {args.strategy!r}")
+    if "n_soc" in given and base != "dp":
+        raise ValueError(f"--dp-soc-points applies to dp only; {base} bins the SOC (use --dp-grid-scale)")
+    if "grid_scale" in given and base != "dp_thermal":
+        raise ValueError(f"--dp-grid-scale applies to dp_thermal only; {base} takes --dp-soc-points")
+    if "grid_scale" in given and not given["grid_scale"] > 0:
+        raise ValueError(f"--dp-grid-scale must be > 0, got {given['grid_scale']}")
     for key in ("n_soc", "n_u"):
         if key in given and given[key] < 2:
             raise ValueError(f"--dp-{'soc-points' if key == 'n_soc' else 'actions'} must be at least 2, "
@@ -119,7 +128,8 @@ def format_summary(summary: dict[str, Any]) -> str:
     head = f"{s['strategy']} on {s['cycle']} ({s['scenario']} scenario)"
     lines = [head, "-" * len(head)] + [f"  {name:<26}{value:>24}  {unit}" for name, value, unit in rows]
     settings = s.get("strategy_settings") or {}
-    keys = ("grid", "n_u", "solve_s", "soc_band_used", "final_soc_feasible", "temp_mode", "equivalence_factor",
+    keys = ("grid", "n_u", "solve_s", "soc_band_used", "final_soc_feasible", "planned_cost_g", "max_states",
+            "equivalence_factor",
             "s0", "kp", "ki")
     shown = {k: settings[k] for k in keys if k in settings}
     if shown:

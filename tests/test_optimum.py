@@ -1,0 +1,133 @@
+"""The thermal optimum ``dp_thermal``: exact replay, frontier, no strategy below it, grid and exhaustive checks."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cycle, paper_bus
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.dp_grid import DPProblem
+from hev_thermal_env.agents.optimum_search import SearchGrid, pareto_per_soc_bin, search
+from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.evaluation.yardstick import Frontier
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.prices import Prices
+
+
+@pytest.fixture(scope="module")
+def city200():
+    return cycle_from_arrays(load_cycle("beijing").speed_mps[:201], name="beijing_200s")
+
+
+@pytest.fixture(scope="module")
+def hot_runs(city200):
+    """Every classic strategy and the optimum on 200 s of Beijing in the hot scenario (motor near its limits)."""
+    names = ("dp_thermal", "rule", "ecms", "aecms", "ecms_thermal", "dp")
+    return {n: run_strategy(get_strategy(n), city200, "hot").summary for n in names}
+
+
+def independent_cost_g(summary: dict) -> float:
+    """Fuel + missed wheel energy at the miss price, from the metrics (overheat terms are zero below 60 °C)."""
+    lhv = paper_bus().engine.fuel_lhv_j_per_g
+    return summary["fuel_g"] + summary["missed_wheel_energy_kwh"] * 3.6e6 * Prices().miss_g_per_j(lhv)
+
+
+def test_planned_cost_is_the_realised_cost(city200):
+    """The plan is an exact action sequence: the env realises its planned cost (and the yardstick cost agrees)."""
+    res = run_strategy(get_strategy("dp_thermal"), city200, "paper")
+    s = res.summary
+    d = s["strategy_settings"]
+    assert d["planned_cost_g"] == pytest.approx(d["replayed_cost_g"], rel=1e-12)
+    assert s["cost_g"] == pytest.approx(d["planned_cost_g"], rel=1e-9)
+    assert s["soc_final"] == pytest.approx(d["planned_soc_final"], abs=1e-9)
+    assert s["max_motor_temp_c"] < 60.0  # so the overheat terms are zero and the cost is fuel + priced miss
+    assert s["cost_g"] == pytest.approx(independent_cost_g(s), rel=1e-6)
+    assert abs(s["delta_soc"]) <= 0.005 + 1e-9
+
+
+def test_frontier_is_monotone_and_spans_the_band(hot_runs):
+    d = hot_runs["dp_thermal"]["strategy_settings"]
+    f = Frontier.from_settings(d)
+    soc, cost = np.array(d["frontier"]["soc_final"]), np.array(d["frontier"]["cost_g"])
+    assert np.all(np.diff(soc) > 0) and np.all(np.diff(cost) >= 0)
+    assert soc[0] < 0.65 - 0.005 < 0.65 + 0.005 < soc[-1]
+    own = hot_runs["dp_thermal"]
+    assert f.cost_at(own["soc_final"]) <= own["cost_g"] * (1 + 1e-9)
+
+
+def test_no_classic_strategy_beats_the_optimum_at_equal_charge(hot_runs):
+    """Hot scenario: every strategy's cost >= the frontier at its own final SOC (0.1 % tolerance)."""
+    f = Frontier.from_settings(hot_runs["dp_thermal"]["strategy_settings"])
+    for name, s in hot_runs.items():
+        ref = f.cost_at(s["soc_final"])
+        assert ref is not None, (name, s["soc_final"])
+        assert s["cost_g"] >= ref * (1 - 1e-3), (name, s["cost_g"], ref)
+
+
+def problem_for(speed, scenario_conditions: Conditions) -> DPProblem:
+    core = PhysicsCore(paper_bus())
+    speed = np.asarray(speed, dtype=np.float64)
+    return DPProblem(core=core, speed_mps=speed, grade=np.zeros_like(speed), k0=0,
+                     state0=core.initial_state(scenario_conditions, 1)[0],
+                     cond=core.conditions_array(scenario_conditions, 1)[0], reward_params=RewardParams(),
+                     soc_target=scenario_conditions.initial_soc, name="short")
+
+
+def test_search_matches_an_exhaustive_search_on_a_short_cycle():
+    """Seven seconds, 7 splits each: every sequence against the search on the same splits (fine SOC bins: on so
+    short a run one default bin of charge is worth 0.3 % of the cost)."""
+    speed = np.array([0.0, 1.5, 3.0, 4.6, 6.0, 7.2, 8.0, 8.0])
+    p = problem_for(speed, Conditions(ambient_temp_c=40.0, initial_motor_temp_c=66.0))
+    grid = SearchGrid(soc=1e-5, n_u=7)
+    res = search(p, grid, (0.55, 0.75))
+    active = p.demand_positive()
+    u_grid = np.linspace(-1.0, 1.0, 7).astype(np.float32).astype(np.float64)
+    choices = [u_grid if a else np.zeros(1) for a in active]
+    seqs = np.array(list(itertools.product(*choices)))
+    st = np.repeat(p.state0[None, :], len(seqs), axis=0)
+    cost = np.zeros(len(seqs))
+    from hev_thermal_env.envs.reward import stage_cost_g
+    for i in range(p.n_stages):
+        st, out = p.step(st, seqs[:, i], i)
+        cost += stage_cost_g(p.reward_params, out, st, p.soc_target, p.lhv, 1.0, battery=False, overheat=True)
+    soc_f, f = res.frontier()
+    for s in np.quantile(st[:, C.SOC], [0.1, 0.3, 0.5, 0.7, 0.9]):
+        exact = cost[st[:, C.SOC] >= s].min()
+        found = f[np.searchsorted(soc_f, s)]  # the search's cheapest path ending at SOC >= s
+        assert exact <= found + 1e-9
+        assert found <= exact * 1.001, (s, exact, found)
+
+
+def test_grid_doubling_changes_the_optimum_little(city200):
+    """Every bin halved and the split grid doubled: the optimum's cost moves by <= 0.3 % (hot, where heat binds)."""
+    base = run_strategy(get_strategy("dp_thermal"), city200, "hot").summary
+    fine = run_strategy(get_strategy("dp_thermal", grid_scale=2.0), city200, "hot").summary
+    f_fine = Frontier.from_settings(fine["strategy_settings"])
+    assert abs(base["cost_g"] - f_fine.cost_at(base["soc_final"])) / base["cost_g"] <= 0.003
+
+
+def test_dominance_keeps_cooler_states_and_same_bin_pairs():
+    # rows: SOC bin, then (winding, housing, coolant, heat, cutoff) bin indices; order = by SOC bin, then cost
+    soc_bin = np.array([0, 0, 0, 0, 1], dtype=np.int64)
+    q = np.array([[5, 5, 5, 0, 0],   # cheapest
+                  [6, 5, 5, 0, 0],   # dearer and hotter: dominated
+                  [4, 6, 5, 0, 0],   # dearer, cooler winding, hotter housing: kept
+                  [5, 5, 5, 0, 0],   # dearer, same bin as the cheapest (the bin's coolest): kept
+                  [9, 9, 9, 1, 1]], dtype=np.int64)  # other SOC bin: kept
+    keep = np.empty(5, dtype=np.int64)
+    k = pareto_per_soc_bin(soc_bin, q, np.arange(5, dtype=np.int64), keep)
+    assert sorted(keep[:k].tolist()) == [0, 2, 3, 4]
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"grid_scale": 0}, "grid_scale"), ({"n_u": 1}, "n_u"), ({"soc_bin": -1e-4}, "soc"),
+    ({"on_infeasible": "maybe"}, "on_infeasible"), ({"frontier_halfwidth": 0.001}, "frontier_halfwidth"),
+    ({"n_soc": 101}, "unknown option"),
+])
+def test_bad_options_name_the_problem(options, match):
+    with pytest.raises(ValueError, match=match):
+        get_strategy("dp_thermal", **options)
