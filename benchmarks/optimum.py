@@ -1,0 +1,136 @@
+#!/usr/bin/env python
+"""The thermal optimum as a yardstick: is it below every strategy, exact, converged and fast enough?
+
+Writes ``benchmarks/results/optimum.json``:
+
+* ``cells``: every built-in cycle × scenario (``paper``, ``hot``, ``summer``, ``hilly``,
+  ``full_bus``) and generated bus cycles (``random_bus:N``, paper): each strategy's yardstick cost,
+  final SOC and frontier ratio (cost / the optimum's frontier at the strategy's final SOC); the
+  optimum's planned, replayed and realised cost, solve time and states. ``engine_only`` drives
+  another vehicle (no motor, so no motor heat to price) and is left out.
+* ``convergence``: every bin halved and the splits doubled (``grid_scale=2``), and on ≤ 120 s
+  cycles a very fine search (``grid_scale=4``): change of the cost at the default's final SOC.
+* ``speed``: ``dp_thermal`` on HWFET and on the 1,300 s Beijing cycle, ``dp`` on HWFET.
+
+    python benchmarks/optimum.py [--quick] [--jobs 2] [--generated 20]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import warnings
+from multiprocessing import Pool
+from pathlib import Path
+
+from hev_thermal_env import cycle_from_arrays, load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.cycles import ImplausibleCycleWarning
+from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.evaluation.yardstick import Frontier
+
+OUT = Path(__file__).parent / "results" / "optimum.json"
+CYCLES = ("hwfet", "udds", "us06", "wltc_3b", "beijing")
+SCENARIOS = ("paper", "hot", "summer", "hilly", "full_bus")
+STRATEGIES = ("rule", "ecms", "aecms", "ecms_thermal", "dp", "ppo")
+TOLERANCE = 1e-3
+
+
+def _cycle(name: str):
+    if name.endswith("_120s"):
+        base = load_cycle(name[:-5])
+        return cycle_from_arrays(base.speed_mps[:121], name=name)
+    return load_cycle(name)
+
+
+def cell(task: tuple[str, str]) -> dict:
+    cycle, scenario = task
+    warnings.simplefilter("ignore")
+    cyc = _cycle(cycle)
+    t0 = time.perf_counter()
+    opt = run_strategy(get_strategy("dp_thermal"), cyc, scenario).summary
+    wall = time.perf_counter() - t0
+    d = opt["strategy_settings"]
+    frontier = Frontier.from_settings(d)
+    rows = {}
+    for name in STRATEGIES:
+        s = run_strategy(get_strategy(name), cyc, scenario).summary
+        ref = frontier.cost_at(s["soc_final"])
+        rows[name] = {"cost_g": s["cost_g"], "soc_final": s["soc_final"], "cutoff_s": s["cutoff_s"],
+                      "derated_s": s["derated_s"], "frontier_ratio": None if ref is None else s["cost_g"] / ref}
+    beaten = [n for n, r in rows.items() if r["frontier_ratio"] is not None and r["frontier_ratio"] < 1 - TOLERANCE]
+    outside = [n for n, r in rows.items() if r["frontier_ratio"] is None]
+    return {
+        "cycle": cycle, "scenario": scenario, "optimum": {
+            "cost_g": opt["cost_g"], "planned_cost_g": d["planned_cost_g"], "replayed_cost_g": d["replayed_cost_g"],
+            "planned_vs_realised": opt["cost_g"] / d["planned_cost_g"] - 1.0, "soc_final": opt["soc_final"],
+            "cutoff_s": opt["cutoff_s"], "derated_s": opt["derated_s"], "solve_s": d["solve_s"], "wall_s": wall,
+            "max_states": d["max_states"], "frontier_points": len(d["frontier"]["soc_final"])},
+        "strategies": rows, "min_ratio": min((r["frontier_ratio"] for r in rows.values()
+                                             if r["frontier_ratio"] is not None), default=None),
+        "beaten_by": beaten, "outside_frontier": outside,
+    }
+
+
+def convergence(task: tuple[str, str, float]) -> dict:
+    cycle, scenario, scale = task
+    warnings.simplefilter("ignore")
+    cyc = _cycle(cycle)
+    base = run_strategy(get_strategy("dp_thermal"), cyc, scenario).summary
+    t0 = time.perf_counter()
+    fine = run_strategy(get_strategy("dp_thermal", grid_scale=scale), cyc, scenario).summary
+    ref = Frontier.from_settings(fine["strategy_settings"]).cost_at(base["soc_final"])
+    return {"cycle": cycle, "scenario": scenario, "grid_scale": scale, "default_cost_g": base["cost_g"],
+            "fine_cost_at_same_soc_g": ref, "change": None if ref is None else base["cost_g"] / ref - 1.0,
+            "fine_solve_s": fine["strategy_settings"]["solve_s"], "fine_wall_s": time.perf_counter() - t0,
+            "fine_max_states": fine["strategy_settings"]["max_states"]}
+
+
+def speed() -> dict:
+    warnings.simplefilter("ignore")
+    out = {}
+    for name, cycle in (("dp_thermal", "hwfet"), ("dp_thermal", "beijing"), ("dp", "hwfet")):
+        s = run_strategy(get_strategy(name), load_cycle(cycle), "paper").summary
+        out[f"{name}_{cycle}_solve_s"] = s["strategy_settings"]["solve_s"]
+    out["targets"] = {"dp_thermal_hwfet_solve_s": 60.0, "dp_thermal_beijing_solve_s": 90.0, "dp_hwfet_solve_s": 1.0}
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="hwfet and beijing only, 2 generated cycles, no grid_scale 2")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--generated", type=int, default=20, help="generated bus cycles (random_bus:N), paper scenario")
+    ap.add_argument("--out", default=str(OUT))
+    args = ap.parse_args()
+    warnings.simplefilter("ignore", ImplausibleCycleWarning)
+    cycles = ("hwfet", "beijing") if args.quick else CYCLES
+    n_gen = 2 if args.quick else args.generated
+    tasks = [(c, s) for c in cycles for s in SCENARIOS] + [(f"random_bus:{1000 + i}", "paper") for i in range(n_gen)]
+    conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
+    if not args.quick:
+        conv += [("hwfet", "paper", 2.0), ("beijing", "hot", 2.0), ("us06", "summer", 2.0)]
+    t0 = time.perf_counter()
+    with Pool(args.jobs) as pool:
+        cells = pool.map(cell, tasks, chunksize=1)
+        convs = pool.map(convergence, conv, chunksize=1)
+    result = {
+        "cells": cells, "convergence": convs, "speed": speed(), "tolerance": TOLERANCE,
+        "summary": {
+            "cells": len(cells), "cells_beaten": sum(bool(c["beaten_by"]) for c in cells),
+            "min_ratio": min(c["min_ratio"] for c in cells if c["min_ratio"] is not None),
+            "max_planned_vs_realised": max(abs(c["optimum"]["planned_vs_realised"]) for c in cells),
+            "max_grid_change": max(abs(c["change"]) for c in convs if c["change"] is not None),
+            "wall_s": time.perf_counter() - t0},
+    }
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
+    print(json.dumps(result["summary"], indent=1))
+    for c in cells:
+        print(f"{c['cycle']:>16} {c['scenario']:>8}  min ratio {c['min_ratio']}  beaten by {c['beaten_by']}  "
+              f"outside {c['outside_frontier']}  solve {c['optimum']['solve_s']:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
