@@ -99,24 +99,29 @@ def speed() -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="hwfet and beijing only, 2 generated cycles, no grid_scale 2")
+    ap.add_argument("--quick", action="store_true", help="a smoke run: the first 120 s of udds and beijing, 1 generated "
+                    "cycle's first 120 s, one convergence cell, no speed figures (about 1 min)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--generated", type=int, default=20, help="generated bus cycles (random_bus:N), paper scenario")
-    ap.add_argument("--out", default=str(OUT))
+    ap.add_argument("--out", default=None, help=f"JSON path (default {OUT.relative_to(OUT.parents[2])}; with --quick "
+                    "optimum_quick.json next to it)")
     args = ap.parse_args()
     warnings.simplefilter("ignore", ImplausibleCycleWarning)
-    cycles = ("hwfet", "beijing") if args.quick else CYCLES
-    n_gen = 2 if args.quick else args.generated
-    tasks = [(c, s) for c in cycles for s in SCENARIOS] + [(f"random_bus:{1000 + i}", "paper") for i in range(n_gen)]
-    conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
-    if not args.quick:
+    if args.quick:
+        tasks = [(c, s) for c in ("udds_120s", "beijing_120s") for s in ("paper", "hot")] + [("random_bus:1000_120s",
+                                                                                              "paper")]
+        conv = [("beijing_120s", "hot", 2.0)]
+    else:
+        tasks = [(c, s) for c in CYCLES for s in SCENARIOS] + [(f"random_bus:{1000 + i}", "paper")
+                                                                for i in range(args.generated)]
+        conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
         conv += [("hwfet", "paper", 2.0), ("beijing", "hot", 2.0), ("us06", "summer", 2.0)]
     t0 = time.perf_counter()
     with Pool(args.jobs) as pool:
         cells = pool.map(cell, tasks, chunksize=1)
         convs = pool.map(convergence, conv, chunksize=1)
     result = {
-        "cells": cells, "convergence": convs, "speed": speed(), "tolerance": TOLERANCE,
+        "cells": cells, "convergence": convs, "speed": None if args.quick else speed(), "tolerance": TOLERANCE,
         "summary": {
             "cells": len(cells), "cells_beaten": sum(bool(c["beaten_by"]) for c in cells),
             "min_ratio": min(c["min_ratio"] for c in cells if c["min_ratio"] is not None),
@@ -124,8 +129,9 @@ def main() -> None:
             "max_grid_change": max(abs(c["change"]) for c in convs if c["change"] is not None),
             "wall_s": time.perf_counter() - t0},
     }
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
+    out = Path(args.out) if args.out else OUT.with_name("optimum_quick.json" if args.quick else OUT.name)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1) + "\n")
     print(json.dumps(result["summary"], indent=1))
     for c in cells:
         print(f"{c['cycle']:>16} {c['scenario']:>8}  min ratio {c['min_ratio']}  beaten by {c['beaten_by']}  "

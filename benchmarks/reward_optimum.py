@@ -169,9 +169,12 @@ def checks(rows: dict) -> dict:
 
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"output file (default {DEFAULT_JSON})")
+    ap.add_argument("--json", type=Path, default=None,
+                    help=f"output file (default {DEFAULT_JSON}; with --quick reward_optimum_quick.json next to it)")
     ap.add_argument("--quick", action="store_true", help="UDDS only, coarse DP grids (seconds)")
     args = ap.parse_args(argv)
+    if args.json is None:
+        args.json = DEFAULT_JSON.with_name("reward_optimum_quick.json") if args.quick else DEFAULT_JSON
     t0 = time.perf_counter()
     rows = study(args.quick)
     result = {
