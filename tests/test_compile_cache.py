@@ -53,3 +53,22 @@ def test_edit_of_an_inlined_component_is_compiled_not_served_from_cache(tmp_path
     temp3, dir3 = _run(root, cache)
     assert dir3 != dir1
     assert float(temp3) != float(temp1), "the edited radiation constant did not reach the compiled step"
+
+
+def test_the_cache_directory_follows_the_kernels_outside_the_physics_package(tmp_path):
+    """The env's fused step inlines the reward: an edit of ``envs/reward.py`` alone names a new cache directory."""
+    from hev_thermal_env.physics import jit
+
+    root = tmp_path / "src"
+    shutil.copytree(PACKAGE, root / "hev_thermal_env", ignore=shutil.ignore_patterns("__pycache__", "data"))
+    copy = root / "hev_thermal_env"
+    before = subprocess.run([sys.executable, "-c", "from hev_thermal_env.physics.jit import source_hash; "
+                             "print(source_hash())"], capture_output=True, text=True, cwd=root,
+                            env=dict(os.environ, PYTHONPATH=str(root))).stdout.strip()
+    reward = copy / "envs" / "reward.py"
+    reward.write_text(reward.read_text() + "\n# edited\n")
+    after = subprocess.run([sys.executable, "-c", "from hev_thermal_env.physics.jit import source_hash; "
+                            "print(source_hash())"], capture_output=True, text=True, cwd=root,
+                           env=dict(os.environ, PYTHONPATH=str(root))).stdout.strip()
+    assert before and after and before != after
+    assert "envs/reward.py" in jit.KERNEL_SOURCES and "envs/batch.py" in jit.KERNEL_SOURCES

@@ -15,8 +15,10 @@ packed vector, read the vector for the last time outside any branch and return f
 **The cache.** numba keys a cached function on the file that defines it, but a kernel inlines the
 component functions of *other* files: after an edit of ``thermal.py`` a cached ``step_kernel``
 would still run the old thermal code. So the compiled cache lives in a directory named after a
-hash of every source file of the physics package (and the numba version): any edit of the physics
-gives a new directory and a fresh compilation, and an unchanged tree reuses its cache. The directory is
+hash of every source file that defines kernels (the physics package, the env's reward and batch
+engine, the planners' kernels; :data:`KERNEL_SOURCES`) and of the numba version: any edit of them
+gives a new directory and a fresh compilation, and an unchanged tree reuses its cache (the env's
+fused step inlines the reward, so an edit of ``reward.py`` alone must recompile it too). The directory is
 ``$HEV_THERMAL_ENV_CACHE_DIR/<hash>`` if that variable is set, else
 ``$XDG_CACHE_HOME/hev-thermal-env/numba/<hash>`` (``~/.cache/...``). If it cannot be created the
 kernels are compiled without a cache (slower start, never stale). Every numba function of the
@@ -35,14 +37,29 @@ from numba import njit
 from numba.core import config as _numba_config
 
 PHYSICS_DIR = Path(__file__).resolve().parent
+_PACKAGE_DIR = PHYSICS_DIR.parent
+#: Source files outside the physics package that define or inline kernels (missing ones are skipped: the
+#: strategies live in ``agents/`` of a checkout, installed as ``hev_thermal_env/agents``).
+KERNEL_SOURCES = ("envs/reward.py", "envs/batch.py", "agents/dp_grid.py", "agents/optimum_search.py")
 
 _OPTIONS = {"error_model": "numpy", "nogil": True}
 
 
+def _agents_dir() -> Path:
+    installed = _PACKAGE_DIR / "agents"
+    return installed if installed.is_dir() else _PACKAGE_DIR.parent / "agents"
+
+
 def source_hash(directory: Path = PHYSICS_DIR) -> str:
-    """Hash of the physics sources (file names and contents) and of the numba version."""
+    """Hash of the kernel sources (file names and contents: ``directory``'s and :data:`KERNEL_SOURCES`) and of
+    the numba version."""
     h = hashlib.sha256(numba.__version__.encode())
-    for path in sorted(directory.glob("*.py")):
+    paths = sorted(directory.glob("*.py"))
+    for rel in KERNEL_SOURCES:
+        path = (_agents_dir() / rel.split("/", 1)[1]) if rel.startswith("agents/") else _PACKAGE_DIR / rel
+        if path.is_file():
+            paths.append(path)
+    for path in paths:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
