@@ -23,6 +23,7 @@ and doubles the split grid. The error comes from pruning, not interpolation:
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
@@ -36,6 +37,9 @@ from .dp_grid import DPInfeasibleError, DPProblem
 from .optimum_search import SearchGrid, SearchResult, search
 
 __all__ = ["ThermalOptimumStrategy", "pick_final", "replay"]
+
+#: Cycles shorter than this (steps) get a proportionally narrower SOC bin (:meth:`ThermalOptimumStrategy.grid_for`).
+SHORT_CYCLE_STEPS = 600
 
 
 def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, float], on_infeasible: str) -> int:
@@ -108,6 +112,7 @@ class ThermalOptimumStrategy(Strategy):
                 raise ValueError(f"{self.name}: {key} must be {'at least 2' if key == 'n_u' else '> 0'}, got {value}")
         fields = {k: (int(v) if k == "n_u" else float(v)) for k, v in given.items() if v is not None}
         self.grid = SearchGrid(**{**base.__dict__, **fields})
+        self._soc_bin_given = soc_bin is not None
         self.soc_final, self.soc_tol, self.on_infeasible = soc_final, float(soc_tol), on_infeasible
         self.frontier_halfwidth, self.threads = float(frontier_halfwidth), threads
         self.refine, self.local_halfwidth, self.n_local = bool(refine), float(local_halfwidth), int(n_local)
@@ -116,10 +121,12 @@ class ThermalOptimumStrategy(Strategy):
         self._k0 = 0
         self._key: str | None = None
         self._report: dict[str, Any] = {}
+        self._grid_used = self.grid
 
     def plan_for(self, problem: DPProblem) -> np.ndarray:
         """Search (or reuse the last search for the same problem) and return the planned action sequence."""
-        key = problem.key() + repr((self.grid, self.soc_final, self.soc_tol, self.frontier_halfwidth, self.refine,
+        grid = self.grid_for(problem.n_stages)
+        key = problem.key() + repr((grid, self.soc_final, self.soc_tol, self.frontier_halfwidth, self.refine,
                                     self.local_halfwidth, self.n_local))
         if key == self._key:
             return self.u_plan
@@ -127,12 +134,12 @@ class ThermalOptimumStrategy(Strategy):
         target = float(problem.state0[C.SOC]) if self.soc_final is None else float(self.soc_final)
         window = (target - self.frontier_halfwidth, target + self.frontier_halfwidth)
         band = (target - self.soc_tol, target + self.soc_tol)
-        result = search(problem, self.grid, window, threads=self.threads)
+        result = search(problem, grid, window, threads=self.threads)
         first_pass = {"solve_s": result.solve_s, "cost_g": float(result.final_cost_g[pick_final(
             result, problem, band, self.on_infeasible)])}
         if self.refine:
             u_first = result.path(pick_final(result, problem, band, self.on_infeasible))
-            second = search(problem, self.grid, window, threads=self.threads, u_center=u_first,
+            second = search(problem, grid, window, threads=self.threads, u_center=u_first,
                             local_halfwidth=self.local_halfwidth, n_local=self.n_local)
             second.solve_s += result.solve_s
             second.n_evals += result.n_evals
@@ -147,11 +154,19 @@ class ThermalOptimumStrategy(Strategy):
             "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
             "solve_s": result.solve_s, "plan_total_s": time.perf_counter() - t0, "first_pass": first_pass,
             "vehicle_steps_evaluated": int(result.n_evals), "max_states": int(result.max_states),
-            "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(), "grid": self.grid.describe(),
+            "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(), "grid": grid.describe(),
                          "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
         }
-        self.result, self.u_plan, self._key = result, u, key
+        self.result, self.u_plan, self._key, self._grid_used = result, u, key, grid
         return u
+
+    def grid_for(self, n_stages: int) -> SearchGrid:
+        """The grid of a cycle of ``n_stages`` steps: below 600 steps the SOC bin narrows with the cycle (at most
+        10×, unless ``soc_bin`` was given). A bin of charge is worth a fixed number of grams (≈1.4 g at
+        1.5·10⁻⁴), so on a short cycle it would be a larger share of the cost."""
+        if self._soc_bin_given:
+            return self.grid
+        return dataclasses.replace(self.grid, soc=self.grid.soc * min(max(n_stages / SHORT_CYCLE_STEPS, 0.1), 1.0))
 
     def reset(self, env: Any) -> None:
         super().reset(env)
@@ -165,7 +180,7 @@ class ThermalOptimumStrategy(Strategy):
         return np.array([u], dtype=np.float32)
 
     def describe(self) -> dict[str, Any]:
-        g = self.grid
+        g = self._grid_used
         return {
             "name": self.name, "method": g.describe(),
             "state": ["soc", "motor_temp_c", "housing_temp_c", "coolant_temp_c", "heat_x", "motor_cutoff"],
