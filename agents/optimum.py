@@ -155,6 +155,7 @@ class ThermalOptimumStrategy(Strategy):
             "solve_s": result.solve_s, "plan_total_s": time.perf_counter() - t0, "first_pass": first_pass,
             "vehicle_steps_evaluated": int(result.n_evals), "max_states": int(result.max_states),
             "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(), "grid": grid.describe(),
+                         "soc_min": float(result.final_state[:, C.SOC].min()),
                          "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
         }
         self.result, self.u_plan, self._key, self._grid_used = result, u, key, grid

@@ -259,3 +259,13 @@ def test_benchmark_with_a_family_writes_the_new_columns(reference_frontier, tiny
     assert "**fam** (IQM of 2 seeds)" in md and "Seed families over every cycle × scenario" in md
     assert "seeds/s0" not in md  # the members are in results.csv, not one by one in the table
     assert (out / "fuel_vs_optimum.png").stat().st_size > 20_000
+
+
+def test_below_the_first_point_the_frontier_is_the_cheapest_path_with_at_least_that_charge():
+    from hev_thermal_env.evaluation.yardstick import Frontier
+
+    f = Frontier.from_settings({"frontier": {"soc_final": [0.64, 0.65, 0.66], "cost_g": [100.0, 110.0, 125.0],
+                                             "soc_min": 0.60, "grid": "g"}})
+    assert f.cost_at(0.62) == 100.0 and f.cost_at(0.645) == 105.0
+    assert f.cost_at(0.59) is None and f.cost_at(0.67) is None
+    assert Frontier.from_settings({"frontier": {"soc_final": [0.64], "cost_g": [1.0]}}).cost_at(0.63) is None

@@ -41,11 +41,17 @@ SOC_TOLERANCE = 1e-9  # a final SOC this close to the frontier's end is on it (f
 
 @dataclasses.dataclass(frozen=True)
 class Frontier:
-    """The optimum's cost (g) against the final SOC, sorted by SOC; ``grid`` names the method and grid."""
+    """The optimum's cost (g) against the final SOC, sorted by SOC; ``grid`` names the method and grid.
+
+    F(s) is the lowest cost of a path ending at SOC ≥ s, so below the first point it is the first
+    point's cost, down to ``soc_min`` (the lowest final SOC the optimum searched; default the first
+    point): a run ending there is compared with the cheapest path that ends with at least its charge.
+    """
 
     soc_final: np.ndarray
     cost_g: np.ndarray
     grid: str
+    soc_min: float | None = None
 
     @classmethod
     def from_settings(cls, settings: Mapping[str, Any] | None) -> Frontier | None:
@@ -69,17 +75,22 @@ class Frontier:
             raise ValueError("the reference's frontier holds values that are not finite")
         if np.any(np.diff(soc) < 0.0):
             raise ValueError("the reference's frontier is not sorted by soc_final")
-        return cls(soc, cost, str(data.get("grid", "")).strip())
+        soc_min = data.get("soc_min")
+        soc_min = min(float(soc_min), float(soc[0])) if soc_min is not None else None
+        return cls(soc, cost, str(data.get("grid", "")).strip(), soc_min)
 
     def cost_at(self, soc_final: float) -> float | None:
-        """F(``soc_final``) by linear interpolation; None outside [first, last] SOC of the frontier."""
-        lo, hi = float(self.soc_final[0]), float(self.soc_final[-1])
+        """F(``soc_final``) by linear interpolation; the first point's cost from ``soc_min`` up to it; None
+        below ``soc_min`` or above the last point."""
+        lo = float(self.soc_final[0]) if self.soc_min is None else self.soc_min
+        hi = float(self.soc_final[-1])
         if not lo - SOC_TOLERANCE <= soc_final <= hi + SOC_TOLERANCE:
             return None
         return float(np.interp(soc_final, self.soc_final, self.cost_g))
 
     def range_text(self) -> str:
-        return f"[{self.soc_final[0]:.4f}, {self.soc_final[-1]:.4f}]"
+        lo = self.soc_final[0] if self.soc_min is None else self.soc_min
+        return f"[{lo:.4f}, {self.soc_final[-1]:.4f}]"
 
 
 def frontier_ratio(cost_g: float, soc_final: float, frontier: Frontier | None) -> tuple[float | None, str | None]:
