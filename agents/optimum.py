@@ -24,12 +24,17 @@ and doubles the split grid. The error comes from pruning, not interpolation:
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.jit import CACHE_DIR, source_hash
 
 from .base import Strategy
 from .common import stage_cost_g
@@ -84,7 +89,8 @@ class ThermalOptimumStrategy(Strategy):
     (``"raise"`` or ``"closest"``), ``frontier_halfwidth`` (final SOCs kept around the target),
     ``dominance`` (drop states dominated within their SOC bin), ``refine`` (a second pass that adds
     ``n_local`` splits within ± ``local_halfwidth`` of the first pass's path at every stage),
-    ``threads``.
+    ``plan_cache`` (reuse a plan solved before for the same problem, settings and kernel sources,
+    kept in the compiled-kernel cache's parent directory), ``threads``.
     """
 
     name = "dp_thermal"
@@ -95,7 +101,7 @@ class ThermalOptimumStrategy(Strategy):
                  heat_index_bin: float | None = None, n_u: int | None = None, soc_final: float | None = None,
                  soc_tol: float = 0.005, on_infeasible: str = "raise", frontier_halfwidth: float = 0.08,
                  dominance: bool = True, refine: bool = True, local_halfwidth: float = 0.05, n_local: int = 21,
-                 threads: int | None = None, **extra: Any):
+                 plan_cache: bool = True, threads: int | None = None, **extra: Any):
         if extra:
             raise ValueError(f"{self.name}: unknown option(s) {sorted(extra)}")
         if on_infeasible not in ("raise", "closest"):
@@ -116,6 +122,7 @@ class ThermalOptimumStrategy(Strategy):
         self.soc_final, self.soc_tol, self.on_infeasible = soc_final, float(soc_tol), on_infeasible
         self.frontier_halfwidth, self.threads = float(frontier_halfwidth), threads
         self.refine, self.local_halfwidth, self.n_local = bool(refine), float(local_halfwidth), int(n_local)
+        self.plan_cache = bool(plan_cache)
         self.result: SearchResult | None = None
         self.u_plan = np.zeros(0)
         self._k0 = 0
@@ -129,6 +136,10 @@ class ThermalOptimumStrategy(Strategy):
         key = problem.key() + repr((grid, self.soc_final, self.soc_tol, self.frontier_halfwidth, self.refine,
                                     self.local_halfwidth, self.n_local))
         if key == self._key:
+            return self.u_plan
+        cached = self._load(key)
+        if cached is not None:
+            self.u_plan, self._report, self._key, self._grid_used = cached[0], cached[1], key, grid
             return self.u_plan
         t0 = time.perf_counter()
         target = float(problem.state0[C.SOC]) if self.soc_final is None else float(self.soc_final)
@@ -159,7 +170,37 @@ class ThermalOptimumStrategy(Strategy):
                          "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
         }
         self.result, self.u_plan, self._key, self._grid_used = result, u, key, grid
+        self._store(key)
         return u
+
+    # -- a solved plan is kept on disk: the same cycle, start, vehicle, reward and settings on the same kernel
+    # sources reuse it (``plan_cache: false`` to always solve) --------------------------------------------------
+    def _cache_path(self, key: str) -> Path | None:
+        if not self.plan_cache or CACHE_DIR is None:
+            return None
+        h = hashlib.sha256((key + source_hash()).encode())
+        h.update(Path(__file__).read_bytes())  # the planner's own code (pick, replay, report) too
+        digest = h.hexdigest()[:32]
+        return CACHE_DIR.parent / "plans" / f"dp_thermal-{digest}.json"
+
+    def _load(self, key: str) -> tuple[np.ndarray, dict] | None:
+        path = self._cache_path(key)
+        if path is None or not path.is_file():
+            return None
+        try:
+            data = json.loads(path.read_text())
+            return np.asarray(data["u"], dtype=np.float64), dict(data["report"], from_cache=True)
+        except (OSError, ValueError, KeyError):
+            return None
+
+    def _store(self, key: str) -> None:
+        path = self._cache_path(key)
+        if path is None:
+            return
+        try:
+            atomic_write_json(path, {"u": self.u_plan.tolist(), "report": self._report})
+        except OSError:
+            pass
 
     def grid_for(self, n_stages: int) -> SearchGrid:
         """The grid of a cycle of ``n_stages`` steps: below 600 steps the SOC bin narrows with the cycle (at most

@@ -132,3 +132,14 @@ def test_dominance_keeps_cooler_states_and_same_bin_pairs():
 def test_bad_options_name_the_problem(options, match):
     with pytest.raises(ValueError, match=match):
         get_strategy("dp_thermal", **options)
+
+
+def test_a_solved_plan_is_reused_from_disk_and_drives_the_same_run(city200):
+    short = cycle_from_arrays(city200.speed_mps[:61], name="beijing_60s")
+    first = run_strategy(get_strategy("dp_thermal"), short, "hot").summary
+    again = run_strategy(get_strategy("dp_thermal"), short, "hot").summary
+    fresh = run_strategy(get_strategy("dp_thermal", plan_cache=False), short, "hot").summary
+    assert again["strategy_settings"].get("from_cache") is True
+    assert "from_cache" not in fresh["strategy_settings"]
+    assert again["cost_g"] == first["cost_g"] == fresh["cost_g"]
+    assert again["soc_final"] == first["soc_final"]
