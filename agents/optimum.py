@@ -165,7 +165,10 @@ class ThermalOptimumStrategy(Strategy):
             "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
             "solve_s": result.solve_s, "plan_total_s": time.perf_counter() - t0, "first_pass": first_pass,
             "vehicle_steps_evaluated": int(result.n_evals), "max_states": int(result.max_states),
-            "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(), "grid": grid.describe(),
+            "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(),
+                         "grid": grid.describe() + (f" + a refining pass ({self.n_local} splits within "
+                                                    f"±{self.local_halfwidth:g} of the first path)" if self.refine
+                                                    else ""),
                          "soc_min": float(result.final_state[:, C.SOC].min()),
                          "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
         }
