@@ -146,10 +146,10 @@ class ThermalOptimumStrategy(Strategy):
         window = (target - self.frontier_halfwidth, target + self.frontier_halfwidth)
         band = (target - self.soc_tol, target + self.soc_tol)
         result = search(problem, grid, window, threads=self.threads)
-        first_pass = {"solve_s": result.solve_s, "cost_g": float(result.final_cost_g[pick_final(
-            result, problem, band, self.on_infeasible)])}
+        j_first = pick_final(result, problem, band, self.on_infeasible)
+        first_pass = {"solve_s": result.solve_s, "cost_g": float(result.final_cost_g[j_first])}
         if self.refine:
-            u_first = result.path(pick_final(result, problem, band, self.on_infeasible))
+            u_first = result.path(j_first)
             second = search(problem, grid, window, threads=self.threads, u_center=u_first,
                             local_halfwidth=self.local_halfwidth, n_local=self.n_local)
             second.solve_s += result.solve_s

@@ -263,14 +263,13 @@ def _non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows
 
 
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
-           progress=None, record: list | None = None, u_center: np.ndarray | None = None,
+           progress=None, u_center: np.ndarray | None = None,
            local_halfwidth: float = 0.05, n_local: int = 21) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
     ``u_center`` (one split per stage, e.g. a previous pass's path) adds ``n_local`` splits within
     ± ``local_halfwidth`` of it to the uniform grid at every stage: a refining pass.
-    ``progress(stage, n_stages, n_states)`` is called after every stage; ``record``, if a list, gets
-    (states, cost-to-come + battery energy at the reward's price) of every stage's survivors.
+    ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
     t0 = time.perf_counter()
     n = problem.n_stages
@@ -325,8 +324,6 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         parents.append(parent[keep].astype(np.int32))
         actions.append(a[keep].astype(np.float32) if active[i] else np.zeros(keep.size, dtype=np.float32))
         max_states = max(max_states, keep.size)
-        if record is not None:
-            record.append((states, adj[keep]))
         if progress is not None:
             progress(i + 1, n, keep.size)
     return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents,
