@@ -14,11 +14,20 @@ the battery energy at the reward's battery price, as the SOC-state ``dp`` and th
 around the target: the benchmark divides each strategy's cost by the frontier at the strategy's
 own final SOC (comparison at equal charge, no battery price involved).
 
-Grid and error. Bins of ΔSOC 1.5·10⁻⁴, winding 4 K, housing 2 K, coolant 4 K, heat index 0.1
-and 31 splits by default (:class:`~.optimum_search.SearchGrid`), then a refining pass that adds 21
-splits within ±0.05 of the first pass's path at every stage; ``grid_scale=2`` halves every bin
-and doubles the split grid. The error comes from pruning, not interpolation:
-``benchmarks/optimum.py`` measures it (grid doubling; a much finer search on short cycles).
+Two passes. A first, coarse pass (every bin twice as wide, 17 splits: ``first_pass_scale``)
+finds a path into the band; the SOC-state ``dp`` (thermal-blind, about a second) gives another.
+The second pass is the optimum: bins of ΔSOC 1.5·10⁻⁴, winding 4 K, housing 2 K, coolant 4 K,
+heat index 0.1 (:class:`~.optimum_search.SearchGrid`), every second of the 31 uniform splits
+(``refine_global_stride``) and 21 splits within ±0.05 of each of the two paths at every stage
+(``n_local``, ``local_halfwidth``). On cycles with a low cost per second (city buses) the SOC
+bin is narrowed (at most 5×) until one bin of charge, priced and summed over the stages, is at
+most ``bin_budget`` (25 %) of the first pass's cost: the pruning error of a bin is paid once per
+stage, so it weighs more where each second costs little. ``grid_scale=2`` halves every bin and
+doubles the split grid.
+
+Error. The error comes from pruning, not interpolation. ``benchmarks/optimum.py`` measures it
+(grid doubling; a much finer search on short cycles) and checks that no strategy of the project
+ends below the frontier.
 """
 
 from __future__ import annotations
@@ -38,6 +47,7 @@ from hev_thermal_env.physics.jit import CACHE_DIR, source_hash
 
 from .base import Strategy
 from .common import stage_cost_g
+from .dp import DPStrategy, rollout
 from .dp_grid import DPInfeasibleError, DPProblem
 from .optimum_search import SearchGrid, SearchResult, search
 
@@ -65,6 +75,13 @@ def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, floa
     return int(near[np.argmin(adj[near])])
 
 
+def soc_dp_path(problem: DPProblem, target: float, soc_tol: float, threads: int | None) -> np.ndarray:
+    """The action sequence of the SOC-state ``dp`` (thermal state held) on ``problem``: a centre for the refining pass."""
+    dp = DPStrategy(soc_final=target, soc_tol=soc_tol, on_infeasible="closest", threads=threads)
+    run = rollout(dp.plan_for(problem), problem, dp.settings, free=True)
+    return np.asarray(run["u"], dtype=np.float64)
+
+
 def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
     """Drive the action sequence ``u`` on the physics from the start: states, outputs and the yardstick cost."""
     n = u.size
@@ -87,8 +104,11 @@ class ThermalOptimumStrategy(Strategy):
     ``soc_bin``, ``winding_bin_k``, ``housing_bin_k``, ``coolant_bin_k``, ``heat_index_bin``,
     ``n_u`` (splits), ``soc_final`` (default: the initial SOC) and ``soc_tol``, ``on_infeasible``
     (``"raise"`` or ``"closest"``), ``frontier_halfwidth`` (final SOCs kept around the target),
-    ``dominance`` (drop states dominated within their SOC bin), ``refine`` (a second pass that adds
-    ``n_local`` splits within ± ``local_halfwidth`` of the first pass's path at every stage),
+    ``dominance`` (drop states dominated within their SOC bin), ``refine`` (the second pass; without it
+    one pass on the full grid), ``first_pass_scale`` (the first pass's grid, :meth:`SearchGrid.scaled`),
+    ``refine_global_stride`` (every k-th uniform split in the second pass), ``seed_dp`` (also refine
+    around the SOC-state ``dp``'s path), ``n_local`` splits within ± ``local_halfwidth`` of each path,
+    ``bin_budget`` (see the module docstring; None keeps the bin),
     ``plan_cache`` (reuse a plan solved before for the same problem, settings and kernel sources,
     kept in the compiled-kernel cache's parent directory), ``threads``.
     """
@@ -101,7 +121,8 @@ class ThermalOptimumStrategy(Strategy):
                  heat_index_bin: float | None = None, n_u: int | None = None, soc_final: float | None = None,
                  soc_tol: float = 0.005, on_infeasible: str = "raise", frontier_halfwidth: float = 0.08,
                  dominance: bool = True, refine: bool = True, local_halfwidth: float = 0.05, n_local: int = 21,
-                 plan_cache: bool = True, threads: int | None = None, **extra: Any):
+                 first_pass_scale: float = 0.5, refine_global_stride: int = 2, seed_dp: bool = True,
+                 bin_budget: float | None = 0.25, plan_cache: bool = True, threads: int | None = None, **extra: Any):
         if extra:
             raise ValueError(f"{self.name}: unknown option(s) {sorted(extra)}")
         if on_infeasible not in ("raise", "closest"):
@@ -110,6 +131,9 @@ class ThermalOptimumStrategy(Strategy):
             raise ValueError(f"{self.name}: grid_scale must be > 0, got {grid_scale}")
         if soc_tol < 0.0 or not frontier_halfwidth > soc_tol:
             raise ValueError(f"{self.name}: need 0 <= soc_tol < frontier_halfwidth, got {soc_tol}, {frontier_halfwidth}")
+        if not first_pass_scale > 0.0 or int(refine_global_stride) < 1 or (bin_budget is not None and not bin_budget > 0.0):
+            raise ValueError(f"{self.name}: need first_pass_scale > 0, refine_global_stride >= 1 and bin_budget > 0 "
+                             f"(or None), got {first_pass_scale}, {refine_global_stride}, {bin_budget}")
         base = SearchGrid(dominance=bool(dominance)).scaled(float(grid_scale))
         given = {"soc": soc_bin, "winding_k": winding_bin_k, "housing_k": housing_bin_k, "coolant_k": coolant_bin_k,
                  "heat_index": heat_index_bin, "n_u": n_u}
@@ -123,6 +147,9 @@ class ThermalOptimumStrategy(Strategy):
         self.frontier_halfwidth, self.threads = float(frontier_halfwidth), threads
         self.refine, self.local_halfwidth, self.n_local = bool(refine), float(local_halfwidth), int(n_local)
         self.plan_cache = bool(plan_cache)
+        self.first_pass_scale, self.refine_global_stride = float(first_pass_scale), int(refine_global_stride)
+        self.seed_dp = bool(seed_dp)
+        self.bin_budget = None if bin_budget is None else float(bin_budget)
         self.result: SearchResult | None = None
         self.u_plan = np.zeros(0)
         self._k0 = 0
@@ -134,7 +161,9 @@ class ThermalOptimumStrategy(Strategy):
         """Search (or reuse the last search for the same problem) and return the planned action sequence."""
         grid = self.grid_for(problem.n_stages)
         key = problem.key() + repr((grid, self.soc_final, self.soc_tol, self.frontier_halfwidth, self.refine,
-                                    self.local_halfwidth, self.n_local))
+                                    self.local_halfwidth, self.n_local, self.first_pass_scale,
+                                    self.refine_global_stride, self.seed_dp,
+                                    self.bin_budget))
         if key == self._key:
             return self.u_plan
         cached = self._load(key)
@@ -145,13 +174,18 @@ class ThermalOptimumStrategy(Strategy):
         target = float(problem.state0[C.SOC]) if self.soc_final is None else float(self.soc_final)
         window = (target - self.frontier_halfwidth, target + self.frontier_halfwidth)
         band = (target - self.soc_tol, target + self.soc_tol)
-        result = search(problem, grid, window, threads=self.threads)
+        first_grid = grid.scaled(self.first_pass_scale) if self.refine else grid
+        result = search(problem, first_grid, window, threads=self.threads)
         j_first = pick_final(result, problem, band, self.on_infeasible)
         first_pass = {"solve_s": result.solve_s, "cost_g": float(result.final_cost_g[j_first])}
         if self.refine:
-            u_first = result.path(j_first)
-            second = search(problem, grid, window, threads=self.threads, u_center=u_first,
-                            local_halfwidth=self.local_halfwidth, n_local=self.n_local)
+            centers = [result.path(j_first)]
+            if self.seed_dp:
+                centers.append(soc_dp_path(problem, target, self.soc_tol, self.threads))
+            grid = self.refined_grid(grid, result, problem, first_pass["cost_g"])
+            second = search(problem, grid, window, threads=self.threads, u_center=np.array(centers),
+                            local_halfwidth=self.local_halfwidth, n_local=self.n_local,
+                            global_stride=self.refine_global_stride)
             second.solve_s += result.solve_s
             second.n_evals += result.n_evals
             result = second
@@ -166,9 +200,9 @@ class ThermalOptimumStrategy(Strategy):
             "solve_s": result.solve_s, "plan_total_s": time.perf_counter() - t0, "first_pass": first_pass,
             "vehicle_steps_evaluated": int(result.n_evals), "max_states": int(result.max_states),
             "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(),
-                         "grid": grid.describe() + (f" + a refining pass ({self.n_local} splits within "
-                                                    f"±{self.local_halfwidth:g} of the first path)" if self.refine
-                                                    else ""),
+                         "grid": grid.describe() + (f" (every {self.refine_global_stride}. split) + {self.n_local} "
+                                                    f"splits within ±{self.local_halfwidth:g} of "
+                                                    f"{len(centers)} earlier path(s)" if self.refine else ""),
                          "soc_min": float(result.final_state[:, C.SOC].min()),
                          "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
         }
@@ -205,6 +239,22 @@ class ThermalOptimumStrategy(Strategy):
         except OSError:
             pass
 
+    def refined_grid(self, grid: SearchGrid, first: SearchResult, problem: DPProblem, cost_g: float) -> SearchGrid:
+        """The refining pass's grid: the SOC bin narrowed until one bin of charge, priced, summed over the stages is at
+        most ``bin_budget`` of the cycle's cost (at most 5× narrower)."""
+        if self.bin_budget is None or self._soc_bin_given:
+            return grid
+        soc, e = first.final_state[:, C.SOC], first.final_battery_j
+        if soc.size < 3 or np.ptp(soc) <= 0.0:
+            return grid
+        j_per_soc = -np.polyfit(soc, e, 1)[0]
+        rp = problem.reward_params
+        bin_g = grid.soc * j_per_soc * rp.prices.battery_g_per_j(problem.lhv)
+        if not (bin_g > 0.0 and cost_g > 0.0):
+            return grid
+        factor = min(max(self.bin_budget * cost_g / (bin_g * problem.n_stages), 0.2), 1.0)
+        return dataclasses.replace(grid, soc=grid.soc * factor)
+
     def grid_for(self, n_stages: int) -> SearchGrid:
         """The grid of a cycle of ``n_stages`` steps: below 600 steps the SOC bin narrows with the cycle (at most
         10×, unless ``soc_bin`` was given). A bin of charge is worth a fixed number of grams (≈1.4 g at
@@ -231,7 +281,9 @@ class ThermalOptimumStrategy(Strategy):
             "state": ["soc", "motor_temp_c", "housing_temp_c", "coolant_temp_c", "heat_x", "motor_cutoff"],
             "grid": {"soc": g.soc, "winding_k": g.winding_k, "housing_k": g.housing_k, "coolant_k": g.coolant_k,
                      "heat_index": g.heat_index, "n_u": g.n_u, "dominance": g.dominance, "refine": self.refine,
-                     "n_local": self.n_local, "local_halfwidth": self.local_halfwidth},
+                     "n_local": self.n_local, "local_halfwidth": self.local_halfwidth,
+                     "first_pass_scale": self.first_pass_scale, "refine_global_stride": self.refine_global_stride,
+                     "seed_dp": self.seed_dp, "bin_budget": self.bin_budget},
             "soc_tol": self.soc_tol, "on_infeasible": self.on_infeasible,
             "frontier_halfwidth": self.frontier_halfwidth, "thermal_planning": "exact state (forward search)",
             **self._report,

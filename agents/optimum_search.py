@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 from hev_thermal_env.physics.jit import jit
 
 from .common import default_threads, stage_cost_g
@@ -75,10 +76,10 @@ class SearchGrid:
         return np.array([self.soc, self.winding_k, self.housing_k, self.coolant_k, self.heat_index, 1.0])
 
     def scaled(self, factor: float) -> SearchGrid:
-        """Every bin ``factor`` times narrower and ``factor`` times as many split intervals."""
+        """Every bin ``factor`` times narrower and ``factor`` times as many split intervals (an even number: u = 0 stays)."""
         return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor,
                           self.coolant_k / factor, self.heat_index / factor,
-                          int(round((self.n_u - 1) * factor)) + 1, self.dominance, self.second_price)
+                          2 * int(round((self.n_u - 1) * factor / 2)) + 1, self.dominance, self.second_price)
 
     def describe(self) -> str:
         return (f"forward DP over exact states, bins ΔSOC {self.soc:g}, winding {self.winding_k:g} K, housing "
@@ -126,29 +127,19 @@ class SearchResult:
 
 
 @jit
-def keep_best_per_bin(states, adj_cost, adj_cost2, hotness, key_cols, widths, bits, out_idx):
-    """The cheapest row by ``adj_cost``, the cheapest by ``adj_cost2`` and the coolest (``hotness``) of every bin.
-
-    Writes their indices to ``out_idx`` (once where they are the same row) and returns how many.
-    One representative per bin drifts: within a bin the state that is cheaper now is usually the
-    hotter one (it used the motor more) or the emptier one, and choosing it at every stage walks
-    the search a fraction of a bin hotter (or emptier) each step. ``adj_cost`` prices the battery
-    at the reward's price and ``adj_cost2`` lower; when the true value of charge on this cycle lies
-    between the two, the better lineage survives. On 200 s of Beijing in the ``hot`` scenario one
-    representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 % below the frontier; three at 1.5·10⁻⁴, 0.06 %. The bin of a row is
-    floor(state / width) per key column, packed into one 64-bit key; an open-addressing hash table
-    finds the bin in O(1).
-    """
-    n = states.shape[0]
-    cap = 1
-    while cap < 2 * n + 2:
-        cap *= 2
+def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap, table_key, cheap,
+               cool, second):
+    """One pass of :func:`keep_best_per_bin` with a table of ``cap`` slots over the rows whose first key column's bin
+    is ``part`` modulo ``n_parts``; returns the number of bins, or -1 when the table would be more than half full
+    (the caller retries with a larger one)."""
     mask = cap - 1
-    table_key = np.full(cap, -1, dtype=np.int64)
-    cheap = np.zeros(cap, dtype=np.int64)
-    cool = np.zeros(cap, dtype=np.int64)
-    second = np.zeros(cap, dtype=np.int64)
-    for b in range(n):
+    table_key[:cap] = -1
+    used = 0
+    for b in range(states.shape[0]):
+        if not inside[b]:
+            continue
+        if int(np.floor(states[b, key_cols[0]] / widths[0])) % n_parts != part:
+            continue
         key = 0
         for d in range(key_cols.shape[0]):
             q = int(np.floor(states[b, key_cols[d]] / widths[d])) + (1 << (bits[d] - 1))
@@ -161,20 +152,66 @@ def keep_best_per_bin(states, adj_cost, adj_cost2, hotness, key_cols, widths, bi
         while True:
             k = table_key[h]
             if k == -1:
+                used += 1
+                if 2 * used > cap:
+                    return -1
                 table_key[h] = key
                 cheap[h] = b
                 cool[h] = b
                 second[h] = b
                 break
             if k == key:
-                if adj_cost[b] < adj_cost[cheap[h]]:
+                if cost[b] + price * batt_j[b] < cost[cheap[h]] + price * batt_j[cheap[h]]:
                     cheap[h] = b
-                if hotness[b] < hotness[cool[h]]:
+                if hotness(states, b) < hotness(states, cool[h]):
                     cool[h] = b
-                if adj_cost2[b] < adj_cost2[second[h]]:
+                if cost[b] + price2 * batt_j[b] < cost[second[h]] + price2 * batt_j[second[h]]:
                     second[h] = b
                 break
             h = (h + 1) & mask
+    return used
+
+
+@jit
+def hotness(states, b):
+    """One number for "cooler" within a bin: winding + housing + half the coolant temperature (K), plus 20 K per
+    unit heat index and 100 K when cut off (row ``b`` of ``states``)."""
+    return (states[b, C.TEMP_C] + states[b, C.HOUSING_C] + 0.5 * states[b, C.COOLANT_C] + 20.0 * states[b, C.HEAT_X]
+            + 100.0 * states[b, C.CUTOFF])
+
+
+@jit
+def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap_hint,
+                      out_idx):
+    """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2`` and the coolest.
+
+    Rows with ``inside`` False are skipped, and so are rows whose SOC bin is not ``part`` modulo
+    ``n_parts`` (bins of different SOC are disjoint, so parts can run on separate threads). The cost compared is ``cost + price · batt_j`` (g; the
+    battery's net chemical energy ``batt_j`` priced), coolness is :func:`hotness`. Writes the rows'
+    indices to ``out_idx`` (once where they are the same row) and returns how many.
+    One representative per bin drifts: within a bin the state that is cheaper now is usually the
+    hotter one (it used the motor more) or the emptier one, and choosing it at every stage walks
+    the search a fraction of a bin hotter (or emptier) each step. ``price`` is the reward's battery
+    price and ``price2`` lower; when the true value of charge on this cycle lies between the two,
+    the better lineage survives. On 200 s of Beijing in the ``hot`` scenario one representative at
+    ΔSOC 2.5·10⁻⁴ left ECMS 0.6 % below the frontier; three at 1.5·10⁻⁴, 0.06 %. The bin of a row
+    is floor(state / width) per key column, packed into one 64-bit key; an open-addressing hash
+    table (sized from ``cap_hint``, the expected number of bins, and grown when it fills) finds the
+    bin in O(1).
+    """
+    cap = 1024
+    while cap < 4 * cap_hint:
+        cap *= 2
+    while True:
+        table_key = np.empty(cap, dtype=np.int64)
+        cheap = np.empty(cap, dtype=np.int64)
+        cool = np.empty(cap, dtype=np.int64)
+        second = np.empty(cap, dtype=np.int64)
+        used = _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap,
+                          table_key, cheap, cool, second)
+        if used >= 0:
+            break
+        cap *= 4
     j = 0
     for h in range(cap):
         if table_key[h] != -1:
@@ -232,13 +269,6 @@ def pareto_per_soc_bin(soc_bin, q, order, keep):
     return kept
 
 
-def hotness(states: np.ndarray) -> np.ndarray:
-    """One number per state for "cooler" within a bin: winding + housing + half the coolant temperature (K), plus
-    20 K per unit heat index and 100 K when cut off."""
-    return (states[:, C.TEMP_C] + states[:, C.HOUSING_C] + 0.5 * states[:, C.COOLANT_C] + 20.0 * states[:, C.HEAT_X]
-            + 100.0 * states[:, C.CUTOFF])
-
-
 def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
     """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable.
 
@@ -262,13 +292,67 @@ def _non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows
     return rows[out[:k]]
 
 
+def _chunks(n: int, threads: int) -> list[tuple[int, int]]:
+    parts = threads if n >= MIN_THREAD_BATCH and threads > 1 else 1
+    edges = np.linspace(0, n, parts + 1).astype(int)
+    return [(int(edges[j]), int(edges[j + 1])) for j in range(parts)]
+
+
+def _expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, batt_j: np.ndarray, u: np.ndarray,
+            threads: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every state × every split of stage ``i``: next states, cost-to-come, battery energy and the splits.
+
+    Row r is state r // m with split u[r % m]. Chunks of states run on separate threads, each doing
+    its physics step and its cost (both compiled kernels release the GIL).
+    """
+    p, m = states.shape[0], u.size
+    rows = p * m
+    so, out = np.empty((rows, C.N_STATE)), np.empty((rows, C.N_OUT))
+    c, e = np.empty(rows), np.empty(rows)
+    a = np.tile(u, p)
+    v0, v1, g = (float(x[0]) for x in problem.stage_inputs(i, 1))
+    rp, lhv, dt = problem.reward_params, problem.lhv, problem.core.dt_s
+
+    def run(span: tuple[int, int]) -> None:
+        lo, hi = span
+        r = slice(lo * m, hi * m)
+        problem.core.step(np.repeat(states[lo:hi], m, axis=0), a[r], v0, v1, g, problem.cond, state_out=so[r],
+                          out=out[r])
+        c[r] = np.repeat(cost[lo:hi], m) + stage_cost_g(rp, out[r], so[r], problem.soc_target, lhv, dt,
+                                                         battery=False, overheat=True)
+        e[r] = np.repeat(batt_j[lo:hi], m) + out[r, C.BATT_CHEM] * dt
+
+    spans = _chunks(p, threads) if rows >= MIN_THREAD_BATCH else [(0, p)]
+    if len(spans) == 1:
+        run(spans[0])
+    else:
+        list(thread_pool(len(spans)).map(run, spans))
+    return so, c, e, a
+
+
+def _survivors(so, inside, c, e, price, price2, key_cols, widths, bits, hint, threads) -> np.ndarray:
+    """:func:`keep_best_per_bin` over all rows, the SOC bins split into ``threads`` parts run in parallel."""
+    n_parts = threads if so.shape[0] >= MIN_THREAD_BATCH and threads > 1 else 1
+
+    def run(part: int) -> np.ndarray:
+        buf = np.empty(so.shape[0], dtype=np.int64)
+        k = keep_best_per_bin(so, inside, c, e, price, price2, key_cols, widths, bits, part, n_parts,
+                              max(hint // n_parts, 1024), buf)
+        return buf[:k]
+
+    if n_parts == 1:
+        return run(0)
+    return np.concatenate(list(thread_pool(n_parts).map(run, range(n_parts))))
+
+
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
            progress=None, u_center: np.ndarray | None = None,
-           local_halfwidth: float = 0.05, n_local: int = 21) -> SearchResult:
+           local_halfwidth: float = 0.05, n_local: int = 21, global_stride: int = 1) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
-    ``u_center`` (one split per stage, e.g. a previous pass's path) adds ``n_local`` splits within
-    ± ``local_halfwidth`` of it to the uniform grid at every stage: a refining pass.
+    ``u_center`` (one split per stage, e.g. a previous pass's path, or several such paths [k, n])
+    adds ``n_local`` splits within ± ``local_halfwidth`` of each to every ``global_stride``-th split
+    of the uniform grid at every stage: a refining pass.
     ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
     t0 = time.perf_counter()
@@ -280,8 +364,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     u_grid = np.linspace(-1.0, 1.0, grid.n_u).astype(np.float32).astype(np.float64)  # replayable exactly
     u_idle = np.zeros(1)
     active = problem.demand_positive()
-    lhv, dt = problem.lhv, problem.core.dt_s
-    batt_g_per_j = problem.reward_params.prices.battery_g_per_j(lhv) * problem.reward_params.soc_energy_weight
+    batt_g_per_j = problem.reward_params.prices.battery_g_per_j(problem.lhv) * problem.reward_params.soc_energy_weight
     key_cols = np.array(KEY_COLUMNS, dtype=np.int64)
     widths, bits = grid.widths(), np.array(KEY_BITS, dtype=np.int64)
     states = problem.state0[None, :].copy()
@@ -292,36 +375,25 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     n_evals = 0
     max_states = 1
     local = np.linspace(-local_halfwidth, local_halfwidth, n_local)
+    centers = None if u_center is None else np.atleast_2d(np.asarray(u_center, dtype=np.float64))
     for i in range(n):
         u = u_grid if active[i] else u_idle
         if u_center is not None and active[i]:
-            u = np.unique(np.r_[u_grid, np.clip(u_center[i] + local, -1.0, 1.0)].astype(np.float32)).astype(np.float64)
-        m = u.size
-        x = np.repeat(states, m, axis=0)
-        a = np.tile(u, states.shape[0])
-        v0, v1, g = problem.stage_inputs(i, x.shape[0])
-        so, out = problem.core.step(x, a, v0, v1, g, problem.cond, threads=threads)
-        n_evals += x.shape[0]
-        parent = np.repeat(np.arange(states.shape[0]), m)
-        c = cost[parent] + stage_cost_g(problem.reward_params, out, so, problem.soc_target, lhv, dt, battery=False,
-                                        overheat=True)
-        e = batt_j[parent] + out[:, C.BATT_CHEM] * dt
+            near = np.clip((centers[:, i, None] + local).ravel(), -1.0, 1.0)
+            u = np.unique(np.r_[u_grid[::global_stride], u_grid[-1], near].astype(np.float32)).astype(np.float64)
+        so, c, e, a = _expand(problem, i, states, cost, batt_j, u, threads)
+        n_evals += so.shape[0]
         soc = so[:, C.SOC]
-        adj = c + batt_g_per_j * e
         inside = (soc >= lo_win[i + 1]) & (soc <= hi_win[i + 1])
         if not np.any(inside):
             inside[np.argmin(np.minimum(np.abs(soc - lo_win[i + 1]), np.abs(soc - hi_win[i + 1])))] = True
-        rows = np.flatnonzero(inside)
-        keep = np.empty(rows.size, dtype=np.int64)
-        k = keep_best_per_bin(np.ascontiguousarray(so[rows]), adj[rows], (c + grid.second_price * batt_g_per_j * e)[rows],
-                              hotness(so[rows]),
-                              key_cols, widths, bits, keep)
-        keep = rows[keep[:k]]
+        keep = _survivors(so, inside, c, e, batt_g_per_j, grid.second_price * batt_g_per_j, key_cols, widths, bits,
+                          states.shape[0], threads)
         if grid.dominance and keep.size > 1:
-            keep = _non_dominated(so[keep], adj[keep], widths, keep)
+            keep = _non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
         keep = np.sort(keep)
         states, cost, batt_j = so[keep], c[keep], e[keep]
-        parents.append(parent[keep].astype(np.int32))
+        parents.append((keep // u.size).astype(np.int32))
         actions.append(a[keep].astype(np.float32) if active[i] else np.zeros(keep.size, dtype=np.float32))
         max_states = max(max_states, keep.size)
         if progress is not None:

@@ -24,17 +24,22 @@ import warnings
 from multiprocessing import Pool
 from pathlib import Path
 
+from tqdm import tqdm
+
 from hev_thermal_env import cycle_from_arrays, load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import ImplausibleCycleWarning
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
+from hev_thermal_env.io import atomic_write_json
 
 OUT = Path(__file__).parent / "results" / "optimum.json"
 CYCLES = ("hwfet", "udds", "us06", "wltc_3b", "beijing")
 SCENARIOS = ("paper", "hot", "summer", "hilly", "full_bus")
 STRATEGIES = ("rule", "ecms", "aecms", "ecms_thermal", "dp", "ppo")
 TOLERANCE = 1e-3
+#: Threads per optimum inside the worker pool (the pool itself fills the cores); the speed figures use the default.
+THREADS = 1
 
 
 def _cycle(name: str):
@@ -49,7 +54,7 @@ def cell(task: tuple[str, str]) -> dict:
     warnings.simplefilter("ignore")
     cyc = _cycle(cycle)
     t0 = time.perf_counter()
-    opt = run_strategy(get_strategy("dp_thermal"), cyc, scenario).summary
+    opt = run_strategy(get_strategy("dp_thermal", threads=THREADS), cyc, scenario).summary
     wall = time.perf_counter() - t0
     d = opt["strategy_settings"]
     frontier = Frontier.from_settings(d)
@@ -77,9 +82,9 @@ def convergence(task: tuple[str, str, float]) -> dict:
     cycle, scenario, scale = task
     warnings.simplefilter("ignore")
     cyc = _cycle(cycle)
-    base = run_strategy(get_strategy("dp_thermal"), cyc, scenario).summary
+    base = run_strategy(get_strategy("dp_thermal", threads=THREADS), cyc, scenario).summary
     t0 = time.perf_counter()
-    fine = run_strategy(get_strategy("dp_thermal", grid_scale=scale), cyc, scenario).summary
+    fine = run_strategy(get_strategy("dp_thermal", grid_scale=scale, threads=THREADS), cyc, scenario).summary
     ref = Frontier.from_settings(fine["strategy_settings"]).cost_at(base["soc_final"])
     return {"cycle": cycle, "scenario": scenario, "grid_scale": scale, "default_cost_g": base["cost_g"],
             "fine_cost_at_same_soc_g": ref, "change": None if ref is None else base["cost_g"] / ref - 1.0,
@@ -117,23 +122,36 @@ def main() -> None:
         conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
         conv += [("hwfet", "paper", 2.0), ("beijing", "hot", 2.0), ("us06", "summer", 2.0)]
     t0 = time.perf_counter()
-    with Pool(args.jobs) as pool:
-        cells = pool.map(cell, tasks, chunksize=1)
-        convs = pool.map(convergence, conv, chunksize=1)
-    result = {
-        "cells": cells, "convergence": convs, "speed": None if args.quick else speed(), "tolerance": TOLERANCE,
-        "summary": {
-            "cells": len(cells), "cells_beaten": sum(bool(c["beaten_by"]) for c in cells),
-            "min_ratio": min(c["min_ratio"] for c in cells if c["min_ratio"] is not None),
-            "max_planned_vs_realised": max(abs(c["optimum"]["planned_vs_realised"]) for c in cells),
-            "max_grid_change": max(abs(c["change"]) for c in convs if c["change"] is not None),
-            "wall_s": time.perf_counter() - t0},
-    }
     out = Path(args.out) if args.out else OUT.with_name("optimum_quick.json" if args.quick else OUT.name)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=1) + "\n")
+    cells: list[dict] = []
+    convs: list[dict] = []
+
+    def write(partial: bool, speed_figures: dict | None = None) -> dict:
+        ratios = [c["min_ratio"] for c in cells if c["min_ratio"] is not None]
+        changes = [abs(c["change"]) for c in convs if c["change"] is not None]
+        result = {
+            "cells": sorted(cells, key=lambda c: (c["cycle"], c["scenario"])), "convergence": convs,
+            "speed": speed_figures, "tolerance": TOLERANCE, "partial": partial,
+            "summary": {
+                "cells": len(cells), "cells_beaten": sum(bool(c["beaten_by"]) for c in cells),
+                "min_ratio": min(ratios, default=None),
+                "max_planned_vs_realised": max((abs(c["optimum"]["planned_vs_realised"]) for c in cells), default=None),
+                "max_grid_change": max(changes, default=None), "wall_s": time.perf_counter() - t0},
+        }
+        atomic_write_json(out, result)
+        return result
+
+    with Pool(args.jobs) as pool:  # results are written as they come: an interrupted run keeps what it finished
+        for c in tqdm(pool.imap_unordered(cell, tasks), total=len(tasks), desc="cells", unit="cell"):
+            cells.append(c)
+            write(partial=True)
+        for c in tqdm(pool.imap_unordered(convergence, conv), total=len(conv), desc="convergence", unit="cell"):
+            convs.append(c)
+            write(partial=True)
+    result = write(partial=False, speed_figures=None if args.quick else speed())
     print(json.dumps(result["summary"], indent=1))
-    for c in cells:
+    for c in result["cells"]:
         print(f"{c['cycle']:>16} {c['scenario']:>8}  min ratio {c['min_ratio']}  beaten by {c['beaten_by']}  "
               f"outside {c['outside_frontier']}  solve {c['optimum']['solve_s']:.1f} s")
 
