@@ -49,19 +49,26 @@ from .base import Strategy
 from .common import stage_cost_g
 from .dp import DPStrategy, rollout
 from .dp_grid import DPInfeasibleError, DPProblem
-from .optimum_search import SearchGrid, SearchResult, search
+from .optimum_search import SearchGrid, SearchResult, frontier_points, search
 
 __all__ = ["ThermalOptimumStrategy", "pick_final", "replay"]
 
 #: Cycles shorter than this (steps) get a proportionally narrower SOC bin (:meth:`ThermalOptimumStrategy.grid_for`).
 SHORT_CYCLE_STEPS = 600
+#: The third pass keeps states within this much SOC of the second pass's path and of ``dp``'s.
+TUBE_HALFWIDTH = 0.01
+
+
+def adjusted_cost(result: SearchResult, problem: DPProblem) -> np.ndarray:
+    """Cost of every final survivor plus its battery energy at the reward's price (g): what picks the plan."""
+    rp = problem.reward_params
+    return result.final_cost_g + rp.soc_energy_weight * rp.prices.battery_g_per_j(problem.lhv) * result.final_battery_j
 
 
 def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, float], on_infeasible: str) -> int:
     """The final survivor to drive to: cheapest (cost + battery energy at the reward's price) in ``band``."""
     soc = result.final_state[:, C.SOC]
-    rp = problem.reward_params
-    adj = result.final_cost_g + rp.soc_energy_weight * rp.prices.battery_g_per_j(problem.lhv) * result.final_battery_j
+    adj = adjusted_cost(result, problem)
     inside = np.flatnonzero((soc >= band[0]) & (soc <= band[1]))
     if inside.size:
         return int(inside[np.argmin(adj[inside])])
@@ -75,11 +82,13 @@ def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, floa
     return int(near[np.argmin(adj[near])])
 
 
-def soc_dp_path(problem: DPProblem, target: float, soc_tol: float, threads: int | None) -> np.ndarray:
-    """The action sequence of the SOC-state ``dp`` (thermal state held) on ``problem``: a centre for the refining pass."""
+def soc_dp_path(problem: DPProblem, target: float, soc_tol: float,
+                threads: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """The SOC-state ``dp``'s (thermal state held) action sequence on ``problem`` and its SOC trace: a centre for
+    the refining passes."""
     dp = DPStrategy(soc_final=target, soc_tol=soc_tol, on_infeasible="closest", threads=threads)
     run = rollout(dp.plan_for(problem), problem, dp.settings, free=True)
-    return np.asarray(run["u"], dtype=np.float64)
+    return np.asarray(run["u"], dtype=np.float64), run["state"][:, C.SOC].copy()
 
 
 def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
@@ -130,8 +139,10 @@ class ThermalOptimumStrategy(Strategy):
         if not grid_scale > 0.0:
             raise ValueError(f"{self.name}: grid_scale must be > 0, got {grid_scale}")
         if soc_tol < 0.0 or not frontier_halfwidth > soc_tol:
-            raise ValueError(f"{self.name}: need 0 <= soc_tol < frontier_halfwidth, got {soc_tol}, {frontier_halfwidth}")
-        if not first_pass_scale > 0.0 or int(refine_global_stride) < 1 or (bin_budget is not None and not bin_budget > 0.0):
+            raise ValueError(f"{self.name}: need 0 <= soc_tol < frontier_halfwidth, got {soc_tol}, "
+                             f"{frontier_halfwidth}")
+        bad_budget = bin_budget is not None and not bin_budget > 0.0
+        if not first_pass_scale > 0.0 or int(refine_global_stride) < 1 or bad_budget:
             raise ValueError(f"{self.name}: need first_pass_scale > 0, refine_global_stride >= 1 and bin_budget > 0 "
                              f"(or None), got {first_pass_scale}, {refine_global_stride}, {bin_budget}")
         base = SearchGrid(dominance=bool(dominance)).scaled(float(grid_scale))
@@ -175,35 +186,56 @@ class ThermalOptimumStrategy(Strategy):
         window = (target - self.frontier_halfwidth, target + self.frontier_halfwidth)
         band = (target - self.soc_tol, target + self.soc_tol)
         first_grid = grid.scaled(self.first_pass_scale) if self.refine else grid
-        result = search(problem, first_grid, window, threads=self.threads)
+        result = first = search(problem, first_grid, window, threads=self.threads)
         j_first = pick_final(result, problem, band, self.on_infeasible)
         first_pass = {"solve_s": result.solve_s, "cost_g": float(result.final_cost_g[j_first])}
+        passes = [result]
+        centers = [result.path(j_first)]
         if self.refine:
-            centers = [result.path(j_first)]
             if self.seed_dp:
-                centers.append(soc_dp_path(problem, target, self.soc_tol, self.threads))
-            grid = self.refined_grid(grid, result, problem, first_pass["cost_g"])
-            second = search(problem, grid, window, threads=self.threads, u_center=np.array(centers),
-                            local_halfwidth=self.local_halfwidth, n_local=self.n_local,
-                            global_stride=self.refine_global_stride)
-            second.solve_s += result.solve_s
-            second.n_evals += result.n_evals
-            result = second
-        j = pick_final(result, problem, band, self.on_infeasible)
+                dp_u, dp_soc = soc_dp_path(problem, target, self.soc_tol, self.threads)
+                centers.append(dp_u)
+            refine = dict(threads=self.threads, local_halfwidth=self.local_halfwidth, n_local=self.n_local,
+                          global_stride=self.refine_global_stride)
+            second = search(problem, grid, window, u_center=np.array(centers), **refine)
+            passes = [second]
+            j2 = pick_final(second, problem, band, self.on_infeasible)
+            fine = self.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
+            if fine.soc < grid.soc:  # a third pass with the narrow bin, in a SOC tube around the best paths
+                u2 = second.path(j2)
+                socs = [replay(problem, u2)["state"][:, C.SOC]] + ([dp_soc] if self.seed_dp else [])
+                tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
+                passes.append(search(problem, fine, window, u_center=np.array([u2] + centers[1:]), tube=tube,
+                                     **refine))
+                grid = fine
+        picks = [pick_final(passes[0], problem, band, self.on_infeasible)]
+        if len(passes) > 1:  # the tube's pass counts where it has a path into the band
+            try:
+                picks.append(pick_final(passes[1], problem, band, "raise"))
+            except DPInfeasibleError:
+                passes = passes[:1]
+        best = int(np.argmin([adjusted_cost(r, problem)[j] for r, j in zip(passes, picks)]))
+        result, j = passes[best], picks[best]
+        searched = [first] + (passes if self.refine else [])
         u = result.path(j)
         run = replay(problem, u)
-        soc_f, cost_f = result.frontier()
+        soc_f, cost_f = frontier_points(np.concatenate([r.final_state[:, C.SOC] for r in passes]),
+                                        np.concatenate([r.final_cost_g for r in passes]))
         self._report = {
             "planned_cost_g": float(result.final_cost_g[j]), "replayed_cost_g": run["cost_g"],
             "planned_soc_final": float(result.final_state[j, C.SOC]),
             "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
-            "solve_s": result.solve_s, "plan_total_s": time.perf_counter() - t0, "first_pass": first_pass,
-            "vehicle_steps_evaluated": int(result.n_evals), "max_states": int(result.max_states),
+            "solve_s": sum(r.solve_s for r in searched), "plan_total_s": time.perf_counter() - t0,
+            "first_pass": first_pass,
+            "passes": [{"solve_s": r.solve_s, "soc_bin": r.grid.soc, "max_states": r.max_states,
+                        "tube": r.info.get("tube", False)} for r in searched],
+            "vehicle_steps_evaluated": int(sum(r.n_evals for r in searched)),
+            "max_states": int(max(r.max_states for r in searched)),
             "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(),
                          "grid": grid.describe() + (f" (every {self.refine_global_stride}. split) + {self.n_local} "
                                                     f"splits within ±{self.local_halfwidth:g} of "
                                                     f"{len(centers)} earlier path(s)" if self.refine else ""),
-                         "soc_min": float(result.final_state[:, C.SOC].min()),
+                         "soc_min": float(min(r.final_state[:, C.SOC].min() for r in passes)),
                          "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
         }
         self.result, self.u_plan, self._key, self._grid_used = result, u, key, grid

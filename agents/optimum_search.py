@@ -76,7 +76,8 @@ class SearchGrid:
         return np.array([self.soc, self.winding_k, self.housing_k, self.coolant_k, self.heat_index, 1.0])
 
     def scaled(self, factor: float) -> SearchGrid:
-        """Every bin ``factor`` times narrower and ``factor`` times as many split intervals (an even number: u = 0 stays)."""
+        """Every bin ``factor`` times narrower, ``factor`` times as many split intervals (an even number: u = 0
+        stays)."""
         return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor,
                           self.coolant_k / factor, self.heat_index / factor,
                           2 * int(round((self.n_u - 1) * factor / 2)) + 1, self.dominance, self.second_price)
@@ -112,23 +113,27 @@ class SearchResult:
         return u
 
     def frontier(self) -> tuple[np.ndarray, np.ndarray]:
-        """The frontier's breakpoints (final SOC ascending, cost non-decreasing): the final survivors that no other
-        survivor beats with both more final charge and a lower cost.
+        """The frontier's breakpoints (final SOC ascending, cost non-decreasing): :func:`frontier_points` of the
+        final survivors."""
+        return frontier_points(self.final_state[:, C.SOC], self.final_cost_g)
 
-        F(s) = the lowest cost of a survivor ending at SOC >= s is the cost of the first breakpoint at or above s;
-        linear interpolation between breakpoints never exceeds it.
-        """
-        soc = self.final_state[:, C.SOC]
-        order = np.argsort(soc, kind="stable")
-        s, c = soc[order], self.final_cost_g[order]
-        after = np.r_[np.minimum.accumulate(c[::-1])[::-1][1:], np.inf]  # lowest cost strictly above in order
-        keep = c < after
-        return s[keep], c[keep]
+
+def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The final states that no other beats with both more final charge and a lower cost, by SOC ascending.
+
+    F(s) = the lowest cost of a path ending at SOC >= s is the cost of the first breakpoint at or above s;
+    linear interpolation between breakpoints never exceeds it.
+    """
+    order = np.argsort(soc, kind="stable")
+    s, c = soc[order], cost[order]
+    after = np.r_[np.minimum.accumulate(c[::-1])[::-1][1:], np.inf]  # lowest cost strictly above in order
+    keep = c < after
+    return s[keep], c[keep]
 
 
 @jit
-def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap, table_key, cheap,
-               cool, second):
+def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap, table_key,
+               cheap, cool, second):
     """One pass of :func:`keep_best_per_bin` with a table of ``cap`` slots over the rows whose first key column's bin
     is ``part`` modulo ``n_parts``; returns the number of bins, or -1 when the table would be more than half full
     (the caller retries with a larger one)."""
@@ -186,7 +191,8 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, wid
     """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2`` and the coolest.
 
     Rows with ``inside`` False are skipped, and so are rows whose SOC bin is not ``part`` modulo
-    ``n_parts`` (bins of different SOC are disjoint, so parts can run on separate threads). The cost compared is ``cost + price · batt_j`` (g; the
+    ``n_parts`` (bins of different SOC are disjoint, so parts can run on separate threads). The cost
+    compared is ``cost + price · batt_j`` (g; the
     battery's net chemical energy ``batt_j`` priced), coolness is :func:`hotness`. Writes the rows'
     indices to ``out_idx`` (once where they are the same row) and returns how many.
     One representative per bin drifts: within a bin the state that is cheaper now is usually the
@@ -233,7 +239,8 @@ def pareto_per_soc_bin(soc_bin, q, order, keep):
     ``order`` sorts the rows by (SOC bin, adjusted cost). A row is dominated when a cheaper row of
     the same SOC bin lies in a cooler thermal bin: no hotter bin in any thermal coordinate and a
     cooler one in at least one (``q`` [M, D], bin indices: winding, housing, coolant, heat index,
-    cutoff). Rows of the same bin (the bin's cheapest and its coolest) do not dominate each other. Cooler is never worse in this physics (less derate,
+    cutoff). Rows of the same bin (the bin's cheapest and its coolest) do not dominate each other.
+    Cooler is never worse in this physics (less derate,
     lower copper loss, stronger magnets, no cutoff), so the dominated state cannot lead to a
     cheaper path.
     """
@@ -347,13 +354,15 @@ def _survivors(so, inside, c, e, price, price2, key_cols, widths, bits, hint, th
 
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
            progress=None, u_center: np.ndarray | None = None,
-           local_halfwidth: float = 0.05, n_local: int = 21, global_stride: int = 1) -> SearchResult:
+           local_halfwidth: float = 0.05, n_local: int = 21, global_stride: int = 1,
+           tube: tuple[np.ndarray, np.ndarray] | None = None) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
     ``u_center`` (one split per stage, e.g. a previous pass's path, or several such paths [k, n])
     adds ``n_local`` splits within ± ``local_halfwidth`` of each to every ``global_stride``-th split
     of the uniform grid at every stage: a refining pass.
-    ``progress(stage, n_stages, n_states)`` is called after every stage.
+    ``tube`` (SOC bounds per stage 0..n) also drops the states outside it (at a stage where none is
+    inside, the tube is ignored). ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
     t0 = time.perf_counter()
     n = problem.n_stages
@@ -385,6 +394,10 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         n_evals += so.shape[0]
         soc = so[:, C.SOC]
         inside = (soc >= lo_win[i + 1]) & (soc <= hi_win[i + 1])
+        if tube is not None:
+            in_tube = inside & (soc >= tube[0][i + 1]) & (soc <= tube[1][i + 1])
+            if np.any(in_tube):
+                inside = in_tube
         if not np.any(inside):
             inside[np.argmin(np.minimum(np.abs(soc - lo_win[i + 1]), np.abs(soc - hi_win[i + 1])))] = True
         keep = _survivors(so, inside, c, e, batt_g_per_j, grid.second_price * batt_g_per_j, key_cols, widths, bits,
@@ -400,4 +413,5 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
             progress(i + 1, n, keep.size)
     return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents,
                         actions=actions, grid=grid, solve_s=time.perf_counter() - t0, n_evals=n_evals,
-                        max_states=max_states, info={"threads": threads, "final_soc_window": list(final_window)})
+                        max_states=max_states, info={"threads": threads, "final_soc_window": list(final_window),
+                                              "tube": tube is not None})
