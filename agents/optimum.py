@@ -14,16 +14,18 @@ the battery energy at the reward's battery price, as the SOC-state ``dp`` and th
 around the target: the benchmark divides each strategy's cost by the frontier at the strategy's
 own final SOC (comparison at equal charge, no battery price involved).
 
-Two passes. A first, coarse pass (every bin twice as wide, 17 splits: ``first_pass_scale``)
-finds a path into the band; the SOC-state ``dp`` (thermal-blind, about a second) gives another.
-The second pass is the optimum: bins of ΔSOC 1.5·10⁻⁴, winding 4 K, housing 2 K, coolant 4 K,
-heat index 0.1 (:class:`~.optimum_search.SearchGrid`), every second of the 31 uniform splits
-(``refine_global_stride``) and 21 splits within ±0.05 of each of the two paths at every stage
-(``n_local``, ``local_halfwidth``). On cycles with a low cost per second (city buses) the SOC
-bin is narrowed (at most 5×) until one bin of charge, priced and summed over the stages, is at
-most ``bin_budget`` (25 %) of the first pass's cost: the pruning error of a bin is paid once per
-stage, so it weighs more where each second costs little. ``grid_scale=2`` halves every bin and
-doubles the split grid.
+Passes. A first, coarse pass (every bin twice as wide, 17 splits: ``first_pass_scale``) finds a
+path into the band; the SOC-state ``dp`` (thermal-blind, about a second) gives another. The
+second pass covers the whole frontier window: bins of ΔSOC 1.5·10⁻⁴, winding 4 K, housing 2 K,
+coolant 4 K, heat index 0.1 (:class:`~.optimum_search.SearchGrid`), every second of the 31
+uniform splits (``refine_global_stride``) and 21 splits within ±0.05 of each of the two paths at
+every stage (``n_local``, ``local_halfwidth``). On cycles with a low cost per second (city buses)
+a third pass narrows the SOC bin (at most 5×) until one bin of charge, priced and summed over the
+stages, is at most ``bin_budget`` (25 %) of the cost: a bin's pruning error is paid once per
+stage, so it weighs more where each second costs little. To stay affordable the third pass keeps
+only states within ±0.01 SOC of the second pass's best path and of ``dp``'s path, around which it
+refines. The plan is the cheapest path into the band of the last two passes; the frontier is
+taken over the final states of both. ``grid_scale=2`` halves every bin and doubles the split grid.
 
 Error. The error comes from pruning, not interpolation. ``benchmarks/optimum.py`` measures it
 (grid doubling; a much finer search on short cycles) and checks that no strategy of the project
