@@ -49,9 +49,11 @@ from .common import default_threads, stage_cost_g
 from .dp_corridor import backward_envelope
 from .dp_grid import DPProblem
 
-#: State columns the search bins on, in key order, and the bits each gets in the 64-bit key.
+#: State columns the search bins on, in key order, and the bits each gets in the 64-bit key (63 in all): a
+#: column's bin index must lie within ±2^(bits-1), which :func:`check_key_range` enforces (SOC: ±2^20 bins, so
+#: bins down to 10⁻⁶ of SOC; temperatures ±512 bins; heat index ±1,024 bins).
 KEY_COLUMNS = (C.SOC, C.TEMP_C, C.HOUSING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF)
-KEY_BITS = (17, 11, 11, 11, 12, 1)
+KEY_BITS = (21, 10, 10, 10, 11, 1)
 
 
 @dataclass(frozen=True)
@@ -299,6 +301,18 @@ def _non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows
     return rows[out[:k]]
 
 
+def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
+    """Raise when a bin index could leave its key field (different states would then share a bin): SOC up to 1,
+    temperatures up to ``temp_hi_c``, heat index up to 1."""
+    fields = {"soc": (1.0, grid.soc, KEY_BITS[0]), "winding_k": (temp_hi_c, grid.winding_k, KEY_BITS[1]),
+              "housing_k": (temp_hi_c, grid.housing_k, KEY_BITS[2]),
+              "coolant_k": (temp_hi_c, grid.coolant_k, KEY_BITS[3]), "heat_index": (1.0, grid.heat_index, KEY_BITS[4])}
+    for name, (top, width, bits) in fields.items():
+        if top / width >= 2 ** (bits - 1) - 1:
+            raise ValueError(f"dp_thermal: the {name} bin {width:g} is too narrow for the search's bin keys (at most "
+                             f"{2 ** (bits - 1) - 1} bins up to {top:g}); use a wider bin or a smaller grid_scale")
+
+
 def _chunks(n: int, threads: int) -> list[tuple[int, int]]:
     parts = threads if n >= MIN_THREAD_BATCH and threads > 1 else 1
     edges = np.linspace(0, n, parts + 1).astype(int)
@@ -370,6 +384,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         raise ValueError("dp_thermal: the cycle has no step left to plan")
     threads = default_threads() if threads is None else threads
     lo_win, hi_win = soc_window(problem, final_window[0], final_window[1], margin=2.0 * grid.soc)
+    check_key_range(grid)
     u_grid = np.linspace(-1.0, 1.0, grid.n_u).astype(np.float32).astype(np.float64)  # replayable exactly
     u_idle = np.zeros(1)
     active = problem.demand_positive()

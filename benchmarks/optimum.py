@@ -16,7 +16,7 @@ Writes ``benchmarks/results/optimum.json``:
   change of the cost at the default's final SOC.
 * ``speed``: ``dp_thermal`` on HWFET and on the 1,300 s Beijing cycle, ``dp`` on HWFET.
 
-    python benchmarks/optimum.py [--quick] [--jobs 2] [--generated 20]
+    python benchmarks/optimum.py [--quick] [--jobs 2] [--generated 20] [--parts cells convergence speed]
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from hev_thermal_env import cycle_from_arrays, load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import ImplausibleCycleWarning
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.evaluation.yardstick import Frontier
+from hev_thermal_env.evaluation.yardstick import Frontier, frontier_sample
 from hev_thermal_env.io import atomic_write_json
 
 OUT = Path(__file__).parent / "results" / "optimum.json"
@@ -44,6 +44,7 @@ STRATEGIES = ("rule", "ecms", "aecms", "ecms_thermal", "dp", "ppo")
 TOLERANCE = 1e-3
 #: Threads per optimum inside the worker pool (the pool itself fills the cores); the speed figures use the default.
 THREADS = 1
+PARTS = ("cells", "convergence", "speed")
 
 
 def _cycle(name: str):
@@ -81,8 +82,7 @@ def cell(task: tuple[str, str]) -> dict:
             "planned_vs_realised": opt["cost_g"] / d["planned_cost_g"] - 1.0, "soc_final": opt["soc_final"],
             "cutoff_s": opt["cutoff_s"], "derated_s": opt["derated_s"], "solve_s": d["solve_s"], "wall_s": wall,
             "max_states": d["max_states"], "frontier_points": len(d["frontier"]["soc_final"]),
-            "frontier": {"soc_min": frontier.soc_min, "soc_final": [round(float(x), 6) for x in frontier.soc_final],
-                         "cost_g": [round(float(x), 4) for x in frontier.cost_g]}},
+            "frontier": {"soc_min": frontier.soc_min, **frontier_sample(frontier.soc_final, frontier.cost_g)}},
         "strategies": rows, "min_ratio": min((r["frontier_ratio"] for r in rows.values()
                                              if r["frontier_ratio"] is not None), default=None),
         "beaten_by": beaten, "outside_frontier": outside, "outside_and_undecided": undecided,
@@ -104,10 +104,12 @@ def convergence(task: tuple[str, str, float]) -> dict:
 
 
 def speed() -> dict:
+    """Solve times with the default threads (every core), nothing else running, no plan cache."""
     warnings.simplefilter("ignore")
     out = {}
     for name, cycle in (("dp_thermal", "hwfet"), ("dp_thermal", "beijing"), ("dp", "hwfet")):
-        s = run_strategy(get_strategy(name), load_cycle(cycle), "paper").summary
+        options = {"plan_cache": False} if name == "dp_thermal" else {}
+        s = run_strategy(get_strategy(name, **options), load_cycle(cycle), "paper").summary
         out[f"{name}_{cycle}_solve_s"] = s["strategy_settings"]["solve_s"]
     out["targets"] = {"dp_thermal_hwfet_solve_s": 60.0, "dp_thermal_beijing_solve_s": 90.0, "dp_hwfet_solve_s": 1.0}
     return out
@@ -120,6 +122,8 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--generated", type=int, default=20,
                     help="generated bus cycles (validation_bus:0..N-1: long, congested, launch, hilly, mixed), paper")
+    ap.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
+                    help="what to run; the parts left out are kept from the existing JSON (default: all)")
     ap.add_argument("--out", default=None, help=f"JSON path (default {OUT.relative_to(OUT.parents[2])}; with --quick "
                     "optimum_quick.json next to it)")
     args = ap.parse_args()
@@ -136,8 +140,11 @@ def main() -> None:
     t0 = time.perf_counter()
     out = Path(args.out) if args.out else OUT.with_name("optimum_quick.json" if args.quick else OUT.name)
     out.parent.mkdir(parents=True, exist_ok=True)
-    cells: list[dict] = []
-    convs: list[dict] = []
+    old = json.loads(out.read_text()) if out.is_file() else {}
+    cells: list[dict] = [] if "cells" in args.parts else old.get("cells", [])
+    convs: list[dict] = [] if "convergence" in args.parts else old.get("convergence", [])
+    tasks = tasks if "cells" in args.parts else []
+    conv = conv if "convergence" in args.parts else []
 
     def write(partial: bool, speed_figures: dict | None = None) -> dict:
         ratios = [c["min_ratio"] for c in cells if c["min_ratio"] is not None]
@@ -163,7 +170,8 @@ def main() -> None:
         for c in tqdm(pool.imap_unordered(convergence, conv), total=len(conv), desc="convergence", unit="cell"):
             convs.append(c)
             write(partial=True)
-    result = write(partial=False, speed_figures=None if args.quick else speed())
+    speed_figures = old.get("speed") if "speed" not in args.parts else None if args.quick else speed()
+    result = write(partial=False, speed_figures=speed_figures)
     print(json.dumps(result["summary"], indent=1))
     for c in result["cells"]:
         print(f"{c['cycle']:>16} {c['scenario']:>8}  min ratio {c['min_ratio']}  beaten by {c['beaten_by']}  "

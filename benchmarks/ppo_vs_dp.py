@@ -110,7 +110,7 @@ def solve_cell(task: tuple[str, str, dict[str, str], int]) -> dict[str, Any]:
     from hev_thermal_env.agents import get_strategy
     from hev_thermal_env.cycles import load_cycle
     from hev_thermal_env.evaluation.runner import run_strategy
-    from hev_thermal_env.evaluation.yardstick import Frontier
+    from hev_thermal_env.evaluation.yardstick import Frontier, frontier_sample
 
     cycle = load_cycle(cycle_name)
     t0 = time.perf_counter()
@@ -123,8 +123,7 @@ def solve_cell(task: tuple[str, str, dict[str, str], int]) -> dict[str, Any]:
     optimum = {k: opt[k] for k in ROW_KEYS}
     optimum.update(solve_s=d.get("solve_s"), optimum_wall_s=round(wall, 2), planned_cost_g=d.get("planned_cost_g"),
                    max_states=d.get("max_states"), grid=frontier.grid if frontier else None,
-                   frontier={"soc_final": [float(x) for x in frontier.soc_final],
-                             "cost_g": [float(x) for x in frontier.cost_g]} if frontier else None)
+                   frontier=frontier_sample(frontier.soc_final, frontier.cost_g) if frontier else None)
     return {"cycle": cycle_name, "scenario": scenario, "duration_s": len(cycle.speed_mps) - 1,
             "distance_km": opt.get("distance_km"), "family": cycle_family(cycle_name), "optimum": optimum,
             "runs": runs, "runs_wall_s": round(time.perf_counter() - t1, 2)}

@@ -111,6 +111,22 @@ def test_grid_doubling_changes_the_optimum_little(city200):
     assert abs(base["cost_g"] - f_fine.cost_at(base["soc_final"])) / base["cost_g"] <= 0.003
 
 
+def test_a_much_finer_search_on_a_short_city_cycle_agrees(city200):
+    """grid_scale=4 on 100 s: bins narrow enough that a 17-bit SOC key field once merged every SOC into one bin."""
+    short = cycle_from_arrays(load_cycle("udds").speed_mps[:101], name="udds_100s")
+    base = run_strategy(get_strategy("dp_thermal"), short, "paper").summary
+    fine = run_strategy(get_strategy("dp_thermal", grid_scale=4.0), short, "paper").summary
+    at = Frontier.from_settings(fine["strategy_settings"]).cost_at(base["soc_final"])
+    assert at is not None and at <= base["cost_g"] * (1 + 1e-9)  # finer is never dearer at the same final SOC...
+    assert (base["cost_g"] - at) / base["cost_g"] <= 0.001  # ...and the default is within 0.1 % of it
+
+
+def test_a_bin_too_narrow_for_the_key_is_refused():
+    problem = problem_for(load_cycle("udds").speed_mps[:31], Conditions())
+    with pytest.raises(ValueError, match="soc bin 1e-07 is too narrow"):
+        search(problem, SearchGrid(soc=1e-7), (0.6, 0.7))
+
+
 def test_dominance_keeps_cooler_states_and_same_bin_pairs():
     # rows: SOC bin, then (winding, housing, coolant, heat, cutoff) bin indices; order = by SOC bin, then cost
     soc_bin = np.array([0, 0, 0, 0, 1], dtype=np.int64)

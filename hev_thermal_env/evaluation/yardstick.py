@@ -93,6 +93,16 @@ class Frontier:
         return f"[{lo:.4f}, {self.soc_final[-1]:.4f}]"
 
 
+def frontier_sample(soc_final, cost_g, max_points: int = 200) -> dict[str, Any]:
+    """Every k-th breakpoint of a frontier (and the last), at most about ``max_points``: for records and plots,
+    where thousands of breakpoints would only bloat a file. Ratios are taken against the full frontier."""
+    soc, cost = np.asarray(soc_final, dtype=float), np.asarray(cost_g, dtype=float)
+    every = max(1, int(np.ceil(soc.size / max_points)))
+    idx = np.unique(np.r_[np.arange(0, soc.size, every), soc.size - 1]) if soc.size else np.arange(0)
+    return {"soc_final": [round(float(x), 6) for x in soc[idx]], "cost_g": [round(float(x), 4) for x in cost[idx]],
+            "every_kth_breakpoint": every, "breakpoints": int(soc.size)}
+
+
 def frontier_ratio(cost_g: float, soc_final: float, frontier: Frontier | None) -> tuple[float | None, str | None]:
     """(``cost_g`` / F(``soc_final``), None), or (None, why not)."""
     if frontier is None:
