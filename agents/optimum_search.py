@@ -45,9 +45,10 @@ from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 from hev_thermal_env.physics.jit import jit
 
-from .common import default_threads, stage_cost_g
+from .common import default_threads
 from .dp_corridor import backward_envelope
 from .dp_grid import DPProblem
+from .optimum_stage import StageBuffers, expand
 
 #: State columns the search bins on, in key order, and the bits each gets in the 64-bit key (63 in all): a
 #: column's bin index must lie within ±2^(bits-1), which :func:`check_key_range` enforces (SOC: ±2^20 bins, so
@@ -313,44 +314,6 @@ def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
                              f"{2 ** (bits - 1) - 1} bins up to {top:g}); use a wider bin or a smaller grid_scale")
 
 
-def _chunks(n: int, threads: int) -> list[tuple[int, int]]:
-    parts = threads if n >= MIN_THREAD_BATCH and threads > 1 else 1
-    edges = np.linspace(0, n, parts + 1).astype(int)
-    return [(int(edges[j]), int(edges[j + 1])) for j in range(parts)]
-
-
-def _expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, batt_j: np.ndarray, u: np.ndarray,
-            threads: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Every state × every split of stage ``i``: next states, cost-to-come, battery energy and the splits.
-
-    Row r is state r // m with split u[r % m]. Chunks of states run on separate threads, each doing
-    its physics step and its cost (both compiled kernels release the GIL).
-    """
-    p, m = states.shape[0], u.size
-    rows = p * m
-    so, out = np.empty((rows, C.N_STATE)), np.empty((rows, C.N_OUT))
-    c, e = np.empty(rows), np.empty(rows)
-    a = np.tile(u, p)
-    v0, v1, g = (float(x[0]) for x in problem.stage_inputs(i, 1))
-    rp, lhv, dt = problem.reward_params, problem.lhv, problem.core.dt_s
-
-    def run(span: tuple[int, int]) -> None:
-        lo, hi = span
-        r = slice(lo * m, hi * m)
-        problem.core.step(np.repeat(states[lo:hi], m, axis=0), a[r], v0, v1, g, problem.cond, state_out=so[r],
-                          out=out[r])
-        c[r] = np.repeat(cost[lo:hi], m) + stage_cost_g(rp, out[r], so[r], problem.soc_target, lhv, dt,
-                                                         battery=False, overheat=True)
-        e[r] = np.repeat(batt_j[lo:hi], m) + out[r, C.BATT_CHEM] * dt
-
-    spans = _chunks(p, threads) if rows >= MIN_THREAD_BATCH else [(0, p)]
-    if len(spans) == 1:
-        run(spans[0])
-    else:
-        list(thread_pool(len(spans)).map(run, spans))
-    return so, c, e, a
-
-
 def _survivors(so, inside, c, e, price, price2, key_cols, widths, bits, hint, threads) -> np.ndarray:
     """:func:`keep_best_per_bin` over all rows, the SOC bins split into ``threads`` parts run in parallel."""
     n_parts = threads if so.shape[0] >= MIN_THREAD_BATCH and threads > 1 else 1
@@ -400,12 +363,13 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     max_states = 1
     local = np.linspace(-local_halfwidth, local_halfwidth, n_local)
     centers = None if u_center is None else np.atleast_2d(np.asarray(u_center, dtype=np.float64))
+    buffers = StageBuffers(problem)
     for i in range(n):
         u = u_grid if active[i] else u_idle
         if u_center is not None and active[i]:
             near = np.clip((centers[:, i, None] + local).ravel(), -1.0, 1.0)
             u = np.unique(np.r_[u_grid[::global_stride], u_grid[-1], near].astype(np.float32)).astype(np.float64)
-        so, c, e, a = _expand(problem, i, states, cost, batt_j, u, threads)
+        so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
         n_evals += so.shape[0]
         soc = so[:, C.SOC]
         inside = (soc >= lo_win[i + 1]) & (soc <= hi_win[i + 1])

@@ -40,7 +40,8 @@ PHYSICS_DIR = Path(__file__).resolve().parent
 _PACKAGE_DIR = PHYSICS_DIR.parent
 #: Source files outside the physics package that define or inline kernels (missing ones are skipped: the
 #: strategies live in ``agents/`` of a checkout, installed as ``hev_thermal_env/agents``).
-KERNEL_SOURCES = ("envs/reward.py", "envs/batch.py", "agents/dp_grid.py", "agents/optimum_search.py")
+KERNEL_SOURCES = ("envs/reward.py", "envs/batch.py", "agents/dp_grid.py", "agents/optimum_search.py",
+                  "agents/optimum_stage.py")
 
 _OPTIONS = {"error_model": "numpy", "nogil": True}
 
