@@ -176,7 +176,7 @@ class ThermalOptimumStrategy(Strategy):
         key = problem.key() + repr((grid, self.soc_final, self.soc_tol, self.frontier_halfwidth, self.refine,
                                     self.local_halfwidth, self.n_local, self.first_pass_scale,
                                     self.refine_global_stride, self.seed_dp,
-                                    self.bin_budget))
+                                    self.bin_budget, self.on_infeasible))
         if key == self._key:
             return self.u_plan
         cached = self._load(key)

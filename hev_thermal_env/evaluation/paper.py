@@ -163,4 +163,13 @@ def _checks_md(data: dict[str, Any]) -> list[str]:
             f"Simulated {tc['time_to_cutoff_simulated_s']:.0f} s; m·c_p·ΔT / mean net heat flow = "
             f"{tc['heat_capacity_j_per_k']:.0f} J/K × {tc['cutoff_c'] - 20:.0f} K / {tc['mean_net_heat_w']:.0f} W = "
             f"{tc['time_to_cutoff_analytic_s']:.0f} s. (The paper gives no such figure; this checks eq 7.)", "",
-            "![time to cutoff](thermal_time_to_cutoff.png)", ""]
+            "![time to cutoff](thermal_time_to_cutoff.png)", "",
+            "## Beyond the paper: how the benchmark compares strategies", "",
+            "`evaluate.py benchmark` judges every strategy against the thermal optimum `dp_thermal` of the same "
+            "cycle and scenario (an exact forward search over SOC and the thermal states). The **frontier ratio** "
+            "divides a run's cost (fuel + missed wheel energy at its price + overheat terms) by the optimum's cost "
+            "at the same final SOC, so no battery price decides the ranking; the **fixed-price ratio** keeps the "
+            "corrected fuel with the battery at its fixed price; **SAE J1711** flags a run charge-sustaining when "
+            "its net battery energy is within 1 % of its fuel energy; a seed family is its interquartile mean "
+            "with a 95 % bootstrap interval. `dp` plans with the thermal state held and is labelled thermal-blind.",
+            ""]
