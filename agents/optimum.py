@@ -188,37 +188,19 @@ class ThermalOptimumStrategy(Strategy):
         window = (target - self.frontier_halfwidth, target + self.frontier_halfwidth)
         band = (target - self.soc_tol, target + self.soc_tol)
         first_grid = grid.scaled(self.first_pass_scale) if self.refine else grid
-        result = first = search(problem, first_grid, window, threads=self.threads)
-        j_first = pick_final(result, problem, band, self.on_infeasible)
-        first_pass = {"solve_s": result.solve_s, "cost_g": float(result.final_cost_g[j_first])}
-        passes = [result]
-        centers = [result.path(j_first)]
+        first = search(problem, first_grid, window, threads=self.threads)
+        j_first = pick_final(first, problem, band, self.on_infeasible)
+        first_pass = {"solve_s": first.solve_s, "cost_g": float(first.final_cost_g[j_first])}
+        centers = [first.path(j_first)]
+        passes = [first]  # the passes whose final states make the plan and the frontier
         if self.refine:
+            dp_soc = None
             if self.seed_dp:
                 dp_u, dp_soc = soc_dp_path(problem, target, self.soc_tol, self.threads)
                 centers.append(dp_u)
-            refine = dict(threads=self.threads, local_halfwidth=self.local_halfwidth, n_local=self.n_local,
-                          global_stride=self.refine_global_stride)
-            second = search(problem, grid, window, u_center=np.array(centers), **refine)
-            passes = [second]
-            j2 = pick_final(second, problem, band, self.on_infeasible)
-            fine = self.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
-            if fine.soc < grid.soc:  # a third pass with the narrow bin, in a SOC tube around the best paths
-                u2 = second.path(j2)
-                socs = [replay(problem, u2)["state"][:, C.SOC]] + ([dp_soc] if self.seed_dp else [])
-                tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
-                passes.append(search(problem, fine, window, u_center=np.array([u2] + centers[1:]), tube=tube,
-                                     **refine))
-                grid = fine
-        picks = [pick_final(passes[0], problem, band, self.on_infeasible)]
-        if len(passes) > 1:  # the tube's pass counts where it has a path into the band
-            try:
-                picks.append(pick_final(passes[1], problem, band, "raise"))
-            except DPInfeasibleError:
-                passes = passes[:1]
-        best = int(np.argmin([adjusted_cost(r, problem)[j] for r, j in zip(passes, picks)]))
-        result, j = passes[best], picks[best]
-        searched = [first] + (passes if self.refine else [])
+            passes, grid = self._refine(problem, grid, window, band, centers, dp_soc)
+        searched = [first] + passes if self.refine else passes
+        result, j = self._pick(passes, problem, band)
         u = result.path(j)
         run = replay(problem, u)
         soc_f, cost_f = frontier_points(np.concatenate([r.final_state[:, C.SOC] for r in passes]),
@@ -243,6 +225,35 @@ class ThermalOptimumStrategy(Strategy):
         self.result, self.u_plan, self._key, self._grid_used = result, u, key, grid
         self._store(key)
         return u
+
+    def _refine(self, problem: DPProblem, grid: SearchGrid, window: tuple[float, float], band: tuple[float, float],
+                centers: list[np.ndarray], dp_soc: np.ndarray | None) -> tuple[list[SearchResult], SearchGrid]:
+        """The second pass around ``centers`` and, where :meth:`refined_grid` narrows the SOC bin, the third pass in
+        a SOC tube around the second pass's best path and ``dp``'s; returns them and the finest grid used."""
+        refine = dict(threads=self.threads, local_halfwidth=self.local_halfwidth, n_local=self.n_local,
+                      global_stride=self.refine_global_stride)
+        second = search(problem, grid, window, u_center=np.array(centers), **refine)
+        j2 = pick_final(second, problem, band, self.on_infeasible)
+        fine = self.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
+        if not fine.soc < grid.soc:
+            return [second], grid
+        u2 = second.path(j2)
+        socs = [replay(problem, u2)["state"][:, C.SOC]] + ([] if dp_soc is None else [dp_soc])
+        tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
+        third = search(problem, fine, window, u_center=np.array([u2] + centers[1:]), tube=tube, **refine)
+        return [second, third], fine
+
+    def _pick(self, passes: list[SearchResult], problem: DPProblem,
+              band: tuple[float, float]) -> tuple[SearchResult, int]:
+        """The pass and final survivor to drive to: the cheapest path into ``band`` (cost + battery energy at the
+        reward's price) over the passes; a pass after the first counts only where it reaches the band."""
+        picks = [(passes[0], pick_final(passes[0], problem, band, self.on_infeasible))]
+        for r in passes[1:]:
+            try:
+                picks.append((r, pick_final(r, problem, band, "raise")))
+            except DPInfeasibleError:
+                pass
+        return min(picks, key=lambda rj: adjusted_cost(rj[0], problem)[rj[1]])
 
     # -- a solved plan is kept on disk: the same cycle, start, vehicle, reward and settings on the same kernel
     # sources reuse it (``plan_cache: false`` to always solve) --------------------------------------------------

@@ -58,6 +58,21 @@ def _cycle(name: str):
     return load_cycle(name)
 
 
+def _rows(cyc, scenario: str, names, frontier: Frontier) -> dict[str, dict]:
+    """Each strategy on the cell: cost, final SOC, cutoff and derated seconds, and its frontier ratio."""
+    rows = {}
+    for name in names:
+        s = run_strategy(get_strategy(name), cyc, scenario).summary
+        ref = frontier.cost_at(s["soc_final"])
+        rows[name] = {"cost_g": s["cost_g"], "soc_final": s["soc_final"], "cutoff_s": s["cutoff_s"],
+                      "derated_s": s["derated_s"], "frontier_ratio": None if ref is None else s["cost_g"] / ref}
+        if ref is None and s["soc_final"] < frontier.soc_final[0]:
+            # below the lowest SOC searched F is at most F(soc_min) (monotone), so cost / F(soc_min) bounds the
+            # ratio from below: a bound >= 1 shows the run is not below the frontier either
+            rows[name]["frontier_ratio_at_least"] = s["cost_g"] / float(frontier.cost_g[0])
+    return rows
+
+
 def cell(task: tuple[str, str]) -> dict:
     cycle, scenario = task
     warnings.simplefilter("ignore")
@@ -67,19 +82,10 @@ def cell(task: tuple[str, str]) -> dict:
     wall = time.perf_counter() - t0
     d = opt["strategy_settings"]
     frontier = Frontier.from_settings(d)
-    rows = {}
-    for name in STRATEGIES:
-        s = run_strategy(get_strategy(name), cyc, scenario).summary
-        ref = frontier.cost_at(s["soc_final"])
-        rows[name] = {"cost_g": s["cost_g"], "soc_final": s["soc_final"], "cutoff_s": s["cutoff_s"],
-                      "derated_s": s["derated_s"], "frontier_ratio": None if ref is None else s["cost_g"] / ref}
-        if ref is None and s["soc_final"] < frontier.soc_final[0]:
-            # below the lowest SOC searched F is at most F(soc_min) (monotone), so cost / F(soc_min) bounds the
-            # ratio from below: a bound >= 1 shows the run is not below the frontier either
-            rows[name]["frontier_ratio_at_least"] = s["cost_g"] / float(frontier.cost_g[0])
+    rows = _rows(cyc, scenario, STRATEGIES, frontier)
     beaten = [n for n, r in rows.items() if r["frontier_ratio"] is not None and r["frontier_ratio"] < 1 - TOLERANCE]
-    outside = [n for n, r in rows.items() if r["frontier_ratio"] is None]
-    undecided = [n for n in outside if rows[n].get("frontier_ratio_at_least", 0.0) < 1 - TOLERANCE]
+    outside_runs = [n for n, r in rows.items() if r["frontier_ratio"] is None]
+    undecided = [n for n in outside_runs if rows[n].get("frontier_ratio_at_least", 0.0) < 1 - TOLERANCE]
     return {
         "cycle": cycle, "scenario": scenario, "optimum": {
             "cost_g": opt["cost_g"], "planned_cost_g": d["planned_cost_g"], "replayed_cost_g": d["replayed_cost_g"],
@@ -89,7 +95,7 @@ def cell(task: tuple[str, str]) -> dict:
             "frontier": {"soc_min": frontier.soc_min, **frontier_sample(frontier.soc_final, frontier.cost_g)}},
         "strategies": rows, "min_ratio": min((r["frontier_ratio"] for r in rows.values()
                                              if r["frontier_ratio"] is not None), default=None),
-        "beaten_by": beaten, "outside_frontier": outside, "outside_and_undecided": undecided,
+        "beaten_by": beaten, "outside_frontier": outside_runs, "outside_and_undecided": undecided,
     }
 
 
@@ -115,12 +121,7 @@ def outside(task: tuple[str, str, tuple[str, ...]]) -> dict:
     cyc = _cycle(cycle)
     opt = run_strategy(get_strategy("dp_thermal", threads=THREADS, frontier_halfwidth=WIDE), cyc, scenario).summary
     frontier = Frontier.from_settings(opt["strategy_settings"])
-    rows = {}
-    for name in names:
-        s = run_strategy(get_strategy(name), cyc, scenario).summary
-        ref = frontier.cost_at(s["soc_final"])
-        rows[name] = {"cost_g": s["cost_g"], "soc_final": s["soc_final"],
-                      "frontier_ratio": None if ref is None else s["cost_g"] / ref}
+    rows = _rows(cyc, scenario, names, frontier)
     return {"cycle": cycle, "scenario": scenario, "frontier_halfwidth": WIDE, "soc_min": frontier.soc_min,
             "optimum_cost_g": opt["cost_g"], "solve_s": opt["strategy_settings"]["solve_s"], "strategies": rows}
 
