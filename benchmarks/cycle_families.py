@@ -81,7 +81,7 @@ def figure(path: Path) -> None:
         ax.plot(t, 3.6 * np.asarray(cyc.speed_mps), lw=0.6, color="C0")
         ax.set_ylabel("km/h")
         ax.set_xlim(0, 4500)
-        ax.set_ylim(0, 75)
+        ax.set_ylim(0, 120 if cyc.max_speed_kmh > 75 else 75)
         ax.set_title(f"{cyc.name}: {cyc.duration_s:.0f} s, mean {cyc.mean_speed_kmh:.1f} km/h, "
                      f"max accel {np.diff(cyc.speed_mps).max():.2f} m/s²", fontsize=9, loc="left")
         if np.any(np.asarray(cyc.grade) != 0.0):

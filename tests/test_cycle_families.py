@@ -29,6 +29,7 @@ from hev_thermal_env.cycles.families import (
 from hev_thermal_env.cycles.generator import BEIJING_SEED
 from hev_thermal_env.cycles.validation import VALIDATION_FAMILIES, VALIDATION_SIZE, validation_cycle
 from hev_thermal_env.envs import HevThermalEnv
+from hev_thermal_env.physics.config import VehicleConfig
 from hev_thermal_env.scenarios import get_scenario
 
 SEEDS = (0, 1, 7, 123_456, 2_000_000_000)
@@ -78,6 +79,21 @@ def test_long_and_congested_are_what_they_say():
         assert congested["mean_speed_kmh"] < 10.0 and congested["stops_per_km"] > 8.0
     hills = [cycle_statistics(generate_family_cycle("bus_hilly", s)) for s in SEEDS]
     assert all(h["grade_max"] > 0.01 and h["grade_min"] < -0.01 for h in hills)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_express_routes_hold_motorway_stretches_the_engine_alone_cannot_follow(seed):
+    cyc = generate_family_cycle("bus_express", seed)
+    kinds = [seg["kind"] for seg in cyc.metadata["segments"]]
+    assert kinds == ["city", "motorway", "city"]
+    motorway_s = cyc.metadata["segments"][1]["duration_s"]
+    assert 0.6 * cyc.duration_s - 1 <= motorway_s <= 0.75 * cyc.duration_s + 1
+    v = np.asarray(cyc.speed_mps)
+    assert np.mean(v > 60 / 3.6) > 0.3  # a third of the route at motorway speed
+    bus = VehicleConfig()
+    mass_kg, engine_w = bus.glider.mass_kg, bus.engine.max_power_w
+    wheel_w = mass_kg * np.diff(v) * v[1:]  # inertial power alone, without drag and rolling resistance
+    assert np.sum(wheel_w > engine_w) >= 5  # on-ramps and overtaking beyond the engine: motor-limited stretches
 
 
 @pytest.mark.parametrize("family", ["bus_long", "bus_hilly", "bus_mixed", "random_bus"])

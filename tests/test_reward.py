@@ -194,6 +194,59 @@ def test_env_settles_the_band_step_by_step():
     assert settled == pytest.approx(-10000.0 * excess, rel=1e-9)
 
 
+@pytest.mark.parametrize("recovery", [0.6, 0.0])
+def test_band_center_sits_lower_on_high_ground_and_returns_to_the_target_at_the_end(recovery):
+    """The observed band center is SOC₀ − recovery · m g (height above the route's end) / battery energy per SOC,
+    with the height integrated here from the cycle's speed and grade; 0 recovery is the fixed band."""
+    from hev_thermal_env.envs.hev_env import HevThermalEnv
+    from hev_thermal_env.envs.spaces import OBS_SOC_TARGET
+
+    env = HevThermalEnv(cycle="udds", scenario="hilly", reward={"descent_recovery": recovery})
+    obs, _ = env.reset(seed=0)
+    cyc = env.cycle
+    v, g = np.asarray(cyc.speed_mps), np.asarray(cyc.grade)
+    height = np.concatenate([[0.0], np.cumsum((v[:-1] + v[1:]) / 2 * g[:-1] / np.hypot(1.0, g[:-1]))])
+    bus = env.config
+    mass_kg = bus.glider.mass_kg + env.conditions.payload_kg
+    j_per_soc = 30 * 2 * 45.0 * 13.4 * 3600.0  # 30 × 2 modules of 45 Ah at 13.4 V: the pack's energy per unit SOC
+    expected = 0.65 - recovery * mass_kg * 9.81 * (height - height[-1]) / j_per_soc
+    centers = [obs[OBS_SOC_TARGET]]
+    done = False
+    while not done:
+        obs, _, term, trunc, _ = env.step(np.array([0.2], dtype=np.float32))
+        centers.append(obs[OBS_SOC_TARGET])
+        done = term or trunc
+    np.testing.assert_allclose(centers, expected[:len(centers)], atol=2e-6)  # float32 observations
+    assert centers[-1] == pytest.approx(0.65, abs=1e-7)
+    if recovery:
+        assert np.ptp(height) > 20.0 and np.ptp(centers) > 0.01  # the hills move the center beyond the band
+        top = int(np.argmax(height))
+        assert centers[top] < 0.65 - 0.01 or height[top] - height[-1] < 15.0
+
+
+def test_on_hills_the_settlement_adds_up_to_the_final_charge_and_a_constant_of_the_start():
+    """Σ settlement = Φ(SOC_final; SOC₀) − Φ(SOC_start; center at the start), whatever the SOC did on the way."""
+    from hev_thermal_env.envs.hev_env import HevThermalEnv
+    from hev_thermal_env.envs.spaces import OBS_SOC_TARGET
+
+    env = HevThermalEnv(cycle="validation_bus:3", scenario="paper")
+    obs, _ = env.reset(seed=0)
+    lhv = env.config.engine.fuel_lhv_j_per_g
+    rp = env.reward_params
+    start_center, soc0 = float(env.unwrapped._rows.band_center[0, 0]), env.phys_state[0, C.SOC]
+    assert abs(start_center - obs[OBS_SOC_TARGET]) < 1e-6
+    rng = np.random.default_rng(3)
+    settled = 0.0
+    done = False
+    while not done:
+        _, _, term, trunc, info = env.step(np.array([rng.uniform(-1.0, 1.0)], dtype=np.float32))
+        settled += info["reward_soc"] + env.last_out[C.BATT_CHEM] / (lhv * 0.36 * 0.90)
+        done = term or trunc
+    final = env.phys_state[0, C.SOC]
+    expected = _hinge(rp, final, 0.65) - _hinge(rp, soc0, start_center)
+    assert settled == pytest.approx(expected, rel=1e-6, abs=1e-6)
+
+
 # -- the optimum of the reward -----------------------------------------------------------------------
 
 def _free_final_soc_optimum(reward: RewardParams, cycle: str = "udds") -> dict:

@@ -15,6 +15,9 @@ bus_launch     1,200-2,000 s of city driving with hard launches (1.4-2.2 m/s² f
                the engine alone can follow) and hard braking (1.0-2.0 m/s²)
 bus_hilly      1,200-2,400 s of city driving over rolling hills, grades up to ±4-8 % (drawn per cycle)
 bus_mixed      3,000-4,500 s routes of 3-6 segments (city, congested, hard-launch, suburban), hilly on half
+bus_express    1,800-3,600 s express and intercity routes: city at both ends, 60-75 % on motorway
+               (cruise 60-110 km/h, on-ramp accelerations at up to 8-14 W/kg, above what the engine alone
+               can follow); rolling hills (grades up to ±2-5 %) on half
 ============== ==========================================================================================
 
 Every cycle stays within what the cycle loader accepts without an
@@ -66,10 +69,16 @@ SEGMENT_KINDS: dict[str, dict[str, Any]] = {
                "accel_scale_range": (0.9, 1.0), "decel_mps2_range": (1.0, 2.0), "max_jerk_mps3": 1.5},
     "suburban": {"max_speed_kmh": 70.0, "cruise_speed_kmh_range": (20.0, 70.0), "cruise_speed_mode_kmh": 40.0,
                  "cruise_s_range": (20.0, 120.0), "speed_change_prob": 0.4, "dwell_s_range": (5.0, 30.0)},
+    "motorway": {"max_speed_kmh": 115.0, "cruise_speed_kmh_range": (60.0, 110.0), "cruise_speed_mode_kmh": 90.0,
+                 "cruise_s_range": (60.0, 420.0), "speed_change_prob": 0.7, "speed_noise_kmh": 1.5,
+                 "dwell_s_range": (5.0, 40.0), "max_accel_mps2": 1.5, "accel_scale_range": (0.9, 1.0),
+                 "decel_mps2_range": (0.8, 1.5), "max_jerk_mps3": 1.0},
 }
 #: Hard-launch acceleration limit at standstill [m/s²] and specific tractive power [W/kg] of ``launch`` segments.
 LAUNCH_ACCEL_MPS2 = (1.4, 2.2)
 LAUNCH_POWER_W_PER_KG = (9.0, 12.0)
+#: Specific tractive power [W/kg] of ``motorway`` segments (on-ramps and overtaking), drawn per segment.
+MOTORWAY_POWER_W_PER_KG = (8.0, 14.0)
 #: Kinds of ``bus_mixed`` segments and their probabilities.
 MIXED_KINDS = {"city": 0.35, "congested": 0.25, "launch": 0.2, "suburban": 0.2}
 
@@ -97,6 +106,9 @@ FAMILY_BOUNDS: dict[str, dict[str, tuple[float, float]]] = {
     "bus_mixed": {"duration_s": (3000, 4500), "mean_speed_kmh": (5, 36), "max_speed_kmh": (25, 70),
                   "stops_per_km": (0.5, 18), "idle_fraction": (0.10, 0.50), "max_accel_mps2": (0.75, 2.2),
                   "max_decel_mps2": (0.8, 2.0), "grade_min": (-0.07, 0), "grade_max": (0, 0.07)},
+    "bus_express": {"duration_s": (1800, 3600), "mean_speed_kmh": (35, 75), "max_speed_kmh": (80, 115),
+                    "stops_per_km": (0.2, 1.2), "idle_fraction": (0.05, 0.30), "max_accel_mps2": (1.3, 1.5),
+                    "max_decel_mps2": (0.8, 1.5), "grade_min": (-0.05, 0), "grade_max": (0, 0.05)},
 }
 #: Payload range [kg] the training scenario draws under every family (``random_service``).
 PAYLOAD_KG_RANGE = (0.0, 4500.0)
@@ -132,6 +144,15 @@ def _plan_mixed(rng: np.random.Generator) -> Plan:
     return Plan([(str(k), d) for k, d in zip(kinds, lengths)], max_grade)
 
 
+def _plan_express(rng: np.random.Generator) -> Plan:
+    total = int(rng.integers(1800, 3601))
+    motorway = int(total * rng.uniform(0.6, 0.75))
+    first = int(rng.integers(150, total - motorway - 150 + 1))
+    hilly = rng.random() < 0.5
+    max_grade = float(rng.uniform(0.02, 0.05)) if hilly else None
+    return Plan([("city", first), ("motorway", motorway), ("city", total - first - motorway)], max_grade)
+
+
 #: Each family: its description and how it draws a :class:`Plan` from its parameter generator.
 FAMILIES: dict[str, tuple[str, Callable[[np.random.Generator], Plan] | None]] = {
     "random_bus": ("generate_bus_cycle(seed) with its defaults: 1,300 s of city driving, flat", None),
@@ -144,6 +165,8 @@ FAMILIES: dict[str, tuple[str, Callable[[np.random.Generator], Plan] | None]] = 
                   lambda rng: Plan([("city", int(rng.integers(1200, 2401)))], float(rng.uniform(0.04, 0.08)))),
     "bus_mixed": ("long routes (3,000-4,500 s) of city, congested, hard-launch and suburban segments; "
                   "hilly on half", _plan_mixed),
+    "bus_express": ("express and intercity routes (1,800-3,600 s): city at both ends, 60-75 % motorway at "
+                    "60-110 km/h with hard on-ramp accelerations; hilly on half", _plan_express),
 }
 
 
@@ -185,6 +208,8 @@ def _segment_kwargs(kind: str, rng: np.random.Generator) -> dict[str, Any]:
     elif kind == "launch":
         kwargs["max_accel_mps2"] = round(float(rng.uniform(*LAUNCH_ACCEL_MPS2)), 3)
         kwargs["accel_power_w_per_kg"] = round(float(rng.uniform(*LAUNCH_POWER_W_PER_KG)), 3)
+    elif kind == "motorway":
+        kwargs["accel_power_w_per_kg"] = round(float(rng.uniform(*MOTORWAY_POWER_W_PER_KG)), 3)
     return kwargs
 
 

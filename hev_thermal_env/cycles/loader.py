@@ -271,7 +271,7 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
         f"unknown cycle {str(name_or_path)!r}: not a built-in name and not an existing file; "
         f"built-in cycles: {', '.join(list_cycles())}. "
         "Generated bus cycles: FAMILY:SEED (families: random_bus, bus_long, bus_congested, bus_launch, "
-        "bus_hilly, bus_mixed) and validation_bus:K; generate_bus_cycle(seed) in Python."
+        "bus_hilly, bus_mixed, bus_express) and validation_bus:K; generate_bus_cycle(seed) in Python."
     )
 
 

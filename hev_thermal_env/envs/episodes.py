@@ -141,6 +141,9 @@ class CycleTables:
         self.grade = g
         self.wheel_power_demand_kw = out[:, C.WHEEL_DEMAND] / 1000.0
         self.gear = out[:, C.GEAR].copy()
+        rise = 0.5 * (v[:-1] + v[1:]) * core.dt_s * g[:-1] / np.sqrt(1.0 + g[:-1] ** 2)
+        #: Height reached at each instant, from the start (m): the climb of each step's distance on its grade.
+        self.climb_m = np.concatenate([[0.0], np.cumsum(rise)])
 
 
 class TableCache:

@@ -64,7 +64,7 @@ class HevThermalEnv(gym.Env):
     | 1 | acceleration the cycle demands over the next step | -10 | 10 | m/s² |
     | 2 | wheel power the cycle demands over the next step (road load, grade, inertia) | -2000 | 2000 | kW |
     | 3 | battery state of charge | 0 | 1 | - |
-    | 4 | SOC target of the reward (the episode's initial SOC) | 0 | 1 | - |
+    | 4 | center of the reward's SOC band now (the episode's initial SOC on a flat route; see Rewards) | 0 | 1 | - |
     | 5 | motor temperature | -40 | 200 | °C |
     | 6 | heat index PWM (eq 9): 0 peak torque available, 1 continuous torque only | 0 | 1 | - |
     | 7 | heat-index integrator state x (eq 9), PWM = clip(x, 0, 1) | -1 | 1 | - |
@@ -95,13 +95,18 @@ class HevThermalEnv(gym.Env):
     penalty (quadratic above the 60 °C soft limit, 20 per step while cut off, optionally per unit
     PWM). Each term is in ``info``.
 
-    The band settlement is the step's change of Φ(SOC) = −10,000 g · max(|SOC − target| − 0.01, 0),
-    the target being the episode's initial SOC: zero while the SOC stays within ±0.01 of it, a cost
-    in the step that takes it further out, a refund in the step that brings it back. Over an
-    episode it adds up to −10,000 g per unit SOC that the final SOC lies beyond the band, so the
-    optimum of the reward is charge-sustaining (it ends inside the band: DP with a free final SOC,
-    ``benchmarks/reward_optimum.py``), and a run that ends inside the band returns exactly minus
-    its corrected fuel (:mod:`hev_thermal_env.metrics`) and the overheat terms. Without it the
+    The band settlement is the step's change of Φ(SOC) = −10,000 g · max(|SOC − c(t)| − 0.01, 0),
+    the center c(t) being the episode's initial SOC on a flat route and at the route's end: zero
+    while the SOC stays within ±0.01 of it, a cost in the step that takes it further out, a refund
+    in the step that brings it back. Over an episode it adds up to −10,000 g per unit SOC that the
+    final SOC lies beyond the band, so the optimum of the reward is charge-sustaining (it ends
+    inside the band: DP with a free final SOC, ``benchmarks/reward_optimum.py``), and a run that
+    starts and ends inside the band returns exactly minus its corrected fuel
+    (:mod:`hev_thermal_env.metrics`) and the overheat terms. On high ground the center sits lower
+    by the charge the remaining descent to the route's end will return
+    (:func:`~hev_thermal_env.envs.reward.band_centers`: ``descent_recovery`` = 0.6 of the
+    potential energy above the end, per unit SOC of the pack), so spending charge on a climb and
+    letting the descent refill it costs nothing while it lasts; observation entry 4 is c(t). Without it the
     stated battery price lets storing charge with a loaded engine pay. A per-step quadratic
     deviation term (``soc_deviation_weight``) is available and off by default.
 
@@ -144,7 +149,7 @@ class HevThermalEnv(gym.Env):
     * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path,
       a :class:`~hev_thermal_env.cycles.Cycle`, a generated cycle's name (``bus_long:7``,
       ``validation_bus:3``) or set (``validation_bus``), a cycle family (``"random_bus"``, ``"bus_long"``,
-      ``"bus_congested"``, ``"bus_launch"``, ``"bus_hilly"``, ``"bus_mixed"``: a fresh cycle of the family
+      ``"bus_congested"``, ``"bus_launch"``, ``"bus_hilly"``, ``"bus_mixed"``, ``"bus_express"``: a fresh cycle of the family
       per episode, seeded from ``self.np_random``; :mod:`hev_thermal_env.cycles.families`), or a list of
       these (one drawn per episode).
     * ``scenario``: ``"paper"``, ``"hot"`` or ``"random"`` (:mod:`hev_thermal_env.scenarios`) or a

@@ -44,9 +44,26 @@ the charge-sustaining operation the benchmark compares. Three ways out, and why 
   stays within ≈10 g, the size of the fuel terms: dense, and not drowning the fuel signal. A
   larger pack needs a proportionally larger ``soc_band_weight``.
 
-A run that ends inside the band therefore returns exactly minus its corrected fuel (and the
-overheat terms). The settlement needs the SOC before the step: :func:`reward_kernel` takes the
-states before and after.
+Why the band's center moves with the route's height. On a hilly route the charge-sustaining
+optimum does not hold the SOC level: it spends charge on the way up and lets the descents refill it
+(DP on a generated hilly bus route: 0.03 below the start on the hilltops, back in the band at the
+end). A fixed band charges that detour in full while it lasts and refunds it minutes later, which a
+learner with a short horizon cannot connect, so it keeps the charge and ends with the descent's
+energy on top (+0.02 to +0.03). The band's center is therefore the target lowered by the charge
+the remaining descent to the route's end will return (:func:`band_centers`):
+
+    center(t) = SOC_target − descent_recovery · m · g · (h(t) − h_end) / E_per_SOC
+
+with ``descent_recovery`` = 0.6 (≈ driveline 0.93 × charge path 0.90 × the ≈ 0.75 of the potential
+energy that rolling and air resistance leave on a city descent). The settlement is still a
+potential difference, now of Φ(SOC, center(t)); the center is the target at the route's end, so an
+episode still pays exactly the charge for its final SOC, plus a constant of its start
+(−Φ(SOC_start, center(start)), zero when the route starts as high as it ends or within the band).
+On a flat route nothing changes. The observation's ``soc_target`` entry is this center.
+
+A run that starts and ends inside the band therefore returns exactly minus its corrected fuel (and
+the overheat terms). The settlement needs the SOC and the center before the step:
+:func:`reward_kernel` takes the states and centers before and after.
 """
 
 from __future__ import annotations
@@ -84,6 +101,9 @@ class RewardParams(Params):
                                             "off by default)", min=0.0)
     soc_deviation_scale: float = spec(0.1, "SOC distance that costs soc_deviation_weight per step", min=0.0,
                                       min_exclusive=True)
+    descent_recovery: float = spec(0.6, "share of the potential energy of the route still to descend that the band "
+                                        "expects back in the battery (lowers the band's center on high ground; "
+                                        "0: a fixed band)", min=0.0, max=1.0)
     overheat_soft_limit_c: float = spec(60.0, "motor temperature above which overheating is penalised")
     overheat_temp_weight: float = spec(0.05, "per step per K² above the soft limit", min=0.0)
     cutoff_weight: float = spec(20.0, "per step with the motor cut off by its 70 °C protection", min=0.0)
@@ -120,6 +140,25 @@ def soc_band_potential(w, soc, soc_target):
     return -w[W_SOC_BAND_WEIGHT] * max(abs(soc - soc_target) - w[W_SOC_BAND], 0.0)
 
 
+def band_centers(params: RewardParams, soc_target: float, climb_m: np.ndarray, mass_kg: float, gravity_mps2: float,
+                 battery_j_per_soc: float) -> np.ndarray:
+    """The band's center at every instant of a route: ``soc_target`` lowered by the charge still to come downhill.
+
+    ``climb_m`` [n + 1]: the height reached at each instant, from the start (m,
+    :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`). At instant ``k`` the bus stands
+    ``climb_m[k] − climb_m[n]`` above the route's end; the potential energy of that height, times
+    ``descent_recovery``, is charge the descent will put back, so the center sits that much lower:
+
+        center[k] = soc_target − descent_recovery · m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc
+
+    On a flat route, and at the route's end, the center is ``soc_target``: the settlement over an
+    episode is still the charge for the final SOC (plus a constant for a start off the center).
+    """
+    h = np.asarray(climb_m, dtype=np.float64)
+    k = params.descent_recovery * mass_kg * gravity_mps2 / battery_j_per_soc
+    return soc_target - k * (h - h[-1])
+
+
 @jit
 def soc_band_charge_kernel(w, soc, soc_target, charge):
     """−Φ of every SOC in ``soc`` into ``charge``: what the settlement charges an episode ending there."""
@@ -140,15 +179,17 @@ def soc_band_charge_g(params: RewardParams, soc: np.ndarray, soc_target: float) 
 
 
 @jit
-def reward_row(w, out, st0, st, b, soc_target, dt_s):
+def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
     """The four terms of row ``b`` (fuel, miss, soc, overheat) and their sum, in a fixed order.
 
-    ``st0`` / ``st``: states before / after the step.
+    ``st0`` / ``st``: states before / after the step; ``target_before`` / ``target_after``: the
+    band's center at those two instants (equal on a flat route).
     """
     fuel = -w[W_FUEL] * out[b, C.FUEL_G]
     miss = -w[W_MISS] * (out[b, C.MISSED_J] * w[W_MISS_PRICE])
-    e = (st[b, C.SOC] - soc_target) / w[W_SOC_SCALE]
-    band = soc_band_potential(w, st[b, C.SOC], soc_target) - soc_band_potential(w, st0[b, C.SOC], soc_target)
+    e = (st[b, C.SOC] - target_after) / w[W_SOC_SCALE]
+    band = (soc_band_potential(w, st[b, C.SOC], target_after)
+            - soc_band_potential(w, st0[b, C.SOC], target_before))
     soc = -w[W_SOC_ENERGY] * (out[b, C.BATT_CHEM] * dt_s * w[W_BATT_PRICE]) + band - w[W_SOC_DEV] * (e * e)
     over = max(st[b, C.TEMP_C] - w[W_SOFT_LIMIT], 0.0)
     pwm = min(max(st[b, C.HEAT_X], 0.0), 1.0)
@@ -157,14 +198,16 @@ def reward_row(w, out, st0, st, b, soc_target, dt_s):
 
 
 @jit
-def reward_kernel(w, out, state_before, state_after, soc_target, dt_s, terms, total):
+def reward_kernel(w, out, state_before, state_after, target_before, target_after, dt_s, terms, total):
     """Reward of a batch of steps: ``terms`` [B, 4] (``REWARD_TERMS`` order) and ``total`` [B].
 
     ``out`` [B, N_OUT] and ``state_after`` [B, N_STATE] come from the physics core, ``state_before``
-    [B, N_STATE] is what it stepped from (the band settlement's start); ``soc_target`` [B].
+    [B, N_STATE] is what it stepped from (the band settlement's start); ``target_before`` and
+    ``target_after`` [B]: the band's center before and after the step (:func:`band_center`).
     """
     for b in range(out.shape[0]):
-        fuel, miss, soc, heat, tot = reward_row(w, out, state_before, state_after, b, soc_target[b], dt_s)
+        fuel, miss, soc, heat, tot = reward_row(w, out, state_before, state_after, b, target_before[b],
+                                                target_after[b], dt_s)
         terms[b, 0] = fuel
         terms[b, 1] = miss
         terms[b, 2] = soc
@@ -197,7 +240,9 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
 
     ``state_before``: the states the batch stepped from ([B, N_STATE], or one [N_STATE] for all
     rows). Without it the band settlement omits Φ(SOC before), which is right only for comparing
-    actions from one common state (a constant shift); an episode's reward needs it.
+    actions from one common state (a constant shift); an episode's reward needs it. The band's
+    center is ``soc_target`` before and after the step (a flat stretch; the env passes the
+    route's own centers to :func:`reward_kernel`).
     """
     b = out.shape[0]
     terms = np.empty((b, len(REWARD_TERMS)))
@@ -205,7 +250,7 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
     target = np.ascontiguousarray(np.broadcast_to(np.asarray(soc_target, dtype=np.float64), (b,)))
     after = np.ascontiguousarray(state_after, dtype=np.float64)
     reward_kernel(params.weights(lhv_j_per_g, **switches), np.ascontiguousarray(out, dtype=np.float64),
-                  _before(state_before, after, target), after, target, float(dt_s), terms, total)
+                  _before(state_before, after, target), after, target, target, float(dt_s), terms, total)
     return terms, total
 
 

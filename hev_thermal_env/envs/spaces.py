@@ -25,7 +25,9 @@ _OBS_FIELDS = (
     ("accel_mps2", -10.0, 10.0, "m/s²", "acceleration the cycle demands over the next step"),
     ("wheel_power_demand_kw", -2000.0, 2000.0, "kW", "wheel power the cycle demands over the next step"),
     ("soc", 0.0, 1.0, "-", "battery state of charge"),
-    ("soc_target", 0.0, 1.0, "-", "SOC target of the reward (the episode's initial SOC)"),
+    ("soc_target", 0.0, 1.0, "-", "center of the reward's SOC band now: the episode's initial SOC, lowered "
+                                    "by the charge the route's remaining descent will return (flat route: the "
+                                    "initial SOC)"),
     ("motor_temp_c", -40.0, 200.0, "°C", "motor temperature"),
     ("heat_index", 0.0, 1.0, "-", "heat index PWM (eq 9): 0 full peak torque, 1 continuous torque only"),
     ("heat_x", -1.0, 1.0, "-", "heat-index integrator state x (eq 9); PWM = clip(x, 0, 1)"),

@@ -40,7 +40,8 @@ from .selection import DEFAULT_SCORER, LEGACY_SCORER, get_scorer
 
 VEC_MODES = ("native", "subproc", "dummy")
 #: Training cycles when the hyperparameter file names none: every family of generated bus cycles.
-DEFAULT_TRAIN_CYCLES = ("random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed")
+DEFAULT_TRAIN_CYCLES = ("random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed",
+                        "bus_express")
 #: Cycles the checkpoints are scored on during training (one of each validation family) and at the end.
 DEFAULT_EVAL_CYCLES = ("validation_bus:0..4",)
 DEFAULT_FINAL_CYCLES = ("validation_bus",)
