@@ -2,8 +2,9 @@
 """Learned policies against the thermal optimum's frontier: a PPO seed family, shipped policies, baselines.
 
 For every seed, ``train.py`` trains a PPO policy with the default hyperparameters
-(``agents/hyperparams/ppo.yaml``: generated cycle families, never ``hwfet``, ``beijing`` nor a
-validation cycle; ``best_model.zip`` chosen on fuel against ECMS on ``validation_bus:0..4``) into
+(``agents/hyperparams/ppo.yaml``: imitation of ``ecms_thermal``, then PPO on generated cycle families,
+never ``hwfet``, ``beijing`` nor a validation cycle; ``best_model.zip`` chosen on fuel against ECMS on
+``validation_bus:0..4`` and ``validation_bus:25``) into
 ``RUNS/seed_S`` (skipped with ``--reuse`` when the run has finished). The seeds' models (``--model``:
 ``best_model.zip`` by default, or the final ``model.zip``), the shipped policy ``ppo``, every
 ``--policy NAME=PATH`` and the baselines (``rule``, ``ecms``, ``ecms_thermal``) then drive every cell

@@ -256,7 +256,8 @@ def markdown(data: dict[str, Any]) -> str:
         "benchmark timed it, the final validation on every validation cycle included.", "",
         "## the optimum per cell", "", *optimum_table(data), "",
         "## notes", "",
-        f"* `validation_bus:0..{SELECTION_CYCLES - 1}` (paper) are the cycles training chose `best_model.zip` on; "
+        f"* `validation_bus:0..{SELECTION_CYCLES - 1}` (paper) are the cycles training chose `best_model.zip` on (with "
+        f"`validation_bus:25`, an express route this table does not hold); "
         "the row of validation cycles ≥ 5 leaves them out.",
         *warned,
         f"* Machine: {data['machine']}; cells evaluated in {data['eval_wall_s']:.0f} s, training "

@@ -32,7 +32,8 @@ from hev_thermal_env.training.overrides import apply_overrides, parse_overrides
 ROOT = Path(__file__).resolve().parents[1]
 
 # a small but complete PPO: 4 envs x 64 steps = 256 env-steps per rollout
-TINY_HP = ["n_steps=64", "batch_size=128", "n_epochs=2", "policy_kwargs.net_arch=[16,16]"]
+TINY_HP = ["n_steps=64", "batch_size=128", "n_epochs=2", "policy_kwargs.net_arch=[16,16]", "init.episodes=1",
+           "init.epochs=2"]
 
 
 def tiny_cycle_csv(path: Path, name: str = "beijing", start: int = 100, n: int = 91) -> str:

@@ -1,9 +1,11 @@
 """The validation set ``validation_bus``: fixed generated bus cycles that training never draws.
 
-:data:`VALIDATION_SIZE` cycles; cycle ``k`` (named ``validation_bus:k``) is the family cycle
-``VALIDATION_FAMILIES[k % 5]`` with seed ``VALIDATION_SEED_BASE + k``. So any five consecutive
-cycles hold one of each family (long, congested, hard launches, hilly, mixed), and
-``validation_bus:0..4`` is the quick subset a training run selects its checkpoints on.
+:data:`VALIDATION_SIZE` cycles; cycle ``k`` (named ``validation_bus:k``) is a cycle of family
+:func:`validation_family` with seed ``VALIDATION_SEED_BASE + k``: for ``k`` below
+:data:`ROTATION_SIZE`, ``VALIDATION_FAMILIES[k % 5]`` (any five consecutive cycles hold one of each
+family: long, congested, hard launches, hilly, mixed), and from there on express routes
+(``bus_express``). ``validation_bus:0..4`` and ``validation_bus:25`` are the quick subset a
+training run selects its checkpoints on.
 
 Training draws family seeds from ``[0, TRAINING_SEED_LIMIT)``
 (:func:`~hev_thermal_env.cycles.families.training_seed`), below :data:`VALIDATION_SEED_BASE`, and a
@@ -21,8 +23,12 @@ from .families import TRAINING_SEED_LIMIT, VALIDATION_SEED_BASE, generate_family
 VALIDATION_SET = "validation_bus"
 #: The families of the validation cycles, in turn.
 VALIDATION_FAMILIES = ("bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed")
+#: Cycles ``0 .. ROTATION_SIZE - 1`` rotate through :data:`VALIDATION_FAMILIES`.
+ROTATION_SIZE = 25
+#: The family of the cycles from :data:`ROTATION_SIZE` on.
+EXPRESS_FAMILY = "bus_express"
 #: Number of validation cycles.
-VALIDATION_SIZE = 25
+VALIDATION_SIZE = 30
 
 
 def validation_seed(k: int) -> int:
@@ -36,6 +42,8 @@ def validation_seed(k: int) -> int:
 
 def validation_family(k: int) -> str:
     """The family of validation cycle ``k``."""
+    if int(k) >= ROTATION_SIZE:
+        return EXPRESS_FAMILY
     return VALIDATION_FAMILIES[int(k) % len(VALIDATION_FAMILIES)]
 
 

@@ -6,6 +6,7 @@
 (:func:`validate_config`) before anything is created: unknown names, wrong types and impossible
 numbers are one-line ``ValueError`` s. Sections: ``algo``, ``seed``, ``total_timesteps``,
 ``n_envs``, ``vec``, ``env`` (the training env's settings), ``normalize`` (``VecNormalize``),
+``init`` (the policy's starting point: :mod:`~hev_thermal_env.training.imitation`),
 ``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``command``, ``created``,
 ``versions``, and after training ``result``.
 """
@@ -35,6 +36,7 @@ from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
 
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
+from .imitation import check_init
 from .overrides import apply_overrides
 from .selection import DEFAULT_SCORER, LEGACY_SCORER, get_scorer
 
@@ -43,7 +45,7 @@ VEC_MODES = ("native", "subproc", "dummy")
 DEFAULT_TRAIN_CYCLES = ("random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed",
                         "bus_express")
 #: Cycles the checkpoints are scored on during training (one of each validation family) and at the end.
-DEFAULT_EVAL_CYCLES = ("validation_bus:0..4",)
+DEFAULT_EVAL_CYCLES = ("validation_bus:0..4", "validation_bus:25")
 DEFAULT_FINAL_CYCLES = ("validation_bus",)
 DEFAULT_EVAL_SCENARIOS = ("paper", "full_bus")
 
@@ -83,6 +85,7 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
     env = dict(hp.pop("env", None) or {})
     ev = dict(hp.pop("eval", None) or {})
     normalize = hp.pop("normalize", None)
+    init = hp.pop("init", None)
     total = hp.pop("n_timesteps", None)
     envs = hp.pop("n_envs", None)
     ckpt = hp.pop("checkpoint_freq", None)
@@ -117,6 +120,7 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
         "vec": vec,
         "env": env,
         "normalize": normalize,
+        "init": dict(init or {}),
         "hyperparams": hp,
         "eval": ev,
         "checkpoint_freq": whole_number("checkpoint_freq", checkpoint_freq if checkpoint_freq is not None
@@ -137,6 +141,10 @@ def validate_config(config: dict[str, Any]) -> None:
         raise ValueError(f"unknown --vec {config['vec']!r}; choose one of {', '.join(VEC_MODES)}")
     _validate_env(config["env"])
     _validate_eval(config["eval"], config["env"])
+    init = config.get("init")
+    if init is not None and not isinstance(init, dict):
+        raise ValueError(f"init={init!r}: expected a mapping (imitate, episodes, epochs, beyond_bound)")
+    config["init"] = check_init(dict(init or {}), config["algo"])
     ev = config["eval"]
     if config["normalize"] is not False:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)

@@ -46,9 +46,10 @@ from .artifacts import (
 from .callbacks import RunCallback, TrainingInterrupted, stop_on_signals
 from .config import load_run_config, save_run_config, validate_config
 from .curves import plot_training_curve
-from .envs import make_vec_env, wrap_normalize
+from .envs import env_kwargs, make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
+from .imitation import imitate
 from .schedules import custom_objects
 from .selection import LEGACY_SCORER, best_row_score, compute_references, get_scorer, is_better
 from .validation_report import final_validation
@@ -216,7 +217,14 @@ class TrainingRun:
             self.references()
         raw, timed = make_vec_env(cfg)
         venv = wrap_normalize(raw, cfg, resume_from[2] if resume_from and normalized else None)
-        return Session(raw, timed, venv, self.make_model(venv, resume_from), resume_from)
+        model = self.make_model(venv, resume_from)
+        init = cfg.get("init") or {}
+        if resume_from is None and init.get("imitate"):
+            rec = imitate(model, venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]), progress=self.progress)
+            cfg.setdefault("result", {})["imitation"] = rec
+            self.log(f"imitation of {rec['teacher']}: {rec['steps']} steps of {rec['episodes']} episodes, policy "
+                     f"mean fitted (MSE {rec['mse_first']} -> {rec['mse_last']}) in {rec['wall_s']} s")
+        return Session(raw, timed, venv, model, resume_from)
 
     def execute(self, session: Session) -> dict[str, Any]:
         """Learn up to the total, then save the final model and its evaluation; returns the ``result`` section."""

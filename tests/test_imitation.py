@@ -1,0 +1,62 @@
+"""The start of a PPO run from imitation of a classic strategy: the demonstrations come from the training env, the
+fit brings the policy's mean to the teacher's actions (beyond the bound where the teacher sits at it), and the
+settings are checked before any work."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hev_thermal_env.envs import HevThermalEnv
+from hev_thermal_env.training.config import build_config
+from hev_thermal_env.training.envs import env_kwargs
+from hev_thermal_env.training.imitation import INIT_DEFAULTS, check_init, demonstrations, fit_policy_mean
+
+ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": True, "preview_s": 10,
+       "preview_step_s": 2, "thermal": True, "reward": {}}
+
+
+def test_demonstrations_are_the_teachers_own_run_on_fresh_training_cycles():
+    obs, actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5)
+    assert obs.shape == (2 * 1300, 19) and obs.dtype == np.float32 and actions.shape == (2 * 1300,)
+    assert np.all(np.abs(actions) <= 1.0) and np.mean(actions == 1.0) > 0.05  # the teacher does stop the engine
+    again, same = demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5)
+    np.testing.assert_array_equal(obs, again)
+    np.testing.assert_array_equal(actions, same)
+    other, _ = demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=6)
+    assert not np.array_equal(obs[:, 0], other[:, 0])  # another seed, other cycles
+    # the episodes are the env's: the first observation is the env's reset observation for that seed
+    first, _ = HevThermalEnv(**{**env_kwargs(ENV), "random_start": False}).reset(seed=5 * 1_000_003)
+    np.testing.assert_array_equal(obs[0], first)
+
+
+def test_fit_brings_the_policy_mean_to_the_teacher_and_beyond_the_bound_where_it_stops_the_engine():
+    from stable_baselines3 import PPO
+
+    env = HevThermalEnv(**env_kwargs(ENV))
+    obs, actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=1)
+    x = ((obs - obs.mean(0)) / (obs.std(0) + 1e-6)).astype(np.float32)
+    at_bound = actions >= 1.0
+    reached = {}
+    for beyond in (0.25, 0.0):
+        model = PPO("MlpPolicy", env, seed=0, device="cpu", policy_kwargs={"net_arch": [64, 64]})
+        history = fit_policy_mean(model.policy, x, actions, epochs=60, beyond_bound=beyond, high=1.0, seed=0)
+        assert history[-1] < 0.7 * history[0]
+        act = np.clip(model.predict(x, deterministic=True)[0][:, 0], -1.0, 1.0)
+        assert act[at_bound].mean() > act[~at_bound].mean() + 0.3  # higher where the teacher stops the engine
+        reached[beyond] = (np.mean(act[at_bound] >= 1.0), np.mean(act[~at_bound] >= 1.0))
+    assert reached[0.25][0] > 0.02 and reached[0.25][1] < 0.01  # the bound, where the teacher is at it only
+    assert reached[0.25][0] > 2 * reached[0.0][0]  # fitted beyond the bound: the clipped mean gets there
+
+
+def test_init_settings_are_checked_in_one_line():
+    assert check_init({}, "ppo") == INIT_DEFAULTS and INIT_DEFAULTS["imitate"] is None
+    assert build_config("ppo")["init"]["imitate"] == "ecms_thermal"  # the shipped hyperparameters imitate ECMS
+    assert build_config("ppo", overrides={"init.imitate": None})["init"]["imitate"] is None
+    for bad, match in (({"init.imitate": "dp_thermal"}, "step-by-step classic"), ({"init.imitate": "ppo"}, "classic"),
+                       ({"init.episodes": 0}, "init.episodes"), ({"init.epochs": 1.5}, "init.epochs"),
+                       ({"init.beyond_bound": 2}, "beyond_bound"), ({"init.teacher": "ecms"}, "unknown init")):
+        with pytest.raises(ValueError, match=match):
+            build_config("ppo", overrides=bad)
+    with pytest.raises(ValueError, match="PPO runs only"):
+        build_config("sac", overrides={"init.imitate": "ecms"})
