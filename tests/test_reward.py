@@ -224,6 +224,22 @@ def test_band_center_sits_lower_on_high_ground_and_returns_to_the_target_at_the_
         assert centers[top] < 0.65 - 0.01 or height[top] - height[-1] < 15.0
 
 
+def test_a_new_descent_recovery_moves_the_center_of_a_running_episode_at_once():
+    """The center is derived from the reward's weights at every step, so changing them mid-episode takes effect."""
+    from hev_thermal_env.envs.hev_env import HevThermalEnv
+    from hev_thermal_env.envs.spaces import OBS_SOC_TARGET
+
+    env = HevThermalEnv(cycle="validation_bus:3", scenario="paper")
+    env.reset(seed=0)
+    for _ in range(700):
+        obs, *_ = env.step(np.array([0.0], dtype=np.float32))
+    assert abs(obs[OBS_SOC_TARGET] - 0.65) > 0.01  # high ground: the center sits away from the target
+    env.reward_params = {"descent_recovery": 0.0}
+    obs, *_ = env.step(np.array([0.0], dtype=np.float32))
+    assert obs[OBS_SOC_TARGET] == pytest.approx(0.65, abs=1e-7)
+    np.testing.assert_allclose(env.unwrapped._rows.band_center[0, :env.cycle.n_steps + 1], 0.65)
+
+
 def test_on_hills_the_settlement_adds_up_to_the_final_charge_and_a_constant_of_the_start():
     """Σ settlement = Φ(SOC_final; SOC₀) − Φ(SOC_start; center at the start), whatever the SOC did on the way."""
     from hev_thermal_env.envs.hev_env import HevThermalEnv

@@ -21,17 +21,18 @@ from ..physics.config import Conditions
 from ..physics.jit import jit
 from . import spaces as S
 from .episodes import CycleTables, Episode
-from .reward import REWARD_TERMS, RewardParams, band_centers, reward_kernel
+from .reward import REWARD_TERMS, RewardParams, band_center, descent_soc, reward_kernel
 
 
 @jit
-def observe_kernel(rows, k, state, cond, center, avail, n_steps, speed, demand, gear, offsets, dt_s, low, high,
-                   obs):
+def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, demand, gear, descent, offsets, dt_s,
+                   low, high, obs):
     """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]).
 
     Entry order and meaning: :data:`hev_thermal_env.envs.spaces.observation_names`. "Next step"
-    is the step from ``speed[r, k]`` to ``speed[r, k + 1]``; ``center[r, k]`` is the SOC band's center
-    at instant ``k`` (the ``soc_target`` entry).
+    is the step from ``speed[r, k]`` to ``speed[r, k + 1]``. The ``soc_target`` entry is the SOC band's
+    center at instant ``k`` (:func:`~hev_thermal_env.envs.reward.band_center` of ``descent[r, k]``, with
+    the reward weights ``w``).
     """
     n_base = S.N_OBS_BASE
     for i in range(rows.shape[0]):
@@ -42,7 +43,7 @@ def observe_kernel(rows, k, state, cond, center, avail, n_steps, speed, demand, 
         obs[i, S.OBS_ACCEL] = (speed[r, j + 1] - v0) / dt_s
         obs[i, S.OBS_DEMAND] = demand[r, j]
         obs[i, S.OBS_SOC] = state[r, C.SOC]
-        obs[i, S.OBS_SOC_TARGET] = center[r, j]
+        obs[i, S.OBS_SOC_TARGET] = band_center(w, soc_target[r], descent[r, j])
         obs[i, S.OBS_TEMP] = state[r, C.TEMP_C]
         obs[i, S.OBS_PWM] = state[r, C.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
         obs[i, S.OBS_HEAT_X] = state[r, C.HEAT_X]
@@ -63,12 +64,13 @@ def observe_kernel(rows, k, state, cond, center, avail, n_steps, speed, demand, 
 
 
 @jit
-def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, state, cond, offsets,
+def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, state, cond, soc_target, offsets,
                    low, high, all_rows, state_out, out, terms, total, avail, obs):
     """One step of every row: physics, reward, step index, motor envelope and the next observation.
 
-    ``tables`` [5, n, width] holds speed, grade, demanded wheel power (kW), gear and the SOC band's
-    center (:func:`~hev_thermal_env.envs.reward.band_centers`) per row and step.
+    ``tables`` [5, n, width] holds speed, grade, demanded wheel power (kW), gear and the SOC the
+    descent to the route's end can return (:func:`~hev_thermal_env.envs.reward.descent_soc`) per row
+    and step; the band's center before and after the step follows from it and ``soc_target``.
     Writes ``state_out``, ``out``, ``terms``/``total`` (the reward), ``avail`` (the motor envelope of
     the step, the next observation's entry) and ``obs``; increments ``k``.
     """
@@ -82,15 +84,15 @@ def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, s
         v0[r] = tables[0, r, k[r]]
         v1[r] = tables[0, r, k[r] + 1]
         g[r] = tables[1, r, k[r]]
-        c0[r] = tables[4, r, k[r]]
-        c1[r] = tables[4, r, k[r] + 1]
+        c0[r] = band_center(w, soc_target[r], tables[4, r, k[r]])
+        c1[r] = band_center(w, soc_target[r], tables[4, r, k[r] + 1])
     C.step_kernel(gl, dl, en, mo, th, ba, pt, state, u, v0, v1, g, cond, dt_s, state_out, out)
     reward_kernel(w, out, state, state_out, c0, c1, dt_s, terms, total)
     for r in range(n):
         k[r] += 1
         avail[r] = out[r, C.MOTOR_AVAIL]
-    observe_kernel(all_rows, k, state_out, cond, tables[4], avail, n_steps, tables[0], tables[2], tables[3], offsets,
-                   dt_s, low, high, obs)
+    observe_kernel(w, all_rows, k, state_out, cond, soc_target, avail, n_steps, tables[0], tables[2], tables[3],
+                   tables[4], offsets, dt_s, low, high, obs)
 
 
 class EpisodeRows:
@@ -142,7 +144,7 @@ class EpisodeRows:
     @property
     def band_center(self) -> np.ndarray:
         """The SOC band's center [n, width] of every row at every instant (held at the target past the end)."""
-        return self.tables[4]
+        return self.soc_target[:, None] - self.reward_params.descent_recovery * self.tables[4]
 
     @property
     def width(self) -> int:
@@ -154,7 +156,7 @@ class EpisodeRows:
         new = np.zeros((5, self.n, width))
         w0 = old.shape[2]
         new[:, :, :w0] = old
-        for held in (0, 3, 4):  # speed, gear and the band's center held
+        for held in (0, 3):  # speed and gear held (grade, demand and descent are 0 past the end)
             new[held, :, w0:] = old[held, :, w0 - 1:w0]
         self.tables = new
 
@@ -165,7 +167,7 @@ class EpisodeRows:
         if need > self.tables.shape[2]:
             self._widen(need)
         self.state = self.state.copy()  # states handed out earlier (infos, phys_state) stay untouched
-        speed, grade, demand, gear, center = self.tables
+        speed, grade, demand, gear, descent = self.tables
         gl, ba = self.core.config.glider, self.core.config.battery
         j_per_soc = ba.nominal_energy_kwh * 3.6e6
         for i, ep, tab in zip(rows, episodes, tables):
@@ -181,10 +183,9 @@ class EpisodeRows:
             self.state[i] = self.core.initial_state(ep.conditions, 1)[0]
             self.cond[i] = self.core.conditions_array(ep.conditions, 1)[0]
             self.soc_target[i] = ep.conditions.initial_soc
-            c = band_centers(self.reward_params, self.soc_target[i], tab.climb_m,
-                             gl.mass_kg + ep.conditions.payload_kg, gl.gravity_mps2, j_per_soc)
-            center[i, :n] = c
-            center[i, n:] = c[-1]
+            descent[i, :n] = descent_soc(tab.climb_m, gl.mass_kg + ep.conditions.payload_kg, gl.gravity_mps2,
+                                         j_per_soc)
+            descent[i, n:] = 0.0
             self.k[i] = ep.start_s
             self.n_steps[i] = ep.cycle.n_steps
             self.end[i] = ep.cycle.n_steps if max_steps is None else min(ep.cycle.n_steps, ep.start_s + max_steps)
@@ -215,7 +216,7 @@ class EpisodeRows:
         obs = np.empty((n, self.low.size), dtype=np.float32)
         core = self.core
         advance_kernel(core.gl, core.dl, core.en, core.mo, core.th, core.ba, core.pt, core.dt_s, self._weights, u,
-                       self.tables, self.k, self.n_steps, self.state, self.cond, self.offsets,
+                       self.tables, self.k, self.n_steps, self.state, self.cond, self.soc_target, self.offsets,
                        self.low32, self.high32, self.all_rows, state_out, out, terms, total, self.avail, obs)
         self.state = state_out
         self.last_out = out
@@ -225,6 +226,7 @@ class EpisodeRows:
         """Observations [n, dim] of all rows (or of ``rows``), float32, clipped to the declared bounds."""
         idx = self.all_rows if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
         obs = np.empty((idx.size, self.low.size), dtype=np.float32)
-        observe_kernel(idx, self.k, self.state, self.cond, self.tables[4], self.avail, self.n_steps, self.tables[0],
-                       self.tables[2], self.tables[3], self.offsets, self.core.dt_s, self.low32, self.high32, obs)
+        observe_kernel(self._weights, idx, self.k, self.state, self.cond, self.soc_target, self.avail, self.n_steps,
+                       self.tables[0], self.tables[2], self.tables[3], self.tables[4], self.offsets, self.core.dt_s,
+                       self.low32, self.high32, obs)
         return obs

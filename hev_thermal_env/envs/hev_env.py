@@ -104,7 +104,7 @@ class HevThermalEnv(gym.Env):
     starts and ends inside the band returns exactly minus its corrected fuel
     (:mod:`hev_thermal_env.metrics`) and the overheat terms. On high ground the center sits lower
     by the charge the remaining descent to the route's end will return
-    (:func:`~hev_thermal_env.envs.reward.band_centers`: ``descent_recovery`` = 0.6 of the
+    (:func:`~hev_thermal_env.envs.reward.band_center`: ``descent_recovery`` = 0.6 of the
     potential energy above the end, per unit SOC of the pack), so spending charge on a climb and
     letting the descent refill it costs nothing while it lasts; observation entry 4 is c(t). Without it the
     stated battery price lets storing charge with a loaded engine pay. A per-step quadratic

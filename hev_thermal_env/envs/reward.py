@@ -50,7 +50,7 @@ optimum does not hold the SOC level: it spends charge on the way up and lets the
 end). A fixed band charges that detour in full while it lasts and refunds it minutes later, which a
 learner with a short horizon cannot connect, so it keeps the charge and ends with the descent's
 energy on top (+0.02 to +0.03). The band's center is therefore the target lowered by the charge
-the remaining descent to the route's end will return (:func:`band_centers`):
+the remaining descent to the route's end will return (:func:`band_center`, :func:`descent_soc`):
 
     center(t) = SOC_target − descent_recovery · m · g · (h(t) − h_end) / E_per_SOC
 
@@ -82,7 +82,7 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 
 # positions in the weight vector of reward_kernel
 (W_FUEL, W_MISS, W_SOC_ENERGY, W_SOC_BAND, W_SOC_BAND_WEIGHT, W_SOC_DEV, W_SOC_SCALE, W_TEMP, W_SOFT_LIMIT,
- W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, N_WEIGHTS) = range(14)
+ W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, N_WEIGHTS) = range(15)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,6 +131,7 @@ class RewardParams(Params):
         w[W_DERATE] = self.derate_weight if overheat else 0.0
         w[W_BATT_PRICE] = self.prices.battery_g_per_j(lhv_j_per_g)
         w[W_MISS_PRICE] = self.prices.miss_g_per_j(lhv_j_per_g)
+        w[W_DESCENT] = self.descent_recovery
         return w
 
 
@@ -140,23 +141,23 @@ def soc_band_potential(w, soc, soc_target):
     return -w[W_SOC_BAND_WEIGHT] * max(abs(soc - soc_target) - w[W_SOC_BAND], 0.0)
 
 
-def band_centers(params: RewardParams, soc_target: float, climb_m: np.ndarray, mass_kg: float, gravity_mps2: float,
-                 battery_j_per_soc: float) -> np.ndarray:
-    """The band's center at every instant of a route: ``soc_target`` lowered by the charge still to come downhill.
+def descent_soc(climb_m: np.ndarray, mass_kg: float, gravity_mps2: float, battery_j_per_soc: float) -> np.ndarray:
+    """The SOC the descent from each instant to the route's end would return if all of it came back.
 
     ``climb_m`` [n + 1]: the height reached at each instant, from the start (m,
     :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`). At instant ``k`` the bus stands
-    ``climb_m[k] − climb_m[n]`` above the route's end; the potential energy of that height, times
-    ``descent_recovery``, is charge the descent will put back, so the center sits that much lower:
-
-        center[k] = soc_target − descent_recovery · m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc
-
-    On a flat route, and at the route's end, the center is ``soc_target``: the settlement over an
-    episode is still the charge for the final SOC (plus a constant for a start off the center).
+    ``climb_m[k] − climb_m[n]`` above the route's end; this is that height's potential energy in units
+    of the pack's SOC: ``m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc`` (0 at the end, and
+    everywhere on a flat route). The band's center at instant ``k`` is :func:`band_center` of it.
     """
     h = np.asarray(climb_m, dtype=np.float64)
-    k = params.descent_recovery * mass_kg * gravity_mps2 / battery_j_per_soc
-    return soc_target - k * (h - h[-1])
+    return mass_kg * gravity_mps2 * (h - h[-1]) / battery_j_per_soc
+
+
+@jit
+def band_center(w, soc_target, descent):
+    """The band's center: ``soc_target − descent_recovery · descent`` (``descent`` from :func:`descent_soc`)."""
+    return soc_target - w[W_DESCENT] * descent
 
 
 @jit

@@ -142,16 +142,14 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
         if bar is not None:
             bar.close()
     demo_s = time.perf_counter() - t0
-    x = obs.astype(np.float64)
-    norm = venv if isinstance(venv, VecNormalize) else None
-    if norm is not None and norm.norm_obs:
-        norm.obs_rms.mean = x.mean(axis=0)
-        norm.obs_rms.var = x.var(axis=0)
-        norm.obs_rms.count = float(len(x))
-        x = np.clip((x - norm.obs_rms.mean) / np.sqrt(norm.obs_rms.var + norm.epsilon), -norm.clip_obs,
-                    norm.clip_obs)
+    x = obs
+    if isinstance(venv, VecNormalize) and venv.norm_obs:
+        venv.obs_rms.mean = obs.mean(axis=0, dtype=np.float64)
+        venv.obs_rms.var = obs.var(axis=0, dtype=np.float64)
+        venv.obs_rms.count = float(len(obs))
+        x = venv.normalize_obs(obs)
     high = float(np.asarray(model.action_space.high).reshape(-1)[0])
-    history = fit_policy_mean(model.policy, x.astype(np.float32), actions, epochs=init["epochs"],
+    history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed)
     return {"teacher": init["imitate"], "episodes": init["episodes"], "steps": int(len(actions)),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
