@@ -4,7 +4,7 @@
 For every seed, ``train.py`` trains a PPO policy with the default hyperparameters
 (``agents/hyperparams/ppo.yaml``: imitation of ``ecms_thermal``, then PPO on generated cycle families,
 never ``hwfet``, ``beijing`` nor a validation cycle; ``best_model.zip`` chosen on fuel against ECMS on
-``validation_bus:0..4`` and ``validation_bus:25``) into
+``validation_bus:20..29``, never on a cycle of this benchmark) into
 ``RUNS/seed_S`` (skipped with ``--reuse`` when the run has finished). The seeds' models (``--model``:
 ``best_model.zip`` by default, or the final ``model.zip``), the shipped policy ``ppo``, every
 ``--policy NAME=PATH`` and the baselines (``rule``, ``ecms``, ``ecms_thermal``) then drive every cell
@@ -83,10 +83,14 @@ def train_seed(seed: int, runs: Path, reuse: bool, extra: list[str]) -> dict[str
 
 def training_row(seed: int, run_dir: Path, trained: dict[str, Any]) -> dict[str, Any]:
     """What the report shows of one seed's training: the ``result`` section of its config.yaml."""
+    from hev_thermal_env.cycles.names import expand_cycle_names
+
     res = trained["config"].get("result") or {}
     validation = ((res.get("validation") or {}).get("models") or {})
     command = run_dir / "command.txt"
+    selection = list(expand_cycle_names(list((trained["config"].get("eval") or {}).get("cycles") or [])))
     return {"seed": seed, "run": str(run_dir), "timesteps": res.get("timesteps_done"), "wall_s": res.get("wall_s"),
+            "selection_cycles": selection,
             "steps_per_s": res.get("steps_per_s"), "env_share": res.get("env_share"),
             "process_wall_s": trained["process_wall_s"], "best_eval": res.get("best_eval"),
             "validation_vs_ecms": {k: v.get("mean_fuel_ratio") for k, v in validation.items()},

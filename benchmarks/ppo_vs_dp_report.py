@@ -5,7 +5,8 @@ Metrics of one policy (a seed, a shipped policy or a baseline), from its runs in
 * ``ratio:CYCLE``: frontier ratio on a built-in cycle (``paper``);
 * ``validation_mean`` / ``validation_worst``: mean and largest frontier ratio over the validation
   cycles (undefined if one ratio is, i.e. a final SOC outside the frontier); ``validation_mean_unselected``:
-  the mean over ``validation_bus:5`` and above, which no checkpoint selection looked at;
+  the mean over the validation cycles no checkpoint selection looked at (the training configs'
+  ``eval.cycles``, :func:`selection_cycles`);
 * ``abs_dsoc_max``: largest |ΔSOC| over every ``paper`` cell; ``abs_dsoc_max_long``: over cycles of
   3,000 s or more;
 * ``thermal_cutoff_s``: cutoff seconds in the ``hot``/``summer`` cells where the optimum has none;
@@ -29,14 +30,41 @@ TARGETS = {"ratio:hwfet": 1.015, "ratio:beijing": 1.03, "ratio:udds": 1.04, "rat
            "ratio:wltc_3b": 1.04, "validation_mean": 1.03, "validation_worst": 1.06, "validation_mean_unselected": None,
            "abs_dsoc_max": 0.02, "abs_dsoc_max_long": 0.02, "thermal_cutoff_s": 0.0, "thermal_derated_excess_s": None}
 TEXT = {"validation_mean": "validation cycles: mean ratio", "validation_worst": "validation cycles: worst ratio",
-        "validation_mean_unselected": "validation cycles ≥ 5: mean ratio (never used for selection)",
+        "validation_mean_unselected": "validation cycles never selected on: mean ratio",
         "abs_dsoc_max": "largest abs(ΔSOC), every paper cycle",
         "abs_dsoc_max_long": "largest abs(ΔSOC), cycles ≥ 3,000 s",
         "thermal_cutoff_s": "hot/summer: cutoff s where the optimum has none",
         "thermal_derated_excess_s": "hot/summer: derated s beyond the optimum's"}
 SOC_LIMIT = 0.02
 LONG_S = 3000
-SELECTION_CYCLES = 5  # validation_bus:0..4: the checkpoint selection's cycles
+
+
+def selection_note(data: dict[str, Any]) -> str:
+    """The notes' line on the cycles ``best_model.zip`` was chosen on and which cells they overlap."""
+    selected = selection_cycles(data)
+    shown = ", ".join(f"`{c}`" for c in sorted(selected, key=_cycle_order))
+    overlap = sorted((c["cycle"] for c in data["cells"] if _validation(c) and c["cycle"] in selected), key=_cycle_order)
+    if not overlap:
+        return (f"* Training chose `best_model.zip` on {shown} (`paper`, `full_bus`); none of them is a cell here, so "
+                "every validation row is on cycles never selected on.")
+    return (f"* Training chose `best_model.zip` on {shown}; of these, {', '.join(f'`{c}`' for c in overlap)} are cells "
+            "here, and the row of validation cycles never selected on leaves them out.")
+
+
+def _cycle_order(name: str) -> tuple[str, int]:
+    head, _, k = name.partition(":")
+    return head, int(k) if k.isdigit() else -1
+
+
+def selection_cycles(data: dict[str, Any]) -> set[str]:
+    """The cycles any seed's training chose its ``best_model.zip`` on (its config's ``eval.cycles``).
+
+    Older result files do not record them; there the selection ran on ``validation_bus:0..4``.
+    """
+    rows = data.get("training") or []
+    if rows and all("selection_cycles" in r for r in rows):
+        return {c for r in rows for c in r["selection_cycles"]}
+    return {f"validation_bus:{k}" for k in range(5)}
 
 
 def _paper(cell: dict) -> bool:
@@ -51,8 +79,11 @@ def _all_defined(values: list) -> bool:
     return bool(values) and all(v is not None for v in values)
 
 
-def member_metrics(cells: list[dict], name: str) -> dict[str, float | None]:
-    """Every metric of the policy ``name`` (None when undefined; absent when its cells did not run)."""
+def member_metrics(cells: list[dict], name: str, selected: set[str] = frozenset()) -> dict[str, float | None]:
+    """Every metric of the policy ``name`` (None when undefined; absent when its cells did not run).
+
+    ``selected``: the cycles checkpoints were selected on (left out of ``validation_mean_unselected``).
+    """
     m: dict[str, float | None] = {}
     for c in cells:
         if _paper(c) and c["family"] == "built-in" and f"ratio:{c['cycle']}" in TARGETS:
@@ -61,8 +92,7 @@ def member_metrics(cells: list[dict], name: str) -> dict[str, float | None]:
     if val:
         m["validation_mean"] = float(np.mean(val)) if _all_defined(val) else None
         m["validation_worst"] = float(np.max(val)) if _all_defined(val) else None
-    rest = [c["runs"][name]["frontier_ratio"] for c in cells
-            if _validation(c) and int(c["cycle"].split(":")[1]) >= SELECTION_CYCLES]
+    rest = [c["runs"][name]["frontier_ratio"] for c in cells if _validation(c) and c["cycle"] not in selected]
     if rest:
         m["validation_mean_unselected"] = float(np.mean(rest)) if _all_defined(rest) else None
     paper = [c for c in cells if _paper(c)]
@@ -99,7 +129,8 @@ def summarize(data: dict[str, Any]) -> dict[str, Any]:
     """Metrics of every policy and baseline, the family's IQM [CI] per metric and per cell, verdicts."""
     cells, seeds = data["cells"], data["seeds"]
     names = [*seeds, *data["policies"], *data["baselines"]]
-    members = {n: member_metrics(cells, n) for n in names}
+    selected = selection_cycles(data)
+    members = {n: member_metrics(cells, n, selected) for n in names}
     keys = [k for k in TARGETS if k in members[names[0]]]
     verdicts = {n: {k: met(members[n][k], TARGETS[k]) for k in keys} for n in names}
     family = {}
@@ -256,9 +287,7 @@ def markdown(data: dict[str, Any]) -> str:
         "benchmark timed it, the final validation on every validation cycle included.", "",
         "## the optimum per cell", "", *optimum_table(data), "",
         "## notes", "",
-        f"* `validation_bus:0..{SELECTION_CYCLES - 1}` (paper) are the cycles training chose `best_model.zip` on (with "
-        f"`validation_bus:25`, an express route this table does not hold); "
-        "the row of validation cycles ≥ 5 leaves them out.",
+        selection_note(data),
         *warned,
         f"* Machine: {data['machine']}; cells evaluated in {data['eval_wall_s']:.0f} s, training "
         f"{data['training_wall_s']:.0f} s.", ""]

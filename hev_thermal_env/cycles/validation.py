@@ -4,8 +4,8 @@
 :func:`validation_family` with seed ``VALIDATION_SEED_BASE + k``: for ``k`` below
 :data:`ROTATION_SIZE`, ``VALIDATION_FAMILIES[k % 5]`` (any five consecutive cycles hold one of each
 family: long, congested, hard launches, hilly, mixed), and from there on express routes
-(``bus_express``). ``validation_bus:0..4`` and ``validation_bus:25`` are the quick subset a
-training run selects its checkpoints on.
+(``bus_express``). ``validation_bus:20..29`` are the cycles a training run selects its checkpoints on;
+``benchmarks/ppo_vs_dp.py`` judges on ``validation_bus:0..19``, which no selection saw.
 
 Training draws family seeds from ``[0, TRAINING_SEED_LIMIT)``
 (:func:`~hev_thermal_env.cycles.families.training_seed`), below :data:`VALIDATION_SEED_BASE`, and a
