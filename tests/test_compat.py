@@ -74,7 +74,7 @@ def test_the_envs_are_reachable_from_the_package():
     assert hev_thermal_env.HevThermalVectorEnv is hev_thermal_env.envs.vector_env.HevThermalVectorEnv
     from hev_thermal_env import HevThermalVectorEnv
 
-    assert HevThermalVectorEnv(2).reset(seed=0)[0].shape == (2, 19)
+    assert HevThermalVectorEnv(2).reset(seed=0)[0].shape == (2, 20)
 
 
 def test_module_id_form_makes_the_env_in_a_fresh_process():
@@ -96,8 +96,8 @@ def test_module_id_form_makes_the_env_in_a_fresh_process():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=300,
                        env={**_clean_env(), "PYTHONPATH": str(ROOT)})
     assert r.returncode == 0, r.stderr
-    assert r.stdout.splitlines() == ["bare id: NameNotFound", "(19,) HevThermal-v0 ['ambient_temp_c', 'coolant_code']",
-                                     "HevThermalVectorEnv (3, 19)"]
+    assert r.stdout.splitlines() == ["bare id: NameNotFound", "(20,) HevThermal-v0 ['ambient_temp_c', 'coolant_code']",
+                                     "HevThermalVectorEnv (3, 20)"]
 
 
 def _clean_env() -> dict:
@@ -211,5 +211,5 @@ def test_sb3_contrib_recurrent_ppo_and_tqc_train(short_cycle):
                           policy_kwargs={"net_arch": [32, 32], "n_critics": 2})
     tqc.learn(300)
     assert tqc.num_timesteps == 300
-    action, _ = tqc.predict(np.zeros(19, np.float32), deterministic=True)
+    action, _ = tqc.predict(np.zeros(20, np.float32), deterministic=True)
     assert action.shape == (1,) and -1.0 <= float(action[0]) <= 1.0

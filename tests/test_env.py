@@ -66,12 +66,12 @@ def test_spaces():
     env = make().unwrapped
     assert env.action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
     space = env.observation_space
-    assert space.dtype == np.float32 and space.shape == (19,)
+    assert space.dtype == np.float32 and space.shape == (20,)
     assert np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high)) and np.all(space.low < space.high)
     assert len(env.obs_names) == space.shape[0] == len(observation_names(10, 2))
     assert env.obs_names[-1] == "preview_speed_10s_mps"
-    assert make(preview_s=0).observation_space.shape == (14,)
-    assert make(preview_s=30, preview_step_s=5).observation_space.shape == (20,)
+    assert make(preview_s=0).observation_space.shape == (15,)
+    assert make(preview_s=30, preview_step_s=5).observation_space.shape == (21,)
     with pytest.raises(ValueError):
         make(preview_s=-1)
 

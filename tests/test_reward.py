@@ -199,7 +199,7 @@ def test_band_center_sits_lower_on_high_ground_and_returns_to_the_target_at_the_
     """The observed band center is SOC₀ − recovery · m g (height above the route's end) / battery energy per SOC,
     with the height integrated here from the cycle's speed and grade; 0 recovery is the fixed band."""
     from hev_thermal_env.envs.hev_env import HevThermalEnv
-    from hev_thermal_env.envs.spaces import OBS_SOC_TARGET
+    from hev_thermal_env.envs.spaces import OBS_SOC, OBS_SOC_DEVIATION, OBS_SOC_TARGET
 
     env = HevThermalEnv(cycle="udds", scenario="hilly", reward={"descent_recovery": recovery})
     obs, _ = env.reset(seed=0)
@@ -210,13 +210,18 @@ def test_band_center_sits_lower_on_high_ground_and_returns_to_the_target_at_the_
     mass_kg = bus.glider.mass_kg + env.conditions.payload_kg
     j_per_soc = 30 * 2 * 45.0 * 13.4 * 3600.0  # 30 × 2 modules of 45 Ah at 13.4 V: the pack's energy per unit SOC
     expected = 0.65 - recovery * mass_kg * 9.81 * (height - height[-1]) / j_per_soc
-    centers = [obs[OBS_SOC_TARGET]]
+    centers, deviations = [obs[OBS_SOC_TARGET]], [obs[OBS_SOC_DEVIATION]]
+    socs = [obs[OBS_SOC]]  # at reset the SOC is the observation's own (no info SOC yet)
     done = False
     while not done:
-        obs, _, term, trunc, _ = env.step(np.array([0.2], dtype=np.float32))
+        obs, _, term, trunc, info = env.step(np.array([0.2], dtype=np.float32))
         centers.append(obs[OBS_SOC_TARGET])
+        deviations.append(obs[OBS_SOC_DEVIATION])
+        socs.append(info["soc"])
         done = term or trunc
     np.testing.assert_allclose(centers, expected[:len(centers)], atol=2e-6)  # float32 observations
+    # the SOC's distance from the center, from the info's SOC and the independently integrated center
+    np.testing.assert_allclose(deviations, np.asarray(socs) - expected[:len(centers)], atol=2e-6)
     assert centers[-1] == pytest.approx(0.65, abs=1e-7)
     if recovery:
         assert np.ptp(height) > 20.0 and np.ptp(centers) > 0.01  # the hills move the center beyond the band

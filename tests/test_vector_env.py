@@ -33,7 +33,7 @@ def test_spaces_and_metadata():
     assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     assert envs.single_action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
     assert envs.action_space.shape == (3, 1)
-    assert envs.observation_space.shape == (3, 19) and envs.observation_space.dtype == np.float32
+    assert envs.observation_space.shape == (3, 20) and envs.observation_space.dtype == np.float32
     assert envs.single_observation_space == gym.make("HevThermal-v0").observation_space
     assert HevThermalVectorEnv(2, autoreset_mode="SameStep").metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
 
@@ -299,7 +299,7 @@ def test_sb3_subproc_vec_env():
     try:
         env.seed(0)
         obs = env.reset()
-        assert obs.shape == (2, 19)
+        assert obs.shape == (2, 20)
         obs, rew, done, infos = env.step(np.full((2, 1), 0.3, np.float32))
         assert rew.shape == (2,) and "fuel_g" in infos[0]
     finally:

@@ -32,7 +32,7 @@ def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, d
     Entry order and meaning: :data:`hev_thermal_env.envs.spaces.observation_names`. "Next step"
     is the step from ``speed[r, k]`` to ``speed[r, k + 1]``. The ``soc_target`` entry is the SOC band's
     center at instant ``k`` (:func:`~hev_thermal_env.envs.reward.band_center` of ``descent[r, k]``, with
-    the reward weights ``w``).
+    the reward weights ``w``), ``soc_deviation`` the SOC's distance from it.
     """
     n_base = S.N_OBS_BASE
     for i in range(rows.shape[0]):
@@ -43,7 +43,9 @@ def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, d
         obs[i, S.OBS_ACCEL] = (speed[r, j + 1] - v0) / dt_s
         obs[i, S.OBS_DEMAND] = demand[r, j]
         obs[i, S.OBS_SOC] = state[r, C.SOC]
-        obs[i, S.OBS_SOC_TARGET] = band_center(w, soc_target[r], descent[r, j])
+        center = band_center(w, soc_target[r], descent[r, j])
+        obs[i, S.OBS_SOC_TARGET] = center
+        obs[i, S.OBS_SOC_DEVIATION] = state[r, C.SOC] - center
         obs[i, S.OBS_TEMP] = state[r, C.TEMP_C]
         obs[i, S.OBS_PWM] = state[r, C.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
         obs[i, S.OBS_HEAT_X] = state[r, C.HEAT_X]

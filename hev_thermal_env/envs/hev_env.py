@@ -55,7 +55,7 @@ class HevThermalEnv(gym.Env):
 
     ## Observation Space
 
-    ``Box`` of float32, ``14 + preview_s // preview_step_s`` entries, always inside the bounds
+    ``Box`` of float32, ``15 + preview_s // preview_step_s`` entries, always inside the bounds
     (values are clipped to them). "Next step" is the step from ``cycle.speed_mps[k]`` to ``[k+1]``.
 
     | Num | Observation | Min | Max | Unit |
@@ -65,26 +65,27 @@ class HevThermalEnv(gym.Env):
     | 2 | wheel power the cycle demands over the next step (road load, grade, inertia) | -2000 | 2000 | kW |
     | 3 | battery state of charge | 0 | 1 | - |
     | 4 | center of the reward's SOC band now (the episode's initial SOC on a flat route; see Rewards) | 0 | 1 | - |
-    | 5 | motor temperature | -40 | 200 | °C |
-    | 6 | heat index PWM (eq 9): 0 peak torque available, 1 continuous torque only | 0 | 1 | - |
-    | 7 | heat-index integrator state x (eq 9), PWM = clip(x, 0, 1) | -1 | 1 | - |
-    | 8 | motor cut off by its 70 °C protection (1) or not (0) | 0 | 1 | - |
-    | 9 | motor torque envelope of the last step (at reset: of the first step), see below | 0 | peak torque | N·m |
-    | 10 | gear of the next step (shift schedule on speed and load), 1 or more | 0 | number of gears | - |
-    | 11 | cycle progress k / n_steps | 0 | 1 | - |
-    | 12 | ambient temperature | -40 | 60 | °C |
-    | 13 | coolant heat-transfer multiplier: 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
-    | 14... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
+    | 5 | SOC minus the band's center: the settlement is zero within ±0.01 of it | -1 | 1 | - |
+    | 6 | motor temperature | -40 | 200 | °C |
+    | 7 | heat index PWM (eq 9): 0 peak torque available, 1 continuous torque only | 0 | 1 | - |
+    | 8 | heat-index integrator state x (eq 9), PWM = clip(x, 0, 1) | -1 | 1 | - |
+    | 9 | motor cut off by its 70 °C protection (1) or not (0) | 0 | 1 | - |
+    | 10 | motor torque envelope of the last step (at reset: of the first step), see below | 0 | peak torque | N·m |
+    | 11 | gear of the next step (shift schedule on speed and load), 1 or more | 0 | number of gears | - |
+    | 12 | cycle progress k / n_steps | 0 | 1 | - |
+    | 13 | ambient temperature | -40 | 60 | °C |
+    | 14 | coolant heat-transfer multiplier: 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
+    | 15... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
 
-    Entry 9 is the motor's torque limit in the last step: the peak torque at that speed, derated
+    Entry 10 is the motor's torque limit in the last step: the peak torque at that speed, derated
     by the heat index (eq 8), 0 while cut off; after reset, the limit for the first step. Its
-    upper bound is the motor's peak torque (240 N·m for ``paper_bus``); that of entry 10 the number
+    upper bound is the motor's peak torque (240 N·m for ``paper_bus``); that of entry 11 the number
     of gears (5). The gear is always 1 or more, but its declared lower bound is 0, so that an
     all-zero observation lies inside the space (torchrl, for one, fills the final observation of a
     batch with zeros and checks it against the space); every other entry's range holds 0 already.
     The preview is taken from the start of the next step and held at the cycle's last speed past
     its end; with the defaults (``preview_s=10``, ``preview_step_s=2``) it has 5 entries
-    (+2 to +10 s) and the observation 19. :func:`observation_names` gives the names in order.
+    (+2 to +10 s) and the observation 20. :func:`observation_names` gives the names in order.
 
     ## Rewards
 

@@ -28,6 +28,8 @@ _OBS_FIELDS = (
     ("soc_target", 0.0, 1.0, "-", "center of the reward's SOC band now: the episode's initial SOC, lowered "
                                     "by the charge the route's remaining descent will return (flat route: the "
                                     "initial SOC)"),
+    ("soc_deviation", -1.0, 1.0, "-", "soc − soc_target: the SOC's distance from the band's center (the reward "
+                                      "settles only what lies beyond ±soc_band of it)"),
     ("motor_temp_c", -40.0, 200.0, "°C", "motor temperature"),
     ("heat_index", 0.0, 1.0, "-", "heat index PWM (eq 9): 0 full peak torque, 1 continuous torque only"),
     ("heat_x", -1.0, 1.0, "-", "heat-index integrator state x (eq 9); PWM = clip(x, 0, 1)"),
@@ -45,6 +47,7 @@ OBS_ACCEL = _OBS_INDEX["accel_mps2"]
 OBS_DEMAND = _OBS_INDEX["wheel_power_demand_kw"]
 OBS_SOC = _OBS_INDEX["soc"]
 OBS_SOC_TARGET = _OBS_INDEX["soc_target"]
+OBS_SOC_DEVIATION = _OBS_INDEX["soc_deviation"]
 OBS_TEMP = _OBS_INDEX["motor_temp_c"]
 OBS_PWM = _OBS_INDEX["heat_index"]
 OBS_HEAT_X = _OBS_INDEX["heat_x"]
