@@ -88,7 +88,7 @@ def training_row(seed: int, run_dir: Path, trained: dict[str, Any]) -> dict[str,
     res = trained["config"].get("result") or {}
     validation = ((res.get("validation") or {}).get("models") or {})
     command = run_dir / "command.txt"
-    selection = list(expand_cycle_names(list((trained["config"].get("eval") or {}).get("cycles") or [])))
+    selection = expand_cycle_names(list((trained["config"].get("eval") or {}).get("cycles") or []))
     return {"seed": seed, "run": str(run_dir), "timesteps": res.get("timesteps_done"), "wall_s": res.get("wall_s"),
             "selection_cycles": selection,
             "steps_per_s": res.get("steps_per_s"), "env_share": res.get("env_share"),

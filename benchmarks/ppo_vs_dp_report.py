@@ -42,8 +42,8 @@ LONG_S = 3000
 def selection_note(data: dict[str, Any]) -> str:
     """The notes' line on the cycles ``best_model.zip`` was chosen on and which cells they overlap."""
     selected = selection_cycles(data)
-    shown = ", ".join(f"`{c}`" for c in sorted(selected, key=_cycle_order))
-    overlap = sorted((c["cycle"] for c in data["cells"] if _validation(c) and c["cycle"] in selected), key=_cycle_order)
+    shown = ", ".join(f"`{c}`" for c in selected)
+    overlap = [c["cycle"] for c in data["cells"] if _validation(c) and c["cycle"] in selected]
     if not overlap:
         return (f"* Training chose `best_model.zip` on {shown} (`paper`, `full_bus`); none of them is a cell here, so "
                 "every validation row is on cycles never selected on.")
@@ -51,20 +51,15 @@ def selection_note(data: dict[str, Any]) -> str:
             "here, and the row of validation cycles never selected on leaves them out.")
 
 
-def _cycle_order(name: str) -> tuple[str, int]:
-    head, _, k = name.partition(":")
-    return head, int(k) if k.isdigit() else -1
-
-
-def selection_cycles(data: dict[str, Any]) -> set[str]:
-    """The cycles any seed's training chose its ``best_model.zip`` on (its config's ``eval.cycles``).
+def selection_cycles(data: dict[str, Any]) -> list[str]:
+    """The cycles any seed's training chose its ``best_model.zip`` on (its config's ``eval.cycles``), in order.
 
     Older result files do not record them; there the selection ran on ``validation_bus:0..4``.
     """
     rows = data.get("training") or []
     if rows and all("selection_cycles" in r for r in rows):
-        return {c for r in rows for c in r["selection_cycles"]}
-    return {f"validation_bus:{k}" for k in range(5)}
+        return list(dict.fromkeys(c for r in rows for c in r["selection_cycles"]))
+    return [f"validation_bus:{k}" for k in range(5)]
 
 
 def _paper(cell: dict) -> bool:
@@ -79,7 +74,7 @@ def _all_defined(values: list) -> bool:
     return bool(values) and all(v is not None for v in values)
 
 
-def member_metrics(cells: list[dict], name: str, selected: set[str] = frozenset()) -> dict[str, float | None]:
+def member_metrics(cells: list[dict], name: str, selected: list[str] = ()) -> dict[str, float | None]:
     """Every metric of the policy ``name`` (None when undefined; absent when its cells did not run).
 
     ``selected``: the cycles checkpoints were selected on (left out of ``validation_mean_unselected``).

@@ -146,7 +146,7 @@ class EpisodeRows:
     @property
     def band_center(self) -> np.ndarray:
         """The SOC band's center [n, width] of every row at every instant (held at the target past the end)."""
-        return self.soc_target[:, None] - self.reward_params.descent_recovery * self.tables[4]
+        return band_center(self._weights, self.soc_target[:, None], self.tables[4])
 
     @property
     def width(self) -> int:
