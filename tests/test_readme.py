@@ -1,21 +1,22 @@
-"""Every command and Python snippet of the README runs as written, in a copy of the checkout.
+"""Every command and Python snippet of the README and the docs pages runs as written, in a copy of the checkout.
 
 Each ```bash block runs line by line, in order, in its own copy of the checkout (without the
 package sources, so every command imports the package under test): a user pastes a block into a
-fresh clone. Progress bars stay on, as the user sees them. The only changes, each listed in
-``ADJUSTMENTS`` and each required to match a README line (so none can go stale silently):
+fresh clone. Progress bars stay on, as the user sees them. A command's leading ``python`` is the
+interpreter running this suite, and a console script (``hev-evaluate``, ``tensorboard``, ...) the one
+installed beside it, so the suite checks the environment it runs in, activated or not. The only
+other changes, each listed in ``ADJUSTMENTS`` and each required to match a README line (so none can
+go stale silently):
 
 * ``pip install -e ".[dev]" && CMD``: the suite runs in the installed environment, so it runs ``CMD``
   only (it never installs anything);
-* ``python -m pytest -q``, the test command, is this suite: it is not run again from inside
-  itself; ``.ci/run`` must run the README's test line exactly;
+* ``python -m pytest -q`` and ``python -m pytest -q --full``, the test commands, are this suite: they
+  are not run again from inside it; ``.ci/run`` must run the README's full-suite line exactly;
 * ``--timesteps N``: training budgets shrink to ``TINY_TIMESTEPS`` (one PPO rollout), the
-  documented flag a user would change the same way;
-* ``tensorboard --logdir DIR``: ``--inspect`` is added, which reads the same event files and
-  prints their tags instead of starting a server.
+  documented flag a user would change the same way.
 
-Every ```python block of the README and of the docs pages runs as a script. Commands in the docs
-pages' ```bash blocks must be README commands, so this test covers them too.
+The README's main job runs once per session (:func:`main_job`); every block that shows it reads that
+run's output instead of running it again. Every ```python block runs as a script.
 """
 
 from __future__ import annotations
@@ -35,18 +36,31 @@ README = ROOT / "README.md"
 DOCS = ROOT / "docs"
 
 INSTALL_PREFIX = 'pip install -e ".[dev]" && '
-TEST_COMMAND = "python -m pytest -q"
+TEST_COMMANDS = ("python -m pytest -q", "python -m pytest -q --full")
+MAIN_JOB = "python evaluate.py benchmark --out results"
 TINY_TIMESTEPS = 2048
 ADJUSTMENTS = {
     "install prefix": INSTALL_PREFIX,
-    "test command": TEST_COMMAND,
-    "training budget": "--timesteps ",
-    "tensorboard": "tensorboard --logdir ",
+    "fast tests": TEST_COMMANDS[0],
+    "full suite": TEST_COMMANDS[1],
+    "main job": MAIN_JOB,
 }
 #: Not copied into the working copy: the package sources (imported from the checkout under test),
 #: version control, and outputs a previous run may have left.
-NOT_COPIED = {".git", "hev_thermal_env", "agents", "results", "runs", "site", ".cache", ".pytest_cache",
-              ".ruff_cache", ".hypothesis", "build", "dist"}
+NOT_COPIED = {
+    ".git",
+    "hev_thermal_env",
+    "agents",
+    "results",
+    "runs",
+    "site",
+    ".cache",
+    ".pytest_cache",
+    ".ruff_cache",
+    ".hypothesis",
+    "build",
+    "dist",
+}
 FENCE = re.compile(r"^```(?P<lang>[\w-]*)[^\n]*\n(?P<body>.*?)^```", re.M | re.S)
 
 
@@ -66,41 +80,41 @@ def bare(command: str) -> str:
     return " ".join(re.split(r"\s#", command, maxsplit=1)[0].split())
 
 
-README_TEXT = README.read_text(encoding="utf-8")
-BASH_BLOCKS = fenced(README_TEXT, "bash")
-README_COMMANDS = [c for block in BASH_BLOCKS for c in command_lines(block)]
-SNIPPETS = [("README.md", i, s) for i, s in enumerate(fenced(README_TEXT, "python"))] + [
-    (p.relative_to(ROOT).as_posix(), i, s) for p in sorted(DOCS.rglob("*.md"))
-    for i, s in enumerate(fenced(p.read_text(encoding="utf-8"), "python"))]
+PAGES = [README, *sorted(DOCS.rglob("*.md"))]
+TEXTS = {page.relative_to(ROOT).as_posix(): page.read_text(encoding="utf-8") for page in PAGES}
+BASH_BLOCKS = [(name, i, block) for name, text in TEXTS.items() for i, block in enumerate(fenced(text, "bash"))]
+README_COMMANDS = [c for block in fenced(TEXTS["README.md"], "bash") for c in command_lines(block)]
+SNIPPETS = [(name, i, s) for name, text in TEXTS.items() for i, s in enumerate(fenced(text, "python"))]
 
 
 def as_run(command: str) -> str | None:
-    """What the suite runs for a README command (None: not run, see the module docstring)."""
+    """What the suite runs for a command (None: not run, see the module docstring)."""
     if command.startswith(INSTALL_PREFIX):
-        command = command[len(INSTALL_PREFIX):]
-    if bare(command) == TEST_COMMAND:
+        command = command[len(INSTALL_PREFIX) :]
+    if bare(command) in TEST_COMMANDS:
         return None
     command = re.sub(r"--timesteps \d+", f"--timesteps {TINY_TIMESTEPS}", command)
-    if command.startswith(ADJUSTMENTS["tensorboard"]):
-        command = f"{bare(command)} --inspect"
-    return command
+    program, _, rest = command.partition(" ")
+    if program == "python":
+        program = sys.executable
+    elif (Path(sys.executable).parent / program).is_file():
+        program = str(Path(sys.executable).parent / program)
+    return f"{shlex.quote(program)} {rest}"
 
 
 def declared_outputs(command: str) -> list[str]:
     """Files and folders a command says it writes: ``--out``, ``--json``, ``--trace``, ``--plot``, ``> FILE``."""
     words = shlex.split(command, comments=True)
-    found = [words[i + 1] for i, w in enumerate(words[:-1]) if w in ("--out", "--json", "--trace", "--plot", ">")]
-    if words[:2] == ["tensorboard", "--logdir"]:
-        found.append(words[2])
-    return found
+    return [words[i + 1] for i, w in enumerate(words[:-1]) if w in ("--out", "--json", "--trace", "--plot", ">")]
 
 
-@pytest.fixture
-def checkout_copy(tmp_path: Path) -> Path:
+def copy_checkout(dst: Path) -> Path:
     """A copy of the checkout without the package sources, as the working directory of a block."""
-    dst = tmp_path / "checkout"
-    shutil.copytree(ROOT, dst, ignore=lambda d, names: [n for n in names if n == "__pycache__"
-                                                        or (Path(d) == ROOT and n in NOT_COPIED)])
+    shutil.copytree(
+        ROOT,
+        dst,
+        ignore=lambda d, names: [n for n in names if n == "__pycache__" or (Path(d) == ROOT and n in NOT_COPIED)],
+    )
     return dst
 
 
@@ -113,80 +127,108 @@ def user_env() -> dict[str, str]:
 
 
 def run_shell(command: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(["bash", "-c", command], cwd=cwd, env=user_env(), capture_output=True, text=True,
-                          timeout=900)
+    return subprocess.run(["bash", "-c", command], cwd=cwd, env=user_env(), capture_output=True, text=True, timeout=900)
+
+
+@pytest.fixture(scope="session")
+def main_job(tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess]:
+    """The README's main job, run once per session: the checkout copy it ran in, and the run."""
+    cwd = copy_checkout(tmp_path_factory.mktemp("main_job") / "checkout")
+    return cwd, run_shell(as_run(MAIN_JOB), cwd)
 
 
 def test_readme_has_the_commands_this_test_adjusts():
     """Each adjustment matches a README command, so a renamed command cannot drop out unnoticed."""
     for name, marker in ADJUSTMENTS.items():
         assert any(marker in c for c in README_COMMANDS), f"{name}: no README command contains {marker!r}"
-    top = command_lines(BASH_BLOCKS[0])
-    assert [c.startswith(INSTALL_PREFIX) for c in top] == [True, True], top
-    assert bare(top[1]) == INSTALL_PREFIX + TEST_COMMAND
+    top = [bare(c) for c in command_lines(fenced(TEXTS["README.md"], "bash")[0])]
+    assert top == [INSTALL_PREFIX + c for c in (MAIN_JOB, *TEST_COMMANDS)], top
 
 
-def test_ci_runs_the_readme_test_command():
-    """The README's test line is not run from inside the suite; CI runs it, exactly as written."""
-    test_line = bare(command_lines(BASH_BLOCKS[0])[1])
-    ci_lines = [bare(line).replace("pip install -q ", "pip install ")
-                for line in (ROOT / ".ci" / "run").read_text().splitlines() if not line.startswith("#")]
-    assert test_line in ci_lines, f".ci/run does not run {test_line!r}"
+def test_ci_runs_the_readme_full_suite_command():
+    """The README's test lines are not run from inside the suite; CI runs the full-suite line, exactly as written."""
+    full_line = INSTALL_PREFIX + TEST_COMMANDS[1]
+    assert full_line in {bare(c) for c in README_COMMANDS}
+    ci_lines = [
+        bare(line).replace("pip install -q ", "pip install ")
+        for line in (ROOT / ".ci" / "run").read_text().splitlines()
+        if not line.startswith("#")
+    ]
+    assert full_line in ci_lines, f".ci/run does not run {full_line!r}"
 
 
-@pytest.mark.parametrize("index", range(len(BASH_BLOCKS)),
-                         ids=[bare(command_lines(b)[0])[:40] if command_lines(b) else "empty" for b in BASH_BLOCKS])
-def test_readme_bash_block_runs_as_written(index: int, checkout_copy: Path):
-    commands = command_lines(BASH_BLOCKS[index])
-    assert commands, f"bash block {index} of README.md has no command"
+def test_commands_run_with_the_suites_interpreter():
+    assert as_run("python evaluate.py run") == f"{shlex.quote(sys.executable)} evaluate.py run"
+    assert as_run(INSTALL_PREFIX + TEST_COMMANDS[0]) is None
+    assert as_run("python train.py --timesteps 10000000").endswith(f"train.py --timesteps {TINY_TIMESTEPS}")
+
+
+@pytest.mark.parametrize(
+    "page, index, block",
+    BASH_BLOCKS,
+    ids=[
+        f"{page}#{i}:{bare(command_lines(b)[0])[:40]}" if command_lines(b) else f"{page}#{i}"
+        for page, i, b in BASH_BLOCKS
+    ],
+)
+def test_bash_block_runs_as_written(page: str, index: int, block: str, tmp_path: Path, request):
+    commands = command_lines(block)
+    assert commands, f"bash block {index} of {page} has no command"
+    cwd = copy_checkout(tmp_path / "checkout")
     ran = 0
     for command in commands:
         to_run = as_run(command)
         if to_run is None:
             continue
-        r = run_shell(to_run, checkout_copy)
-        where = f"README command {command!r} (ran {to_run!r})"
+        if to_run == as_run(MAIN_JOB):
+            done, r = request.getfixturevalue("main_job")
+            shutil.copytree(done / "results", cwd / "results", dirs_exist_ok=True)
+        else:
+            r = run_shell(to_run, cwd)
+        where = f"{page}: command {command!r} (ran {to_run!r})"
         assert r.returncode == 0, f"{where}: exit {r.returncode}\n{r.stdout[-2000:]}\n{r.stderr[-3000:]}"
         assert "Traceback" not in r.stderr, f"{where}: {r.stderr[-3000:]}"
         for out in declared_outputs(command):
-            path = checkout_copy / out
+            path = cwd / out
             assert path.exists() and (path.is_dir() or path.stat().st_size > 0), f"{where}: wrote no {out}"
             if path.is_dir():
                 assert any(path.iterdir()), f"{where}: {out} is empty"
-        check_specific(command, r, checkout_copy)
+        check_specific(command, r, cwd)
         ran += 1
-    assert ran, f"bash block {index} of README.md: no command ran"
+    assert ran or all(bare(c).removeprefix(INSTALL_PREFIX) in TEST_COMMANDS for c in commands), (
+        f"bash block {index} of {page}: no command ran"
+    )
 
 
 def check_specific(command: str, r: subprocess.CompletedProcess, cwd: Path) -> None:
     """What a few commands promise beyond writing their outputs."""
     words = shlex.split(command, comments=True)
-    if words[:1] == ["tensorboard"]:
-        assert "rollout/ep_rew_mean" in r.stdout, r.stdout[-2000:]
     if "hev_thermal_env.physics.docs" in command:
-        assert (cwd / "docs" / "parameters.md").read_text() == (DOCS / "parameters.md").read_text(), \
+        assert (cwd / "docs" / "parameters.md").read_text() == (DOCS / "parameters.md").read_text(), (
             "docs/parameters.md is not what `python -m hev_thermal_env.physics.docs` writes: regenerate it"
+        )
     if words[:2] == ["python", "train.py"] and "--resume" not in words:
         assert "%" in r.stderr + r.stdout, "no progress bar in the training output"
+
+
+def test_readme_table_is_the_main_jobs(main_job):
+    """The README's table is the table the main job writes (``results/results.md``), row for row."""
+    cwd, r = main_job
+    assert r.returncode == 0, r.stderr[-3000:]
+    rows = [line for line in (cwd / "results" / "results.md").read_text().splitlines() if line.startswith("| ")]
+    readme_rows = [line for line in TEXTS["README.md"].splitlines() if line.startswith("| ")]
+    assert readme_rows == rows, "the README's table is not the main job's results.md: copy it from there"
 
 
 @pytest.mark.parametrize("source, index, snippet", SNIPPETS, ids=[f"{s}#{i}" for s, i, _ in SNIPPETS])
 def test_python_snippet_runs_as_written(source: str, index: int, snippet: str, tmp_path: Path):
     script = tmp_path / "snippet.py"
     script.write_text(snippet, encoding="utf-8")
-    r = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=user_env(), capture_output=True, text=True,
-                       timeout=600)
+    r = subprocess.run(
+        [sys.executable, str(script)], cwd=tmp_path, env=user_env(), capture_output=True, text=True, timeout=600
+    )
     assert r.returncode == 0, f"{source}, python block {index}:\n{snippet}\n{r.stderr[-3000:]}"
 
 
-def test_docs_commands_are_readme_commands():
-    """The docs pages show only commands that the README test runs."""
-    readme = {bare(c) for c in README_COMMANDS}
-    for page in sorted(DOCS.rglob("*.md")):
-        for block in fenced(page.read_text(encoding="utf-8"), "bash"):
-            for command in command_lines(block):
-                assert bare(command) in readme, f"{page.relative_to(ROOT)}: {command!r} is not a README command"
-
-
 def test_readme_links_the_documentation_site():
-    assert "mkdocs build --strict" in README_TEXT or "docs/index.md" in README_TEXT
+    assert "mkdocs build --strict" in TEXTS["README.md"] and "docs/index.md" in TEXTS["README.md"]

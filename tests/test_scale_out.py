@@ -48,7 +48,7 @@ def tiny_cycles(tmp_path_factory) -> list[str]:
     d = tmp_path_factory.mktemp("cycles")
     paths = []
     for name, start in (("hwfet", 0), ("beijing", 100)):
-        v = load_cycle(name).speed_mps[start:start + 121]
+        v = load_cycle(name).speed_mps[start : start + 121]
         path = d / f"{name}_tiny.csv"
         path.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
         paths.append(str(path))
@@ -68,10 +68,22 @@ def one_line(text: str) -> str:
 
 # --- the benchmark matrix on Ray ----------------------------------------------------------------------
 
-@pytest.mark.slow
+
+@pytest.mark.full
 def test_ray_matrix_is_byte_identical_to_local(ray_runtime, tiny_cycles, tmp_path, capsys):
-    common = ["benchmark", "--cycles", *tiny_cycles, "--strategies", "rule", "ecms", "dp", "--scenarios", "paper",
-              "hot", "--no-plots"]
+    common = [
+        "benchmark",
+        "--cycles",
+        *tiny_cycles,
+        "--strategies",
+        "rule",
+        "ecms",
+        "dp",
+        "--scenarios",
+        "paper",
+        "hot",
+        "--no-plots",
+    ]
     assert evaluate_main([*common, "--out", str(tmp_path / "ray"), "--executor", "ray"]) == 0
     assert evaluate_main([*common, "--out", str(tmp_path / "local"), "--jobs", "1"]) == 0
     assert "16 runs" in capsys.readouterr().out  # dp_thermal, the reference, added
@@ -93,10 +105,9 @@ def running_cell_pids() -> list[int]:
     return pids
 
 
-@pytest.mark.slow
+@pytest.mark.full
 def test_a_killed_worker_does_not_lose_the_matrix(ray_runtime, tiny_cycles, tmp_path):
-    kw = dict(cycles=["hwfet", tiny_cycles[1]], strategies=("dp", "ecms", "rule"), scenarios=("paper",),
-              progress=False, plots=False)
+    kw = dict(cycles=tiny_cycles, strategies=("dp", "ecms", "rule"), scenarios=("paper",), progress=False, plots=False)
     killed: list[int] = []
 
     def kill_first_cell():
@@ -113,8 +124,10 @@ def test_a_killed_worker_does_not_lose_the_matrix(ray_runtime, tiny_cycles, tmp_
     run_benchmark(tmp_path / "ray", executor="ray", **kw)
     killer.join()
     assert killed, "no running cell was seen"
-    assert not Path(f"/proc/{killed[0]}").exists() or b"ray::_run_one" not in Path(
-        f"/proc/{killed[0]}/cmdline").read_bytes()
+    assert (
+        not Path(f"/proc/{killed[0]}").exists()
+        or b"ray::_run_one" not in Path(f"/proc/{killed[0]}/cmdline").read_bytes()
+    )
     run_benchmark(tmp_path / "local", jobs=1, **kw)
     assert_same_results(tmp_path / "ray", tmp_path / "local")
 
@@ -128,9 +141,27 @@ def free_port() -> int:
 def test_unreachable_address_is_one_line_and_fast(tiny_cycles, tmp_path):
     address = f"127.0.0.1:{free_port()}"
     t0 = time.monotonic()
-    r = subprocess.run([sys.executable, str(ROOT / "evaluate.py"), "benchmark", "--cycles", tiny_cycles[0],
-                        "--strategies", "rule", "--out", str(tmp_path / "out"), "--executor", "ray",
-                        "--address", address], capture_output=True, text=True, cwd=ROOT, timeout=60)
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "evaluate.py"),
+            "benchmark",
+            "--cycles",
+            tiny_cycles[0],
+            "--strategies",
+            "rule",
+            "--out",
+            str(tmp_path / "out"),
+            "--executor",
+            "ray",
+            "--address",
+            address,
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=60,
+    )
     assert time.monotonic() - t0 < 30
     assert r.returncode != 0
     assert address in one_line(r.stderr) and "ray start --head" in r.stderr
@@ -149,8 +180,7 @@ def test_address_forms_and_address_without_ray_executor(tmp_path, capsys):
 
 def test_without_ray_local_works_and_ray_says_how_to_install(monkeypatch, tiny_cycles, tmp_path, capsys):
     monkeypatch.setitem(sys.modules, "ray", None)  # "import ray" now fails as if it were not installed
-    run_benchmark(tmp_path / "local", cycles=tiny_cycles[:1], strategies=("rule",), jobs=1, progress=False,
-                  plots=False)
+    run_benchmark(tmp_path / "local", cycles=tiny_cycles[:1], strategies=("rule",), jobs=1, progress=False, plots=False)
     assert (tmp_path / "local" / "results.csv").is_file()
     args = ["benchmark", "--cycles", tiny_cycles[0], "--strategies", "rule", "--out", str(tmp_path / "r")]
     assert evaluate_main([*args, "--executor", "ray"]) == 2
@@ -163,17 +193,28 @@ def test_without_ray_local_works_and_ray_says_how_to_install(monkeypatch, tiny_c
 
 # --- sweeps -------------------------------------------------------------------------------------------
 
+
 def test_search_space_and_seed_statistics(tmp_path):
-    space = {"learning_rate": {"loguniform": [1e-4, 1e-3]}, "policy_kwargs.net_arch": {"choice": [[16, 16], [8]]},
-             "n_epochs": {"int": [2, 4]}, "ent_coef": 0.01}
+    space = {
+        "learning_rate": {"loguniform": [1e-4, 1e-3]},
+        "policy_kwargs.net_arch": {"choice": [[16, 16], [8]]},
+        "n_epochs": {"int": [2, 4]},
+        "ent_coef": 0.01,
+    }
     check_space(space)
     sampled = {"learning_rate": 2e-4, "policy_kwargs.net_arch": encode_choice([16, 16]), "n_epochs": 3}
-    assert trial_overrides(space, sampled) == {"ent_coef": 0.01, "learning_rate": 2e-4,
-                                               "policy_kwargs.net_arch": [16, 16], "n_epochs": 3}
-    for bad, message in (({"gamma": {"unifrom": [0.9, 0.99]}}, "did you mean 'uniform'"),
-                         ({"gamma": {"uniform": [0.99, 0.9]}}, "low < high"),
-                         ({"learning_rate": {"loguniform": [0, 1e-3]}}, "positive"),
-                         ({"n_epochs": {"choice": []}}, "non-empty")):
+    assert trial_overrides(space, sampled) == {
+        "ent_coef": 0.01,
+        "learning_rate": 2e-4,
+        "policy_kwargs.net_arch": [16, 16],
+        "n_epochs": 3,
+    }
+    for bad, message in (
+        ({"gamma": {"unifrom": [0.9, 0.99]}}, "did you mean 'uniform'"),
+        ({"gamma": {"uniform": [0.99, 0.9]}}, "low < high"),
+        ({"learning_rate": {"loguniform": [0, 1e-3]}}, "positive"),
+        ({"n_epochs": {"choice": []}}, "non-empty"),
+    ):
         with pytest.raises(ValueError, match=message):
             check_space(bad)
     assert iqm([1, 2, 3, 4]) == pytest.approx(2.5)
@@ -205,12 +246,14 @@ def test_a_fixed_space_is_a_seed_grid_and_a_searched_one_goes_to_optuna():
 def test_sweep_bad_input_is_one_line(tmp_path, capsys):
     (tmp_path / "space.yaml").write_text("gama: {uniform: [0.9, 0.99]}\n")
     base = ["sweep", "--out", str(tmp_path / "s"), "--no-progress", "--timesteps", "256", "--n-envs", "2"]
-    for args, needle in ((["--space", str(tmp_path / "space.yaml")], "did you mean 'gamma'"),
-                         (["--hp", "max_grad_norm=big"], "max_grad_norm"),
-                         (["--hp", "n_epochs=4"], "also in the search space"),
-                         (["--eval-cycles", "nowhere"], "unknown cycle"),
-                         (["--scheduler", "hyperband"], "--scheduler"),
-                         (["--seeds", "0"], "--seeds")):
+    for args, needle in (
+        (["--space", str(tmp_path / "space.yaml")], "did you mean 'gamma'"),
+        (["--hp", "max_grad_norm=big"], "max_grad_norm"),
+        (["--hp", "n_epochs=4"], "also in the search space"),
+        (["--eval-cycles", "nowhere"], "unknown cycle"),
+        (["--scheduler", "hyperband"], "--scheduler"),
+        (["--seeds", "0"], "--seeds"),
+    ):
         assert train_main([*base, *args]) == 2, args
         assert needle in one_line(capsys.readouterr().err), args
     assert train_main(["sweep", "--resume", str(tmp_path)]) == 2
@@ -240,13 +283,34 @@ def trial_results(trial_dir: Path) -> list[dict]:
     return [json.loads(line) for line in (trial_dir / "result.json").read_text().splitlines() if line.strip()]
 
 
-@pytest.mark.slow
+@pytest.mark.full
 def test_sweep_end_to_end_interrupted_and_resumed(ray_runtime, tiny_cycles, tmp_path, capsys):
     out = tmp_path / "sweep"
     (tmp_path / "space.yaml").write_text(SPACE)
-    args = ["sweep", "--out", str(out), "--space", str(tmp_path / "space.yaml"), "--samples", "1", "--seeds", "2",
-            "--timesteps", "3072", "--n-envs", "4", "--eval-freq", "256", "--cycles", "hwfet",
-            "--eval-cycles", tiny_cycles[1], "--no-progress", "--hp", *TINY_HP]
+    args = [
+        "sweep",
+        "--out",
+        str(out),
+        "--space",
+        str(tmp_path / "space.yaml"),
+        "--samples",
+        "1",
+        "--seeds",
+        "2",
+        "--timesteps",
+        "3072",
+        "--n-envs",
+        "4",
+        "--eval-freq",
+        "256",
+        "--cycles",
+        "hwfet",
+        "--eval-cycles",
+        tiny_cycles[1],
+        "--no-progress",
+        "--hp",
+        *TINY_HP,
+    ]
     watcher = interrupt_after_checkpoints(out)
     assert train_main(args) == 130
     watcher.join()
