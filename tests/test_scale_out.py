@@ -25,7 +25,7 @@ from hev_thermal_env.cli.train import main as train_main
 from hev_thermal_env.evaluation.benchmark import run_benchmark
 from hev_thermal_env.evaluation.executors import ExecutorError, split_address
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.training.sweep_report import iqm, iqm_ci
+from hev_thermal_env.training.sweep_report import TrialRecord, iqm, iqm_ci, write_report
 from hev_thermal_env.training.sweep_space import check_space, encode_choice, trial_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -222,6 +222,49 @@ def test_search_space_and_seed_statistics(tmp_path):
     low, high = iqm_ci([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0])
     assert low < iqm([1, 2, 3, 4, 5, 6, 7, 8]) < high and (low, high) == iqm_ci([1, 2, 3, 4, 5, 6, 7, 8])
     assert iqm_ci([3.0]) == (None, None)
+
+
+def test_sweep_report_ranks_configurations_by_the_iqm_of_their_seeds(tmp_path):
+    """The sweep's tables and figure from trial records alone (no Ray): the best configuration by IQM, its best seed."""
+    space = {"learning_rate": {"loguniform": [1e-4, 1e-3]}, "gamma": 0.97}
+
+    def trial(n: int, config: str, lr: float, seed: int, status: str, returns: list[float]) -> TrialRecord:
+        curve = [(256 * (k + 1), r) for k, r in enumerate(returns)]
+        return TrialRecord(
+            f"t{n}",
+            config,
+            {"learning_rate": lr},
+            seed,
+            status,
+            curve[-1][0],
+            returns[-1],
+            max(returns),
+            30.0 + n,
+            curve,
+            None,
+            tmp_path / f"t{n}",
+        )
+
+    trials = [
+        trial(0, "c0", 1e-4, 0, "finished", [-900.0, -850.0]),
+        trial(1, "c0", 1e-4, 1, "stopped", [-950.0]),
+        trial(2, "c1", 5e-4, 0, "finished", [-880.0, -800.0]),
+        trial(3, "c1", 5e-4, 1, "finished", [-870, -810.0]),
+    ]
+    report = write_report(tmp_path, trials, {"space": space}, complete=False)
+    assert [c.config_id for c in report.configs] == ["c1", "c0"] and report.best.trial_id == "t2"
+    assert {p.name for p in report.files} == {
+        "sweep_trials.csv",
+        "sweep_configs.csv",
+        "sweep_configs.md",
+        "sweep_configs.json",
+        "sweep.png",
+    }
+    rows = list(csv.DictReader((tmp_path / "sweep_trials.csv").open()))
+    assert [r["learning_rate"] for r in rows] == ["0.0001", "0.0001", "0.0005", "0.0005"]
+    md = (tmp_path / "sweep_configs.md").read_text()
+    assert "Best trial: t2 (c1, seed 0" in md and "--resume" in md
+    assert (tmp_path / "sweep.png").stat().st_size > 10_000
 
 
 def test_a_fixed_space_is_a_seed_grid_and_a_searched_one_goes_to_optuna():
