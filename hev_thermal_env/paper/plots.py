@@ -9,15 +9,16 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.evaluation.styles import close, figure_title, legend_outside, pyplot
 from hev_thermal_env.io import save_png
 
-from .paper_targets import PAPER_FIGURE_BY_NAME as P
-from .styles import close, figure_title, legend_outside, pyplot
+from .figures import PAPER_FIGURE_BY_NAME as P
 
 PAPER_COLOUR, OURS_COLOUR, OFF_COLOUR = "#e66101", "#1f78b4", "#999999"
 WITHIN_COLOUR, OUTSIDE_COLOUR, BAND_COLOUR = "#1a9641", "#d7191c", "#fdb863"
@@ -125,7 +126,8 @@ def cutoff_figure(curve: dict[str, Any], path: Path) -> Path:
 
 def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: dict[str, Any], path: Path) -> Path:
     """Figs 7-10 analog on ``cycle``: motor temperature and heat index, thermal model on and off, with the
-    paper's bands (Figs 7-8 on ``udds`` and ``hwfet``, Figs 9-10 on ``beijing``)."""
+    paper's bands (Figs 7-8 on ``udds`` and ``hwfet``, Figs 9-10 on ``beijing``); ``figures``: the thermal-model
+    run's :func:`~.measure.cycle_run` figures."""
     plt = pyplot()
     on, off = traces["with_thermal"], traces["without_thermal"]
     t = np.arange(1, len(on["motor_temp_c"]) + 1)
@@ -170,14 +172,14 @@ def _figs_7_8(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
     ax_h.errorbar([onset.paper], [0.0], xerr=[[onset.tol], [onset.tol]], marker="D", ms=8, mfc="none",
                   mec=PAPER_COLOUR, mew=1.8, color=PAPER_COLOUR, capsize=4, ls="none", clip_on=False,
                   label=f"paper: first above 0 at {onset.paper:g} ± {onset.tol:g} s")
-    if figures.get("onset_s") is not None:
-        ax_h.plot([figures["onset_s"]], [0.0], marker="o", ms=7, color=OURS_COLOUR, ls="none", clip_on=False,
-                  label=f"ours: first above 0 at {figures['onset_s']:.0f} s")
+    if math.isfinite(figures["hi_onset_s"]):
+        ax_h.plot([figures["hi_onset_s"]], [0.0], marker="o", ms=7, color=OURS_COLOUR, ls="none", clip_on=False,
+                  label=f"ours: first above 0 at {figures['hi_onset_s']:.0f} s")
 
 
 def _figs_9_10(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
     temp, hi_peak = P["beijing_temp_c"], P["beijing_hi_peak"]
-    start = figures.get("warm_from_s") or t[0]
+    start = figures["warm_up_s"] if math.isfinite(figures["warm_up_s"]) else t[0]
     _band(ax_t, temp.paper - temp.tol, temp.paper + temp.tol, start, t[-1],
           f"paper: {temp.paper:g} ± {temp.tol:g} °C after warm-up")
     _band(ax_h, 0.0, hi_peak.tol, t[0], t[-1], f"paper: heat index 0 (≤ {hi_peak.tol:g} accepted)")
