@@ -12,6 +12,6 @@ The paper reproduction report lives in :mod:`hev_thermal_env.paper`.
 Nothing here imports torch: the PPO strategy loads it when it is asked for.
 """
 
-from .runner import RunResult, make_env, run_strategy
+from .runner import RunResult, run_strategy
 
-__all__ = ["RunResult", "make_env", "run_strategy"]
+__all__ = ["RunResult", "run_strategy"]

@@ -1,4 +1,4 @@
-"""Run one strategy over one cycle in ``HevThermal-v0`` and report the metrics of DESIGN §6.
+"""Run one strategy over one cycle in ``HevThermal-v0`` and report its metrics.
 
 :func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
 resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
@@ -86,13 +86,6 @@ def jsonable(x: Any) -> Any:
     return x
 
 
-def make_env(strategy: Strategy, cycle: Any, scenario: str | Scenario = "paper", *, config: VehicleConfig | None = None,
-             conditions: Conditions | None = None, **env_kwargs: Any):
-    """``HevThermalEnv`` for ``strategy`` on ``cycle``: the strategy chooses its vehicle (``vehicle_config``)."""
-    vehicle = strategy.vehicle_config(config if config is not None else paper_bus())
-    return HevThermalEnv(cycle=cycle, scenario=scenario, config=vehicle, conditions=conditions, **env_kwargs)
-
-
 def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
                  config: VehicleConfig | None = None, conditions: Conditions | None = None,
                  seed: int = 0) -> RunResult:
@@ -117,7 +110,8 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()
-    env = make_env(strategy, cyc, scen, config=config, conditions=conditions)
+    vehicle = strategy.vehicle_config(config if config is not None else paper_bus())  # the strategy's vehicle
+    env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions)
     try:
         obs, info = env.reset(seed=seed)
         e = env.unwrapped

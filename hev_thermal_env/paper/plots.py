@@ -15,21 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.evaluation.styles import close, figure_title, legend_outside, pyplot
-from hev_thermal_env.io import save_png
+from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
 from .figures import PAPER_FIGURE_BY_NAME as P
 
 PAPER_COLOUR, OURS_COLOUR, OFF_COLOUR = "#e66101", "#1f78b4", "#999999"
 WITHIN_COLOUR, OUTSIDE_COLOUR, BAND_COLOUR = "#1a9641", "#d7191c", "#fdb863"
 RESIDUAL_SHOWN = 4.0  # verdict chart: residuals beyond ± this are drawn at the edge with their value
-
-
-def _save(fig, path: Path) -> Path:
-    try:
-        return save_png(fig, path)
-    finally:
-        close(fig)
 
 
 def _legend(fig, axes) -> None:
@@ -86,7 +78,7 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
     legend_outside(fig, handles, [h.get_label() for h in handles], ncol=3, where="bottom")
     n_in = sum(r["within"] for r in rows)
     figure_title(fig, f"Paper figures: {n_in} of {len(rows)} within tolerance", fontsize=11)
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def fig4_figure(curve: dict[str, Any], path: Path) -> Path:
@@ -105,7 +97,7 @@ def fig4_figure(curve: dict[str, Any], path: Path) -> Path:
     ax.grid(alpha=0.3)
     ax.set_title("Fig. 4 analog: heat index at 2× the continuous torque, from cold", fontsize=10)
     _legend(fig, (ax, ax2))
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def cutoff_figure(curve: dict[str, Any], path: Path) -> Path:
@@ -121,7 +113,7 @@ def cutoff_figure(curve: dict[str, Any], path: Path) -> Path:
     ax.grid(alpha=0.3)
     ax.set_title("Motor at peak power (90 kW), coolant off, from 20 °C (no paper figure: checks eq 7)", fontsize=10)
     _legend(fig, ax)
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: dict[str, Any], path: Path) -> Path:
@@ -153,7 +145,7 @@ def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: 
     ax_t.set_title(f"{cycle}, rule strategy, paper scenario: motor temperature", fontsize=10)
     ax_h.set_title("heat index", fontsize=10)
     figure_title(fig, f"{cycle} against the paper's {which}", fontsize=10.5)
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def _band(ax, lo: float, hi: float, x0: float, x1: float, label: str) -> None:
@@ -211,4 +203,4 @@ def fuel_levels_figure(level_rows: list[dict[str, Any]], path: Path) -> Path:
     legend_outside(fig, [handles[i] for i in order], [labels[i] for i in order])
     figure_title(fig, "Absolute fuel levels against the paper's Table 2 (different bus; beijing is synthetic)",
                  fontsize=10.5)
-    return _save(fig, path)
+    return save_fig(fig, path)
