@@ -33,7 +33,7 @@ from hev_thermal_env.io import check_writable_dir
 from hev_thermal_env.scenarios import get_scenario
 
 from .executors import make_executor
-from .families import Family, as_families, family_rows, representative, tag_members
+from .families import Family, family_rows, representative, tag_members
 from .plots import plot_benchmark
 from .progress import BenchmarkProgress, expected_cost_s
 from .results_table import COLUMNS, _fmt, write_results
@@ -93,17 +93,17 @@ def validate(cycles, strategies, scenarios, out: Path, options: dict | None = No
 def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT_STRATEGIES,
                   scenarios=DEFAULT_SCENARIOS, *, jobs: int | None = None, options: dict | None = None,
                   progress: bool = True, plots: bool = True, executor: str = "local",
-                  address: str | None = None, families=None) -> list[dict]:
+                  address: str | None = None, families: list[Family] | None = None) -> list[dict]:
     """Run every combination, write the result files and plots, return the rows (runs, then families).
 
     ``dp_thermal``, the reference, is added to ``strategies`` if missing (``results.md`` says so).
-    ``families``: seed families, ``{name: [model path, ...]}`` or :class:`~.families.Family` objects;
+    ``families``: seed families (:class:`~.families.Family`, from :func:`~.families.parse_family`);
     each member runs as ``ppo:PATH``. ``executor`` is where the runs happen (:mod:`.executors`):
     ``local`` processes (``jobs`` of them) or ``ray`` tasks (a local Ray runtime of ``jobs`` CPUs,
     or the cluster at ``address``); the files are the same, byte for byte."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
-    fams = as_families(families)
+    fams = list(families or [])
     loaded = validate(cycles, strategies, scenarios, out, options, fams)
     options = options or {}
     run_names = list(dict.fromkeys([*strategies, *(m for f in fams for m in f.members)]))
