@@ -1,9 +1,11 @@
-"""The name a command-line program was called by, and its one-line error reports.
+"""The name a command-line program was called by, and its one-line reports (:func:`run_program`).
 
 Problems with the input (unknown names, malformed files, out-of-range values) are ``ValueError`` s;
 problems with files (missing, not a directory, read-only file system, no permission) are
 ``OSError`` s. Either is printed as one line, without a traceback, with exit status 2. Warnings
-(implausible cycle data, ...) are printed as one ``warning:`` line each.
+(implausible cycle data, ...) are printed as one ``warning:`` line each. Ctrl-C (a
+``KeyboardInterrupt`` anywhere in a command) is one line, ``interrupted`` (with what was saved, if
+anything), and exit status 130.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ from __future__ import annotations
 import contextlib
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 #: Exceptions that mean "the input is wrong", reported in one line.
@@ -50,3 +52,18 @@ def one_line_warnings(prog: str | None = None) -> Iterator[None]:
     with warnings.catch_warnings():
         warnings.showwarning = show
         yield
+
+
+def run_program(body: Callable[[], int | None], prog: str | None = None,
+                errors: tuple[type[BaseException], ...] = USER_ERRORS) -> int:
+    """``body()`` with the one-line reports of the module docstring (``PROG: `` before errors and warnings
+    with ``prog``); returns the exit status. A ``KeyboardInterrupt`` carrying a message (what was saved)
+    prints it after ``interrupted:``, and its ``exit_code`` if it has one."""
+    try:
+        with one_line_warnings(prog):
+            return int(body() or 0)
+    except KeyboardInterrupt as exc:
+        print(f"interrupted: {one_line(exc)}" if str(exc) else "interrupted", file=sys.stderr)
+        return int(getattr(exc, "exit_code", EXIT_INTERRUPTED))
+    except errors as exc:
+        return report(exc, prog)

@@ -52,3 +52,11 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 def examples(lines: Sequence[str]) -> str:
     """An epilog of example command lines."""
     return "examples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
+def refuse_settings_with_resume(args: argparse.Namespace, flags: Sequence[str], settings_file: str) -> None:
+    """``--resume DIR`` takes every setting from ``DIR/settings_file``: a one-line error naming the setting
+    options given beside it (those of ``flags`` that are not None)."""
+    given = [f"--{f.replace('_', '-')}" for f in flags if getattr(args, f) is not None]
+    if given:
+        raise ValueError(f"--resume takes every setting from {args.resume}/{settings_file}; drop {' '.join(given)}")

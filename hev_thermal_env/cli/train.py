@@ -8,10 +8,10 @@ mappings). The run directory gets ``model.zip``, ``best_model.zip``, ``vecnormal
 ``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard), ``evaluations.csv``,
 ``validation.csv`` and ``training_curve.png`` (see :mod:`hev_thermal_env.training`).
 
-Ctrl-C saves a checkpoint and exits with status 130; ``--resume DIR`` continues. Errors in the
-input (an unknown hyperparameter, a value of the wrong type, an output directory that cannot be
-written) are reported in one line with a non-zero exit status before anything is created. Torch
-runs on one thread (environment variable ``HEV_TORCH_THREADS`` to change).
+Ctrl-C saves a checkpoint and exits with status 130 after one line; ``--resume DIR`` continues.
+Errors in the input (an unknown hyperparameter, a value of the wrong type, an output directory that
+cannot be written) are reported in one line with a non-zero exit status before anything is created.
+Torch runs on one thread (environment variable ``HEV_TORCH_THREADS`` to change).
 """
 
 from __future__ import annotations
@@ -26,16 +26,14 @@ from hev_thermal_env.agents import HYPERPARAMS_DIR
 from hev_thermal_env.cycles import list_cycles, list_families
 from hev_thermal_env.io import read_yaml_mapping
 from hev_thermal_env.scenarios import list_scenarios
-from hev_thermal_env.training import TrainingInterrupted, build_config, parse_overrides, resume, train
-from hev_thermal_env.training.config import DEFAULT_EVAL_CYCLES, VEC_MODES
-from hev_thermal_env.training.hyperparams import ALGORITHMS
 
-from .errors import EXIT_INTERRUPTED, USER_ERRORS, one_line_warnings, program_name, report
-from .parsing import HelpFormatter, OneLineErrorParser, examples
+from .errors import program_name, run_program
+from .parsing import HelpFormatter, OneLineErrorParser, examples, refuse_settings_with_resume
 
-ALGOS = tuple(ALGORITHMS)
+# The training room (torch, Stable-Baselines3) is imported inside the functions that need it, so that
+# a Ctrl-C while it loads is reported in one line like any other.
 
-SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "out", "hp", "hyperparams", "vec",
+SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "out", "hp", "hyperparams",
                  "eval_cycles", "eval_scenarios", "eval_freq", "checkpoint_freq")
 
 
@@ -52,8 +50,8 @@ EXAMPLES = (
 NOTES = """\
 hyperparameters: agents/hyperparams/<algo>.yaml (or --hyperparams FILE); --hp key=value overrides
 any of them. Values are YAML: 0.99, [64, 64], {net_arch: [64, 64], activation_fn: tanh}, lin_3e-4
-(a linear decay); dict(k=v, ...) is accepted too; dotted keys reach inside mappings
-(policy_kwargs.net_arch=[64,64], env.reward.soc_deviation_weight=1.0).
+(a linear decay); dotted keys reach inside mappings (policy_kwargs.net_arch=[64,64],
+env.reward.soc_deviation_weight=1.0).
 
 selection: best_model.zip is the checkpoint with the best eval.selection score on the evaluation
 cycles (default fuel_vs_ecms: lowest mean corrected fuel / ECMS, |dSOC| > 0.02 disqualifies); at the
@@ -68,9 +66,12 @@ sweeps: train.py sweep --out DIR runs Ray Tune over hyperparameters and seeds (t
 
 
 def file_defaults() -> dict[str, dict[str, Any]]:
-    """The run settings of each algorithm's hyperparameter file (what the options default to)."""
+    """The run settings of each algorithm's hyperparameter file (what the options default to), by algorithm."""
+    from hev_thermal_env.training.config import DEFAULT_EVAL_CYCLES
+    from hev_thermal_env.training.hyperparams import ALGORITHMS
+
     out = {}
-    for algo in ALGOS:
+    for algo in ALGORITHMS:
         hp = read_yaml_mapping(HYPERPARAMS_DIR / f"{algo}.yaml")
         env, ev = hp.get("env") or {}, hp.get("eval") or {}
         out[algo] = {"cycles": " ".join(map(str, env.get("cycles", []))), "scenario": env.get("scenario"),
@@ -82,7 +83,7 @@ def file_defaults() -> dict[str, dict[str, Any]]:
 
 
 def _per_algo(defaults: dict[str, dict[str, Any]], key: str) -> str:
-    values = [f"{defaults[a][key]} ({a})" for a in ALGOS]
+    values = [f"{value[key]} ({algo})" for algo, value in defaults.items()]
     return "default from the hyperparameter file: " + ", ".join(values)
 
 
@@ -90,7 +91,7 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     d = file_defaults()
     p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
                            epilog=examples(EXAMPLES) + "\n\n" + NOTES)
-    p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(ALGOS)} (default: ppo)")
+    p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(d)} (default: ppo)")
     p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
                    help=f"training cycles: cycle families ({', '.join(list_families())}: a fresh generated cycle "
                         f"per episode), built-in names ({', '.join(list_cycles())}), FAMILY:SEED or CSV paths; "
@@ -107,12 +108,10 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE", help="hyperparameter overrides (see below)")
     p.add_argument("--hyperparams", default=None, metavar="FILE",
                    help="hyperparameter YAML file (default: agents/hyperparams/<algo>.yaml)")
-    p.add_argument("--vec", default=None, metavar="MODE",
-                   help=f"vector env, one of {', '.join(VEC_MODES)}: native is one batched env (the default), "
-                        "subproc and dummy SB3's vector envs")
     p.add_argument("--eval-cycles", nargs="*", default=None, metavar="CYCLE",
                    help=f"evaluation cycles the checkpoints are scored on, not trained on (validation_bus:A..B: "
-                        f"validation cycles A to B); none disables evaluation; {_per_algo(d, 'eval_cycles')}")
+                        f"validation cycles A to B); none (or no CYCLE) disables evaluation; "
+                        f"{_per_algo(d, 'eval_cycles')}")
     p.add_argument("--eval-scenarios", nargs="+", default=None, metavar="S",
                    help=f"evaluation scenarios; {_per_algo(d, 'eval_scenarios')}")
     p.add_argument("--eval-freq", type=int, default=None, metavar="N",
@@ -133,20 +132,20 @@ def command_line(argv: Sequence[str]) -> str:
 
 def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
     """Train or resume as ``args`` say; returns the run's result and its directory."""
+    from hev_thermal_env.training import build_config, parse_overrides, resume, train
+
     progress, verbose = not args.no_progress, 0 if args.quiet else 1
     if args.resume is not None:
-        given = [f"--{f.replace('_', '-')}" for f in SETTING_FLAGS if getattr(args, f) is not None]
-        if given:
-            raise ValueError(f"--resume takes every setting from {args.resume}/config.yaml; drop {' '.join(given)}")
+        refuse_settings_with_resume(args, SETTING_FLAGS, "config.yaml")
         return resume(args.resume, progress=progress, verbose=verbose, command=command), args.resume
     if args.out is None:
         raise ValueError("--out DIR is required (or --resume DIR)")
+    eval_cycles = [] if args.eval_cycles == ["none"] else args.eval_cycles
     config = build_config(
         args.algo or "ppo", hyperparams_file=args.hyperparams, overrides=parse_overrides(args.hp or []),
         cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
-        seed=0 if args.seed is None else args.seed, vec=args.vec or "native", eval_cycles=args.eval_cycles,
-        eval_scenarios=args.eval_scenarios, eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq,
-        command=command)
+        seed=0 if args.seed is None else args.seed, eval_cycles=eval_cycles, eval_scenarios=args.eval_scenarios,
+        eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq, command=command)
     return train(config, args.out, progress=progress, verbose=verbose), args.out
 
 
@@ -159,23 +158,17 @@ def main(argv: list[str] | None = None) -> int:
 
         rest = given[1:] if given[:1] == ["sweep"] else given
         return sweep_main([a for a in rest if a != "--sweep"], prog=f"{prog} sweep", command=command)
-    args = build_parser(prog).parse_args(argv)
-    try:
-        with one_line_warnings(prog):
-            result, out = run(args, command)
-    except TrainingInterrupted as exc:
-        print(f"{prog}: {exc}", file=sys.stderr)
-        return exc.exit_code
-    except KeyboardInterrupt:
-        print(f"{prog}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except USER_ERRORS as exc:
-        return report(exc, prog)
-    share = result.get("env_share")
-    print(f"done: {result['timesteps_done']} timesteps in {result['wall_s']:.1f} s "
-          f"({result.get('steps_per_s') or 0:.0f} steps/s this session"
-          f"{f', env step {100 * share:.1f} % of it' if share is not None else ''}); model in {out}/model.zip")
-    return 0
+
+    def body() -> int:
+        args = build_parser(prog).parse_args(argv)
+        result, out = run(args, command)
+        share = result.get("env_share")
+        print(f"done: {result['timesteps_done']} timesteps in {result['wall_s']:.1f} s "
+              f"({result.get('steps_per_s') or 0:.0f} steps/s this session"
+              f"{f', env step {100 * share:.1f} % of it' if share is not None else ''}); model in {out}/model.zip")
+        return 0
+
+    return run_program(body, prog)
 
 
 if __name__ == "__main__":

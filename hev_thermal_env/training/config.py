@@ -38,9 +38,8 @@ from hev_thermal_env.scenarios import get_scenario
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
 from .imitation import check_init
 from .overrides import apply_overrides
-from .selection import DEFAULT_SCORER, LEGACY_SCORER, get_scorer
+from .selection import DEFAULT_SCORER, get_scorer
 
-VEC_MODES = ("native", "subproc", "dummy")
 #: Training cycles when the hyperparameter file names none: every family of generated bus cycles.
 DEFAULT_TRAIN_CYCLES = ("random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed",
                         "bus_express")
@@ -53,7 +52,7 @@ DEFAULT_EVAL_SCENARIOS = ("paper", "full_bus")
 #: Settings of the environment a run trains on (the ``env`` section of the config).
 ENV_KEYS = ("cycles", "scenario", "random_start", "preview_s", "preview_step_s", "thermal", "reward")
 #: Settings of the periodic evaluation (the ``eval`` section).
-EVAL_KEYS = ("cycles", "scenarios", "freq", "dp_reference", "selection", "final_cycles")
+EVAL_KEYS = ("cycles", "scenarios", "freq", "selection", "final_cycles")
 #: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's).
 NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters
                        if k not in ("self", "venv", "gamma"))
@@ -76,7 +75,7 @@ def whole_number(key: str, value: Any) -> int:
 
 def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overrides: dict[str, Any] | None = None,
                  cycles: Sequence[str] | None = None, scenario: str | None = None, timesteps: int | None = None,
-                 n_envs: int | None = None, seed: int = 0, vec: str = "native",
+                 n_envs: int | None = None, seed: int = 0,
                  eval_cycles: Sequence[str] | None = None, eval_scenarios: Sequence[str] | None = None,
                  eval_freq: int | None = None, checkpoint_freq: int | None = None,
                  command: str | None = None) -> dict[str, Any]:
@@ -118,7 +117,6 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
         "seed": whole_number("seed", seed),
         "total_timesteps": whole_number("n_timesteps", timesteps if timesteps is not None else (total or 1_000_000)),
         "n_envs": whole_number("n_envs", n_envs if n_envs is not None else (envs or 1)),
-        "vec": vec,
         "env": env,
         "normalize": normalize,
         "init": dict(init or {}),
@@ -138,8 +136,6 @@ def validate_config(config: dict[str, Any]) -> None:
     """Fail before any work, with one-line messages, on unknown names, wrong types and impossible numbers.
 
     Fills ``env.observation_size`` and ``env.observation_names`` (what a trained policy expects)."""
-    if config["vec"] not in VEC_MODES:
-        raise ValueError(f"unknown --vec {config['vec']!r}; choose one of {', '.join(VEC_MODES)}")
     _validate_env(config["env"])
     _validate_eval(config["eval"], config["env"])
     init = config.get("init")
@@ -171,13 +167,11 @@ def _check_batch_sizes(config: dict[str, Any]) -> None:
 
 def _validate_eval(ev: dict[str, Any], env: dict[str, Any]) -> None:
     """The evaluation settings: cycles load, scenarios exist, the scorer resolves, nothing is both trained and
-    evaluated on. A run made before fuel selection (no ``selection`` key) keeps selecting on the return."""
+    evaluated on."""
     check_known("eval setting", ev, EVAL_KEYS)
-    ev.setdefault("selection", LEGACY_SCORER)
-    ev.setdefault("final_cycles", [])
     scorer = get_scorer(str(ev["selection"]))
     for s in ev["scenarios"]:
-        if get_scenario(s).randomized and scorer.reference is not None and ev["cycles"]:
+        if get_scenario(s).randomized and ev["cycles"]:
             raise ValueError(f"eval.selection {scorer.name} compares with a reference on the same conditions: the "
                              f"evaluation scenarios must be fixed, and {s!r} draws them at random")
     trained = {str(c).strip().lower() for c in expand_cycle_names(env["cycles"]) if not is_family(c)}

@@ -29,10 +29,7 @@ import torch
 from stable_baselines3.common.utils import set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
-from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
-from hev_thermal_env.scenarios import get_scenario
 
 from .artifacts import (
     CHECKPOINTS,
@@ -51,7 +48,7 @@ from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .imitation import imitate
 from .schedules import custom_objects
-from .selection import LEGACY_SCORER, best_row_score, compute_references, get_scorer, is_better
+from .selection import best_row_score, compute_references, get_scorer, is_better
 from .validation_report import final_validation
 
 
@@ -80,7 +77,7 @@ class TrainingRun:
         self.checkpoint_freq = int(config["checkpoint_freq"])
         self.eval_freq = int(config["eval"]["freq"])
         self.eval_rows = read_evaluations(self.out / "evaluations.csv")
-        self.scorer = get_scorer(config["eval"].get("selection", LEGACY_SCORER))
+        self.scorer = get_scorer(config["eval"]["selection"])
         self.best_score = best_row_score(self.eval_rows)
         self.eval_seconds = 0.0
         self.session_start = time.perf_counter()
@@ -161,23 +158,6 @@ class TrainingRun:
             res["selection_reference"] = ref
         return ref
 
-    def dp_reference(self) -> None:
-        """Corrected fuel of ``dp`` on the evaluation cycles (fixed scenarios), for the training curve."""
-        if not self.config["eval"].get("dp_reference", True):
-            return
-        ref = {}
-        try:
-            for scenario in self.config["eval"]["scenarios"]:
-                if get_scenario(scenario).randomized:
-                    continue
-                for cycle in self.config["eval"]["cycles"]:
-                    res = run_strategy(get_strategy("dp", on_infeasible="closest"), cycle, scenario)
-                    ref[f"{cycle} / {scenario}"] = round(float(res.summary["fuel_corrected_l_per_100km"]), 4)
-        except Exception as exc:  # noqa: BLE001 - the reference only decorates the plot
-            self.log(f"note: no DP reference for the training curve ({type(exc).__name__}: {exc})")
-            return
-        self.config.setdefault("result", {})["dp_reference_l_per_100km"] = ref
-
     def make_model(self, venv, resume_from: tuple[int, Path, Path] | None):
         cfg = self.config
         cls = algorithm_class(cfg["algo"])
@@ -206,13 +186,11 @@ class TrainingRun:
     # -- the session -----------------------------------------------------------------------------------
 
     def prepare(self, resume_from: tuple[int, Path, Path] | None = None) -> Session:
-        """The DP reference (new runs), the environment and the model; writes nothing."""
+        """The selection's references, the environment and the model; writes nothing."""
         cfg = self.config
         normalized = cfg["normalize"] is not False
         if resume_from is not None and normalized and not resume_from[2].is_file():
             raise FileNotFoundError(f"{resume_from[2]} not found: the checkpoint has no normalisation statistics")
-        if resume_from is None and self.evaluator is not None:
-            self.dp_reference()
         if self.evaluator is not None:
             self.references()
         raw, timed = make_vec_env(cfg)
@@ -245,8 +223,8 @@ class TrainingRun:
             self.record_session(result, finished=False)
             session.raw.close()
             name = signal.Signals(callback.stop_signal).name
-            raise TrainingInterrupted(f"{name}: training stopped at {model.num_timesteps} of "
-                                      f"{cfg['total_timesteps']} timesteps; checkpoint {path}; continue with "
+            raise TrainingInterrupted(f"training stopped by {name} at {model.num_timesteps} of "
+                                      f"{cfg['total_timesteps']} timesteps; checkpoint {path}; continue with: "
                                       f"python train.py --resume {self.out}", 128 + int(callback.stop_signal))
         evaluated = bool(self.eval_rows) and self.eval_rows[-1]["timesteps"] == model.num_timesteps
         if self.evaluator is not None and not evaluated:
@@ -260,7 +238,7 @@ class TrainingRun:
             final_validation(self)
         self.record_session(result, finished=True)
         session.raw.close()
-        plot_training_curve(self.out, (cfg.get("result") or {}).get("dp_reference_l_per_100km"))
+        plot_training_curve(self.out)
         return self.config["result"]
 
     def session_summary(self, model, done_before: int, train_s: float, env_s: float) -> dict[str, Any]:

@@ -49,7 +49,7 @@ SETTINGS_FILE = "sweep.yaml"
 EXPERIMENT = "tune"
 SCHEDULERS = ("asha", "median", "none")
 #: Keyword arguments of :func:`~hev_thermal_env.training.config.build_config` a sweep passes to every trial.
-TRAIN_KEYS = ("cycles", "scenario", "timesteps", "n_envs", "vec", "eval_cycles", "eval_scenarios", "eval_freq")
+TRAIN_KEYS = ("cycles", "scenario", "timesteps", "n_envs", "eval_cycles", "eval_scenarios", "eval_freq")
 
 
 @dataclasses.dataclass
