@@ -46,7 +46,7 @@ class FakeEvaluator:
 class FakeModel:
     num_timesteps = 0
 
-    def get_env(self):
+    def get_vec_normalize_env(self):
         return None
 
 

@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 import torch
 from stable_baselines3.common.utils import set_random_seed
-from stable_baselines3.common.vec_env import VecNormalize
 
 from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
 
@@ -93,14 +92,6 @@ class TrainingRun:
     def ckpt_dir(self) -> Path:
         return self.out / CHECKPOINTS
 
-    def stats_of(self, model):
-        env = model.get_env()
-        while env is not None:
-            if isinstance(env, VecNormalize):
-                return env
-            env = getattr(env, "venv", None)
-        return None
-
     def checkpoint(self, model) -> Path:
         n = int(model.num_timesteps)
         zip_path, stats_path, replay_path = checkpoint_paths(self.out, n)
@@ -111,14 +102,19 @@ class TrainingRun:
             for old in self.ckpt_dir.glob("ckpt_*_steps_replay_buffer.pkl"):  # keep only the newest buffer
                 if old != replay_path:
                     old.unlink(missing_ok=True)
-        save_model_and_stats(model, self.stats_of(model), zip_path, stats_path)
+        save_model_and_stats(model, model.get_vec_normalize_env(), zip_path, stats_path)
         return zip_path
+
+    def save(self, model, prefix: str = "") -> None:
+        """``DIR/<prefix>model.zip`` and its statistics ``DIR/<prefix>vecnormalize.pkl``."""
+        save_model_and_stats(model, model.get_vec_normalize_env(), self.out / f"{prefix}model.zip",
+                             self.out / f"{prefix}vecnormalize.pkl")
 
     def evaluate(self, model, logger=None) -> list[dict[str, Any]]:
         if self.evaluator is None:
             return []
         t = time.perf_counter()
-        stats = self.stats_of(model)
+        stats = model.get_vec_normalize_env()
         results = self.evaluator.run(LoadedPolicy(model, stats).act)
         self.eval_seconds += time.perf_counter() - t
         mean_return = float(np.mean([r["return_g"] for r in results]))
@@ -133,7 +129,7 @@ class TrainingRun:
         write_evaluations(self.out / "evaluations.csv", self.eval_rows)
         if best:
             self.best_score = score.value
-            save_model_and_stats(model, stats, self.out / "best_model.zip", self.out / "best_vecnormalize.pkl")
+            self.save(model, "best_")
         if logger is not None:
             logger.record("eval/mean_return_g", mean_return)
             logger.record("eval/selection_score", score.value)
@@ -229,10 +225,9 @@ class TrainingRun:
         evaluated = bool(self.eval_rows) and self.eval_rows[-1]["timesteps"] == model.num_timesteps
         if self.evaluator is not None and not evaluated:
             self.evaluate(model, model.logger if model.num_timesteps > done_before else None)
-        save_model_and_stats(model, self.stats_of(model), self.out / "model.zip", self.out / "vecnormalize.pkl")
+        self.save(model)
         if not (self.out / "best_model.zip").is_file():
-            save_model_and_stats(model, self.stats_of(model), self.out / "best_model.zip",
-                                 self.out / "best_vecnormalize.pkl")
+            self.save(model, "best_")
         self.checkpoint(model)
         if self.evaluator is not None and self.config["eval"].get("final_cycles"):
             final_validation(self)
