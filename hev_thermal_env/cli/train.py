@@ -67,7 +67,7 @@ sweeps: train.py sweep --out DIR runs Ray Tune over hyperparameters and seeds (t
 
 def file_defaults() -> dict[str, dict[str, Any]]:
     """The run settings of each algorithm's hyperparameter file (what the options default to), by algorithm."""
-    from hev_thermal_env.training.config import DEFAULT_EVAL_CYCLES
+    from hev_thermal_env.training.config import EVAL_DEFAULTS
     from hev_thermal_env.training.hyperparams import ALGORITHMS
 
     out = {}
@@ -76,8 +76,8 @@ def file_defaults() -> dict[str, dict[str, Any]]:
         env, ev = hp.get("env") or {}, hp.get("eval") or {}
         out[algo] = {"cycles": " ".join(map(str, env.get("cycles", []))), "scenario": env.get("scenario"),
                      "timesteps": hp.get("n_timesteps"), "n_envs": hp.get("n_envs"),
-                     "eval_cycles": " ".join(map(str, ev.get("cycles", DEFAULT_EVAL_CYCLES))),
-                     "eval_scenarios": " ".join(map(str, ev.get("scenarios", ["paper"]))),
+                     "eval_cycles": " ".join(map(str, ev.get("cycles", EVAL_DEFAULTS["cycles"]))),
+                     "eval_scenarios": " ".join(map(str, ev.get("scenarios", EVAL_DEFAULTS["scenarios"]))),
                      "eval_freq": ev.get("freq"), "checkpoint_freq": hp.get("checkpoint_freq")}
     return out
 
@@ -88,9 +88,24 @@ def _per_algo(defaults: dict[str, dict[str, Any]], key: str) -> str:
 
 
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
-    d = file_defaults()
     p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
                            epilog=examples(EXAMPLES) + "\n\n" + NOTES)
+    d = add_run_options(p)
+    p.add_argument("--seed", type=int, default=None, help="seed of the model and the environments, 0 or more "
+                                                          "(default: 0)")
+    p.add_argument("--out", default=None, metavar="DIR", help="run directory, new or empty (required unless --resume)")
+    p.add_argument("--checkpoint-freq", type=int, default=None, metavar="N",
+                   help=f"checkpoint every N env-steps; {_per_algo(d, 'checkpoint_freq')}")
+    p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no evaluation lines")
+    return p
+
+
+def add_run_options(p: argparse.ArgumentParser) -> dict[str, dict[str, Any]]:
+    """The options of a run's training and evaluation (a sweep's trials take them too); returns
+    :func:`file_defaults`."""
+    d = file_defaults()
     p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(d)} (default: ppo)")
     p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
                    help=f"training cycles: cycle families ({', '.join(list_families())}: a fresh generated cycle "
@@ -102,10 +117,8 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
                    help=f"total env-steps; {_per_algo(d, 'timesteps')}")
     p.add_argument("--n-envs", type=int, default=None, metavar="N",
                    help=f"parallel environments; {_per_algo(d, 'n_envs')}")
-    p.add_argument("--seed", type=int, default=None, help="seed of the model and the environments, 0 or more "
-                                                          "(default: 0)")
-    p.add_argument("--out", default=None, metavar="DIR", help="run directory, new or empty (required unless --resume)")
-    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE", help="hyperparameter overrides (see below)")
+    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE",
+                   help="hyperparameter overrides: YAML values, dotted keys reach inside mappings")
     p.add_argument("--hyperparams", default=None, metavar="FILE",
                    help="hyperparameter YAML file (default: agents/hyperparams/<algo>.yaml)")
     p.add_argument("--eval-cycles", nargs="*", default=None, metavar="CYCLE",
@@ -116,12 +129,12 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
                    help=f"evaluation scenarios; {_per_algo(d, 'eval_scenarios')}")
     p.add_argument("--eval-freq", type=int, default=None, metavar="N",
                    help=f"evaluate every N env-steps; {_per_algo(d, 'eval_freq')}")
-    p.add_argument("--checkpoint-freq", type=int, default=None, metavar="N",
-                   help=f"checkpoint every N env-steps; {_per_algo(d, 'checkpoint_freq')}")
-    p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--quiet", action="store_true", help="no evaluation lines")
-    return p
+    return d
+
+
+def eval_cycles(args: argparse.Namespace) -> list[str] | None:
+    """``--eval-cycles``: ``none`` (or no cycle) is no evaluation, not a cycle called none."""
+    return [] if args.eval_cycles == ["none"] else args.eval_cycles
 
 
 def command_line(argv: Sequence[str]) -> str:
@@ -140,11 +153,10 @@ def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
         return resume(args.resume, progress=progress, verbose=verbose, command=command), args.resume
     if args.out is None:
         raise ValueError("--out DIR is required (or --resume DIR)")
-    eval_cycles = [] if args.eval_cycles == ["none"] else args.eval_cycles
     config = build_config(
         args.algo or "ppo", hyperparams_file=args.hyperparams, overrides=parse_overrides(args.hp or []),
         cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
-        seed=0 if args.seed is None else args.seed, eval_cycles=eval_cycles, eval_scenarios=args.eval_scenarios,
+        seed=0 if args.seed is None else args.seed, eval_cycles=eval_cycles(args), eval_scenarios=args.eval_scenarios,
         eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq, command=command)
     return train(config, args.out, progress=progress, verbose=verbose), args.out
 

@@ -265,14 +265,16 @@ class TrainingRun:
         save_run_config(self.out, cfg)
 
 
-def check_new_run_dir(out_dir: str | Path, overwrite: bool = False) -> Path:
-    """``out_dir`` can receive a new run: new or empty (or ``overwrite``), and writable."""
+def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "config.yaml",
+                  overwrite: bool = False) -> Path:
+    """``out_dir`` can receive a new run (or sweep: ``holds``, with its settings file ``marker``): new or empty
+    (or ``overwrite``), and writable."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"--out {out}: exists and is not a directory")
     if out.is_dir() and any(out.iterdir()) and not overwrite:
-        if (out / "config.yaml").is_file():
-            raise ValueError(f"--out {out} already holds a run; continue it with --resume {out} or choose "
+        if (out / marker).is_file():
+            raise ValueError(f"--out {out} already holds {holds}; continue it with --resume {out} or choose "
                              f"another directory")
         raise ValueError(f"--out {out} is not empty; choose an empty or new directory")
     return check_writable_dir(out)
@@ -289,7 +291,7 @@ def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True,
     by a signal. ``run_class`` (a :class:`TrainingRun`) is what runs the session (a sweep's trial
     reports its evaluations to Ray Tune through its own).
     """
-    out = check_new_run_dir(out_dir, overwrite)
+    out = check_new_dir(out_dir, overwrite=overwrite)
     validate_config(config)
     _limit_threads()
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
