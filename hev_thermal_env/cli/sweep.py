@@ -36,8 +36,7 @@ import sys
 from hev_thermal_env.evaluation.executors import ExecutorError, import_ray
 
 from .errors import EXIT_INTERRUPTED, USER_ERRORS, run_program
-from .parsing import OneLineErrorParser, refuse_settings_with_resume
-from .train import add_run_options, eval_cycles
+from .parsing import OneLineErrorParser, add_run_options, eval_cycles, refuse_settings_with_resume
 
 #: Options that describe a sweep (taken from ``sweep.yaml`` on --resume).
 SETTING_FLAGS = ("algo", "space", "samples", "seeds", "seed", "scheduler", "grace", "max_concurrent", "cycles",

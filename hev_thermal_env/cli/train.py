@@ -1,17 +1,11 @@
 """Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus.
 
-The program behind ``train.py`` and the ``hev-train`` command; ``--help`` shows the examples
-(:data:`EXAMPLES`) and every default, the run settings taken from the algorithm's hyperparameter
-file (``agents/hyperparams/<algo>.yaml``, :data:`~hev_thermal_env.agents.HYPERPARAMS_DIR`).
-``--hp key=value`` overrides any hyperparameter (values are YAML; dotted keys reach inside
-mappings). The run directory gets ``model.zip``, ``best_model.zip``, ``vecnormalize.pkl``,
-``config.yaml``, ``command.txt``, ``checkpoints/``, ``tb/`` (TensorBoard), ``evaluations.csv``,
-``validation.csv`` and ``training_curve.png`` (see :mod:`hev_thermal_env.training`).
-
-Ctrl-C saves a checkpoint and exits with status 130 after one line; ``--resume DIR`` continues.
-Errors in the input (an unknown hyperparameter, a value of the wrong type, an output directory that
-cannot be written) are reported in one line with a non-zero exit status before anything is created.
-Torch runs on one thread (environment variable ``HEV_TORCH_THREADS`` to change).
+The program behind ``train.py`` and the ``hev-train`` command, a thin layer over
+:mod:`hev_thermal_env.training`. ``--help`` shows the examples (:data:`EXAMPLES`), the notes
+(:data:`NOTES`: hyperparameters and ``--hp``, checkpoint selection, the run directory, Ctrl-C and
+``--resume``) and every default, the run settings taken from the algorithm's hyperparameter file
+(:data:`~hev_thermal_env.agents.HYPERPARAMS_DIR`). Errors in the input are reported in one line
+before anything is created. Torch runs on one thread (environment variable ``HEV_TORCH_THREADS``).
 """
 
 from __future__ import annotations
@@ -22,13 +16,16 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from hev_thermal_env.agents import HYPERPARAMS_DIR
-from hev_thermal_env.cycles import list_cycles, list_families
-from hev_thermal_env.io import read_yaml_mapping
-from hev_thermal_env.scenarios import list_scenarios
-
 from .errors import program_name, run_program
-from .parsing import HelpFormatter, OneLineErrorParser, examples, refuse_settings_with_resume
+from .parsing import (
+    HelpFormatter,
+    OneLineErrorParser,
+    add_run_options,
+    eval_cycles,
+    examples,
+    per_algo,
+    refuse_settings_with_resume,
+)
 
 # The training room (torch, Stable-Baselines3) is imported inside the functions that need it, so that
 # a Ctrl-C while it loads is reported in one line like any other.
@@ -65,28 +62,6 @@ Ctrl-C saves a checkpoint (exit status 130); --resume DIR continues.
 sweeps: train.py sweep --out DIR runs Ray Tune over hyperparameters and seeds (train.py sweep --help)."""
 
 
-def file_defaults() -> dict[str, dict[str, Any]]:
-    """The run settings of each algorithm's hyperparameter file (what the options default to), by algorithm."""
-    from hev_thermal_env.training.config import EVAL_DEFAULTS
-    from hev_thermal_env.training.hyperparams import ALGORITHMS
-
-    out = {}
-    for algo in ALGORITHMS:
-        hp = read_yaml_mapping(HYPERPARAMS_DIR / f"{algo}.yaml")
-        env, ev = hp.get("env") or {}, hp.get("eval") or {}
-        out[algo] = {"cycles": " ".join(map(str, env.get("cycles", []))), "scenario": env.get("scenario"),
-                     "timesteps": hp.get("n_timesteps"), "n_envs": hp.get("n_envs"),
-                     "eval_cycles": " ".join(map(str, ev.get("cycles", EVAL_DEFAULTS["cycles"]))),
-                     "eval_scenarios": " ".join(map(str, ev.get("scenarios", EVAL_DEFAULTS["scenarios"]))),
-                     "eval_freq": ev.get("freq"), "checkpoint_freq": hp.get("checkpoint_freq")}
-    return out
-
-
-def _per_algo(defaults: dict[str, dict[str, Any]], key: str) -> str:
-    values = [f"{value[key]} ({algo})" for algo, value in defaults.items()]
-    return "default from the hyperparameter file: " + ", ".join(values)
-
-
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
                            epilog=examples(EXAMPLES) + "\n\n" + NOTES)
@@ -95,46 +70,11 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
                                                           "(default: 0)")
     p.add_argument("--out", default=None, metavar="DIR", help="run directory, new or empty (required unless --resume)")
     p.add_argument("--checkpoint-freq", type=int, default=None, metavar="N",
-                   help=f"checkpoint every N env-steps; {_per_algo(d, 'checkpoint_freq')}")
+                   help=f"checkpoint every N env-steps; {per_algo(d, 'checkpoint_freq')}")
     p.add_argument("--resume", default=None, metavar="DIR", help="continue the run in DIR from its last checkpoint")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--quiet", action="store_true", help="no evaluation lines")
     return p
-
-
-def add_run_options(p: argparse.ArgumentParser) -> dict[str, dict[str, Any]]:
-    """The options of a run's training and evaluation (a sweep's trials take them too); returns
-    :func:`file_defaults`."""
-    d = file_defaults()
-    p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(d)} (default: ppo)")
-    p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
-                   help=f"training cycles: cycle families ({', '.join(list_families())}: a fresh generated cycle "
-                        f"per episode), built-in names ({', '.join(list_cycles())}), FAMILY:SEED or CSV paths; "
-                        f"{_per_algo(d, 'cycles')}")
-    p.add_argument("--scenario", default=None, metavar="S",
-                   help=f"one of {', '.join(list_scenarios())}; {_per_algo(d, 'scenario')}")
-    p.add_argument("--timesteps", type=int, default=None, metavar="N",
-                   help=f"total env-steps; {_per_algo(d, 'timesteps')}")
-    p.add_argument("--n-envs", type=int, default=None, metavar="N",
-                   help=f"parallel environments; {_per_algo(d, 'n_envs')}")
-    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE",
-                   help="hyperparameter overrides: YAML values, dotted keys reach inside mappings")
-    p.add_argument("--hyperparams", default=None, metavar="FILE",
-                   help="hyperparameter YAML file (default: agents/hyperparams/<algo>.yaml)")
-    p.add_argument("--eval-cycles", nargs="*", default=None, metavar="CYCLE",
-                   help=f"evaluation cycles the checkpoints are scored on, not trained on (validation_bus:A..B: "
-                        f"validation cycles A to B); none (or no CYCLE) disables evaluation; "
-                        f"{_per_algo(d, 'eval_cycles')}")
-    p.add_argument("--eval-scenarios", nargs="+", default=None, metavar="S",
-                   help=f"evaluation scenarios; {_per_algo(d, 'eval_scenarios')}")
-    p.add_argument("--eval-freq", type=int, default=None, metavar="N",
-                   help=f"evaluate every N env-steps; {_per_algo(d, 'eval_freq')}")
-    return d
-
-
-def eval_cycles(args: argparse.Namespace) -> list[str] | None:
-    """``--eval-cycles``: ``none`` (or no cycle) is no evaluation, not a cycle called none."""
-    return [] if args.eval_cycles == ["none"] else args.eval_cycles
 
 
 def command_line(argv: Sequence[str]) -> str:
