@@ -10,10 +10,9 @@ anything), and exit status 130.
 
 from __future__ import annotations
 
-import contextlib
 import sys
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 #: Exceptions that mean "the input is wrong", reported in one line.
@@ -43,24 +42,17 @@ def report(exc: BaseException, prog: str | None = None) -> int:
     return EXIT_USER_ERROR
 
 
-@contextlib.contextmanager
-def one_line_warnings(prog: str | None = None) -> Iterator[None]:
-    """Within the block, each warning is printed as ``warning: MESSAGE`` (``PROG: warning: ...``) on stderr."""
-    def show(message, category, filename, lineno, file=None, line=None):
-        print(f"{f'{prog}: ' if prog else ''}warning: {' '.join(str(message).split())}", file=file or sys.stderr)
-
-    with warnings.catch_warnings():
-        warnings.showwarning = show
-        yield
-
-
 def run_program(body: Callable[[], int | None], prog: str | None = None,
                 errors: tuple[type[BaseException], ...] = USER_ERRORS) -> int:
     """``body()`` with the one-line reports of the module docstring (``PROG: `` before errors and warnings
     with ``prog``); returns the exit status. A ``KeyboardInterrupt`` carrying a message (what was saved)
     prints it after ``interrupted:``, and its ``exit_code`` if it has one."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"{f'{prog}: ' if prog else ''}warning: {' '.join(str(message).split())}", file=file or sys.stderr)
+
     try:
-        with one_line_warnings(prog):
+        with warnings.catch_warnings():
+            warnings.showwarning = show
             return int(body() or 0)
     except KeyboardInterrupt as exc:
         print(f"interrupted: {one_line(exc)}" if str(exc) else "interrupted", file=sys.stderr)

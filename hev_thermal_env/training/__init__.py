@@ -29,10 +29,10 @@ Importing this package imports torch and Stable-Baselines3 (``import hev_thermal
 
 from .artifacts import LoadedPolicy, load_policy
 from .callbacks import TrainingInterrupted
-from .config import build_config, load_run_config, validate_config
+from .config import build_config, load_run_config
 from .export import export_policy
 from .loop import resume, train
 from .overrides import parse_overrides
 
 __all__ = ["LoadedPolicy", "TrainingInterrupted", "build_config", "export_policy", "load_policy", "load_run_config",
-           "parse_overrides", "resume", "train", "validate_config"]
+           "parse_overrides", "resume", "train"]
