@@ -135,9 +135,9 @@ def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, t
     soc = state[:, C.SOC]
     if np.any(soc < bat.soc_min - 1e-12) or np.any(soc > bat.soc_max + 1e-12):
         raise AssertionError(f"{scenario}: SOC {soc.min()}..{soc.max()} left [{bat.soc_min}, {bat.soc_max}]")
-    voc_table = env.core.ba[bat_mod.VOC0:bat_mod.VOC0 + bat_mod.N_SOC]
+    voc_table = env.core.ba[bat_mod.IDX.voc_v:bat_mod.IDX.voc_v + bat_mod.N_SOC]
     voc = np.interp(soc_before, np.linspace(0.0, 1.0, bat_mod.N_SOC), voc_table)
-    chem_from_soc = -(soc - soc_before) * env.core.ba[bat_mod.CAPACITY_AS] * voc / env.core.dt_s
+    chem_from_soc = -(soc - soc_before) * env.core.ba[bat_mod.IDX.capacity_as] * voc / env.core.dt_s
     chem_err = np.abs(chem_from_soc - out[:, C.BATT_CHEM])[stepped]
     if chem_err.size and chem_err.max() > 1e-6 * max(float(np.abs(out[:, C.BATT_CHEM]).max()), 1.0):
         raise AssertionError(f"{scenario}: battery chemical power differs from −ΔSOC·capacity·V_oc by "

@@ -60,9 +60,7 @@ class PowertrainParams(Params):
 
 POWERTRAIN_LAYOUT = Layout.of_fields(PowertrainParams)
 """Packed powertrain facts read by the kernel: one slot per field."""
-ACC_W = POWERTRAIN_LAYOUT["accessory_power_w"]
-STOP_START = POWERTRAIN_LAYOUT["stop_start"]
-REGEN = POWERTRAIN_LAYOUT["regen_enabled"]
+PT_IDX = POWERTRAIN_LAYOUT.index()
 
 
 @dataclasses.dataclass(frozen=True)
