@@ -24,12 +24,11 @@ Every cycle stays within what the cycle loader accepts without an
 :class:`~hev_thermal_env.cycles.ImplausibleCycleWarning` (speed ≤ 35 m/s, ``|a|`` ≤ 3.5 m/s²). Payload is
 not part of a cycle but of the run's conditions: the ``random_service`` scenario draws it per episode.
 
-Names and seeds
----------------
-* ``FAMILY:SEED`` names one cycle (``bus_long:7``): :func:`~hev_thermal_env.cycles.load_cycle` takes it,
-  and the cycle's name is that string, so a cycle met in training can be reloaded.
-* A bare family name in an env's or a training run's cycle list draws a fresh cycle of the family every
-  episode, its seed drawn by :func:`training_seed` from ``[0, TRAINING_SEED_LIMIT)``.
+Seeds
+-----
+Names (``FAMILY:SEED``, a bare family name): :mod:`~hev_thermal_env.cycles.names`.
+
+* A fresh training cycle's seed is drawn by :func:`training_seed` from ``[0, TRAINING_SEED_LIMIT)``.
 * The validation set ``validation_bus`` (:mod:`~hev_thermal_env.cycles.validation`) uses seeds from
   :data:`VALIDATION_SEED_BASE` up: disjoint from every training seed by construction.
 * The segments and the road are seeded with :func:`inner_seed`, an injective map of (family, seed, part)
@@ -48,9 +47,9 @@ import numpy as np
 
 from .cycle import IDLE_SPEED_MPS, Cycle
 from .generator import BEIJING_SEED, generate_bus_cycle
-from .grades import grade_along
+from .grades import grade_along, hill_kwargs
 
-#: Training seeds are drawn from ``[0, TRAINING_SEED_LIMIT)`` (as ``random_bus`` always drew them).
+#: Training seeds are drawn from ``[0, TRAINING_SEED_LIMIT)``.
 TRAINING_SEED_LIMIT = 2**31 - 1
 #: Validation cycle ``k`` has seed ``VALIDATION_SEED_BASE + k``: above every training seed.
 VALIDATION_SEED_BASE = 2**31
@@ -213,12 +212,6 @@ def _segment_kwargs(kind: str, rng: np.random.Generator) -> dict[str, Any]:
     return kwargs
 
 
-def hill_kwargs(max_grade: float) -> dict[str, Any]:
-    """``generate_grade_profile`` arguments of a family's hilly road with grades up to ``±max_grade``."""
-    return {"max_grade": float(max_grade), "grade_std": 0.5 * float(max_grade), "segment_m_range": (150.0, 600.0),
-            "transition_m": 40.0, "closed": True}
-
-
 def generate_family_cycle(family: str, seed: int, *, name: str | None = None) -> Cycle:
     """Cycle ``seed`` of ``family`` (see the module docstring); the same arguments always give the same cycle.
 
@@ -292,12 +285,3 @@ def cycle_statistics(cycle: Cycle) -> dict[str, float]:
             "max_speed_kmh": cycle.max_speed_kmh, "stops_per_km": stops / km if km > 0 else 0.0,
             "idle_fraction": cycle.idle_fraction, "max_accel_mps2": float(a.max()), "max_decel_mps2": float(-a.min()),
             "grade_min": float(np.min(cycle.grade)), "grade_max": float(np.max(cycle.grade))}
-
-
-def family_statistics(family: str, seeds: Any) -> dict[str, dict[str, float]]:
-    """``min``, ``mean`` and ``max`` over ``seeds`` of each :func:`cycle_statistics` of ``family``'s cycles."""
-    rows = [cycle_statistics(generate_family_cycle(family, int(s))) for s in seeds]
-    if not rows:
-        raise ValueError("family_statistics needs at least one seed")
-    return {k: {"min": float(np.min([r[k] for r in rows])), "mean": float(np.mean([r[k] for r in rows])),
-                "max": float(np.max([r[k] for r in rows]))} for k in rows[0]}

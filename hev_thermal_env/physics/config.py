@@ -30,7 +30,6 @@ Where the ``paper_bus`` numbers come from
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
 
 import numpy as np
 
@@ -136,5 +135,3 @@ class Conditions(Params):
             raise ConfigError(f"Conditions.initial_soc: {self.initial_soc} is outside the battery's SOC window "
                               f"[{battery.soc_min}, {battery.soc_max}]")
 
-
-CoolantMode = Literal["on", "degraded", "off"]

@@ -83,8 +83,8 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
     reference-counts array values with atomic calls (``NRT_incref``/``NRT_decref``). A per-row
     view (``state[b]``) or a per-row call taking the parameter vectors (even when inlined, which
     re-binds them) adds such pairs to every row, and they do not cancel across the branches
-    below: they were ~60 % of the time (≈270 ns/row, now ≈50-90 ns). Scalars and the component
-    functions (small, inlined by LLVM) cost none.
+    below: they would take ≈270 ns of a row's ≈50-90 ns. Scalars and the component functions
+    (small, inlined by LLVM) cost none.
     """
     inv_dt = 1.0 / dt
     # the speed's factors of the thermal model (two powers), recomputed only when the speed changes from the
