@@ -24,10 +24,9 @@
 * ``random_service``: for training on buses in service: the draws of ``random``, then a payload of
   0-4,500 kg (empty to ``full_bus``), uniform, per episode.
 
-A scenario is a small record of deltas, not a code path (DESIGN §2, STYLE.md): run conditions,
-and for ``hilly`` a road profile that :meth:`Scenario.prepare_cycle` lays under the cycle (a
-runner calls it on the cycle before building the episode; the conditions alone do not carry
-the road).
+A scenario is a small record of deltas, not a code path: run conditions, and for ``hilly`` a road
+profile that :meth:`Scenario.prepare_cycle` lays under the cycle (a runner calls it on the cycle
+before building the episode; the conditions alone do not carry the road).
 """
 
 from __future__ import annotations

@@ -5,20 +5,8 @@ run of one kind (:data:`SEGMENT_KINDS`), joined at standstill, optionally laid o
 road (:func:`~hev_thermal_env.cycles.generate_grade_profile`, no net climb). All of it is synthetic:
 generated, not measured.
 
-============== ==========================================================================================
-family         what it covers
-============== ==========================================================================================
-random_bus     ``generate_bus_cycle(seed)`` as it is: 1,300 s of city driving (the generator of ``beijing``)
-bus_long       long routes, 3,000-4,200 s of city driving; half of them cross a 600-1,200 s suburban stretch
-bus_congested  1,200-2,400 s of low-speed stop-and-go traffic: short creeps (5-30 km/h), short dwells
-bus_launch     1,200-2,000 s of city driving with hard launches (1.4-2.2 m/s² from standstill, above what
-               the engine alone can follow) and hard braking (1.0-2.0 m/s²)
-bus_hilly      1,200-2,400 s of city driving over rolling hills, grades up to ±4-8 % (drawn per cycle)
-bus_mixed      3,000-4,500 s routes of 3-6 segments (city, congested, hard-launch, suburban), hilly on half
-bus_express    1,800-3,600 s express and intercity routes: city at both ends, 60-75 % on motorway
-               (cruise 60-110 km/h, on-ramp accelerations at up to 8-14 W/kg, above what the engine alone
-               can follow); rolling hills (grades up to ±2-5 %) on half
-============== ==========================================================================================
+The families, and what each covers: :data:`FAMILIES`; their statistics, and why each is there:
+the cycle families page of the docs (``docs/cycle-families.md``).
 
 Every cycle stays within what the cycle loader accepts without an
 :class:`~hev_thermal_env.cycles.ImplausibleCycleWarning` (speed ≤ 35 m/s, ``|a|`` ≤ 3.5 m/s²). Payload is
@@ -213,25 +201,14 @@ def _segment_kwargs(kind: str, rng: np.random.Generator) -> dict[str, Any]:
 
 
 def generate_family_cycle(family: str, seed: int, *, name: str | None = None) -> Cycle:
-    """Cycle ``seed`` of ``family`` (see the module docstring); the same arguments always give the same cycle.
+    """Cycle ``seed`` (a non-negative integer) of ``family`` (one of :func:`list_families`); the same arguments
+    always give the same cycle.
 
-    Parameters
-    ----------
-    family : str
-        One of :func:`list_families`.
-    seed : int
-        Non-negative seed.
-    name : str, optional
-        The cycle's name; defaults to ``"FAMILY:SEED"``, which :func:`~hev_thermal_env.cycles.load_cycle` reloads.
+    ``name`` defaults to ``"FAMILY:SEED"``, which :func:`~hev_thermal_env.cycles.load_cycle` reloads. The
+    cycle is synthetic, on a 1-s grid, from and to standstill; its ``metadata`` holds the family, the
+    seed, the segments (kind, duration, generator seed and arguments) and the road profile (seed and
+    arguments).
 
-    Returns
-    -------
-    Cycle
-        Synthetic, on a 1-s grid, from and to standstill; ``metadata`` holds the family, the seed, the
-        segments (kind, duration, generator seed and arguments) and the road profile (seed and arguments).
-
-    Examples
-    --------
     >>> cyc = generate_family_cycle("bus_long", 7)
     >>> cyc.name, cyc.duration_s >= 3000.0
     ('bus_long:7', True)

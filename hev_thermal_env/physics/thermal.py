@@ -3,54 +3,46 @@
 ``ThermalParams.model`` selects the temperature model; both share this parameter record and one
 step (``thermal_network.thermal_step``):
 
-* ``"network"`` (the default of ``paper_bus``): the motor's winding and housing plus a coolant
-  loop with its own heat capacity, a thermostat and a finite radiator (``thermal_network.py``),
-  calibrated to the paper's figures. With the paper's h_water·A = 1282 W/K and a perfect radiator
-  the coolant clamps the motor at the 35 °C thermostat, so the literal model cannot show the
-  paper's own Figs 7-8 (44 °C, heat index 0.35).
+* ``"network"`` (the default of ``paper_bus``): winding and housing plus a coolant loop with its
+  own heat capacity, a thermostat and a finite radiator (``thermal_network.py``), calibrated to the
+  paper's figures. With the paper's h_water·A = 1282 W/K and a perfect radiator the coolant clamps
+  the motor at the 35 °C thermostat: the literal model cannot show the paper's own Figs 7-8.
 * ``"paper_eqs"``: the paper's equations as written, one lumped node (eq 7)::
 
     m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool
 
   - Q_gen: motor losses plus the paper's extra 5 % (noise, friction), ``extra_loss_frac``.
   - Q_air = h_air·A·(T − T_amb) (eq 1) with h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63
-    (eq 4), V the vehicle speed in km/h. ADVISOR's code feeds half the speed in m/s against 30;
-    we keep the paper's (and ADVISOR's documentation's) form.
-  - Q_cool = h_water·A·(T − T_water) (eq 5) when the motor is above the thermostat (35 °C), with
-    a perfect radiator (T_water, a condition of the run, stays at its initial value); h_water is
-    scaled by the coolant mode (on 1, degraded < 1, off 0).
+    (eq 4), V the vehicle speed in km/h (the paper's and ADVISOR's documentation's form; ADVISOR's
+    code feeds half the speed in m/s against 30).
+  - Q_cool = h_water·A·(T − T_water) (eq 5) above the thermostat (35 °C), with a perfect radiator
+    (T_water, a condition of the run, stays at its initial value); h_water scaled by the coolant
+    mode (on 1, degraded < 1, off 0).
   - Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
 
 Heat index (eqs 8-9): an integrator x with dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1),
 PWM = clip(x, 0, 1); the available torque is T_max = T_cont·PWM + T_peak·(1 − PWM), never above
 T_peak (both envelopes are 0 beyond the maximum speed). x starts at −PWM_initial(T₀) and is held
-in [x_min, 1] (anti-windup), where the floor **follows the motor's state**:
-x_min = −PWM_initial(T), T the motor temperature now. The negative part of x is the overload
-reserve, and a motor has the reserve its temperature allows: a hot-started motor regains it as
-it cools, a cold-started one loses it as it heats (the floor rises and pushes x up).
+in [x_min, 1] (anti-windup) with x_min = −PWM_initial(T), T the motor temperature now: the
+negative part of x is the overload reserve, and a motor has the reserve its temperature allows
+(a hot-started motor regains it as it cools, a cold-started one loses it as it heats).
 
-Eq 10 (T_gain = f(T_mc, t)) is left open by the paper, which states only that T_gain lies in
-[0.1, 0.3] in the vehicle simulation. Our closures (time enters through the temperature, which
-integrates the load history):
-
-* T_gain rises linearly from ``t_gain_cold`` at ``t_gain_temp_lo_c`` to ``t_gain_hot`` at
-  ``t_gain_temp_hi_c`` (a hotter magnet loses its overload reserve faster);
-* PWM_initial(T) is ``pwm_initial_cold`` up to ``pwm_initial_temp_lo_c`` and falls linearly to 0
-  at ``pwm_initial_temp_hi_c``: the reserve is the thermal headroom below the temperature where
-  the overload capability is used up (the paper: 0.3 at its 20 °C start).
+Eq 10 (T_gain = f(T_mc, t)) is left open by the paper (T_gain in [0.1, 0.3]). Our closures, time
+entering through the temperature, which integrates the load history: T_gain rises linearly from
+``t_gain_cold`` at ``t_gain_temp_lo_c`` to ``t_gain_hot`` at ``t_gain_temp_hi_c``; PWM_initial(T)
+is ``pwm_initial_cold`` up to ``pwm_initial_temp_lo_c`` and falls linearly to 0 at
+``pwm_initial_temp_hi_c`` (the paper: 0.3 at its 20 °C start).
 
 Efficiency derate: −1 percentage point per 15 °C above 35 °C (the paper's simulation, consistent
-with eq 10's NdFeB remanence loss of ≈12.6 %/100 K): η' = η − δ with δ = ``derate_frac_per_c``·
+with eq 10's NdFeB remanence loss of ≈12.6 %/100 K): η' = η − δ, δ = ``derate_frac_per_c``·
 (T − 35 °C), the losses following from η' (``motor.py``). Protection: at ``cutoff_temp_c``
-(70 °C) the motor stops (torque 0) until it has cooled to ``cutoff_release_temp_c``.
+(70 °C) the motor stops (torque 0) until it has cooled to ``cutoff_release_temp_c``. With
+``enabled=False`` the motor is ADVISOR's unmodified one (the paper's baseline): no derate, no
+extra loss, no cutoff, peak torque always; temperatures and heat index are still reported.
 
-With ``enabled=False`` the motor is ADVISOR's unmodified one (the paper's baseline): no derate,
-no extra loss, no cutoff, peak torque always; temperatures and heat index are still computed
-and reported.
-
-Calibrated defaults: the fields whose doc starts with "fitted:" hold the values written by
-``python -m hev_thermal_env.calibration --out DIR`` (``DIR/fitted_params.yaml``; re-running it
-reproduces them), within the plausible ranges of their ``spec`` that the fit never leaves.
+Fields whose doc starts with "fitted:" hold the values written by ``python -m
+hev_thermal_env.calibration --out DIR`` (``DIR/fitted_params.yaml``), within the plausible ranges
+of their ``spec``; docs/thermal_model.md gives every value's source.
 """
 
 from __future__ import annotations
