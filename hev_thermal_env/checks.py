@@ -100,8 +100,16 @@ def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n
                 raise AssertionError(f"{scenario}: energy balance off by {err:.3%} over an episode")
             report["episodes"] += 1
         e_in[ended] = e_out[ended] = e_scale[ended] = 0.0
-        done_steps += int(stepped.sum())
-        _record(report, stepped, soc, temp, margin, info)
+        n_live = int(stepped.sum())
+        done_steps += n_live
+        report["steps"] += n_live
+        report["soc_min"] = min(report["soc_min"], float(soc[stepped].min(initial=1.0)))
+        report["soc_max"] = max(report["soc_max"], float(soc[stepped].max(initial=0.0)))
+        if n_live:
+            report["temp_min_margin_c"] = min(report["temp_min_margin_c"], float(margin[stepped].min()))
+            report["temp_max_c"] = max(report["temp_max_c"], float(temp[stepped].max()))
+        report["cutoff_steps"] += int(info["motor_cutoff"][stepped].sum())
+        report["derated_steps"] += int((info["heat_index"][stepped] > 0).sum())
         # NEXT_STEP autoreset: the next step of an ended env is its reset
         if np.any(resetting):
             sink = np.where(resetting, _sinks(env), sink)
@@ -123,20 +131,6 @@ def _random_actions(rng: np.random.Generator, aggressive: np.ndarray) -> np.ndar
     act[big] = rng.uniform(-5.0, 5.0, int(big.sum()))
     act = np.where(aggressive & (kind >= 0.35), rng.uniform(0.7, 1.0, n), act)
     return act.astype(np.float32)
-
-
-def _record(report: dict[str, Any], stepped: np.ndarray, soc: np.ndarray, temp: np.ndarray, margin: np.ndarray,
-            info: dict[str, np.ndarray]) -> None:
-    """Add the rows that stepped (not those that reset) to the counts and extremes of ``report``."""
-    n_live = int(stepped.sum())
-    report["steps"] += n_live
-    report["soc_min"] = min(report["soc_min"], float(soc[stepped].min(initial=1.0)))
-    report["soc_max"] = max(report["soc_max"], float(soc[stepped].max(initial=0.0)))
-    if n_live:
-        report["temp_min_margin_c"] = min(report["temp_min_margin_c"], float(margin[stepped].min()))
-        report["temp_max_c"] = max(report["temp_max_c"], float(temp[stepped].max()))
-    report["cutoff_steps"] += int(info["motor_cutoff"][stepped].sum())
-    report["derated_steps"] += int((info["heat_index"][stepped] > 0).sum())
 
 
 def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, soc_before):

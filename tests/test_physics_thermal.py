@@ -1,4 +1,5 @@
-"""The motor's thermal model: defects (a)-(c) of issue 11, the network, the paper's equations as written, Table 3."""
+"""The motor's thermal model: torque envelope, heat-index floor and derate, the network, the paper's equations as
+written, Table 3."""
 
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ def _step(cfg, state, u=1.0, v0=5.0, v1=6.0, cond=None):
     return phys.step(state, np.array([u]), np.array([v0]), np.array([v1]), np.zeros(1), phys.conditions_array(cond))
 
 
-# --- defect (a): a derated motor never gets more torque than a cold one ---------------------------------
+# --- a derated motor never gets more torque than a cold one --------------------------------------------
 
 def test_envelopes_are_zero_above_max_speed():
     mo = paper_bus().motor.pack()
@@ -54,7 +55,7 @@ def test_derated_motor_above_max_speed_gets_nothing_through_the_core():
     assert out[0, C.MOTOR_TORQUE] == 0.0
 
 
-# --- defect (b): the anti-windup floor follows the motor's state ----------------------------------------
+# --- the anti-windup floor follows the motor's state ---------------------------------------------------
 
 def test_hot_started_motor_regains_its_reserve_once_cool():
     cfg = paper_bus()
@@ -85,7 +86,7 @@ def test_cold_started_motor_loses_its_reserve_when_hot():
     assert new[0, C.HEAT_X] >= floor - 1e-12 and new[0, C.HEAT_X_MIN] == pytest.approx(floor)
 
 
-# --- defect (c): the derate is exactly −1 percentage point per 15 °C --------------------------------------
+# --- the derate is exactly −1 percentage point per 15 °C -------------------------------------------------
 
 @pytest.mark.parametrize("temp_c", [50.0, 65.0, 80.0])
 @pytest.mark.parametrize("torque, rpm", [(80.0, 2000.0), (240.0, 1500.0), (40.0, 5000.0), (-120.0, 3000.0)])
@@ -242,7 +243,7 @@ def test_empty_battery_never_pays_for_the_spinning_motor():
     assert np.all(tr["battery_chem_power_w"][held] <= 1e-6)
 
 
-# --- Table 3 (coolant closed), issue 11's tolerances -------------------------------------------------------
+# --- Table 3 (coolant closed) ---------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
 def table3():

@@ -47,6 +47,12 @@ def _index_locator(i: int) -> str:
     return f"index {i}"
 
 
+def _first(mask: np.ndarray) -> int | None:
+    """The index of the first True in ``mask``, or None."""
+    hits = np.flatnonzero(mask)
+    return int(hits[0]) if hits.size else None
+
+
 def check_samples(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, *, origin: str,
                   locate: Locate = _index_locator) -> float:
     """Check raw cycle samples (1-D float arrays of equal length) and return their uniform time step [s].
@@ -68,28 +74,18 @@ def check_samples(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, 
     if n < 2:
         raise ValueError(f"{origin}: need at least 2 samples to define a time step, found {n}")
     for label, arr in (("time_s", time_s), ("speed_mps", speed_mps), ("grade", grade)):
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            i = int(bad[0])
+        if (i := _first(~np.isfinite(arr))) is not None:
             raise fail(i, f"{label} value {float(arr[i])} is not finite (NaN or inf)")
-    bad = np.flatnonzero(speed_mps < 0.0)
-    if bad.size:
-        i = int(bad[0])
+    if (i := _first(speed_mps < 0.0)) is not None:
         raise fail(i, f"negative speed: speed_mps = {float(speed_mps[i])!r} (must be >= 0)")
-    bad = np.flatnonzero(np.abs(grade) > MAX_ABS_GRADE)
-    if bad.size:
-        i = int(bad[0])
+    if (i := _first(np.abs(grade) > MAX_ABS_GRADE)) is not None:
         raise fail(i, f"grade = {float(grade[i])!r} is not a plausible rise/run fraction "
                       f"(|grade| <= {MAX_ABS_GRADE}; 0.04 means 4 %, not 4)")
     dt = np.diff(time_s)
-    bad = np.flatnonzero(dt <= 0.0)
-    if bad.size:
-        i = int(bad[0])
+    if (i := _first(dt <= 0.0)) is not None:
         raise fail(i + 1, f"time not increasing: time_s = {float(time_s[i + 1])!r} follows {float(time_s[i])!r}")
     dt0 = float(dt[0])
-    bad = np.flatnonzero(np.abs(dt - dt0) > TIME_TOL_S * max(1.0, dt0))
-    if bad.size:
-        i = int(bad[0])
+    if (i := _first(np.abs(dt - dt0) > TIME_TOL_S * max(1.0, dt0))) is not None:
         raise fail(i + 1, f"non-uniform time step: {float(dt[i])!r} s from time_s = {float(time_s[i])!r} to "
                           f"{float(time_s[i + 1])!r}, but the first step is {dt0!r} s "
                           "(only uniformly sampled cycles are supported)")

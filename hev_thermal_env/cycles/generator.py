@@ -171,18 +171,15 @@ def generate_bus_cycle(
     * ``seed``: seed of ``numpy.random.default_rng`` (an integer, else ``TypeError``).
     * ``duration_s``: cycle duration [s], rounded to whole seconds (at least 60).
     * ``max_speed_kmh``: hard speed ceiling [km/h], including fluctuations.
-    * ``cruise_speed_kmh_range``, ``cruise_speed_mode_kmh``: range and most likely value [km/h] of
-      the cruise speeds, drawn from a triangular distribution.
-    * ``cruise_s_range``: range of the uniformly drawn cruise durations [s] (rounded to whole seconds).
-    * ``speed_change_prob``: probability that a trip changes to a second cruise speed before stopping.
-    * ``speed_noise_kmh``: standard deviation of the speed fluctuation while cruising [km/h].
-    * ``dwell_s_range``: range of the uniformly drawn dwell times at stops [s], also the initial dwell.
-    * ``max_accel_mps2``: acceleration limit at low speed [m/s²]; with the default limits the 1-s
-      acceleration and deceleration never exceed 1.1 m/s² in magnitude.
-    * ``accel_power_w_per_kg``: specific tractive power [W/kg]: above ``accel_power_w_per_kg /
-      max_accel_mps2`` m/s the acceleration limit is ``accel_power_w_per_kg / v``.
-    * ``accel_scale_range``: range of the per-trip driver factor on the acceleration curve.
-    * ``decel_mps2_range``: range of the per-trip braking deceleration [m/s²].
+    * ``cruise_speed_kmh_range``, ``cruise_speed_mode_kmh``: range and mode [km/h] of the triangular
+      distribution of cruise speeds; ``cruise_s_range``: of the uniform cruise durations [s].
+    * ``speed_change_prob``: probability of a second cruise speed before a stop; ``speed_noise_kmh``:
+      standard deviation of the cruising fluctuation [km/h].
+    * ``dwell_s_range``: range of the uniform dwell times at stops [s], also the initial dwell.
+    * ``max_accel_mps2`` [m/s²] and ``accel_power_w_per_kg`` [W/kg]: the acceleration limit, constant
+      at low speed and ``accel_power_w_per_kg / v`` above; with the defaults the 1-s acceleration and
+      deceleration never exceed 1.1 m/s² in magnitude. ``accel_scale_range``: the per-trip driver
+      factor on it; ``decel_mps2_range``: the per-trip braking deceleration [m/s²].
     * ``max_jerk_mps3``: limit on the change of acceleration per second [m/s³].
     * ``name``: default ``"bus_seed<seed>"``; ``description``: default a text stating that the cycle
       is synthetic.

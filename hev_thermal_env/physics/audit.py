@@ -1,33 +1,30 @@
 """Energy audit of a run from independent quantities: each component against its own map.
 
 The closing balance of ``simulate.energy_balance`` adds up outputs that the step computed from
-one another (the engine's shaft power, the battery's chemical power, the losses as differences),
-so it closes whatever the maps say: a wrong fuel map, a SOC held inside its window by a clamp
-(energy created or destroyed), or a motor loss computed at the wrong point all pass it. The audit
-instead takes the operating points the run reports (engine speed and torque, motor speed and
-torque, gear, the state before and after each step, the cycle) and asks every component's own
-map, and conservation, what the other columns must then be:
+one another, so it closes whatever the maps say: a wrong fuel map, a SOC held inside its window
+by a clamp (energy created or destroyed), or a motor loss computed at the wrong point all pass it.
+The audit instead takes the operating points the run reports (engine and motor speed and torque,
+gear, the states before and after each step, the cycle) and asks every component's own map, and
+conservation, what the other columns must then be:
 
-* ``road_load``: the wheel power demanded, from the glider's road-load map at the cycle's speed,
+* ``road_load``: the wheel power demanded, from the road-load map at the cycle's speed,
   acceleration and grade and the run's payload;
-* ``engine_fuel``: the fuel of each step from the engine's fuel map at the reported engine speed
-  and brake torque (accessories included; nothing on overrun, the fuel cut);
-* ``engine_efficiency``: the shaft energy against the fuel energy, i.e. the engine's mean
-  efficiency, within a diesel's plausible range (0.15-0.46), and never above 0.46 in a step;
-* ``motor``: the motor's electrical power from its loss map (base loss, the extra fraction, the
-  derate at the temperature before the step) at the reported torque and speed; its loss = P_elec − T·ω;
-* ``battery``: coulomb counting from the SOC trace: the chemical energy of each step, V_oc·I·dt,
-  against −ΔSOC·capacity·V_oc (a clamp that holds the SOC in its window while current flows
-  fails here); the terminal power = V_oc·I − R·I² from the resistance map; the terminal power =
-  motor electrical power + the accessories when the engine is off;
+* ``engine_fuel``: the fuel of each step from the fuel map at the reported engine speed and brake
+  torque (accessories included; nothing on overrun, the fuel cut);
+* ``engine_efficiency``: shaft energy / fuel energy within a diesel's plausible range (0.15-0.46),
+  and never above 0.46 in a step;
+* ``motor``: the electrical power from the loss map (base loss, the extra fraction, the derate at
+  the temperature before the step) at the reported torque and speed; its loss = P_elec − T·ω;
+* ``battery``: coulomb counting, V_oc·I·dt of each step against −ΔSOC·capacity·V_oc (a clamp that
+  holds the SOC in its window while current flows fails here); the terminal power = V_oc·I − R·I²
+  from the resistance map, and = motor electrical power + the accessories when the engine is off;
 * ``driveline``: the wheel power delivered = the shaft power through the gearbox and final drive
-  efficiencies (traction), and the driveline loss their difference; the motor's and the engine's
-  speeds from the cycle's speed through the reported gear;
-* ``balance``: fuel-map-checked engine shaft energy + battery terminal energy = wheel energy,
-  brakes, motor, clutch and driveline losses and the accessories;
-* ``thermal``: the motor's generated heat = the heat stored in the network's nodes + the heat
-  given to the air (convection, radiation, radiator), per step (the paper's one-node model: the
-  motor node only, its coolant flow leaving the system).
+  efficiencies (traction); the motor's and the engine's speeds from the cycle's through the gear;
+* ``balance``: engine shaft energy + battery energy = wheel energy, brakes, motor, clutch and
+  driveline losses and the accessories;
+* ``thermal``: the motor's heat = the heat stored in the network's nodes + the heat given to the air
+  (convection, radiation, radiator), per step (``paper_eqs``: the motor node only, its coolant flow
+  leaving the system).
 
 Each check reports its worst relative error against its tolerance; :attr:`AuditReport.ok` is
 true when all pass. ``tests/test_audit.py`` shows each check failing when one component is
@@ -116,7 +113,7 @@ def energy_audit(trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any
     ``rel_tol`` bounds each per-step error relative to the component's peak power (or energy):
     rounding is far below it, a changed map far above.
     """
-    run = _Run.of(trace, config, cycle, conditions or Conditions(), dt_s)
+    run = _Run(trace, config, cycle, conditions or Conditions(), dt_s)
     road_w = run.out["road_w"]
     road = Check("road_load", _rel(road_w, run.g["wheel_power_demand_w"], run.peak(road_w)), rel_tol,
                  "wheel power demand vs the road-load map at the cycle's speed, grade and payload")
@@ -124,41 +121,32 @@ def energy_audit(trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any
                         _driveline_check(run, rel_tol), _balance_check(run), _thermal_check(run, rel_tol)])
 
 
-@dataclasses.dataclass
 class _Run:
     """What the checks read: the run's outputs ``g``, its states before each step, the maps' values ``out``."""
 
-    config: VehicleConfig
-    trace: dict[str, np.ndarray]
-    g: dict[str, np.ndarray]
-    before: dict[str, np.ndarray]
-    out: dict[str, np.ndarray]
-    v0: np.ndarray
-    v1: np.ndarray
-    dt_s: float
-
-    @classmethod
-    def of(cls, trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any, conditions: Conditions,
-           dt_s: float) -> _Run:
+    def __init__(self, trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any, conditions: Conditions,
+                 dt_s: float):
         from ..cycles import load_cycle
 
         cyc = load_cycle(cycle)
         phys = C.PhysicsCore(config, dt_s=dt_s)
         n = len(trace["fuel_g"])
         v = np.asarray(cyc.speed_mps, dtype=np.float64)
-        v0, v1 = v[:n].copy(), v[1:n + 1].copy()
+        self.v0, self.v1 = v[:n].copy(), v[1:n + 1].copy()
         grade = np.asarray(cyc.grade, dtype=np.float64)[:n].copy()
         s0 = phys.initial_state(conditions, 1)[0]
-        before = {name: np.concatenate([[s0[i]], np.asarray(trace[name])[:-1]]) for i, name in enumerate(C.STATE_NAMES)}
-        g = {name: np.asarray(trace[name], dtype=np.float64) for name in C.OUT_NAMES}
+        self.config, self.trace, self.dt_s = config, trace, dt_s
+        self.before = {name: np.concatenate([[s0[i]], np.asarray(trace[name])[:-1]])
+                       for i, name in enumerate(C.STATE_NAMES)}
+        g = self.g = {name: np.asarray(trace[name], dtype=np.float64) for name in C.OUT_NAMES}
         w_e = g["engine_speed_radps"]
         # brake torque of the engine, accessories included, from its reported speed and power
         t_e_brake = np.where(w_e > 0.0, g["engine_power_w"] / np.maximum(w_e, 1e-12), 0.0)
-        out = {k: np.empty(n) for k in ("road_w", "fuel_g", "p_elec", "voc", "r_dis", "r_chg", "ratio")}
-        _maps(*phys.params[:6], v0, v1, grade, float(conditions.payload_kg), dt_s, w_e, t_e_brake, g["engine_on"],
-              g["motor_torque_nm"], g["motor_speed_radps"], before["motor_temp_c"], before["soc"], g["gear"],
-              out["road_w"], out["fuel_g"], out["p_elec"], out["voc"], out["r_dis"], out["r_chg"], out["ratio"])
-        return cls(config, trace, g, before, out, v0, v1, dt_s)
+        out = self.out = {k: np.empty(n) for k in ("road_w", "fuel_g", "p_elec", "voc", "r_dis", "r_chg", "ratio")}
+        _maps(*phys.params[:6], self.v0, self.v1, grade, float(conditions.payload_kg), dt_s, w_e, t_e_brake,
+              g["engine_on"], g["motor_torque_nm"], g["motor_speed_radps"], self.before["motor_temp_c"],
+              self.before["soc"], g["gear"], out["road_w"], out["fuel_g"], out["p_elec"], out["voc"], out["r_dis"],
+              out["r_chg"], out["ratio"])
 
     def peak(self, x: np.ndarray) -> float:
         """The largest |x| of the run, the scale of a per-step error (1 for an empty run)."""

@@ -9,27 +9,21 @@ Nodes and heat flows of ``ThermalParams.model = "network"`` (the default of ``pa
                                    │  h_air(v)·A·(T_h − T_a) + ε·σ·A·(T_h⁴ − T_a⁴)
                                    └───────────────────────────────────────────────► ambient
 
-* Winding node: copper, insulation and resin (C_w), heated by the copper loss (k_cu·T², with the
-  paper's extra 5 % and the temperature derate's extra loss: more current for the same torque).
-  Its temperature is **the motor temperature**: the winding sensor that motor controllers read for
-  protection and derating, and what the heat index, the derate, the valve and the 70 °C cutoff
-  use. Conductance G_w to the housing through the slot insulation.
-* Housing node: stator iron, frame and rotor, the rest of Table 1's m·c_p (100 kg × 430 J/(kg·K)),
-  heated by the iron and friction losses (with the extra 5 %), cooled by air convection (eqs 1, 4)
-  and radiation (eq 6) over the paper's cooling area, as in the paper, and by the coolant jacket.
-* Thermostat valve: coolant flows through the jacket in proportion to
-  open = clip((T_w − 35 °C)/band, 0, 1): the paper's "cooling water opened when the motor
-  temperature exceeds 35 °C", proportional as a valve is. Jacket conductance G_j: at most the
-  paper's h_water·A = 1282 W/K (the film alone), lower for the jacket wall and the stator's
-  conduction.
-* Coolant node: the loop's water-glycol, radiator and pump (C_c), starting at the run's coolant
-  temperature (``Conditions.coolant_temp_c``, default the motor's start).
-* Radiator: UA(v, fan) = UA_ref·(v_face/v_ref)^n with the face air speed
-  v_face = max(ram_air_frac·v, fan·v_fan, v_still): ram air grows with vehicle speed; the fan
-  runs from ``fan_on_temp_c`` of the coolant, at full speed ``fan_band_k`` above it (the run's
-  ``fan_factor`` 0: a failed fan).
-* The coolant mode of the run (``coolant_factor`` f_c: on 1, degraded < 1, off 0) scales both
-  flow-dependent conductances, G_j and UA: a weak pump, a clogged radiator, no coolant.
+* Winding node (C_w: copper, insulation, resin), heated by the copper loss (k_cu·T², with the
+  paper's extra 5 % and the derate's extra loss). Its temperature is **the motor temperature**, the
+  sensor motor controllers read: the heat index, the derate, the valve and the 70 °C cutoff use it.
+* Housing node (C_h: stator iron, frame, rotor; the rest of Table 1's m·c_p), heated by the iron
+  and friction losses (with the extra 5 %), cooled by air convection (eqs 1, 4) and radiation
+  (eq 6) over the paper's cooling area, and by the coolant jacket.
+* Thermostat valve: open = clip((T_w − 35 °C)/band, 0, 1), the paper's "cooling water opened when
+  the motor temperature exceeds 35 °C" made proportional; the jacket conductance G_j is at most the
+  paper's h_water·A = 1282 W/K (the film alone).
+* Coolant node (C_c: water-glycol, radiator, pump), starting at ``Conditions.coolant_temp_c``.
+* Radiator: UA(v, fan) = UA_ref·(v_face/v_ref)^n, v_face = max(ram_air_frac·v, fan·v_fan, v_still);
+  the fan runs from ``fan_on_temp_c`` of the coolant, at full speed ``fan_band_k`` above it (the
+  run's ``fan_factor`` 0: a failed fan).
+* The run's coolant mode (f_c: on 1, degraded < 1, off 0) scales G_j and UA: a weak pump, a clogged
+  radiator, no coolant.
 
 Integration: the conductances are evaluated at the start of the step (h_air at the old ΔT, the
 radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin, the valve and the fan at the old
@@ -39,7 +33,7 @@ C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator
 
 ``"paper_eqs"`` keeps the paper's node as written (``thermal.py``: explicit Euler, perfect radiator
 at the run's water temperature): the housing is the same node as the winding and the coolant is
-held.
+held. Every parameter's value and source: docs/thermal_model.md.
 """
 
 from __future__ import annotations
