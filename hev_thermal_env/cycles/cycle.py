@@ -269,16 +269,14 @@ class Cycle:
 
     # -- output ------------------------------------------------------------------------
 
-    def to_csv(self, path: str | os.PathLike, *, comment: str | None = None) -> Path:
+    def to_csv(self, path: str | os.PathLike) -> Path:
         """Write the cycle to ``path`` (overwritten) as CSV with columns ``time_s,speed_mps,grade``; returns the path.
 
         Floats are written in the shortest form that reads back to the same value, so
-        ``load_cycle(cycle.to_csv(p))`` reproduces the arrays exactly. ``comment`` is written above
-        the header as ``#`` lines (skipped by ``load_cycle``).
+        ``load_cycle(cycle.to_csv(p))`` reproduces the arrays exactly.
         """
         path = Path(path)
-        lines = [f"# {c}".rstrip() for c in comment.splitlines()] if comment else []
-        lines.append("time_s,speed_mps,grade")
+        lines = ["time_s,speed_mps,grade"]
         rows = zip(self.time_s, self.speed_mps, self.grade)
         lines.extend(f"{float(t)!r},{float(v)!r},{float(g)!r}" for t, v, g in rows)  # repr: reads back the same float
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")

@@ -218,9 +218,8 @@ def stage_cost_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
     energy, with ``soc_deviation`` the quadratic SOC term and, unless ``soc_band`` is False, the
     band settlement, with ``overheat`` the overheating terms. ``state_before`` as in
     :func:`reward_terms`: a backward pass over different start states must pass it; choosing among
-    actions from one state need not. DP leaves the settlement out of its stages and charges it on
-    the final SOC (:func:`soc_band_charge_g`): the same sum, without interpolating the hinge's kink
-    in every stage's cost-to-go (which the minimisation would exploit).
+    actions from one state need not (DP charges the settlement on the final SOC instead,
+    :func:`soc_band_charge_g`).
     """
     _, total = reward_terms(params, out, state_after, soc_target, lhv_j_per_g, dt_s, state_before=state_before,
                             battery=battery, soc_deviation=soc_deviation, overheat=overheat, soc_band=soc_band)

@@ -48,6 +48,9 @@ from . import thermal as thm
 from .config import Conditions, VehicleConfig
 from .jit import jit
 
+#: Each per-step error relative to the component's peak power (or energy) may reach this: rounding is far below it,
+#: a changed map far above.
+REL_TOL = 1e-6
 #: The best brake efficiency a diesel reaches (≈185 g/kWh); no step may convert fuel better.
 DIESEL_MAX_EFF = 0.46
 DIESEL_MEAN_EFF_RANGE = (0.15, DIESEL_MAX_EFF)
@@ -107,28 +110,24 @@ def _rel(a: np.ndarray, b: np.ndarray, scale: float) -> float:
 
 
 def energy_audit(trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any,
-                 conditions: Conditions | None = None, dt_s: float = 1.0, rel_tol: float = 1e-6) -> AuditReport:
-    """Audit a run (``simulate(...).trace`` or an evaluation trace) of ``config`` over ``cycle``.
-
-    ``rel_tol`` bounds each per-step error relative to the component's peak power (or energy):
-    rounding is far below it, a changed map far above.
-    """
-    run = _Run(trace, config, cycle, conditions or Conditions(), dt_s)
+                 conditions: Conditions | None = None) -> AuditReport:
+    """Audit a run at 1-s steps (``simulate(...).trace`` or an evaluation trace) of ``config`` over ``cycle``."""
+    run = _Run(trace, config, cycle, conditions or Conditions())
     road_w = run.out["road_w"]
-    road = Check("road_load", _rel(road_w, run.g["wheel_power_demand_w"], run.peak(road_w)), rel_tol,
+    road = Check("road_load", _rel(road_w, run.g["wheel_power_demand_w"], run.peak(road_w)), REL_TOL,
                  "wheel power demand vs the road-load map at the cycle's speed, grade and payload")
-    return AuditReport([road, *_engine_checks(run, rel_tol), _motor_check(run, rel_tol), _battery_check(run, rel_tol),
-                        _driveline_check(run, rel_tol), _balance_check(run), _thermal_check(run, rel_tol)])
+    return AuditReport([road, *_engine_checks(run), _motor_check(run), _battery_check(run),
+                        _driveline_check(run), _balance_check(run), _thermal_check(run)])
 
 
 class _Run:
     """What the checks read: the run's outputs ``g``, its states before each step, the maps' values ``out``."""
 
-    def __init__(self, trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any, conditions: Conditions,
-                 dt_s: float):
+    def __init__(self, trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any, conditions: Conditions):
         from ..cycles import load_cycle
 
         cyc = load_cycle(cycle)
+        dt_s = 1.0
         phys = C.PhysicsCore(config, dt_s=dt_s)
         n = len(trace["fuel_g"])
         v = np.asarray(cyc.speed_mps, dtype=np.float64)
@@ -153,13 +152,13 @@ class _Run:
         return float(np.max(np.abs(x))) if len(x) else 1.0
 
 
-def _engine_checks(run: _Run, rel_tol: float) -> list[Check]:
+def _engine_checks(run: _Run) -> list[Check]:
     g, config, dt_s = run.g, run.config, run.dt_s
     # fuel cut on overrun: a running engine above idle that gives no power burns nothing
     idle = config.engine.idle_speed_rpm * np.pi / 30.0
     overrun = (g["engine_power_w"] <= 0.0) & (g["engine_speed_radps"] > idle * (1.0 + 1e-12))
     fuel = np.where(overrun, 0.0, run.out["fuel_g"])
-    fuel_check = Check("engine_fuel", _rel(fuel, g["fuel_g"], run.peak(fuel)), rel_tol,
+    fuel_check = Check("engine_fuel", _rel(fuel, g["fuel_g"], run.peak(fuel)), REL_TOL,
                        "fuel per step vs the fuel map at the reported engine speed and brake torque")
     lhv = config.engine.fuel_lhv_j_per_g
     shaft_j = float(np.sum(np.maximum(g["engine_power_w"], 0.0)) * dt_s)
@@ -173,16 +172,16 @@ def _engine_checks(run: _Run, rel_tol: float) -> list[Check]:
                               f"shaft energy / fuel energy = {mean_eff:.3f} (diesel: {lo}-{hi}; no step above {hi})")]
 
 
-def _motor_check(run: _Run, rel_tol: float) -> Check:
+def _motor_check(run: _Run) -> Check:
     g, p_elec = run.g, run.out["p_elec"]
     scale = run.peak(p_elec)
     mech = g["motor_torque_nm"] * g["motor_speed_radps"]
     err = max(_rel(p_elec, g["motor_elec_power_w"], scale), _rel(p_elec - mech, g["motor_loss_w"], scale))
-    return Check("motor", err, rel_tol, "electrical power and loss vs the loss map at the reported point, derated at "
+    return Check("motor", err, REL_TOL, "electrical power and loss vs the loss map at the reported point, derated at "
                                         "the temperature before the step")
 
 
-def _battery_check(run: _Run, rel_tol: float) -> Check:
+def _battery_check(run: _Run) -> Check:
     g, out, dt_s = run.g, run.out, run.dt_s
     cap_as = run.config.battery.capacity_ah * 3600.0
     d_soc = np.asarray(run.trace["soc"]) - run.before["soc"]
@@ -196,12 +195,12 @@ def _battery_check(run: _Run, rel_tol: float) -> Check:
               _rel(g["motor_elec_power_w"] + acc_elec, g["battery_power_w"], scale))
     e_chem = float(np.sum(g["battery_chem_power_w"]) * dt_s)
     e_soc = float(np.sum(chem_from_soc) * dt_s)
-    return Check("battery", err, rel_tol,
+    return Check("battery", err, REL_TOL,
                  f"∫P_chem dt = {e_chem / 3.6e6:.4f} kWh vs −ΔSOC·capacity·V_oc = {e_soc / 3.6e6:.4f} kWh; "
                  "terminal power from the resistance map and from the motor and accessories")
 
 
-def _driveline_check(run: _Run, rel_tol: float) -> Check:
+def _driveline_check(run: _Run) -> Check:
     g, config = run.g, run.config
     eff = config.driveline.gearbox_efficiency * config.driveline.final_drive_efficiency
     shaft_w = g["wheel_power_w"] + g["driveline_loss_w"]
@@ -215,7 +214,7 @@ def _driveline_check(run: _Run, rel_tol: float) -> Check:
     speed_err = max(_rel(w_shaft * config.driveline.coupler_ratio, g["motor_speed_radps"], w_scale),
                     _rel(np.where(g["engine_on"] != 0.0, np.maximum(w_shaft, idle), 0.0), g["engine_speed_radps"],
                          w_scale))
-    return Check("driveline", max(_rel(expect, g["wheel_power_w"], run.peak(shaft_w)), speed_err), rel_tol,
+    return Check("driveline", max(_rel(expect, g["wheel_power_w"], run.peak(shaft_w)), speed_err), REL_TOL,
                  "wheel power = shaft power × gearbox × final drive efficiency; shaft, motor and engine speeds from "
                  "the gear")
 
@@ -230,7 +229,7 @@ def _balance_check(run: _Run) -> Check:
                  "engine shaft + battery chemical energy = wheel, brakes, losses, accessories")
 
 
-def _thermal_check(run: _Run, rel_tol: float) -> Check:
+def _thermal_check(run: _Run) -> Check:
     th, g, dt_s = run.config.thermal, run.g, run.dt_s
     heat = g["motor_heat_w"] * dt_s
 
@@ -247,4 +246,4 @@ def _thermal_check(run: _Run, rel_tol: float) -> Check:
         stored = th.heat_capacity_j_per_k * rise("motor_temp_c")
         to_air = (g["q_air_w"] + g["q_rad_w"] + g["q_cool_w"]) * dt_s
         detail = "motor node heat + convection, radiation and coolant = motor heat (eq 7)"
-    return Check("thermal", _rel(stored + to_air, heat, max(run.peak(heat), 1.0)), rel_tol, detail)
+    return Check("thermal", _rel(stored + to_air, heat, max(run.peak(heat), 1.0)), REL_TOL, detail)

@@ -79,12 +79,9 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
 
     ``action``, ``v0``, ``v1``, ``grade`` have length B; ``cond`` is [B, N_COND].
 
-    Why the step of one row is written inside the loop, indexing the 2-D arrays by ``b``: numba
-    reference-counts array values with atomic calls (``NRT_incref``/``NRT_decref``). A per-row
-    view (``state[b]``) or a per-row call taking the parameter vectors (even when inlined, which
-    re-binds them) adds such pairs to every row, and they do not cancel across the branches
-    below: they would take ≈270 ns of a row's ≈50-90 ns. Scalars and the component functions
-    (small, inlined by LLVM) cost none.
+    The step of one row is written inside the loop, indexing the 2-D arrays by ``b``, with no per-row
+    view (``state[b]``) and no per-row call taking a parameter vector: the speed rule of ``jit.py``
+    (such reference-counted values would take ≈270 ns of a row's ≈50-90 ns).
     """
     inv_dt = 1.0 / dt
     # the speed's factors of the thermal model (two powers), recomputed only when the speed changes from the
