@@ -2,9 +2,10 @@
 
 The reward (its four terms, the SOC band settlement and the band's moving center) is specified
 in the docstring of :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. This module
-holds its weights and prices (:class:`RewardParams`), the one compiled implementation
-(:func:`reward_kernel`), the band's center (:func:`descent_soc`, :func:`band_center`) and what
-planners call on batches (:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
+holds its weights and prices (:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`),
+the one compiled implementation (:func:`reward_kernel`), the band's center (:func:`descent_soc`,
+:func:`band_center`) and what planners call on batches (:func:`reward_terms`,
+:func:`stage_cost_g`, :func:`soc_band_charge_g`).
 :meth:`RewardParams.weights` switches terms off for planners that price them elsewhere (ECMS
 prices the battery with its own equivalence factor).
 """
