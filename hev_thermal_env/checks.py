@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from .cycles import list_cycles
+from .envs import HevThermalVectorEnv
 from .physics import battery as bat_mod
 from .physics import core as C
 from .scenarios import list_scenarios
@@ -71,8 +72,6 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, progress:
 def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n_steps: int,
                    rng: np.random.Generator, report: dict[str, Any]) -> None:
     """At least ``n_steps`` random steps of one scenario, checked step by step and episode by episode."""
-    from .envs import HevThermalVectorEnv
-
     env = HevThermalVectorEnv(num_envs, cycle=cycles, scenario=scenario, random_start=True)
     env.reset(seed=seed)
     e_in, e_out, e_scale = np.zeros(num_envs), np.zeros(num_envs), np.zeros(num_envs)

@@ -24,6 +24,7 @@ from ..scenarios import Scenario
 from . import spaces as S
 from .batch import EpisodeRows
 from .episodes import EpisodeSampler, TableCache
+from .render import EpisodePlot
 from .reward import RewardParams
 
 
@@ -345,8 +346,6 @@ class HevThermalEnv(gym.Env):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
-        from .render import EpisodePlot  # matplotlib only when rendering
-
         if self._plot is None:
             self._plot = EpisodePlot(human=self.render_mode == "human", fps=self.metadata["render_fps"])
         self._plot.draw(self._history or {}, self.cycle, self.config)

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from ..cycles import load_cycle
 from . import battery as bat
 from . import core as C
 from . import driveline as drv
@@ -124,8 +125,6 @@ class _Run:
     """What the checks read: the run's outputs ``g``, its states before each step, the maps' values ``out``."""
 
     def __init__(self, trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any, conditions: Conditions):
-        from ..cycles import load_cycle
-
         cyc = load_cycle(cycle)
         dt_s = 1.0
         phys = C.PhysicsCore(config, dt_s=dt_s)
