@@ -153,14 +153,20 @@ def to_1s_grid(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, *, 
     return time_s, speed_mps, grade, info
 
 
-def _readonly_float_array(name: str, values: Any) -> np.ndarray:
+def float_vector(label: str, values: Any, origin: str) -> np.ndarray:
+    """``values`` as a 1-D float64 array; else a ``ValueError`` naming ``origin``, ``label`` and the index of the
+    first non-numeric value."""
     try:
-        arr = np.array(values, dtype=np.float64, copy=True)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"Cycle: {name} is not numeric: {exc}") from None
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        for i, x in enumerate(np.asarray(values, dtype=object).ravel()):
+            try:
+                float(x)
+            except (TypeError, ValueError):
+                raise ValueError(f"{origin}: index {i}: non-numeric value {x!r} in {label}") from None
+        raise ValueError(f"{origin}: {label} is not numeric") from None
     if arr.ndim != 1:
-        raise ValueError(f"Cycle: {name} must be 1-D, got shape {arr.shape}")
-    arr.flags.writeable = False
+        raise ValueError(f"{origin}: {label} must be 1-D, got shape {arr.shape}")
     return arr
 
 
@@ -198,17 +204,15 @@ class Cycle:
     metadata: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        time_s = _readonly_float_array("time_s", self.time_s)
-        speed_mps = _readonly_float_array("speed_mps", self.speed_mps)
-        grade = _readonly_float_array("grade", self.grade)
         origin = f"Cycle {self.name!r}"
-        check_samples(time_s, speed_mps, grade, origin=origin)
-        if np.any(np.abs(time_s - np.arange(len(time_s))) > TIME_TOL_S):
+        for label in ("time_s", "speed_mps", "grade"):
+            arr = np.array(float_vector(label, getattr(self, label), origin))  # a copy, read-only
+            arr.flags.writeable = False
+            object.__setattr__(self, label, arr)
+        check_samples(self.time_s, self.speed_mps, self.grade, origin=origin)
+        if np.any(np.abs(self.time_s - np.arange(len(self.time_s))) > TIME_TOL_S):
             raise ValueError(f"{origin}: time_s must be 0, 1, 2, ... s; use cycle_from_arrays to shift or resample "
                              "other time grids")
-        object.__setattr__(self, "time_s", time_s)
-        object.__setattr__(self, "speed_mps", speed_mps)
-        object.__setattr__(self, "grade", grade)
         object.__setattr__(self, "synthetic", bool(self.synthetic))
         object.__setattr__(self, "metadata", dict(self.metadata))
 

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from .cycle import Cycle, Locate, to_1s_grid
+from .cycle import Cycle, Locate, float_vector, to_1s_grid
 from .generator import BEIJING_KWARGS, BEIJING_SEED, BEIJING_TARGETS, bus_cycle_params
 from .names import generated_cycle
 
@@ -198,21 +198,6 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     )
 
 
-def _as_float_vector(label: str, values: Any, origin: str) -> np.ndarray:
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError):
-        for i, x in enumerate(np.asarray(values, dtype=object).ravel()):
-            try:
-                float(x)
-            except (TypeError, ValueError):
-                raise ValueError(f"{origin}: index {i}: non-numeric value {x!r} in {label}") from None
-        raise ValueError(f"{origin}: {label} is not numeric") from None
-    if arr.ndim != 1:
-        raise ValueError(f"{origin}: {label} must be 1-D, got shape {arr.shape}")
-    return arr
-
-
 def cycle_from_arrays(speed_mps: Any, grade: Any = None, name: str = "custom", *, time_s: Any = None,
                       description: str = "", source: str = "arrays", synthetic: bool = False,
                       metadata: dict | None = None) -> Cycle:
@@ -231,9 +216,9 @@ def cycle_from_arrays(speed_mps: Any, grade: Any = None, name: str = "custom", *
     fewer than 2 samples).
     """
     origin = f"cycle_from_arrays({name!r})"
-    speed = _as_float_vector("speed_mps", speed_mps, origin)
-    grd = np.zeros(len(speed)) if grade is None else _as_float_vector("grade", grade, origin)
-    t = np.arange(len(speed), dtype=np.float64) if time_s is None else _as_float_vector("time_s", time_s, origin)
+    speed = float_vector("speed_mps", speed_mps, origin)
+    grd = np.zeros(len(speed)) if grade is None else float_vector("grade", grade, origin)
+    t = np.arange(len(speed), dtype=np.float64) if time_s is None else float_vector("time_s", time_s, origin)
     t, speed, grd, info = to_1s_grid(t, speed, grd, origin=origin)
     return Cycle(name=name, time_s=t, speed_mps=speed, grade=grd, synthetic=synthetic, description=description,
                  source=source, metadata={**(metadata or {}), **info})
