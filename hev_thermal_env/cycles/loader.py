@@ -17,13 +17,12 @@ User CSV format
 * Errors raise ``ValueError`` naming the file, the position as ``data row N (line M)`` (data
   rows count from 1 after the header; lines count from 1 at the top of the file) and the
   problem.
-* Data that is valid but implausible for a bus, speeds above
-  :data:`~hev_thermal_env.cycles.cycle.PLAUSIBLE_SPEED_MAX_MPS` (35 m/s: km/h values under a
-  ``speed_mps`` header) or accelerations beyond
-  ±:data:`~hev_thermal_env.cycles.cycle.PLAUSIBLE_ACCEL_MAX_MPS2` (3.5 m/s²), gives an
-  :class:`~hev_thermal_env.cycles.cycle.ImplausibleCycleWarning` naming the file, the first such row
-  and its value (also for :func:`cycle_from_arrays`); the cycle is used as given. The built-in
-  cycles are not checked (``us06`` and ``wltc_3b`` are car cycles above a bus's top speed).
+* Data that is valid but implausible for a bus (speeds or accelerations beyond
+  :func:`~hev_thermal_env.cycles.cycle.warn_implausible`'s limits, e.g. km/h values under a
+  ``speed_mps`` header) gives an :class:`~hev_thermal_env.cycles.cycle.ImplausibleCycleWarning`
+  naming the file and the first such row (also for :func:`cycle_from_arrays`); the cycle is used as
+  given. The built-in cycles are not checked (``us06`` and ``wltc_3b`` are car cycles above a bus's
+  top speed).
 """
 
 from __future__ import annotations
