@@ -1,16 +1,12 @@
 """Numeric codes for the two categorical values of the reset info: the episode's cycle and coolant mode.
 
-RL libraries read every info value as a number (torchrl's info reader turns each entry into a
-tensor; a string breaks it), so the reset info carries codes, and these functions turn them back
-into names:
+RL libraries read every info value as a number (torchrl turns each entry into a tensor; a string
+breaks it), so the info carries codes, and these functions turn them back into names:
 
-* ``info["cycle_id"]`` → :func:`cycle_name`. The built-in cycles have fixed ids, the same in every
-  process (their order in :func:`hev_thermal_env.cycles.list_cycles`: ``hwfet`` 0, ``udds`` 1,
-  ``us06`` 2, ``wltc_3b`` 3, ``beijing`` 4); any other cycle (a CSV file, a generated
-  ``random_bus`` cycle, a :class:`~hev_thermal_env.cycles.Cycle`) gets the next free id the first
-  time the process meets its name, so its id is valid in the process that ran the env. The
-  simplest way to the name remains the env itself: ``env.unwrapped.cycle.name``
-  (``envs.cycles[i].name`` for the native vector env).
+* ``info["cycle_id"]`` → :func:`cycle_name`. The built-in cycles have fixed ids, their order in
+  :func:`hev_thermal_env.cycles.list_cycles` (``hwfet`` 0 to ``beijing`` 4); any other cycle gets
+  the next free id the first time the process meets its name, so its id is valid in the process
+  that ran the env (whose ``env.unwrapped.cycle.name``, or ``envs.cycles[i].name``, is the name).
 * ``info["coolant_code"]`` → :func:`coolant_mode`: the index in
   :data:`~hev_thermal_env.physics.config.COOLANT_MODES` (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2).
 

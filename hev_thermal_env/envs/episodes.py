@@ -20,23 +20,18 @@ from ..physics import core as C
 from ..physics.config import COOLANT_MODES, Conditions
 from ..scenarios import Scenario, get_scenario
 
-RANDOM_BUS = "random_bus"
-"""Cycle name that draws a fresh synthetic bus cycle (``generate_bus_cycle``) every episode; like every family
-name of :func:`~hev_thermal_env.cycles.list_families` (``bus_long``, ``bus_congested``, ...)."""
-
 RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
 """Keys accepted in ``reset(options=...)``."""
 
 
 class CycleChoice:
-    """What the ``cycle`` argument asks for: fixed cycles and cycle families, one drawn uniformly per episode.
+    """What the env's ``cycle`` argument asks for (its spec lists the forms): fixed cycles and cycle families,
+    one drawn uniformly per episode.
 
-    Accepts a built-in name, a generated cycle's name (``bus_long:7``, ``validation_bus:3``), a set of
-    them (``validation_bus``: every validation cycle), a CSV path, a :class:`Cycle`, a family name
-    (``"random_bus"``, ``"bus_long"``, ...: a fresh cycle of the family every episode, its seed drawn by
-    :func:`~hev_thermal_env.cycles.families.training_seed`, never a validation seed), or a non-empty list
-    of these. Named and file cycles are loaded once, here, so errors show at construction. A scenario
-    with a road profile (``hilly``) lays it under every flat cycle (:meth:`Scenario.prepare_cycle`).
+    Named and file cycles are loaded once, here, so errors show at construction; a family draws a fresh
+    cycle every episode, its seed from :func:`~hev_thermal_env.cycles.families.training_seed` (never a
+    validation seed). A scenario with a road profile (``hilly``) lays it under every flat cycle
+    (:meth:`Scenario.prepare_cycle`).
     """
 
     def __init__(self, cycle: Any, scenario: Scenario | None = None):
@@ -52,7 +47,7 @@ class CycleChoice:
                 cyc = load_cycle(item)
                 self.items.append(cyc if scenario is None else scenario.prepare_cycle(cyc))
             else:
-                raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, a family such as {RANDOM_BUS!r} "
+                raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, a family such as 'random_bus' "
                                 f"or a list of these, got {type(item).__name__}")
 
     def draw(self, rng: np.random.Generator) -> Cycle:

@@ -22,7 +22,6 @@ FONT_PT = 9.5
 SPLIT_INFO_KEY = "motor_share"
 
 
-
 class EpisodePlot:
     """One figure with five stacked panels, redrawn from the episode's history on each :meth:`draw`.
 
@@ -83,12 +82,8 @@ class EpisodePlot:
                                         fontweight="bold")
             self.fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.94), h_pad=0.4)
 
-    def draw(self, history: dict[str, list], cycle: Cycle | None, config: VehicleConfig,
-             soft_limit_c: float | None = None) -> None:
-        """Redraw the panels from ``history`` (lists per quantity, as the env records them); ``soft_limit_c``
-        is the reward's overheat soft limit (default: the default reward's)."""
-        if soft_limit_c is not None:
-            self._soft_line.set_ydata([soft_limit_c] * 2)
+    def draw(self, history: dict[str, list], cycle: Cycle | None, config: VehicleConfig) -> None:
+        """Redraw the panels from ``history`` (lists per quantity, as the env records them)."""
         if cycle is not None and cycle is not self._cycle:
             self._cycle = cycle
             self._cycle_line.set_data(cycle.time_s, np.asarray(cycle.speed_mps) * 3.6)

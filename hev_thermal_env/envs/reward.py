@@ -1,69 +1,13 @@
 """The reward of ``HevThermal-v0``, written once: the env, the vector env, DP and ECMS all call it.
 
-Every term is in grams of diesel (negative = cost), so the return of an episode reads as
-"minus fuel-equivalent grams":
-
-* ``reward_fuel``     = −fuel_weight · fuel_g
-* ``reward_miss``     = −miss_weight · (price of the missed wheel energy, :class:`~hev_thermal_env.prices.Prices`)
-* ``reward_soc``      = −soc_energy_weight · (fuel equivalent of the battery's chemical energy this step)
-                        + Φ(SOC after the step) − Φ(SOC before it)                       (SOC band settlement)
-                        − soc_deviation_weight · ((SOC − SOC_target) / soc_deviation_scale)²
-  with Φ(SOC) = −soc_band_weight · max(|SOC − SOC_target| − soc_band, 0)
-* ``reward_overheat`` = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [cut off]
-                        − derate_weight · PWM
-
-With the default weights the episode's fuel + miss + battery-energy terms equal minus the corrected
-fuel of :mod:`hev_thermal_env.metrics` (same prices), so DP and ECMS, which minimise the same
-terms, optimise the metric they are judged by. :func:`reward_kernel` is the one compiled
-implementation; :meth:`RewardParams.weights` switches terms off for planners that price them
-elsewhere (ECMS prices the battery with its own equivalence factor).
-
-Why a SOC band settlement. The battery is priced at one stated average efficiency (engine 0.36 ×
-charge path 0.90), but the engine's marginal efficiency under load is better than that: storing
-charge with a loaded engine pays at that price. Fuel + miss + battery energy alone is therefore
-minimised by ending the cycle with more charge (DP with a free final SOC: +0.06 on UDDS, +0.12 on
-a 3,600 s bus route, the corrected fuel 1-2 % below the charge-sustaining optimum), which is not
-the charge-sustaining operation the benchmark compares. Three ways out, and why this one:
-
-* a per-step quadratic tether (``soc_deviation_weight``, 0.2 before, 50 to train a charge-sustaining
-  policy) changes the objective at every step: the return is no longer the corrected fuel, the
-  mid-cycle SOC swings DP uses (assist on a climb, recharge later) are penalised, and its pull
-  vanishes in the last seconds, where charging still pays (+0.03 to +0.04 SOC at the old default);
-* an SOC-dependent battery price breaks the identity between the battery term and the metric's
-  battery correction;
-* the settlement is the potential difference of a dead-zone hinge Φ. Over any episode its steps
-  add up to Φ(SOC_final) − Φ(SOC_start) = −soc_band_weight · max(|ΔSOC| − soc_band, 0): a terminal
-  settlement of the final SOC, zero when the run ends inside the band, yet paid step by step as
-  the SOC moves (a policy sees the cost in the step that leaves the band and gets it back in the
-  step that returns), and indifferent to excursions that come back. Its slope, 10,000 g per unit
-  SOC, is about the battery price of a unit of ``paper_bus``'s SOC (36.5 kWh, ≈9,450 g) and 9
-  times the most that ending beyond the band earns at the stated prices on the cycles measured
-  (≈1,100 g per unit SOC), so the reward's optimum ends inside the band: it is the fixed-band
-  optimum for the band SOC_target ± soc_band (``benchmarks/reward_optimum.py`` measures it with
-  DP). A step moves the SOC by at most ≈0.001 (the pack's power limits), so a step's settlement
-  stays within ≈10 g, the size of the fuel terms: dense, and not drowning the fuel signal. A
-  larger pack needs a proportionally larger ``soc_band_weight``.
-
-Why the band's center moves with the route's height. On a hilly route the charge-sustaining
-optimum does not hold the SOC level: it spends charge on the way up and lets the descents refill it
-(DP on a generated hilly bus route: 0.03 below the start on the hilltops, back in the band at the
-end). A fixed band charges that detour in full while it lasts and refunds it minutes later, which a
-learner with a short horizon cannot connect, so it keeps the charge and ends with the descent's
-energy on top (+0.02 to +0.03). The band's center is therefore the target lowered by the charge
-the remaining descent to the route's end will return (:func:`band_center`, :func:`descent_soc`):
-
-    center(t) = SOC_target − descent_recovery · m · g · (h(t) − h_end) / E_per_SOC
-
-with ``descent_recovery`` = 0.6 (≈ driveline 0.93 × charge path 0.90 × the ≈ 0.75 of the potential
-energy that rolling and air resistance leave on a city descent). The settlement is still a
-potential difference, now of Φ(SOC, center(t)); the center is the target at the route's end, so an
-episode still pays exactly the charge for its final SOC, plus a constant of its start
-(−Φ(SOC_start, center(start)), zero when the route starts as high as it ends or within the band).
-On a flat route nothing changes. The observation's ``soc_target`` entry is this center.
-
-A run that starts and ends inside the band therefore returns exactly minus its corrected fuel (and
-the overheat terms). The settlement needs the SOC and the center before the step:
-:func:`reward_kernel` takes the states and centers before and after.
+The reward (its four terms, the SOC band settlement and the band's moving center) is specified
+in the docstring of :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. This module
+holds its weights and prices (:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`),
+the one compiled implementation (:func:`reward_kernel`), the band's center (:func:`descent_soc`,
+:func:`band_center`) and what planners call on batches (:func:`reward_terms`,
+:func:`stage_cost_g`, :func:`soc_band_charge_g`).
+:meth:`RewardParams.weights` switches terms off for planners that price them elsewhere (ECMS
+prices the battery with its own equivalence factor).
 """
 
 from __future__ import annotations
@@ -109,6 +53,17 @@ class RewardParams(Params):
     cutoff_weight: float = spec(20.0, "per step with the motor cut off by its 70 °C protection", min=0.0)
     derate_weight: float = spec(0.0, "per step per unit heat index (PWM)", min=0.0)
     prices: Prices = dataclasses.field(default_factory=Prices)
+
+    @classmethod
+    def of(cls, reward: RewardParams | dict | None) -> RewardParams:
+        """The env's ``reward`` argument as :class:`RewardParams`: None the defaults, a dict its fields."""
+        if reward is None:
+            return cls()
+        if isinstance(reward, RewardParams):
+            return reward
+        if isinstance(reward, dict):
+            return cls.from_dict(reward, where="reward")
+        raise TypeError(f"reward: expected RewardParams, a dict or None, got {type(reward).__name__}")
 
     def weights(self, lhv_j_per_g: float, *, battery: bool = True, soc_deviation: bool = True,
                 overheat: bool = True, soc_band: bool = True) -> np.ndarray:
@@ -264,9 +219,8 @@ def stage_cost_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
     energy, with ``soc_deviation`` the quadratic SOC term and, unless ``soc_band`` is False, the
     band settlement, with ``overheat`` the overheating terms. ``state_before`` as in
     :func:`reward_terms`: a backward pass over different start states must pass it; choosing among
-    actions from one state need not. DP leaves the settlement out of its stages and charges it on
-    the final SOC (:func:`soc_band_charge_g`): the same sum, without interpolating the hinge's kink
-    in every stage's cost-to-go (which the minimisation would exploit).
+    actions from one state need not (DP charges the settlement on the final SOC instead,
+    :func:`soc_band_charge_g`).
     """
     _, total = reward_terms(params, out, state_after, soc_target, lhv_j_per_g, dt_s, state_before=state_before,
                             battery=battery, soc_deviation=soc_deviation, overheat=overheat, soc_band=soc_band)

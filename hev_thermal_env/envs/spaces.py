@@ -1,4 +1,4 @@
-"""The observation and info layout of ``HevThermal-v0``: names, bounds, units, and the info builders.
+"""The observation and info layout of ``HevThermal-v0``: names and bounds, and the info builders.
 
 Shared by the single env (:mod:`hev_thermal_env.envs.hev_env`), the batch engine
 (:mod:`hev_thermal_env.envs.batch`) and the vector env, so all three report the same keys and values.
@@ -19,26 +19,13 @@ from .reward import REWARD_TERMS
 RPM_PER_RADPS = 30.0 / math.pi
 
 # --- observation layout ---------------------------------------------------------------------------
-# (name, low, high, unit, meaning); ``None`` bounds are filled from the vehicle.
+# (name, low, high) in order; ``None`` bounds are filled from the vehicle. The meaning and unit of each entry:
+# the observation table of :class:`~hev_thermal_env.envs.HevThermalEnv` (the spec).
 _OBS_FIELDS = (
-    ("speed_mps", 0.0, 60.0, "m/s", "vehicle speed at the start of the next step (cycle speed)"),
-    ("accel_mps2", -10.0, 10.0, "m/s²", "acceleration the cycle demands over the next step"),
-    ("wheel_power_demand_kw", -2000.0, 2000.0, "kW", "wheel power the cycle demands over the next step"),
-    ("soc", 0.0, 1.0, "-", "battery state of charge"),
-    ("soc_target", 0.0, 1.0, "-", "center of the reward's SOC band now: the episode's initial SOC, lowered "
-                                    "by the charge the route's remaining descent will return (flat route: the "
-                                    "initial SOC)"),
-    ("soc_deviation", -1.0, 1.0, "-", "soc − soc_target: the SOC's distance from the band's center (the reward "
-                                      "settles only what lies beyond ±soc_band of it)"),
-    ("motor_temp_c", -40.0, 200.0, "°C", "motor temperature"),
-    ("heat_index", 0.0, 1.0, "-", "heat index PWM (eq 9): 0 full peak torque, 1 continuous torque only"),
-    ("heat_x", -1.0, 1.0, "-", "heat-index integrator state x (eq 9); PWM = clip(x, 0, 1)"),
-    ("motor_cutoff", 0.0, 1.0, "-", "1 while the 70 °C protection holds the motor off"),
-    ("motor_torque_avail_nm", 0.0, None, "N·m", "motor torque envelope of the last step (at reset: of the first)"),
-    ("gear", 0.0, None, "-", "gear of the next step (set by the shift schedule from the cycle); never below 1"),
-    ("cycle_progress", 0.0, 1.0, "-", "elapsed fraction of the cycle"),
-    ("ambient_temp_c", -40.0, 60.0, "°C", "ambient air temperature"),
-    ("coolant_factor", 0.0, 1.0, "-", "coolant heat-transfer multiplier: 1 on, <1 degraded, 0 off"),
+    ("speed_mps", 0.0, 60.0), ("accel_mps2", -10.0, 10.0), ("wheel_power_demand_kw", -2000.0, 2000.0),
+    ("soc", 0.0, 1.0), ("soc_target", 0.0, 1.0), ("soc_deviation", -1.0, 1.0), ("motor_temp_c", -40.0, 200.0),
+    ("heat_index", 0.0, 1.0), ("heat_x", -1.0, 1.0), ("motor_cutoff", 0.0, 1.0), ("motor_torque_avail_nm", 0.0, None),
+    ("gear", 0.0, None), ("cycle_progress", 0.0, 1.0), ("ambient_temp_c", -40.0, 60.0), ("coolant_factor", 0.0, 1.0),
 )
 PREVIEW_MAX_MPS = 60.0
 _OBS_INDEX = {f[0]: i for i, f in enumerate(_OBS_FIELDS)}
@@ -74,9 +61,8 @@ _REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  
 _REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
 
 EPISODE_INFO_KEYS = ("cycle_id", "start_s", "soc_target", "ambient_temp_c", "coolant_code")
-"""Keys of the reset info that every step repeats (the episode's cycle, start and conditions), so that each
-key of a reset's info is also a step's: a vector wrapper that merges a reset into a step's info (gymnasium's
-autoreset) adds no key that the other steps lack, which is what libraries with fixed info specs need."""
+"""Keys of the reset info that every step repeats (the episode's cycle, start and conditions): every key of a
+reset's info is also a step's (the env's spec, section Info, says why)."""
 
 INFO_KEYS = (
     "fuel_g", "soc", "motor_temp_c", "heat_index", "motor_torque_nm", "motor_speed_rpm", "motor_heat_w",
@@ -94,11 +80,8 @@ see :mod:`hev_thermal_env.envs.codes`)."""
 
 
 def check_info_keys(info_keys: Any) -> tuple[str, ...]:
-    """The info keys an env reports: ``"all"`` (:data:`INFO_KEYS`) or a sequence of them (``()``: none).
-
-    The choice applies to every info, a step's and a reset's (which has the chosen keys of
-    :data:`RESET_INFO_KEYS`), so that a vector wrapper merging the two meets no key it did not see before.
-    """
+    """The info keys an env reports, at steps and resets: ``"all"`` (:data:`INFO_KEYS`) or a sequence of them
+    (``()``: none)."""
     if isinstance(info_keys, str):
         if info_keys != "all":
             raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}")
@@ -114,7 +97,7 @@ def check_info_keys(info_keys: Any) -> tuple[str, ...]:
 
 
 def reset_info_keys(info_keys: tuple[str, ...]) -> tuple[str, ...]:
-    """The reset-info keys among ``info_keys`` (every key of a reset's info is also a step's)."""
+    """The reset-info keys among ``info_keys``."""
     return tuple(key for key in RESET_INFO_KEYS if key in info_keys)
 
 

@@ -10,7 +10,7 @@ sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory
 >>> envs = HevThermalVectorEnv(8, cycle="hwfet")
 >>> obs, infos = envs.reset(seed=0)
 >>> obs.shape
-(8, 19)
+(8, 20)
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
 from .batch import EpisodeRows
 from .episodes import EpisodeSampler, TableCache
-from .hev_env import resolve_config, resolve_reward
+from .hev_env import resolve_config
 from .reward import RewardParams
 from .spaces import (
     EPISODE_INFO_KEYS,
@@ -70,8 +70,8 @@ class HevThermalVectorEnv(VectorEnv):
       - ``DISABLED``: stepping an ended sub-environment raises; reset it with
         ``reset(options={"reset_mask": mask})``.
 
-    Sub-environments may run different cycles (lists of cycles, families such as ``"random_bus"``) of different
-    lengths; each truncates at the end of its own. Rendering is not supported (``render_mode=None``).
+    Sub-environments may run different cycles (lists of cycles, families) of different lengths; each
+    truncates at the end of its own. Rendering is not supported (``render_mode=None``).
 
     Seeding follows gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each
     one; every sub-environment has its own generator, created as the single env's
@@ -79,18 +79,15 @@ class HevThermalVectorEnv(VectorEnv):
     applied to every reset sub-environment, ``reset_mask`` (bool array: reset only these), or a list
     of one options dict per sub-environment.
 
-    * ``info_keys``: the info keys to report, ``"all"`` (default,
-      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`) or a sequence of them; ``()`` is the lean
-      path for wrappers and trainers that read no infos (merging many keys per step costs more
-      than the physics). As in the single env, the choice applies to reset infos too.
+    * ``info_keys``: as the single env's; ``()`` is the lean path for wrappers and trainers that read
+      no infos (merging many keys per step costs more than the physics).
 
-    Infos are dicts of arrays with ``_key`` masks (gymnasium vector format), numbers and bools only;
-    step keys are ``info_keys``, reset keys those of :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS`
-    among them (``reset_info_keys``). Every reset key is also a step key, so the set of keys does not
-    change when sub-environments reset: torchrl, for one, reads a batch through fixed info specs
+    Infos are dicts of arrays with ``_key`` masks (gymnasium vector format), with the single env's
+    keys and values. As every reset key is also a step key, the set of keys does not change when
+    sub-environments reset: torchrl, for one, reads a batch through fixed info specs
     (``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v0", n, autoreset_mode="SameStep"))``;
-    torchrl accepts the ``SAME_STEP`` and ``DISABLED`` autoreset modes).
-    The batch attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``,
+    torchrl accepts the ``SAME_STEP`` and ``DISABLED`` autoreset modes). The batch attributes
+    ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``,
     ``k`` [n], ``phys_state`` [n, N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and
     ``last_out`` [n, N_OUT] mirror the single env's.
     """
@@ -127,7 +124,7 @@ class HevThermalVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
-        self._rows = EpisodeRows(self.core, self.num_envs, self.offsets, low, high, resolve_reward(reward))
+        self._rows = EpisodeRows(self.core, self.num_envs, self.offsets, low, high, RewardParams.of(reward))
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._started = np.zeros(self.num_envs, dtype=bool)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
@@ -142,7 +139,7 @@ class HevThermalVectorEnv(VectorEnv):
 
     @reward_params.setter
     def reward_params(self, value: RewardParams | dict) -> None:
-        self._rows.reward_params = resolve_reward(value)
+        self._rows.reward_params = RewardParams.of(value)
 
     @property
     def cycles(self) -> list:
@@ -246,10 +243,7 @@ class HevThermalVectorEnv(VectorEnv):
             rows.last_out = out.copy()  # the final infos keep viewing ``out``
             reset_infos = self._start_episodes(idx, [None] * idx.size)
             obs[idx] = rows.observe(idx)
-            infos = {key: value for key, value in step_infos.items()}
-            for key in RESET_INFO_KEYS:
-                if key in infos:
-                    infos[key] = infos[key].copy()
+            infos = {key: value.copy() if key in RESET_INFO_KEYS else value for key, value in step_infos.items()}
             infos = self._reset_info_arrays(idx, reset_infos, infos)
             infos["final_obs"], infos["_final_obs"] = final_obs, done_mask
             infos["final_info"], infos["_final_info"] = final_info, done_mask
