@@ -23,12 +23,12 @@ from collections.abc import Sequence
 from typing import Any
 
 from hev_thermal_env.agents import HYPERPARAMS_DIR
+from hev_thermal_env.agents.policy_files import ALGORITHMS
 from hev_thermal_env.cycles import list_cycles, list_families
 from hev_thermal_env.io import read_yaml_mapping
 from hev_thermal_env.scenarios import list_scenarios
 from hev_thermal_env.training import TrainingInterrupted, build_config, parse_overrides, resume, train
 from hev_thermal_env.training.config import DEFAULT_EVAL_CYCLES, VEC_MODES
-from hev_thermal_env.training.hyperparams import ALGORITHMS
 
 from .errors import EXIT_INTERRUPTED, USER_ERRORS, one_line_warnings, program_name, report
 from .parsing import HelpFormatter, OneLineErrorParser, examples
