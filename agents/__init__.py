@@ -10,17 +10,17 @@ Installed as ``hev_thermal_env.agents`` (the source folder is the top-level ``ag
 ``get_strategy("name:arg", ...)``: if the strategy class has a ``from_label(arg, **options)``
 class method (``ppo``: the text after the colon is a model path), that builds it; otherwise the
 run is reported under the label ``"name:arg"`` (one strategy with several settings in a benchmark).
-Other modules may add strategies with :func:`register_strategy`; ``ppo`` is listed when
-:mod:`hev_thermal_env.agents.ppo` (class ``PPOStrategy``) exists.
+A strategy's module is imported when the strategy is first built, so torch loads only for ``ppo``.
+The planners behind ``dp`` and ``dp_thermal`` live in :mod:`hev_thermal_env.planning`.
 
-Beside the strategies: ``policies/`` (the shipped PPO policy) and ``hyperparams/`` (the training
-hyperparameter files, :data:`HYPERPARAMS_DIR`).
+Beside the strategies: ``policies/`` (the shipped PPO policy), ``hyperparams/`` (the training
+hyperparameter files, :data:`HYPERPARAMS_DIR`) and :mod:`.policy_files` (the files of a trained
+policy: reading them, and the layout the training writes).
 """
 
 from __future__ import annotations
 
 import importlib
-import importlib.util
 import inspect
 from collections.abc import Callable
 from pathlib import Path
@@ -31,7 +31,8 @@ from .base import Strategy
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 """The hyperparameter files of ``train.py`` (``<algo>.yaml``)."""
 
-_REGISTRY: dict[str, tuple[str, str] | Callable[..., Strategy]] = {
+#: Strategy name -> (module, class).
+_REGISTRY: dict[str, tuple[str, str]] = {
     "engine_only": ("hev_thermal_env.agents.rule", "EngineOnly"),
     "rule": ("hev_thermal_env.agents.rule", "RuleBased"),
     "ecms": ("hev_thermal_env.agents.ecms", "ECMS"),
@@ -39,31 +40,13 @@ _REGISTRY: dict[str, tuple[str, str] | Callable[..., Strategy]] = {
     "ecms_thermal": ("hev_thermal_env.agents.ecms", "ThermalECMS"),
     "dp": ("hev_thermal_env.agents.dp", "DPStrategy"),
     "dp_thermal": ("hev_thermal_env.agents.optimum", "ThermalOptimumStrategy"),
+    "ppo": ("hev_thermal_env.agents.ppo", "PPOStrategy"),
 }
-_OPTIONAL = {"ppo": ("hev_thermal_env.agents.ppo", "PPOStrategy")}
-
-
-def register_strategy(name: str, factory: Callable[..., Strategy]) -> None:
-    """Make ``get_strategy(name, **options)`` call ``factory(**options)``."""
-    if not name or ":" in name:
-        raise ValueError(f"register_strategy: invalid name {name!r}")
-    _REGISTRY[name] = factory
-
-
-def _available_optional() -> dict[str, tuple[str, str]]:
-    found = {}
-    for name, (module, cls) in _OPTIONAL.items():
-        try:
-            if importlib.util.find_spec(module) is not None:
-                found[name] = (module, cls)
-        except (ImportError, ValueError):
-            pass
-    return found
 
 
 def list_strategies() -> list[str]:
     """Names accepted by :func:`get_strategy`."""
-    return list(_REGISTRY) + [n for n in _available_optional() if n not in _REGISTRY]
+    return list(_REGISTRY)
 
 
 def get_strategy(name: str, **options: Any) -> Strategy:
@@ -75,10 +58,10 @@ def get_strategy(name: str, **options: Any) -> Strategy:
     if not isinstance(name, str):
         raise ValueError(f"strategy name must be a string, got {type(name).__name__}")
     base, _, label = name.partition(":")
-    entry = _REGISTRY.get(base) or _available_optional().get(base)
-    if entry is None:
+    if base not in _REGISTRY:
         raise ValueError(f"unknown strategy {name!r}; valid strategies: {', '.join(list_strategies())}")
-    factory = entry if callable(entry) else getattr(importlib.import_module(entry[0]), entry[1])
+    module, cls = _REGISTRY[base]
+    factory = getattr(importlib.import_module(module), cls)
     from_label = getattr(factory, "from_label", None)
     build = from_label if label and from_label is not None else factory
     _check_options(base, build, options, skip=1 if build is from_label else 0)
@@ -108,4 +91,4 @@ def _check_options(base: str, build: Callable[..., Any], options: dict[str, Any]
         raise ValueError(f"strategy {base!r}: unknown option(s) {unknown}; valid options: {', '.join(known) or 'none'}")
 
 
-__all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies", "register_strategy"]
+__all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies"]

@@ -8,13 +8,13 @@ the next step with ONE ``env.peek`` call (the batched physics step) and picks th
 ``E_batt`` is the battery's chemical energy over the step (J, negative when charging), Q_lhv the
 fuel's lower heating value and the miss price is the reward's (:mod:`hev_thermal_env.envs.reward`:
 ``miss_weight`` × the fuel the engine would burn to deliver the missed wheel energy). An
-equivalence factor s of :data:`~hev_thermal_env.agents.common.REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery
+equivalence factor s of :data:`REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery
 energy exactly as the reward and the corrected-fuel metric do.
 
 SOC feedback (``ecms``): s_eff = s · (1 + k · ((SOC_target − SOC)/0.1)^p) with p = 1
 (``penalty="linear"``, default) or p = 3 (``penalty="cubic"``: gentle near the target, firm far
 from it), so the battery gets dearer below the target and cheaper above it; this keeps the run
-charge-sustaining. (Cubic with k ≤ 5 was too soft on ``beijing``: ΔSOC +0.02 at s = 2.9.)
+charge-sustaining. (Cubic with k ≤ 5 is too soft on ``beijing``: ΔSOC +0.02 at s = 2.9.)
 
 ``aecms``: s adapted by a PI controller on the SOC error, s_eff = s0 + k_p·e + k_i·∫e dt with
 e = SOC_target − SOC (the integral is clamped, anti-windup).
@@ -45,11 +45,15 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.planning.problem import argmin_small_action
+from hev_thermal_env.prices import Prices
 
 from .base import Strategy
-from .common import REWARD_EQUIVALENCE_FACTOR, argmin_small_action, stage_cost_g
+
+#: The equivalence factor (s in fuel + s·E_batt/Q_lhv) that matches the reward's default battery price.
+REWARD_EQUIVALENCE_FACTOR = Prices().equivalence_factor()
 
 
 def ecms_cost_g(out: np.ndarray, state_after: np.ndarray, s_eff: float, lhv_j_per_g: float,

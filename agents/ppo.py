@@ -3,11 +3,10 @@
 ``get_strategy("ppo")`` loads the default policy shipped in ``agents/policies/ppo_default/``;
 ``get_strategy("ppo:PATH")`` or ``get_strategy("ppo", path=PATH)`` loads a trained run: a run
 directory of ``train.py`` or a model zip, with its observation statistics and ``config.yaml``
-(loading: :func:`hev_thermal_env.training.artifacts.load_policy`, which says where each file is
-looked up). The run's config gives the algorithm (PPO or SAC: the strategy plays either) and the
-observation layout it was trained on. :meth:`PPOStrategy.act` normalises the observation with the
-saved statistics (never updating them) and predicts deterministically
-(:meth:`~hev_thermal_env.training.artifacts.LoadedPolicy.act`).
+(loading: :func:`.policy_files.load_policy`, which says where each file is looked up). The run's
+config gives the algorithm (PPO or SAC: the strategy plays either) and the observation layout it
+was trained on. :meth:`PPOStrategy.act` normalises the observation with the saved statistics
+(never updating them) and predicts deterministically (:meth:`.policy_files.LoadedPolicy.act`).
 
 Errors are one-line messages: a missing model or statistics file raises ``FileNotFoundError``; an
 unreadable one, or an environment whose observation differs from the one the model was trained on
@@ -21,9 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.training.artifacts import LoadedPolicy, load_policy
-
 from .base import Strategy
+from .policy_files import LoadedPolicy, load_policy
 
 DEFAULT_POLICY_DIR = Path(__file__).resolve().parent / "policies" / "ppo_default"
 """The shipped default policy (``get_strategy("ppo")``)."""

@@ -5,7 +5,7 @@
     idles instead of stopping) driven with action 0.
 
 ``rule``
-    ADVISOR's charge-sustaining parallel electric-assist control (``PTC_PAR`` defaults, DESIGN §5),
+    ADVISOR's charge-sustaining parallel electric-assist control (``PTC_PAR`` defaults),
     evaluated on the next step's coupler-shaft demand T_dem and engine speed ω:
 
     * engine on when T_dem > ``off_trq_frac``·T_eng,max(ω), or the vehicle speed is at least the
@@ -35,7 +35,6 @@ from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics import engine as eng
 
 from .base import Strategy
-from .common import next_step_demand
 
 
 class EngineOnly(Strategy):
@@ -97,7 +96,7 @@ class RuleBased(Strategy):
 
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
         env = self.env
-        _, out = next_step_demand(env)
+        _, out = env.peek(np.zeros(1))  # the next step's shaft demand and engine speed do not depend on u
         demand = float(out[0, C.SHAFT_DEMAND])
         if demand <= 0.0:
             return np.zeros(1, dtype=np.float32)  # braking or standing: the action has no effect

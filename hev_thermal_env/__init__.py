@@ -10,25 +10,23 @@ The rooms:
 * ``hev_thermal_env.physics``, ``.cycles``, ``.envs`` (single env, vector env, spaces, reward): the
   vehicle and the environments, imported with the package;
 * imported on demand: ``hev_thermal_env.wrappers`` (the SB3 ``VecEnv`` adapter);
+  ``hev_thermal_env.planning``, the planners over a known cycle (SOC DP, the thermal optimum);
   ``hev_thermal_env.agents``, the strategies (rule, ECMS, DP, PPO) behind one protocol, with the
-  shipped policy and the training hyperparameters (the checkout's top-level ``agents/`` folder);
-  ``hev_thermal_env.evaluation`` (run a strategy, the benchmark, the paper report, plots);
-  ``hev_thermal_env.training`` (SB3 training: config, artifacts, callbacks, loop, export; imports
-  torch); ``hev_thermal_env.cli`` (the ``evaluate.py`` / ``train.py`` programs, ``hev-evaluate``,
-  ``hev-train``).
+  shipped policy and the training hyperparameters (the source tree's top-level ``agents/`` folder,
+  installed as ``hev_thermal_env.agents``); ``hev_thermal_env.evaluation`` (run a strategy, the
+  benchmark, the paper report, plots); ``hev_thermal_env.training`` (SB3 training: config,
+  artifacts, callbacks, loop, export; imports torch); ``hev_thermal_env.cli`` (the ``evaluate.py`` /
+  ``train.py`` programs, ``hev-evaluate``, ``hev-train``).
 """
 
 from gymnasium.envs.registration import register, registry
 
-from . import _checkout
 from .cycles import Cycle, cycle_from_arrays, generate_bus_cycle, list_cycles, load_cycle
 from .envs import HevThermalEnv, HevThermalVectorEnv
 from .physics import Conditions, ConfigError, PhysicsCore, VehicleConfig, paper_bus
 from .simulate import SimResult, simulate
 
 __version__ = "0.1.0"
-
-_checkout.install()
 
 if "HevThermal-v0" not in registry:
     register(id="HevThermal-v0", entry_point="hev_thermal_env.envs.hev_env:HevThermalEnv",

@@ -22,9 +22,9 @@ import evaluate
 import train
 from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.policy_files import load_policy
 from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.training.artifacts import load_policy
 from hev_thermal_env.training.config import load_run_config
 from hev_thermal_env.training.evaluator import PolicyEvaluator
 from hev_thermal_env.training.loop import TrainingRun

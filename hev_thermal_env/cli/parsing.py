@@ -71,8 +71,8 @@ def refuse_settings_with_resume(args: argparse.Namespace, flags: Sequence[str], 
 
 def file_defaults() -> dict[str, dict[str, Any]]:
     """The run settings of each algorithm's hyperparameter file (what the options default to), by algorithm."""
+    from hev_thermal_env.agents.policy_files import ALGORITHMS
     from hev_thermal_env.training.config import EVAL_DEFAULTS
-    from hev_thermal_env.training.hyperparams import ALGORITHMS
 
     out = {}
     for algo in ALGORITHMS:

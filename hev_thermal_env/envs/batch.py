@@ -5,7 +5,7 @@ last value), the step index ``k``, the end step, the physical state, the conditi
 target. :meth:`EpisodeRows.step` advances every row with one call of :func:`advance_kernel`, a
 documented compiled kernel that composes the physics step (:func:`~hev_thermal_env.physics.core.step_kernel`),
 the reward (:func:`~hev_thermal_env.envs.reward.reward_kernel`) and the observation
-(:func:`observe_kernel`): one dispatch per step, which is what makes the single env as cheap to
+(:func:`~.observation.observe_kernel`): one dispatch per step, which is what makes the single env as cheap to
 step as a classic-control env. The single env is a batch of one; the vector env a batch of n.
 """
 
@@ -19,50 +19,9 @@ from ..cycles import Cycle
 from ..physics import core as C
 from ..physics.config import Conditions
 from ..physics.jit import jit
-from . import spaces as S
 from .episodes import CycleTables, Episode
+from .observation import observe_kernel
 from .reward import REWARD_TERMS, RewardParams, band_center, descent_soc, reward_kernel
-
-
-@jit
-def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, demand, gear, descent, offsets, dt_s,
-                   low, high, obs):
-    """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]).
-
-    Entry order and meaning: :data:`hev_thermal_env.envs.spaces.observation_names`. "Next step"
-    is the step from ``speed[r, k]`` to ``speed[r, k + 1]``. The ``soc_target`` entry is the SOC band's
-    center at instant ``k`` (:func:`~hev_thermal_env.envs.reward.band_center` of ``descent[r, k]``, with
-    the reward weights ``w``), ``soc_deviation`` the SOC's distance from it.
-    """
-    n_base = S.N_OBS_BASE
-    for i in range(rows.shape[0]):
-        r = rows[i]
-        j = k[r]
-        v0 = speed[r, j]
-        obs[i, S.OBS_SPEED] = v0
-        obs[i, S.OBS_ACCEL] = (speed[r, j + 1] - v0) / dt_s
-        obs[i, S.OBS_DEMAND] = demand[r, j]
-        obs[i, S.OBS_SOC] = state[r, C.SOC]
-        center = band_center(w, soc_target[r], descent[r, j])
-        obs[i, S.OBS_SOC_TARGET] = center
-        obs[i, S.OBS_SOC_DEVIATION] = state[r, C.SOC] - center
-        obs[i, S.OBS_TEMP] = state[r, C.TEMP_C]
-        obs[i, S.OBS_PWM] = state[r, C.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
-        obs[i, S.OBS_HEAT_X] = state[r, C.HEAT_X]
-        obs[i, S.OBS_CUTOFF] = state[r, C.CUTOFF]
-        obs[i, S.OBS_AVAIL] = avail[r]
-        obs[i, S.OBS_GEAR] = gear[r, j]
-        obs[i, S.OBS_PROGRESS] = j / n_steps[r]
-        obs[i, S.OBS_AMBIENT] = cond[r, C.AMBIENT_C]
-        obs[i, S.OBS_COOLANT] = cond[r, C.COOLANT_FACTOR]
-        for p in range(offsets.shape[0]):
-            obs[i, n_base + p] = speed[r, j + offsets[p]]
-        for c in range(obs.shape[1]):
-            x = obs[i, c]
-            if x < low[c]:
-                obs[i, c] = low[c]
-            elif x > high[c]:
-                obs[i, c] = high[c]
 
 
 @jit

@@ -27,7 +27,8 @@ Modules, each named for what it holds:
 Importing this package imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
 """
 
-from .artifacts import LoadedPolicy, load_policy
+from hev_thermal_env.agents.policy_files import LoadedPolicy, load_policy
+
 from .callbacks import TrainingInterrupted
 from .config import build_config, load_run_config
 from .export import export_policy

@@ -28,17 +28,16 @@ import numpy as np
 import torch
 from stable_baselines3.common.utils import set_random_seed
 
-from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
-
-from .artifacts import (
+from hev_thermal_env.agents.policy_files import (
     CHECKPOINTS,
     LoadedPolicy,
     checkpoint_files,
     checkpoint_paths,
-    read_evaluations,
-    save_model_and_stats,
-    write_evaluations,
+    custom_objects,
 )
+from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
+
+from .artifacts import read_evaluations, save_model_and_stats, write_evaluations
 from .callbacks import RunCallback, TrainingInterrupted, stop_on_signals
 from .config import load_run_config, save_run_config, validate_config
 from .curves import plot_training_curve
@@ -46,7 +45,6 @@ from .envs import env_kwargs, make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .imitation import imitate
-from .schedules import custom_objects
 from .selection import best_row_score, compute_references, get_scorer, is_better
 from .validation_report import final_validation
 

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.agents.policy_files import load_policy
 from hev_thermal_env.io import atomic_write_text
 
-from .artifacts import load_policy
 from .evaluator import PolicyEvaluator
 from .selection import compute_references, run_key
 

@@ -2,7 +2,10 @@
 
 Each stage's SOC grid spans only the SOCs that are reachable from the start and from which the
 final-SOC band is still reachable (:func:`corridor`), so the grid's resolution goes where paths
-can be and the final-SOC constraint is exact instead of a smeared penalty wall.
+can be and the final-SOC constraint is exact instead of a smeared penalty wall. Forward, the SOC
+after u = +1 (most discharge) and u = −1 (most charge) from the start; backward, the SOC from
+which u = −1 / u = +1 just reaches the band's lower / upper edge (solved per stage by a
+fixed-point iteration on the physics step).
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ import numpy as np
 
 from hev_thermal_env.physics import core as C
 
-from .dp_grid import DPInfeasibleError, DPProblem, DPSettings
+from .problem import DPInfeasibleError, DPProblem
 
 
 @dataclass
@@ -38,10 +41,6 @@ class Corridor:
     @property
     def feasible(self) -> bool:
         return bool(np.all(self.lo <= self.hi + 1e-9))
-
-    @property
-    def reachable_final(self) -> tuple[float, float]:
-        return float(self.f_lo[-1]), float(self.f_hi[-1])
 
 
 def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -88,18 +87,19 @@ def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, f
     return lo, hi
 
 
-def corridor(problem: DPProblem, settings: DPSettings, held: np.ndarray) -> tuple[Corridor, dict]:
-    """The SOC corridor for the requested band, or for the nearest reachable one (``on_infeasible="closest"``)."""
+def corridor(problem: DPProblem, held: np.ndarray, soc_final: float | None, tol: float,
+             on_infeasible: str) -> tuple[Corridor, dict]:
+    """The SOC corridor for the band ``soc_final`` ± ``tol`` (default: the initial SOC), or for the nearest reachable
+    one (``on_infeasible="closest"``)."""
     soc0 = float(problem.state0[C.SOC])
-    target = soc0 if settings.soc_final is None else float(settings.soc_final)
-    tol = settings.soc_tol
+    target = soc0 if soc_final is None else float(soc_final)
     band = (target - tol, target + tol)
     f_lo, f_hi = forward_envelope(problem, held)
     info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
     cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
     info["final_soc_feasible"] = cor.feasible
     if not cor.feasible:
-        if settings.on_infeasible == "raise":
+        if on_infeasible == "raise":
             raise DPInfeasibleError(
                 f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
                 f"{soc0:.4f}: the reachable final SOC is [{f_lo[-1]:.4f}, {f_hi[-1]:.4f}] (change soc_final or "

@@ -1,0 +1,68 @@
+"""Solved thermal-optimum plans kept on disk, so that a run of the same problem reuses its plan.
+
+A plan is an action sequence and its report, stored as JSON in ``plans/`` beside the compiled-kernel
+cache (:func:`hev_thermal_env.physics.jit.cache_root`). Its file name hashes the plan's key (the
+cycle, start, vehicle, reward and settings: :meth:`~.thermal_optimum.OptimumSettings.key`) and the
+sources the planner runs (:mod:`.thermal_optimum` and every module it imports: the physics, the
+reward and this package's search; :func:`~hev_thermal_env.physics.jit.source_hash`), so an edit of
+any of them solves afresh and an edit elsewhere (the observation, the evaluation) does not. Without
+a writable cache directory nothing is kept.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from hev_thermal_env.io import atomic_write_json
+from hev_thermal_env.physics.jit import CACHE_DIR, source_hash
+
+from . import thermal_optimum
+from .problem import DPProblem
+from .thermal_optimum import OptimumPlan, OptimumSettings, in_worker_process, plan_optimum
+
+_told = False
+
+
+def plan_path(key: str) -> Path | None:
+    """Where the plan of ``key`` is kept (None: no writable cache directory)."""
+    if CACHE_DIR is None:
+        return None
+    digest = hashlib.sha256((key + source_hash([thermal_optimum.__name__])).encode()).hexdigest()[:32]
+    return CACHE_DIR.parent / "plans" / f"dp_thermal-{digest}.json"
+
+
+def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool = True) -> OptimumPlan:
+    """The plan of ``problem``: read from disk if it was solved before (its report then says ``from_cache``), else
+    solved by :func:`~.thermal_optimum.plan_optimum` and kept (``use_cache=False``: always solved, not kept)."""
+    grid = settings.grid_for(problem.n_stages)
+    path = plan_path(settings.key(problem)) if use_cache else None
+    if path is not None and path.is_file():
+        try:
+            data = json.loads(path.read_text())
+            return OptimumPlan(u=np.asarray(data["u"], dtype=np.float64), report=dict(data["report"], from_cache=True),
+                               grid=grid)
+        except (OSError, ValueError, KeyError):
+            pass
+    plan = plan_optimum(problem, settings)
+    if path is not None:
+        try:
+            atomic_write_json(path, {"u": plan.u.tolist(), "report": plan.report})
+        except OSError:
+            return plan
+        _tell(path)
+    return plan
+
+
+def _tell(path: Path) -> None:
+    """Say once per process (not in pool workers) where plans are kept."""
+    global _told
+    if not _told and not in_worker_process():
+        _told = True
+        tqdm.write(f"dp_thermal: plan kept in {path.parent}/ and reused whenever the same cycle, start, vehicle and "
+                   f"settings come again (plan_cache=False solves afresh)", file=sys.stderr)
