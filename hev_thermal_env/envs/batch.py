@@ -1,25 +1,25 @@
 """The batch engine: a batch of vehicles, each on its own cycle, stepped together; the step of every env.
 
-:class:`EpisodeRows` holds, per row, the cycle tables padded to a common width (speed held at its
-last value), the step index ``k``, the end step, the physical state, the conditions and the SOC
-target. :meth:`EpisodeRows.step` advances every row with one call of :func:`advance_kernel`, a
-documented compiled kernel that composes the physics step (:func:`~hev_thermal_env.physics.core.step_kernel`),
-the reward (:func:`~hev_thermal_env.envs.reward.reward_kernel`) and the observation
-(:func:`~.observation.observe_kernel`): one dispatch per step, which is what makes the single env as cheap to
-step as a classic-control env. The single env is a batch of one; the vector env a batch of n.
+:class:`EpisodeRows` holds per row the cycle tables (padded to a common width), the step index, the
+state, the conditions and the SOC target. :meth:`EpisodeRows.step` is one call of :func:`advance_kernel`
+(physics, reward and observation fused): one dispatch per step, so the single env (a batch of one) steps
+as cheaply as a classic-control env; the vector env is a batch of n.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from ..cycles import Cycle
 from ..physics import core as C
-from ..physics.config import Conditions
+from ..physics.config import Conditions, VehicleConfig, paper_bus
 from ..physics.jit import jit
-from .episodes import CycleTables, Episode
+from . import spaces as S
+from .episodes import CycleTables, Episode, EpisodeSampler, TableCache
 from .observation import observe_kernel
 from .reward import REWARD_TERMS, RewardParams, band_center, descent_soc, reward_kernel
 
@@ -64,10 +64,7 @@ class EpisodeRows:
         self.core = core
         self.n = n_rows
         self.offsets = np.ascontiguousarray(offsets, dtype=np.int64)
-        self.low = low
-        self.high = high
-        self.low32 = low.astype(np.float32)
-        self.high32 = high.astype(np.float32)
+        self.low, self.high = low.astype(np.float32), high.astype(np.float32)  # the observation's bounds
         self.lhv = core.config.engine.fuel_lhv_j_per_g
         self.reward_params = reward_params
         self.pad = int(self.offsets.max()) + 2 if self.offsets.size else 2
@@ -178,7 +175,7 @@ class EpisodeRows:
         core = self.core
         advance_kernel(core.gl, core.dl, core.en, core.mo, core.th, core.ba, core.pt, core.dt_s, self._weights, u,
                        self.tables, self.k, self.n_steps, self.state, self.cond, self.soc_target, self.offsets,
-                       self.low32, self.high32, self.all_rows, state_out, out, terms, total, self.avail, obs)
+                       self.low, self.high, self.all_rows, state_out, out, terms, total, self.avail, obs)
         self.state = state_out
         self.last_out = out
         return total, terms, out, obs
@@ -189,5 +186,55 @@ class EpisodeRows:
         obs = np.empty((idx.size, self.low.size), dtype=np.float32)
         observe_kernel(self._weights, idx, self.k, self.state, self.cond, self.soc_target, self.avail, self.n_steps,
                        self.tables[0], self.tables[2], self.tables[3], self.tables[4], self.offsets, self.core.dt_s,
-                       self.low32, self.high32, obs)
+                       self.low, self.high, obs)
         return obs
+
+
+class EnvParts:
+    """What the single and the vector env share: the vehicle, the episode sampler and the batch engine
+    (:meth:`_build`), and the attributes read through the engine."""
+
+    def _build(self, n_rows: int, cycle: Any, scenario: Any, config: VehicleConfig | None, conditions: Any, reward: Any,
+               preview_s: int, preview_step_s: int, thermal: bool | None, random_start: bool,
+               info_keys: Any) -> tuple[spaces.Box, spaces.Box]:
+        """Build the parts from the env's arguments; returns one env's observation and action spaces."""
+        self.info_keys = S.check_info_keys(info_keys)
+        self.reset_info_keys = S.reset_info_keys(self.info_keys)
+        self.config = resolve_config(config, thermal)
+        self.core = C.PhysicsCore(self.config)
+        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
+        offsets = S.preview_offsets(preview_s, preview_step_s)
+        self.preview_s, self.preview_step_s = int(preview_s), int(preview_step_s)
+        self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
+        low, high = S.observation_bounds(self.config, offsets.size)
+        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
+        self._rows = EpisodeRows(self.core, n_rows, offsets, low, high, RewardParams.of(reward))
+        return (spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32),
+                spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32))
+
+    @property
+    def reward_params(self) -> RewardParams:
+        return self._rows.reward_params
+
+    @reward_params.setter
+    def reward_params(self, value: RewardParams | dict) -> None:
+        self._rows.reward_params = RewardParams.of(value)
+
+    @property
+    def phys_state(self) -> np.ndarray:
+        """State before the next step, [n, N_STATE] (n = 1 for the single env)."""
+        return self._rows.state
+
+    @property
+    def cond(self) -> np.ndarray:
+        """Conditions array of the episodes, [n, N_COND]."""
+        return self._rows.cond
+
+
+def resolve_config(config: VehicleConfig | None, thermal: bool | None) -> VehicleConfig:
+    """The vehicle: ``config`` (default ``paper_bus()``), its thermal model switched by ``thermal`` if given."""
+    if config is None:
+        config = paper_bus()
+    if not isinstance(config, VehicleConfig):
+        raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
+    return config if thermal is None else config.with_thermal(bool(thermal))

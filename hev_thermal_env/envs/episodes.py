@@ -1,8 +1,4 @@
-"""Episodes: what is drawn at reset (cycle, conditions, start) and the per-cycle tables the steps read.
-
-Shared by the single and the vector env, so a vector sub-environment seeded like a single env
-lives through the same episodes.
-"""
+"""Episodes: what is drawn at reset (cycle, conditions, start) and the per-cycle tables the steps read."""
 
 from __future__ import annotations
 
@@ -71,11 +67,8 @@ class Episode:
 
 
 class EpisodeSampler:
-    """Draws episodes (conditions, cycle, start) from a generator; shared by the single and vector envs.
-
-    The draws come in a fixed order (conditions, cycle, random bus seed, start offset), so a vector
-    sub-environment seeded like a single environment lives through the same episodes.
-    """
+    """Draws episodes from a generator, in a fixed order (conditions, cycle, random bus seed, start offset),
+    for the single and the vector env: a vector sub-env seeded like a single env lives through the same episodes."""
 
     def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool):
         self.scenario = get_scenario(scenario)

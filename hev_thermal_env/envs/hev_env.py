@@ -1,10 +1,7 @@
-"""``HevThermal-v0``: energy management of a parallel hybrid city bus with a thermally limited motor.
+"""``HevThermal-v0``, a thin MDP layer in the classic-control style; its spec is the class docstring.
 
-A thin MDP layer, as a classic-control env: ``step`` is dynamics, reward and termination, all in
-one call of the batch engine (:class:`~hev_thermal_env.envs.batch.EpisodeRows`, a batch of one),
-which composes the physics core, the reward (:mod:`hev_thermal_env.envs.reward`) and the
-observation (:mod:`hev_thermal_env.envs.spaces`). Episodes (cycle, conditions, start) are drawn
-by :mod:`hev_thermal_env.envs.episodes` from the scenario (:mod:`hev_thermal_env.scenarios`).
+``step`` is dynamics, reward and termination in one call of the batch engine (:mod:`.batch`, a batch of
+one); episodes (cycle, conditions, start) are drawn by :mod:`.episodes` from the scenario.
 """
 
 from __future__ import annotations
@@ -15,20 +12,18 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from ..cycles import Cycle
 from ..physics import core as C
-from ..physics.config import Conditions, VehicleConfig, paper_bus
+from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
 from . import spaces as S
-from .batch import EpisodeRows
-from .episodes import EpisodeSampler, TableCache
+from .batch import EnvParts
 from .render import EpisodePlot
 from .reward import RewardParams
 
 
-class HevThermalEnv(gym.Env):
+class HevThermalEnv(EnvParts, gym.Env):
     r"""Energy management of a parallel hybrid city bus whose traction motor heats up and derates.
 
     ## Description
@@ -147,9 +142,9 @@ class HevThermalEnv(gym.Env):
     :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS` (those among ``info_keys``). Every value is
     a number or a bool, so that libraries that turn each info value into a tensor (torchrl) read
     them: the cycle and the coolant mode are codes, ``cycle_id``
-    (:func:`~hev_thermal_env.envs.codes.cycle_name` gives the name, as does
+    (:func:`~hev_thermal_env.envs.spaces.cycle_name` gives the name, as does
     ``env.unwrapped.cycle.name``) and ``coolant_code``
-    (:func:`~hev_thermal_env.envs.codes.coolant_mode`). Every key of a reset's info is also a
+    (:func:`~hev_thermal_env.envs.spaces.coolant_mode`). Every key of a reset's info is also a
     step's, so a vector wrapper that merges an autoreset into a step's info adds no new key.
 
     ## Starting State
@@ -227,20 +222,9 @@ class HevThermalEnv(gym.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
-        self.info_keys = S.check_info_keys(info_keys)
-        self.reset_info_keys = S.reset_info_keys(self.info_keys)
-        self.config = resolve_config(config, thermal)
-        self.core = C.PhysicsCore(self.config)
-        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
-        self.preview_s = int(preview_s)
-        self.preview_step_s = int(preview_step_s)
-        self.offsets = S.preview_offsets(preview_s, preview_step_s)
-        low, high = S.observation_bounds(self.config, self.offsets.size)
-        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
-        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
-        self._rows = EpisodeRows(self.core, 1, self.offsets, low, high, RewardParams.of(reward))
+        self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
+                                                                preview_s, preview_step_s, thermal, random_start,
+                                                                info_keys)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
         self.conditions: Conditions | None = None
@@ -256,27 +240,9 @@ class HevThermalEnv(gym.Env):
         return int(self._rows.k[0])
 
     @property
-    def phys_state(self) -> np.ndarray:
-        """State before the next step, shape (1, N_STATE)."""
-        return self._rows.state
-
-    @property
-    def cond(self) -> np.ndarray:
-        """Conditions array of the episode, shape (1, N_COND)."""
-        return self._rows.cond
-
-    @property
     def soc_target(self) -> float:
         """SOC target of the reward's deviation term: the episode's initial SOC."""
         return float(self._rows.soc_target[0])
-
-    @property
-    def reward_params(self) -> RewardParams:
-        return self._rows.reward_params
-
-    @reward_params.setter
-    def reward_params(self, value: RewardParams | dict) -> None:
-        self._rows.reward_params = RewardParams.of(value)
 
     @property
     def last_out(self) -> np.ndarray:
@@ -366,15 +332,6 @@ class HevThermalEnv(gym.Env):
 
 #: What the rendering history records (only with a render_mode), per step.
 _HISTORY_KEYS = ("time_s", "cycle_speed_mps", "speed_mps", "soc", "motor_temp_c", "heat_index", "motor_share")
-
-
-def resolve_config(config: VehicleConfig | None, thermal: bool | None) -> VehicleConfig:
-    """The vehicle: ``config`` (default ``paper_bus()``), its thermal model switched by ``thermal`` if given."""
-    if config is None:
-        config = paper_bus()
-    if not isinstance(config, VehicleConfig):
-        raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
-    return config if thermal is None else config.with_thermal(bool(thermal))
 
 
 def check_action(action: Any) -> tuple[float, bool]:

@@ -1,9 +1,6 @@
-"""The observation of the batch engine's rows: one compiled kernel, fused into every step of both envs.
+"""The observation of the batch engine's rows (:func:`observe_kernel`), fused into every step of both envs.
 
-:func:`observe_kernel` writes the observation entries in the order of
-:data:`hev_thermal_env.envs.spaces.observation_names`, clipped to the declared bounds; the batch
-engine (:mod:`.batch`) calls it after every step (inside its fused kernel) and on reset. It is a
-module of its own so that nothing that plans (DP, the thermal optimum) depends on it.
+A module of its own so that nothing that plans (DP, the thermal optimum) depends on it.
 """
 
 from __future__ import annotations
@@ -17,13 +14,8 @@ from .reward import band_center
 @jit
 def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, demand, gear, descent, offsets, dt_s,
                    low, high, obs):
-    """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]).
-
-    Entry order and meaning: :data:`hev_thermal_env.envs.spaces.observation_names`. "Next step"
-    is the step from ``speed[r, k]`` to ``speed[r, k + 1]``. The ``soc_target`` entry is the SOC band's
-    center at instant ``k`` (:func:`~hev_thermal_env.envs.reward.band_center` of ``descent[r, k]``, with
-    the reward weights ``w``), ``soc_deviation`` the SOC's distance from it.
-    """
+    """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]), in the order of
+    :func:`~hev_thermal_env.envs.spaces.observation_names`; the band's center from ``descent`` and the weights ``w``."""
     n_base = S.N_OBS_BASE
     for i in range(rows.shape[0]):
         r = rows[i]

@@ -1,13 +1,9 @@
 """The reward of ``HevThermal-v0``, written once: the env, the vector env, DP and ECMS all call it.
 
-The reward (its four terms, the SOC band settlement and the band's moving center) is specified
-in the docstring of :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. This module
-holds its weights and prices (:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`),
-the one compiled implementation (:func:`reward_kernel`), the band's center (:func:`descent_soc`,
-:func:`band_center`) and what planners call on batches (:func:`reward_terms`,
-:func:`stage_cost_g`, :func:`soc_band_charge_g`).
-:meth:`RewardParams.weights` switches terms off for planners that price them elsewhere (ECMS
-prices the battery with its own equivalence factor).
+Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here: its weights and prices
+(:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
+(:func:`reward_kernel`), the band's center (:func:`descent_soc`, :func:`band_center`) and what planners
+call on batches (:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
 """
 
 from __future__ import annotations
@@ -67,11 +63,9 @@ class RewardParams(Params):
 
     def weights(self, lhv_j_per_g: float, *, battery: bool = True, soc_deviation: bool = True,
                 overheat: bool = True, soc_band: bool = True) -> np.ndarray:
-        """The weight vector of :func:`reward_kernel`; terms switched off get weight 0.
-
-        ``soc_deviation`` switches the SOC terms besides the battery energy: the band settlement
-        (unless ``soc_band`` is False) and the quadratic deviation.
-        """
+        """The weight vector of :func:`reward_kernel`; terms switched off (planners that price them
+        elsewhere, e.g. ECMS the battery) get weight 0. ``soc_deviation`` switches the SOC terms besides the
+        battery energy: the band settlement (unless ``soc_band`` is False) and the quadratic deviation."""
         w = np.zeros(N_WEIGHTS)
         w[W_FUEL] = self.fuel_weight
         w[W_MISS] = self.miss_weight
@@ -100,10 +94,8 @@ def descent_soc(climb_m: np.ndarray, mass_kg: float, gravity_mps2: float, batter
     """The SOC the descent from each instant to the route's end would return if all of it came back.
 
     ``climb_m`` [n + 1]: the height reached at each instant, from the start (m,
-    :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`). At instant ``k`` the bus stands
-    ``climb_m[k] − climb_m[n]`` above the route's end; this is that height's potential energy in units
-    of the pack's SOC: ``m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc`` (0 at the end, and
-    everywhere on a flat route). The band's center at instant ``k`` is :func:`band_center` of it.
+    :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`); the result is
+    ``m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc``, 0 at the end and on a flat route.
     """
     h = np.asarray(climb_m, dtype=np.float64)
     return mass_kg * gravity_mps2 * (h - h[-1]) / battery_j_per_soc
@@ -123,11 +115,8 @@ def soc_band_charge_kernel(w, soc, soc_target, charge):
 
 
 def soc_band_charge_g(params: RewardParams, soc: np.ndarray, soc_target: float) -> np.ndarray:
-    """What the band settlement of an episode from inside the band to a final ``soc`` adds up to (g, ≥ 0).
-
-    The settlement is a potential difference, so this is all it charges over the episode; a
-    planner can charge it once, on the final SOC (DP does), instead of step by step.
-    """
+    """What the band settlement of an episode from inside the band to a final ``soc`` adds up to (g, ≥ 0):
+    a potential difference, so a planner can charge it once, on the final SOC (DP does)."""
     soc = np.ascontiguousarray(soc, dtype=np.float64).reshape(-1)
     charge = np.empty(soc.size)
     soc_band_charge_kernel(params.weights(1.0), soc, float(soc_target), charge)  # the prices play no part
@@ -194,11 +183,9 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
                  **switches: bool) -> tuple[np.ndarray, np.ndarray]:
     """:func:`reward_kernel` on a batch: (terms [B, 4], total [B]); ``switches`` as :meth:`RewardParams.weights`.
 
-    ``state_before``: the states the batch stepped from ([B, N_STATE], or one [N_STATE] for all
-    rows). Without it the band settlement omits Φ(SOC before), which is right only for comparing
-    actions from one common state (a constant shift); an episode's reward needs it. The band's
-    center is ``soc_target`` before and after the step (a flat stretch; the env passes the
-    route's own centers to :func:`reward_kernel`).
+    ``state_before``: the states the batch stepped from ([B, N_STATE], or one [N_STATE] for all rows);
+    without it the settlement omits Φ(SOC before), a constant shift among actions from one common state.
+    The band's center is ``soc_target`` before and after the step (a flat stretch).
     """
     b = out.shape[0]
     terms = np.empty((b, len(REWARD_TERMS)))
@@ -213,13 +200,10 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
 def stage_cost_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray, soc_target: np.ndarray | float,
                  lhv_j_per_g: float, dt_s: float, *, battery: bool = True, soc_deviation: bool = False,
                  overheat: bool = False, soc_band: bool = True, state_before: np.ndarray | None = None) -> np.ndarray:
-    """Cost (fuel-equivalent grams, = −reward) of each row of a batch step, with some terms switched off.
+    """Cost (fuel-equivalent grams, = −reward) of each row of a batch step: what DP and ECMS minimise.
 
-    What DP and ECMS minimise: always fuel and missed wheel energy; with ``battery`` the battery
-    energy, with ``soc_deviation`` the quadratic SOC term and, unless ``soc_band`` is False, the
-    band settlement, with ``overheat`` the overheating terms. ``state_before`` as in
-    :func:`reward_terms`: a backward pass over different start states must pass it; choosing among
-    actions from one state need not (DP charges the settlement on the final SOC instead,
+    Always fuel and missed wheel energy; the other terms as switched (:meth:`RewardParams.weights`).
+    ``state_before`` as in :func:`reward_terms` (DP charges the settlement on the final SOC instead,
     :func:`soc_band_charge_g`).
     """
     _, total = reward_terms(params, out, state_after, soc_target, lhv_j_per_g, dt_s, state_before=state_before,

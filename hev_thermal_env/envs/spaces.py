@@ -1,7 +1,13 @@
-"""The observation and info layout of ``HevThermal-v0``: names and bounds, and the info builders.
+"""The observation and info layout of ``HevThermal-v0``: names and bounds, the info builders and codes.
 
-Shared by the single env (:mod:`hev_thermal_env.envs.hev_env`), the batch engine
-(:mod:`hev_thermal_env.envs.batch`) and the vector env, so all three report the same keys and values.
+Shared by the single env, the batch engine and the vector env, so all three report the same keys and values.
+The reset info's two categorical values are numeric codes (the env's spec, section Info):
+
+* ``info["cycle_id"]`` → :func:`cycle_name`: the built-in cycles have fixed ids, their order in
+  :func:`hev_thermal_env.cycles.list_cycles`; any other cycle gets the next free id the first time the
+  process meets its name, so its id is valid only in the process that ran the env.
+* ``info["coolant_code"]`` → :func:`coolant_mode`: the index in
+  :data:`~hev_thermal_env.physics.config.COOLANT_MODES` (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2).
 """
 
 from __future__ import annotations
@@ -11,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from ..cycles import list_cycles
 from ..physics import core as C
-from ..physics.config import VehicleConfig
-from .codes import coolant_code, cycle_id
+from ..physics.config import COOLANT_MODES, VehicleConfig
 from .reward import REWARD_TERMS
 
 RPM_PER_RADPS = 30.0 / math.pi
@@ -28,23 +34,9 @@ _OBS_FIELDS = (
     ("gear", 0.0, None), ("cycle_progress", 0.0, 1.0), ("ambient_temp_c", -40.0, 60.0), ("coolant_factor", 0.0, 1.0),
 )
 PREVIEW_MAX_MPS = 60.0
-_OBS_INDEX = {f[0]: i for i, f in enumerate(_OBS_FIELDS)}
-OBS_SPEED = _OBS_INDEX["speed_mps"]
-OBS_ACCEL = _OBS_INDEX["accel_mps2"]
-OBS_DEMAND = _OBS_INDEX["wheel_power_demand_kw"]
-OBS_SOC = _OBS_INDEX["soc"]
-OBS_SOC_TARGET = _OBS_INDEX["soc_target"]
-OBS_SOC_DEVIATION = _OBS_INDEX["soc_deviation"]
-OBS_TEMP = _OBS_INDEX["motor_temp_c"]
-OBS_PWM = _OBS_INDEX["heat_index"]
-OBS_HEAT_X = _OBS_INDEX["heat_x"]
-OBS_CUTOFF = _OBS_INDEX["motor_cutoff"]
-OBS_AVAIL = _OBS_INDEX["motor_torque_avail_nm"]
-OBS_GEAR = _OBS_INDEX["gear"]
-OBS_PROGRESS = _OBS_INDEX["cycle_progress"]
-OBS_AMBIENT = _OBS_INDEX["ambient_temp_c"]
-OBS_COOLANT = _OBS_INDEX["coolant_factor"]
 N_OBS_BASE = len(_OBS_FIELDS)
+(OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_PWM, OBS_HEAT_X,
+ OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)  # _OBS_FIELDS' order
 
 # --- info layout ----------------------------------------------------------------------------------
 # Step-info keys straight from an output column of the physics core.
@@ -75,8 +67,10 @@ INFO_KEYS = (
 
 RESET_INFO_KEYS = ("cycle_id", "start_s", "time_s", "soc", "soc_target", "motor_temp_c", "heat_index",
                    "motor_cutoff", "ambient_temp_c", "coolant_code")
-"""Keys of the ``info`` dict returned by ``reset``: numbers only (``cycle_id`` and ``coolant_code`` are codes,
-see :mod:`hev_thermal_env.envs.codes`)."""
+"""Keys of the ``info`` dict returned by ``reset``: numbers only (``cycle_id`` and ``coolant_code`` are codes)."""
+
+_CYCLE_NAMES: list[str] = list(list_cycles())
+_CYCLE_IDS: dict[str, int] = {name: i for i, name in enumerate(_CYCLE_NAMES)}
 
 
 def check_info_keys(info_keys: Any) -> tuple[str, ...]:
@@ -127,7 +121,7 @@ def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarra
 def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: float,
                    time_s: float, u: float, clipped: bool, episode: dict[str, Any]) -> dict[str, Any]:
     """The ``info`` of one step of the single env (same values as the vector env's info arrays);
-    ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (:func:`episode_info`)."""
+    ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode."""
     o = out.tolist()
     info = {
         "fuel_g": o[C.FUEL_G], "soc": float(state[C.SOC]), "motor_temp_c": float(state[C.TEMP_C]),
@@ -174,16 +168,43 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
     return {key: info[key] for key in INFO_KEYS}
 
 
-def episode_info(rows: Any, i: int, ep: Any) -> dict[str, Any]:
-    """The :data:`EPISODE_INFO_KEYS` values of episode ``ep`` started in row ``i`` of the batch engine ``rows``."""
-    return {"cycle_id": cycle_id(ep.cycle.name), "start_s": ep.start_s, "soc_target": float(rows.soc_target[i]),
+def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
+    """The ``info`` of a reset (keys in :data:`RESET_INFO_KEYS` order): row ``i`` of the batch engine ``rows``
+    starting episode ``ep``."""
+    st = rows.state[i]
+    return {"cycle_id": cycle_id(ep.cycle.name), "start_s": ep.start_s, "time_s": float(ep.start_s),
+            "soc": float(st[C.SOC]), "soc_target": float(rows.soc_target[i]), "motor_temp_c": float(st[C.TEMP_C]),
+            "heat_index": min(max(float(st[C.HEAT_X]), 0.0), 1.0), "motor_cutoff": bool(st[C.CUTOFF] != 0.0),
             "ambient_temp_c": float(ep.conditions.ambient_temp_c), "coolant_code": coolant_code(ep.conditions.coolant)}
 
 
-def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
-    """The ``info`` of a reset: row ``i`` of the batch engine ``rows`` starting episode ``ep``."""
-    st = rows.state[i]
-    info = episode_info(rows, i, ep)
-    info.update(time_s=float(ep.start_s), soc=float(st[C.SOC]), motor_temp_c=float(st[C.TEMP_C]),
-                heat_index=min(max(float(st[C.HEAT_X]), 0.0), 1.0), motor_cutoff=bool(st[C.CUTOFF] != 0.0))
-    return {key: info[key] for key in RESET_INFO_KEYS}
+def cycle_id(name: str) -> int:
+    """The id of the cycle called ``name`` (a new one, from the next free number, for a name not seen yet)."""
+    code = _CYCLE_IDS.get(name)
+    if code is None:
+        code = _CYCLE_IDS[name] = len(_CYCLE_NAMES)
+        _CYCLE_NAMES.append(name)
+    return code
+
+
+def cycle_name(code: int) -> str:
+    """The name of the cycle with id ``code`` (``info["cycle_id"]`` of a reset)."""
+    i = int(code)
+    if not 0 <= i < len(_CYCLE_NAMES):
+        raise KeyError(f"cycle id {code!r} is not known in this process (ids 0-{len(_CYCLE_NAMES) - 1}); "
+                       "ids of cycles other than the built-in ones are given by the process that runs the env: "
+                       "read env.unwrapped.cycle.name there")
+    return _CYCLE_NAMES[i]
+
+
+def coolant_code(mode: str) -> int:
+    """The code of a coolant mode (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2)."""
+    return COOLANT_MODES.index(mode)
+
+
+def coolant_mode(code: int) -> str:
+    """The coolant mode of ``info["coolant_code"]``."""
+    i = int(code)
+    if not 0 <= i < len(COOLANT_MODES):
+        raise KeyError(f"coolant code {code!r}: expected 0-{len(COOLANT_MODES) - 1} ({', '.join(COOLANT_MODES)})")
+    return COOLANT_MODES[i]
