@@ -1,10 +1,5 @@
-"""``dp``: deterministic dynamic programming over the known cycle with SOC as the state, thermal-blind.
-
-The planner is :mod:`hev_thermal_env.planning.soc_dp` (the corridor, the prices, the thermal state
-held while planning). At each real step the strategy re-optimises one step over a finer u grid
-against the plan's cost-to-go, from the actual state (``env.peek``). ``describe()`` records the
-grid sizes, the solve time and the number of vehicle-steps evaluated: a coarse DP is not an
-optimum.
+"""``dp``: dynamic programming over the known cycle with SOC as the state, thermal-blind
+(:mod:`hev_thermal_env.planning.soc_dp`: the corridor, the prices, the thermal state held while planning).
 """
 
 from __future__ import annotations
@@ -16,27 +11,28 @@ import numpy as np
 
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.planning.problem import DPProblem
-from hev_thermal_env.planning.soc_dp import DPPlan, DPSettings, choose, rollout, solve
+from hev_thermal_env.planning.soc_dp import WALL_G_PER_SOC, DPPlan, DPSettings, choose, rollout, solve
 
 from .base import Strategy
 
 
 class DPStrategy(Strategy):
-    """Dynamic programming over the known cycle (SOC state; thermal state held while planning).
+    """Dynamic programming over the known cycle. At each real step it re-optimises one step over a finer u grid
+    against the plan's cost-to-go, from the actual state (``env.peek``); ``describe()`` records the grid sizes,
+    the solve time and the vehicle-steps evaluated (a coarse DP is not an optimum).
 
-    Options: ``n_soc`` SOC grid points across each stage's corridor, ``n_u`` splits in the
-    backward pass and ``n_u_exec`` when acting, ``soc_final`` (default: the initial SOC) and
-    ``soc_tol``, ``on_infeasible`` (``"raise"``: :class:`~hev_thermal_env.planning.problem.DPInfeasibleError`;
-    ``"closest"``: plan for the nearest reachable band of the same width), ``penalty_g_per_soc``,
-    ``price_overheat``, ``price_soc_deviation``, ``threads``.
+    Options: ``n_soc`` SOC grid points across each stage's corridor, ``n_u`` splits in the backward pass and
+    ``n_u_exec`` when acting, ``soc_final`` (default: the initial SOC) and ``soc_tol``, ``on_infeasible``
+    (``"raise"``: :class:`~hev_thermal_env.planning.problem.DPInfeasibleError`; ``"closest"``: plan for the
+    nearest reachable band of the same width), ``price_soc_deviation``, ``threads``.
     """
 
     name = "dp"
     thermal_aware = False
 
     def __init__(self, n_soc: int = 401, n_u: int = 41, n_u_exec: int = 101, soc_tol: float = 0.005,
-                 soc_final: float | None = None, on_infeasible: str = "raise", penalty_g_per_soc: float = 1e6,
-                 price_overheat: bool = False, price_soc_deviation: bool = False, threads: int | None = None):
+                 soc_final: float | None = None, on_infeasible: str = "raise", price_soc_deviation: bool = False,
+                 threads: int | None = None):
         if on_infeasible not in ("raise", "closest"):
             raise ValueError(f"{self.name}: on_infeasible {on_infeasible!r} is not one of ['raise', 'closest']")
         if soc_tol < 0.0:
@@ -45,7 +41,6 @@ class DPStrategy(Strategy):
             raise ValueError(f"{self.name}: n_soc, n_u and n_u_exec must be at least 2")
         self.settings = DPSettings(n_soc=int(n_soc), n_u=int(n_u), n_u_exec=int(n_u_exec), soc_tol=float(soc_tol),
                                    soc_final=soc_final, on_infeasible=on_infeasible,
-                                   penalty_g_per_soc=float(penalty_g_per_soc), price_overheat=bool(price_overheat),
                                    price_soc_deviation=bool(price_soc_deviation), threads=threads)
         self.plan: DPPlan | None = None
         self.problem: DPProblem | None = None
@@ -90,8 +85,8 @@ class DPStrategy(Strategy):
         s = self.settings
         d: dict[str, Any] = {
             "name": self.name, "state": ["soc"], "grid": {"soc": s.n_soc}, "n_u": s.n_u, "n_u_exec": s.n_u_exec,
-            "soc_tol": s.soc_tol, "on_infeasible": s.on_infeasible, "penalty_g_per_soc": s.penalty_g_per_soc,
-            "price_overheat": s.price_overheat, "price_soc_deviation": s.price_soc_deviation,
+            "soc_tol": s.soc_tol, "on_infeasible": s.on_infeasible, "penalty_g_per_soc": WALL_G_PER_SOC,
+            "price_overheat": False, "price_soc_deviation": s.price_soc_deviation,
             "thermal_planning": "held at the initial state",
         }
         if self.plan is not None:

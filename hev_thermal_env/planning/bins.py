@@ -80,19 +80,16 @@ def hotness(states, b):
 @jit
 def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap_hint,
                       out_idx):
-    """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2`` and the coolest.
+    """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2`` and the coolest
+    (:func:`hotness`); writes their indices to ``out_idx`` (a row once) and returns how many.
 
-    Rows with ``inside`` False are skipped, and so are rows whose SOC bin is not ``part`` modulo
-    ``n_parts`` (bins of different SOC are disjoint, so parts can run on separate threads). The cost
-    compared is ``cost + price · batt_j`` (g; the battery's net chemical energy priced), coolness is
-    :func:`hotness`. Writes the rows' indices to ``out_idx`` (once where they are the same row) and
-    returns how many. One representative per bin drifts: the state that is cheaper now is usually
-    the hotter or the emptier one, and choosing it at every stage walks the search a fraction of a
-    bin hotter (or emptier) each step; with ``price2`` below the reward's price, the better lineage
-    survives when the true value of charge on the cycle lies between the two (on 200 s of Beijing,
-    ``hot``: one representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 % below the frontier, three at
-    1.5·10⁻⁴ 0.06 %). An open-addressing hash table (sized from ``cap_hint``, the expected number of
-    bins, and grown when it fills) finds a row's bin in O(1).
+    Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run
+    on separate threads). The cost compared is ``cost + price · batt_j`` (g). One representative per bin
+    drifts (the cheaper state now is usually the hotter or emptier one, a fraction of a bin each stage);
+    with ``price2`` below the reward's price the better lineage survives when the true value of charge
+    lies between the two (200 s of Beijing, ``hot``: one representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 %
+    below the frontier, three at 1.5·10⁻⁴ 0.06 %). An open-addressing hash table, sized from ``cap_hint``
+    (the expected number of bins) and grown when it fills, finds a row's bin in O(1).
     """
     cap = 1024
     while cap < 4 * cap_hint:
@@ -125,13 +122,10 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, wid
 def pareto_per_soc_bin(soc_bin, q, order, keep):
     """Drop every state dominated within its SOC bin; returns how many survive (written to ``keep``).
 
-    ``order`` sorts the rows by (SOC bin, adjusted cost). A row is dominated when a cheaper row of
-    the same SOC bin lies in a cooler thermal bin: no hotter bin in any thermal coordinate and a
-    cooler one in at least one (``q`` [M, D], bin indices: winding, housing, coolant, heat index,
-    cutoff). Rows of the same bin (the bin's cheapest and its coolest) do not dominate each other.
-    Cooler is never worse in this physics (less derate,
-    lower copper loss, stronger magnets, no cutoff), so the dominated state cannot lead to a
-    cheaper path.
+    ``order`` sorts the rows by (SOC bin, adjusted cost). A row is dominated when a cheaper row of its SOC
+    bin lies in a cooler thermal bin: no hotter in any of ``q``'s columns (bin indices: winding, housing,
+    coolant, heat index, cutoff) and cooler in one; rows of the same bin do not dominate each other.
+    Cooler is never worse in this physics (less derate, lower copper loss, stronger magnets, no cutoff).
     """
     n = order.shape[0]
     d_count = q.shape[1]
@@ -163,7 +157,6 @@ def pareto_per_soc_bin(soc_bin, q, order, keep):
                 kept += 1
         start = stop
     return kept
-
 
 
 def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows: np.ndarray) -> np.ndarray:

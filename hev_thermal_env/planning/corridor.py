@@ -10,7 +10,6 @@ fixed-point iteration on the physics step).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,29 +17,6 @@ import numpy as np
 from hev_thermal_env.physics import core as C
 
 from .problem import DPInfeasibleError, DPProblem
-
-
-@dataclass
-class Corridor:
-    """Per-stage SOC bounds: forward-reachable [f_lo, f_hi], band-reaching [b_lo, b_hi], and the band."""
-
-    f_lo: np.ndarray
-    f_hi: np.ndarray
-    b_lo: np.ndarray
-    b_hi: np.ndarray
-    band: tuple[float, float]
-
-    @property
-    def lo(self) -> np.ndarray:
-        return np.maximum(self.f_lo, self.b_lo)
-
-    @property
-    def hi(self) -> np.ndarray:
-        return np.minimum(self.f_hi, self.b_hi)
-
-    @property
-    def feasible(self) -> bool:
-        return bool(np.all(self.lo <= self.hi + 1e-9))
 
 
 def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -88,17 +64,24 @@ def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, f
 
 
 def corridor(problem: DPProblem, held: np.ndarray, soc_final: float | None, tol: float,
-             on_infeasible: str) -> tuple[Corridor, dict]:
-    """The SOC corridor for the band ``soc_final`` ± ``tol`` (default: the initial SOC), or for the nearest reachable
-    one (``on_infeasible="closest"``)."""
+             on_infeasible: str) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The SOC corridor (lowest and highest SOC per stage: reachable from the start and still reaching the band)
+    for the band ``soc_final`` ± ``tol`` (default: the initial SOC), or for the nearest reachable one
+    (``on_infeasible="closest"``)."""
     soc0 = float(problem.state0[C.SOC])
     target = soc0 if soc_final is None else float(soc_final)
     band = (target - tol, target + tol)
     f_lo, f_hi = forward_envelope(problem, held)
     info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
-    cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
-    info["final_soc_feasible"] = cor.feasible
-    if not cor.feasible:
+
+    def bounds(band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, bool]:
+        b_lo, b_hi = backward_envelope(problem, held, band)
+        lo, hi = np.maximum(f_lo, b_lo), np.minimum(f_hi, b_hi)
+        return lo, hi, bool(np.all(lo <= hi + 1e-9))
+
+    lo, hi, feasible = bounds(band)
+    info["final_soc_feasible"] = feasible
+    if not feasible:
         if on_infeasible == "raise":
             raise DPInfeasibleError(
                 f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
@@ -109,9 +92,9 @@ def corridor(problem: DPProblem, held: np.ndarray, soc_final: float | None, tol:
             band = (float(f_hi[-1]) - 2.0 * tol, float(f_hi[-1]))
         else:
             band = (float(f_lo[-1]), float(f_lo[-1]) + 2.0 * tol)
-        cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
-        if not cor.feasible:
+        lo, hi, feasible = bounds(band)
+        if not feasible:
             raise DPInfeasibleError(f"dp: even the nearest reachable final-SOC band {band} is infeasible on cycle "
                                     f"{problem.name!r}")
     info["soc_band_used"] = [float(band[0]), float(band[1])]
-    return cor, info
+    return lo, hi, info

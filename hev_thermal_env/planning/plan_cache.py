@@ -1,12 +1,10 @@
-"""Solved thermal-optimum plans kept on disk, so that a run of the same problem reuses its plan.
+"""Solved thermal-optimum plans kept on disk (JSON in ``plans/`` beside the compiled-kernel cache), reused by a
+run of the same problem.
 
-A plan is an action sequence and its report, stored as JSON in ``plans/`` beside the compiled-kernel
-cache (:func:`hev_thermal_env.physics.jit.cache_root`). Its file name hashes the plan's key (the
-cycle, start, vehicle, reward and settings: :meth:`~.thermal_optimum.OptimumSettings.key`) and the
-sources the planner runs (:mod:`.thermal_optimum` and every module it imports: the physics, the
-reward and this package's search; :func:`~hev_thermal_env.physics.jit.source_hash`), so an edit of
-any of them solves afresh and an edit elsewhere (the observation, the evaluation) does not. Without
-a writable cache directory nothing is kept.
+A plan's file name hashes its key (cycle, start, vehicle, reward, settings:
+:meth:`~.thermal_optimum.OptimumSettings.key`) and the sources the planner runs (:mod:`.thermal_optimum` and
+every module it imports: :func:`~hev_thermal_env.physics.jit.source_hash`), so an edit of any of them solves
+afresh and an edit elsewhere does not. Without a writable cache directory nothing is kept.
 """
 
 from __future__ import annotations

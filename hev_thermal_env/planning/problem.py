@@ -1,9 +1,5 @@
-"""What a planner needs from an environment: the vehicle, the cycle ahead, the start and the prices.
-
-:class:`DPProblem` holds the physics core, the cycle from step ``k0``, the start state, the
-conditions and the reward of one solve; every planner of this package (the SOC DP of
-:mod:`.soc_dp`, the thermal optimum of :mod:`.thermal_optimum`) steps it through the one physics
-core and prices it with the env's own compiled reward.
+"""What a planner needs from an environment (:class:`DPProblem`): every planner here steps it through the one
+physics core and prices it with the env's own compiled reward.
 """
 
 from __future__ import annotations

@@ -1,29 +1,12 @@
 """The thermal optimum's search: forward dynamic programming over exact physics states (cost-to-come).
 
-Why forward: the thermal state is six numbers (SOC, winding, housing and coolant temperatures,
-heat-index integrator, cutoff flag with its 60-70 °C hysteresis); a backward DP must interpolate its
-cost-to-go in every one of them, so it is either too coarse to be an optimum or takes hours.
-
-1. From the run's exact initial state, every surviving state of a stage is expanded by every split
-   u of a uniform grid (one split where the shaft demand is not positive: the action has no effect),
-   in batched calls of the physics core, so every candidate is an exact state of the environment's
-   physics and every cost is the environment's reward.
-2. The candidates are binned over (SOC, winding, housing, coolant, heat index, cutoff) and a few
-   survive per bin (:mod:`.bins`): the cheapest with the battery energy at the reward's price (and at
-   0.8 of it) and the coolest; within a SOC bin a state that a cheaper one in a cooler thermal bin
-   dominates is dropped (cooler is never worse in this physics).
-3. States that can no longer reach the final-SOC window (the backward SOC envelope of
-   :mod:`.corridor`) are dropped.
-
-Nothing is interpolated: a surviving path is a real action sequence whose planned cost *is* its
-realised cost. What the grid costs is pruning (two states in one bin are treated as
-interchangeable); ``benchmarks/optimum.py`` measures it by halving every bin and doubling the split
-grid, and against a very fine search on short cycles.
-
-The frontier comes from the same pass: the last stage's survivors give the lowest cost for every
-final SOC, F(s) = min{cost of a surviving path whose final SOC ≥ s} (:func:`frontier_points`). Cost =
-the yardstick cost: fuel + missed wheel energy at the miss price + the reward's overheat terms
-(battery and SOC-deviation terms off): the frontier prices charge by SOC, not by a battery price.
+Why forward, the bins and the passes: docs/strategies.md. Each stage expands every surviving state by
+every split (one split where the shaft demand is not positive: the action has no effect) in batched
+calls of the physics core, prices the candidates with the env's reward, keeps a few per bin
+(:mod:`.bins`) and drops those that can no longer reach the final-SOC window (the backward SOC envelope
+of :mod:`.corridor`). Nothing is interpolated: a surviving path's planned cost is its realised cost.
+The last stage's survivors give the frontier (:func:`frontier_points`), at the yardstick cost (fuel,
+missed wheel energy at the miss price, the reward's overheat terms; no battery price).
 """
 
 from __future__ import annotations
@@ -41,15 +24,17 @@ from .bins import KEY_BITS, non_dominated, survivors
 from .corridor import backward_envelope
 from .problem import DPProblem, default_threads
 
+#: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
+#: (:func:`~.bins.keep_best_per_bin`).
+SECOND_PRICE = 0.8
+#: A refining pass: every ``REFINE_STRIDE``-th split of the uniform grid and ``N_LOCAL`` splits within
+#: ± ``LOCAL_HALFWIDTH`` of each earlier path.
+REFINE_STRIDE, N_LOCAL, LOCAL_HALFWIDTH = 2, 21, 0.05
+
 
 @dataclass(frozen=True)
 class SearchGrid:
-    """Bin widths of the search (state units) and the split grid; ``scaled(f)`` divides every width by f.
-
-    ``second_price``: each bin also keeps its cheapest state with the battery priced at this fraction
-    of the reward's price (see :func:`keep_best_per_bin`); ``dominance``: drop states dominated
-    within their SOC bin (:func:`pareto_per_soc_bin`).
-    """
+    """Bin widths of the search (state units) and the split grid; ``scaled(f)`` divides every width by f."""
 
     soc: float = 1.5e-4
     winding_k: float = 4.0
@@ -57,8 +42,6 @@ class SearchGrid:
     coolant_k: float = 4.0
     heat_index: float = 0.1
     n_u: int = 31
-    dominance: bool = True
-    second_price: float = 0.8
 
     def widths(self) -> np.ndarray:
         return np.array([self.soc, self.winding_k, self.housing_k, self.coolant_k, self.heat_index, 1.0])
@@ -68,7 +51,7 @@ class SearchGrid:
         stays)."""
         return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor,
                           self.coolant_k / factor, self.heat_index / factor,
-                          2 * int(round((self.n_u - 1) * factor / 2)) + 1, self.dominance, self.second_price)
+                          2 * int(round((self.n_u - 1) * factor / 2)) + 1)
 
     def describe(self) -> str:
         return (f"forward DP over exact states, bins ΔSOC {self.soc:g}, winding {self.winding_k:g} K, housing "
@@ -100,11 +83,6 @@ class SearchResult:
             j = self.parents[i][j]
         return u
 
-    def frontier(self) -> tuple[np.ndarray, np.ndarray]:
-        """The frontier's breakpoints (final SOC ascending, cost non-decreasing): :func:`frontier_points` of the
-        final survivors."""
-        return frontier_points(self.final_state[:, C.SOC], self.final_cost_g)
-
 
 def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The final states that no other beats with both more final charge and a lower cost, by SOC ascending.
@@ -117,7 +95,6 @@ def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.n
     after = np.r_[np.minimum.accumulate(c[::-1])[::-1][1:], np.inf]  # lowest cost strictly above in order
     keep = c < after
     return s[keep], c[keep]
-
 
 
 def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
@@ -137,19 +114,12 @@ def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: flo
 def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
     """Raise when a bin index could leave its key field (different states would then share a bin): SOC up to 1,
     temperatures up to ``temp_hi_c``, heat index up to 1."""
-    fields = {"soc": (1.0, grid.soc, KEY_BITS[0]), "winding_k": (temp_hi_c, grid.winding_k, KEY_BITS[1]),
-              "housing_k": (temp_hi_c, grid.housing_k, KEY_BITS[2]),
-              "coolant_k": (temp_hi_c, grid.coolant_k, KEY_BITS[3]), "heat_index": (1.0, grid.heat_index, KEY_BITS[4])}
-    for name, (top, width, bits) in fields.items():
+    tops = (1.0, temp_hi_c, temp_hi_c, temp_hi_c, 1.0)
+    for name, top, width, bits in zip(("soc", "winding_k", "housing_k", "coolant_k", "heat_index"), tops,
+                                      grid.widths(), KEY_BITS):
         if top / width >= 2 ** (bits - 1) - 1:
             raise ValueError(f"dp_thermal: the {name} bin {width:g} is too narrow for the search's bin keys (at most "
                              f"{2 ** (bits - 1) - 1} bins up to {top:g}); use a wider bin or a smaller grid_scale")
-
-
-def _chunks(n: int, threads: int) -> list[tuple[int, int]]:
-    parts = threads if n >= MIN_THREAD_BATCH and threads > 1 else 1
-    edges = np.linspace(0, n, parts + 1).astype(int)
-    return [(int(edges[j]), int(edges[j + 1])) for j in range(parts)]
 
 
 class StageBuffers:
@@ -201,22 +171,21 @@ def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, bat
                                                          overheat=True, state_before=b.before[r])
         e[r] = np.repeat(batt_j[lo:hi], m) + out[r, C.BATT_CHEM] * dt
 
-    spans = _chunks(p, threads) if rows >= MIN_THREAD_BATCH else [(0, p)]
-    if len(spans) == 1:
-        run(spans[0])
+    parts = threads if p >= MIN_THREAD_BATCH and threads > 1 else 1
+    if parts == 1:
+        run((0, p))
     else:
-        list(thread_pool(len(spans)).map(run, spans))
+        edges = np.linspace(0, p, parts + 1).astype(int)
+        list(thread_pool(parts).map(run, zip(edges[:-1].tolist(), edges[1:].tolist())))
     return so, c, e, a
 
 
-
-def _stage_splits(u_grid: np.ndarray, centers: np.ndarray | None, local: np.ndarray, stride: int, i: int) -> np.ndarray:
-    """The splits of stage ``i``: the uniform grid, or every ``stride``-th of it and ``local`` around each of
-    ``centers`` (a refining pass)."""
+def _stage_splits(u_grid: np.ndarray, centers: np.ndarray | None, i: int) -> np.ndarray:
+    """The splits of stage ``i``: the uniform grid, or a refining pass's around each of ``centers``."""
     if centers is None:
         return u_grid
-    near = np.clip((centers[:, i, None] + local).ravel(), -1.0, 1.0)
-    return np.unique(np.r_[u_grid[::stride], u_grid[-1], near].astype(np.float32)).astype(np.float64)
+    near = np.clip((centers[:, i, None] + np.linspace(-LOCAL_HALFWIDTH, LOCAL_HALFWIDTH, N_LOCAL)).ravel(), -1.0, 1.0)
+    return np.unique(np.r_[u_grid[::REFINE_STRIDE], u_grid[-1], near].astype(np.float32)).astype(np.float64)
 
 
 def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.ndarray] | None, k: int) -> np.ndarray:
@@ -234,13 +203,10 @@ def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.nd
 
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
            progress=None, u_center: np.ndarray | None = None,
-           local_halfwidth: float = 0.05, n_local: int = 21, global_stride: int = 1,
            tube: tuple[np.ndarray, np.ndarray] | None = None) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
-    ``u_center`` (one split per stage, e.g. a previous pass's path, or several such paths [k, n])
-    adds ``n_local`` splits within ± ``local_halfwidth`` of each to every ``global_stride``-th split
-    of the uniform grid at every stage: a refining pass.
+    ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`).
     ``tube`` (SOC bounds per stage 0..n) also drops the states outside it (at a stage where none is
     inside, the tube is ignored). ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
@@ -252,7 +218,6 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     lo_win, hi_win = soc_window(problem, final_window[0], final_window[1], margin=2.0 * grid.soc)
     check_key_range(grid)
     u_grid = np.linspace(-1.0, 1.0, grid.n_u).astype(np.float32).astype(np.float64)  # replayable exactly
-    local = np.linspace(-local_halfwidth, local_halfwidth, n_local)
     centers = None if u_center is None else np.atleast_2d(np.asarray(u_center, dtype=np.float64))
     active = problem.demand_positive()
     batt_g_per_j = problem.reward_params.prices.battery_g_per_j(problem.lhv) * problem.reward_params.soc_energy_weight
@@ -263,13 +228,12 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     n_evals, max_states = 0, 1
     buffers = StageBuffers(problem)
     for i in range(n):
-        u = _stage_splits(u_grid, centers, local, global_stride, i) if active[i] else np.zeros(1)
+        u = _stage_splits(u_grid, centers, i) if active[i] else np.zeros(1)
         so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
         n_evals += so.shape[0]
         inside = _inside(so[:, C.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
-        keep = survivors(so, inside, c, e, batt_g_per_j, grid.second_price * batt_g_per_j, widths, states.shape[0],
-                         threads)
-        if grid.dominance and keep.size > 1:
+        keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, widths, states.shape[0], threads)
+        if keep.size > 1:
             keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
         keep = np.sort(keep)
         states, cost, batt_j = so[keep], c[keep], e[keep]

@@ -1,32 +1,22 @@
-"""Deterministic dynamic programming over a known cycle with SOC as the state (the ``dp`` strategy's planner).
+"""Dynamic programming over a known cycle with SOC as the state (the ``dp`` strategy's planner).
 
-Backward recursion over the stages k = N−1 … 0 of the cycle on a grid of SOC states, the thermal
-state (temperatures, heat-index integrator, cutoff) held at its initial value: the plan is
-thermal-blind, and where heat binds (the ``hot`` and ``summer`` scenarios, long climbs) it is not an
-optimum (the benchmark's yardstick is :mod:`.thermal_optimum`). For every stage ONE batched call of
-the physics step (split over threads) evaluates every grid state × every split u, so DP sees exactly
-the physics the environment runs, including the capped demand and the trace miss; where the demand
-is not positive the action has no effect and the stage is evaluated once per grid state.
+Backward recursion over the stages on a grid of SOC states, the thermal state held at its initial
+value: thermal-blind, so where heat binds (``hot``, ``summer``, long climbs) not an optimum (the
+yardstick is :mod:`.thermal_optimum`). Each stage is ONE batched call of the physics step (split over
+threads) for every grid state × every split u (once per grid state where the demand is not positive).
 
-Cost (grams of fuel equivalent, the env's own reward, :func:`hev_thermal_env.envs.reward.stage_cost_g`):
-fuel + missed wheel energy at the reward's miss price + the battery's chemical energy at the
-reward's battery price; ``price_overheat`` adds the reward's overheat terms, ``price_soc_deviation``
-its SOC terms (the quadratic deviation per stage, and the band settlement, charged on the final
-SOC: :func:`hev_thermal_env.envs.reward.soc_band_charge_g`). With the default weights these are
-the prices of the corrected-fuel metric, so DP minimises the corrected fuel.
+Cost (g of fuel equivalent, the env's reward, :func:`~hev_thermal_env.envs.reward.stage_cost_g`): fuel,
+missed wheel energy and battery energy at the reward's prices, so DP minimises the corrected fuel;
+``price_soc_deviation`` adds the SOC terms (the band settlement charged on the final SOC,
+:func:`~hev_thermal_env.envs.reward.soc_band_charge_g`).
 
-Final-SOC constraint: the final SOC lies in [SOC_final − tol, SOC_final + tol] (default: the initial
-SOC ± 0.005). A penalty wall interpolated between fixed grid points would diffuse back through the
-stages (the SOC moves far less than a grid cell per step), so instead the ``n_soc`` points of each
-stage span exactly the corridor of states reachable from the start that can still reach the band
-(:mod:`.corridor`): the walls sit on the grid's ends, and beyond them the cost-to-go continues with
-the slope ``penalty_g_per_soc``. An unreachable band raises :class:`~.problem.DPInfeasibleError`
-(with the reachable final SOC range); ``on_infeasible="closest"`` plans for the nearest reachable
-band of the same width instead.
-
-Execution (:func:`choose`): at each real step the candidates of a finer u grid are evaluated from
-the actual state, and the cheapest stage cost + interpolated cost-to-go wins, so the policy is
-applied at the actual state even when the run departs from the plan.
+The final SOC lies within ``soc_tol`` of ``soc_final`` (default: the initial SOC ± 0.005). A penalty wall
+between fixed grid points would diffuse back through the stages (the SOC moves far less than a cell
+per step), so each stage's ``n_soc`` points span exactly its corridor (:mod:`.corridor`), and beyond the
+grid's ends the cost-to-go continues with the slope :data:`WALL_G_PER_SOC`. An unreachable band raises
+:class:`~.problem.DPInfeasibleError`; ``on_infeasible="closest"`` plans for the nearest reachable one.
+At each real step :func:`choose` picks among a finer u grid from the actual state, by stage cost plus
+interpolated cost-to-go.
 """
 
 from __future__ import annotations
@@ -42,6 +32,9 @@ from hev_thermal_env.physics.jit import jit
 
 from .corridor import corridor
 from .problem import DPProblem, argmin_small_action, default_threads
+
+#: Beyond the corridor's ends the cost-to-go continues with this slope (g per unit SOC).
+WALL_G_PER_SOC = 1e6
 
 
 @jit
@@ -80,8 +73,6 @@ class DPSettings:
     soc_final: float | None = None  # default: the initial SOC
     soc_tol: float = 0.005
     on_infeasible: str = "raise"
-    penalty_g_per_soc: float = 1e6
-    price_overheat: bool = False
     price_soc_deviation: bool = False
     threads: int | None = None
 
@@ -97,7 +88,6 @@ class DPPlan:
     soc_hi: np.ndarray  # [n_stages + 1]
     cost_to_go: np.ndarray  # [n_stages + 1, n_soc]
     k0: int
-    wall_g_per_soc: float
     solve_s: float
     n_evals: int
     info: dict = field(default_factory=dict)
@@ -115,7 +105,7 @@ class DPPlan:
         res = np.empty(states.shape[0])
         lo, hi = self.soc_lo[stage], self.soc_hi[stage]
         interp_soc(self.cost_to_go[stage], lo, (hi - lo) / (self.n_soc - 1), self.n_soc, states[:, C.SOC],
-                   self.wall_g_per_soc, res)
+                   WALL_G_PER_SOC, res)
         return res
 
 
@@ -153,9 +143,9 @@ def _backward(problem: DPProblem, s: DPSettings, soc_lo: np.ndarray, soc_hi: np.
         problem.core.step(b.x, b.a, v0, v1, g, b.cond, state_out=b.so, out=b.out, threads=threads)
         n_evals += b.x.shape[0]
         cost = stage_cost_g(problem.reward_params, b.out, b.so, problem.soc_target, problem.lhv, problem.core.dt_s,
-                            soc_deviation=s.price_soc_deviation, overheat=s.price_overheat, soc_band=False)
+                            soc_deviation=s.price_soc_deviation, soc_band=False)
         lo = soc_lo[i + 1]
-        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, C.SOC], s.penalty_g_per_soc,
+        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, C.SOC], WALL_G_PER_SOC,
                    b.jn)
         J[i] = (cost + b.jn).reshape(n_soc, b.reps).min(axis=1)
     return J, n_evals
@@ -167,17 +157,13 @@ def solve(problem: DPProblem, settings: DPSettings) -> DPPlan:
     if problem.n_stages < 1:
         raise ValueError("dp: the cycle has no step left to plan")
     held = np.repeat(problem.state0[None, :], problem.n_stages + 1, axis=0)
-    cor, info = corridor(problem, held, settings.soc_final, settings.soc_tol, settings.on_infeasible)
-    soc_lo = cor.lo.copy()
-    soc_hi = np.maximum(cor.hi, soc_lo + 1e-9)
+    soc_lo, soc_hi, info = corridor(problem, held, settings.soc_final, settings.soc_tol, settings.on_infeasible)
+    soc_hi = np.maximum(soc_hi, soc_lo + 1e-9)
     threads = default_threads() if settings.threads is None else settings.threads
     J, n_evals = _backward(problem, settings, soc_lo, soc_hi, threads)
-    plan = DPPlan(soc_lo=soc_lo, soc_hi=soc_hi, cost_to_go=J, k0=problem.k0, wall_g_per_soc=settings.penalty_g_per_soc,
-                  solve_s=time.perf_counter() - t_start, n_evals=n_evals)
-    plan.info.update(info)
-    plan.info["threads"] = threads
-    plan.info["corridor_max_width"] = float(np.max(soc_hi - soc_lo))
-    return plan
+    return DPPlan(soc_lo=soc_lo, soc_hi=soc_hi, cost_to_go=J, k0=problem.k0, solve_s=time.perf_counter() - t_start,
+                  n_evals=n_evals,
+                  info={**info, "threads": threads, "corridor_max_width": float(np.max(soc_hi - soc_lo))})
 
 
 def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, problem: DPProblem,
@@ -185,7 +171,7 @@ def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, p
     """Index of the cheapest candidate: stage cost + interpolated cost-to-go of its next state."""
     cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv,
                         problem.core.dt_s, soc_deviation=settings.price_soc_deviation,
-                        overheat=settings.price_overheat, soc_band=False)
+                        soc_band=False)
     return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions)
 
 

@@ -1,29 +1,15 @@
 """The thermal optimum over a known cycle and its fuel-versus-final-SOC frontier (the ``dp_thermal`` planner).
 
-The yardstick of the benchmark. It plans over the whole state that matters with the environment's
-own physics core and reward, by the forward search of :mod:`.search`, and returns the cheapest
-planned path that ends in the final-SOC band (default: the initial SOC ± 0.005): an exact action
-sequence, so the environment realises the planned cost (the report gives both).
+The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md); the
+SOC DP (:mod:`.soc_dp`) seeds the refining passes with its path. The plan is the cheapest path into the
+final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
+battery energy at the reward's price (as the SOC DP and the reward choose): an exact action sequence,
+so the env realises the planned cost (the report gives both). The report's ``frontier``, over the final
+states of the same passes, is the cost by final SOC within ``frontier_halfwidth`` of the target: the
+benchmark divides each strategy's cost by it at the strategy's own final SOC.
 
-Cost. The search prices fuel, missed wheel energy and the reward's overheat terms; within the band
-the path is chosen by that cost plus the battery energy at the reward's battery price, as the SOC
-DP and the reward do. The report's ``frontier`` is the cost as a function of final SOC over
-``frontier_halfwidth`` around the target: the benchmark divides each strategy's cost by the frontier
-at the strategy's own final SOC (comparison at equal charge, no battery price involved).
-
-Passes. A coarse first pass (bins twice as wide, 17 splits: ``first_pass_scale``) finds a path into
-the band; the SOC DP (:mod:`.soc_dp`, thermal-blind, about a second) gives another. The second pass
-covers the whole frontier window on the default bins (:class:`~.search.SearchGrid`) with every
-second of the 31 uniform splits (``refine_global_stride``) and 21 splits within ±0.05 of each of the
-two paths (``n_local``, ``local_halfwidth``). Where each second costs little (city buses) a third
-pass narrows the SOC bin (at most 5×) until one bin of charge, priced and summed over the stages,
-is at most ``bin_budget`` (25 %) of the cost (a bin's pruning error is paid once per stage),
-keeping only states within ±0.01 SOC of the second pass's best path and of the DP's path. The plan
-is the cheapest path into the band of the last two passes; the frontier is taken over the final
-states of both.
-
-Progress. Every pass shows a bar of its stages on stderr, cleared when the pass ends; it is hidden
-off a terminal and in worker processes (a pool's parent shows its own progress).
+Every pass shows a bar of its stages on stderr, cleared when the pass ends; hidden off a terminal and
+in worker processes (a pool's parent shows its own progress).
 """
 
 from __future__ import annotations
@@ -41,12 +27,17 @@ from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
 
 from .problem import DPInfeasibleError, DPProblem
-from .search import SearchGrid, SearchResult, frontier_points, search
+from .search import LOCAL_HALFWIDTH, N_LOCAL, REFINE_STRIDE, SearchGrid, SearchResult, frontier_points, search
 from .soc_dp import DPSettings, rollout, solve
 
 #: Cycles shorter than this (steps) get a proportionally narrower SOC bin (:meth:`OptimumSettings.grid_for`).
 SHORT_CYCLE_STEPS = 600
-#: The third pass keeps states within this much SOC of the second pass's path and of the DP's.
+#: The first pass's grid: every bin twice as wide, half the splits (:meth:`SearchGrid.scaled`).
+FIRST_PASS_SCALE = 0.5
+#: The third pass narrows the SOC bin until one bin of charge, priced and summed over the stages, is at most this
+#: share of the cycle's cost (:meth:`OptimumSettings.refined_grid`) ...
+BIN_BUDGET = 0.25
+#: ... and keeps states within this much SOC of the second pass's path and of the DP's.
 TUBE_HALFWIDTH = 0.01
 
 
@@ -68,13 +59,6 @@ class OptimumSettings:
     soc_tol: float = 0.005
     on_infeasible: str = "raise"
     frontier_halfwidth: float = 0.08
-    refine: bool = True
-    local_halfwidth: float = 0.05
-    n_local: int = 21
-    first_pass_scale: float = 0.5
-    refine_global_stride: int = 2
-    seed_dp: bool = True
-    bin_budget: float | None = 0.25
     threads: int | None = field(default=None, repr=False, compare=False)  # the same plan on any number
 
     def key(self, problem: DPProblem) -> str:
@@ -91,8 +75,8 @@ class OptimumSettings:
 
     def refined_grid(self, grid: SearchGrid, first: SearchResult, problem: DPProblem, cost_g: float) -> SearchGrid:
         """The refining pass's grid: the SOC bin narrowed until one bin of charge, priced, summed over the stages is at
-        most ``bin_budget`` of the cycle's cost (at most 5× narrower)."""
-        if self.bin_budget is None or self.fixed_soc_bin:
+        most :data:`BIN_BUDGET` of the cycle's cost (at most 5× narrower)."""
+        if self.fixed_soc_bin:
             return grid
         soc, e = first.final_state[:, C.SOC], first.final_battery_j
         if soc.size < 3 or np.ptp(soc) <= 0.0:
@@ -102,7 +86,7 @@ class OptimumSettings:
         bin_g = grid.soc * j_per_soc * rp.prices.battery_g_per_j(problem.lhv)
         if not (bin_g > 0.0 and cost_g > 0.0):
             return grid
-        factor = min(max(self.bin_budget * cost_g / (bin_g * problem.n_stages), 0.2), 1.0)
+        factor = min(max(BIN_BUDGET * cost_g / (bin_g * problem.n_stages), 0.2), 1.0)
         return dataclasses.replace(grid, soc=grid.soc * factor)
 
 
@@ -183,19 +167,13 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
     target = float(problem.state0[C.SOC]) if s.soc_final is None else float(s.soc_final)
     window = (target - s.frontier_halfwidth, target + s.frontier_halfwidth)
     band = (target - s.soc_tol, target + s.soc_tol)
-    first_grid = grid.scaled(s.first_pass_scale) if s.refine else grid
-    first = _search(problem, first_grid, window, "pass 1", s.threads)
+    first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads)
     j_first = pick_final(first, problem, band, s.on_infeasible)
     first_pass = {"solve_s": first.solve_s, "cost_g": float(first.final_cost_g[j_first])}
-    centers = [first.path(j_first)]
-    passes = [first]  # the passes whose final states make the plan and the frontier
-    if s.refine:
-        dp_soc = None
-        if s.seed_dp:
-            dp_u, dp_soc = soc_dp_path(problem, target, s.soc_tol, s.threads)
-            centers.append(dp_u)
-        passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc)
-    searched = [first] + passes if s.refine else passes
+    dp_u, dp_soc = soc_dp_path(problem, target, s.soc_tol, s.threads)
+    centers = [first.path(j_first), dp_u]
+    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc)  # they make the plan and the frontier
+    searched = [first] + passes
     result, j = _pick(passes, problem, band, s.on_infeasible)
     u = result.path(j)
     run = replay(problem, u)
@@ -212,9 +190,8 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
         "vehicle_steps_evaluated": int(sum(r.n_evals for r in searched)),
         "max_states": int(max(r.max_states for r in searched)),
         "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(),
-                     "grid": grid.describe() + (f" (every {s.refine_global_stride}. split) + {s.n_local} "
-                                                f"splits within ±{s.local_halfwidth:g} of "
-                                                f"{len(centers)} earlier path(s)" if s.refine else ""),
+                     "grid": grid.describe() + f" (every {REFINE_STRIDE}. split) + {N_LOCAL} splits within "
+                                               f"±{LOCAL_HALFWIDTH:g} of {len(centers)} earlier path(s)",
                      "soc_min": float(min(r.final_state[:, C.SOC].min() for r in passes)),
                      "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
     }
@@ -223,21 +200,19 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
 
 def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tuple[float, float],
             band: tuple[float, float], centers: list[np.ndarray],
-            dp_soc: np.ndarray | None) -> tuple[list[SearchResult], SearchGrid]:
+            dp_soc: np.ndarray) -> tuple[list[SearchResult], SearchGrid]:
     """The second pass around ``centers`` and, where :meth:`OptimumSettings.refined_grid` narrows the SOC bin, the
     third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid
     used."""
-    refine = dict(local_halfwidth=s.local_halfwidth, n_local=s.n_local, global_stride=s.refine_global_stride)
-    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers), **refine)
+    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers))
     j2 = pick_final(second, problem, band, s.on_infeasible)
     fine = s.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
     if not fine.soc < grid.soc:
         return [second], grid
     u2 = second.path(j2)
-    socs = [replay(problem, u2)["state"][:, C.SOC]] + ([] if dp_soc is None else [dp_soc])
+    socs = [replay(problem, u2)["state"][:, C.SOC], dp_soc]
     tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
-    third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:]), tube=tube,
-                    **refine)
+    third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:]), tube=tube)
     return [second, third], fine
 
 
