@@ -1,21 +1,12 @@
-"""Energy-management strategies behind one protocol (see :mod:`hev_thermal_env.agents.base`).
+"""Energy-management strategies behind one protocol (:mod:`.base`), installed as ``hev_thermal_env.agents`` (the
+source folder is the top-level ``agents/``): ``get_strategy("dp", n_soc=801)``, :func:`list_strategies`.
 
-Installed as ``hev_thermal_env.agents`` (the source folder is the top-level ``agents/``)::
-
->>> from hev_thermal_env.agents import get_strategy, list_strategies
->>> list_strategies()[:3]
-['engine_only', 'rule', 'ecms']
->>> dp = get_strategy("dp", n_soc=801)
-
-``get_strategy("name:arg", ...)``: if the strategy class has a ``from_label(arg, **options)``
-class method (``ppo``: the text after the colon is a model path), that builds it; otherwise the
-run is reported under the label ``"name:arg"`` (one strategy with several settings in a benchmark).
-A strategy's module is imported when the strategy is first built, so torch loads only for ``ppo``.
-The planners behind ``dp`` and ``dp_thermal`` live in :mod:`hev_thermal_env.planning`.
-
-Beside the strategies: ``policies/`` (the shipped PPO policy), ``hyperparams/`` (the training
-hyperparameter files, :data:`HYPERPARAMS_DIR`) and :mod:`.policy_files` (the files of a trained
-policy: reading them, and the layout the training writes).
+``get_strategy("name:arg")`` builds the strategy with its class's ``from_label(arg, **options)`` if it has one (``ppo``:
+the text after the colon is a model path), else reports the run under the label ``"name:arg"`` (one strategy with
+several settings in a benchmark). A strategy's module is imported when it is first built (torch only for ``ppo``); the
+planners behind ``dp`` and ``dp_thermal`` are :mod:`hev_thermal_env.planning`. Beside the strategies: ``policies/`` (the
+shipped PPO policy), ``hyperparams/`` (:data:`HYPERPARAMS_DIR`) and :mod:`.policy_files` (the files of a trained policy:
+reading them, and the layout the training writes).
 """
 
 from __future__ import annotations
@@ -52,8 +43,8 @@ def list_strategies() -> list[str]:
 def get_strategy(name: str, **options: Any) -> Strategy:
     """A new strategy by name, with its options.
 
-    An unknown name, an unknown option or an option value of the wrong type raises ``ValueError``
-    naming the strategy and listing the valid names or options.
+    An unknown name, an unknown option or an option value of the wrong type raises ``ValueError`` naming the strategy
+    and listing the valid names or options.
     """
     if not isinstance(name, str):
         raise ValueError(f"strategy name must be a string, got {type(name).__name__}")
@@ -78,10 +69,7 @@ def get_strategy(name: str, **options: Any) -> Strategy:
 
 def _check_options(base: str, build: Callable[..., Any], options: dict[str, Any], skip: int) -> None:
     """Unknown option names raise ValueError listing the options ``build`` takes (after ``skip`` positionals)."""
-    try:
-        params = list(inspect.signature(build).parameters.values())[skip:]
-    except (TypeError, ValueError):
-        return
+    params = list(inspect.signature(build).parameters.values())[skip:]
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
         return
     named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)

@@ -18,13 +18,13 @@ from .base import Strategy
 
 class DPStrategy(Strategy):
     """Dynamic programming over the known cycle. At each real step it re-optimises one step over a finer u grid
-    against the plan's cost-to-go, from the actual state (``env.peek``); ``describe()`` records the grid sizes,
-    the solve time and the vehicle-steps evaluated (a coarse DP is not an optimum).
+    against the plan's cost-to-go, from the actual state (``env.peek``); ``describe()`` records the grid sizes, the
+    solve time and the vehicle-steps evaluated (a coarse DP is not an optimum).
 
     Options: ``n_soc`` SOC grid points across each stage's corridor, ``n_u`` splits in the backward pass and
-    ``n_u_exec`` when acting, ``soc_final`` (default: the initial SOC) and ``soc_tol``, ``on_infeasible``
-    (``"raise"``: :class:`~hev_thermal_env.planning.problem.DPInfeasibleError`; ``"closest"``: plan for the
-    nearest reachable band of the same width), ``price_soc_deviation``, ``threads``.
+    ``n_u_exec`` when acting, ``soc_final`` (default: the initial SOC) and ``soc_tol``, ``on_infeasible`` (``"raise"``:
+    :class:`~hev_thermal_env.planning.problem.DPInfeasibleError`; ``"closest"``: plan for the nearest reachable band of
+    the same width), ``price_soc_deviation``, ``threads``.
     """
 
     name = "dp"

@@ -21,11 +21,10 @@ class ThermalOptimumStrategy(Strategy):
     """The thermal optimum: drives the planned action sequence; ``describe()`` reports the planned and replayed
     cost, the grid and the frontier (the cost as a function of final SOC).
 
-    Options: ``grid_scale`` (every bin divided by it, splits multiplied), ``soc_bin`` (the SOC bin, then not
-    narrowed on short or cheap cycles), ``n_u`` (splits), ``soc_final`` (default: the initial SOC) and
-    ``soc_tol``, ``on_infeasible`` (``"raise"`` or ``"closest"``), ``frontier_halfwidth`` (final SOCs kept
-    around the target), ``plan_cache`` (reuse a plan solved before for the same problem, settings and
-    planner sources), ``threads``.
+    Options: ``grid_scale`` (every bin divided by it, splits multiplied), ``soc_bin`` (the SOC bin, then not narrowed on
+    short or cheap cycles), ``n_u`` (splits), ``soc_final`` (default: the initial SOC) and ``soc_tol``,
+    ``on_infeasible`` (``"raise"`` or ``"closest"``), ``frontier_halfwidth`` (final SOCs kept around the target),
+    ``plan_cache`` (reuse a plan solved before for the same problem, settings and planner sources), ``threads``.
     """
 
     name = "dp_thermal"

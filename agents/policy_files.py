@@ -1,20 +1,14 @@
-"""The files of a trained policy: where they are, reading them, and what a model zip holds.
+"""The files of a trained policy (written by :mod:`hev_thermal_env.training.artifacts`): where they are, reading them.
 
-The training writes them in a run directory (:mod:`hev_thermal_env.training.artifacts`: the
-final, best and checkpoint models, each with its observation statistics, and ``config.yaml``).
-:func:`load_policy` loads a trained policy (:class:`LoadedPolicy`) from a run directory (its
-``model.zip``, the final model; if the run has not finished, ``best_model.zip``, else the latest
-checkpoint) or a model zip, whose observation statistics are looked up next to it:
-``model.zip`` → ``vecnormalize.pkl``, ``best_model.zip`` → ``best_vecnormalize.pkl``,
-``checkpoints/ckpt_N_steps.zip`` → ``ckpt_N_steps_vecnormalize.pkl``, any other ``NAME.zip`` →
-``NAME_vecnormalize.pkl`` or ``vecnormalize.pkl`` in the same directory. The run's ``config.yaml``
-(in the zip's directory or the run directory above ``checkpoints/``) gives the algorithm (PPO or
-SAC) and the observation layout. Errors are one-line messages: a missing model or statistics file
-raises ``FileNotFoundError``, an unreadable one ``ValueError``.
+:func:`load_policy` loads a :class:`LoadedPolicy` from a run directory (its final ``model.zip``; else
+``best_model.zip``; else the latest checkpoint) or a model zip. The observation statistics lie next to the zip:
+``model.zip`` → ``vecnormalize.pkl``, ``best_model.zip`` → ``best_vecnormalize.pkl``, ``checkpoints/ckpt_N_steps.zip`` →
+``ckpt_N_steps_vecnormalize.pkl``, any other ``NAME.zip`` → ``NAME_vecnormalize.pkl`` or ``vecnormalize.pkl``. The run's
+``config.yaml`` (beside the zip, or above ``checkpoints/``) gives the algorithm (PPO or SAC) and the observation layout.
+A missing file raises ``FileNotFoundError``, an unreadable one ``ValueError``, each in one line.
 
-A model zip holds its learning-rate and clip-range schedules, pickled by the import path of
-:class:`LinearSchedule` (``lin_3e-4`` in a hyperparameter file); loading rebuilds them from the
-run's hyperparameters instead of unpickling them (:func:`custom_objects`).
+A model zip pickles its schedules by the import path of :class:`LinearSchedule` (``lin_3e-4`` in a hyperparameter file);
+loading rebuilds them from the run's hyperparameters instead (:func:`custom_objects`).
 """
 
 from __future__ import annotations
@@ -78,8 +72,8 @@ def schedule(value: Any) -> Any:
 def custom_objects(hyperparams: Mapping[str, Any] | None) -> dict[str, Any]:
     """``custom_objects`` for SB3's ``load``: the schedules of a run, rebuilt from its hyperparameters.
 
-    ``lr_schedule`` is recomputed by SB3 from ``learning_rate`` on loading; it is replaced only so
-    that the saved one is not unpickled."""
+    ``lr_schedule`` is recomputed by SB3 from ``learning_rate`` on loading; it is replaced only so that the saved one is
+    not unpickled."""
     hp = hyperparams or {}
     objects = {key: schedule(hp[key]) for key in SCHEDULE_KEYS if key in hp}
     if "learning_rate" in objects:
@@ -97,27 +91,19 @@ def checkpoint_files(run_dir: str | Path) -> list[tuple[int, Path, Path]]:
     """Complete checkpoints of a run, oldest first: (timesteps, model zip, statistics pickle).
 
     A checkpoint counts once its model zip exists (it is written last, atomically)."""
-    found = []
-    ckpt_dir = Path(run_dir) / CHECKPOINTS
-    if ckpt_dir.is_dir():
-        for p in ckpt_dir.iterdir():
-            m = _CKPT_RE.match(p.name)
-            if m:
-                n = int(m.group(1))
-                found.append((n, p, checkpoint_paths(run_dir, n)[1]))
-    return sorted(found)
+    found = [(int(m.group(1)), p) for p in (Path(run_dir) / CHECKPOINTS).glob("ckpt_*_steps.zip")
+             if (m := _CKPT_RE.match(p.name))]
+    return sorted((n, p, checkpoint_paths(run_dir, n)[1]) for n, p in found)
 
 
 def stats_path_for(model_path: Path) -> Path:
     """Where the observation statistics of ``model_path`` are saved (see the module docstring)."""
     model_path = Path(model_path)
-    name = model_path.name
-    if name == "model.zip":
-        return model_path.with_name("vecnormalize.pkl")
-    if name == "best_model.zip":
-        return model_path.with_name("best_vecnormalize.pkl")
+    named = {"model.zip": "vecnormalize.pkl", "best_model.zip": "best_vecnormalize.pkl"}
+    if model_path.name in named:
+        return model_path.with_name(named[model_path.name])
     own = model_path.with_name(model_path.stem + "_vecnormalize.pkl")
-    if own.exists() or _CKPT_RE.match(name):
+    if own.exists() or _CKPT_RE.match(model_path.name):
         return own
     return model_path.with_name("vecnormalize.pkl")
 
@@ -196,9 +182,9 @@ def load_sb3_model(path: Path, algo: str = "ppo", hyperparams: dict[str, Any] | 
 class LoadedPolicy:
     """A model and its observation statistics: ``act(obs [n, dim]) -> actions [n, 1]``.
 
-    ``stats`` is a ``VecNormalize`` whose statistics are only read, or None (raw observations).
-    The one way a policy acts: the ``ppo`` strategy and the evaluation during training both call
-    :meth:`act` (the latter on the live model and training statistics).
+    ``stats`` is a ``VecNormalize`` whose statistics are only read, or None (raw observations). The one way a policy
+    acts: the ``ppo`` strategy and the evaluation during training both call :meth:`act` (the latter on the live model
+    and training statistics).
     """
 
     def __init__(self, model, stats=None, config: dict[str, Any] | None = None, path: Path | None = None):
@@ -231,15 +217,14 @@ def load_policy(path: str | Path, *, normalize: bool = True) -> LoadedPolicy:
     """Load a trained policy: ``path`` a run directory or a model zip (see the module docstring)."""
     model_path = resolve_model_path(path)
     config = find_run_config(model_path)
-    algo = str((config or {}).get("algo", "ppo")).lower()
-    if algo not in ("ppo", "sac"):
+    cfg = config or {}
+    algo = str(cfg.get("algo", "ppo")).lower()
+    if algo not in ALGORITHMS:
         raise ValueError(f"ppo: {model_path}: unknown algorithm {algo!r} in the run's config.yaml")
-    stats = None
-    norm_cfg = (config or {}).get("normalize")
+    norm_cfg = cfg.get("normalize")
     wants_stats = normalize and not (isinstance(norm_cfg, dict) and not norm_cfg.get("norm_obs", True))
-    if wants_stats:
-        stats = load_obs_normalizer(stats_path_for(model_path))
-    model = load_sb3_model(model_path, algo, (config or {}).get("hyperparams"))
+    stats = load_obs_normalizer(stats_path_for(model_path)) if wants_stats else None
+    model = load_sb3_model(model_path, algo, cfg.get("hyperparams"))
     warn_if_other_physics(model_path, config)
     return LoadedPolicy(model, stats, config, model_path)
 

@@ -1,9 +1,9 @@
 """The batch engine: a batch of vehicles, each on its own cycle, stepped together; the step of every env.
 
-:class:`EpisodeRows` holds per row the cycle tables (padded to a common width), the step index, the
-state, the conditions and the SOC target. :meth:`EpisodeRows.step` is one call of :func:`advance_kernel`
-(physics, reward and observation fused): one dispatch per step, so the single env (a batch of one) steps
-as cheaply as a classic-control env; the vector env is a batch of n.
+:class:`EpisodeRows` holds per row the cycle tables (padded to a common width), the step index, the state, the
+conditions and the SOC target. :meth:`EpisodeRows.step` is one call of :func:`advance_kernel` (physics, reward and
+observation fused): one dispatch per step, so the single env (a batch of one) steps as cheaply as a classic-control env;
+the vector env is a batch of n.
 """
 
 from __future__ import annotations
@@ -29,11 +29,10 @@ def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, s
                    low, high, all_rows, state_out, out, terms, total, avail, obs):
     """One step of every row: physics, reward, step index, motor envelope and the next observation.
 
-    ``tables`` [5, n, width] holds speed, grade, demanded wheel power (kW), gear and the SOC the
-    descent to the route's end can return (:func:`~hev_thermal_env.envs.reward.descent_soc`) per row
-    and step; the band's center before and after the step follows from it and ``soc_target``.
-    Writes ``state_out``, ``out``, ``terms``/``total`` (the reward), ``avail`` (the motor envelope of
-    the step, the next observation's entry) and ``obs``; increments ``k``.
+    ``tables`` [5, n, width] holds speed, grade, demanded wheel power (kW), gear and the SOC the descent to the route's
+    end can return (:func:`~hev_thermal_env.envs.reward.descent_soc`) per row and step; the band's center before and
+    after the step follows from it and ``soc_target``. Writes ``state_out``, ``out``, ``terms``/``total`` (the reward),
+    ``avail`` (the motor envelope of the step, the next observation's entry) and ``obs``; increments ``k``.
     """
     n = u.shape[0]
     v0 = np.empty(n)
@@ -109,21 +108,12 @@ class EpisodeRows:
         """Steps the tables hold per row (the longest loaded cycle plus the preview's padding)."""
         return self.tables.shape[2]
 
-    def _widen(self, width: int) -> None:
-        old = self.tables
-        new = np.zeros((5, self.n, width))
-        w0 = old.shape[2]
-        new[:, :, :w0] = old
-        for held in (0, 3):  # speed and gear held (grade, demand and descent are 0 past the end)
-            new[held, :, w0:] = old[held, :, w0 - 1:w0]
-        self.tables = new
-
     def load(self, rows: Sequence[int], episodes: Sequence[Episode], tables: Sequence[CycleTables],
              max_steps: int | None = None) -> None:
         """Start the given episodes in the given rows (state, tables, index) and compute their first envelope."""
         need = max(len(t.speed_mps) for t in tables) + self.pad
-        if need > self.tables.shape[2]:
-            self._widen(need)
+        if need > self.tables.shape[2]:  # the last column holds every row's value past its end (speed and gear held)
+            self.tables = np.pad(self.tables, ((0, 0), (0, 0), (0, need - self.tables.shape[2])), mode="edge")
         self.state = self.state.copy()  # states handed out earlier (infos, phys_state) stay untouched
         speed, grade, demand, gear, descent = self.tables
         gl, ba = self.core.config.glider, self.core.config.battery
@@ -163,8 +153,8 @@ class EpisodeRows:
     def step(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Advance every row with motor shares ``u`` (float64 [n], already clipped to [-1, 1]).
 
-        Returns (reward [n], terms [n, 4] in ``REWARD_TERMS`` order, outputs [n, N_OUT], next
-        observations [n, dim]); updates the state, ``k``, ``last_out`` and the envelope.
+        Returns (reward [n], terms [n, 4] in ``REWARD_TERMS`` order, outputs [n, N_OUT], next observations [n, dim]);
+        updates the state, ``k``, ``last_out`` and the envelope.
         """
         n = self.n
         state_out = np.empty((n, C.N_STATE))

@@ -24,10 +24,9 @@ class CycleChoice:
     """What the env's ``cycle`` argument asks for (its spec lists the forms): fixed cycles and cycle families,
     one drawn uniformly per episode.
 
-    Named and file cycles are loaded once, here, so errors show at construction; a family draws a fresh
-    cycle every episode, its seed from :func:`~hev_thermal_env.cycles.families.training_seed` (never a
-    validation seed). A scenario with a road profile (``hilly``) lays it under every flat cycle
-    (:meth:`Scenario.prepare_cycle`).
+    Named and file cycles are loaded once, here, so errors show at construction; a family draws a fresh cycle every
+    episode, its seed from :func:`~hev_thermal_env.cycles.families.training_seed` (never a validation seed). A scenario
+    with a road profile (``hilly``) lays it under every flat cycle (:meth:`Scenario.prepare_cycle`).
     """
 
     def __init__(self, cycle: Any, scenario: Scenario | None = None):
@@ -114,8 +113,8 @@ class EpisodeSampler:
 class CycleTables:
     """Per-step quantities of a cycle that do not depend on the vehicle's state.
 
-    The demanded wheel power and the gear of each step come from one batched call of the physics
-    core over all steps of the cycle (they depend only on the speed trace, the grade and the vehicle).
+    The demanded wheel power and the gear of each step come from one batched call of the physics core over all steps of
+    the cycle (they depend only on the speed trace, the grade and the vehicle).
     """
 
     def __init__(self, core: C.PhysicsCore, cycle: Cycle, state_row: np.ndarray, cond_row: np.ndarray):
@@ -137,8 +136,8 @@ class CycleTables:
 class TableCache:
     """Cycle tables of the env's fixed cycles, computed once per payload; other cycles (random, from options) fresh.
 
-    The demanded wheel power and the gear depend on the cycle and the payload (the mass) alone, so a table
-    is kept per (cycle, payload): a scenario that draws the payload per episode gets the right one.
+    The demanded wheel power and the gear depend on the cycle and the payload (the mass) alone, so a table is kept per
+    (cycle, payload): a scenario that draws the payload per episode gets the right one.
     """
 
     def __init__(self, core: C.PhysicsCore, fixed: Sequence[Cycle]):

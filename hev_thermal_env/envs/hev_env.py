@@ -1,7 +1,7 @@
 """``HevThermal-v0``, a thin MDP layer in the classic-control style; its spec is the class docstring.
 
-``step`` is dynamics, reward and termination in one call of the batch engine (:mod:`.batch`, a batch of
-one); episodes (cycle, conditions, start) are drawn by :mod:`.episodes` from the scenario.
+``step`` is dynamics, reward and termination in one call of the batch engine (:mod:`.batch`, a batch of one); episodes
+(cycle, conditions, start) are drawn by :mod:`.episodes` from the scenario.
 """
 
 from __future__ import annotations
@@ -28,33 +28,30 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Description
 
-    A 15 t parallel hybrid city bus (the paper's vehicle, :func:`hev_thermal_env.paper_bus`) drives
-    a speed cycle one second per step (backward-facing, ADVISOR-style). The agent is the
-    energy-management strategy: each step it chooses the share of the coupler torque the traction
-    motor carries; the diesel engine carries the rest. The water-cooled PMSM heats up (by default a
-    lumped thermal network of winding, housing and coolant loop with thermostat and radiator,
-    calibrated to the paper's figures; ``paper_bus("paper_eqs")`` is the paper's one-node eqs 1-7:
-    :mod:`hev_thermal_env.physics.thermal`), loses peak torque as its heat index (PWM, eqs 8-9)
-    integrates sustained overload, loses efficiency as it warms and stops at 70 °C until it has
-    cooled. Where the powertrain cannot deliver the demand, the step records a trace miss (missed
-    wheel energy, speed deficit) and the reward prices it; the next step follows the cycle again.
-    See :mod:`hev_thermal_env.physics.core`.
+    A 15 t parallel hybrid city bus (the paper's vehicle, :func:`hev_thermal_env.paper_bus`) drives a speed cycle one
+    second per step (backward-facing, ADVISOR-style). The agent is the energy-management strategy: each step it chooses
+    the share of the coupler torque the traction motor carries; the diesel engine carries the rest. The water-cooled
+    PMSM heats up (by default a lumped thermal network of winding, housing and coolant loop with thermostat and
+    radiator, calibrated to the paper's figures; ``paper_bus("paper_eqs")`` is the paper's one-node eqs 1-7:
+    :mod:`hev_thermal_env.physics.thermal`), loses peak torque as its heat index (PWM, eqs 8-9) integrates sustained
+    overload, loses efficiency as it warms and stops at 70 °C until it has cooled. Where the powertrain cannot deliver
+    the demand, the step records a trace miss (missed wheel energy, speed deficit) and the reward prices it; the next
+    step follows the cycle again. See :mod:`hev_thermal_env.physics.core`.
 
     ## Action Space
 
-    ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler.
-    Motor u·T_dem, engine (1 - u)·T_dem; u < 0 loads the engine more and charges the battery.
-    The physics core clips the motor request to its envelope (peak torque, heat index, cutoff)
-    and the battery's limits and lets the engine cover the rest up to its full load; what is
-    still missing is a priced trace miss (the motor never tops up by itself). Braking is
-    regenerative by rule (the action has no effect while braking or standing). Values outside
-    [-1, 1] are clipped (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share
-    applied); NaN or inf, or a shape other than ``(1,)``, raise ``ValueError``.
+    ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler. Motor u·T_dem, engine
+    (1 - u)·T_dem; u < 0 loads the engine more and charges the battery. The physics core clips the motor request to its
+    envelope (peak torque, heat index, cutoff) and the battery's limits and lets the engine cover the rest up to its
+    full load; what is still missing is a priced trace miss (the motor never tops up by itself). Braking is regenerative
+    by rule (the action has no effect while braking or standing). Values outside [-1, 1] are clipped
+    (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share applied); NaN or inf, or a shape other than
+    ``(1,)``, raise ``ValueError``.
 
     ## Observation Space
 
-    ``Box`` of float32, ``15 + preview_s // preview_step_s`` entries, always inside the bounds
-    (values are clipped to them). "Next step" is the step from ``cycle.speed_mps[k]`` to ``[k+1]``.
+    ``Box`` of float32, ``15 + preview_s // preview_step_s`` entries, always inside the bounds (values are clipped to
+    them). "Next step" is the step from ``cycle.speed_mps[k]`` to ``[k+1]``.
 
     | Num | Observation | Min | Max | Unit |
     |-----|-------------|-----|-----|------|
@@ -75,21 +72,20 @@ class HevThermalEnv(EnvParts, gym.Env):
     | 14 | coolant heat-transfer multiplier: 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
     | 15... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
 
-    Entry 10 is the motor's torque limit in the last step: the peak torque at that speed, derated
-    by the heat index (eq 8), 0 while cut off; after reset, the limit for the first step. Its
-    upper bound is the motor's peak torque (240 N·m for ``paper_bus``); that of entry 11 the number
-    of gears (5). The gear is always 1 or more, but its declared lower bound is 0, so that an
-    all-zero observation lies inside the space (torchrl, for one, fills the final observation of a
-    batch with zeros and checks it against the space); every other entry's range holds 0 already.
-    The preview is taken from the start of the next step and held at the cycle's last speed past
-    its end; with the defaults (``preview_s=10``, ``preview_step_s=2``) it has 5 entries
-    (+2 to +10 s) and the observation 20. :func:`observation_names` gives the names in order.
+    Entry 10 is the motor's torque limit in the last step: the peak torque at that speed, derated by the heat index
+    (eq 8), 0 while cut off; after reset, the limit for the first step. Its upper bound is the motor's peak torque (240
+    N·m for ``paper_bus``); that of entry 11 the number of gears (5). The gear is always 1 or more, but its declared
+    lower bound is 0, so that an all-zero observation lies inside the space (torchrl, for one, fills the final
+    observation of a batch with zeros and checks it against the space); every other entry's range holds 0 already. The
+    preview is taken from the start of the next step and held at the cycle's last speed past its end; with the defaults
+    (``preview_s=10``, ``preview_step_s=2``) it has 5 entries (+2 to +10 s) and the observation 20.
+    :func:`observation_names` gives the names in order.
 
     ## Rewards
 
-    In grams of diesel equivalent (negative = cost), one compiled function for the env, the vector
-    env, DP and ECMS (:func:`~hev_thermal_env.envs.reward.reward_kernel`), with the weights and
-    prices of :class:`~hev_thermal_env.envs.reward.RewardParams` (every one a field):
+    In grams of diesel equivalent (negative = cost), one compiled function for the env, the vector env, DP and ECMS
+    (:func:`~hev_thermal_env.envs.reward.reward_kernel`), with the weights and prices of
+    :class:`~hev_thermal_env.envs.reward.RewardParams` (every one a field):
     ``reward = reward_fuel + reward_miss + reward_soc + reward_overheat``, each term in ``info``::
 
         reward_fuel     = −fuel_weight · fuel_g
@@ -102,64 +98,55 @@ class HevThermalEnv(EnvParts, gym.Env):
         Φ(SOC, c)       = −soc_band_weight · max(|SOC − c| − soc_band, 0)
 
     The prices (:class:`~hev_thermal_env.prices.Prices`) are those of the corrected fuel of
-    :mod:`hev_thermal_env.metrics`: with the default weights an episode's fuel, miss and battery
-    terms add up to minus its corrected fuel, so DP and ECMS, which minimise the same terms,
-    optimise the metric they are judged by.
+    :mod:`hev_thermal_env.metrics`: with the default weights an episode's fuel, miss and battery terms add up to minus
+    its corrected fuel, so DP and ECMS, which minimise the same terms, optimise the metric they are judged by.
 
-    Why the band settlement: the battery is priced at one stated average efficiency (engine 0.36 ×
-    charge path 0.90), but the engine's marginal efficiency under load is better, so fuel, miss and
-    battery energy alone are minimised by ending with more charge (DP with a free final SOC: +0.06
-    on UDDS, the corrected fuel 1-2 % below the charge-sustaining optimum). The settlement is the
-    potential difference of the dead-zone hinge Φ: over an episode it adds up to −10,000 g per unit
-    SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step by step
-    as the SOC moves (a cost in the step that leaves the band, a refund in the step that returns).
-    Its slope is about the battery price of a unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times
-    the most that ending beyond the band earns (≈1,100 g), so the reward's optimum is
-    charge-sustaining (``benchmarks/reward_optimum.py``), and a run that starts and ends inside the
-    band returns exactly minus its corrected fuel and the overheat terms. A step's settlement stays
-    within ≈10 g (a step moves the SOC by ≈0.001 at most); a larger pack needs a proportionally
-    larger ``soc_band_weight``.
+    Why the band settlement: the battery is priced at one stated average efficiency (engine 0.36 × charge path 0.90),
+    but the engine's marginal efficiency under load is better, so fuel, miss and battery energy alone are minimised by
+    ending with more charge (DP with a free final SOC: +0.06 on UDDS, the corrected fuel 1-2 % below the
+    charge-sustaining optimum). The settlement is the potential difference of the dead-zone hinge Φ: over an episode it
+    adds up to −10,000 g per unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step
+    by step as the SOC moves (a cost in the step that leaves the band, a refund in the step that returns). Its slope is
+    about the battery price of a unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times the most that ending beyond the band
+    earns (≈1,100 g), so the reward's optimum is charge-sustaining (``benchmarks/reward_optimum.py``), and a run that
+    starts and ends inside the band returns exactly minus its corrected fuel and the overheat terms. A step's settlement
+    stays within ≈10 g (a step moves the SOC by ≈0.001 at most); a larger pack needs a proportionally larger
+    ``soc_band_weight``.
 
-    The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on
-    high ground it sits lower by the charge the remaining descent will return
-    (:func:`~hev_thermal_env.envs.reward.band_center`)::
+    The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on high ground it sits
+    lower by the charge the remaining descent will return (:func:`~hev_thermal_env.envs.reward.band_center`)::
 
         c(t) = SOC_start − descent_recovery · m · g · (h(t) − h_end) / E_per_SOC
 
-    with ``descent_recovery`` = 0.6 (≈ driveline 0.93 × charge path 0.90 × the ≈0.75 of the
-    potential energy that rolling and air resistance leave on a city descent): spending charge on a
-    climb that the descent refills costs nothing while it lasts. The episode still pays exactly for
-    its final SOC, plus a constant of its start (zero when the route starts as high as it ends or
-    inside the band).
+    with ``descent_recovery`` = 0.6 (≈ driveline 0.93 × charge path 0.90 × the ≈0.75 of the potential energy that
+    rolling and air resistance leave on a city descent): spending charge on a climb that the descent refills costs
+    nothing while it lasts. The episode still pays exactly for its final SOC, plus a constant of its start (zero when
+    the route starts as high as it ends or inside the band).
 
     ## Info
 
-    ``step`` returns the keys of :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the contract
-    first: fuel, SOC, motor and engine operating points, heat index, cutoff, reward terms; then
-    extras such as ``motor_share``, the share u applied after clipping, and
-    ``motor_share_clipped``, and the episode's keys, :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`),
-    or those chosen by ``info_keys``. ``reset`` returns
-    :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS` (those among ``info_keys``). Every value is
-    a number or a bool, so that libraries that turn each info value into a tensor (torchrl) read
-    them: the cycle and the coolant mode are codes, ``cycle_id``
-    (:func:`~hev_thermal_env.envs.spaces.cycle_name` gives the name, as does
-    ``env.unwrapped.cycle.name``) and ``coolant_code``
-    (:func:`~hev_thermal_env.envs.spaces.coolant_mode`). Every key of a reset's info is also a
-    step's, so a vector wrapper that merges an autoreset into a step's info adds no new key.
+    ``step`` returns the keys of :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the contract first: fuel, SOC, motor
+    and engine operating points, heat index, cutoff, reward terms; then extras such as ``motor_share``, the share u
+    applied after clipping, and ``motor_share_clipped``, and the episode's keys,
+    :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``. ``reset`` returns
+    :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS` (those among ``info_keys``). Every value is a number or a bool,
+    so that libraries that turn each info value into a tensor (torchrl) read them: the cycle and the coolant mode are
+    codes, ``cycle_id`` (:func:`~hev_thermal_env.envs.spaces.cycle_name` gives the name, as does
+    ``env.unwrapped.cycle.name``) and ``coolant_code`` (:func:`~hev_thermal_env.envs.spaces.coolant_mode`). Every key of
+    a reset's info is also a step's, so a vector wrapper that merges an autoreset into a step's info adds no new key.
 
     ## Starting State
 
-    The scenario (:mod:`hev_thermal_env.scenarios`; ``"paper"``: 20 °C ambient and motor, coolant
-    on, SOC 0.65; the randomised ones draw every episode from ``self.np_random``) or ``conditions``
-    set the ambient temperature, the motor's starting temperature, the SOC, the coolant mode and
-    the payload; reset options override them. The heat-index integrator starts at
-    -PWM_initial(T_start) (eq 9). The episode starts at ``start_s`` into the cycle (0, or uniform
+    The scenario (:mod:`hev_thermal_env.scenarios`; ``"paper"``: 20 °C ambient and motor, coolant on, SOC 0.65; the
+    randomised ones draw every episode from ``self.np_random``) or ``conditions`` set the ambient temperature, the
+    motor's starting temperature, the SOC, the coolant mode and the payload; reset options override them. The heat-index
+    integrator starts at -PWM_initial(T_start) (eq 9). The episode starts at ``start_s`` into the cycle (0, or uniform
     with ``random_start``).
 
     ## Episode End
 
-    ``truncated`` is True at the end of the cycle. ``terminated`` is always False: overheating,
-    cutoff and trace misses are priced, not terminal.
+    ``truncated`` is True at the end of the cycle. ``terminated`` is always False: overheating, cutoff and trace misses
+    are priced, not terminal.
 
     ## Arguments
 
@@ -169,44 +156,40 @@ class HevThermalEnv(EnvParts, gym.Env):
                    random_start=False, info_keys="all")
     ```
 
-    * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path,
-      a :class:`~hev_thermal_env.cycles.Cycle`, a generated cycle's name (``bus_long:7``,
-      ``validation_bus:3``) or set (``validation_bus``), a cycle family (one of
-      :func:`~hev_thermal_env.cycles.list_families`, ``"random_bus"`` to ``"bus_express"``: a fresh
-      cycle of the family per episode, seeded from ``self.np_random``;
+    * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path, a
+      :class:`~hev_thermal_env.cycles.Cycle`, a generated cycle's name (``bus_long:7``, ``validation_bus:3``) or set
+      (``validation_bus``), a cycle family (one of :func:`~hev_thermal_env.cycles.list_families`, ``"random_bus"`` to
+      ``"bus_express"``: a fresh cycle of the family per episode, seeded from ``self.np_random``;
       :mod:`hev_thermal_env.cycles.families`), or a list of these (one drawn per episode).
-    * ``scenario``: a name of :func:`~hev_thermal_env.scenarios.list_scenarios` (``"paper"``,
-      ``"hot"``, ``"summer"``, ``"hilly"``, ``"full_bus"``, ``"random"``, ``"random_service"``:
-      :mod:`hev_thermal_env.scenarios`) or a :class:`~hev_thermal_env.scenarios.Scenario`.
+    * ``scenario``: a name of :func:`~hev_thermal_env.scenarios.list_scenarios` (``"paper"``, ``"hot"``, ``"summer"``,
+      ``"hilly"``, ``"full_bus"``, ``"random"``, ``"random_service"``: :mod:`hev_thermal_env.scenarios`) or a
+      :class:`~hev_thermal_env.scenarios.Scenario`.
     * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus()``).
-    * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides
-      the scenario).
+    * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides the scenario).
     * ``reward``: :class:`~hev_thermal_env.envs.reward.RewardParams` or a dict of its fields.
-    * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds);
-      ``preview_s=0`` removes it.
-    * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor
-      temperature, heat index and split so far) or ``"human"`` (the same in a matplotlib window,
-      redrawn at every step and reset).
-    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting,
-      on for ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra
-      loss, no cutoff), the baseline of its tables.
+    * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds); ``preview_s=0``
+      removes it.
+    * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor temperature, heat index and
+      split so far) or ``"human"`` (the same in a matplotlib window, redrawn at every step and reset).
+    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting, on for
+      ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the
+      baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
-    * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence
-      of names from :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean
-      path for gymnasium's vector wrappers (``gymnasium.make_vec(..., vectorization_mode="sync",
-      info_keys=())`` merges no infos per step) and trainers that read none.
+    * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence of names from
+      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean path for gymnasium's vector wrappers
+      (``gymnasium.make_vec(..., vectorization_mode="sync", info_keys=())`` merges no infos per step) and trainers that
+      read none.
 
-    ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this
-    episode only), ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant``
-    (``"on"``, ``"degraded"``, ``"off"``) and ``start_s`` (whole seconds into the cycle).
+    ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this episode only),
+    ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant`` (``"on"``, ``"degraded"``, ``"off"``) and
+    ``start_s`` (whole seconds into the cycle).
 
     ## Attributes for strategies (``env.unwrapped``)
 
-    ``config``, ``core`` (:class:`~hev_thermal_env.physics.PhysicsCore`), ``conditions`` and
-    ``cycle`` of the episode, ``k`` (index of the next step), ``phys_state`` ((1, N_STATE) state
-    before the next step), ``cond`` ((1, N_COND)), ``reward_params``, ``soc_target``,
-    ``last_out`` ((N_OUT,) outputs of the last step, zeros after reset) and :meth:`peek`, which
-    evaluates candidate actions for the next step without changing the env.
+    ``config``, ``core`` (:class:`~hev_thermal_env.physics.PhysicsCore`), ``conditions`` and ``cycle`` of the episode,
+    ``k`` (index of the next step), ``phys_state`` ((1, N_STATE) state before the next step), ``cond`` ((1, N_COND)),
+    ``reward_params``, ``soc_target``, ``last_out`` ((N_OUT,) outputs of the last step, zeros after reset) and
+    :meth:`peek`, which evaluates candidate actions for the next step without changing the env.
 
     ## Version History
 
@@ -294,8 +277,8 @@ class HevThermalEnv(EnvParts, gym.Env):
     def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Evaluate candidate actions for the next step from the current state, without changing the env.
 
-        ``actions``: n motor shares (any shape with n elements; clipped to [-1, 1] by the core).
-        Returns ``(state_out [n, N_STATE], out [n, N_OUT])`` from one batched call of the physics core.
+        ``actions``: n motor shares (any shape with n elements; clipped to [-1, 1] by the core). Returns
+        ``(state_out [n, N_STATE], out [n, N_OUT])`` from one batched call of the physics core.
         """
         a = np.array(actions, dtype=np.float64).reshape(-1)
         if not np.all(np.isfinite(a)):
@@ -303,9 +286,8 @@ class HevThermalEnv(EnvParts, gym.Env):
         rows = self._rows
         if self.cycle is None or rows.k[0] >= rows.end[0]:
             raise RuntimeError("peek: no next step (call reset() first)")
-        n = a.size
         k = int(rows.k[0])
-        return self.core.step(np.repeat(rows.state, n, axis=0), a, rows.speed[0, k], rows.speed[0, k + 1],
+        return self.core.step(np.repeat(rows.state, a.size, axis=0), a, rows.speed[0, k], rows.speed[0, k + 1],
                               rows.grade[0, k], rows.cond[0])
 
     def render(self):

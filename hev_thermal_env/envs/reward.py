@@ -2,8 +2,8 @@
 
 Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here: its weights and prices
 (:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
-(:func:`reward_kernel`), the band's center (:func:`descent_soc`, :func:`band_center`) and what planners
-call on batches (:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
+(:func:`reward_kernel`), the band's center (:func:`descent_soc`, :func:`band_center`) and what planners call on batches
+(:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
 """
 
 from __future__ import annotations
@@ -64,8 +64,8 @@ class RewardParams(Params):
     def weights(self, lhv_j_per_g: float, *, battery: bool = True, soc_deviation: bool = True,
                 overheat: bool = True, soc_band: bool = True) -> np.ndarray:
         """The weight vector of :func:`reward_kernel`; terms switched off (planners that price them
-        elsewhere, e.g. ECMS the battery) get weight 0. ``soc_deviation`` switches the SOC terms besides the
-        battery energy: the band settlement (unless ``soc_band`` is False) and the quadratic deviation."""
+        elsewhere, e.g. ECMS the battery) get weight 0. ``soc_deviation`` switches the SOC terms besides the battery
+        energy: the band settlement (unless ``soc_band`` is False) and the quadratic deviation."""
         w = np.zeros(N_WEIGHTS)
         w[W_FUEL] = self.fuel_weight
         w[W_MISS] = self.miss_weight
@@ -127,8 +127,8 @@ def soc_band_charge_g(params: RewardParams, soc: np.ndarray, soc_target: float) 
 def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
     """The four terms of row ``b`` (fuel, miss, soc, overheat) and their sum, in a fixed order.
 
-    ``st0`` / ``st``: states before / after the step; ``target_before`` / ``target_after``: the
-    band's center at those two instants (equal on a flat route).
+    ``st0`` / ``st``: states before / after the step; ``target_before`` / ``target_after``: the band's center at those
+    two instants (equal on a flat route).
     """
     fuel = -w[W_FUEL] * out[b, C.FUEL_G]
     miss = -w[W_MISS] * (out[b, C.MISSED_J] * w[W_MISS_PRICE])
@@ -146,9 +146,9 @@ def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
 def reward_kernel(w, out, state_before, state_after, target_before, target_after, dt_s, terms, total):
     """Reward of a batch of steps: ``terms`` [B, 4] (``REWARD_TERMS`` order) and ``total`` [B].
 
-    ``out`` [B, N_OUT] and ``state_after`` [B, N_STATE] come from the physics core, ``state_before``
-    [B, N_STATE] is what it stepped from (the band settlement's start); ``target_before`` and
-    ``target_after`` [B]: the band's center before and after the step (:func:`band_center`).
+    ``out`` [B, N_OUT] and ``state_after`` [B, N_STATE] come from the physics core, ``state_before`` [B, N_STATE] is
+    what it stepped from (the band settlement's start); ``target_before`` and ``target_after`` [B]: the band's center
+    before and after the step (:func:`band_center`).
     """
     for b in range(out.shape[0]):
         fuel, miss, soc, heat, tot = reward_row(w, out, state_before, state_after, b, target_before[b],
@@ -183,9 +183,9 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
                  **switches: bool) -> tuple[np.ndarray, np.ndarray]:
     """:func:`reward_kernel` on a batch: (terms [B, 4], total [B]); ``switches`` as :meth:`RewardParams.weights`.
 
-    ``state_before``: the states the batch stepped from ([B, N_STATE], or one [N_STATE] for all rows);
-    without it the settlement omits Φ(SOC before), a constant shift among actions from one common state.
-    The band's center is ``soc_target`` before and after the step (a flat stretch).
+    ``state_before``: the states the batch stepped from ([B, N_STATE], or one [N_STATE] for all rows); without it the
+    settlement omits Φ(SOC before), a constant shift among actions from one common state. The band's center is
+    ``soc_target`` before and after the step (a flat stretch).
     """
     b = out.shape[0]
     terms = np.empty((b, len(REWARD_TERMS)))
@@ -202,9 +202,8 @@ def stage_cost_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
                  overheat: bool = False, soc_band: bool = True, state_before: np.ndarray | None = None) -> np.ndarray:
     """Cost (fuel-equivalent grams, = −reward) of each row of a batch step: what DP and ECMS minimise.
 
-    Always fuel and missed wheel energy; the other terms as switched (:meth:`RewardParams.weights`).
-    ``state_before`` as in :func:`reward_terms` (DP charges the settlement on the final SOC instead,
-    :func:`soc_band_charge_g`).
+    Always fuel and missed wheel energy; the other terms as switched (:meth:`RewardParams.weights`). ``state_before`` as
+    in :func:`reward_terms` (DP charges the settlement on the final SOC instead, :func:`soc_band_charge_g`).
     """
     _, total = reward_terms(params, out, state_after, soc_target, lhv_j_per_g, dt_s, state_before=state_before,
                             battery=battery, soc_deviation=soc_deviation, overheat=overheat, soc_band=soc_band)

@@ -1,13 +1,13 @@
 """The observation and info layout of ``HevThermal-v0``: names and bounds, the info builders and codes.
 
-Shared by the single env, the batch engine and the vector env, so all three report the same keys and values.
-The reset info's two categorical values are numeric codes (the env's spec, section Info):
+Shared by the single env, the batch engine and the vector env, so all three report the same keys and values. The reset
+info's two categorical values are numeric codes (the env's spec, section Info):
 
 * ``info["cycle_id"]`` → :func:`cycle_name`: the built-in cycles have fixed ids, their order in
-  :func:`hev_thermal_env.cycles.list_cycles`; any other cycle gets the next free id the first time the
-  process meets its name, so its id is valid only in the process that ran the env.
-* ``info["coolant_code"]`` → :func:`coolant_mode`: the index in
-  :data:`~hev_thermal_env.physics.config.COOLANT_MODES` (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2).
+  :func:`hev_thermal_env.cycles.list_cycles`; any other cycle gets the next free id the first time the process meets its
+  name, so its id is valid only in the process that ran the env.
+* ``info["coolant_code"]`` → :func:`coolant_mode`: the index in :data:`~hev_thermal_env.physics.config.COOLANT_MODES`
+  (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2).
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ _OBS_FIELDS = (
     ("heat_index", 0.0, 1.0), ("heat_x", -1.0, 1.0), ("motor_cutoff", 0.0, 1.0), ("motor_torque_avail_nm", 0.0, None),
     ("gear", 0.0, None), ("cycle_progress", 0.0, 1.0), ("ambient_temp_c", -40.0, 60.0), ("coolant_factor", 0.0, 1.0),
 )
-PREVIEW_MAX_MPS = 60.0
 N_OBS_BASE = len(_OBS_FIELDS)
 (OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_PWM, OBS_HEAT_X,
  OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)  # _OBS_FIELDS' order
@@ -114,7 +113,7 @@ def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarra
     fill = {"motor_torque_avail_nm": max(config.motor.peak_torque_nm, config.motor.continuous_torque_nm, 1.0),
             "gear": float(len(config.driveline.gear_ratios))}
     low = [f[1] for f in _OBS_FIELDS] + [0.0] * n_preview
-    high = [fill.get(f[0], f[2]) for f in _OBS_FIELDS] + [PREVIEW_MAX_MPS] * n_preview
+    high = [fill.get(f[0], f[2]) for f in _OBS_FIELDS] + [60.0] * n_preview  # the preview: speeds, as entry 0
     return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
 
 
@@ -153,18 +152,11 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
         info[name] = out[:, col] * RPM_PER_RADPS
     for name, col in _INFO_BOOL_COLUMNS:
         info[name] = out[:, col] != 0.0
-    info["gear"] = out[:, C.GEAR].astype(np.int64)
-    info["soc"] = state[:, C.SOC]
-    info["motor_temp_c"] = state[:, C.TEMP_C]
-    info["motor_cutoff"] = state[:, C.CUTOFF] != 0.0
     for key, col in _REWARD_COLUMNS:
         info[key] = terms[:, col]
-    info["cycle_speed_mps"] = cycle_speed
-    info["time_s"] = time_s
-    info["motor_share"] = u
-    info["motor_share_clipped"] = clipped
-    for key in EPISODE_INFO_KEYS:
-        info[key] = episode[key].copy()
+    info.update(gear=out[:, C.GEAR].astype(np.int64), soc=state[:, C.SOC], motor_temp_c=state[:, C.TEMP_C],
+                motor_cutoff=state[:, C.CUTOFF] != 0.0, cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u,
+                motor_share_clipped=clipped, **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
     return {key: info[key] for key in INFO_KEYS}
 
 

@@ -1,7 +1,7 @@
 """Native batched vector form of ``HevThermal-v0``: n sub-environments stepped by one call of the batch engine.
 
-Sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory of ``HevThermalEnv``
-reset with seed ``s``: both step through :class:`~hev_thermal_env.envs.batch.EpisodeRows`.
+Sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory of ``HevThermalEnv`` reset with seed
+``s``: both step through :class:`~hev_thermal_env.envs.batch.EpisodeRows`.
 """
 
 from __future__ import annotations
@@ -21,8 +21,6 @@ from .batch import EnvParts
 from .reward import RewardParams
 from .spaces import EPISODE_INFO_KEYS, RESET_INFO_KEYS, reset_info_dict, step_info_arrays
 
-_FLOAT_EPISODE_KEYS = ("soc_target", "ambient_temp_c")
-
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
 
@@ -30,31 +28,28 @@ _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond"
 class HevThermalVectorEnv(EnvParts, VectorEnv):
     """``num_envs`` copies of ``HevThermal-v0`` stepped together by one batched call of the physics core.
 
-    Arguments are those of :class:`~hev_thermal_env.envs.HevThermalEnv` (shared by all sub-environments;
-    ``render_mode`` must be None: render single envs), plus ``max_episode_steps`` (optional cap on an
-    episode's steps, per sub-env) and ``autoreset_mode`` (:class:`gymnasium.vector.AutoresetMode` or its value):
+    Arguments are those of :class:`~hev_thermal_env.envs.HevThermalEnv` (shared by all sub-environments; ``render_mode``
+    must be None: render single envs), plus ``max_episode_steps`` (optional cap on an episode's steps, per sub-env) and
+    ``autoreset_mode`` (:class:`gymnasium.vector.AutoresetMode` or its value):
 
-    - ``NEXT_STEP`` (default, as gymnasium 1.x): the step after a truncation resets that sub-env, ignores
-      its action and returns the reset observation with reward 0; its step-info keys are masked out and
-      the reset-info keys masked in.
+    - ``NEXT_STEP`` (default, as gymnasium 1.x): the step after a truncation resets that sub-env, ignores its action and
+      returns the reset observation with reward 0; its step-info keys are masked out and the reset-info keys masked in.
     - ``SAME_STEP``: a truncating sub-env resets within the same step; the observation is the reset one,
-      ``infos["final_obs"]`` (object array) and ``infos["final_info"]`` (dict of arrays) hold the last
-      step's, and reset-info keys overwrite step-info keys for those sub-envs. The SB3 adapter uses it.
+      ``infos["final_obs"]`` (object array) and ``infos["final_info"]`` (dict of arrays) hold the last step's, and
+      reset-info keys overwrite step-info keys for those sub-envs. The SB3 adapter uses it.
     - ``DISABLED``: stepping an ended sub-env raises; reset it with ``reset(options={"reset_mask": mask})``.
 
-    Sub-envs may run different cycles of different lengths; each truncates at the end of its own.
-    Seeding follows gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each
-    one, each with its own generator made as the single env's. ``reset(options=...)`` takes the single
-    env's options for every reset sub-env, ``reset_mask`` (bool array: reset only these), or a list of
-    one options dict per sub-env.
+    Sub-envs may run different cycles of different lengths; each truncates at the end of its own. Seeding follows
+    gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each one, each with its own generator
+    made as the single env's. ``reset(options=...)`` takes the single env's options for every reset sub-env,
+    ``reset_mask`` (bool array: reset only these), or a list of one options dict per sub-env.
 
-    Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys
-    and values. As every reset key is also a step key, the keys do not change when sub-envs reset, so
-    torchrl reads a batch through fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
-    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v0", n, autoreset_mode="SameStep"))``).
-    The batch attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``, ``k`` [n],
-    ``phys_state`` [n, N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and ``last_out`` [n, N_OUT]
-    mirror the single env's.
+    Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys and values. As
+    every reset key is also a step key, the keys do not change when sub-envs reset, so torchrl reads a batch through
+    fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
+    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v0", n, autoreset_mode="SameStep"))``). The batch
+    attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``, ``k`` [n], ``phys_state`` [n,
+    N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and ``last_out`` [n, N_OUT] mirror the single env's.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -84,7 +79,8 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._started = np.zeros(self.num_envs, dtype=bool)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
-        self._episode_cols = {key: np.zeros(self.num_envs, dtype=np.float64 if key in _FLOAT_EPISODE_KEYS else np.int64)
+        floats = ("soc_target", "ambient_temp_c")  # the other episode values are integers (codes, start_s)
+        self._episode_cols = {key: np.zeros(self.num_envs, dtype=np.float64 if key in floats else np.int64)
                               for key in EPISODE_INFO_KEYS}
 
     # -- batch attributes --------------------------------------------------------------------------
@@ -194,8 +190,8 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
 
     def get_attr(self, name: str) -> tuple:
         """The attribute of every sub-environment: per-env values for the episode attributes
-        (``cycle``, ``conditions``, ``k``, ``soc_target``, ``phys_state``, ``cond``, ``last_out``,
-        ``np_random``), else the shared attribute of the vector env repeated."""
+        (``cycle``, ``conditions``, ``k``, ``soc_target``, ``phys_state``, ``cond``, ``last_out``, ``np_random``), else
+        the shared attribute of the vector env repeated."""
         rows = self._rows
         if name in _PER_ENV_ATTRS:
             per = {
@@ -286,13 +282,8 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         mask[idx] = True
         for key in self.reset_info_keys:
             values = [ri[key] for ri in reset_infos]
-            arr = infos.get(key)
-            if arr is None:
-                arr = np.zeros(self.num_envs, dtype=type(values[0]))
-                key_mask = mask
-            else:
-                key_mask = infos["_" + key] | mask
-            arr[idx] = values
-            infos[key] = arr
-            infos["_" + key] = key_mask
+            if key not in infos:
+                infos[key], infos["_" + key] = np.zeros(self.num_envs, dtype=type(values[0])), np.zeros_like(mask)
+            infos[key][idx] = values
+            infos["_" + key] = infos["_" + key] | mask
         return infos

@@ -1,9 +1,9 @@
 """The thermal optimum's bins: which of a stage's candidate states survive (:mod:`.search`).
 
-A candidate's bin is floor(state / width) per key column (SOC, winding, housing and coolant
-temperature, heat index, cutoff flag), packed into one 64-bit key. In each occupied bin at most
-three states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped
-when a cheaper one lies in a cooler thermal bin (:func:`pareto_per_soc_bin`).
+A candidate's bin is floor(state / width) per key column (SOC, winding, housing and coolant temperature, heat index,
+cutoff flag), packed into one 64-bit key. In each occupied bin at most three states survive (:func:`keep_best_per_bin`);
+then, within each SOC bin, a state is dropped when a cheaper one lies in a cooler thermal bin
+(:func:`pareto_per_soc_bin`).
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ _BITS = np.array(KEY_BITS, dtype=np.int64)
 def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap, table_key,
                cheap, cool, second):
     """One pass of :func:`keep_best_per_bin` with a table of ``cap`` slots over the rows whose first key column's bin
-    is ``part`` modulo ``n_parts``; returns the number of bins, or -1 when the table would be more than half full
-    (the caller retries with a larger one)."""
+    is ``part`` modulo ``n_parts``; returns the number of bins, or -1 when the table would be more than half full (the
+    caller retries with a larger one)."""
     mask = cap - 1
     table_key[:cap] = -1
     used = 0
@@ -83,13 +83,13 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, wid
     """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2`` and the coolest
     (:func:`hotness`); writes their indices to ``out_idx`` (a row once) and returns how many.
 
-    Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run
-    on separate threads). The cost compared is ``cost + price · batt_j`` (g). One representative per bin
-    drifts (the cheaper state now is usually the hotter or emptier one, a fraction of a bin each stage);
-    with ``price2`` below the reward's price the better lineage survives when the true value of charge
-    lies between the two (200 s of Beijing, ``hot``: one representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 %
-    below the frontier, three at 1.5·10⁻⁴ 0.06 %). An open-addressing hash table, sized from ``cap_hint``
-    (the expected number of bins) and grown when it fills, finds a row's bin in O(1).
+    Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run on separate
+    threads). The cost compared is ``cost + price · batt_j`` (g). One representative per bin drifts (the cheaper state
+    now is usually the hotter or emptier one, a fraction of a bin each stage); with ``price2`` below the reward's price
+    the better lineage survives when the true value of charge lies between the two (200 s of Beijing, ``hot``: one
+    representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 % below the frontier, three at 1.5·10⁻⁴ 0.06 %). An open-addressing
+    hash table, sized from ``cap_hint`` (the expected number of bins) and grown when it fills, finds a row's bin in
+    O(1).
     """
     cap = 1024
     while cap < 4 * cap_hint:
@@ -122,10 +122,10 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, wid
 def pareto_per_soc_bin(soc_bin, q, order, keep):
     """Drop every state dominated within its SOC bin; returns how many survive (written to ``keep``).
 
-    ``order`` sorts the rows by (SOC bin, adjusted cost). A row is dominated when a cheaper row of its SOC
-    bin lies in a cooler thermal bin: no hotter in any of ``q``'s columns (bin indices: winding, housing,
-    coolant, heat index, cutoff) and cooler in one; rows of the same bin do not dominate each other.
-    Cooler is never worse in this physics (less derate, lower copper loss, stronger magnets, no cutoff).
+    ``order`` sorts the rows by (SOC bin, adjusted cost). A row is dominated when a cheaper row of its SOC bin lies in a
+    cooler thermal bin: no hotter in any of ``q``'s columns (bin indices: winding, housing, coolant, heat index, cutoff)
+    and cooler in one; rows of the same bin do not dominate each other. Cooler is never worse in this physics (less
+    derate, lower copper loss, stronger magnets, no cutoff).
     """
     n = order.shape[0]
     d_count = q.shape[1]

@@ -1,10 +1,9 @@
 """The reachable SOC corridor of dynamic programming: forward and backward envelopes of the SOC.
 
-Each stage's SOC grid spans only the SOCs that are reachable from the start and from which the
-final-SOC band is still reachable (:func:`corridor`), so the grid's resolution goes where paths
-can be and the final-SOC constraint is exact instead of a smeared penalty wall. Forward, the SOC
-after u = +1 (most discharge) and u = −1 (most charge) from the start; backward, the SOC from
-which u = −1 / u = +1 just reaches the band's lower / upper edge (solved per stage by a
+Each stage's SOC grid spans only the SOCs that are reachable from the start and from which the final-SOC band is still
+reachable (:func:`corridor`), so the grid's resolution goes where paths can be and the final-SOC constraint is exact
+instead of a smeared penalty wall. Forward, the SOC after u = +1 (most discharge) and u = −1 (most charge) from the
+start; backward, the SOC from which u = −1 / u = +1 just reaches the band's lower / upper edge (solved per stage by a
 fixed-point iteration on the physics step).
 """
 
@@ -22,9 +21,9 @@ from .problem import DPInfeasibleError, DPProblem
 def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lowest and highest SOC reachable at each stage from the start: u = +1 and u = −1 throughout.
 
-    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the
-    most charge (the engine up to twice the demand or its full load); regeneration is the same for
-    both. The other state columns follow ``held`` (the planning model).
+    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the most charge (the
+    engine up to twice the demand or its full load); regeneration is the same for both. The other state columns follow
+    ``held`` (the planning model).
     """
     n = problem.n_stages
     st = np.repeat(problem.state0[None, :], 2, axis=0)
@@ -40,9 +39,9 @@ def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, 
     return lo, hi
 
 
-def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float],
-                      iterations: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band."""
+def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band (three
+    fixed-point iterations per stage)."""
     n = problem.n_stages
     bat = problem.core.config.battery
     lo = np.empty(n + 1)
@@ -53,7 +52,7 @@ def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, f
     for i in range(n - 1, -1, -1):
         target = np.array([lo[i + 1], hi[i + 1]])
         guess = target.copy()
-        for _ in range(iterations):
+        for _ in range(3):
             st[:] = held[i]
             st[:, C.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
             so, _ = problem.step(st, a, i)

@@ -2,9 +2,9 @@
 run of the same problem.
 
 A plan's file name hashes its key (cycle, start, vehicle, reward, settings:
-:meth:`~.thermal_optimum.OptimumSettings.key`) and the sources the planner runs (:mod:`.thermal_optimum` and
-every module it imports: :func:`~hev_thermal_env.physics.jit.source_hash`), so an edit of any of them solves
-afresh and an edit elsewhere does not. Without a writable cache directory nothing is kept.
+:meth:`~.thermal_optimum.OptimumSettings.key`) and the sources the planner runs (:mod:`.thermal_optimum` and every
+module it imports: :func:`~hev_thermal_env.physics.jit.source_hash`), so an edit of any of them solves afresh and an
+edit elsewhere does not. Without a writable cache directory nothing is kept.
 """
 
 from __future__ import annotations
@@ -27,19 +27,14 @@ from .thermal_optimum import OptimumPlan, OptimumSettings, in_worker_process, pl
 _told = False
 
 
-def plan_path(key: str) -> Path | None:
-    """Where the plan of ``key`` is kept (None: no writable cache directory)."""
-    if CACHE_DIR is None:
-        return None
-    digest = hashlib.sha256((key + source_hash([thermal_optimum.__name__])).encode()).hexdigest()[:32]
-    return CACHE_DIR.parent / "plans" / f"dp_thermal-{digest}.json"
-
-
 def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool = True) -> OptimumPlan:
     """The plan of ``problem``: read from disk if it was solved before (its report then says ``from_cache``), else
     solved by :func:`~.thermal_optimum.plan_optimum` and kept (``use_cache=False``: always solved, not kept)."""
     grid = settings.grid_for(problem.n_stages)
-    path = plan_path(settings.key(problem)) if use_cache else None
+    path = None
+    if use_cache and CACHE_DIR is not None:
+        key = settings.key(problem) + source_hash([thermal_optimum.__name__])
+        path = CACHE_DIR.parent / "plans" / f"dp_thermal-{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
     if path is not None and path.is_file():
         try:
             data = json.loads(path.read_text())

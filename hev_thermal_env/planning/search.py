@@ -1,12 +1,11 @@
 """The thermal optimum's search: forward dynamic programming over exact physics states (cost-to-come).
 
-Why forward, the bins and the passes: docs/strategies.md. Each stage expands every surviving state by
-every split (one split where the shaft demand is not positive: the action has no effect) in batched
-calls of the physics core, prices the candidates with the env's reward, keeps a few per bin
-(:mod:`.bins`) and drops those that can no longer reach the final-SOC window (the backward SOC envelope
-of :mod:`.corridor`). Nothing is interpolated: a surviving path's planned cost is its realised cost.
-The last stage's survivors give the frontier (:func:`frontier_points`), at the yardstick cost (fuel,
-missed wheel energy at the miss price, the reward's overheat terms; no battery price).
+Why forward, the bins and the passes: docs/strategies.md. Each stage expands every surviving state by every split (one
+split where the shaft demand is not positive: the action has no effect) in batched calls of the physics core, prices the
+candidates with the env's reward, keeps a few per bin (:mod:`.bins`) and drops those that can no longer reach the
+final-SOC window (the backward SOC envelope of :mod:`.corridor`). Nothing is interpolated: a surviving path's planned
+cost is its realised cost. The last stage's survivors give the frontier (:func:`frontier_points`), at the yardstick cost
+(fuel, missed wheel energy at the miss price, the reward's overheat terms; no battery price).
 """
 
 from __future__ import annotations
@@ -49,9 +48,8 @@ class SearchGrid:
     def scaled(self, factor: float) -> SearchGrid:
         """Every bin ``factor`` times narrower, ``factor`` times as many split intervals (an even number: u = 0
         stays)."""
-        return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor,
-                          self.coolant_k / factor, self.heat_index / factor,
-                          2 * int(round((self.n_u - 1) * factor / 2)) + 1)
+        return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor, self.coolant_k / factor,
+                          self.heat_index / factor, 2 * int(round((self.n_u - 1) * factor / 2)) + 1)
 
     def describe(self) -> str:
         return (f"forward DP over exact states, bins ΔSOC {self.soc:g}, winding {self.winding_k:g} K, housing "
@@ -87,8 +85,8 @@ class SearchResult:
 def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The final states that no other beats with both more final charge and a lower cost, by SOC ascending.
 
-    F(s) = the lowest cost of a path ending at SOC >= s is the cost of the first breakpoint at or above s;
-    linear interpolation between breakpoints never exceeds it.
+    F(s) = the lowest cost of a path ending at SOC >= s is the cost of the first breakpoint at or above s; linear
+    interpolation between breakpoints never exceeds it.
     """
     order = np.argsort(soc, kind="stable")
     s, c = soc[order], cost[order]
@@ -100,8 +98,8 @@ def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.n
 def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
     """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable.
 
-    Computed with the motor at full capability (no heat index, not cut off), which can only widen
-    the range, and widened by ``margin``.
+    Computed with the motor at full capability (no heat index, not cut off), which can only widen the range, and widened
+    by ``margin``.
     """
     ref = problem.state0.copy()
     ref[C.HEAT_X] = min(ref[C.HEAT_X], ref[C.HEAT_X_MIN])
@@ -124,8 +122,8 @@ def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
 
 class StageBuffers:
     """Arrays of a stage's candidates, kept from stage to stage (grown when a stage has more rows): allocating
-    and zero-filling hundreds of MB every stage costs as much as the physics. Inputs that are the same for every
-    row (conditions, the state before the step as far as the cost reads it) are filled once."""
+    and zero-filling hundreds of MB every stage costs as much as the physics. Inputs that are the same for every row
+    (conditions, the state before the step as far as the cost reads it) are filled once."""
 
     def __init__(self, problem: DPProblem):
         self.problem, self.rows = problem, 0
@@ -150,8 +148,8 @@ def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, bat
     """Every state × every split of stage ``i``: next states, cost-to-come, battery energy and the splits (views of
     ``buf``, valid until the next stage).
 
-    Row r is state r // m with split u[r % m]. Chunks of states run on separate threads, each doing
-    its physics step and its cost (both compiled kernels release the GIL).
+    Row r is state r // m with split u[r % m]. Chunks of states run on separate threads, each doing its physics step and
+    its cost (both compiled kernels release the GIL).
     """
     p, m = states.shape[0], u.size
     rows = p * m
@@ -206,9 +204,9 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
            tube: tuple[np.ndarray, np.ndarray] | None = None) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
-    ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`).
-    ``tube`` (SOC bounds per stage 0..n) also drops the states outside it (at a stage where none is
-    inside, the tube is ignored). ``progress(stage, n_stages, n_states)`` is called after every stage.
+    ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`). ``tube`` (SOC
+    bounds per stage 0..n) also drops the states outside it (at a stage where none is inside, the tube is ignored).
+    ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
     t0 = time.perf_counter()
     n = problem.n_stages

@@ -1,22 +1,20 @@
 """Dynamic programming over a known cycle with SOC as the state (the ``dp`` strategy's planner).
 
-Backward recursion over the stages on a grid of SOC states, the thermal state held at its initial
-value: thermal-blind, so where heat binds (``hot``, ``summer``, long climbs) not an optimum (the
-yardstick is :mod:`.thermal_optimum`). Each stage is ONE batched call of the physics step (split over
-threads) for every grid state × every split u (once per grid state where the demand is not positive).
+Backward recursion over the stages on a grid of SOC states, the thermal state held at its initial value: thermal-blind,
+so where heat binds (``hot``, ``summer``, long climbs) not an optimum (the yardstick is :mod:`.thermal_optimum`). Each
+stage is ONE batched call of the physics step (split over threads) for every grid state × every split u (once per grid
+state where the demand is not positive).
 
-Cost (g of fuel equivalent, the env's reward, :func:`~hev_thermal_env.envs.reward.stage_cost_g`): fuel,
-missed wheel energy and battery energy at the reward's prices, so DP minimises the corrected fuel;
-``price_soc_deviation`` adds the SOC terms (the band settlement charged on the final SOC,
-:func:`~hev_thermal_env.envs.reward.soc_band_charge_g`).
+Cost (g of fuel equivalent, the env's reward, :func:`~hev_thermal_env.envs.reward.stage_cost_g`): fuel, missed wheel
+energy and battery energy at the reward's prices, so DP minimises the corrected fuel; ``price_soc_deviation`` adds the
+SOC terms (the band settlement charged on the final SOC, :func:`~hev_thermal_env.envs.reward.soc_band_charge_g`).
 
-The final SOC lies within ``soc_tol`` of ``soc_final`` (default: the initial SOC ± 0.005). A penalty wall
-between fixed grid points would diffuse back through the stages (the SOC moves far less than a cell
-per step), so each stage's ``n_soc`` points span exactly its corridor (:mod:`.corridor`), and beyond the
-grid's ends the cost-to-go continues with the slope :data:`WALL_G_PER_SOC`. An unreachable band raises
-:class:`~.problem.DPInfeasibleError`; ``on_infeasible="closest"`` plans for the nearest reachable one.
-At each real step :func:`choose` picks among a finer u grid from the actual state, by stage cost plus
-interpolated cost-to-go.
+The final SOC lies within ``soc_tol`` of ``soc_final`` (default: the initial SOC ± 0.005). A penalty wall between fixed
+grid points would diffuse back through the stages (the SOC moves far less than a cell per step), so each stage's
+``n_soc`` points span exactly its corridor (:mod:`.corridor`), and beyond the grid's ends the cost-to-go continues with
+the slope :data:`WALL_G_PER_SOC`. An unreachable band raises :class:`~.problem.DPInfeasibleError`;
+``on_infeasible="closest"`` plans for the nearest reachable one. At each real step :func:`choose` picks among a finer u
+grid from the actual state, by stage cost plus interpolated cost-to-go.
 """
 
 from __future__ import annotations
@@ -178,9 +176,8 @@ def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, p
 def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: bool) -> dict[str, np.ndarray]:
     """Run the plan forward on the physics from the start state, re-optimising each step.
 
-    ``free=False`` holds the thermal state at the start's (the planning model: the plan's own
-    prediction, reported by the ``dp`` strategy); ``free=True`` lets the whole state evolve (as the
-    environment would).
+    ``free=False`` holds the thermal state at the start's (the planning model: the plan's own prediction, reported by
+    the ``dp`` strategy); ``free=True`` lets the whole state evolve (as the environment would).
     """
     u_exec = np.linspace(-1.0, 1.0, settings.n_u_exec)
     n = plan.n_stages

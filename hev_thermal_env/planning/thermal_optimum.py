@@ -1,15 +1,14 @@
 """The thermal optimum over a known cycle and its fuel-versus-final-SOC frontier (the ``dp_thermal`` planner).
 
-The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md); the
-SOC DP (:mod:`.soc_dp`) seeds the refining passes with its path. The plan is the cheapest path into the
-final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
-battery energy at the reward's price (as the SOC DP and the reward choose): an exact action sequence,
-so the env realises the planned cost (the report gives both). The report's ``frontier``, over the final
-states of the same passes, is the cost by final SOC within ``frontier_halfwidth`` of the target: the
-benchmark divides each strategy's cost by it at the strategy's own final SOC.
+The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md); the SOC DP
+(:mod:`.soc_dp`) seeds the refining passes with its path. The plan is the cheapest path into the final-SOC band
+(default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the battery energy at the reward's
+price (as the SOC DP and the reward choose): an exact action sequence, so the env realises the planned cost (the report
+gives both). The report's ``frontier``, over the final states of the same passes, is the cost by final SOC within
+``frontier_halfwidth`` of the target: the benchmark divides each strategy's cost by it at the strategy's own final SOC.
 
-Every pass shows a bar of its stages on stderr, cleared when the pass ends; hidden off a terminal and
-in worker processes (a pool's parent shows its own progress).
+Every pass shows a bar of its stages on stderr, cleared when the pass ends; hidden off a terminal and in worker
+processes (a pool's parent shows its own progress).
 """
 
 from __future__ import annotations
@@ -67,8 +66,8 @@ class OptimumSettings:
 
     def grid_for(self, n_stages: int) -> SearchGrid:
         """The grid of a cycle of ``n_stages`` steps: below 600 steps the SOC bin narrows with the cycle (at most
-        10×, unless ``fixed_soc_bin``). A bin of charge is worth a fixed number of grams (≈1.4 g at
-        1.5·10⁻⁴), so on a short cycle it would be a larger share of the cost."""
+        10×, unless ``fixed_soc_bin``). A bin of charge is worth a fixed number of grams (≈1.4 g at 1.5·10⁻⁴), so on a
+        short cycle it would be a larger share of the cost."""
         if self.fixed_soc_bin:
             return self.grid
         return dataclasses.replace(self.grid, soc=self.grid.soc * min(max(n_stages / SHORT_CYCLE_STEPS, 0.1), 1.0))
@@ -202,8 +201,7 @@ def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tu
             band: tuple[float, float], centers: list[np.ndarray],
             dp_soc: np.ndarray) -> tuple[list[SearchResult], SearchGrid]:
     """The second pass around ``centers`` and, where :meth:`OptimumSettings.refined_grid` narrows the SOC bin, the
-    third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid
-    used."""
+    third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid used."""
     second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers))
     j2 = pick_final(second, problem, band, s.on_infeasible)
     fine = s.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
