@@ -103,11 +103,6 @@ class EpisodeRows:
         """The SOC band's center [n, width] of every row at every instant (held at the target past the end)."""
         return band_center(self._weights, self.soc_target[:, None], self.tables[4])
 
-    @property
-    def width(self) -> int:
-        """Steps the tables hold per row (the longest loaded cycle plus the preview's padding)."""
-        return self.tables.shape[2]
-
     def load(self, rows: Sequence[int], episodes: Sequence[Episode], tables: Sequence[CycleTables],
              max_steps: int | None = None) -> None:
         """Start the given episodes in the given rows (state, tables, index) and compute their first envelope."""
