@@ -1,26 +1,17 @@
-"""Energy-management strategies behind one protocol (see :mod:`hev_thermal_env.agents.base`).
+"""Energy-management strategies behind one protocol (:mod:`.base`), installed as ``hev_thermal_env.agents`` (the
+source folder is the top-level ``agents/``): ``get_strategy("dp", n_soc=801)``, :func:`list_strategies`.
 
-Installed as ``hev_thermal_env.agents`` (the source folder is the top-level ``agents/``)::
-
->>> from hev_thermal_env.agents import get_strategy, list_strategies
->>> list_strategies()[:3]
-['engine_only', 'rule', 'ecms']
->>> dp = get_strategy("dp", n_soc=801)
-
-``get_strategy("name:arg", ...)``: if the strategy class has a ``from_label(arg, **options)``
-class method (``ppo``: the text after the colon is a model path), that builds it; otherwise the
-run is reported under the label ``"name:arg"`` (one strategy with several settings in a benchmark).
-Other modules may add strategies with :func:`register_strategy`; ``ppo`` is listed when
-:mod:`hev_thermal_env.agents.ppo` (class ``PPOStrategy``) exists.
-
-Beside the strategies: ``policies/`` (the shipped PPO policy) and ``hyperparams/`` (the training
-hyperparameter files, :data:`HYPERPARAMS_DIR`).
+``get_strategy("name:arg")`` builds the strategy with its class's ``from_label(arg, **options)`` if it has one (``ppo``:
+the text after the colon is a model path), else reports the run under the label ``"name:arg"`` (one strategy with
+several settings in a benchmark). A strategy's module is imported when it is first built (torch only for ``ppo``); the
+planners behind ``dp`` and ``dp_thermal`` are :mod:`hev_thermal_env.planning`. Beside the strategies: ``policies/`` (the
+shipped PPO policy), ``hyperparams/`` (:data:`HYPERPARAMS_DIR`) and :mod:`.policy_files` (the files of a trained policy:
+reading them, and the layout the training writes).
 """
 
 from __future__ import annotations
 
 import importlib
-import importlib.util
 import inspect
 from collections.abc import Callable
 from pathlib import Path
@@ -31,7 +22,8 @@ from .base import Strategy
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 """The hyperparameter files of ``train.py`` (``<algo>.yaml``)."""
 
-_REGISTRY: dict[str, tuple[str, str] | Callable[..., Strategy]] = {
+#: Strategy name -> (module, class).
+_REGISTRY: dict[str, tuple[str, str]] = {
     "engine_only": ("hev_thermal_env.agents.rule", "EngineOnly"),
     "rule": ("hev_thermal_env.agents.rule", "RuleBased"),
     "ecms": ("hev_thermal_env.agents.ecms", "ECMS"),
@@ -39,46 +31,28 @@ _REGISTRY: dict[str, tuple[str, str] | Callable[..., Strategy]] = {
     "ecms_thermal": ("hev_thermal_env.agents.ecms", "ThermalECMS"),
     "dp": ("hev_thermal_env.agents.dp", "DPStrategy"),
     "dp_thermal": ("hev_thermal_env.agents.optimum", "ThermalOptimumStrategy"),
+    "ppo": ("hev_thermal_env.agents.ppo", "PPOStrategy"),
 }
-_OPTIONAL = {"ppo": ("hev_thermal_env.agents.ppo", "PPOStrategy")}
-
-
-def register_strategy(name: str, factory: Callable[..., Strategy]) -> None:
-    """Make ``get_strategy(name, **options)`` call ``factory(**options)``."""
-    if not name or ":" in name:
-        raise ValueError(f"register_strategy: invalid name {name!r}")
-    _REGISTRY[name] = factory
-
-
-def _available_optional() -> dict[str, tuple[str, str]]:
-    found = {}
-    for name, (module, cls) in _OPTIONAL.items():
-        try:
-            if importlib.util.find_spec(module) is not None:
-                found[name] = (module, cls)
-        except (ImportError, ValueError):
-            pass
-    return found
 
 
 def list_strategies() -> list[str]:
     """Names accepted by :func:`get_strategy`."""
-    return list(_REGISTRY) + [n for n in _available_optional() if n not in _REGISTRY]
+    return list(_REGISTRY)
 
 
 def get_strategy(name: str, **options: Any) -> Strategy:
     """A new strategy by name, with its options.
 
-    An unknown name, an unknown option or an option value of the wrong type raises ``ValueError``
-    naming the strategy and listing the valid names or options.
+    An unknown name, an unknown option or an option value of the wrong type raises ``ValueError`` naming the strategy
+    and listing the valid names or options.
     """
     if not isinstance(name, str):
         raise ValueError(f"strategy name must be a string, got {type(name).__name__}")
     base, _, label = name.partition(":")
-    entry = _REGISTRY.get(base) or _available_optional().get(base)
-    if entry is None:
+    if base not in _REGISTRY:
         raise ValueError(f"unknown strategy {name!r}; valid strategies: {', '.join(list_strategies())}")
-    factory = entry if callable(entry) else getattr(importlib.import_module(entry[0]), entry[1])
+    module, cls = _REGISTRY[base]
+    factory = getattr(importlib.import_module(module), cls)
     from_label = getattr(factory, "from_label", None)
     build = from_label if label and from_label is not None else factory
     _check_options(base, build, options, skip=1 if build is from_label else 0)
@@ -95,10 +69,7 @@ def get_strategy(name: str, **options: Any) -> Strategy:
 
 def _check_options(base: str, build: Callable[..., Any], options: dict[str, Any], skip: int) -> None:
     """Unknown option names raise ValueError listing the options ``build`` takes (after ``skip`` positionals)."""
-    try:
-        params = list(inspect.signature(build).parameters.values())[skip:]
-    except (TypeError, ValueError):
-        return
+    params = list(inspect.signature(build).parameters.values())[skip:]
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
         return
     named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
@@ -108,4 +79,4 @@ def _check_options(base: str, build: Callable[..., Any], options: dict[str, Any]
         raise ValueError(f"strategy {base!r}: unknown option(s) {unknown}; valid options: {', '.join(known) or 'none'}")
 
 
-__all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies", "register_strategy"]
+__all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies"]

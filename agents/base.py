@@ -5,8 +5,8 @@ A strategy is driven through ``HevThermal-v0``::
     strategy.reset(env)            # once per episode, after env.reset(); may plan (DP)
     action = strategy.act(obs, info)   # every step; returns np.ndarray of shape (1,)
 
-``vehicle_config(config)`` lets a strategy change the vehicle it drives (``engine_only`` drives
-the conventional bus); ``thermal_aware`` says whether it respects the thermal model.
+``vehicle_config(config)`` lets a strategy change the vehicle it drives (``engine_only`` drives the conventional bus);
+``thermal_aware`` says whether it respects the thermal model.
 """
 
 from __future__ import annotations

@@ -1,42 +1,29 @@
 """Equivalent consumption minimisation: ``ecms``, ``aecms`` (adaptive) and ``ecms_thermal``.
 
-At every step the strategy evaluates a grid of splits u ∈ [-1, 1] (41 values by default) for
-the next step with ONE ``env.peek`` call (the batched physics step) and picks the cheapest::
+Every step one ``env.peek`` call (the batched physics step) evaluates a grid of splits u ∈ [-1, 1] (41 by default) for
+the next step, and the cheapest wins::
 
     J(u) = fuel_g + s_eff · E_batt / Q_lhv + miss price
 
-``E_batt`` is the battery's chemical energy over the step (J, negative when charging), Q_lhv the
-fuel's lower heating value and the miss price is the reward's (:mod:`hev_thermal_env.envs.reward`:
-``miss_weight`` × the fuel the engine would burn to deliver the missed wheel energy). An
-equivalence factor s of :data:`~hev_thermal_env.agents.common.REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery
-energy exactly as the reward and the corrected-fuel metric do.
+E_batt: the battery's chemical energy over the step (J, negative when charging); Q_lhv: the fuel's lower heating value;
+the miss price is the reward's. s = :data:`REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery energy exactly as the
+reward and the corrected-fuel metric do.
 
-SOC feedback (``ecms``): s_eff = s · (1 + k · ((SOC_target − SOC)/0.1)^p) with p = 1
-(``penalty="linear"``, default) or p = 3 (``penalty="cubic"``: gentle near the target, firm far
-from it), so the battery gets dearer below the target and cheaper above it; this keeps the run
-charge-sustaining. (Cubic with k ≤ 5 was too soft on ``beijing``: ΔSOC +0.02 at s = 2.9.)
+* ``ecms``: s_eff = s · (1 + k · ((SOC_target − SOC)/0.1)^p), p = 1 (``penalty="linear"``, default) or 3 (``"cubic"``:
+  gentle near the target, firm far from it; with k ≤ 5 too soft on ``beijing``: ΔSOC +0.02 at s = 2.9), which keeps the
+  run charge-sustaining.
+* ``aecms``: s_eff = s0 + k_p·e + k_i·∫e dt, e = SOC_target − SOC (PI; the integral clamped, anti-windup).
+* ``ecms_thermal``: ``ecms`` plus a price on the peeked next thermal state, to avoid derating and the 70 °C cutoff:
+  w_x · max(x' − x_thr, 0) (heat-index integrator x, eq 9, above a threshold just below 0) +
+  w_T · max(T' − T_soft, 0)² + w_cut · [cut off]'. It prices only what the split changes (regeneration and the
+  spinning motor's iron losses heat it whatever the split); in ``hot`` on HWFET plain ECMS reaches the cutoff (18 s)
+  and ``ecms_thermal`` avoids it at +0.2 % corrected fuel.
 
-``aecms``: s adapted by a PI controller on the SOC error, s_eff = s0 + k_p·e + k_i·∫e dt with
-e = SOC_target − SOC (the integral is clamped, anti-windup).
-
-``ecms_thermal``: ``ecms`` plus a price on the peeked next thermal state, so that it avoids
-derating and the 70 °C cutoff:
-
-    + w_x · max(x' − x_thr, 0)          heat-index integrator x (eq 9) above a threshold just below 0
-    + w_T · max(T' − T_soft, 0)²        motor temperature above a soft limit
-    + w_cut · [motor cut off]'          the protection trips (heavy)
-
-It can only price what the split changes: regeneration (automatic while braking) and the iron
-losses of the spinning motor heat it whatever the split. In the ``hot`` scenario on HWFET, plain
-ECMS reaches the cutoff (18 s) and ``ecms_thermal`` avoids it at +0.2 % corrected fuel.
-
-Tuning (one setting for both cycle families, not per cycle): s = 2.9 with k = 1 (linear), and
-A-ECMS s0 = 2.9, k_p = 20, k_i = 0.01 1/s, end ``beijing`` (paper scenario) at ΔSOC ≈ +0.005 within
-0.1 % of DP's corrected fuel. The factor matters: on ``beijing`` s = 2.7 ends at ΔSOC −0.006 and
-s = 3.0 at +0.036 without the penalty, because charging at the engine's marginal efficiency is
-cheaper than the reward's battery price (s ≈ 3.09). On HWFET the engine alone falls short at the
-highway speeds; the cost then weighs motor assist against the priced miss, and ECMS ends
-charge-sustaining (ΔSOC ≈ −0.001).
+Tuning (one setting for both cycle families): s = 2.9, k = 1 (linear); A-ECMS s0 = 2.9, k_p = 20, k_i = 0.01 1/s, end
+``beijing`` (``paper``) at ΔSOC ≈ +0.005 within 0.1 % of DP's corrected fuel. Without the penalty, s = 2.7 ends
+``beijing`` at ΔSOC −0.006 and s = 3.0 at +0.036: charging at the engine's marginal efficiency is cheaper than the
+reward's battery price. On HWFET, where the engine alone falls short at highway speeds, the cost weighs motor assist
+against the priced miss, and ECMS ends charge-sustaining (ΔSOC ≈ −0.001).
 """
 
 from __future__ import annotations
@@ -45,11 +32,15 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.planning.problem import argmin_small_action
+from hev_thermal_env.prices import Prices
 
 from .base import Strategy
-from .common import REWARD_EQUIVALENCE_FACTOR, argmin_small_action, stage_cost_g
+
+#: The equivalence factor (s in fuel + s·E_batt/Q_lhv) that matches the reward's default battery price.
+REWARD_EQUIVALENCE_FACTOR = Prices().equivalence_factor()
 
 
 def ecms_cost_g(out: np.ndarray, state_after: np.ndarray, s_eff: float, lhv_j_per_g: float,
@@ -57,14 +48,6 @@ def ecms_cost_g(out: np.ndarray, state_after: np.ndarray, s_eff: float, lhv_j_pe
     """ECMS cost (fuel-equivalent g) of each candidate row: fuel + s_eff·E_batt/Q_lhv + miss price."""
     base = stage_cost_g(reward_params, out, state_after, 0.0, lhv_j_per_g, dt_s, battery=False)
     return base + s_eff * out[:, C.BATT_CHEM] * dt_s / lhv_j_per_g
-
-
-def thermal_cost_g(state_after: np.ndarray, *, w_x: float, x_thr: float, w_temp: float, temp_soft_c: float,
-                   w_cutoff: float) -> np.ndarray:
-    """The price ``ecms_thermal`` puts on the next thermal state (heat index, temperature, cutoff)."""
-    x = state_after[:, C.HEAT_X]
-    over = np.maximum(state_after[:, C.TEMP_C] - temp_soft_c, 0.0)
-    return w_x * np.maximum(x - x_thr, 0.0) + w_temp * over * over + w_cutoff * state_after[:, C.CUTOFF]
 
 
 class ECMS(Strategy):
@@ -167,9 +150,11 @@ class ThermalECMS(ECMS):
         self.w_cutoff = float(w_cutoff)
 
     def candidate_costs(self, state_after: np.ndarray, out: np.ndarray, soc: float) -> np.ndarray:
-        return super().candidate_costs(state_after, out, soc) + thermal_cost_g(
-            state_after, w_x=self.w_x, x_thr=self.x_thr, w_temp=self.w_temp, temp_soft_c=self.temp_soft_c,
-            w_cutoff=self.w_cutoff)
+        """ECMS's cost plus the price of the next thermal state (heat index, temperature, cutoff)."""
+        over = np.maximum(state_after[:, C.TEMP_C] - self.temp_soft_c, 0.0)
+        heat = (self.w_x * np.maximum(state_after[:, C.HEAT_X] - self.x_thr, 0.0) + self.w_temp * over * over
+                + self.w_cutoff * state_after[:, C.CUTOFF])
+        return super().candidate_costs(state_after, out, soc) + heat
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "w_x_g": self.w_x, "x_thr": self.x_thr, "w_temp_g_per_k2": self.w_temp,

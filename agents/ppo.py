@@ -1,17 +1,10 @@
-"""``ppo``: a policy trained by ``train.py`` (Stable-Baselines3), behind the strategy protocol.
+"""``ppo``: a policy trained by ``train.py`` (Stable-Baselines3; PPO or SAC), behind the strategy protocol.
 
-``get_strategy("ppo")`` loads the default policy shipped in ``agents/policies/ppo_default/``;
-``get_strategy("ppo:PATH")`` or ``get_strategy("ppo", path=PATH)`` loads a trained run: a run
-directory of ``train.py`` or a model zip, with its observation statistics and ``config.yaml``
-(loading: :func:`hev_thermal_env.training.artifacts.load_policy`, which says where each file is
-looked up). The run's config gives the algorithm (PPO or SAC: the strategy plays either) and the
-observation layout it was trained on. :meth:`PPOStrategy.act` normalises the observation with the
-saved statistics (never updating them) and predicts deterministically
-(:meth:`~hev_thermal_env.training.artifacts.LoadedPolicy.act`).
-
-Errors are one-line messages: a missing model or statistics file raises ``FileNotFoundError``; an
-unreadable one, or an environment whose observation differs from the one the model was trained on
-(e.g. another ``preview_s``), raises ``ValueError`` naming what differs.
+``get_strategy("ppo")`` loads the policy shipped in ``agents/policies/ppo_default/``; ``"ppo:PATH"`` or ``path=PATH`` a
+run directory or model zip of ``train.py`` (:func:`.policy_files.load_policy`, which says where each file is looked up
+and what it raises). It acts deterministically on observations normalised with the saved statistics
+(:meth:`.policy_files.LoadedPolicy.act`); an env whose observation differs from the one the model was trained on (e.g.
+another ``preview_s``) raises ``ValueError`` naming what differs.
 """
 
 from __future__ import annotations
@@ -21,9 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.training.artifacts import LoadedPolicy, load_policy
-
 from .base import Strategy
+from .policy_files import LoadedPolicy, load_policy
 
 DEFAULT_POLICY_DIR = Path(__file__).resolve().parent / "policies" / "ppo_default"
 """The shipped default policy (``get_strategy("ppo")``)."""
@@ -56,8 +48,8 @@ def observation_mismatch(policy: LoadedPolicy, env: Any) -> str | None:
 class PPOStrategy(Strategy):
     """A policy trained by ``train.py``; deterministic actions on normalised observations.
 
-    Options: ``path`` (run directory or model zip; default the shipped ``ppo_default``) and
-    ``normalize`` (False for a model trained without observation normalisation).
+    Options: ``path`` (run directory or model zip; default the shipped ``ppo_default``) and ``normalize`` (False for a
+    model trained without observation normalisation).
     """
 
     name = "ppo"

@@ -1,27 +1,26 @@
 """The conventional bus and ADVISOR's parallel electric-assist strategy.
 
 ``engine_only``
-    The conventional bus: :meth:`VehicleConfig.conventional` (no motor, no regeneration, the engine
-    idles instead of stopping) driven with action 0.
+    The conventional bus: :meth:`VehicleConfig.conventional` (no motor, no regeneration, the engine idles instead of
+    stopping) driven with action 0.
 
 ``rule``
-    ADVISOR's charge-sustaining parallel electric-assist control (``PTC_PAR`` defaults, DESIGN §5),
-    evaluated on the next step's coupler-shaft demand T_dem and engine speed ω:
+    ADVISOR's charge-sustaining parallel electric-assist control (``PTC_PAR`` defaults), evaluated on the next step's
+    coupler-shaft demand T_dem and engine speed ω:
 
-    * engine on when T_dem > ``off_trq_frac``·T_eng,max(ω), or the vehicle speed is at least the
-      electric-launch speed (interpolated over SOC between ``launch_spd_lo_mps`` at ``lo_soc``
-      and ``launch_spd_hi_mps`` at ``hi_soc``), or SOC < ``lo_soc``;
+    * engine on when T_dem > ``off_trq_frac``·T_eng,max(ω), or the vehicle speed is at least the electric-launch speed
+      (interpolated over SOC between ``launch_spd_lo_mps`` at ``lo_soc`` and ``launch_spd_hi_mps`` at ``hi_soc``), or
+      SOC < ``lo_soc``;
     * engine torque T_eng = max(T_dem + T_chg, T_min) with
       T_chg = ``charge_trq_nm``·((lo + hi)/2 − SOC)/((hi − lo)/2) and
       T_min = ``min_trq_frac``·T_eng,max(ω) when SOC < ``lo_soc`` (else 0);
-    * the motor takes the rest (u = 1 − T_eng/T_dem), including regeneration, which the physics
-      does by itself when braking.
+    * the motor takes the rest (u = 1 − T_eng/T_dem), including regeneration, which the physics does by itself when
+      braking.
 
-    With ADVISOR's defaults (``off_trq_frac`` 0, launch speed 0) the engine is on whenever the bus
-    pulls: that is ADVISOR's default behaviour, kept on purpose. The physics clips u to [-1, 1],
-    so at light load the charging torque is limited to T_dem (engine at most 2·T_dem). The engine
-    torque is capped at its full-load curve (less the accessories) and the motor asked for the rest,
-    as in ADVISOR (the physics never tops up by itself).
+    With ADVISOR's defaults (``off_trq_frac`` 0, launch speed 0) the engine is on whenever the bus pulls: that is
+    ADVISOR's default behaviour, kept on purpose. The physics clips u to [-1, 1], so at light load the charging torque
+    is limited to T_dem (engine at most 2·T_dem). The engine torque is capped at its full-load curve (less the
+    accessories) and the motor asked for the rest, as in ADVISOR (the physics never tops up by itself).
 """
 
 from __future__ import annotations
@@ -35,7 +34,6 @@ from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics import engine as eng
 
 from .base import Strategy
-from .common import next_step_demand
 
 
 class EngineOnly(Strategy):
@@ -97,7 +95,7 @@ class RuleBased(Strategy):
 
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
         env = self.env
-        _, out = next_step_demand(env)
+        _, out = env.peek(np.zeros(1))  # the next step's shaft demand and engine speed do not depend on u
         demand = float(out[0, C.SHAFT_DEMAND])
         if demand <= 0.0:
             return np.zeros(1, dtype=np.float32)  # braking or standing: the action has no effect

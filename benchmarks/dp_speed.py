@@ -32,7 +32,7 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.physics.core import step_kernel
 
-KEEP = ("grid", "n_u", "n_u_exec", "temp_mode", "n_states", "n_stages", "solve_s", "plan_total_s",
+KEEP = ("grid", "n_u", "n_u_exec", "n_states", "n_stages", "solve_s", "plan_total_s",
         "vehicle_steps_evaluated", "vehicle_steps_per_s", "soc_final_requested", "final_soc_feasible",
         "reachable_final_soc", "soc_band_used", "corridor_max_width", "planned_cost_g")
 

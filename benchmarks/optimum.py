@@ -138,7 +138,7 @@ def speed() -> dict:
     return out
 
 
-def main() -> None:
+def _args() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a smoke run: the first 120 s of udds and beijing, "
                     "1 generated cycle's first 120 s, one convergence cell, no speed figures (about 1 min)")
@@ -149,8 +149,11 @@ def main() -> None:
                     help="what to run; the parts left out are kept from the existing JSON (default: all)")
     ap.add_argument("--out", default=None, help=f"JSON path (default {OUT.relative_to(OUT.parents[2])}; with --quick "
                     "optimum_quick.json next to it)")
-    args = ap.parse_args()
-    warnings.simplefilter("ignore", ImplausibleCycleWarning)
+    return ap.parse_args()
+
+
+def _tasks(args: argparse.Namespace) -> tuple[list[tuple[str, str]], list[tuple[str, str, float]]]:
+    """The cells and the convergence cells to run (longest cycles first: the pool ends together)."""
     if args.quick:
         tasks = [(c, s) for c in ("udds_120s", "beijing_120s") for s in ("paper", "hot")] + [("random_bus:1000_120s",
                                                                                               "paper")]
@@ -160,39 +163,59 @@ def main() -> None:
                                                                 for i in range(args.generated)]
         conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
         conv += [("beijing", "hot", 2.0), ("hwfet", "hot", 2.0), ("us06", "paper", 2.0)]
+    tasks = tasks if "cells" in args.parts else []
+    tasks.sort(key=lambda t: -len(_cycle(t[0]).speed_mps))
+    return tasks, conv if "convergence" in args.parts else []
+
+
+def _result(cells: list[dict], convs: list[dict], wides: list[dict], speed_figures: dict | None, partial: bool,
+            wall_s: float) -> dict:
+    """The JSON: every part and its summary."""
+    ratios = [c["min_ratio"] for c in cells if c["min_ratio"] is not None]
+    changes = [abs(c["change"]) for c in convs if c["change"] is not None]
+    checked = {(w["cycle"], w["scenario"], n): r["frontier_ratio"] for w in wides for n, r in w["strategies"].items()}
+    undecided = [(c["cycle"], c["scenario"], n) for c in cells for n in c["outside_and_undecided"]]
+    still = [u for u in undecided if checked.get(u) is None or checked[u] < 1 - TOLERANCE]
+    return {
+        "cells": sorted(cells, key=lambda c: (c["cycle"], c["scenario"])), "convergence": convs,
+        "speed": speed_figures, "tolerance": TOLERANCE, "partial": partial, "outside_checks": wides,
+        "summary": {
+            "cells": len(cells), "cells_beaten": sum(bool(c["beaten_by"]) for c in cells),
+            "runs_outside_undecided": len(undecided),
+            "runs_outside_after_wide_check": ["/".join(u) for u in still],
+            "min_ratio_wide_check": min((r for r in checked.values() if r is not None), default=None),
+            "min_ratio": min(ratios, default=None),
+            "max_planned_vs_realised": max((abs(c["optimum"]["planned_vs_realised"]) for c in cells), default=None),
+            "max_grid_change": max(changes, default=None), "wall_s": wall_s},
+    }
+
+
+def _outside_tasks(cells: list[dict]) -> list[tuple[str, str, tuple[str, ...]]]:
+    """The cells whose runs ended below the frontier's lowest SOC with a lower bound < 1, and those runs."""
+    todo: dict[tuple[str, str], list[str]] = {}
+    for c in cells:
+        for n in c["outside_and_undecided"]:
+            todo.setdefault((c["cycle"], c["scenario"]), []).append(n)
+    return [(k[0], k[1], tuple(v)) for k, v in todo.items()]
+
+
+def main() -> None:
+    args = _args()
+    warnings.simplefilter("ignore", ImplausibleCycleWarning)
+    tasks, conv = _tasks(args)
     t0 = time.perf_counter()
     out = Path(args.out) if args.out else OUT.with_name("optimum_quick.json" if args.quick else OUT.name)
     out.parent.mkdir(parents=True, exist_ok=True)
     old = json.loads(out.read_text()) if out.is_file() else {}
     cells: list[dict] = [] if "cells" in args.parts else old.get("cells", [])
     convs: list[dict] = [] if "convergence" in args.parts else old.get("convergence", [])
-    tasks = tasks if "cells" in args.parts else []
     wides: list[dict] = [] if "outside" in args.parts else old.get("outside_checks", [])
-    conv = conv if "convergence" in args.parts else []
 
     def write(partial: bool, speed_figures: dict | None = None) -> dict:
-        ratios = [c["min_ratio"] for c in cells if c["min_ratio"] is not None]
-        changes = [abs(c["change"]) for c in convs if c["change"] is not None]
-        checked = {(w["cycle"], w["scenario"], n): r["frontier_ratio"]
-                   for w in wides for n, r in w["strategies"].items()}
-        undecided = [(c["cycle"], c["scenario"], n) for c in cells for n in c["outside_and_undecided"]]
-        still = [u for u in undecided if checked.get(u) is None or checked[u] < 1 - TOLERANCE]
-        result = {
-            "cells": sorted(cells, key=lambda c: (c["cycle"], c["scenario"])), "convergence": convs,
-            "speed": speed_figures, "tolerance": TOLERANCE, "partial": partial, "outside_checks": wides,
-            "summary": {
-                "cells": len(cells), "cells_beaten": sum(bool(c["beaten_by"]) for c in cells),
-                "runs_outside_undecided": len(undecided),
-                "runs_outside_after_wide_check": ["/".join(u) for u in still],
-                "min_ratio_wide_check": min((r for r in checked.values() if r is not None), default=None),
-                "min_ratio": min(ratios, default=None),
-                "max_planned_vs_realised": max((abs(c["optimum"]["planned_vs_realised"]) for c in cells), default=None),
-                "max_grid_change": max(changes, default=None), "wall_s": time.perf_counter() - t0},
-        }
+        result = _result(cells, convs, wides, speed_figures, partial, time.perf_counter() - t0)
         atomic_write_json(out, result)
         return result
 
-    tasks.sort(key=lambda t: -len(_cycle(t[0]).speed_mps))  # longest first: the pool ends together
     with Pool(args.jobs) as pool:  # results are written as they come: an interrupted run keeps what it finished
         for c in tqdm(pool.imap_unordered(cell, tasks), total=len(tasks), desc="cells", unit="cell"):
             cells.append(c)
@@ -201,13 +224,9 @@ def main() -> None:
             convs.append(c)
             write(partial=True)
     if "outside" in args.parts:
-        todo: dict[tuple[str, str], list[str]] = {}
-        for c in cells:
-            for n in c["outside_and_undecided"]:
-                todo.setdefault((c["cycle"], c["scenario"]), []).append(n)
+        todo = _outside_tasks(cells)
         with Pool(args.jobs) as pool:
-            for w in tqdm(pool.imap_unordered(outside, [(k[0], k[1], tuple(v)) for k, v in todo.items()]),
-                          total=len(todo), desc="outside runs", unit="cell"):
+            for w in tqdm(pool.imap_unordered(outside, todo), total=len(todo), desc="outside runs", unit="cell"):
                 wides.append(w)
                 write(partial=True, speed_figures=old.get("speed"))
     speed_figures = old.get("speed") if "speed" not in args.parts else None if args.quick else speed()

@@ -200,7 +200,7 @@ def parse_policies(items: list[str]) -> dict[str, str]:
 def check_policies(labels: dict[str, str]) -> dict[str, str | None]:
     """Load every policy once before the cells (a bad path fails here); whether each was trained on other physics."""
     from hev_thermal_env.agents import get_strategy
-    from hev_thermal_env.training.artifacts import warn_if_other_physics
+    from hev_thermal_env.agents.policy_files import warn_if_other_physics
 
     found = {}
     for name, label in labels.items():

@@ -52,14 +52,8 @@ def selection_note(data: dict[str, Any]) -> str:
 
 
 def selection_cycles(data: dict[str, Any]) -> list[str]:
-    """The cycles any seed's training chose its ``best_model.zip`` on (its config's ``eval.cycles``), in order.
-
-    Older result files do not record them; there the selection ran on ``validation_bus:0..4``.
-    """
-    rows = data.get("training") or []
-    if rows and all("selection_cycles" in r for r in rows):
-        return list(dict.fromkeys(c for r in rows for c in r["selection_cycles"]))
-    return [f"validation_bus:{k}" for k in range(5)]
+    """The cycles any seed's training chose its ``best_model.zip`` on (its config's ``eval.cycles``), in order."""
+    return list(dict.fromkeys(c for r in data.get("training") or [] for c in r["selection_cycles"]))
 
 
 def _paper(cell: dict) -> bool:

@@ -17,8 +17,8 @@ return equal minus the corrected fuel:
   SOC apart), the band run's only the corridor into the band, so the band run is the finer
   solution of the same problem (the free run ends a little short of the band's edge, a few
   hundredths of a percent higher in corrected fuel);
-* ``reward_old_default``: the same for the reward before the band settlement (no settlement,
-  quadratic tether ``soc_deviation_weight=0.2``);
+* ``reward_old_default``: the same for a reward without the band settlement, a quadratic tether
+  (``soc_deviation_weight=0.2``) only;
 * ``prices_only``: the same with no SOC term at all (fuel + miss + battery energy at the stated
   prices): where the price mismatch alone takes the SOC.
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from hev_thermal_env import paper_bus
+from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME as P
 from hev_thermal_env.scenarios import get_scenario
 
 CYCLES = ("hwfet", "udds", "beijing")
@@ -55,10 +56,12 @@ def paper_figures(out: Path) -> dict:
         ax.plot(t, tr["network"]["coolant_temp_c"], lw=0.9, label="network: coolant")
         ax.plot(t, tr["paper_eqs"]["motor_temp_c"], lw=0.9, ls="--", color="k", label="paper's eqs as written")
         if cyc == "udds":
-            ax.axhline(44.0, color="tab:red", lw=0.6, ls=":", label="paper: peak 44, settles 37.5 °C")
-            ax.axhline(37.5, color="tab:red", lw=0.6, ls=":")
+            peak, last = P["udds_temp_peak_c"].paper, P["udds_temp_last300_c"].paper
+            ax.axhline(peak, color="tab:red", lw=0.6, ls=":", label=f"paper: peak {peak:g}, settles {last:g} °C")
+            ax.axhline(last, color="tab:red", lw=0.6, ls=":")
         if cyc == "beijing":
-            ax.axhline(35.0, color="tab:red", lw=0.6, ls=":", label="paper: ≈35 °C")
+            warm = P["beijing_temp_c"].paper
+            ax.axhline(warm, color="tab:red", lw=0.6, ls=":", label=f"paper: ≈{warm:g} °C")
         ax.set_title(f"{cyc}: rule strategy, paper scenario")
         ax.set_ylabel("temperature (°C)")
         ax.legend(fontsize=7, loc="lower right")
@@ -66,8 +69,9 @@ def paper_figures(out: Path) -> dict:
         ax.plot(t, tr["network"]["heat_index"], lw=0.9, label="network")
         ax.plot(t, tr["paper_eqs"]["heat_index"], lw=0.9, ls="--", color="k", label="paper's eqs as written")
         if cyc == "udds":
-            ax.axvline(387, color="tab:red", lw=0.6, ls=":", label="paper: from 387 s to ≈0.35")
-            ax.axhline(0.35, color="tab:red", lw=0.6, ls=":")
+            onset, hi_peak = P["udds_hi_onset_s"].paper, P["udds_hi_peak"].paper
+            ax.axvline(onset, color="tab:red", lw=0.6, ls=":", label=f"paper: from {onset:g} s to ≈{hi_peak:g}")
+            ax.axhline(hi_peak, color="tab:red", lw=0.6, ls=":")
         ax.set_ylim(-0.02, 1.0)
         ax.set_xlabel("time (s)")
         ax.set_ylabel("heat index PWM (-)")

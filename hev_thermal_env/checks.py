@@ -7,13 +7,12 @@ at every step that
 * observations, rewards and infos hold no NaN or inf, and observations lie in their space;
 * SOC stays within the battery's hard window; the heat index within [0, 1]; fuel is never negative;
 * the motor temperature is finite and never below the coolest heat sink (ambient, coolant, or
-  its own starting temperature) minus ``temp_tol_c``;
-
+  its own starting temperature) minus :data:`TEMP_TOL_C`;
 * the battery's chemical power of every step equals −ΔSOC·capacity·V_oc (coulomb counting from the
   SOC itself, independent of the step's power bookkeeping: a SOC held in its window by a clamp
   while current flows fails here, see ``physics/audit.py``);
 
-and at the end of every episode that the energy balance closes within ``balance_tol`` (engine
+and at the end of every episode that the energy balance closes within :data:`BALANCE_TOL` (engine
 shaft energy + battery energy = wheel energy + losses + brakes + accessories).
 
 ``python benchmarks/fuzz.py --steps 1000000`` runs the long version and writes JSON.
@@ -27,9 +26,15 @@ from typing import Any
 import numpy as np
 
 from .cycles import list_cycles
+from .envs import HevThermalVectorEnv
 from .physics import battery as bat_mod
 from .physics import core as C
 from .scenarios import list_scenarios
+
+#: Steps whose energy balance, summed over an episode, may miss by this fraction of the energy in and out.
+BALANCE_TOL = 0.005
+#: The motor may end a step this far below its coolest heat sink (°C).
+TEMP_TOL_C = 1e-6
 
 
 def _balance_terms(out: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -40,17 +45,15 @@ def _balance_terms(out: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return e_in, e_out, scale
 
 
-def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios: list[str] | None = None,
-         cycles: list[str] | None = None, temp_tol_c: float = 1e-6, balance_tol: float = 0.005,
-         progress: bool = False) -> dict[str, Any]:
-    """Run about ``n_steps`` random env-steps per scenario in total; raise AssertionError on the first violation.
+def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, progress: bool = False) -> dict[str, Any]:
+    """Run about ``n_steps`` random env-steps, shared by the scenarios; raise AssertionError on the first violation.
 
-    Returns counts and the worst values seen (steps, episodes, max energy-balance error, SOC range...).
+    Every scenario of :func:`~hev_thermal_env.scenarios.list_scenarios` over every built-in cycle and
+    random bus cycles. Returns counts and the worst values seen (steps, episodes, max energy-balance
+    error, SOC range...).
     """
-    from .envs import HevThermalVectorEnv
-
-    scenarios = scenarios or list_scenarios()
-    cycles = cycles or (list_cycles() + ["random_bus"])
+    scenarios = list_scenarios()
+    cycles = list_cycles() + ["random_bus"]
     rng = np.random.default_rng(seed)
     report: dict[str, Any] = {"steps": 0, "episodes": 0, "max_balance_error": 0.0, "soc_min": 1.0, "soc_max": 0.0,
                               "temp_min_margin_c": np.inf, "temp_max_c": -np.inf, "cutoff_steps": 0,
@@ -58,61 +61,7 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
     per_scenario = max(n_steps // len(scenarios), num_envs)
     t0 = time.perf_counter()
     for si, scenario in enumerate(scenarios):
-        env = HevThermalVectorEnv(num_envs, cycle=cycles, scenario=scenario, random_start=True)
-        obs, _ = env.reset(seed=seed * 1000 + si)
-        e_in = np.zeros(num_envs)
-        e_out = np.zeros(num_envs)
-        e_scale = np.zeros(num_envs)
-        resetting = np.zeros(num_envs, dtype=bool)
-        sink = _sinks(env)
-        # a third of the episodes keep a sustained aggressive assist, to reach derating and cutoff
-        aggressive = rng.random(num_envs) < 0.33
-        done_steps = 0
-        while done_steps < per_scenario:
-            soc_before = env.phys_state[:, C.SOC].copy()
-            kind = rng.random(num_envs)
-            act = rng.uniform(-1.0, 1.0, num_envs)
-            act[kind < 0.1] = -1.0
-            act[(kind >= 0.1) & (kind < 0.2)] = 1.0
-            act[(kind >= 0.2) & (kind < 0.25)] = 0.0
-            big = (kind >= 0.25) & (kind < 0.35)
-            act[big] = rng.uniform(-5.0, 5.0, int(big.sum()))  # beyond the bounds: clipped
-            act = np.where(aggressive & (kind >= 0.35), rng.uniform(0.7, 1.0, num_envs), act)
-            obs, rew, term, trunc, info = env.step(act.astype(np.float32)[:, None])
-            stepped = ~resetting
-            out = env.last_out
-            state = env.phys_state
-            soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, state, sink, stepped, temp_tol_c,
-                                            soc_before)
-            hi = info["heat_index"]
-            a, b, s = _balance_terms(out)
-            e_in[stepped] += a[stepped]
-            e_out[stepped] += b[stepped]
-            e_scale[stepped] += s[stepped]
-            ended = (term | trunc) & stepped
-            for i in np.flatnonzero(ended):
-                err = abs(e_in[i] - e_out[i]) / max(e_scale[i], 1.0)
-                report["max_balance_error"] = max(report["max_balance_error"], float(err))
-                if err > balance_tol:
-                    raise AssertionError(f"{scenario}: energy balance off by {err:.3%} over an episode")
-                report["episodes"] += 1
-            e_in[ended] = e_out[ended] = e_scale[ended] = 0.0
-            n_live = int(stepped.sum())
-            done_steps += n_live
-            report["steps"] += n_live
-            report["soc_min"] = min(report["soc_min"], float(soc[stepped].min(initial=1.0)))
-            report["soc_max"] = max(report["soc_max"], float(soc[stepped].max(initial=0.0)))
-            if stepped.any():
-                report["temp_min_margin_c"] = min(report["temp_min_margin_c"], float(margin[stepped].min()))
-                report["temp_max_c"] = max(report["temp_max_c"], float(temp[stepped].max()))
-            report["cutoff_steps"] += int(info["motor_cutoff"][stepped].sum())
-            report["derated_steps"] += int((hi[stepped] > 0).sum())
-            # NEXT_STEP autoreset: the next step of an ended env is its reset
-            if np.any(resetting):
-                sink = np.where(resetting, _sinks(env), sink)
-                aggressive = np.where(resetting, rng.random(num_envs) < 0.33, aggressive)
-            resetting = term | trunc
-        env.close()
+        _fuzz_scenario(scenario, cycles, num_envs, seed * 1000 + si, per_scenario, rng, report)
         if progress:
             print(f"  {scenario}: {report['steps']:,} steps so far ({time.perf_counter() - t0:.1f} s)")
     report["wall_s"] = time.perf_counter() - t0
@@ -120,7 +69,70 @@ def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, scenarios
     return report
 
 
-def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, temp_tol_c: float, soc_before):
+def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n_steps: int,
+                   rng: np.random.Generator, report: dict[str, Any]) -> None:
+    """At least ``n_steps`` random steps of one scenario, checked step by step and episode by episode."""
+    env = HevThermalVectorEnv(num_envs, cycle=cycles, scenario=scenario, random_start=True)
+    env.reset(seed=seed)
+    e_in, e_out, e_scale = np.zeros(num_envs), np.zeros(num_envs), np.zeros(num_envs)
+    resetting = np.zeros(num_envs, dtype=bool)
+    sink = _sinks(env)
+    # a third of the episodes keep a sustained aggressive assist, to reach derating and cutoff
+    aggressive = rng.random(num_envs) < 0.33
+    done_steps = 0
+    while done_steps < n_steps:
+        soc_before = env.phys_state[:, C.SOC].copy()
+        obs, rew, term, trunc, info = env.step(_random_actions(rng, aggressive)[:, None])
+        stepped = ~resetting
+        out = env.last_out
+        soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, env.phys_state, sink, stepped,
+                                        soc_before)
+        a, b, s = _balance_terms(out)
+        e_in[stepped] += a[stepped]
+        e_out[stepped] += b[stepped]
+        e_scale[stepped] += s[stepped]
+        ended = (term | trunc) & stepped
+        for i in np.flatnonzero(ended):
+            err = abs(e_in[i] - e_out[i]) / max(e_scale[i], 1.0)
+            report["max_balance_error"] = max(report["max_balance_error"], float(err))
+            if err > BALANCE_TOL:
+                raise AssertionError(f"{scenario}: energy balance off by {err:.3%} over an episode")
+            report["episodes"] += 1
+        e_in[ended] = e_out[ended] = e_scale[ended] = 0.0
+        n_live = int(stepped.sum())
+        done_steps += n_live
+        report["steps"] += n_live
+        report["soc_min"] = min(report["soc_min"], float(soc[stepped].min(initial=1.0)))
+        report["soc_max"] = max(report["soc_max"], float(soc[stepped].max(initial=0.0)))
+        if n_live:
+            report["temp_min_margin_c"] = min(report["temp_min_margin_c"], float(margin[stepped].min()))
+            report["temp_max_c"] = max(report["temp_max_c"], float(temp[stepped].max()))
+        report["cutoff_steps"] += int(info["motor_cutoff"][stepped].sum())
+        report["derated_steps"] += int((info["heat_index"][stepped] > 0).sum())
+        # NEXT_STEP autoreset: the next step of an ended env is its reset
+        if np.any(resetting):
+            sink = np.where(resetting, _sinks(env), sink)
+            aggressive = np.where(resetting, rng.random(num_envs) < 0.33, aggressive)
+        resetting = term | trunc
+    env.close()
+
+
+def _random_actions(rng: np.random.Generator, aggressive: np.ndarray) -> np.ndarray:
+    """Motor shares: the bounds, zero, beyond the bounds (clipped by the env) and uniform; a sustained assist for
+    the ``aggressive`` rows."""
+    n = aggressive.size
+    kind = rng.random(n)
+    act = rng.uniform(-1.0, 1.0, n)
+    act[kind < 0.1] = -1.0
+    act[(kind >= 0.1) & (kind < 0.2)] = 1.0
+    act[(kind >= 0.2) & (kind < 0.25)] = 0.0
+    big = (kind >= 0.25) & (kind < 0.35)
+    act[big] = rng.uniform(-5.0, 5.0, int(big.sum()))
+    act = np.where(aggressive & (kind >= 0.35), rng.uniform(0.7, 1.0, n), act)
+    return act.astype(np.float32)
+
+
+def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, soc_before):
     """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink.
 
     Coulomb counting too: the battery's chemical power equals −ΔSOC·capacity·V_oc(SOC before).
@@ -135,9 +147,9 @@ def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, t
     soc = state[:, C.SOC]
     if np.any(soc < bat.soc_min - 1e-12) or np.any(soc > bat.soc_max + 1e-12):
         raise AssertionError(f"{scenario}: SOC {soc.min()}..{soc.max()} left [{bat.soc_min}, {bat.soc_max}]")
-    voc_table = env.core.ba[bat_mod.VOC0:bat_mod.VOC0 + bat_mod.N_SOC]
+    voc_table = env.core.ba[bat_mod.IDX.voc_v:bat_mod.IDX.voc_v + bat_mod.N_SOC]
     voc = np.interp(soc_before, np.linspace(0.0, 1.0, bat_mod.N_SOC), voc_table)
-    chem_from_soc = -(soc - soc_before) * env.core.ba[bat_mod.CAPACITY_AS] * voc / env.core.dt_s
+    chem_from_soc = -(soc - soc_before) * env.core.ba[bat_mod.IDX.capacity_as] * voc / env.core.dt_s
     chem_err = np.abs(chem_from_soc - out[:, C.BATT_CHEM])[stepped]
     if chem_err.size and chem_err.max() > 1e-6 * max(float(np.abs(out[:, C.BATT_CHEM]).max()), 1.0):
         raise AssertionError(f"{scenario}: battery chemical power differs from −ΔSOC·capacity·V_oc by "
@@ -149,7 +161,7 @@ def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, t
         raise AssertionError(f"{scenario}: negative fuel {info['fuel_g'].min()}")
     temp = state[:, C.TEMP_C]
     margin = temp - sink
-    if np.any(margin[stepped] < -temp_tol_c):
+    if np.any(margin[stepped] < -TEMP_TOL_C):
         i = int(np.argmin(np.where(stepped, margin, np.inf)))
         raise AssertionError(f"{scenario}: motor at {temp[i]:.6f} °C below its coolest heat sink {sink[i]:.6f}")
     return soc, temp, margin

@@ -24,10 +24,9 @@
 * ``random_service``: for training on buses in service: the draws of ``random``, then a payload of
   0-4,500 kg (empty to ``full_bus``), uniform, per episode.
 
-A scenario is a small record of deltas, not a code path (DESIGN §2, STYLE.md): run conditions,
-and for ``hilly`` a road profile that :meth:`Scenario.prepare_cycle` lays under the cycle (a
-runner calls it on the cycle before building the episode; the conditions alone do not carry
-the road).
+A scenario is a small record of deltas, not a code path: run conditions, and for ``hilly`` a road
+profile that :meth:`Scenario.prepare_cycle` lays under the cycle (a runner calls it on the cycle
+before building the episode; the conditions alone do not carry the road).
 """
 
 from __future__ import annotations
@@ -37,7 +36,9 @@ from typing import Any
 
 import numpy as np
 
+from .cycles import load_cycle, with_grade_profile
 from .cycles.families import PAYLOAD_KG_RANGE
+from .cycles.grades import HILLY_KWARGS, HILLY_SEED
 from .physics.config import Conditions
 
 
@@ -94,19 +95,11 @@ class Scenario:
 
         A cycle that already has a grade keeps it (the scenario's road would replace the real one).
         """
-        from .cycles import load_cycle, with_grade_profile
-
         cyc = load_cycle(cycle)
         if self.grade_profile is None or np.any(np.asarray(cyc.grade) != 0.0):
             return cyc
         kwargs = dict(self.grade_profile)
         return with_grade_profile(cyc, kwargs.pop("seed"), **kwargs)
-
-
-def _hilly_profile() -> dict[str, Any]:
-    from .cycles.grades import HILLY_KWARGS, HILLY_SEED
-
-    return {"seed": HILLY_SEED, **HILLY_KWARGS}
 
 
 SCENARIOS: dict[str, Scenario] = {
@@ -117,7 +110,7 @@ SCENARIOS: dict[str, Scenario] = {
     "summer": Scenario("summer", "summer day: 38 °C ambient, motor and coolant start at 38 °C, cooling intact",
                        Conditions(ambient_temp_c=38.0, initial_motor_temp_c=38.0)),
     "hilly": Scenario("hilly", "the paper's conditions on a hilly road (grades up to ±7 %, no net climb)",
-                      Conditions(), grade_profile=_hilly_profile()),
+                      Conditions(), grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
     "full_bus": Scenario("full_bus", "the paper's conditions with 4.5 t of passengers (19.5 t in all)",
                          Conditions(payload_kg=4500.0)),
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",

@@ -20,6 +20,7 @@ from .physics.config import Conditions, VehicleConfig, paper_bus
 SplitFn = Callable[[int, dict], float]
 Split = float | SplitFn | np.ndarray
 
+
 @dataclasses.dataclass
 class SimResult:
     """Per-second traces (``trace[name]`` arrays of length n_steps) and a summary dict."""
@@ -84,15 +85,23 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
         state, st_out = st_out, state
         states[k] = state[0]
     wall = time.perf_counter() - t0
-    trace = {name: outs[:, i].copy() for i, name in enumerate(C.OUT_NAMES)}
-    for i, name in enumerate(C.STATE_NAMES):
-        trace[name] = states[:, i].copy()
-    trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
+    trace = step_traces(outs, states)
     trace["time_s"] = np.asarray(cyc.time_s[1:], dtype=np.float64)
     trace["cycle_speed_mps"] = v[1:].copy()
     summary = summarize(trace, config, conditions.initial_soc, cyc.distance_m)
     summary["wall_s"] = wall
     return SimResult(trace=trace, summary=summary)
+
+
+def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-step traces of a run: every physics output of ``outs`` [n, N_OUT] and every state of ``states``
+    [n, N_STATE] (the state after each step) by name (:mod:`hev_thermal_env.physics.core`), and
+    ``heat_index`` = clip(heat_x, 0, 1)."""
+    trace = {name: outs[:, i].copy() for i, name in enumerate(C.OUT_NAMES)}
+    for i, name in enumerate(C.STATE_NAMES):
+        trace[name] = states[:, i].copy()
+    trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
+    return trace
 
 
 def energy_balance(trace: dict[str, np.ndarray], config: VehicleConfig, dt_s: float = 1.0) -> dict[str, float]:

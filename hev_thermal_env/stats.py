@@ -31,15 +31,9 @@ def iqm(values) -> float:
 
 
 def iqm_ci(values, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[float | None, float | None]:
-    """The ``confidence`` bootstrap interval of the IQM of ``values`` (None, None for fewer than two)."""
-    x = np.asarray(values, dtype=float)
-    if x.size < 2:
-        return None, None
-    if np.all(x == x[0]):
-        return float(x[0]), float(x[0])
-    res = stats.bootstrap((x,), lambda s, axis: stats.trim_mean(s, TRIM, axis=axis), confidence_level=confidence,
-                          n_resamples=BOOTSTRAP_RESAMPLES, method="percentile", rng=np.random.default_rng(seed))
-    return float(res.confidence_interval.low), float(res.confidence_interval.high)
+    """The ``confidence`` bootstrap interval of the IQM of ``values``, one task's scores (:func:`stratified_iqm_ci`
+    of one group); (None, None) for fewer than two."""
+    return stratified_iqm_ci([values], confidence, seed)[1:]
 
 
 def stratified_iqm_ci(groups: Sequence[Sequence[float]], confidence: float = CONFIDENCE,

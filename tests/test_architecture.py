@@ -1,4 +1,5 @@
-"""The architecture as tests: no import cycles, small modules, the physics free of gymnasium and torch."""
+"""The architecture as tests: rooms that import downwards only, no import cycles, small modules, the physics free of
+gymnasium and torch."""
 
 from __future__ import annotations
 
@@ -9,13 +10,20 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = {"hev_thermal_env": ROOT / "hev_thermal_env", "hev_thermal_env.agents": ROOT / "agents"}
-MAX_MODULE_LINES = 420
-MAX_FUNCTION_LINES = 80  # lines of code, the docstring not counted
+MAX_MODULE_LINES = 400
+MAX_FUNCTION_LINES = 60  # lines of code, the docstring not counted
 #: Compiled kernels written as one loop on purpose (documented in their docstrings), and the
 #: seeded cycle generator whose draw order fixes every generated cycle.
 LONG_FUNCTIONS_ALLOWED = {"step_kernel", "generate_bus_cycle"}
-#: Known to be over the limits and to be split next (listed so that nothing new joins them unseen).
-KNOWN_OVER = {"hev_thermal_env.physics.thermal", "hev_thermal_env.physics.audit.energy_audit"}
+#: Over the limits and being split now (listed so that nothing new joins them unseen).
+KNOWN_OVER = {"hev_thermal_env.physics.thermal", "hev_thermal_env.physics.audit.energy_audit",
+              "hev_thermal_env.checks.fuzz", "hev_thermal_env.cycles.loader._parse_csv_text",
+              "hev_thermal_env.physics.motor._torque_limits", "hev_thermal_env.cycles.generator"}
+#: The rooms of the package, bottom to top: a module may import from its own room and the rooms below it
+#: (``""`` is the package itself, ``hev_thermal_env/__init__.py``).
+ROOMS = (("io", "stats"), ("cycles",), ("physics",), ("prices", "scenarios"), ("envs",), ("wrappers",),
+         ("metrics", "simulate", "checks", ""), ("planning",), ("agents",), ("evaluation",), ("paper", "calibration"),
+         ("training",), ("cli",))
 
 
 def _modules() -> dict[str, Path]:
@@ -30,12 +38,12 @@ def _modules() -> dict[str, Path]:
     return mods
 
 
-def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
-    """Project modules imported at module level (not inside functions)."""
+def _imports(name: str, path: Path, modules: dict[str, Path], inside_functions: bool = False) -> set[str]:
+    """Project modules imported at module level (``inside_functions``: anywhere in the module)."""
     tree = ast.parse(path.read_text())
     package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
     found = set()
-    for node in tree.body:
+    for node in ast.walk(tree) if inside_functions else tree.body:
         nodes = [node]
         if isinstance(node, (ast.If, ast.Try)):
             nodes = list(ast.walk(node))
@@ -52,6 +60,24 @@ def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
                 for a in n.names:  # "from pkg import sub" imports the submodule sub
                     found.add(f"{mod}.{a.name}" if f"{mod}.{a.name}" in modules else mod)
     return {m for m in found if m in modules and m != name}
+
+
+def _room(module: str) -> int | None:
+    """The floor of ``module``'s room (index into :data:`ROOMS`), or None."""
+    top = module.split(".")[1] if "." in module else ""
+    return next((i for i, names in enumerate(ROOMS) if top in names), None)
+
+
+def test_every_module_has_a_room():
+    assert not [m for m in _modules() if _room(m) is None]
+
+
+def test_rooms_import_downwards_only():
+    """No module imports from a room above its own, counting imports inside functions."""
+    modules = _modules()
+    upwards = sorted(f"{name} -> {dep}" for name, path in modules.items()
+                     for dep in _imports(name, path, modules, inside_functions=True) if _room(dep) > _room(name))
+    assert not upwards, upwards
 
 
 def test_no_import_cycle_between_project_modules():

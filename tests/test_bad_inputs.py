@@ -174,7 +174,6 @@ CLI_CASES = [  # (id, program, argv, texts the one line must contain)
     ("train-unknown-eval-cycle", "train", [*TRAIN, "nope"], ["unknown cycle 'nope'"]),
     ("train-unknown-scenario", "train", [*TRAIN, "--scenario", "sahara"], ["unknown scenario 'sahara'"]),
     ("train-unknown-eval-scenario", "train", [*TRAIN, "--eval-scenarios", "arctic"], ["unknown scenario 'arctic'"]),
-    ("train-unknown-vec", "train", [*TRAIN, "--vec", "threads"], ["unknown --vec 'threads'"]),
     ("train-timesteps-zero", "train", [*TRAIN, "--timesteps", "0"], ["total_timesteps", "at least 1"]),
     ("train-n-envs-zero", "train", [*TRAIN, "--n-envs", "0"], ["n_envs", "at least 1"]),
     ("train-negative-seed", "train", [*TRAIN, "--seed", "-1"], ["seed", "-1"]),

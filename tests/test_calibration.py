@@ -1,4 +1,4 @@
-"""The calibration against the paper's figures (issue 11): driver, targets at the defaults, fit machinery, CLI."""
+"""The calibration against the paper's figures: driver, targets at the defaults, fit machinery, CLI."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import yaml
 
 from hev_thermal_env import paper_bus
 from hev_thermal_env.calibration import fit as F
-from hev_thermal_env.calibration import targets as T
+from hev_thermal_env.paper import measure as M
+from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME
 from hev_thermal_env.physics import ThermalParams, VehicleConfig
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -25,7 +26,7 @@ def _run_strategy():
 
 @pytest.fixture(scope="module")
 def measured():
-    return T.measure(paper_bus(), hwfet=True)
+    return M.measure(paper_bus(), hwfet=True)
 
 
 @pytest.mark.parametrize("cycle", ["udds", "beijing"])
@@ -33,7 +34,7 @@ def test_light_driver_reproduces_the_environment_run(cycle):
     from hev_thermal_env.agents import get_strategy
 
     ref = _run_strategy()(get_strategy("rule"), cycle, "paper")
-    tr = T.cycle_run(paper_bus(), cycle)
+    _, tr = M.cycle_run(paper_bus(), cycle)
     for key in ("fuel_g", "motor_temp_c", "heat_x", "soc", "coolant_temp_c", "u"):
         np.testing.assert_array_equal(tr[key], ref.trace[key])
 
@@ -55,20 +56,20 @@ def test_fitted_values_inside_their_documented_bounds():
         assert lo <= F.START[name] <= hi, name
 
 
-# --- issue 11's "must show" at the calibrated defaults -----------------------------------------------------
+# --- the paper's figures at the calibrated defaults ---------------------------------------------------------
+
+def _within(measured, *names):
+    """Every named figure within the paper's tolerance (the table's; ``test_paper_table`` pins the tolerances)."""
+    return {n: measured["values"][n] for n in names if not PAPER_FIGURE_BY_NAME[n].within(measured["values"][n])}
+
 
 def test_figs_7_8_udds(measured):
-    v = measured["values"]
-    assert v["udds_hi_onset_s"] == pytest.approx(387, abs=40)
-    assert v["udds_hi_peak"] == pytest.approx(0.35, abs=0.07)
-    assert v["udds_hi_return_s"] <= 400
-    assert v["udds_temp_peak_c"] == pytest.approx(44.0, abs=2.0)
-    assert v["udds_temp_last300_c"] == pytest.approx(37.5, abs=1.5)
+    assert not _within(measured, "udds_hi_onset_s", "udds_hi_peak", "udds_hi_return_s", "udds_temp_peak_c",
+                       "udds_temp_last300_c")
 
 
 def test_figs_9_10_beijing(measured):
-    assert measured["values"]["beijing_temp_c"] == pytest.approx(35.0, abs=1.5)
-    assert measured["values"]["beijing_hi_peak"] <= 0.05
+    assert not _within(measured, "beijing_temp_c", "beijing_hi_peak")
 
 
 def test_table2(measured):
@@ -79,14 +80,14 @@ def test_table2(measured):
     priced trace miss, not engine fuel.
     """
     v = measured["values"]
-    assert abs(v["beijing_fuel_delta_l100"]) <= 0.1
+    assert not _within(measured, "beijing_fuel_delta_l100")
     assert 0.0 < v["udds_fuel_delta_l100"] < 0.3
-    corrected = measured["udds"]["fuel_corrected_l100"] - T.Baseline(paper_bus()).runs["udds"]["fuel_corrected_l100"]
+    corrected = measured["udds"]["fuel_corrected_l100"] - M.Baseline(paper_bus()).runs["udds"]["fuel_corrected_l100"]
     assert corrected == pytest.approx(0.3, abs=0.15)
 
 
 def test_paper_equations_as_written_miss_figs_7_8():
-    m = T.measure(paper_bus("paper_eqs"))
+    m = M.measure(paper_bus("paper_eqs"))
     assert m["values"]["udds_temp_peak_c"] < 36.0  # the coolant clamps the node at the thermostat
     assert m["values"]["udds_hi_peak"] < 0.07
 
@@ -102,7 +103,7 @@ def test_fit_machinery_stays_in_bounds_and_never_worsens():
         assert value == F.round_sig(value)
     for stage in res.stages:
         assert stage.cost <= stage.cost_start + 1e-12
-    assert set(res.residuals) == {t.name for t in T.TARGETS}
+    assert set(res.residuals) == {t.name for t in F.TARGETS}
 
 
 def test_objective_rejects_invalid_combinations():
@@ -118,14 +119,22 @@ def test_command_writes_parameters_and_residuals(tmp_path):
     values = yaml.safe_load((tmp_path / "fitted_params.yaml").read_text())["thermal"]
     assert values == yaml.safe_load(FITTED.read_text())["thermal"]
     data = json.loads((tmp_path / "residuals.json").read_text())
-    assert data["n_targets"] == len(T.TARGETS) and data["met"] >= len(T.TARGETS) - 1
+    assert data["n_targets"] == len(F.TARGETS) and data["met"] >= len(F.TARGETS) - 1
     md = (tmp_path / "residuals.md").read_text()
     assert "paper's eqs" in md and "not met" in md
 
 
 def test_residual_definitions():
-    t = T.TARGET_BY_NAME["udds_temp_peak_c"]
-    assert t.residual(44.0) == 0.0 and t.met(45.9) and not t.met(46.1)
-    one_sided = T.TARGET_BY_NAME["beijing_hi_peak"]
-    assert one_sided.residual(0.0) == 0.0 and one_sided.met(0.05) and not one_sided.met(0.06)
-    assert not t.met(float("nan"))
+    t = PAPER_FIGURE_BY_NAME["udds_temp_peak_c"]
+    assert t.residual(44.0) == 0.0 and t.within(45.9) and not t.within(46.1)
+    one_sided = PAPER_FIGURE_BY_NAME["beijing_hi_peak"]
+    assert one_sided.residual(0.0) == 0.0 and one_sided.within(0.05) and not one_sided.within(0.06)
+    assert not t.within(float("nan")) and t.residual(float("inf")) == 10.0
+    accel = PAPER_FIGURE_BY_NAME["accel_off_s"]  # ± 5 %: the residual in tolerances of 0.05 × 16.4 s
+    assert accel.residual(16.4 + 0.41) == pytest.approx(0.5) and accel.residual(15.0) == (15.0 - 16.4) / (0.05 * 16.4)
+
+
+def test_the_calibration_fits_a_subset_of_the_papers_figures():
+    assert [t.name for t in F.TARGETS][:3] == ["udds_hi_onset_s", "udds_hi_peak", "udds_hi_return_s"]
+    assert all(t is PAPER_FIGURE_BY_NAME[t.name] and t.judged for t in F.TARGETS)
+    assert "top_speed_off_kmh" not in {t.name for t in F.TARGETS}  # held out: the thermal model cannot change it

@@ -90,7 +90,8 @@ def test_every_evaluate_example_parses():
 def test_every_train_example_builds_a_valid_config(monkeypatch):
     """Each example (but --resume) gives a config that passes every check; no training starts."""
     built = []
-    monkeypatch.setattr(cli_train, "train", lambda config, out, **kwargs: built.append(config) or ({}, out))
+    monkeypatch.setattr("hev_thermal_env.training.train",
+                        lambda config, out, **kwargs: built.append(config) or ({}, out))
     lines = example_lines(train_parser())
     for argv in lines:
         if argv[:2] == ["python", "train.py"] and "--resume" not in argv:

@@ -55,20 +55,45 @@ def test_edit_of_an_inlined_component_is_compiled_not_served_from_cache(tmp_path
     assert float(temp3) != float(temp1), "the edited radiation constant did not reach the compiled step"
 
 
-def test_the_cache_directory_follows_the_kernels_outside_the_physics_package(tmp_path):
-    """The env's fused step inlines the reward: an edit of ``envs/reward.py`` alone names a new cache directory."""
+def test_the_keys_follow_the_sources_that_kernels_and_planners_read(tmp_path, monkeypatch):
+    """The compiled cache's key covers the files with kernels and what they import (found, not listed); a plan's
+    key covers what the planner runs: an edit of the observation alone re-solves no plan."""
     from hev_thermal_env.physics import jit
 
-    root = tmp_path / "src"
-    shutil.copytree(PACKAGE, root / "hev_thermal_env", ignore=shutil.ignore_patterns("__pycache__", "data"))
-    copy = root / "hev_thermal_env"
-    before = subprocess.run([sys.executable, "-c", "from hev_thermal_env.physics.jit import source_hash; "
-                             "print(source_hash())"], capture_output=True, text=True, cwd=root,
-                            env=dict(os.environ, PYTHONPATH=str(root))).stdout.strip()
-    reward = copy / "envs" / "reward.py"
-    reward.write_text(reward.read_text() + "\n# edited\n")
-    after = subprocess.run([sys.executable, "-c", "from hev_thermal_env.physics.jit import source_hash; "
-                            "print(source_hash())"], capture_output=True, text=True, cwd=root,
-                           env=dict(os.environ, PYTHONPATH=str(root))).stdout.strip()
-    assert before and after and before != after
-    assert "envs/reward.py" in jit.KERNEL_SOURCES and "envs/batch.py" in jit.KERNEL_SOURCES
+    copy = tmp_path / "hev_thermal_env"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__", "data", "agents"))
+    monkeypatch.setattr(jit, "PACKAGE_DIR", copy)
+    kernels = set(jit.kernel_modules())
+    assert {"hev_thermal_env.physics.core", "hev_thermal_env.envs.reward", "hev_thermal_env.envs.batch",
+            "hev_thermal_env.envs.observation", "hev_thermal_env.planning.bins"} <= kernels
+    assert "hev_thermal_env.physics.config" not in kernels and "hev_thermal_env.planning.search" not in kernels
+    plans = ["hev_thermal_env.planning.thermal_optimum"]
+    base = jit.source_hash(), jit.source_hash(plans)
+
+    def edited(rel: str) -> tuple[bool, bool]:
+        """Whether an edit of ``rel`` changes the kernels' key and the plans' key."""
+        path = copy / rel
+        text = path.read_text()
+        path.write_text(text + "\n# edited\n")
+        try:
+            return jit.source_hash() != base[0], jit.source_hash(plans) != base[1]
+        finally:
+            path.write_text(text)
+
+    assert edited("physics/thermal.py") == (True, True)
+    assert edited("physics/config.py") == (True, True)  # no kernel, but the kernels read its values
+    assert edited("envs/reward.py") == (True, True)  # inlined into the env's fused step and priced by the planners
+    assert edited("envs/observation.py") == (True, False)
+    assert edited("envs/spaces.py") == (True, False)  # the observation kernel reads its layout
+    assert edited("planning/thermal_optimum.py") == (False, True)
+    assert edited("envs/render.py") == (False, False)
+
+
+def test_a_kernel_outside_the_package_is_refused():
+    from hev_thermal_env.physics.jit import jit
+
+    def double(x):
+        return 2.0 * x
+
+    with pytest.raises(RuntimeError, match="compiled cache's key"):
+        jit(double)

@@ -9,13 +9,12 @@ import pytest
 
 from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cycle, paper_bus
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.agents.common import stage_cost_g
-from hev_thermal_env.agents.dp import DPInfeasibleError, DPProblem, DPSettings, rollout, solve
-from hev_thermal_env.agents.dp_corridor import backward_envelope, forward_envelope
-from hev_thermal_env.agents.dp_grid import interp_uniform
-from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.planning.corridor import backward_envelope, forward_envelope
+from hev_thermal_env.planning.problem import DPInfeasibleError, DPProblem
+from hev_thermal_env.planning.soc_dp import DPSettings, interp_soc, rollout, solve
 
 
 def problem_for(speed, grade=None, conditions=None, config=None, reward=None) -> DPProblem:
@@ -36,20 +35,17 @@ def city200():
 
 # -- prices and interpolation ------------------------------------------------------------------------
 
-def test_interpolation_is_exact_for_linear_functions_and_walls_the_soc_axis():
-    g0, g1 = np.linspace(0.4, 0.8, 11), np.linspace(-0.3, 1.0, 6)
-    m0, m1 = np.meshgrid(g0, g1, indexing="ij")
-    values = (3.0 * m0 - 2.0 * m1 + 1.0).ravel()
-    lo, step, n = np.array([0.4, -0.3]), np.array([0.04, 0.26]), np.array([11, 6], dtype=np.int64)
-    st = np.zeros((4, C.N_STATE))
-    st[:, C.SOC] = [0.41, 0.777, 0.38, 0.9]
-    st[:, C.HEAT_X] = [0.0, 0.95, 0.5, 2.0]
-    res = np.empty(4)
-    interp_uniform(values, lo, step, n, st, np.array([C.SOC, C.HEAT_X], dtype=np.int64), 1000.0, res)
-    assert res[0] == pytest.approx(3 * 0.41 - 2 * 0.0 + 1)
-    assert res[1] == pytest.approx(3 * 0.777 - 2 * 0.95 + 1)
-    assert res[2] == pytest.approx(3 * 0.4 - 2 * 0.5 + 1 + 1000.0 * 0.02)  # below the SOC grid: wall
-    assert res[3] == pytest.approx(3 * 0.8 - 2 * 1.0 + 1 + 1000.0 * 0.1)  # heat_x clamped, SOC walled
+def test_interpolation_is_exact_for_linear_functions_and_walls_beyond_the_ends():
+    grid = np.linspace(0.4, 0.8, 11)
+    values = 3.0 * grid + 1.0
+    soc = np.array([0.41, 0.777, 0.38, 0.9, 0.8])
+    res = np.empty(soc.size)
+    interp_soc(values, 0.4, 0.04, 11, soc, 1000.0, res)
+    assert res[0] == pytest.approx(3 * 0.41 + 1)
+    assert res[1] == pytest.approx(3 * 0.777 + 1)
+    assert res[2] == pytest.approx(3 * 0.4 + 1 + 1000.0 * 0.02)  # below the grid: wall
+    assert res[3] == pytest.approx(3 * 0.8 + 1 + 1000.0 * 0.1)  # above the grid: wall
+    assert res[4] == values[-1]  # the last point exactly (no weight on a point beyond it)
 
 
 def test_threaded_core_step_gives_the_same_batch():

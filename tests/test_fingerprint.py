@@ -5,9 +5,9 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from hev_thermal_env.agents.policy_files import load_policy, warn_if_other_physics
 from hev_thermal_env.physics import paper_bus
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
-from hev_thermal_env.training.artifacts import load_policy, warn_if_other_physics
 
 
 def test_fingerprint_follows_the_numbers_not_the_object():

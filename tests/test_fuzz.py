@@ -4,7 +4,7 @@ from hev_thermal_env.checks import fuzz
 
 
 def test_fuzz_invariants_bounded_budget():
-    report = fuzz(120_000, num_envs=64, seed=1)  # 20 000 steps for each of the six scenarios
+    report = fuzz(120_000, num_envs=64, seed=1)  # shared by the seven scenarios
     assert report["steps"] >= 120_000
     assert report["episodes"] > 0
     assert report["max_balance_error"] < 0.005

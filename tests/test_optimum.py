@@ -9,12 +9,13 @@ import pytest
 
 from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cycle, paper_bus
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.agents.dp_grid import DPProblem
-from hev_thermal_env.agents.optimum_search import SearchGrid, pareto_per_soc_bin, search
-from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.planning.bins import pareto_per_soc_bin
+from hev_thermal_env.planning.problem import DPProblem
+from hev_thermal_env.planning.search import SearchGrid, frontier_points, search
 from hev_thermal_env.prices import Prices
 
 
@@ -90,11 +91,10 @@ def test_search_matches_an_exhaustive_search_on_a_short_cycle():
     seqs = np.array(list(itertools.product(*choices)))
     st = np.repeat(p.state0[None, :], len(seqs), axis=0)
     cost = np.zeros(len(seqs))
-    from hev_thermal_env.envs.reward import stage_cost_g
     for i in range(p.n_stages):
         st, out = p.step(st, seqs[:, i], i)
         cost += stage_cost_g(p.reward_params, out, st, p.soc_target, p.lhv, 1.0, battery=False, overheat=True)
-    soc_f, f = res.frontier()
+    soc_f, f = frontier_points(res.final_state[:, C.SOC], res.final_cost_g)
     for s in np.quantile(st[:, C.SOC], [0.1, 0.3, 0.5, 0.7, 0.9]):
         exact = cost[st[:, C.SOC] >= s].min()
         found = f[np.searchsorted(soc_f, s)]  # the search's cheapest path ending at SOC >= s

@@ -1,5 +1,6 @@
-"""What gets installed: the strategies as ``hev_thermal_env.agents`` (no top-level ``agents`` module),
-their data files, the console scripts, and an import of the package that leaves torch alone."""
+"""What gets installed: the strategies as ``hev_thermal_env.agents`` (no top-level ``agents`` module, mapped by
+the packaging metadata alone), their data files, the console scripts, and an import of the package that leaves
+torch alone."""
 
 from __future__ import annotations
 
@@ -12,8 +13,6 @@ from importlib import import_module
 from pathlib import Path
 
 import pytest
-
-from hev_thermal_env import _checkout
 
 try:
     import tomllib
@@ -42,12 +41,15 @@ def test_every_package_is_listed_and_agents_is_mapped():
     assert not any(p == "agents" or p.startswith("agents.") for p in setuptools["packages"])
 
 
-def test_the_checkout_finder_maps_only_the_strategies():
-    finder = _checkout.CheckoutAgentsFinder()
-    spec = finder.find_spec("hev_thermal_env.agents")
-    assert Path(spec.origin) == ROOT / "agents" / "__init__.py"
-    assert finder.find_spec("agents") is None and finder.find_spec("hev_thermal_env.training") is None
-    assert Path(import_module("hev_thermal_env.agents").__file__).parent.name == "agents"
+def test_the_package_adds_no_import_machinery():
+    """``hev_thermal_env.agents`` comes from ``package-dir`` alone: importing the package adds no finder."""
+    code = ("import sys; before = list(sys.meta_path); import hev_thermal_env, hev_thermal_env.agents as a; "
+            "print(len(sys.meta_path) - len(before), a.__file__)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0, r.stderr
+    added, agents_init = r.stdout.split()
+    assert added == "0" and Path(agents_init).parent.name == "agents"
+    assert not (ROOT / "hev_thermal_env" / "_checkout.py").exists()
 
 
 def test_importing_the_package_leaves_torch_alone():

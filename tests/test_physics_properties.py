@@ -113,7 +113,7 @@ def np_approx(x):
 def test_battery_limits_keep_soc_in_window(soc):
     p_dis, p_chg = bat.power_limits_w(BA, soc, 1.0)
     for p in (p_dis, -p_chg):
-        new = soc - bat.current_a(BA, soc, p) / BA[bat.CAPACITY_AS]
+        new = soc - bat.current_a(BA, soc, p) / BA[bat.IDX.capacity_as]
         assert CFG.battery.soc_min - 1e-12 <= new <= CFG.battery.soc_max + 1e-12
 
 

@@ -1,4 +1,5 @@
-"""The motor's thermal model: defects (a)-(c) of issue 11, the network, the paper's equations as written, Table 3."""
+"""The motor's thermal model: torque envelope, heat-index floor and derate, the network, the paper's equations as
+written, Table 3."""
 
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ def _step(cfg, state, u=1.0, v0=5.0, v1=6.0, cond=None):
     return phys.step(state, np.array([u]), np.array([v0]), np.array([v1]), np.zeros(1), phys.conditions_array(cond))
 
 
-# --- defect (a): a derated motor never gets more torque than a cold one ---------------------------------
+# --- a derated motor never gets more torque than a cold one --------------------------------------------
 
 def test_envelopes_are_zero_above_max_speed():
     mo = paper_bus().motor.pack()
@@ -54,7 +55,7 @@ def test_derated_motor_above_max_speed_gets_nothing_through_the_core():
     assert out[0, C.MOTOR_TORQUE] == 0.0
 
 
-# --- defect (b): the anti-windup floor follows the motor's state ----------------------------------------
+# --- the anti-windup floor follows the motor's state ---------------------------------------------------
 
 def test_hot_started_motor_regains_its_reserve_once_cool():
     cfg = paper_bus()
@@ -85,7 +86,7 @@ def test_cold_started_motor_loses_its_reserve_when_hot():
     assert new[0, C.HEAT_X] >= floor - 1e-12 and new[0, C.HEAT_X_MIN] == pytest.approx(floor)
 
 
-# --- defect (c): the derate is exactly −1 percentage point per 15 °C --------------------------------------
+# --- the derate is exactly −1 percentage point per 15 °C -------------------------------------------------
 
 @pytest.mark.parametrize("temp_c", [50.0, 65.0, 80.0])
 @pytest.mark.parametrize("torque, rpm", [(80.0, 2000.0), (240.0, 1500.0), (40.0, 5000.0), (-120.0, 3000.0)])
@@ -136,7 +137,7 @@ def test_network_is_the_default_and_the_paper_equations_are_selectable():
 
 
 def test_paper_equations_as_written_clamp_at_the_thermostat():
-    """The literal model: 1282 W/K of coolant with a perfect radiator pins the motor at 35 °C (issue 11)."""
+    """The literal model: 1282 W/K of coolant with a perfect radiator pins the motor at 35 °C."""
     cfg = paper_bus("paper_eqs")
     for cycle in ("hwfet", "beijing"):
         res = simulate(cycle, cfg, 0.3)
@@ -145,36 +146,40 @@ def test_paper_equations_as_written_clamp_at_the_thermostat():
         np.testing.assert_array_equal(res.trace["housing_temp_c"], res.trace["motor_temp_c"])
 
 
+def network_step(p, tw, thh, tc, q_w, q_h, amb, coolant_factor, fan_factor, speed_mps, dt_s):
+    """One step of the network through ``thermal_step``, the speed's factors computed as the step kernel does."""
+    from hev_thermal_env.physics import thermal_network as tnet
+
+    ix = thm.IDX
+    forced = thm.forced_air_term(p[ix.air_speed_per_mps], p[ix.air_speed_exponent], speed_mps)
+    ram = tnet.ram_air_term(p[ix.ram_air_per_mps], p[ix.radiator_air_exponent], speed_mps)
+    return tnet.thermal_step(p, tw, thh, tc, q_w, q_h, amb, amb, coolant_factor, fan_factor, forced, ram, 1.0 / dt_s)
+
+
 def test_network_steady_state_matches_the_linear_solution():
     """Valve open, fan off, constant speed and heat: the steady temperatures solve the linear network."""
     th = paper_bus().thermal
     p = th.pack()
-    from hev_thermal_env.physics import thermal_network as tnet
-
     q_w, q_h, amb, v = 3000.0, 1000.0, 20.0, 10.0
     tw, thh, tc = 60.0, 55.0, 30.0
     for _ in range(20000):
-        tw, thh, tc, q_air, q_rad, q_cool, q_radiator, valve = tnet.network_step(p, tw, thh, tc, q_w, q_h, amb, 1.0,
-                                                                                 0.0, v, 1.0)
-    assert valve == 1.0
+        tw, thh, tc, q_air, q_rad, q_cool, q_radiator, on = network_step(p, tw, thh, tc, q_w, q_h, amb, 1.0, 0.0, v,
+                                                                         1.0)
+    assert on == 1.0 and tw >= th.thermostat_temp_c + th.thermostat_band_k  # the valve is fully open
     # at steady state every node balances
     assert q_w == pytest.approx(th.winding_conductance_w_per_k * (tw - thh), rel=1e-6)
     assert q_w + q_h == pytest.approx(q_air + q_rad + q_cool, rel=1e-6)
     assert q_cool == pytest.approx(q_radiator, rel=1e-6)
-    ua = tnet.radiator_ua_w_per_k(p, tc, v, 0.0)
-    assert tc == pytest.approx(amb + (q_w + q_h - q_air - q_rad) / ua, rel=1e-6)
     assert thh - tc == pytest.approx(q_cool / th.jacket_conductance_w_per_k, rel=1e-6)
 
 
 def test_network_step_is_stable_and_consistent_across_step_sizes():
-    from hev_thermal_env.physics import thermal_network as tnet
-
     p = paper_bus().thermal.pack()
 
     def run(dt):
         tw, thh, tc = 20.0, 20.0, 20.0
         for _ in range(int(round(600 / dt))):
-            tw, thh, tc, *_ = tnet.network_step(p, tw, thh, tc, 4000.0, 1000.0, 20.0, 1.0, 1.0, 8.0, dt)
+            tw, thh, tc, *_ = network_step(p, tw, thh, tc, 4000.0, 1000.0, 20.0, 1.0, 1.0, 8.0, dt)
         return np.array([tw, thh, tc])
 
     a, b, c = run(0.1), run(1.0), run(10.0)
@@ -182,16 +187,19 @@ def test_network_step_is_stable_and_consistent_across_step_sizes():
     np.testing.assert_allclose(a, c, atol=1.5)
 
 
-def test_ram_air_and_fan_raise_the_radiator_conductance():
-    from hev_thermal_env.physics import thermal_network as tnet
-
-    p = paper_bus().thermal.pack()
+def test_ram_air_and_fan_raise_the_radiator_heat_flow():
     th = paper_bus().thermal
-    still = tnet.radiator_ua_w_per_k(p, 20.0, 0.0, 1.0)
-    assert tnet.radiator_ua_w_per_k(p, 20.0, 20.0, 1.0) > still  # ram air
+    p = th.pack()
+
+    def q_radiator(coolant_c, speed_mps, fan_factor):  # the valve closed: the radiator alone cools the coolant
+        return network_step(p, 20.0, 20.0, coolant_c, 0.0, 0.0, 20.0, 1.0, fan_factor, speed_mps, 1.0)[6]
+
+    warm = th.fan_on_temp_c - 1.0
+    still = q_radiator(warm, 0.0, 1.0)
+    assert q_radiator(warm, 20.0, 1.0) > still  # ram air
     hot = th.fan_on_temp_c + th.fan_band_k
-    assert tnet.radiator_ua_w_per_k(p, hot, 0.0, 1.0) > still  # fan
-    assert tnet.radiator_ua_w_per_k(p, hot, 0.0, 0.0) == still  # failed fan
+    assert q_radiator(hot, 0.0, 1.0) > q_radiator(hot, 0.0, 0.0)  # fan; 0: a failed fan
+    assert q_radiator(hot, 0.0, 0.0) / (hot - 20.0) == pytest.approx(still / (warm - 20.0), rel=1e-3)
 
 
 def test_coolant_closed_isolates_the_motor_from_the_loop():
@@ -235,7 +243,7 @@ def test_empty_battery_never_pays_for_the_spinning_motor():
     assert np.all(tr["battery_chem_power_w"][held] <= 1e-6)
 
 
-# --- Table 3 (coolant closed), issue 11's tolerances -------------------------------------------------------
+# --- Table 3 (coolant closed) ---------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
 def table3():

@@ -43,10 +43,3 @@ def test_cells_selected_on_are_left_out_of_the_unselected_mean(data):
     assert m["validation_mean_unselected"] == pytest.approx(expected)
     assert m["validation_mean_unselected"] != pytest.approx(m["validation_mean"])
     assert "`validation_bus:0`, `validation_bus:1` are cells here" in report.selection_note(d)
-
-
-def test_result_files_without_selection_cycles_fall_back_to_the_old_subset(data):
-    d = copy.deepcopy(data)
-    for row in d["training"]:
-        row.pop("selection_cycles")
-    assert report.selection_cycles(d) == [f"validation_bus:{k}" for k in range(5)]

@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import Conditions, PhysicsCore, load_cycle, paper_bus
-from hev_thermal_env.agents.dp import DPProblem, DPSettings, rollout, solve
 from hev_thermal_env.envs.reward import REWARD_TERMS, RewardParams, reward_terms, soc_band_charge_g, stage_cost_g
 from hev_thermal_env.metrics import summarize
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.planning.problem import DPProblem
+from hev_thermal_env.planning.soc_dp import DPSettings, rollout, solve
 from hev_thermal_env.prices import Prices
 
 LHV = 43000.0

@@ -30,7 +30,7 @@ from hev_thermal_env.training.sweep_space import check_space, encode_choice, tri
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULT_FILES = ("results.csv", "results.json", "results.md")
-TINY_HP = ["n_steps=64", "batch_size=128", "n_epochs=2", "eval.dp_reference=false", "init.episodes=1", "init.epochs=2"]
+TINY_HP = ["n_steps=64", "batch_size=128", "n_epochs=2", "init.episodes=1", "init.epochs=2"]
 SPACE = "learning_rate: {loguniform: [1.0e-4, 1.0e-3]}\npolicy_kwargs.net_arch: {choice: [[16, 16], [8]]}\n"
 
 

@@ -1,4 +1,4 @@
-"""Scenarios where heat matters (issue 11): summer, hilly, full bus; the hilly road from the cycle generator."""
+"""Scenarios where heat matters: summer, hilly, full bus; the hilly road from the cycle generator."""
 
 from __future__ import annotations
 

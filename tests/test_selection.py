@@ -1,16 +1,17 @@
-"""Choosing ``best_model.zip``: by corrected fuel relative to a reference, never a checkpoint that drifts the SOC.
+"""Choosing ``best_model.zip``: by corrected fuel relative to a reference, never a checkpoint that drifts the SOC,
+and the training curve that shows the choice.
 
 The training loop's own ``evaluate`` runs on fabricated evaluation results (no model is trained here)."""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 import hev_thermal_env.training.loop as loop
+from hev_thermal_env.evaluation.styles import close
 from hev_thermal_env.training.artifacts import read_evaluations
-from hev_thermal_env.training.config import build_config
-from hev_thermal_env.training.curves import selected_step
+from hev_thermal_env.training.config import build_config, save_run_config
+from hev_thermal_env.training.curves import read_training_returns, selected_step, training_curve_figure
 from hev_thermal_env.training.selection import (
     SCORERS,
     SOC_LIMIT,
@@ -45,19 +46,18 @@ class FakeEvaluator:
 class FakeModel:
     num_timesteps = 0
 
-    def get_env(self):
+    def get_vec_normalize_env(self):
         return None
 
 
-def run_selection(tmp_path, monkeypatch, evaluations, selection="fuel_vs_ecms") -> tuple[list[int], object]:
+def run_selection(tmp_path, monkeypatch, evaluations) -> tuple[list[int], object]:
     """Feed ``evaluations`` (one per 1000 env-steps) through ``TrainingRun.evaluate``; returns the steps saved as
     ``best_model.zip`` and the run."""
     saved: list[int] = []
     model = FakeModel()
     monkeypatch.setattr(loop, "LoadedPolicy", lambda model, stats: type("P", (), {"act": None})())
     monkeypatch.setattr(loop, "save_model_and_stats", lambda m, stats, path, spath: saved.append(m.num_timesteps))
-    config = build_config("ppo", cycles=["random_bus"], eval_cycles=list(CYCLES), eval_scenarios=["paper"],
-                          overrides={"eval.selection": selection})
+    config = build_config("ppo", cycles=["random_bus"], eval_cycles=list(CYCLES), eval_scenarios=["paper"])
     config["result"] = {"selection_reference": dict(REFERENCE)}
     run = loop.TrainingRun(config, tmp_path, verbose=0)
     run.evaluator = FakeEvaluator(evaluations)
@@ -78,9 +78,6 @@ def test_best_model_is_the_best_fuel_not_the_best_return(tmp_path, monkeypatch):
     run.record_session({"timesteps_done": 4000, "session_wall_s": 1.0, "env_share": None, "steps_per_s": None},
                        finished=True)
     assert run.config["result"]["best_eval"]["timesteps"] == 3000
-    # the same evaluations under the return rule choose step 2000: the rule, not the data, decides
-    saved_by_return, _ = run_selection(tmp_path / "by_return", monkeypatch, evaluations, selection="mean_return")
-    assert saved_by_return == [1000, 2000]
 
 
 def test_a_checkpoint_that_drifts_the_soc_is_not_chosen(tmp_path, monkeypatch):
@@ -131,17 +128,11 @@ def test_ecms_reference_is_the_corrected_fuel_of_ecms():
         "fuel_corrected_l_per_100km"])
 
 
-def custom_scorer() -> Scorer:
-    """A scorer plugged in by its import path (the shape a DP-frontier scorer takes)."""
-    return Scorer("custom", "custom rule", lambda res, ref: Score(float(len(res)), True, tuple(np.nan for _ in res)))
-
-
-def test_scorers_plug_in_by_import_path_and_unknown_names_fail():
-    assert get_scorer("tests.test_selection:custom_scorer").name == "custom"
-    with pytest.raises(ValueError, match="registered scorers"):
+def test_unknown_scorers_fail():
+    with pytest.raises(ValueError, match="registered scorers: fuel_vs_ecms, fuel_vs_rule"):
         get_scorer("fastest")
-    with pytest.raises(ValueError, match="cannot import"):
-        get_scorer("no.such.module:scorer")
+    with pytest.raises(ValueError, match="unknown eval.selection"):
+        build_config("ppo", overrides={"eval.selection": "mean_return"})
 
 
 def test_config_rejects_random_scenarios_and_scoring_on_training_cycles():
@@ -154,3 +145,38 @@ def test_config_rejects_random_scenarios_and_scoring_on_training_cycles():
     cfg = build_config("ppo")
     assert "hwfet" not in cfg["env"]["cycles"] and "beijing" not in cfg["env"]["cycles"]
     assert cfg["eval"]["selection"] == "fuel_vs_ecms" and cfg["env"]["scenario"] == "random_service"
+
+
+# --- training_curve.png -----------------------------------------------------------------------------
+
+def test_training_curve_stars_the_selected_evaluation_on_the_fuel_panel(tmp_path, monkeypatch):
+    """The best return (step 2000) is not starred; the best fuel (3000) is; the cheaper drift (4000) is crossed."""
+    from stable_baselines3.common.logger import configure
+
+    evaluations = [results(-100.0, 1.05), results(-50.0, 1.10), results(-80.0, 1.02),
+                   results(-90.0, 0.95, dsoc=SOC_LIMIT + 0.005)]
+    _, run = run_selection(tmp_path, monkeypatch, evaluations)
+    save_run_config(tmp_path, run.config)
+    logger = configure(str(tmp_path / "tb" / "PPO_1"), ["tensorboard"])
+    for step in (500, 1000, 1500, 2000, 2500, 3000):
+        logger.record("rollout/ep_rew_mean", -100.0 + step / 100)
+        logger.record("rollout/ep_len_mean", 300.0)
+        logger.dump(step)
+    logger.close()
+    assert list(read_training_returns(tmp_path)["steps"]) == [500, 1000, 1500, 2000, 2500, 3000]
+    fig = training_curve_figure(tmp_path)
+    try:
+        (training,) = [ln for ln in fig.axes[0].get_lines() if ln.get_label().startswith("training episode return")]
+        assert list(training.get_xdata()) == [500, 1000, 1500, 2000, 2500, 3000]
+        ret_axis = next(ax for ax in fig.axes if ax.get_title().startswith("evaluation return"))
+        assert not [ln for ln in ret_axis.get_lines() if ln.get_marker() == "*"]
+        fuel_axis = next(ax for ax in fig.axes if "corrected fuel" in ax.get_title())
+        (star,) = [ln for ln in fuel_axis.get_lines() if ln.get_marker() == "*"]
+        assert list(star.get_xdata()) == [3000] and "corrected fuel ÷ ECMS" in " ".join(star.get_label().split())
+        (crossed,) = [ln for ln in fuel_axis.get_lines() if ln.get_marker() == "x"]
+        assert list(crossed.get_xdata()) == [4000]
+        fig.canvas.draw()
+        (legend,) = fig.legends  # outside every panel's data
+        assert not any(legend.get_window_extent().overlaps(ax.get_window_extent()) for ax in fig.axes)
+    finally:
+        close(fig)

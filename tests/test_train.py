@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -21,9 +22,9 @@ import evaluate
 import train
 from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.policy_files import load_policy
 from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.training.artifacts import load_policy
 from hev_thermal_env.training.config import load_run_config
 from hev_thermal_env.training.evaluator import PolicyEvaluator
 from hev_thermal_env.training.loop import TrainingRun
@@ -150,11 +151,12 @@ def test_sac_trains_checkpoints_its_replay_buffer_and_plays(tmp_path):
     assert run_strategy(strategy, "us06", "paper").summary["duration_s"] == load_cycle("us06").n_steps
 
 
-def test_subproc_vec_env_trains(tmp_path):
-    out = tmp_path / "subproc"
-    assert train.main(train_args(out, 512, "--vec", "subproc", "--eval-cycles")) == 0
+def test_eval_cycles_none_trains_without_evaluation(tmp_path):
+    out = tmp_path / "run"
+    assert train.main(train_args(out, 256, "--eval-cycles", "none")) == 0
     cfg = load_run_config(out)
-    assert cfg["vec"] == "subproc" and cfg["result"]["timesteps_done"] == 512
+    assert cfg["eval"]["cycles"] == [] and cfg["result"]["timesteps_done"] == 256
+    assert not (out / "evaluations.csv").exists() and (out / "model.zip").is_file()
 
 
 # --- the shipped policy -----------------------------------------------------------------------------
@@ -172,8 +174,8 @@ def test_shipped_policy_loads_and_drives_a_short_cycle(tmp_path):
 # --- hyperparameter overrides -----------------------------------------------------------------------
 
 def test_hp_overrides_yaml_dict_and_dotted_keys():
-    o = parse_overrides(["gamma=0.99", "learning_rate=lin_1e-4", "policy_kwargs=dict(net_arch=[64, 64], "
-                         "activation_fn=nn.ReLU)", "env.reward.soc_deviation_weight=1.5", "normalize.clip_obs=5"])
+    o = parse_overrides(["gamma=0.99", "learning_rate=lin_1e-4", "policy_kwargs={net_arch: [64, 64], "
+                         "activation_fn: relu}", "env.reward.soc_deviation_weight=1.5", "normalize.clip_obs=5"])
     assert o["gamma"] == 0.99 and o["learning_rate"] == "lin_1e-4"
     assert o["policy_kwargs"] == {"net_arch": [64, 64], "activation_fn": "relu"}
     hp = apply_overrides({"gamma": 0.97, "policy_kwargs": {"log_std_init": -1.0}, "env": {"scenario": "paper"}}, o)
@@ -187,22 +189,29 @@ def test_hp_overrides_yaml_dict_and_dotted_keys():
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["sigint", "sigkill"])
 def test_interrupted_training_resumes_to_the_total(tmp_path, sig):
+    """Ctrl-C (SIGINT) once training has started: a checkpoint and one stderr line after the progress bars, exit
+    status 130; SIGKILL: the last complete checkpoint. Either resumes to the total."""
     out = tmp_path / "run"
     total = 30_720  # 120 rollouts of 256 env-steps
-    args = [sys.executable, str(ROOT / "train.py"), *train_args(out, total, "--eval-cycles", "--checkpoint-freq",
-                                                                "1024")]
+    args = [sys.executable, str(ROOT / "train.py"),
+            *[a for a in train_args(out, total, "--eval-cycles", "--checkpoint-freq", "1024") if a != "--no-progress"]]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    deadline = time.monotonic() + 60
-    while not list((out / "checkpoints").glob("ckpt_*_steps.zip")):
-        assert proc.poll() is None, proc.communicate()
-        assert time.monotonic() < deadline
-        time.sleep(0.02)
-    proc.send_signal(sig)
-    _, err = proc.communicate(timeout=60)
+    with open(tmp_path / "stderr.txt", "w") as stderr:
+        proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=stderr, text=True, env=env)
+        deadline = time.monotonic() + 60
+        while not list((out / "checkpoints").glob("ckpt_*_steps.zip")):
+            assert proc.poll() is None, (tmp_path / "stderr.txt").read_text()
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        proc.send_signal(sig)
+        proc.wait(timeout=60)
+    err = (tmp_path / "stderr.txt").read_text()
     if sig == signal.SIGINT:
         assert proc.returncode == 130, err
-        assert "SIGINT" in err and "--resume" in err and "Traceback" not in err
+        lines = [ln for ln in re.split(r"[\r\n]", err) if ln.strip()]
+        bars = [i for i, ln in enumerate(lines) if "episode/s]" in ln]  # the imitation's progress bar
+        assert bars and len(lines) == bars[-1] + 2, err
+        assert lines[-1].startswith("interrupted: training stopped by SIGINT") and "--resume" in lines[-1]
         cfg = load_run_config(out)
         stopped = cfg["result"]["timesteps_done"]
         assert (out / "checkpoints" / f"ckpt_{stopped}_steps.zip").is_file()
@@ -217,6 +226,7 @@ def test_interrupted_training_resumes_to_the_total(tmp_path, sig):
     cfg = load_run_config(out)
     assert cfg["result"]["finished"] and cfg["result"]["timesteps_done"] == total
     assert (out / "model.zip").is_file() and (out / "checkpoints" / f"ckpt_{total}_steps.zip").is_file()
+    assert (out / "vecnormalize.pkl").is_file()  # the resumed model's statistics
     assert "--resume" in (out / "command.txt").read_text().splitlines()[-1]
 
 

@@ -14,8 +14,8 @@ Three stages, each deterministic (fixed seeds, one worker), so re-running reprod
    coefficient against every target, the network held at stage 1's values.
 3. **polish** (bounded Powell from stage 2's point): every free parameter against every target.
 
-Cost: the sum of squared residuals in tolerances (:func:`targets.residuals`; |r| ≤ 1 meets a
-target), with the heat-index onset measured as the interpolated zero crossing so the cost is
+Cost: the sum of squared residuals in tolerances (:meth:`~hev_thermal_env.paper.figures.PaperFigure.residual`;
+|r| ≤ 1 meets a target), with the heat-index onset measured as the interpolated zero crossing so the cost is
 continuous in the parameters. The fitted values are rounded to 4 significant digits, the
 precision they are written with into ``ThermalParams``'s defaults.
 """
@@ -26,14 +26,17 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
-from typing import Any
 
 import numpy as np
 from scipy import optimize
 
+from ..paper.figures import CALIBRATION_TARGETS, PAPER_FIGURE_BY_NAME
+from ..paper.measure import Baseline, cycle_run, measure
 from ..physics import ConfigError, VehicleConfig, paper_bus
 from ..physics.thermal import ThermalParams
-from . import targets as T
+
+#: The paper's figures the fit is fitted to, in the order of the residual table.
+TARGETS = tuple(PAPER_FIGURE_BY_NAME[n] for n in CALIBRATION_TARGETS)
 
 FITTED_PREFIX = "fitted:"
 
@@ -103,31 +106,22 @@ class Stage:
 
 @dataclasses.dataclass
 class FitResult:
-    """Fitted values (rounded), the measured targets and residuals at them, and the stages."""
+    """Fitted values (rounded), the residual of each target at them, and the stages."""
 
     values: dict[str, float]
-    bounds: dict[str, tuple[float, float]]
-    measured: dict[str, Any]
     residuals: dict[str, float]
-    cost: float
     stages: list[Stage]
-    wall_s: float
-    equations_as_written: dict[str, Any] | None = None
-
-    @property
-    def config(self) -> VehicleConfig:
-        return with_values(paper_bus(), self.values)
 
 
 class Objective:
     """Cost of a parameter vector over a subset of the targets (the thermal-off baseline computed once)."""
 
     def __init__(self, base: VehicleConfig, names: Sequence[str], fixed: dict[str, float],
-                 target_names: Sequence[str] | None, baseline: T.Baseline):
+                 target_names: Sequence[str] | None, baseline: Baseline):
         self.base = base
         self.names = tuple(names)
         self.fixed = dict(fixed)
-        self.target_names = tuple(target_names) if target_names is not None else tuple(t.name for t in T.TARGETS)
+        self.target_names = tuple(target_names) if target_names is not None else CALIBRATION_TARGETS
         self.baseline = baseline
         self.evaluations = 0
         self.temperature_only = set(self.target_names) <= set(TEMPERATURE_TARGETS)
@@ -142,19 +136,19 @@ class Objective:
         except ConfigError:
             return 1e6
         if self.temperature_only:
-            u, _ = T.cycle_metrics(cfg, "udds")
-            b, _ = T.cycle_metrics(cfg, "beijing")
+            u, _ = cycle_run(cfg, "udds")
+            b, _ = cycle_run(cfg, "beijing")
             values = {"udds_temp_peak_c": u["temp_peak_c"], "udds_temp_last300_c": u["temp_last300_c"],
                       "beijing_temp_c": b["temp_warm_mean_c"]}
         else:
-            m = T.measure(cfg, self.baseline)
+            m = measure(cfg, self.baseline)
             values = dict(m["values"])
             values["udds_hi_onset_s"] = m["udds"]["hi_onset_smooth_s"]
         return cost_of(values, self.target_names)
 
 
 def cost_of(values: dict[str, float], names: Sequence[str]) -> float:
-    return float(sum(T.TARGET_BY_NAME[n].residual(values[n]) ** 2 for n in names))
+    return float(sum(PAPER_FIGURE_BY_NAME[n].residual(values[n]) ** 2 for n in names))
 
 
 def _de(obj: Objective, bounds: list[tuple[float, float]], x0: np.ndarray, *, maxiter: int, popsize: int,
@@ -190,8 +184,7 @@ def run_fit(base: VehicleConfig | None = None, *, seed: int = 11, de_maxiter: in
     missing = set(NETWORK_PARAMS + CLOSURE_PARAMS) - set(bounds)
     if missing:
         raise ValueError(f"not documented as fitted: {sorted(missing)}")
-    t_start = time.perf_counter()
-    baseline = T.Baseline(base)
+    baseline = Baseline(base)
     current = {n: START[n] for n in NETWORK_PARAMS + CLOSURE_PARAMS}
     stages: list[Stage] = []
 
@@ -219,9 +212,6 @@ def run_fit(base: VehicleConfig | None = None, *, seed: int = 11, de_maxiter: in
     run_stage("network", NETWORK_PARAMS, TEMPERATURE_TARGETS, "de")
     run_stage("closures", CLOSURE_PARAMS, None, "de")
     run_stage("polish", NETWORK_PARAMS + CLOSURE_PARAMS, None, "powell")
-    cfg = with_values(base, current)
-    measured = T.measure(cfg, baseline, hwfet=True)
-    res = T.residuals(measured["values"])
-    return FitResult(values=dict(current), bounds={k: bounds[k] for k in current}, measured=measured, residuals=res,
-                     cost=float(sum(r * r for r in res.values())), stages=stages,
-                     wall_s=time.perf_counter() - t_start)
+    values = measure(with_values(base, current), baseline)["values"]
+    return FitResult(values=dict(current), residuals={t.name: t.residual(values[t.name]) for t in TARGETS},
+                     stages=stages)

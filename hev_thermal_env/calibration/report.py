@@ -1,4 +1,8 @@
-"""The residual table: each target, the paper, ours (calibrated network), ours (paper's equations), verdicts."""
+"""The residual table: each target, the paper, ours (calibrated network), ours (paper's equations), verdicts.
+
+The targets are rows of the paper's one table of figures (:mod:`hev_thermal_env.paper.figures`), measured
+by :func:`hev_thermal_env.paper.measure.measure`.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +11,10 @@ from typing import Any
 
 import yaml
 
+from ..paper.measure import Baseline, measure, sustained_speeds
 from ..physics import paper_bus
 from ..physics.thermal import ThermalParams
 from . import fit as F
-from . import targets as T
 
 
 def _fmt(x: float, unit: str) -> str:
@@ -25,30 +29,31 @@ def _fmt(x: float, unit: str) -> str:
     return f"{x:.2f}"
 
 
-def _paper(t: T.Target) -> str:
-    if t.kind == "max":
-        return f"≤ {t.paper + t.tol:g}"
-    return f"{t.paper:g} ± {t.tol:.3g}"
+def _paper(row: dict[str, Any]) -> str:
+    """The paper's value and tolerance of a residual row, in the row's unit."""
+    if row["kind"] == "max":
+        return f"≤ {row['tol']:g}"
+    return f"{row['paper']:g} ± {row['tol'] * row['paper'] if row['kind'] == 'rel' else row['tol']:.3g}"
 
 
 def build(values: dict[str, float], stages: list[F.Stage] | None = None) -> dict[str, Any]:
     """Measure every target with the network and with the paper's equations, both with ``values``."""
     net = F.with_values(paper_bus(), values)
     eqs = net.with_thermal_model("paper_eqs")
-    base = T.Baseline(net)
-    m_net = T.measure(net, base, hwfet=True)
-    m_eqs = T.measure(eqs, base, hwfet=True)
+    base = Baseline(net)
+    m_net = measure(net, base, hwfet=True)
+    m_eqs = measure(eqs, base, hwfet=True)
     rows = []
-    for t in T.TARGETS:
+    for t in F.TARGETS:
         a, b = m_net["values"][t.name], m_eqs["values"][t.name]
         rows.append({"name": t.name, "figure": t.figure, "description": t.description, "unit": t.unit,
                      "paper": t.paper, "tol": t.tol, "kind": t.kind, "network": a, "paper_eqs": b,
-                     "difference": a - t.paper, "residual": t.residual(a), "met": t.met(a),
-                     "paper_eqs_residual": t.residual(b), "paper_eqs_met": t.met(b)})
+                     "difference": a - t.paper, "residual": t.residual(a), "met": t.within(a),
+                     "paper_eqs_residual": t.residual(b), "paper_eqs_met": t.within(b)})
     corrected = {c: {"without": base.runs[c]["fuel_corrected_l100"],
                      "network": m_net[c]["fuel_corrected_l100"], "paper_eqs": m_eqs[c]["fuel_corrected_l100"]}
                  for c in ("udds", "beijing", "hwfet")}
-    speeds = T.sustained_speeds(net)
+    speeds = sustained_speeds(net)
     bounds = F.fitted_fields()
     return {
         "values": dict(values),
@@ -79,7 +84,7 @@ def residuals_markdown(report: dict[str, Any]) -> str:
     for r in report["rows"]:
         verdict = "met" if r["met"] else "**not met**"
         verdict_eqs = "met" if r["paper_eqs_met"] else "not met"
-        lines.append(f"| {r['description']} ({r['unit']}) | {r['figure']} | {_paper(T.TARGET_BY_NAME[r['name']])} | "
+        lines.append(f"| {r['description']} ({r['unit']}) | {r['figure']} | {_paper(r)} | "
                      f"{_fmt(r['network'], r['unit'])} | {_fmt(r['paper_eqs'], r['unit'])} | "
                      f"{_fmt(r['difference'], r['unit'])} | {r['residual']:+.2f} | {verdict} / {verdict_eqs} |")
     n, u, b = report["network"], report["network"]["udds"], report["network"]["beijing"]

@@ -1,17 +1,18 @@
-"""The name a command-line program was called by, and its one-line error reports.
+"""The name a command-line program was called by, and its one-line reports (:func:`run_program`).
 
 Problems with the input (unknown names, malformed files, out-of-range values) are ``ValueError`` s;
 problems with files (missing, not a directory, read-only file system, no permission) are
 ``OSError`` s. Either is printed as one line, without a traceback, with exit status 2. Warnings
-(implausible cycle data, ...) are printed as one ``warning:`` line each.
+(implausible cycle data, ...) are printed as one ``warning:`` line each. Ctrl-C (a
+``KeyboardInterrupt`` anywhere in a command) is one line, ``interrupted`` (with what was saved, if
+anything), and exit status 130.
 """
 
 from __future__ import annotations
 
-import contextlib
 import sys
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 #: Exceptions that mean "the input is wrong", reported in one line.
@@ -41,12 +42,20 @@ def report(exc: BaseException, prog: str | None = None) -> int:
     return EXIT_USER_ERROR
 
 
-@contextlib.contextmanager
-def one_line_warnings(prog: str | None = None) -> Iterator[None]:
-    """Within the block, each warning is printed as ``warning: MESSAGE`` (``PROG: warning: ...``) on stderr."""
+def run_program(body: Callable[[], int | None], prog: str | None = None,
+                errors: tuple[type[BaseException], ...] = USER_ERRORS) -> int:
+    """``body()`` with the one-line reports of the module docstring (``PROG: `` before errors and warnings
+    with ``prog``); returns the exit status. A ``KeyboardInterrupt`` carrying a message (what was saved)
+    prints it after ``interrupted:``, and its ``exit_code`` if it has one."""
     def show(message, category, filename, lineno, file=None, line=None):
         print(f"{f'{prog}: ' if prog else ''}warning: {' '.join(str(message).split())}", file=file or sys.stderr)
 
-    with warnings.catch_warnings():
-        warnings.showwarning = show
-        yield
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = show
+            return int(body() or 0)
+    except KeyboardInterrupt as exc:
+        print(f"interrupted: {one_line(exc)}" if str(exc) else "interrupted", file=sys.stderr)
+        return int(getattr(exc, "exit_code", EXIT_INTERRUPTED))
+    except errors as exc:
+        return report(exc, prog)

@@ -11,15 +11,15 @@ lists every option with its default. Errors in the input, and output paths that 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
-from . import benchmark, paper, performance, run
-from .errors import EXIT_INTERRUPTED, USER_ERRORS, one_line_warnings, program_name, report
+from .errors import program_name, run_program
 from .parsing import HelpFormatter, OneLineErrorParser, examples
 
-#: subcommand name -> module providing add_parser(subparsers) and main(args) -> int
-SUBCOMMANDS = {"benchmark": benchmark, "run": run, "paper": paper, "performance": performance}
-
+#: The subcommands, each a module of this package with ``add_parser(subparsers)`` and ``main(args) -> int``,
+#: imported by :func:`build_parser` (so that a Ctrl-C while they load is reported in one line).
+SUBCOMMANDS = ("benchmark", "run", "paper", "performance")
 
 EXAMPLES = (
     "python evaluate.py benchmark --out results                  # shipped PPO + classic strategies",
@@ -36,21 +36,19 @@ def build_parser(prog: str = "evaluate.py") -> argparse.ArgumentParser:
                                 epilog=epilog)
     sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND")  # subparsers: OneLineErrorParser too
     sub.required = True
-    for module in SUBCOMMANDS.values():
+    for name in SUBCOMMANDS:
+        module = importlib.import_module(f"{__package__}.{name}")
         module.add_parser(sub)
+        sub.choices[name].set_defaults(main=module.main)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser(program_name(argv, "evaluate.py")).parse_args(argv)
-    try:
-        with one_line_warnings():
-            return int(SUBCOMMANDS[args.command].main(args) or 0)
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except USER_ERRORS as exc:
-        return report(exc)
+    def body() -> int:
+        args = build_parser(program_name(argv, "evaluate.py")).parse_args(argv)
+        return args.main(args)
+
+    return run_program(body)
 
 
 if __name__ == "__main__":

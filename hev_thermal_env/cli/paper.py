@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 
 from hev_thermal_env.cycles import load_cycle
-from hev_thermal_env.evaluation.paper import build_report
 from hev_thermal_env.io import check_writable_dir
+from hev_thermal_env.paper.measure import table3_row
+from hev_thermal_env.paper.report import build_report
 
 from .parsing import HelpFormatter, examples
 
@@ -33,12 +34,12 @@ def main(args: argparse.Namespace) -> int:
     for c in args.cycles:
         load_cycle(c)  # unknown names fail here, before any work
     data = build_report(out, cycles=tuple(args.cycles), quick=args.quick)
-    t3 = data["table3"]
-    print(f"Table 3 analog (thermal off): top {t3['thermal_off']['top_speed_kmh']:.1f} km/h, 0-60 "
-          f"{t3['thermal_off']['accel_0_60_s']:.2f} s, grade {t3['thermal_off']['grade_4pct_speed_kmh']:.1f} km/h")
+    off = table3_row(data["table3"], "off")
+    print(f"Table 3 analog (thermal off): top {off['top_speed_kmh']:.1f} km/h, 0-60 {off['accel_0_60_s']:.2f} s, "
+          f"grade {off['grade_4pct_speed_kmh']:.1f} km/h")
     for cyc, row in data["table2"].items():
-        print(f"{cyc}: rule fuel {row['without_thermal']['fuel_l_per_100km']:.2f} -> "
-              f"{row['with_thermal']['fuel_l_per_100km']:.2f} L/100 km with the thermal model")
+        print(f"{cyc}: rule fuel {row['without_thermal']['fuel_l100']:.2f} -> "
+              f"{row['with_thermal']['fuel_l100']:.2f} L/100 km with the thermal model")
     agr = data["agreement"]
     print(f"agreement: {agr['within']} of {agr['total']} paper figures within tolerance")
     print(f"wrote {out / 'report.md'} ({data['wall_s']:.1f} s)")

@@ -3,7 +3,8 @@
 :class:`OneLineErrorParser` reports a usage error as ``PROG: error: MESSAGE (see --help)`` with exit
 status 2 (argparse prints the whole usage first); subcommand parsers inherit it. :class:`HelpFormatter`
 keeps descriptions and epilogs as written (the examples) and appends ``(default: VALUE)`` to every
-option whose default is a value.
+option whose default is a value. :func:`add_run_options` adds the options of a training run that
+``train.py`` and ``train.py sweep`` share, with the defaults of the hyperparameter files.
 """
 
 from __future__ import annotations
@@ -11,6 +12,12 @@ from __future__ import annotations
 import argparse
 import textwrap
 from collections.abc import Sequence
+from typing import Any
+
+from hev_thermal_env.agents import HYPERPARAMS_DIR
+from hev_thermal_env.cycles import list_cycles, list_families
+from hev_thermal_env.io import read_yaml_mapping
+from hev_thermal_env.scenarios import list_scenarios
 
 
 class OneLineErrorParser(argparse.ArgumentParser):
@@ -52,3 +59,69 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 def examples(lines: Sequence[str]) -> str:
     """An epilog of example command lines."""
     return "examples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
+def refuse_settings_with_resume(args: argparse.Namespace, flags: Sequence[str], settings_file: str) -> None:
+    """``--resume DIR`` takes every setting from ``DIR/settings_file``: a one-line error naming the setting
+    options given beside it (those of ``flags`` that are not None)."""
+    given = [f"--{f.replace('_', '-')}" for f in flags if getattr(args, f) is not None]
+    if given:
+        raise ValueError(f"--resume takes every setting from {args.resume}/{settings_file}; drop {' '.join(given)}")
+
+
+def file_defaults() -> dict[str, dict[str, Any]]:
+    """The run settings of each algorithm's hyperparameter file (what the options default to), by algorithm."""
+    from hev_thermal_env.agents.policy_files import ALGORITHMS
+    from hev_thermal_env.training.config import EVAL_DEFAULTS
+
+    out = {}
+    for algo in ALGORITHMS:
+        hp = read_yaml_mapping(HYPERPARAMS_DIR / f"{algo}.yaml")
+        env, ev = hp.get("env") or {}, hp.get("eval") or {}
+        out[algo] = {"cycles": " ".join(map(str, env.get("cycles", []))), "scenario": env.get("scenario"),
+                     "timesteps": hp.get("n_timesteps"), "n_envs": hp.get("n_envs"),
+                     "eval_cycles": " ".join(map(str, ev.get("cycles", EVAL_DEFAULTS["cycles"]))),
+                     "eval_scenarios": " ".join(map(str, ev.get("scenarios", EVAL_DEFAULTS["scenarios"]))),
+                     "eval_freq": ev.get("freq"), "checkpoint_freq": hp.get("checkpoint_freq")}
+    return out
+
+
+def per_algo(defaults: dict[str, dict[str, Any]], key: str) -> str:
+    """``default from the hyperparameter file: VALUE (ppo), VALUE (sac)`` for the setting ``key``."""
+    values = [f"{value[key]} ({algo})" for algo, value in defaults.items()]
+    return "default from the hyperparameter file: " + ", ".join(values)
+
+
+def add_run_options(p: argparse.ArgumentParser) -> dict[str, dict[str, Any]]:
+    """The options of a run's training and evaluation (a sweep's trials take them too); returns
+    :func:`file_defaults`."""
+    d = file_defaults()
+    p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(d)} (default: ppo)")
+    p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
+                   help=f"training cycles: cycle families ({', '.join(list_families())}: a fresh generated cycle "
+                        f"per episode), built-in names ({', '.join(list_cycles())}), FAMILY:SEED or CSV paths; "
+                        f"{per_algo(d, 'cycles')}")
+    p.add_argument("--scenario", default=None, metavar="S",
+                   help=f"one of {', '.join(list_scenarios())}; {per_algo(d, 'scenario')}")
+    p.add_argument("--timesteps", type=int, default=None, metavar="N",
+                   help=f"total env-steps; {per_algo(d, 'timesteps')}")
+    p.add_argument("--n-envs", type=int, default=None, metavar="N",
+                   help=f"parallel environments; {per_algo(d, 'n_envs')}")
+    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE",
+                   help="hyperparameter overrides: YAML values, dotted keys reach inside mappings")
+    p.add_argument("--hyperparams", default=None, metavar="FILE",
+                   help="hyperparameter YAML file (default: agents/hyperparams/<algo>.yaml)")
+    p.add_argument("--eval-cycles", nargs="*", default=None, metavar="CYCLE",
+                   help=f"evaluation cycles the checkpoints are scored on, not trained on (validation_bus:A..B: "
+                        f"validation cycles A to B); none (or no CYCLE) disables evaluation; "
+                        f"{per_algo(d, 'eval_cycles')}")
+    p.add_argument("--eval-scenarios", nargs="+", default=None, metavar="S",
+                   help=f"evaluation scenarios; {per_algo(d, 'eval_scenarios')}")
+    p.add_argument("--eval-freq", type=int, default=None, metavar="N",
+                   help=f"evaluate every N env-steps; {per_algo(d, 'eval_freq')}")
+    return d
+
+
+def eval_cycles(args: argparse.Namespace) -> list[str] | None:
+    """``--eval-cycles``: ``none`` (or no cycle) is no evaluation, not a cycle called none."""
+    return [] if args.eval_cycles == ["none"] else args.eval_cycles

@@ -10,8 +10,8 @@ from __future__ import annotations
 import argparse
 import math
 
-from hev_thermal_env.evaluation.paper_targets import PAPER_TABLE3
 from hev_thermal_env.io import atomic_write_json, check_output_path
+from hev_thermal_env.paper.figures import table3_paper
 from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics.config import COOLANT_MODES
 from hev_thermal_env.physics.performance import performance_report
@@ -25,9 +25,9 @@ EXAMPLES = (
     "python evaluate.py performance --config my_bus.yaml",
 )
 
-#: The paper's rows of Table 3 (index into the tuples of ``PAPER_TABLE3``) by starting temperature.
-PAPER_ROWS = {None: (0, "thermal off"), 30.0: (1, "30 °C start, coolant closed"),
-              50.0: (2, "50 °C start, coolant closed")}
+#: The paper's rows of Table 3 (a run of :data:`~hev_thermal_env.paper.figures.TABLE3_RUNS`) by starting temperature.
+PAPER_ROWS = {None: ("off", "thermal off"), 30.0: ("30c", "30 °C start, coolant closed"),
+              50.0: ("50c", "50 °C start, coolant closed")}
 FIGURES = (("top speed", "top_speed_kmh", "km/h"), ("0-60 km/h", "accel_0_60_s", "s"),
            ("speed on 4 % grade", "grade_4pct_speed_kmh", "km/h"))
 
@@ -46,8 +46,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ambient-temp-c", type=float, default=20.0, metavar="T", help="ambient temperature, °C")
 
 
-def paper_row(thermal: bool, initial_motor_temp_c: float) -> tuple[int, str] | None:
-    """Index and label of the paper's Table 3 row for these settings, or None when the paper has none."""
+def paper_row(thermal: bool, initial_motor_temp_c: float) -> tuple[str, str] | None:
+    """Run and label of the paper's Table 3 row for these settings, or None when the paper has none."""
     if not thermal:
         return PAPER_ROWS[None]
     for temp, row in PAPER_ROWS.items():
@@ -72,7 +72,7 @@ def main(args: argparse.Namespace) -> int:
     head = f"paper ({row[1]})" if row else "paper (no row for these settings)"
     print(f"  {'figure':<20}{'value':>10}  {'unit':<6}{head:>36}")
     for name, key, unit in FIGURES:
-        paper = f"{PAPER_TABLE3[key][row[0]]:.1f}" if row else "-"
+        paper = f"{table3_paper(row[0])[key]:.1f}" if row else "-"
         print(f"  {name:<20}{report[key]:>10.2f}  {unit:<6}{paper:>36}")
     if args.json:
         atomic_write_json(args.json, report)

@@ -35,12 +35,12 @@ import sys
 
 from hev_thermal_env.evaluation.executors import ExecutorError, import_ray
 
-from .errors import EXIT_INTERRUPTED, USER_ERRORS, report
-from .parsing import OneLineErrorParser
+from .errors import EXIT_INTERRUPTED, USER_ERRORS, run_program
+from .parsing import OneLineErrorParser, add_run_options, eval_cycles, refuse_settings_with_resume
 
 #: Options that describe a sweep (taken from ``sweep.yaml`` on --resume).
 SETTING_FLAGS = ("algo", "space", "samples", "seeds", "seed", "scheduler", "grace", "max_concurrent", "cycles",
-                 "scenario", "timesteps", "n_envs", "vec", "eval_cycles", "eval_scenarios", "eval_freq", "hp",
+                 "scenario", "timesteps", "n_envs", "eval_cycles", "eval_scenarios", "eval_freq", "hp",
                  "hyperparams", "out")
 
 
@@ -48,9 +48,9 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0],
                            formatter_class=argparse.RawDescriptionHelpFormatter,
                            epilog="\n\n".join(__doc__.split("\n\n")[1:]))
+    add_run_options(p)
     p.add_argument("--out", default=None, help="sweep directory (new or empty)")
     p.add_argument("--resume", default=None, metavar="DIR", help="continue the interrupted sweep in DIR")
-    p.add_argument("--algo", default=None, help="ppo (default) or sac")
     p.add_argument("--space", default=None, metavar="FILE", help="search space (YAML; default: a small space)")
     p.add_argument("--samples", type=int, default=None, help="configurations Optuna draws (default 8)")
     p.add_argument("--seeds", type=int, default=None, help="trials (seeds) per configuration (default 3)")
@@ -59,16 +59,6 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     p.add_argument("--grace", type=int, default=None, metavar="STEPS",
                    help="env-steps before a trial can be stopped (default: two evaluations)")
     p.add_argument("--max-concurrent", type=int, default=None, help="trials at once (default: one per CPU)")
-    p.add_argument("--cycles", nargs="+", default=None, help="training cycles (default from the hyperparameter file)")
-    p.add_argument("--scenario", default=None, help="training scenario (default from the hyperparameter file)")
-    p.add_argument("--timesteps", type=int, default=None, help="env-steps per trial (default from the file)")
-    p.add_argument("--n-envs", type=int, default=None, help="parallel environments per trial (default from the file)")
-    p.add_argument("--vec", default=None, help="native (default), subproc or dummy")
-    p.add_argument("--eval-cycles", nargs="+", default=None, help="validation cycles (default beijing us06)")
-    p.add_argument("--eval-scenarios", nargs="+", default=None, help="validation scenarios (default paper)")
-    p.add_argument("--eval-freq", type=int, default=None, help="evaluate (and report to Tune) every N env-steps")
-    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE", help="fixed hyperparameter overrides")
-    p.add_argument("--hyperparams", default=None, metavar="FILE", help="hyperparameter YAML file")
     p.add_argument("--address", default=None, metavar="ADDR", help="join the Ray cluster at HOST:PORT")
     p.add_argument("--cpus", type=int, default=None, help="CPUs of the local Ray runtime (default: all)")
     p.add_argument("--export", default=None, metavar="DIR", help="where the best policy goes (default DIR/best_policy)")
@@ -86,15 +76,12 @@ def run(args: argparse.Namespace, command: str):
     if args.cpus is not None and args.cpus < 1:
         raise ValueError(f"--cpus must be at least 1, got {args.cpus}")
     if args.resume is not None:
-        given = [f"--{f.replace('_', '-')}" for f in SETTING_FLAGS if getattr(args, f) is not None]
-        if given:
-            raise ValueError(f"--resume takes every setting from {args.resume}/sweep.yaml; drop {' '.join(given)}")
+        refuse_settings_with_resume(args, SETTING_FLAGS, "sweep.yaml")
         return resume_sweep(args.resume, **common), args.resume
     if args.out is None:
         raise ValueError("--out DIR is required (or --resume DIR)")
     train = dict(cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
-                 vec=args.vec, eval_cycles=args.eval_cycles, eval_scenarios=args.eval_scenarios,
-                 eval_freq=args.eval_freq)
+                 eval_cycles=eval_cycles(args), eval_scenarios=args.eval_scenarios, eval_freq=args.eval_freq)
     settings = build_sweep(
         args.algo or "ppo", space_file=args.space, samples=8 if args.samples is None else args.samples,
         seeds=3 if args.seeds is None else args.seeds, seed=args.seed or 0, scheduler=args.scheduler or "asha",
@@ -104,14 +91,15 @@ def run(args: argparse.Namespace, command: str):
 
 
 def main(argv: list[str], prog: str = "train.py sweep", command: str | None = None) -> int:
-    args = build_parser(prog).parse_args(argv)
-    try:
-        outcome, out = run(args, command or prog)
-    except KeyboardInterrupt:
-        print(f"{prog}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except (*USER_ERRORS, ExecutorError) as exc:
-        return report(exc, prog)
+    def body() -> int:
+        outcome, out = run(build_parser(prog).parse_args(argv), command or prog)
+        return report_outcome(outcome, out, prog)
+
+    return run_program(body, prog, (*USER_ERRORS, ExecutorError))
+
+
+def report_outcome(outcome, out: str, prog: str) -> int:
+    """Print the sweep's table and where its files are; returns the exit status."""
     rep = outcome.report
     md = next((p for p in rep.files if p.name == "sweep_configs.md"), None)
     if md is not None:
@@ -120,7 +108,7 @@ def main(argv: list[str], prog: str = "train.py sweep", command: str | None = No
     if failed:
         print(f"{failed} of {len(rep.trials)} trials failed; see error.txt in their folders under {out}/tune")
     if not outcome.complete:
-        print(f"{prog}: interrupted; {sum(t.status in ('finished', 'stopped') for t in rep.trials)} trials done; "
+        print(f"interrupted: {sum(t.status in ('finished', 'stopped') for t in rep.trials)} trials done; "
               f"continue with: {prog} --resume {out}", file=sys.stderr)
         return EXIT_INTERRUPTED
     stopped = sum(t.status == "stopped" for t in rep.trials)

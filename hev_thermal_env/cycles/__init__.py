@@ -1,27 +1,19 @@
-"""Drive cycles for the hybrid city-bus environment.
+"""Drive cycles for the hybrid city-bus environment: a :class:`Cycle` is a speed trace [m/s] and road grade
+(rise/run) sampled every second from 0 s, with read-only arrays and summary properties.
 
-A :class:`Cycle` is a speed trace [m/s] and road grade (rise/run) sampled every second from
-0 s, with read-only arrays and summary properties (distance, mean speed, idle fraction, ...).
-
-* :func:`list_cycles` / :func:`load_cycle`: built-in cycles ``hwfet``, ``udds``, ``us06``,
-  ``wltc_3b`` (standard cycles vendored from the ``fastsim==2.1.5`` wheel, Apache-2.0) and
-  ``beijing`` (a *synthetic* city-bus cycle, generated, not measured), or any user CSV with
-  columns ``time_s,speed_mps[,grade]``.
-* :func:`cycle_from_arrays`: a validated cycle from arrays.
-* :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles.
-* :class:`ImplausibleCycleWarning`: user data beyond a bus's range (speed above
-  :data:`PLAUSIBLE_SPEED_MAX_MPS`, acceleration beyond :data:`PLAUSIBLE_ACCEL_MAX_MPS2`).
+* :func:`load_cycle` / :func:`list_cycles`: the built-in cycles (:mod:`.loader`), user CSV files
+  (``time_s,speed_mps[,grade]``) and generated cycles by name; :func:`cycle_from_arrays`: a
+  validated cycle from arrays. User data beyond a bus's range gives an
+  :class:`ImplausibleCycleWarning`.
+* :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles (:mod:`.generator`).
 * :func:`generate_grade_profile`, :func:`with_grade_profile`, :func:`hilly_route`: seeded hilly
-  roads under any cycle; ``hilly_route()`` is ``beijing`` over rolling hills (synthetic).
-* :func:`generate_family_cycle`, :func:`list_families`: named, seeded families of generated bus cycles
-  (long routes, congestion, hard launches, hills, mixed service), loadable as ``FAMILY:SEED``;
-  ``validation_bus`` is a fixed set of them that training never draws (:func:`expand_cycle_names`).
+  roads under any cycle (:mod:`.grades`).
+* :func:`generate_family_cycle`, :func:`list_families`: named families of generated bus cycles, loadable
+  as ``FAMILY:SEED`` (:mod:`.families`); ``validation_bus`` is a fixed set of them that training never
+  draws (:mod:`.validation`, :func:`expand_cycle_names`).
 
-Examples
---------
 >>> from hev_thermal_env.cycles import load_cycle
->>> cyc = load_cycle("udds")
->>> round(cyc.distance_km, 2)
+>>> round(load_cycle("udds").distance_km, 2)
 11.99
 """
 

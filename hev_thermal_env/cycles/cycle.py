@@ -47,38 +47,21 @@ def _index_locator(i: int) -> str:
     return f"index {i}"
 
 
-def check_samples(
-    time_s: np.ndarray,
-    speed_mps: np.ndarray,
-    grade: np.ndarray,
-    *,
-    origin: str,
-    locate: Locate = _index_locator,
-) -> float:
-    """Check raw cycle samples and return their time step.
+def _first(mask: np.ndarray) -> int | None:
+    """The index of the first True in ``mask``, or None."""
+    hits = np.flatnonzero(mask)
+    return int(hits[0]) if hits.size else None
 
-    Parameters
-    ----------
-    time_s, speed_mps, grade : numpy.ndarray
-        1-D float arrays of equal length.
-    origin : str
-        Where the samples come from, used as the start of every error message
-        (for example ``"cycle file 'x.csv'"``).
-    locate : callable, optional
-        Maps a 0-based sample index to a human-readable position (for example
-        ``"data row 3 (line 4)"``). Defaults to ``"index i"``.
 
-    Returns
-    -------
-    float
-        The (uniform) time step [s].
+def check_samples(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, *, origin: str,
+                  locate: Locate = _index_locator) -> float:
+    """Check raw cycle samples (1-D float arrays of equal length) and return their uniform time step [s].
 
-    Raises
-    ------
-    ValueError
-        With ``origin``, the position and the problem, if there are fewer than two samples,
-        a value is NaN/inf, a speed is negative, ``|grade|`` exceeds :data:`MAX_ABS_GRADE`,
-        the time does not increase, or the time step is not uniform.
+    ``origin`` (where the samples come from, e.g. ``"cycle file 'x.csv'"``) starts every error message;
+    ``locate`` maps a 0-based sample index to a readable position (e.g. ``"data row 3 (line 4)"``;
+    default ``"index i"``). Raises ``ValueError`` with the origin, the position and the problem if there
+    are fewer than two samples, a value is NaN/inf, a speed is negative, ``|grade|`` exceeds
+    :data:`MAX_ABS_GRADE`, the time does not increase, or the time step is not uniform.
     """
 
     def fail(i: int, problem: str) -> ValueError:
@@ -86,47 +69,26 @@ def check_samples(
 
     n = len(speed_mps)
     if not (len(time_s) == n == len(grade)):
-        raise ValueError(
-            f"{origin}: length mismatch: time_s has {len(time_s)} samples, "
-            f"speed_mps {n}, grade {len(grade)}"
-        )
+        raise ValueError(f"{origin}: length mismatch: time_s has {len(time_s)} samples, speed_mps {n}, "
+                         f"grade {len(grade)}")
     if n < 2:
         raise ValueError(f"{origin}: need at least 2 samples to define a time step, found {n}")
     for label, arr in (("time_s", time_s), ("speed_mps", speed_mps), ("grade", grade)):
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            i = int(bad[0])
+        if (i := _first(~np.isfinite(arr))) is not None:
             raise fail(i, f"{label} value {float(arr[i])} is not finite (NaN or inf)")
-    bad = np.flatnonzero(speed_mps < 0.0)
-    if bad.size:
-        i = int(bad[0])
+    if (i := _first(speed_mps < 0.0)) is not None:
         raise fail(i, f"negative speed: speed_mps = {float(speed_mps[i])!r} (must be >= 0)")
-    bad = np.flatnonzero(np.abs(grade) > MAX_ABS_GRADE)
-    if bad.size:
-        i = int(bad[0])
-        raise fail(
-            i,
-            f"grade = {float(grade[i])!r} is not a plausible rise/run fraction "
-            f"(|grade| <= {MAX_ABS_GRADE}; 0.04 means 4 %, not 4)",
-        )
+    if (i := _first(np.abs(grade) > MAX_ABS_GRADE)) is not None:
+        raise fail(i, f"grade = {float(grade[i])!r} is not a plausible rise/run fraction "
+                      f"(|grade| <= {MAX_ABS_GRADE}; 0.04 means 4 %, not 4)")
     dt = np.diff(time_s)
-    bad = np.flatnonzero(dt <= 0.0)
-    if bad.size:
-        i = int(bad[0])
-        raise fail(
-            i + 1,
-            f"time not increasing: time_s = {float(time_s[i + 1])!r} follows {float(time_s[i])!r}",
-        )
+    if (i := _first(dt <= 0.0)) is not None:
+        raise fail(i + 1, f"time not increasing: time_s = {float(time_s[i + 1])!r} follows {float(time_s[i])!r}")
     dt0 = float(dt[0])
-    bad = np.flatnonzero(np.abs(dt - dt0) > TIME_TOL_S * max(1.0, dt0))
-    if bad.size:
-        i = int(bad[0])
-        raise fail(
-            i + 1,
-            f"non-uniform time step: {float(dt[i])!r} s from time_s = {float(time_s[i])!r} to "
-            f"{float(time_s[i + 1])!r}, but the first step is {dt0!r} s "
-            "(only uniformly sampled cycles are supported)",
-        )
+    if (i := _first(np.abs(dt - dt0) > TIME_TOL_S * max(1.0, dt0))) is not None:
+        raise fail(i + 1, f"non-uniform time step: {float(dt[i])!r} s from time_s = {float(time_s[i])!r} to "
+                          f"{float(time_s[i + 1])!r}, but the first step is {dt0!r} s "
+                          "(only uniformly sampled cycles are supported)")
     return dt0
 
 
@@ -152,32 +114,19 @@ def warn_implausible(time_s: np.ndarray, speed_mps: np.ndarray, *, origin: str,
                                 f"{float(np.abs(accel).max()):g})."))
     for row, finding in findings:
         warnings.warn(f"{origin}: {locate(row)}: {finding} The cycle is used as given.", ImplausibleCycleWarning,
-                      stacklevel=3)
+                      stacklevel=4)
 
 
-def regrid_to_1s(
-    time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, dt_s: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
-    """Shift checked samples to start at 0 s and bring them to a 1-s grid.
+def regrid_to_1s(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray,
+                 dt_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """Shift samples that passed :func:`check_samples` (time step ``dt_s``) to start at 0 s and bring them to a
+    1-s grid; returns ``(time_s, speed_mps, grade, resampled)``.
 
     A step of 1 s (within :data:`TIME_TOL_S`) only snaps the time stamps to ``0, 1, 2, ...``.
     Any other uniform step is resampled by linear interpolation onto whole seconds from 0 to
-    the last whole second covered; a trailing fraction of a second is dropped. Downsampling
-    (steps below 1 s) therefore picks interpolated points and does not average.
-
-    Parameters
-    ----------
-    time_s, speed_mps, grade : numpy.ndarray
-        Samples that passed :func:`check_samples`.
-    dt_s : float
-        Their time step [s].
-
-    Returns
-    -------
-    time_s, speed_mps, grade : numpy.ndarray
-        On the 1-s grid, starting at 0.
-    resampled : bool
-        Whether interpolation was needed.
+    the last whole second covered (``resampled`` is then True); a trailing fraction of a second
+    is dropped. Downsampling (steps below 1 s) therefore picks interpolated points and does not
+    average.
     """
     t_rel = time_s - time_s[0]
     if abs(dt_s - 1.0) <= TIME_TOL_S:
@@ -189,20 +138,36 @@ def regrid_to_1s(
     return t_new, speed_new, grade_new, True
 
 
-def _readonly_float_array(name: str, values: Any) -> np.ndarray:
+def to_1s_grid(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, *, origin: str,
+               locate: Locate = _index_locator,
+               plausibility: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    """Samples checked (:func:`check_samples`; with ``plausibility`` also :func:`warn_implausible`) and on the
+    1-s grid (:func:`regrid_to_1s`), with ``original_time_step_s``, ``time_offset_s`` and ``resampled``."""
+    dt_s = check_samples(time_s, speed_mps, grade, origin=origin, locate=locate)
+    if plausibility:
+        warn_implausible(time_s, speed_mps, origin=origin, locate=locate)
+    info: dict[str, Any] = {"original_time_step_s": dt_s, "time_offset_s": float(time_s[0])}
+    time_s, speed_mps, grade, info["resampled"] = regrid_to_1s(time_s, speed_mps, grade, dt_s)
+    if len(time_s) < 2:
+        raise ValueError(f"{origin}: cycle is shorter than 1 s, nothing left on a 1-s grid")
+    return time_s, speed_mps, grade, info
+
+
+def float_vector(label: str, values: Any, origin: str) -> np.ndarray:
+    """``values`` as a 1-D float64 array; else a ``ValueError`` naming ``origin``, ``label`` and the index of the
+    first non-numeric value."""
     try:
-        arr = np.array(values, dtype=np.float64, copy=True)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"Cycle: {name} is not numeric: {exc}") from None
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        for i, x in enumerate(np.asarray(values, dtype=object).ravel()):
+            try:
+                float(x)
+            except (TypeError, ValueError):
+                raise ValueError(f"{origin}: index {i}: non-numeric value {x!r} in {label}") from None
+        raise ValueError(f"{origin}: {label} is not numeric") from None
     if arr.ndim != 1:
-        raise ValueError(f"Cycle: {name} must be 1-D, got shape {arr.shape}")
-    arr.flags.writeable = False
+        raise ValueError(f"{origin}: {label} must be 1-D, got shape {arr.shape}")
     return arr
-
-
-def _format_float(x: float) -> str:
-    # Shortest text that reads back to the same float64.
-    return repr(float(x))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -214,35 +179,19 @@ class Cycle:
     :func:`~hev_thermal_env.cycles.generate_bus_cycle`; the constructor accepts only data
     already on the 1-s grid. The arrays are stored as read-only float64 copies.
 
-    Parameters
-    ----------
-    name : str
-        Short identifier, e.g. ``"hwfet"``.
-    time_s : numpy.ndarray
-        Time [s]: ``0, 1, 2, ...``.
-    speed_mps : numpy.ndarray
-        Vehicle speed [m/s], ``>= 0``.
-    grade : numpy.ndarray
-        Road grade as a rise/run fraction (0.04 is a 4 % climb), same length.
-    synthetic : bool
-        True if the speed trace was generated rather than measured or standardised.
-    description : str
-        One-line human description.
-    source : str
-        Where the data come from (package, file or generator).
-    metadata : dict
-        Free-form extra information (seed and parameters of a generated cycle, original time
-        step of a resampled file, ...).
+    * ``name``: short identifier, e.g. ``"hwfet"``.
+    * ``time_s``: time [s], ``0, 1, 2, ...``.
+    * ``speed_mps``: vehicle speed [m/s], ``>= 0``.
+    * ``grade``: road grade as a rise/run fraction (0.04 is a 4 % climb), same length.
+    * ``synthetic``: True if the speed trace was generated rather than measured or standardised.
+    * ``description``: one-line human description; ``source``: where the data come from (package,
+      file or generator).
+    * ``metadata``: free-form extra information (seed and parameters of a generated cycle, original
+      time step of a resampled file, ...).
 
-    Raises
-    ------
-    ValueError
-        If the arrays differ in length, hold fewer than 2 samples, contain NaN/inf, a negative
-        speed or an implausible grade, or ``time_s`` is not ``0, 1, 2, ...``.
-
-    Notes
-    -----
-    Instances compare by identity; compare arrays explicitly when needed.
+    Raises ``ValueError`` if the arrays differ in length, hold fewer than 2 samples, contain NaN/inf,
+    a negative speed or an implausible grade, or ``time_s`` is not ``0, 1, 2, ...``. Instances
+    compare by identity; compare arrays explicitly when needed.
     """
 
     name: str
@@ -255,19 +204,15 @@ class Cycle:
     metadata: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        time_s = _readonly_float_array("time_s", self.time_s)
-        speed_mps = _readonly_float_array("speed_mps", self.speed_mps)
-        grade = _readonly_float_array("grade", self.grade)
         origin = f"Cycle {self.name!r}"
-        check_samples(time_s, speed_mps, grade, origin=origin)
-        if np.any(np.abs(time_s - np.arange(len(time_s))) > TIME_TOL_S):
-            raise ValueError(
-                f"{origin}: time_s must be 0, 1, 2, ... s; "
-                "use cycle_from_arrays to shift or resample other time grids"
-            )
-        object.__setattr__(self, "time_s", time_s)
-        object.__setattr__(self, "speed_mps", speed_mps)
-        object.__setattr__(self, "grade", grade)
+        for label in ("time_s", "speed_mps", "grade"):
+            arr = np.array(float_vector(label, getattr(self, label), origin))  # a copy, read-only
+            arr.flags.writeable = False
+            object.__setattr__(self, label, arr)
+        check_samples(self.time_s, self.speed_mps, self.grade, origin=origin)
+        if np.any(np.abs(self.time_s - np.arange(len(self.time_s))) > TIME_TOL_S):
+            raise ValueError(f"{origin}: time_s must be 0, 1, 2, ... s; use cycle_from_arrays to shift or resample "
+                             "other time grids")
         object.__setattr__(self, "synthetic", bool(self.synthetic))
         object.__setattr__(self, "metadata", dict(self.metadata))
 
@@ -320,56 +265,28 @@ class Cycle:
         return float(np.max(np.abs(self.accel_mps2)))
 
     def summary(self) -> dict[str, float]:
-        """Summary statistics of the cycle.
-
-        Returns
-        -------
-        dict
-            ``duration_s``, ``distance_km``, ``mean_speed_kmh``, ``max_speed_kmh``,
-            ``idle_fraction`` and ``max_abs_accel_mps2``.
-        """
-        return {
-            "duration_s": self.duration_s,
-            "distance_km": self.distance_km,
-            "mean_speed_kmh": self.mean_speed_kmh,
-            "max_speed_kmh": self.max_speed_kmh,
-            "idle_fraction": self.idle_fraction,
-            "max_abs_accel_mps2": self.max_abs_accel_mps2,
-        }
+        """Summary statistics: ``duration_s``, ``distance_km``, ``mean_speed_kmh``, ``max_speed_kmh``,
+        ``idle_fraction`` and ``max_abs_accel_mps2``."""
+        return {"duration_s": self.duration_s, "distance_km": self.distance_km, "mean_speed_kmh": self.mean_speed_kmh,
+                "max_speed_kmh": self.max_speed_kmh, "idle_fraction": self.idle_fraction,
+                "max_abs_accel_mps2": self.max_abs_accel_mps2}
 
     # -- output ------------------------------------------------------------------------
 
-    def to_csv(self, path: str | os.PathLike, *, comment: str | None = None) -> Path:
-        """Write the cycle as CSV with columns ``time_s,speed_mps,grade``.
+    def to_csv(self, path: str | os.PathLike) -> Path:
+        """Write the cycle to ``path`` (overwritten) as CSV with columns ``time_s,speed_mps,grade``; returns the path.
 
         Floats are written in the shortest form that reads back to the same value, so
         ``load_cycle(cycle.to_csv(p))`` reproduces the arrays exactly.
-
-        Parameters
-        ----------
-        path : str or os.PathLike
-            Destination file (overwritten).
-        comment : str, optional
-            Text written above the header as ``#`` lines (skipped by ``load_cycle``).
-
-        Returns
-        -------
-        pathlib.Path
-            The written path.
         """
         path = Path(path)
-        lines = [f"# {c}".rstrip() for c in comment.splitlines()] if comment else []
-        lines.append("time_s,speed_mps,grade")
-        lines.extend(
-            f"{_format_float(t)},{_format_float(v)},{_format_float(g)}"
-            for t, v, g in zip(self.time_s, self.speed_mps, self.grade)
-        )
+        lines = ["time_s,speed_mps,grade"]
+        rows = zip(self.time_s, self.speed_mps, self.grade)
+        lines.extend(f"{float(t)!r},{float(v)!r},{float(g)!r}" for t, v, g in rows)  # repr: reads back the same float
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path
 
     def __repr__(self) -> str:
         kind = "synthetic" if self.synthetic else "data"
-        return (
-            f"Cycle(name={self.name!r}, {kind}, duration_s={self.duration_s:.0f}, "
-            f"distance_km={self.distance_km:.3f}, mean_speed_kmh={self.mean_speed_kmh:.2f})"
-        )
+        return (f"Cycle(name={self.name!r}, {kind}, duration_s={self.duration_s:.0f}, "
+                f"distance_km={self.distance_km:.3f}, mean_speed_kmh={self.mean_speed_kmh:.2f})")

@@ -5,31 +5,18 @@ run of one kind (:data:`SEGMENT_KINDS`), joined at standstill, optionally laid o
 road (:func:`~hev_thermal_env.cycles.generate_grade_profile`, no net climb). All of it is synthetic:
 generated, not measured.
 
-============== ==========================================================================================
-family         what it covers
-============== ==========================================================================================
-random_bus     ``generate_bus_cycle(seed)`` as it is: 1,300 s of city driving (the generator of ``beijing``)
-bus_long       long routes, 3,000-4,200 s of city driving; half of them cross a 600-1,200 s suburban stretch
-bus_congested  1,200-2,400 s of low-speed stop-and-go traffic: short creeps (5-30 km/h), short dwells
-bus_launch     1,200-2,000 s of city driving with hard launches (1.4-2.2 m/s² from standstill, above what
-               the engine alone can follow) and hard braking (1.0-2.0 m/s²)
-bus_hilly      1,200-2,400 s of city driving over rolling hills, grades up to ±4-8 % (drawn per cycle)
-bus_mixed      3,000-4,500 s routes of 3-6 segments (city, congested, hard-launch, suburban), hilly on half
-bus_express    1,800-3,600 s express and intercity routes: city at both ends, 60-75 % on motorway
-               (cruise 60-110 km/h, on-ramp accelerations at up to 8-14 W/kg, above what the engine alone
-               can follow); rolling hills (grades up to ±2-5 %) on half
-============== ==========================================================================================
+The families, and what each covers: :data:`FAMILIES`; their statistics, and why each is there:
+the cycle families page of the docs (``docs/cycle-families.md``).
 
 Every cycle stays within what the cycle loader accepts without an
 :class:`~hev_thermal_env.cycles.ImplausibleCycleWarning` (speed ≤ 35 m/s, ``|a|`` ≤ 3.5 m/s²). Payload is
 not part of a cycle but of the run's conditions: the ``random_service`` scenario draws it per episode.
 
-Names and seeds
----------------
-* ``FAMILY:SEED`` names one cycle (``bus_long:7``): :func:`~hev_thermal_env.cycles.load_cycle` takes it,
-  and the cycle's name is that string, so a cycle met in training can be reloaded.
-* A bare family name in an env's or a training run's cycle list draws a fresh cycle of the family every
-  episode, its seed drawn by :func:`training_seed` from ``[0, TRAINING_SEED_LIMIT)``.
+Seeds
+-----
+Names (``FAMILY:SEED``, a bare family name): :mod:`~hev_thermal_env.cycles.names`.
+
+* A fresh training cycle's seed is drawn by :func:`training_seed` from ``[0, TRAINING_SEED_LIMIT)``.
 * The validation set ``validation_bus`` (:mod:`~hev_thermal_env.cycles.validation`) uses seeds from
   :data:`VALIDATION_SEED_BASE` up: disjoint from every training seed by construction.
 * The segments and the road are seeded with :func:`inner_seed`, an injective map of (family, seed, part)
@@ -48,9 +35,9 @@ import numpy as np
 
 from .cycle import IDLE_SPEED_MPS, Cycle
 from .generator import BEIJING_SEED, generate_bus_cycle
-from .grades import grade_along
+from .grades import grade_along, hill_kwargs
 
-#: Training seeds are drawn from ``[0, TRAINING_SEED_LIMIT)`` (as ``random_bus`` always drew them).
+#: Training seeds are drawn from ``[0, TRAINING_SEED_LIMIT)``.
 TRAINING_SEED_LIMIT = 2**31 - 1
 #: Validation cycle ``k`` has seed ``VALIDATION_SEED_BASE + k``: above every training seed.
 VALIDATION_SEED_BASE = 2**31
@@ -213,32 +200,15 @@ def _segment_kwargs(kind: str, rng: np.random.Generator) -> dict[str, Any]:
     return kwargs
 
 
-def hill_kwargs(max_grade: float) -> dict[str, Any]:
-    """``generate_grade_profile`` arguments of a family's hilly road with grades up to ``±max_grade``."""
-    return {"max_grade": float(max_grade), "grade_std": 0.5 * float(max_grade), "segment_m_range": (150.0, 600.0),
-            "transition_m": 40.0, "closed": True}
-
-
 def generate_family_cycle(family: str, seed: int, *, name: str | None = None) -> Cycle:
-    """Cycle ``seed`` of ``family`` (see the module docstring); the same arguments always give the same cycle.
+    """Cycle ``seed`` (a non-negative integer) of ``family`` (one of :func:`list_families`); the same arguments
+    always give the same cycle.
 
-    Parameters
-    ----------
-    family : str
-        One of :func:`list_families`.
-    seed : int
-        Non-negative seed.
-    name : str, optional
-        The cycle's name; defaults to ``"FAMILY:SEED"``, which :func:`~hev_thermal_env.cycles.load_cycle` reloads.
+    ``name`` defaults to ``"FAMILY:SEED"``, which :func:`~hev_thermal_env.cycles.load_cycle` reloads. The
+    cycle is synthetic, on a 1-s grid, from and to standstill; its ``metadata`` holds the family, the
+    seed, the segments (kind, duration, generator seed and arguments) and the road profile (seed and
+    arguments).
 
-    Returns
-    -------
-    Cycle
-        Synthetic, on a 1-s grid, from and to standstill; ``metadata`` holds the family, the seed, the
-        segments (kind, duration, generator seed and arguments) and the road profile (seed and arguments).
-
-    Examples
-    --------
     >>> cyc = generate_family_cycle("bus_long", 7)
     >>> cyc.name, cyc.duration_s >= 3000.0
     ('bus_long:7', True)
@@ -292,12 +262,3 @@ def cycle_statistics(cycle: Cycle) -> dict[str, float]:
             "max_speed_kmh": cycle.max_speed_kmh, "stops_per_km": stops / km if km > 0 else 0.0,
             "idle_fraction": cycle.idle_fraction, "max_accel_mps2": float(a.max()), "max_decel_mps2": float(-a.min()),
             "grade_min": float(np.min(cycle.grade)), "grade_max": float(np.max(cycle.grade))}
-
-
-def family_statistics(family: str, seeds: Any) -> dict[str, dict[str, float]]:
-    """``min``, ``mean`` and ``max`` over ``seeds`` of each :func:`cycle_statistics` of ``family``'s cycles."""
-    rows = [cycle_statistics(generate_family_cycle(family, int(s))) for s in seeds]
-    if not rows:
-        raise ValueError("family_statistics needs at least one seed")
-    return {k: {"min": float(np.min([r[k] for r in rows])), "mean": float(np.mean([r[k] for r in rows])),
-                "max": float(np.max([r[k] for r in rows]))} for k in rows[0]}

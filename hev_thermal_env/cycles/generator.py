@@ -24,18 +24,8 @@ becomes the final dwell. Speeds are rounded to 1e-6 m/s so a generated cycle wri
 reads back identically. The road is flat (grade 0).
 
 The built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and
-:data:`BEIJING_KWARGS`; it is synthetic, not a measured Beijing bus cycle.
-
-Hilly roads
------------
-:func:`generate_grade_profile` draws a road profile along the distance, independent of the speed
-trace and from its own seed (so no flat cycle changes): straight grades on segments of
-``segment_m_range`` metres, drawn from a normal distribution of standard deviation
-``grade_std`` clipped to ``±max_grade``, joined by vertical curves of ``transition_m`` metres, and
-(``closed=True``) shifted so that the route ends at the height it started (a bus line loops back):
-no net climb to bias the fuel. :func:`with_grade_profile` lays such a profile under any cycle,
-sampling it at the middle of each 1-s step; :func:`hilly_route` is the named hilly route, the
-``beijing`` speeds over the profile of :data:`HILLY_SEED` (synthetic as well).
+:data:`BEIJING_KWARGS`; it is synthetic, not a measured Beijing bus cycle. Hilly roads under
+any cycle: :mod:`~hev_thermal_env.cycles.grades`.
 """
 
 from __future__ import annotations
@@ -58,11 +48,8 @@ BEIJING_KWARGS: dict[str, Any] = {"duration_s": 1300.0}
 
 #: Targets of the synthetic ``beijing`` cycle, close to Chinese city-bus test cycles.
 BEIJING_TARGETS: dict[str, tuple[float, float]] = {
-    "duration_s": (1235.0, 1365.0),
-    "mean_speed_kmh": (14.0, 18.0),
-    "max_speed_kmh": (55.0, 62.0),
-    "idle_fraction": (0.25, 0.30),
-    "max_abs_accel_mps2": (0.0, 1.1),
+    "duration_s": (1235.0, 1365.0), "mean_speed_kmh": (14.0, 18.0), "max_speed_kmh": (55.0, 62.0),
+    "idle_fraction": (0.25, 0.30), "max_abs_accel_mps2": (0.0, 1.1),
 }
 
 _KMH = 1.0 / 3.6
@@ -70,14 +57,8 @@ _SPEED_DECIMALS = 6
 _MAX_APPROACH_STEPS = 10_000
 
 
-def _step_accel(
-    v_mps: float,
-    a_mps2: float,
-    target_mps: float,
-    accel_limit_mps2: float,
-    decel_limit_mps2: float,
-    jerk_mps3: float,
-) -> float:
+def _step_accel(v_mps: float, a_mps2: float, target_mps: float, accel_limit_mps2: float, decel_limit_mps2: float,
+                jerk_mps3: float) -> float:
     """Acceleration over the next 1-s step towards ``target_mps``.
 
     The desired acceleration follows ``sqrt(2 j dv)`` (the fastest profile from which the
@@ -102,23 +83,14 @@ def _step_accel(
     return min(max(a_new, -decel_limit_mps2), accel_limit_mps2)
 
 
-def _accel_limit_mps2(
-    v_mps: float, *, scale: float, max_accel_mps2: float, power_w_per_kg: float
-) -> float:
+def _accel_limit_mps2(v_mps: float, *, scale: float, max_accel_mps2: float, power_w_per_kg: float) -> float:
     """Traction acceleration limit: constant at low speed, power-limited above."""
     return scale * min(max_accel_mps2, power_w_per_kg / max(v_mps, 1e-6))
 
 
-def _build_trip(
-    segments: list[tuple[float, int]],
-    noise: np.ndarray,
-    accel_limit: Callable[[float], float],
-    decel_mps2: float,
-    jerk_mps3: float,
-    max_speed_mps: float,
-    noise_std_mps: float,
-    noise_corr: float,
-) -> list[float]:
+def _build_trip(segments: list[tuple[float, int]], noise: np.ndarray, accel_limit: Callable[[float], float],
+                decel_mps2: float, jerk_mps3: float, max_speed_mps: float, noise_std_mps: float,
+                noise_corr: float) -> list[float]:
     """Speeds after each 1-s step of one micro-trip from standstill back to standstill.
 
     ``segments`` is a list of ``(cruise_speed_mps, cruise_s)``; ``noise`` holds standard
@@ -155,23 +127,10 @@ def _build_trip(
 
 
 def bus_cycle_params(**kwargs: Any) -> dict[str, Any]:
-    """Keyword parameters of :func:`generate_bus_cycle` with defaults filled in.
-
-    Parameters
-    ----------
-    **kwargs
-        Keyword arguments as they would be passed to :func:`generate_bus_cycle`
-        (without ``seed``, ``name`` and ``description``).
-
-    Returns
-    -------
-    dict
-        Every generator parameter with its value.
-    """
+    """Every parameter of :func:`generate_bus_cycle` with its value: the keyword arguments given (as they would be
+    passed to it, without ``seed``, ``name`` and ``description``) and the defaults of the others."""
     sig = inspect.signature(generate_bus_cycle)
-    params = {
-        k: p.default for k, p in sig.parameters.items() if k not in ("seed", "name", "description")
-    }
+    params = {k: p.default for k, p in sig.parameters.items() if k not in ("seed", "name", "description")}
     unknown = set(kwargs) - set(params)
     if unknown:
         raise ValueError(f"unknown generate_bus_cycle parameters: {sorted(unknown)}")
@@ -205,63 +164,30 @@ def generate_bus_cycle(
     name: str | None = None,
     description: str | None = None,
 ) -> Cycle:
-    """Generate a synthetic stop-to-stop city-bus cycle.
+    """Generate a synthetic stop-to-stop city-bus cycle (the micro-trip model of the module docstring).
 
-    See the module docstring for the micro-trip model. The same seed and arguments always give
-    the same cycle (``numpy.random.default_rng(seed)``).
+    The same seed and arguments always give the same cycle (``numpy.random.default_rng(seed)``).
 
-    Parameters
-    ----------
-    seed : int
-        Seed of ``numpy.random.default_rng``.
-    duration_s : float, optional
-        Cycle duration [s], rounded to whole seconds (at least 60).
-    max_speed_kmh : float, optional
-        Hard speed ceiling [km/h], including fluctuations.
-    cruise_speed_kmh_range : (float, float), optional
-        Range of the cruise speeds [km/h], drawn from a triangular distribution.
-    cruise_speed_mode_kmh : float, optional
-        Most likely cruise speed [km/h] (mode of the triangular distribution).
-    cruise_s_range : (float, float), optional
-        Range of the uniformly drawn cruise durations [s] (rounded to whole seconds).
-    speed_change_prob : float, optional
-        Probability that a trip changes to a second cruise speed before stopping.
-    speed_noise_kmh : float, optional
-        Standard deviation of the speed fluctuation while cruising [km/h].
-    dwell_s_range : (float, float), optional
-        Range of the uniformly drawn dwell times at stops [s], also used for the initial dwell.
-    max_accel_mps2 : float, optional
-        Acceleration limit at low speed [m/s^2]; with the default limits the 1-s
-        acceleration and deceleration never exceed 1.1 m/s^2 in magnitude.
-    accel_power_w_per_kg : float, optional
-        Specific tractive power [W/kg]: above ``accel_power_w_per_kg / max_accel_mps2`` m/s
-        the acceleration limit is ``accel_power_w_per_kg / v``.
-    accel_scale_range : (float, float), optional
-        Range of the per-trip driver factor on the acceleration curve.
-    decel_mps2_range : (float, float), optional
-        Range of the per-trip braking deceleration [m/s^2].
-    max_jerk_mps3 : float, optional
-        Limit on the change of acceleration per second [m/s^3].
-    name : str, optional
-        Cycle name; defaults to ``"bus_seed<seed>"``.
-    description : str, optional
-        Cycle description; defaults to a text stating that the cycle is synthetic.
+    * ``seed``: seed of ``numpy.random.default_rng`` (an integer, else ``TypeError``).
+    * ``duration_s``: cycle duration [s], rounded to whole seconds (at least 60).
+    * ``max_speed_kmh``: hard speed ceiling [km/h], including fluctuations.
+    * ``cruise_speed_kmh_range``, ``cruise_speed_mode_kmh``: range and mode [km/h] of the triangular
+      distribution of cruise speeds; ``cruise_s_range``: of the uniform cruise durations [s].
+    * ``speed_change_prob``: probability of a second cruise speed before a stop; ``speed_noise_kmh``:
+      standard deviation of the cruising fluctuation [km/h].
+    * ``dwell_s_range``: range of the uniform dwell times at stops [s], also the initial dwell.
+    * ``max_accel_mps2`` [m/s²] and ``accel_power_w_per_kg`` [W/kg]: the acceleration limit, constant
+      at low speed and ``accel_power_w_per_kg / v`` above; with the defaults the 1-s acceleration and
+      deceleration never exceed 1.1 m/s² in magnitude. ``accel_scale_range``: the per-trip driver
+      factor on it; ``decel_mps2_range``: the per-trip braking deceleration [m/s²].
+    * ``max_jerk_mps3``: limit on the change of acceleration per second [m/s³].
+    * ``name``: default ``"bus_seed<seed>"``; ``description``: default a text stating that the cycle
+      is synthetic.
 
-    Returns
-    -------
-    Cycle
-        With ``synthetic=True``, flat road, speed 0 at the first and last sample, and
-        ``metadata`` holding ``synthetic``, ``generator``, ``seed`` and all parameters.
+    Returns a :class:`Cycle` with ``synthetic=True``, a flat road, speed 0 at the first and last
+    sample, and ``metadata`` holding ``synthetic``, ``generator``, ``seed`` and all parameters.
+    Raises ``ValueError`` if a parameter is out of range.
 
-    Raises
-    ------
-    ValueError
-        If a parameter is out of range.
-    TypeError
-        If ``seed`` is not an integer.
-
-    Examples
-    --------
     >>> cyc = generate_bus_cycle(seed=3)
     >>> cyc.duration_s, cyc.synthetic, float(cyc.speed_mps[-1])
     (1300.0, True, 0.0)
@@ -284,11 +210,8 @@ def generate_bus_cycle(
     decel_lo, decel_hi = check_range("decel_mps2_range", decel_mps2_range)
     if scale_lo <= 0.0 or decel_lo <= 0.0:
         raise ValueError("accel_scale_range and decel_mps2_range must be positive")
-    for label, value in (
-        ("max_accel_mps2", max_accel_mps2),
-        ("accel_power_w_per_kg", accel_power_w_per_kg),
-        ("max_jerk_mps3", max_jerk_mps3),
-    ):
+    for label, value in (("max_accel_mps2", max_accel_mps2), ("accel_power_w_per_kg", accel_power_w_per_kg),
+                         ("max_jerk_mps3", max_jerk_mps3)):
         if not (math.isfinite(value) and value > 0.0):
             raise ValueError(f"{label} must be positive, got {value!r}")
     if not (0.0 <= speed_change_prob <= 1.0):
@@ -297,18 +220,12 @@ def generate_bus_cycle(
         raise ValueError(f"speed_noise_kmh must be >= 0, got {speed_noise_kmh!r}")
 
     params: dict[str, Any] = {
-        "duration_s": float(duration_s),
-        "max_speed_kmh": float(max_speed_kmh),
-        "cruise_speed_kmh_range": [cruise_lo, cruise_hi],
-        "cruise_speed_mode_kmh": cruise_mode,
-        "cruise_s_range": [cruise_s_lo, cruise_s_hi],
-        "speed_change_prob": float(speed_change_prob),
-        "speed_noise_kmh": float(speed_noise_kmh),
-        "dwell_s_range": [dwell_lo, dwell_hi],
-        "max_accel_mps2": float(max_accel_mps2),
-        "accel_power_w_per_kg": float(accel_power_w_per_kg),
-        "accel_scale_range": [scale_lo, scale_hi],
-        "decel_mps2_range": [decel_lo, decel_hi],
+        "duration_s": float(duration_s), "max_speed_kmh": float(max_speed_kmh),
+        "cruise_speed_kmh_range": [cruise_lo, cruise_hi], "cruise_speed_mode_kmh": cruise_mode,
+        "cruise_s_range": [cruise_s_lo, cruise_s_hi], "speed_change_prob": float(speed_change_prob),
+        "speed_noise_kmh": float(speed_noise_kmh), "dwell_s_range": [dwell_lo, dwell_hi],
+        "max_accel_mps2": float(max_accel_mps2), "accel_power_w_per_kg": float(accel_power_w_per_kg),
+        "accel_scale_range": [scale_lo, scale_hi], "decel_mps2_range": [decel_lo, decel_hi],
         "max_jerk_mps3": float(max_jerk_mps3),
     }
 
@@ -323,14 +240,8 @@ def generate_bus_cycle(
         return int(round(rng.uniform(dwell_lo, dwell_hi)))
 
     def draw_cruise() -> tuple[float, int]:
-        if cruise_hi > cruise_lo:
-            speed_kmh = rng.triangular(cruise_lo, cruise_mode, cruise_hi)
-        else:
-            speed_kmh = cruise_lo
-        return (
-            speed_kmh * _KMH,
-            int(round(rng.uniform(cruise_s_lo, cruise_s_hi))),
-        )
+        speed_kmh = rng.triangular(cruise_lo, cruise_mode, cruise_hi) if cruise_hi > cruise_lo else cruise_lo
+        return speed_kmh * _KMH, int(round(rng.uniform(cruise_s_lo, cruise_s_hi)))
 
     speeds: list[float] = [0.0] * (1 + min(draw_dwell(), n_total))
     n_trips = 0
@@ -344,21 +255,11 @@ def generate_bus_cycle(
         dwell = draw_dwell()
         noise = rng.standard_normal(sum(s for _, s in segments))
 
-        build = functools.partial(
-            _build_trip,
-            noise=noise,
-            accel_limit=functools.partial(
-                _accel_limit_mps2,
-                scale=scale,
-                max_accel_mps2=max_accel_mps2,
-                power_w_per_kg=accel_power_w_per_kg,
-            ),
-            decel_mps2=decel,
-            jerk_mps3=max_jerk_mps3,
-            max_speed_mps=max_speed_mps,
-            noise_std_mps=noise_std_mps,
-            noise_corr=noise_corr,
-        )
+        accel_limit = functools.partial(_accel_limit_mps2, scale=scale, max_accel_mps2=max_accel_mps2,
+                                        power_w_per_kg=accel_power_w_per_kg)
+        build = functools.partial(_build_trip, noise=noise, accel_limit=accel_limit, decel_mps2=decel,
+                                  jerk_mps3=max_jerk_mps3, max_speed_mps=max_speed_mps, noise_std_mps=noise_std_mps,
+                                  noise_corr=noise_corr)
 
         # Shorten a trip that does not fit, keeping at least one second of final dwell:
         # first drop the second segment and cruise time, then lower the speed.
@@ -379,24 +280,11 @@ def generate_bus_cycle(
 
     speed_mps = np.round(np.asarray(speeds, dtype=np.float64), _SPEED_DECIMALS)
     speed_mps = np.maximum(speed_mps, 0.0) + 0.0  # no negative zeros
-    metadata = {
-        "synthetic": True,
-        "generator": "hev_thermal_env.cycles.generate_bus_cycle",
-        "seed": int(seed),
-        "params": params,
-        "n_trips": n_trips,
-    }
-    return Cycle(
-        name=name if name is not None else f"bus_seed{int(seed)}",
-        time_s=np.arange(n_total + 1, dtype=np.float64),
-        speed_mps=speed_mps,
-        grade=np.zeros(n_total + 1),
-        synthetic=True,
-        description=(
-            description
-            if description is not None
-            else f"Synthetic city-bus cycle (generated, not measured), seed {int(seed)}"
-        ),
-        source="hev_thermal_env.cycles.generator.generate_bus_cycle",
-        metadata=metadata,
-    )
+    metadata = {"synthetic": True, "generator": "hev_thermal_env.cycles.generate_bus_cycle", "seed": int(seed),
+                "params": params, "n_trips": n_trips}
+    if description is None:
+        description = f"Synthetic city-bus cycle (generated, not measured), seed {int(seed)}"
+    return Cycle(name=name if name is not None else f"bus_seed{int(seed)}",
+                 time_s=np.arange(n_total + 1, dtype=np.float64), speed_mps=speed_mps, grade=np.zeros(n_total + 1),
+                 synthetic=True, description=description, source="hev_thermal_env.cycles.generator.generate_bus_cycle",
+                 metadata=metadata)

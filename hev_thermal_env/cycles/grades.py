@@ -1,9 +1,13 @@
 """Seeded road grade profiles under any cycle: hilly routes for the heat scenarios.
 
-:func:`generate_grade_profile` draws a piecewise grade over distance (segments of random length and
-grade, smooth transitions, optionally closed so the route has no net climb);
-:func:`with_grade_profile` lays one under a cycle; :func:`hilly_route` is ``beijing`` over rolling
-city hills (synthetic).
+:func:`generate_grade_profile` draws a road profile along the distance, independent of the speed
+trace and from its own seed (so no flat cycle changes): straight grades on segments of
+``segment_m_range`` metres, drawn from a normal distribution of standard deviation ``grade_std``
+clipped to ``±max_grade``, joined by vertical curves of ``transition_m`` metres, and
+(``closed=True``) shifted so that the route ends at the height it started (a bus line loops
+back): no net climb to bias the fuel. :func:`with_grade_profile` lays such a profile under any
+cycle (:func:`grade_along`); :func:`hilly_route` is the named hilly route, the ``beijing`` speeds
+over the profile of :data:`HILLY_SEED` (synthetic as well).
 """
 
 from __future__ import annotations
@@ -19,21 +23,20 @@ from .generator import check_range
 #: Seed of the road profile of :func:`hilly_route`.
 HILLY_SEED = 2024
 
-#: Keyword arguments of :func:`generate_grade_profile` for :func:`hilly_route`: rolling city hills.
-HILLY_KWARGS: dict[str, Any] = {"max_grade": 0.07, "grade_std": 0.035, "segment_m_range": (150.0, 600.0),
-                                "transition_m": 40.0, "closed": True}
+
+def hill_kwargs(max_grade: float) -> dict[str, Any]:
+    """:func:`generate_grade_profile` arguments of rolling hills with grades up to ``±max_grade``."""
+    return {"max_grade": float(max_grade), "grade_std": 0.5 * float(max_grade), "segment_m_range": (150.0, 600.0),
+            "transition_m": 40.0, "closed": True}
 
 
-def generate_grade_profile(
-    seed: int,
-    length_m: float,
-    *,
-    max_grade: float = 0.07,
-    grade_std: float = 0.035,
-    segment_m_range: tuple[float, float] = (150.0, 600.0),
-    transition_m: float = 40.0,
-    closed: bool = True,
-) -> tuple[np.ndarray, np.ndarray]:
+#: Keyword arguments of :func:`generate_grade_profile` for :func:`hilly_route`: rolling city hills up to ±7 %.
+HILLY_KWARGS: dict[str, Any] = hill_kwargs(0.07)
+
+
+def generate_grade_profile(seed: int, length_m: float, *, max_grade: float = 0.07, grade_std: float = 0.035,
+                           segment_m_range: tuple[float, float] = (150.0, 600.0), transition_m: float = 40.0,
+                           closed: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """A seeded road profile: (positions [m], grade there) from 0 to at least ``length_m``.
 
     Grades (rise/run) are constant on segments with linear vertical curves of ``transition_m``
@@ -88,26 +91,19 @@ def grade_along(speed_mps: np.ndarray, seed: int, **kwargs: Any) -> np.ndarray:
 
 
 def with_grade_profile(cycle: Cycle, seed: int, *, name: str | None = None, **kwargs: Any) -> Cycle:
-    """``cycle``'s speeds over the road of :func:`generate_grade_profile` (``seed``, ``kwargs``).
-
-    Step k (from ``speed[k]`` to ``speed[k + 1]``) climbs the grade at the middle of the distance
-    it covers; the last sample repeats the last step's grade. The cycle's own grade is replaced.
-    """
+    """``cycle``'s speeds over the road of :func:`generate_grade_profile` (``seed``, ``kwargs``), sampled by
+    :func:`grade_along`; the cycle's own grade is replaced."""
     v = np.asarray(cycle.speed_mps, dtype=np.float64)
     grade = grade_along(v, seed, **kwargs)
     params = {k: list(x) if isinstance(x, tuple) else x for k, x in kwargs.items()}
     metadata = {**cycle.metadata, "grade_profile": {"seed": int(seed), "params": params,
                                                     "generator": "hev_thermal_env.cycles.generate_grade_profile"}}
-    return Cycle(
-        name=name if name is not None else f"{cycle.name}_hilly{int(seed)}",
-        time_s=np.asarray(cycle.time_s, dtype=np.float64),
-        speed_mps=v,
-        grade=grade,
-        synthetic=True,
-        description=f"{cycle.description or cycle.name} over a generated hilly road (seed {int(seed)}, synthetic)",
-        source=f"{cycle.source}; grade from hev_thermal_env.cycles.generate_grade_profile(seed={int(seed)})",
-        metadata=metadata,
-    )
+    return Cycle(name=name if name is not None else f"{cycle.name}_hilly{int(seed)}",
+                 time_s=np.asarray(cycle.time_s, dtype=np.float64), speed_mps=v, grade=grade, synthetic=True,
+                 description=f"{cycle.description or cycle.name} over a generated hilly road (seed {int(seed)}, "
+                             "synthetic)",
+                 source=f"{cycle.source}; grade from hev_thermal_env.cycles.generate_grade_profile(seed={int(seed)})",
+                 metadata=metadata)
 
 
 def hilly_route(seed: int = HILLY_SEED, base: Cycle | None = None) -> Cycle:

@@ -7,11 +7,8 @@ family: long, congested, hard launches, hilly, mixed), and from there on express
 (``bus_express``). ``validation_bus:20..29`` are the cycles a training run selects its checkpoints on;
 ``benchmarks/ppo_vs_dp.py`` judges on ``validation_bus:0..19``, which no selection saw.
 
-Training draws family seeds from ``[0, TRAINING_SEED_LIMIT)``
-(:func:`~hev_thermal_env.cycles.families.training_seed`), below :data:`VALIDATION_SEED_BASE`, and a
-family cycle's generator seeds are an injective map of (family, seed)
-(:func:`~hev_thermal_env.cycles.families.inner_seed`): no training episode can drive a validation cycle,
-nor a stretch generated from the same seed. :func:`validation_seed` asserts it.
+No training episode can drive a validation cycle, nor a stretch generated from the same seed (the
+seeds: :mod:`~hev_thermal_env.cycles.families`); :func:`validation_seed` asserts it.
 """
 
 from __future__ import annotations

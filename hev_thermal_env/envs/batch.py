@@ -1,68 +1,27 @@
 """The batch engine: a batch of vehicles, each on its own cycle, stepped together; the step of every env.
 
-:class:`EpisodeRows` holds, per row, the cycle tables padded to a common width (speed held at its
-last value), the step index ``k``, the end step, the physical state, the conditions and the SOC
-target. :meth:`EpisodeRows.step` advances every row with one call of :func:`advance_kernel`, a
-documented compiled kernel that composes the physics step (:func:`~hev_thermal_env.physics.core.step_kernel`),
-the reward (:func:`~hev_thermal_env.envs.reward.reward_kernel`) and the observation
-(:func:`observe_kernel`): one dispatch per step, which is what makes the single env as cheap to
-step as a classic-control env. The single env is a batch of one; the vector env a batch of n.
+:class:`EpisodeRows` holds per row the cycle tables (padded to a common width), the step index, the state, the
+conditions and the SOC target. :meth:`EpisodeRows.step` is one call of :func:`advance_kernel` (physics, reward and
+observation fused): one dispatch per step, so the single env (a batch of one) steps as cheaply as a classic-control env;
+the vector env is a batch of n.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from ..cycles import Cycle
 from ..physics import core as C
-from ..physics.config import Conditions
+from ..physics.config import Conditions, VehicleConfig, paper_bus
 from ..physics.jit import jit
 from . import spaces as S
-from .episodes import CycleTables, Episode
+from .episodes import CycleTables, Episode, EpisodeSampler, TableCache
+from .observation import observe_kernel
 from .reward import REWARD_TERMS, RewardParams, band_center, descent_soc, reward_kernel
-
-
-@jit
-def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, demand, gear, descent, offsets, dt_s,
-                   low, high, obs):
-    """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]).
-
-    Entry order and meaning: :data:`hev_thermal_env.envs.spaces.observation_names`. "Next step"
-    is the step from ``speed[r, k]`` to ``speed[r, k + 1]``. The ``soc_target`` entry is the SOC band's
-    center at instant ``k`` (:func:`~hev_thermal_env.envs.reward.band_center` of ``descent[r, k]``, with
-    the reward weights ``w``), ``soc_deviation`` the SOC's distance from it.
-    """
-    n_base = S.N_OBS_BASE
-    for i in range(rows.shape[0]):
-        r = rows[i]
-        j = k[r]
-        v0 = speed[r, j]
-        obs[i, S.OBS_SPEED] = v0
-        obs[i, S.OBS_ACCEL] = (speed[r, j + 1] - v0) / dt_s
-        obs[i, S.OBS_DEMAND] = demand[r, j]
-        obs[i, S.OBS_SOC] = state[r, C.SOC]
-        center = band_center(w, soc_target[r], descent[r, j])
-        obs[i, S.OBS_SOC_TARGET] = center
-        obs[i, S.OBS_SOC_DEVIATION] = state[r, C.SOC] - center
-        obs[i, S.OBS_TEMP] = state[r, C.TEMP_C]
-        obs[i, S.OBS_PWM] = state[r, C.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
-        obs[i, S.OBS_HEAT_X] = state[r, C.HEAT_X]
-        obs[i, S.OBS_CUTOFF] = state[r, C.CUTOFF]
-        obs[i, S.OBS_AVAIL] = avail[r]
-        obs[i, S.OBS_GEAR] = gear[r, j]
-        obs[i, S.OBS_PROGRESS] = j / n_steps[r]
-        obs[i, S.OBS_AMBIENT] = cond[r, C.AMBIENT_C]
-        obs[i, S.OBS_COOLANT] = cond[r, C.COOLANT_FACTOR]
-        for p in range(offsets.shape[0]):
-            obs[i, n_base + p] = speed[r, j + offsets[p]]
-        for c in range(obs.shape[1]):
-            x = obs[i, c]
-            if x < low[c]:
-                obs[i, c] = low[c]
-            elif x > high[c]:
-                obs[i, c] = high[c]
 
 
 @jit
@@ -70,11 +29,10 @@ def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, s
                    low, high, all_rows, state_out, out, terms, total, avail, obs):
     """One step of every row: physics, reward, step index, motor envelope and the next observation.
 
-    ``tables`` [5, n, width] holds speed, grade, demanded wheel power (kW), gear and the SOC the
-    descent to the route's end can return (:func:`~hev_thermal_env.envs.reward.descent_soc`) per row
-    and step; the band's center before and after the step follows from it and ``soc_target``.
-    Writes ``state_out``, ``out``, ``terms``/``total`` (the reward), ``avail`` (the motor envelope of
-    the step, the next observation's entry) and ``obs``; increments ``k``.
+    ``tables`` [5, n, width] holds speed, grade, demanded wheel power (kW), gear and the SOC the descent to the route's
+    end can return (:func:`~hev_thermal_env.envs.reward.descent_soc`) per row and step; the band's center before and
+    after the step follows from it and ``soc_target``. Writes ``state_out``, ``out``, ``terms``/``total`` (the reward),
+    ``avail`` (the motor envelope of the step, the next observation's entry) and ``obs``; increments ``k``.
     """
     n = u.shape[0]
     v0 = np.empty(n)
@@ -105,10 +63,7 @@ class EpisodeRows:
         self.core = core
         self.n = n_rows
         self.offsets = np.ascontiguousarray(offsets, dtype=np.int64)
-        self.low = low
-        self.high = high
-        self.low32 = low.astype(np.float32)
-        self.high32 = high.astype(np.float32)
+        self.low, self.high = low.astype(np.float32), high.astype(np.float32)  # the observation's bounds
         self.lhv = core.config.engine.fuel_lhv_j_per_g
         self.reward_params = reward_params
         self.pad = int(self.offsets.max()) + 2 if self.offsets.size else 2
@@ -148,26 +103,12 @@ class EpisodeRows:
         """The SOC band's center [n, width] of every row at every instant (held at the target past the end)."""
         return band_center(self._weights, self.soc_target[:, None], self.tables[4])
 
-    @property
-    def width(self) -> int:
-        """Steps the tables hold per row (the longest loaded cycle plus the preview's padding)."""
-        return self.tables.shape[2]
-
-    def _widen(self, width: int) -> None:
-        old = self.tables
-        new = np.zeros((5, self.n, width))
-        w0 = old.shape[2]
-        new[:, :, :w0] = old
-        for held in (0, 3):  # speed and gear held (grade, demand and descent are 0 past the end)
-            new[held, :, w0:] = old[held, :, w0 - 1:w0]
-        self.tables = new
-
     def load(self, rows: Sequence[int], episodes: Sequence[Episode], tables: Sequence[CycleTables],
              max_steps: int | None = None) -> None:
         """Start the given episodes in the given rows (state, tables, index) and compute their first envelope."""
         need = max(len(t.speed_mps) for t in tables) + self.pad
-        if need > self.tables.shape[2]:
-            self._widen(need)
+        if need > self.tables.shape[2]:  # the last column holds every row's value past its end (speed and gear held)
+            self.tables = np.pad(self.tables, ((0, 0), (0, 0), (0, need - self.tables.shape[2])), mode="edge")
         self.state = self.state.copy()  # states handed out earlier (infos, phys_state) stay untouched
         speed, grade, demand, gear, descent = self.tables
         gl, ba = self.core.config.glider, self.core.config.battery
@@ -207,8 +148,8 @@ class EpisodeRows:
     def step(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Advance every row with motor shares ``u`` (float64 [n], already clipped to [-1, 1]).
 
-        Returns (reward [n], terms [n, 4] in ``REWARD_TERMS`` order, outputs [n, N_OUT], next
-        observations [n, dim]); updates the state, ``k``, ``last_out`` and the envelope.
+        Returns (reward [n], terms [n, 4] in ``REWARD_TERMS`` order, outputs [n, N_OUT], next observations [n, dim]);
+        updates the state, ``k``, ``last_out`` and the envelope.
         """
         n = self.n
         state_out = np.empty((n, C.N_STATE))
@@ -219,7 +160,7 @@ class EpisodeRows:
         core = self.core
         advance_kernel(core.gl, core.dl, core.en, core.mo, core.th, core.ba, core.pt, core.dt_s, self._weights, u,
                        self.tables, self.k, self.n_steps, self.state, self.cond, self.soc_target, self.offsets,
-                       self.low32, self.high32, self.all_rows, state_out, out, terms, total, self.avail, obs)
+                       self.low, self.high, self.all_rows, state_out, out, terms, total, self.avail, obs)
         self.state = state_out
         self.last_out = out
         return total, terms, out, obs
@@ -230,5 +171,55 @@ class EpisodeRows:
         obs = np.empty((idx.size, self.low.size), dtype=np.float32)
         observe_kernel(self._weights, idx, self.k, self.state, self.cond, self.soc_target, self.avail, self.n_steps,
                        self.tables[0], self.tables[2], self.tables[3], self.tables[4], self.offsets, self.core.dt_s,
-                       self.low32, self.high32, obs)
+                       self.low, self.high, obs)
         return obs
+
+
+class EnvParts:
+    """What the single and the vector env share: the vehicle, the episode sampler and the batch engine
+    (:meth:`_build`), and the attributes read through the engine."""
+
+    def _build(self, n_rows: int, cycle: Any, scenario: Any, config: VehicleConfig | None, conditions: Any, reward: Any,
+               preview_s: int, preview_step_s: int, thermal: bool | None, random_start: bool,
+               info_keys: Any) -> tuple[spaces.Box, spaces.Box]:
+        """Build the parts from the env's arguments; returns one env's observation and action spaces."""
+        self.info_keys = S.check_info_keys(info_keys)
+        self.reset_info_keys = S.reset_info_keys(self.info_keys)
+        self.config = resolve_config(config, thermal)
+        self.core = C.PhysicsCore(self.config)
+        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
+        offsets = S.preview_offsets(preview_s, preview_step_s)
+        self.preview_s, self.preview_step_s = int(preview_s), int(preview_step_s)
+        self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
+        low, high = S.observation_bounds(self.config, offsets.size)
+        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
+        self._rows = EpisodeRows(self.core, n_rows, offsets, low, high, RewardParams.of(reward))
+        return (spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32),
+                spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32))
+
+    @property
+    def reward_params(self) -> RewardParams:
+        return self._rows.reward_params
+
+    @reward_params.setter
+    def reward_params(self, value: RewardParams | dict) -> None:
+        self._rows.reward_params = RewardParams.of(value)
+
+    @property
+    def phys_state(self) -> np.ndarray:
+        """State before the next step, [n, N_STATE] (n = 1 for the single env)."""
+        return self._rows.state
+
+    @property
+    def cond(self) -> np.ndarray:
+        """Conditions array of the episodes, [n, N_COND]."""
+        return self._rows.cond
+
+
+def resolve_config(config: VehicleConfig | None, thermal: bool | None) -> VehicleConfig:
+    """The vehicle: ``config`` (default ``paper_bus()``), its thermal model switched by ``thermal`` if given."""
+    if config is None:
+        config = paper_bus()
+    if not isinstance(config, VehicleConfig):
+        raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
+    return config if thermal is None else config.with_thermal(bool(thermal))

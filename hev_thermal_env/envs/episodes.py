@@ -1,8 +1,4 @@
-"""Episodes: what is drawn at reset (cycle, conditions, start) and the per-cycle tables the steps read.
-
-Shared by the single and the vector env, so a vector sub-environment seeded like a single env
-lives through the same episodes.
-"""
+"""Episodes: what is drawn at reset (cycle, conditions, start) and the per-cycle tables the steps read."""
 
 from __future__ import annotations
 
@@ -20,22 +16,16 @@ from ..physics import core as C
 from ..physics.config import COOLANT_MODES, Conditions
 from ..scenarios import Scenario, get_scenario
 
-RANDOM_BUS = "random_bus"
-"""Cycle name that draws a fresh synthetic bus cycle (``generate_bus_cycle``) every episode; like every family
-name of :func:`~hev_thermal_env.cycles.list_families` (``bus_long``, ``bus_congested``, ...)."""
-
 RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
 """Keys accepted in ``reset(options=...)``."""
 
 
 class CycleChoice:
-    """What the ``cycle`` argument asks for: fixed cycles and cycle families, one drawn uniformly per episode.
+    """What the env's ``cycle`` argument asks for (its spec lists the forms): fixed cycles and cycle families,
+    one drawn uniformly per episode.
 
-    Accepts a built-in name, a generated cycle's name (``bus_long:7``, ``validation_bus:3``), a set of
-    them (``validation_bus``: every validation cycle), a CSV path, a :class:`Cycle`, a family name
-    (``"random_bus"``, ``"bus_long"``, ...: a fresh cycle of the family every episode, its seed drawn by
-    :func:`~hev_thermal_env.cycles.families.training_seed`, never a validation seed), or a non-empty list
-    of these. Named and file cycles are loaded once, here, so errors show at construction. A scenario
+    Named and file cycles are loaded once, here, so errors show at construction; a family draws a fresh cycle every
+    episode, its seed from :func:`~hev_thermal_env.cycles.families.training_seed` (never a validation seed). A scenario
     with a road profile (``hilly``) lays it under every flat cycle (:meth:`Scenario.prepare_cycle`).
     """
 
@@ -52,7 +42,7 @@ class CycleChoice:
                 cyc = load_cycle(item)
                 self.items.append(cyc if scenario is None else scenario.prepare_cycle(cyc))
             else:
-                raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, a family such as {RANDOM_BUS!r} "
+                raise TypeError(f"cycle: expected a cycle name, a path, a Cycle, a family such as 'random_bus' "
                                 f"or a list of these, got {type(item).__name__}")
 
     def draw(self, rng: np.random.Generator) -> Cycle:
@@ -76,11 +66,8 @@ class Episode:
 
 
 class EpisodeSampler:
-    """Draws episodes (conditions, cycle, start) from a generator; shared by the single and vector envs.
-
-    The draws come in a fixed order (conditions, cycle, random bus seed, start offset), so a vector
-    sub-environment seeded like a single environment lives through the same episodes.
-    """
+    """Draws episodes from a generator, in a fixed order (conditions, cycle, random bus seed, start offset),
+    for the single and the vector env: a vector sub-env seeded like a single env lives through the same episodes."""
 
     def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool):
         self.scenario = get_scenario(scenario)
@@ -126,8 +113,8 @@ class EpisodeSampler:
 class CycleTables:
     """Per-step quantities of a cycle that do not depend on the vehicle's state.
 
-    The demanded wheel power and the gear of each step come from one batched call of the physics
-    core over all steps of the cycle (they depend only on the speed trace, the grade and the vehicle).
+    The demanded wheel power and the gear of each step come from one batched call of the physics core over all steps of
+    the cycle (they depend only on the speed trace, the grade and the vehicle).
     """
 
     def __init__(self, core: C.PhysicsCore, cycle: Cycle, state_row: np.ndarray, cond_row: np.ndarray):
@@ -149,8 +136,8 @@ class CycleTables:
 class TableCache:
     """Cycle tables of the env's fixed cycles, computed once per payload; other cycles (random, from options) fresh.
 
-    The demanded wheel power and the gear depend on the cycle and the payload (the mass) alone, so a table
-    is kept per (cycle, payload): a scenario that draws the payload per episode gets the right one.
+    The demanded wheel power and the gear depend on the cycle and the payload (the mass) alone, so a table is kept per
+    (cycle, payload): a scenario that draws the payload per episode gets the right one.
     """
 
     def __init__(self, core: C.PhysicsCore, fixed: Sequence[Cycle]):

@@ -1,10 +1,7 @@
-"""``HevThermal-v0``: energy management of a parallel hybrid city bus with a thermally limited motor.
+"""``HevThermal-v0``, a thin MDP layer in the classic-control style; its spec is the class docstring.
 
-A thin MDP layer, as a classic-control env: ``step`` is dynamics, reward and termination, all in
-one call of the batch engine (:class:`~hev_thermal_env.envs.batch.EpisodeRows`, a batch of one),
-which composes the physics core, the reward (:mod:`hev_thermal_env.envs.reward`) and the
-observation (:mod:`hev_thermal_env.envs.spaces`). Episodes (cycle, conditions, start) are drawn
-by :mod:`hev_thermal_env.envs.episodes` from the scenario (:mod:`hev_thermal_env.scenarios`).
+``step`` is dynamics, reward and termination in one call of the batch engine (:mod:`.batch`, a batch of one); episodes
+(cycle, conditions, start) are drawn by :mod:`.episodes` from the scenario.
 """
 
 from __future__ import annotations
@@ -15,48 +12,46 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from ..cycles import Cycle
 from ..physics import core as C
-from ..physics.config import Conditions, VehicleConfig, paper_bus
+from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
 from . import spaces as S
-from .batch import EpisodeRows
-from .episodes import Episode, EpisodeSampler, TableCache
+from .batch import EnvParts
+from .render import EpisodePlot
 from .reward import RewardParams
 
 
-class HevThermalEnv(gym.Env):
+class HevThermalEnv(EnvParts, gym.Env):
     r"""Energy management of a parallel hybrid city bus whose traction motor heats up and derates.
 
     ## Description
 
-    A 15 t parallel hybrid city bus (the paper's vehicle, :func:`hev_thermal_env.paper_bus`) drives
-    a speed cycle one second per step (backward-facing, ADVISOR-style). The agent is the
-    energy-management strategy: each step it chooses the share of the coupler torque the traction
-    motor carries; the diesel engine carries the rest. The water-cooled PMSM heats up (lumped
-    thermal node, paper eqs 1-7), loses peak torque as its heat index (PWM, eqs 8-9) integrates
-    sustained overload, loses efficiency as it warms and stops at 70 °C until it has cooled. Where
-    the powertrain cannot deliver the demand, the step records a trace miss (missed wheel energy,
-    speed deficit) and the reward prices it; the next step follows the cycle again. See
-    :mod:`hev_thermal_env.physics.core` and the README's Architecture section.
+    A 15 t parallel hybrid city bus (the paper's vehicle, :func:`hev_thermal_env.paper_bus`) drives a speed cycle one
+    second per step (backward-facing, ADVISOR-style). The agent is the energy-management strategy: each step it chooses
+    the share of the coupler torque the traction motor carries; the diesel engine carries the rest. The water-cooled
+    PMSM heats up (by default a lumped thermal network of winding, housing and coolant loop with thermostat and
+    radiator, calibrated to the paper's figures; ``paper_bus("paper_eqs")`` is the paper's one-node eqs 1-7:
+    :mod:`hev_thermal_env.physics.thermal`), loses peak torque as its heat index (PWM, eqs 8-9) integrates sustained
+    overload, loses efficiency as it warms and stops at 70 °C until it has cooled. Where the powertrain cannot deliver
+    the demand, the step records a trace miss (missed wheel energy, speed deficit) and the reward prices it; the next
+    step follows the cycle again. See :mod:`hev_thermal_env.physics.core`.
 
     ## Action Space
 
-    ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler.
-    Motor u·T_dem, engine (1 - u)·T_dem; u < 0 loads the engine more and charges the battery.
-    The physics core clips the motor request to its envelope (peak torque, heat index, cutoff)
-    and the battery's limits and lets the engine cover the rest up to its full load; what is
-    still missing is a priced trace miss (the motor never tops up by itself). Braking is
-    regenerative by rule (the action has no effect while braking or standing). Values outside
-    [-1, 1] are clipped (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share
-    applied); NaN or inf, or a shape other than ``(1,)``, raise ``ValueError``.
+    ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler. Motor u·T_dem, engine
+    (1 - u)·T_dem; u < 0 loads the engine more and charges the battery. The physics core clips the motor request to its
+    envelope (peak torque, heat index, cutoff) and the battery's limits and lets the engine cover the rest up to its
+    full load; what is still missing is a priced trace miss (the motor never tops up by itself). Braking is regenerative
+    by rule (the action has no effect while braking or standing). Values outside [-1, 1] are clipped
+    (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share applied); NaN or inf, or a shape other than
+    ``(1,)``, raise ``ValueError``.
 
     ## Observation Space
 
-    ``Box`` of float32, ``15 + preview_s // preview_step_s`` entries, always inside the bounds
-    (values are clipped to them). "Next step" is the step from ``cycle.speed_mps[k]`` to ``[k+1]``.
+    ``Box`` of float32, ``15 + preview_s // preview_step_s`` entries, always inside the bounds (values are clipped to
+    them). "Next step" is the step from ``cycle.speed_mps[k]`` to ``[k+1]``.
 
     | Num | Observation | Min | Max | Unit |
     |-----|-------------|-----|-----|------|
@@ -64,7 +59,7 @@ class HevThermalEnv(gym.Env):
     | 1 | acceleration the cycle demands over the next step | -10 | 10 | m/s² |
     | 2 | wheel power the cycle demands over the next step (road load, grade, inertia) | -2000 | 2000 | kW |
     | 3 | battery state of charge | 0 | 1 | - |
-    | 4 | center of the reward's SOC band now (the episode's initial SOC on a flat route; see Rewards) | 0 | 1 | - |
+    | 4 | center c(t) of the reward's SOC band (the episode's initial SOC on a flat route; see Rewards) | 0 | 1 | - |
     | 5 | SOC minus the band's center: the settlement is zero within ±0.01 of it | -1 | 1 | - |
     | 6 | motor temperature | -40 | 200 | °C |
     | 7 | heat index PWM (eq 9): 0 peak torque available, 1 continuous torque only | 0 | 1 | - |
@@ -77,67 +72,81 @@ class HevThermalEnv(gym.Env):
     | 14 | coolant heat-transfer multiplier: 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
     | 15... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
 
-    Entry 10 is the motor's torque limit in the last step: the peak torque at that speed, derated
-    by the heat index (eq 8), 0 while cut off; after reset, the limit for the first step. Its
-    upper bound is the motor's peak torque (240 N·m for ``paper_bus``); that of entry 11 the number
-    of gears (5). The gear is always 1 or more, but its declared lower bound is 0, so that an
-    all-zero observation lies inside the space (torchrl, for one, fills the final observation of a
-    batch with zeros and checks it against the space); every other entry's range holds 0 already.
-    The preview is taken from the start of the next step and held at the cycle's last speed past
-    its end; with the defaults (``preview_s=10``, ``preview_step_s=2``) it has 5 entries
-    (+2 to +10 s) and the observation 20. :func:`observation_names` gives the names in order.
+    Entry 10 is the motor's torque limit in the last step: the peak torque at that speed, derated by the heat index
+    (eq 8), 0 while cut off; after reset, the limit for the first step. Its upper bound is the motor's peak torque (240
+    N·m for ``paper_bus``); that of entry 11 the number of gears (5). The gear is always 1 or more, but its declared
+    lower bound is 0, so that an all-zero observation lies inside the space (torchrl, for one, fills the final
+    observation of a batch with zeros and checks it against the space); every other entry's range holds 0 already. The
+    preview is taken from the start of the next step and held at the cycle's last speed past its end; with the defaults
+    (``preview_s=10``, ``preview_step_s=2``) it has 5 entries (+2 to +10 s) and the observation 20.
+    :func:`observation_names` gives the names in order.
 
     ## Rewards
 
-    :func:`hev_thermal_env.envs.reward.reward_kernel` with :class:`~hev_thermal_env.envs.reward.RewardParams`,
-    in grams of diesel equivalent: ``reward = reward_fuel + reward_miss + reward_soc + reward_overheat``:
-    minus the fuel burned, minus the price of missed wheel energy (weight 1 by default), minus the
-    fuel equivalent of the battery energy used plus the SOC band settlement, minus an overheating
-    penalty (quadratic above the 60 °C soft limit, 20 per step while cut off, optionally per unit
-    PWM). Each term is in ``info``.
+    In grams of diesel equivalent (negative = cost), one compiled function for the env, the vector env, DP and ECMS
+    (:func:`~hev_thermal_env.envs.reward.reward_kernel`), with the weights and prices of
+    :class:`~hev_thermal_env.envs.reward.RewardParams` (every one a field):
+    ``reward = reward_fuel + reward_miss + reward_soc + reward_overheat``, each term in ``info``::
 
-    The band settlement is the step's change of Φ(SOC) = −10,000 g · max(|SOC − c(t)| − 0.01, 0),
-    the center c(t) being the episode's initial SOC on a flat route and at the route's end: zero
-    while the SOC stays within ±0.01 of it, a cost in the step that takes it further out, a refund
-    in the step that brings it back. Over an episode it adds up to −10,000 g per unit SOC that the
-    final SOC lies beyond the band, so the optimum of the reward is charge-sustaining (it ends
-    inside the band: DP with a free final SOC, ``benchmarks/reward_optimum.py``), and a run that
-    starts and ends inside the band returns exactly minus its corrected fuel
-    (:mod:`hev_thermal_env.metrics`) and the overheat terms. On high ground the center sits lower
-    by the charge the remaining descent to the route's end will return
-    (:func:`~hev_thermal_env.envs.reward.band_center`: ``descent_recovery`` = 0.6 of the
-    potential energy above the end, per unit SOC of the pack), so spending charge on a climb and
-    letting the descent refill it costs nothing while it lasts; observation entry 4 is c(t). Without it the
-    stated battery price lets storing charge with a loaded engine pay. A per-step quadratic
-    deviation term (``soc_deviation_weight``) is available and off by default.
+        reward_fuel     = −fuel_weight · fuel_g
+        reward_miss     = −miss_weight · (price of the missed wheel energy)
+        reward_soc      = −soc_energy_weight · (fuel equivalent of the battery's chemical energy this step)
+                          + Φ(SOC after the step, c after) − Φ(SOC before, c before)        (band settlement)
+                          − soc_deviation_weight · ((SOC − c) / soc_deviation_scale)²
+        reward_overheat = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [cut off]
+                          − derate_weight · PWM
+        Φ(SOC, c)       = −soc_band_weight · max(|SOC − c| − soc_band, 0)
+
+    The prices (:class:`~hev_thermal_env.prices.Prices`) are those of the corrected fuel of
+    :mod:`hev_thermal_env.metrics`: with the default weights an episode's fuel, miss and battery terms add up to minus
+    its corrected fuel, so DP and ECMS, which minimise the same terms, optimise the metric they are judged by.
+
+    Why the band settlement: the battery is priced at one stated average efficiency (engine 0.36 × charge path 0.90),
+    but the engine's marginal efficiency under load is better, so fuel, miss and battery energy alone are minimised by
+    ending with more charge (DP with a free final SOC: +0.06 on UDDS, the corrected fuel 1-2 % below the
+    charge-sustaining optimum). The settlement is the potential difference of the dead-zone hinge Φ: over an episode it
+    adds up to −10,000 g per unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step
+    by step as the SOC moves (a cost in the step that leaves the band, a refund in the step that returns). Its slope is
+    about the battery price of a unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times the most that ending beyond the band
+    earns (≈1,100 g), so the reward's optimum is charge-sustaining (``benchmarks/reward_optimum.py``), and a run that
+    starts and ends inside the band returns exactly minus its corrected fuel and the overheat terms. A step's settlement
+    stays within ≈10 g (a step moves the SOC by ≈0.001 at most); a larger pack needs a proportionally larger
+    ``soc_band_weight``.
+
+    The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on high ground it sits
+    lower by the charge the remaining descent will return (:func:`~hev_thermal_env.envs.reward.band_center`)::
+
+        c(t) = SOC_start − descent_recovery · m · g · (h(t) − h_end) / E_per_SOC
+
+    with ``descent_recovery`` = 0.6 (≈ driveline 0.93 × charge path 0.90 × the ≈0.75 of the potential energy that
+    rolling and air resistance leave on a city descent): spending charge on a climb that the descent refills costs
+    nothing while it lasts. The episode still pays exactly for its final SOC, plus a constant of its start (zero when
+    the route starts as high as it ends or inside the band).
 
     ## Info
 
-    ``step`` returns the keys of :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the contract of
-    DESIGN §4 first: fuel, SOC, motor and engine operating points, heat index, cutoff, reward terms;
-    then extras such as ``motor_share``, the share u applied after clipping, and
-    ``motor_share_clipped``, and the episode's keys, :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`),
-    or those chosen by ``info_keys``. ``reset`` returns
-    :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS` (those among ``info_keys``). Every value is
-    a number or a bool, so that libraries that turn each info value into a tensor (torchrl) read
-    them: the cycle and the coolant mode are codes, ``cycle_id``
-    (:func:`~hev_thermal_env.envs.codes.cycle_name` gives the name, as does
-    ``env.unwrapped.cycle.name``) and ``coolant_code``
-    (:func:`~hev_thermal_env.envs.codes.coolant_mode`). Every key of a reset's info is also a
-    step's, so a vector wrapper that merges an autoreset into a step's info adds no new key.
+    ``step`` returns the keys of :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the contract first: fuel, SOC, motor
+    and engine operating points, heat index, cutoff, reward terms; then extras such as ``motor_share``, the share u
+    applied after clipping, and ``motor_share_clipped``, and the episode's keys,
+    :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``. ``reset`` returns
+    :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS` (those among ``info_keys``). Every value is a number or a bool,
+    so that libraries that turn each info value into a tensor (torchrl) read them: the cycle and the coolant mode are
+    codes, ``cycle_id`` (:func:`~hev_thermal_env.envs.spaces.cycle_name` gives the name, as does
+    ``env.unwrapped.cycle.name``) and ``coolant_code`` (:func:`~hev_thermal_env.envs.spaces.coolant_mode`). Every key of
+    a reset's info is also a step's, so a vector wrapper that merges an autoreset into a step's info adds no new key.
 
     ## Starting State
 
-    The scenario (``"paper"``: 20 °C ambient and motor, coolant on, SOC 0.65; ``"hot"``;
-    ``"random"``: drawn every episode from ``self.np_random``) or ``conditions`` set the ambient
-    temperature, the motor's starting temperature, the SOC and the coolant mode; reset options
-    override them. The heat-index integrator starts at -PWM_initial(T_start) (eq 9). The episode
-    starts at ``start_s`` into the cycle (0, or uniform with ``random_start``).
+    The scenario (:mod:`hev_thermal_env.scenarios`; ``"paper"``: 20 °C ambient and motor, coolant on, SOC 0.65; the
+    randomised ones draw every episode from ``self.np_random``) or ``conditions`` set the ambient temperature, the
+    motor's starting temperature, the SOC, the coolant mode and the payload; reset options override them. The heat-index
+    integrator starts at -PWM_initial(T_start) (eq 9). The episode starts at ``start_s`` into the cycle (0, or uniform
+    with ``random_start``).
 
     ## Episode End
 
-    ``truncated`` is True at the end of the cycle. ``terminated`` is always False: overheating,
-    cutoff and trace misses are priced, not terminal.
+    ``truncated`` is True at the end of the cycle. ``terminated`` is always False: overheating, cutoff and trace misses
+    are priced, not terminal.
 
     ## Arguments
 
@@ -147,43 +156,40 @@ class HevThermalEnv(gym.Env):
                    random_start=False, info_keys="all")
     ```
 
-    * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path,
-      a :class:`~hev_thermal_env.cycles.Cycle`, a generated cycle's name (``bus_long:7``,
-      ``validation_bus:3``) or set (``validation_bus``), a cycle family (``"random_bus"``, ``"bus_long"``,
-      ``"bus_congested"``, ``"bus_launch"``, ``"bus_hilly"``, ``"bus_mixed"``, ``"bus_express"``: a fresh cycle of the family
-      per episode, seeded from ``self.np_random``; :mod:`hev_thermal_env.cycles.families`), or a list of
-      these (one drawn per episode).
-    * ``scenario``: ``"paper"``, ``"hot"`` or ``"random"`` (:mod:`hev_thermal_env.scenarios`) or a
+    * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path, a
+      :class:`~hev_thermal_env.cycles.Cycle`, a generated cycle's name (``bus_long:7``, ``validation_bus:3``) or set
+      (``validation_bus``), a cycle family (one of :func:`~hev_thermal_env.cycles.list_families`, ``"random_bus"`` to
+      ``"bus_express"``: a fresh cycle of the family per episode, seeded from ``self.np_random``;
+      :mod:`hev_thermal_env.cycles.families`), or a list of these (one drawn per episode).
+    * ``scenario``: a name of :func:`~hev_thermal_env.scenarios.list_scenarios` (``"paper"``, ``"hot"``, ``"summer"``,
+      ``"hilly"``, ``"full_bus"``, ``"random"``, ``"random_service"``: :mod:`hev_thermal_env.scenarios`) or a
       :class:`~hev_thermal_env.scenarios.Scenario`.
     * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus()``).
-    * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides
-      the scenario).
+    * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides the scenario).
     * ``reward``: :class:`~hev_thermal_env.envs.reward.RewardParams` or a dict of its fields.
-    * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds);
-      ``preview_s=0`` removes it.
-    * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor
-      temperature, heat index and split so far) or ``"human"`` (the same in a matplotlib window,
-      redrawn at every step and reset).
-    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting,
-      on for ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra
-      loss, no cutoff), the baseline of its tables.
+    * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds); ``preview_s=0``
+      removes it.
+    * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor temperature, heat index and
+      split so far) or ``"human"`` (the same in a matplotlib window, redrawn at every step and reset).
+    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting, on for
+      ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the
+      baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
-    * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence
-      of names from :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean
-      path for gymnasium's vector wrappers (``gymnasium.make_vec(..., vectorization_mode="sync",
-      info_keys=())`` merges no infos per step) and trainers that read none.
+    * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence of names from
+      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean path for gymnasium's vector wrappers
+      (``gymnasium.make_vec(..., vectorization_mode="sync", info_keys=())`` merges no infos per step) and trainers that
+      read none.
 
-    ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this
-    episode only), ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant``
-    (``"on"``, ``"degraded"``, ``"off"``) and ``start_s`` (whole seconds into the cycle).
+    ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this episode only),
+    ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant`` (``"on"``, ``"degraded"``, ``"off"``) and
+    ``start_s`` (whole seconds into the cycle).
 
     ## Attributes for strategies (``env.unwrapped``)
 
-    ``config``, ``core`` (:class:`~hev_thermal_env.physics.PhysicsCore`), ``conditions`` and
-    ``cycle`` of the episode, ``k`` (index of the next step), ``phys_state`` ((1, N_STATE) state
-    before the next step), ``cond`` ((1, N_COND)), ``reward_params``, ``soc_target``,
-    ``last_out`` ((N_OUT,) outputs of the last step, zeros after reset) and :meth:`peek`, which
-    evaluates candidate actions for the next step without changing the env.
+    ``config``, ``core`` (:class:`~hev_thermal_env.physics.PhysicsCore`), ``conditions`` and ``cycle`` of the episode,
+    ``k`` (index of the next step), ``phys_state`` ((1, N_STATE) state before the next step), ``cond`` ((1, N_COND)),
+    ``reward_params``, ``soc_target``, ``last_out`` ((N_OUT,) outputs of the last step, zeros after reset) and
+    :meth:`peek`, which evaluates candidate actions for the next step without changing the env.
 
     ## Version History
 
@@ -199,20 +205,9 @@ class HevThermalEnv(gym.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
-        self.info_keys = S.check_info_keys(info_keys)
-        self.reset_info_keys = S.reset_info_keys(self.info_keys)
-        self.config = resolve_config(config, thermal)
-        self.core = C.PhysicsCore(self.config)
-        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
-        self.preview_s = int(preview_s)
-        self.preview_step_s = int(preview_step_s)
-        self.offsets = S.preview_offsets(preview_s, preview_step_s)
-        low, high = S.observation_bounds(self.config, self.offsets.size)
-        self.observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
-        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
-        self._rows = EpisodeRows(self.core, 1, self.offsets, low, high, resolve_reward(reward))
+        self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
+                                                                preview_s, preview_step_s, thermal, random_start,
+                                                                info_keys)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
         self.conditions: Conditions | None = None
@@ -228,27 +223,9 @@ class HevThermalEnv(gym.Env):
         return int(self._rows.k[0])
 
     @property
-    def phys_state(self) -> np.ndarray:
-        """State before the next step, shape (1, N_STATE)."""
-        return self._rows.state
-
-    @property
-    def cond(self) -> np.ndarray:
-        """Conditions array of the episode, shape (1, N_COND)."""
-        return self._rows.cond
-
-    @property
     def soc_target(self) -> float:
         """SOC target of the reward's deviation term: the episode's initial SOC."""
         return float(self._rows.soc_target[0])
-
-    @property
-    def reward_params(self) -> RewardParams:
-        return self._rows.reward_params
-
-    @reward_params.setter
-    def reward_params(self, value: RewardParams | dict) -> None:
-        self._rows.reward_params = resolve_reward(value)
 
     @property
     def last_out(self) -> np.ndarray:
@@ -268,14 +245,12 @@ class HevThermalEnv(gym.Env):
         obs = self._rows.observe()[0]
         info = S.reset_info_dict(self._rows, 0, ep)
         self._episode_info = {key: info[key] for key in S.EPISODE_INFO_KEYS}
+        if self.render_mode is not None:
+            self._history = {name: [] for name in _HISTORY_KEYS}
+            v = float(ep.cycle.speed_mps[ep.start_s])
+            self._record(info, cycle_speed_mps=v, speed_mps=v, motor_share=math.nan)
         if self.info_keys is not S.INFO_KEYS:
             info = {key: info[key] for key in self.reset_info_keys}
-        if self.render_mode is not None:
-            self._history = {name: [] for name in ("time_s", "cycle_speed_mps", "speed_mps", "soc", "motor_temp_c",
-                                                    "heat_index", "motor_share")}
-            self._record_reset(ep)
-            if self.render_mode == "human":
-                self.render()
         return obs, info
 
     def step(self, action):
@@ -294,9 +269,7 @@ class HevThermalEnv(gym.Env):
             info = S.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], float(k), u, clipped,
                                   self._episode_info)
             if self._history is not None:
-                self._record_step(info)
-                if self.render_mode == "human":
-                    self.render()
+                self._record(info)
             if self.info_keys is not S.INFO_KEYS:
                 info = {key: info[key] for key in self.info_keys}
         return obs[0], float(reward[0]), False, bool(truncated), info
@@ -304,8 +277,8 @@ class HevThermalEnv(gym.Env):
     def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Evaluate candidate actions for the next step from the current state, without changing the env.
 
-        ``actions``: n motor shares (any shape with n elements; clipped to [-1, 1] by the core).
-        Returns ``(state_out [n, N_STATE], out [n, N_OUT])`` from one batched call of the physics core.
+        ``actions``: n motor shares (any shape with n elements; clipped to [-1, 1] by the core). Returns
+        ``(state_out [n, N_STATE], out [n, N_OUT])`` from one batched call of the physics core.
         """
         a = np.array(actions, dtype=np.float64).reshape(-1)
         if not np.all(np.isfinite(a)):
@@ -313,17 +286,14 @@ class HevThermalEnv(gym.Env):
         rows = self._rows
         if self.cycle is None or rows.k[0] >= rows.end[0]:
             raise RuntimeError("peek: no next step (call reset() first)")
-        n = a.size
         k = int(rows.k[0])
-        return self.core.step(np.repeat(rows.state, n, axis=0), a, rows.speed[0, k], rows.speed[0, k + 1],
+        return self.core.step(np.repeat(rows.state, a.size, axis=0), a, rows.speed[0, k], rows.speed[0, k + 1],
                               rows.grade[0, k], rows.cond[0])
 
     def render(self):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
-        from .render import EpisodePlot  # matplotlib only when rendering
-
         if self._plot is None:
             self._plot = EpisodePlot(human=self.render_mode == "human", fps=self.metadata["render_fps"])
         self._plot.draw(self._history or {}, self.cycle, self.config)
@@ -334,41 +304,16 @@ class HevThermalEnv(gym.Env):
             self._plot.close()
             self._plot = None
 
-    # -- rendering history (only with a render_mode) ---------------------------------------------
-
-    def _record_reset(self, ep: Episode) -> None:
-        h = self._history
-        st = self._rows.state[0]
-        h["time_s"].append(float(ep.start_s))
-        h["cycle_speed_mps"].append(float(ep.cycle.speed_mps[ep.start_s]))
-        h["speed_mps"].append(float(ep.cycle.speed_mps[ep.start_s]))
-        h["soc"].append(float(st[C.SOC]))
-        h["motor_temp_c"].append(float(st[C.TEMP_C]))
-        h["heat_index"].append(min(max(float(st[C.HEAT_X]), 0.0), 1.0))
-        h["motor_share"].append(math.nan)
-
-    def _record_step(self, info: dict) -> None:
+    def _record(self, info: dict[str, Any], **first: float) -> None:
+        """Append a step's (or with ``first``, a reset's) values to the rendering history; redraw a human window."""
         for name, values in self._history.items():
-            values.append(info[name])
+            values.append(first[name] if name in first else info[name])
+        if self.render_mode == "human":
+            self.render()
 
 
-def resolve_config(config: VehicleConfig | None, thermal: bool | None) -> VehicleConfig:
-    """The vehicle: ``config`` (default ``paper_bus()``), its thermal model switched by ``thermal`` if given."""
-    if config is None:
-        config = paper_bus()
-    if not isinstance(config, VehicleConfig):
-        raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
-    return config if thermal is None else config.with_thermal(bool(thermal))
-
-
-def resolve_reward(reward: RewardParams | dict | None) -> RewardParams:
-    if reward is None:
-        return RewardParams()
-    if isinstance(reward, RewardParams):
-        return reward
-    if isinstance(reward, dict):
-        return RewardParams.from_dict(reward, where="reward")
-    raise TypeError(f"reward: expected RewardParams, a dict or None, got {type(reward).__name__}")
+#: What the rendering history records (only with a render_mode), per step.
+_HISTORY_KEYS = ("time_s", "cycle_speed_mps", "speed_mps", "soc", "motor_temp_c", "heat_index", "motor_share")
 
 
 def check_action(action: Any) -> tuple[float, bool]:

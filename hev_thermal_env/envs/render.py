@@ -1,8 +1,8 @@
 """Drawing of an episode of ``HevThermal-v0`` so far: speed against the cycle, SOC, motor temperature,
 heat index and the torque split. Imported only when an env renders (matplotlib is slow to import).
 
-The frame is 640 × 640 pixels: a title row (cycle, time, legend) above five stacked panels whose
-labels sit outside the data; the layout is computed once the title is known, so nothing is cut.
+The frame is 640 × 640 pixels: a title row (cycle, time, legend) above five stacked panels whose labels sit outside the
+data; the layout is computed once the title is known, so nothing is cut.
 """
 
 from __future__ import annotations
@@ -20,14 +20,18 @@ FONT_PT = 9.5
 
 #: The step-info key (and history key) of the torque split chosen by the agent.
 SPLIT_INFO_KEY = "motor_share"
-
+#: The five panels, top to bottom: the history key drawn, the y label and the line's style.
+_PANELS = (("speed_mps", "speed\n[km/h]", {"color": "C0", "lw": 1.2, "label": "vehicle"}),
+           ("soc", "SOC [-]", {"color": "C2"}), ("motor_temp_c", "motor\n[°C]", {"color": "C3"}),
+           ("heat_index", "heat\nindex [-]", {"color": "C1", "clip_on": False}),
+           (SPLIT_INFO_KEY, "split u [-]\n(+ motor)", {"color": "C4", "lw": 0.8}))
 
 
 class EpisodePlot:
     """One figure with five stacked panels, redrawn from the episode's history on each :meth:`draw`.
 
-    ``human=True`` uses a pyplot window (shown and paused at ``fps`` when the backend is
-    interactive); otherwise an off-screen Agg canvas whose pixels :meth:`to_rgb` returns.
+    ``human=True`` uses a pyplot window (shown and paused at ``fps`` when the backend is interactive); otherwise an
+    off-screen Agg canvas whose pixels :meth:`to_rgb` returns.
     """
 
     def __init__(self, human: bool, fps: float = 30.0):
@@ -54,28 +58,20 @@ class EpisodePlot:
         import matplotlib
 
         with matplotlib.rc_context({"font.size": FONT_PT}):
-            ax_v, ax_soc, ax_t, ax_hi, ax_u = self.axes
+            ax_v, _, ax_t, ax_hi, ax_u = self.axes
             self._cycle_line, = ax_v.plot([], [], color="0.75", lw=3.0, label="cycle")
-            self._lines["speed_mps"], = ax_v.plot([], [], color="C0", lw=1.2, label="vehicle")
-            ax_v.set_ylabel("speed\n[km/h]")
-            self._lines["soc"], = ax_soc.plot([], [], color="C2")
-            ax_soc.set_ylabel("SOC [-]")
-            self._lines["motor_temp_c"], = ax_t.plot([], [], color="C3")
+            for ax, (name, ylabel, style) in zip(self.axes, _PANELS):
+                self._lines[name], = ax.plot([], [], **style)
+                ax.set_ylabel(ylabel)
+                ax.grid(alpha=0.3)
+                ax.tick_params(labelsize=FONT_PT - 1)
             self._cutoff_line = ax_t.axhline(math.nan, color="#6a3d9a", ls="-.", lw=1.2, label="cutoff")
             self._soft_line = ax_t.axhline(RewardParams().overheat_soft_limit_c, color="#e08214", ls=":", lw=1.2,
                                            label="soft limit")
-            ax_t.set_ylabel("motor\n[°C]")
-            self._lines["heat_index"], = ax_hi.plot([], [], color="C1", clip_on=False)
-            ax_hi.set_ylabel("heat\nindex [-]")
             ax_hi.set_ylim(0.0, 1.0)
-            self._lines[SPLIT_INFO_KEY], = ax_u.plot([], [], color="C4", lw=0.8)
             ax_u.axhline(0.0, color="0.6", lw=0.6)
-            ax_u.set_ylabel("split u [-]\n(+ motor)")
             ax_u.set_ylim(-1.05, 1.05)
             ax_u.set_xlabel("time [s]")
-            for ax in self.axes:
-                ax.grid(alpha=0.3)
-                ax.tick_params(labelsize=FONT_PT - 1)
             handles = [self._cycle_line, self._lines["speed_mps"], self._cutoff_line, self._soft_line]
             self.fig.legend(handles, ["cycle", "vehicle", "motor cutoff", "soft limit"], loc="upper right",
                             ncol=2, fontsize=FONT_PT - 1, frameon=False, bbox_to_anchor=(0.995, 0.995))
@@ -83,12 +79,8 @@ class EpisodePlot:
                                         fontweight="bold")
             self.fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.94), h_pad=0.4)
 
-    def draw(self, history: dict[str, list], cycle: Cycle | None, config: VehicleConfig,
-             soft_limit_c: float | None = None) -> None:
-        """Redraw the panels from ``history`` (lists per quantity, as the env records them); ``soft_limit_c``
-        is the reward's overheat soft limit (default: the default reward's)."""
-        if soft_limit_c is not None:
-            self._soft_line.set_ydata([soft_limit_c] * 2)
+    def draw(self, history: dict[str, list], cycle: Cycle | None, config: VehicleConfig) -> None:
+        """Redraw the panels from ``history`` (lists per quantity, as the env records them)."""
         if cycle is not None and cycle is not self._cycle:
             self._cycle = cycle
             self._cycle_line.set_data(cycle.time_s, np.asarray(cycle.speed_mps) * 3.6)

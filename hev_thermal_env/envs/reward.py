@@ -1,69 +1,9 @@
 """The reward of ``HevThermal-v0``, written once: the env, the vector env, DP and ECMS all call it.
 
-Every term is in grams of diesel (negative = cost), so the return of an episode reads as
-"minus fuel-equivalent grams":
-
-* ``reward_fuel``     = −fuel_weight · fuel_g
-* ``reward_miss``     = −miss_weight · (price of the missed wheel energy, :class:`~hev_thermal_env.prices.Prices`)
-* ``reward_soc``      = −soc_energy_weight · (fuel equivalent of the battery's chemical energy this step)
-                        + Φ(SOC after the step) − Φ(SOC before it)                       (SOC band settlement)
-                        − soc_deviation_weight · ((SOC − SOC_target) / soc_deviation_scale)²
-  with Φ(SOC) = −soc_band_weight · max(|SOC − SOC_target| − soc_band, 0)
-* ``reward_overheat`` = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [cut off]
-                        − derate_weight · PWM
-
-With the default weights the episode's fuel + miss + battery-energy terms equal minus the corrected
-fuel of :mod:`hev_thermal_env.metrics` (same prices), so DP and ECMS, which minimise the same
-terms, optimise the metric they are judged by. :func:`reward_kernel` is the one compiled
-implementation; :meth:`RewardParams.weights` switches terms off for planners that price them
-elsewhere (ECMS prices the battery with its own equivalence factor).
-
-Why a SOC band settlement. The battery is priced at one stated average efficiency (engine 0.36 ×
-charge path 0.90), but the engine's marginal efficiency under load is better than that: storing
-charge with a loaded engine pays at that price. Fuel + miss + battery energy alone is therefore
-minimised by ending the cycle with more charge (DP with a free final SOC: +0.06 on UDDS, +0.12 on
-a 3,600 s bus route, the corrected fuel 1-2 % below the charge-sustaining optimum), which is not
-the charge-sustaining operation the benchmark compares. Three ways out, and why this one:
-
-* a per-step quadratic tether (``soc_deviation_weight``, 0.2 before, 50 to train a charge-sustaining
-  policy) changes the objective at every step: the return is no longer the corrected fuel, the
-  mid-cycle SOC swings DP uses (assist on a climb, recharge later) are penalised, and its pull
-  vanishes in the last seconds, where charging still pays (+0.03 to +0.04 SOC at the old default);
-* an SOC-dependent battery price breaks the identity between the battery term and the metric's
-  battery correction;
-* the settlement is the potential difference of a dead-zone hinge Φ. Over any episode its steps
-  add up to Φ(SOC_final) − Φ(SOC_start) = −soc_band_weight · max(|ΔSOC| − soc_band, 0): a terminal
-  settlement of the final SOC, zero when the run ends inside the band, yet paid step by step as
-  the SOC moves (a policy sees the cost in the step that leaves the band and gets it back in the
-  step that returns), and indifferent to excursions that come back. Its slope, 10,000 g per unit
-  SOC, is about the battery price of a unit of ``paper_bus``'s SOC (36.5 kWh, ≈9,450 g) and 9
-  times the most that ending beyond the band earns at the stated prices on the cycles measured
-  (≈1,100 g per unit SOC), so the reward's optimum ends inside the band: it is the fixed-band
-  optimum for the band SOC_target ± soc_band (``benchmarks/reward_optimum.py`` measures it with
-  DP). A step moves the SOC by at most ≈0.001 (the pack's power limits), so a step's settlement
-  stays within ≈10 g, the size of the fuel terms: dense, and not drowning the fuel signal. A
-  larger pack needs a proportionally larger ``soc_band_weight``.
-
-Why the band's center moves with the route's height. On a hilly route the charge-sustaining
-optimum does not hold the SOC level: it spends charge on the way up and lets the descents refill it
-(DP on a generated hilly bus route: 0.03 below the start on the hilltops, back in the band at the
-end). A fixed band charges that detour in full while it lasts and refunds it minutes later, which a
-learner with a short horizon cannot connect, so it keeps the charge and ends with the descent's
-energy on top (+0.02 to +0.03). The band's center is therefore the target lowered by the charge
-the remaining descent to the route's end will return (:func:`band_center`, :func:`descent_soc`):
-
-    center(t) = SOC_target − descent_recovery · m · g · (h(t) − h_end) / E_per_SOC
-
-with ``descent_recovery`` = 0.6 (≈ driveline 0.93 × charge path 0.90 × the ≈ 0.75 of the potential
-energy that rolling and air resistance leave on a city descent). The settlement is still a
-potential difference, now of Φ(SOC, center(t)); the center is the target at the route's end, so an
-episode still pays exactly the charge for its final SOC, plus a constant of its start
-(−Φ(SOC_start, center(start)), zero when the route starts as high as it ends or within the band).
-On a flat route nothing changes. The observation's ``soc_target`` entry is this center.
-
-A run that starts and ends inside the band therefore returns exactly minus its corrected fuel (and
-the overheat terms). The settlement needs the SOC and the center before the step:
-:func:`reward_kernel` takes the states and centers before and after.
+Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here: its weights and prices
+(:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
+(:func:`reward_kernel`), the band's center (:func:`descent_soc`, :func:`band_center`) and what planners call on batches
+(:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
 """
 
 from __future__ import annotations
@@ -110,13 +50,22 @@ class RewardParams(Params):
     derate_weight: float = spec(0.0, "per step per unit heat index (PWM)", min=0.0)
     prices: Prices = dataclasses.field(default_factory=Prices)
 
+    @classmethod
+    def of(cls, reward: RewardParams | dict | None) -> RewardParams:
+        """The env's ``reward`` argument as :class:`RewardParams`: None the defaults, a dict its fields."""
+        if reward is None:
+            return cls()
+        if isinstance(reward, RewardParams):
+            return reward
+        if isinstance(reward, dict):
+            return cls.from_dict(reward, where="reward")
+        raise TypeError(f"reward: expected RewardParams, a dict or None, got {type(reward).__name__}")
+
     def weights(self, lhv_j_per_g: float, *, battery: bool = True, soc_deviation: bool = True,
                 overheat: bool = True, soc_band: bool = True) -> np.ndarray:
-        """The weight vector of :func:`reward_kernel`; terms switched off get weight 0.
-
-        ``soc_deviation`` switches the SOC terms besides the battery energy: the band settlement
-        (unless ``soc_band`` is False) and the quadratic deviation.
-        """
+        """The weight vector of :func:`reward_kernel`; terms switched off (planners that price them
+        elsewhere, e.g. ECMS the battery) get weight 0. ``soc_deviation`` switches the SOC terms besides the battery
+        energy: the band settlement (unless ``soc_band`` is False) and the quadratic deviation."""
         w = np.zeros(N_WEIGHTS)
         w[W_FUEL] = self.fuel_weight
         w[W_MISS] = self.miss_weight
@@ -145,10 +94,8 @@ def descent_soc(climb_m: np.ndarray, mass_kg: float, gravity_mps2: float, batter
     """The SOC the descent from each instant to the route's end would return if all of it came back.
 
     ``climb_m`` [n + 1]: the height reached at each instant, from the start (m,
-    :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`). At instant ``k`` the bus stands
-    ``climb_m[k] − climb_m[n]`` above the route's end; this is that height's potential energy in units
-    of the pack's SOC: ``m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc`` (0 at the end, and
-    everywhere on a flat route). The band's center at instant ``k`` is :func:`band_center` of it.
+    :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`); the result is
+    ``m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc``, 0 at the end and on a flat route.
     """
     h = np.asarray(climb_m, dtype=np.float64)
     return mass_kg * gravity_mps2 * (h - h[-1]) / battery_j_per_soc
@@ -168,11 +115,8 @@ def soc_band_charge_kernel(w, soc, soc_target, charge):
 
 
 def soc_band_charge_g(params: RewardParams, soc: np.ndarray, soc_target: float) -> np.ndarray:
-    """What the band settlement of an episode from inside the band to a final ``soc`` adds up to (g, ≥ 0).
-
-    The settlement is a potential difference, so this is all it charges over the episode; a
-    planner can charge it once, on the final SOC (DP does), instead of step by step.
-    """
+    """What the band settlement of an episode from inside the band to a final ``soc`` adds up to (g, ≥ 0):
+    a potential difference, so a planner can charge it once, on the final SOC (DP does)."""
     soc = np.ascontiguousarray(soc, dtype=np.float64).reshape(-1)
     charge = np.empty(soc.size)
     soc_band_charge_kernel(params.weights(1.0), soc, float(soc_target), charge)  # the prices play no part
@@ -183,8 +127,8 @@ def soc_band_charge_g(params: RewardParams, soc: np.ndarray, soc_target: float) 
 def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
     """The four terms of row ``b`` (fuel, miss, soc, overheat) and their sum, in a fixed order.
 
-    ``st0`` / ``st``: states before / after the step; ``target_before`` / ``target_after``: the
-    band's center at those two instants (equal on a flat route).
+    ``st0`` / ``st``: states before / after the step; ``target_before`` / ``target_after``: the band's center at those
+    two instants (equal on a flat route).
     """
     fuel = -w[W_FUEL] * out[b, C.FUEL_G]
     miss = -w[W_MISS] * (out[b, C.MISSED_J] * w[W_MISS_PRICE])
@@ -202,9 +146,9 @@ def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
 def reward_kernel(w, out, state_before, state_after, target_before, target_after, dt_s, terms, total):
     """Reward of a batch of steps: ``terms`` [B, 4] (``REWARD_TERMS`` order) and ``total`` [B].
 
-    ``out`` [B, N_OUT] and ``state_after`` [B, N_STATE] come from the physics core, ``state_before``
-    [B, N_STATE] is what it stepped from (the band settlement's start); ``target_before`` and
-    ``target_after`` [B]: the band's center before and after the step (:func:`band_center`).
+    ``out`` [B, N_OUT] and ``state_after`` [B, N_STATE] come from the physics core, ``state_before`` [B, N_STATE] is
+    what it stepped from (the band settlement's start); ``target_before`` and ``target_after`` [B]: the band's center
+    before and after the step (:func:`band_center`).
     """
     for b in range(out.shape[0]):
         fuel, miss, soc, heat, tot = reward_row(w, out, state_before, state_after, b, target_before[b],
@@ -239,11 +183,9 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
                  **switches: bool) -> tuple[np.ndarray, np.ndarray]:
     """:func:`reward_kernel` on a batch: (terms [B, 4], total [B]); ``switches`` as :meth:`RewardParams.weights`.
 
-    ``state_before``: the states the batch stepped from ([B, N_STATE], or one [N_STATE] for all
-    rows). Without it the band settlement omits Φ(SOC before), which is right only for comparing
-    actions from one common state (a constant shift); an episode's reward needs it. The band's
-    center is ``soc_target`` before and after the step (a flat stretch; the env passes the
-    route's own centers to :func:`reward_kernel`).
+    ``state_before``: the states the batch stepped from ([B, N_STATE], or one [N_STATE] for all rows); without it the
+    settlement omits Φ(SOC before), a constant shift among actions from one common state. The band's center is
+    ``soc_target`` before and after the step (a flat stretch).
     """
     b = out.shape[0]
     terms = np.empty((b, len(REWARD_TERMS)))
@@ -258,15 +200,10 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
 def stage_cost_g(params: RewardParams, out: np.ndarray, state_after: np.ndarray, soc_target: np.ndarray | float,
                  lhv_j_per_g: float, dt_s: float, *, battery: bool = True, soc_deviation: bool = False,
                  overheat: bool = False, soc_band: bool = True, state_before: np.ndarray | None = None) -> np.ndarray:
-    """Cost (fuel-equivalent grams, = −reward) of each row of a batch step, with some terms switched off.
+    """Cost (fuel-equivalent grams, = −reward) of each row of a batch step: what DP and ECMS minimise.
 
-    What DP and ECMS minimise: always fuel and missed wheel energy; with ``battery`` the battery
-    energy, with ``soc_deviation`` the quadratic SOC term and, unless ``soc_band`` is False, the
-    band settlement, with ``overheat`` the overheating terms. ``state_before`` as in
-    :func:`reward_terms`: a backward pass over different start states must pass it; choosing among
-    actions from one state need not. DP leaves the settlement out of its stages and charges it on
-    the final SOC (:func:`soc_band_charge_g`): the same sum, without interpolating the hinge's kink
-    in every stage's cost-to-go (which the minimisation would exploit).
+    Always fuel and missed wheel energy; the other terms as switched (:meth:`RewardParams.weights`). ``state_before`` as
+    in :func:`reward_terms` (DP charges the settlement on the final SOC instead, :func:`soc_band_charge_g`).
     """
     _, total = reward_terms(params, out, state_after, soc_target, lhv_j_per_g, dt_s, state_before=state_before,
                             battery=battery, soc_deviation=soc_deviation, overheat=overheat, soc_band=soc_band)

@@ -1,7 +1,13 @@
-"""The observation and info layout of ``HevThermal-v0``: names, bounds, units, and the info builders.
+"""The observation and info layout of ``HevThermal-v0``: names and bounds, the info builders and codes.
 
-Shared by the single env (:mod:`hev_thermal_env.envs.hev_env`), the batch engine
-(:mod:`hev_thermal_env.envs.batch`) and the vector env, so all three report the same keys and values.
+Shared by the single env, the batch engine and the vector env, so all three report the same keys and values. The reset
+info's two categorical values are numeric codes (the env's spec, section Info):
+
+* ``info["cycle_id"]`` → :func:`cycle_name`: the built-in cycles have fixed ids, their order in
+  :func:`hev_thermal_env.cycles.list_cycles`; any other cycle gets the next free id the first time the process meets its
+  name, so its id is valid only in the process that ran the env.
+* ``info["coolant_code"]`` → :func:`coolant_mode`: the index in :data:`~hev_thermal_env.physics.config.COOLANT_MODES`
+  (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2).
 """
 
 from __future__ import annotations
@@ -11,53 +17,25 @@ from typing import Any
 
 import numpy as np
 
+from ..cycles import list_cycles
 from ..physics import core as C
-from ..physics.config import VehicleConfig
-from .codes import coolant_code, cycle_id
+from ..physics.config import COOLANT_MODES, VehicleConfig
 from .reward import REWARD_TERMS
 
 RPM_PER_RADPS = 30.0 / math.pi
 
 # --- observation layout ---------------------------------------------------------------------------
-# (name, low, high, unit, meaning); ``None`` bounds are filled from the vehicle.
+# (name, low, high) in order; ``None`` bounds are filled from the vehicle. The meaning and unit of each entry:
+# the observation table of :class:`~hev_thermal_env.envs.HevThermalEnv` (the spec).
 _OBS_FIELDS = (
-    ("speed_mps", 0.0, 60.0, "m/s", "vehicle speed at the start of the next step (cycle speed)"),
-    ("accel_mps2", -10.0, 10.0, "m/s²", "acceleration the cycle demands over the next step"),
-    ("wheel_power_demand_kw", -2000.0, 2000.0, "kW", "wheel power the cycle demands over the next step"),
-    ("soc", 0.0, 1.0, "-", "battery state of charge"),
-    ("soc_target", 0.0, 1.0, "-", "center of the reward's SOC band now: the episode's initial SOC, lowered "
-                                    "by the charge the route's remaining descent will return (flat route: the "
-                                    "initial SOC)"),
-    ("soc_deviation", -1.0, 1.0, "-", "soc − soc_target: the SOC's distance from the band's center (the reward "
-                                      "settles only what lies beyond ±soc_band of it)"),
-    ("motor_temp_c", -40.0, 200.0, "°C", "motor temperature"),
-    ("heat_index", 0.0, 1.0, "-", "heat index PWM (eq 9): 0 full peak torque, 1 continuous torque only"),
-    ("heat_x", -1.0, 1.0, "-", "heat-index integrator state x (eq 9); PWM = clip(x, 0, 1)"),
-    ("motor_cutoff", 0.0, 1.0, "-", "1 while the 70 °C protection holds the motor off"),
-    ("motor_torque_avail_nm", 0.0, None, "N·m", "motor torque envelope of the last step (at reset: of the first)"),
-    ("gear", 0.0, None, "-", "gear of the next step (set by the shift schedule from the cycle); never below 1"),
-    ("cycle_progress", 0.0, 1.0, "-", "elapsed fraction of the cycle"),
-    ("ambient_temp_c", -40.0, 60.0, "°C", "ambient air temperature"),
-    ("coolant_factor", 0.0, 1.0, "-", "coolant heat-transfer multiplier: 1 on, <1 degraded, 0 off"),
+    ("speed_mps", 0.0, 60.0), ("accel_mps2", -10.0, 10.0), ("wheel_power_demand_kw", -2000.0, 2000.0),
+    ("soc", 0.0, 1.0), ("soc_target", 0.0, 1.0), ("soc_deviation", -1.0, 1.0), ("motor_temp_c", -40.0, 200.0),
+    ("heat_index", 0.0, 1.0), ("heat_x", -1.0, 1.0), ("motor_cutoff", 0.0, 1.0), ("motor_torque_avail_nm", 0.0, None),
+    ("gear", 0.0, None), ("cycle_progress", 0.0, 1.0), ("ambient_temp_c", -40.0, 60.0), ("coolant_factor", 0.0, 1.0),
 )
-PREVIEW_MAX_MPS = 60.0
-_OBS_INDEX = {f[0]: i for i, f in enumerate(_OBS_FIELDS)}
-OBS_SPEED = _OBS_INDEX["speed_mps"]
-OBS_ACCEL = _OBS_INDEX["accel_mps2"]
-OBS_DEMAND = _OBS_INDEX["wheel_power_demand_kw"]
-OBS_SOC = _OBS_INDEX["soc"]
-OBS_SOC_TARGET = _OBS_INDEX["soc_target"]
-OBS_SOC_DEVIATION = _OBS_INDEX["soc_deviation"]
-OBS_TEMP = _OBS_INDEX["motor_temp_c"]
-OBS_PWM = _OBS_INDEX["heat_index"]
-OBS_HEAT_X = _OBS_INDEX["heat_x"]
-OBS_CUTOFF = _OBS_INDEX["motor_cutoff"]
-OBS_AVAIL = _OBS_INDEX["motor_torque_avail_nm"]
-OBS_GEAR = _OBS_INDEX["gear"]
-OBS_PROGRESS = _OBS_INDEX["cycle_progress"]
-OBS_AMBIENT = _OBS_INDEX["ambient_temp_c"]
-OBS_COOLANT = _OBS_INDEX["coolant_factor"]
 N_OBS_BASE = len(_OBS_FIELDS)
+(OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_PWM, OBS_HEAT_X,
+ OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)  # _OBS_FIELDS' order
 
 # --- info layout ----------------------------------------------------------------------------------
 # Step-info keys straight from an output column of the physics core.
@@ -74,9 +52,8 @@ _REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  
 _REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
 
 EPISODE_INFO_KEYS = ("cycle_id", "start_s", "soc_target", "ambient_temp_c", "coolant_code")
-"""Keys of the reset info that every step repeats (the episode's cycle, start and conditions), so that each
-key of a reset's info is also a step's: a vector wrapper that merges a reset into a step's info (gymnasium's
-autoreset) adds no key that the other steps lack, which is what libraries with fixed info specs need."""
+"""Keys of the reset info that every step repeats (the episode's cycle, start and conditions): every key of a
+reset's info is also a step's (the env's spec, section Info, says why)."""
 
 INFO_KEYS = (
     "fuel_g", "soc", "motor_temp_c", "heat_index", "motor_torque_nm", "motor_speed_rpm", "motor_heat_w",
@@ -89,16 +66,15 @@ INFO_KEYS = (
 
 RESET_INFO_KEYS = ("cycle_id", "start_s", "time_s", "soc", "soc_target", "motor_temp_c", "heat_index",
                    "motor_cutoff", "ambient_temp_c", "coolant_code")
-"""Keys of the ``info`` dict returned by ``reset``: numbers only (``cycle_id`` and ``coolant_code`` are codes,
-see :mod:`hev_thermal_env.envs.codes`)."""
+"""Keys of the ``info`` dict returned by ``reset``: numbers only (``cycle_id`` and ``coolant_code`` are codes)."""
+
+_CYCLE_NAMES: list[str] = list(list_cycles())
+_CYCLE_IDS: dict[str, int] = {name: i for i, name in enumerate(_CYCLE_NAMES)}
 
 
 def check_info_keys(info_keys: Any) -> tuple[str, ...]:
-    """The info keys an env reports: ``"all"`` (:data:`INFO_KEYS`) or a sequence of them (``()``: none).
-
-    The choice applies to every info, a step's and a reset's (which has the chosen keys of
-    :data:`RESET_INFO_KEYS`), so that a vector wrapper merging the two meets no key it did not see before.
-    """
+    """The info keys an env reports, at steps and resets: ``"all"`` (:data:`INFO_KEYS`) or a sequence of them
+    (``()``: none)."""
     if isinstance(info_keys, str):
         if info_keys != "all":
             raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}")
@@ -114,7 +90,7 @@ def check_info_keys(info_keys: Any) -> tuple[str, ...]:
 
 
 def reset_info_keys(info_keys: tuple[str, ...]) -> tuple[str, ...]:
-    """The reset-info keys among ``info_keys`` (every key of a reset's info is also a step's)."""
+    """The reset-info keys among ``info_keys``."""
     return tuple(key for key in RESET_INFO_KEYS if key in info_keys)
 
 
@@ -137,14 +113,14 @@ def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarra
     fill = {"motor_torque_avail_nm": max(config.motor.peak_torque_nm, config.motor.continuous_torque_nm, 1.0),
             "gear": float(len(config.driveline.gear_ratios))}
     low = [f[1] for f in _OBS_FIELDS] + [0.0] * n_preview
-    high = [fill.get(f[0], f[2]) for f in _OBS_FIELDS] + [PREVIEW_MAX_MPS] * n_preview
+    high = [fill.get(f[0], f[2]) for f in _OBS_FIELDS] + [60.0] * n_preview  # the preview: speeds, as entry 0
     return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
 
 
 def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: float,
                    time_s: float, u: float, clipped: bool, episode: dict[str, Any]) -> dict[str, Any]:
     """The ``info`` of one step of the single env (same values as the vector env's info arrays);
-    ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (:func:`episode_info`)."""
+    ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode."""
     o = out.tolist()
     info = {
         "fuel_g": o[C.FUEL_G], "soc": float(state[C.SOC]), "motor_temp_c": float(state[C.TEMP_C]),
@@ -176,31 +152,51 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
         info[name] = out[:, col] * RPM_PER_RADPS
     for name, col in _INFO_BOOL_COLUMNS:
         info[name] = out[:, col] != 0.0
-    info["gear"] = out[:, C.GEAR].astype(np.int64)
-    info["soc"] = state[:, C.SOC]
-    info["motor_temp_c"] = state[:, C.TEMP_C]
-    info["motor_cutoff"] = state[:, C.CUTOFF] != 0.0
     for key, col in _REWARD_COLUMNS:
         info[key] = terms[:, col]
-    info["cycle_speed_mps"] = cycle_speed
-    info["time_s"] = time_s
-    info["motor_share"] = u
-    info["motor_share_clipped"] = clipped
-    for key in EPISODE_INFO_KEYS:
-        info[key] = episode[key].copy()
+    info.update(gear=out[:, C.GEAR].astype(np.int64), soc=state[:, C.SOC], motor_temp_c=state[:, C.TEMP_C],
+                motor_cutoff=state[:, C.CUTOFF] != 0.0, cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u,
+                motor_share_clipped=clipped, **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
     return {key: info[key] for key in INFO_KEYS}
 
 
-def episode_info(rows: Any, i: int, ep: Any) -> dict[str, Any]:
-    """The :data:`EPISODE_INFO_KEYS` values of episode ``ep`` started in row ``i`` of the batch engine ``rows``."""
-    return {"cycle_id": cycle_id(ep.cycle.name), "start_s": ep.start_s, "soc_target": float(rows.soc_target[i]),
+def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
+    """The ``info`` of a reset (keys in :data:`RESET_INFO_KEYS` order): row ``i`` of the batch engine ``rows``
+    starting episode ``ep``."""
+    st = rows.state[i]
+    return {"cycle_id": cycle_id(ep.cycle.name), "start_s": ep.start_s, "time_s": float(ep.start_s),
+            "soc": float(st[C.SOC]), "soc_target": float(rows.soc_target[i]), "motor_temp_c": float(st[C.TEMP_C]),
+            "heat_index": min(max(float(st[C.HEAT_X]), 0.0), 1.0), "motor_cutoff": bool(st[C.CUTOFF] != 0.0),
             "ambient_temp_c": float(ep.conditions.ambient_temp_c), "coolant_code": coolant_code(ep.conditions.coolant)}
 
 
-def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
-    """The ``info`` of a reset: row ``i`` of the batch engine ``rows`` starting episode ``ep``."""
-    st = rows.state[i]
-    info = episode_info(rows, i, ep)
-    info.update(time_s=float(ep.start_s), soc=float(st[C.SOC]), motor_temp_c=float(st[C.TEMP_C]),
-                heat_index=min(max(float(st[C.HEAT_X]), 0.0), 1.0), motor_cutoff=bool(st[C.CUTOFF] != 0.0))
-    return {key: info[key] for key in RESET_INFO_KEYS}
+def cycle_id(name: str) -> int:
+    """The id of the cycle called ``name`` (a new one, from the next free number, for a name not seen yet)."""
+    code = _CYCLE_IDS.get(name)
+    if code is None:
+        code = _CYCLE_IDS[name] = len(_CYCLE_NAMES)
+        _CYCLE_NAMES.append(name)
+    return code
+
+
+def cycle_name(code: int) -> str:
+    """The name of the cycle with id ``code`` (``info["cycle_id"]`` of a reset)."""
+    i = int(code)
+    if not 0 <= i < len(_CYCLE_NAMES):
+        raise KeyError(f"cycle id {code!r} is not known in this process (ids 0-{len(_CYCLE_NAMES) - 1}); "
+                       "ids of cycles other than the built-in ones are given by the process that runs the env: "
+                       "read env.unwrapped.cycle.name there")
+    return _CYCLE_NAMES[i]
+
+
+def coolant_code(mode: str) -> int:
+    """The code of a coolant mode (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2)."""
+    return COOLANT_MODES.index(mode)
+
+
+def coolant_mode(code: int) -> str:
+    """The coolant mode of ``info["coolant_code"]``."""
+    i = int(code)
+    if not 0 <= i < len(COOLANT_MODES):
+        raise KeyError(f"coolant code {code!r}: expected 0-{len(COOLANT_MODES) - 1} ({', '.join(COOLANT_MODES)})")
+    return COOLANT_MODES[i]

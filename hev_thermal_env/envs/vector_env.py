@@ -1,16 +1,7 @@
-"""Native batched vector form of ``HevThermal-v0``.
+"""Native batched vector form of ``HevThermal-v0``: n sub-environments stepped by one call of the batch engine.
 
-:class:`HevThermalVectorEnv` steps all sub-environments with one call of the batch engine
-(:class:`~hev_thermal_env.envs.batch.EpisodeRows`, the same engine as the single env's), so
-sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory of
-``HevThermalEnv`` reset with seed ``s``. Autoreset is implemented here, once; the SB3 adapter
-(:class:`hev_thermal_env.wrappers.Sb3VecEnv`) uses the ``SAME_STEP`` mode.
-
->>> from hev_thermal_env.envs import HevThermalVectorEnv
->>> envs = HevThermalVectorEnv(8, cycle="hwfet")
->>> obs, infos = envs.reset(seed=0)
->>> obs.shape
-(8, 19)
+Sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory of ``HevThermalEnv`` reset with seed
+``s``: both step through :class:`~hev_thermal_env.envs.batch.EpisodeRows`.
 """
 
 from __future__ import annotations
@@ -20,79 +11,45 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..physics import core as C
 from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
-from .batch import EpisodeRows
-from .episodes import EpisodeSampler, TableCache
-from .hev_env import resolve_config, resolve_reward
+from .batch import EnvParts
 from .reward import RewardParams
-from .spaces import (
-    EPISODE_INFO_KEYS,
-    RESET_INFO_KEYS,
-    check_info_keys,
-    observation_bounds,
-    observation_names,
-    preview_offsets,
-    reset_info_dict,
-    reset_info_keys,
-    step_info_arrays,
-)
-
-_FLOAT_EPISODE_KEYS = ("soc_target", "ambient_temp_c")
+from .spaces import EPISODE_INFO_KEYS, RESET_INFO_KEYS, reset_info_dict, step_info_arrays
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
 
 
-class HevThermalVectorEnv(VectorEnv):
+class HevThermalVectorEnv(EnvParts, VectorEnv):
     """``num_envs`` copies of ``HevThermal-v0`` stepped together by one batched call of the physics core.
 
-    Arguments are those of :class:`~hev_thermal_env.envs.HevThermalEnv` (``cycle``, ``scenario``,
-    ``config``, ``conditions``, ``reward``, ``preview_s``, ``preview_step_s``, ``thermal``,
-    ``random_start``), shared by all sub-environments, plus:
+    Arguments are those of :class:`~hev_thermal_env.envs.HevThermalEnv` (shared by all sub-environments; ``render_mode``
+    must be None: render single envs), plus ``max_episode_steps`` (optional cap on an episode's steps, per sub-env) and
+    ``autoreset_mode`` (:class:`gymnasium.vector.AutoresetMode` or its value):
 
-    * ``max_episode_steps``: optional cap on the steps of an episode (truncation), per sub-env.
-    * ``autoreset_mode``: :class:`gymnasium.vector.AutoresetMode` (or its value):
+    - ``NEXT_STEP`` (default, as gymnasium 1.x): the step after a truncation resets that sub-env, ignores its action and
+      returns the reset observation with reward 0; its step-info keys are masked out and the reset-info keys masked in.
+    - ``SAME_STEP``: a truncating sub-env resets within the same step; the observation is the reset one,
+      ``infos["final_obs"]`` (object array) and ``infos["final_info"]`` (dict of arrays) hold the last step's, and
+      reset-info keys overwrite step-info keys for those sub-envs. The SB3 adapter uses it.
+    - ``DISABLED``: stepping an ended sub-env raises; reset it with ``reset(options={"reset_mask": mask})``.
 
-      - ``NEXT_STEP`` (default, as gymnasium 1.x): the step after a truncation resets that
-        sub-environment, ignores its action and returns the reset observation with reward 0; its
-        step-info keys are masked out and the reset-info keys masked in.
-      - ``SAME_STEP``: a truncating sub-environment resets within the same step; the returned
-        observation is the reset one, ``infos["final_obs"]`` (object array) and
-        ``infos["final_info"]`` (dict of arrays) hold the last step's, and reset-info keys
-        overwrite step-info keys for those sub-environments. The SB3 adapter uses this mode.
-      - ``DISABLED``: stepping an ended sub-environment raises; reset it with
-        ``reset(options={"reset_mask": mask})``.
+    Sub-envs may run different cycles of different lengths; each truncates at the end of its own. Seeding follows
+    gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each one, each with its own generator
+    made as the single env's. ``reset(options=...)`` takes the single env's options for every reset sub-env,
+    ``reset_mask`` (bool array: reset only these), or a list of one options dict per sub-env.
 
-    Sub-environments may run different cycles (lists of cycles, families such as ``"random_bus"``) of different
-    lengths; each truncates at the end of its own. Rendering is not supported (``render_mode=None``).
-
-    Seeding follows gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each
-    one; every sub-environment has its own generator, created as the single env's
-    (``gymnasium.utils.seeding.np_random``). ``reset(options=...)`` takes the single env's options,
-    applied to every reset sub-environment, ``reset_mask`` (bool array: reset only these), or a list
-    of one options dict per sub-environment.
-
-    * ``info_keys``: the info keys to report, ``"all"`` (default,
-      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`) or a sequence of them; ``()`` is the lean
-      path for wrappers and trainers that read no infos (merging many keys per step costs more
-      than the physics). As in the single env, the choice applies to reset infos too.
-
-    Infos are dicts of arrays with ``_key`` masks (gymnasium vector format), numbers and bools only;
-    step keys are ``info_keys``, reset keys those of :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS`
-    among them (``reset_info_keys``). Every reset key is also a step key, so the set of keys does not
-    change when sub-environments reset: torchrl, for one, reads a batch through fixed info specs
-    (``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v0", n, autoreset_mode="SameStep"))``;
-    torchrl accepts the ``SAME_STEP`` and ``DISABLED`` autoreset modes).
-    The batch attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``,
-    ``k`` [n], ``phys_state`` [n, N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and
-    ``last_out`` [n, N_OUT] mirror the single env's.
+    Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys and values. As
+    every reset key is also a step key, the keys do not change when sub-envs reset, so torchrl reads a batch through
+    fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
+    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v0", n, autoreset_mode="SameStep"))``). The batch
+    attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``, ``k`` [n], ``phys_state`` [n,
+    N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and ``last_out`` [n, N_OUT] mirror the single env's.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -109,40 +66,24 @@ class HevThermalVectorEnv(VectorEnv):
             raise ValueError("HevThermalVectorEnv does not render; use render_mode=None (render single envs instead)")
         if max_episode_steps is not None and (int(max_episode_steps) != max_episode_steps or max_episode_steps < 1):
             raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
-        self.info_keys = check_info_keys(info_keys)
-        self.reset_info_keys = reset_info_keys(self.info_keys)
         self.autoreset_mode = AutoresetMode(autoreset_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
         self.num_envs = int(num_envs)
         self.render_mode = None
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
-        self.config = resolve_config(config, thermal)
-        self.core = C.PhysicsCore(self.config)
-        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
-        self.offsets = preview_offsets(preview_s, preview_step_s)
-        self.obs_names = observation_names(int(preview_s), int(preview_step_s))
-        low, high = observation_bounds(self.config, self.offsets.size)
-        self.single_observation_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
-        self.single_action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self.single_observation_space, self.single_action_space = self._build(
+            self.num_envs, cycle, scenario, config, conditions, reward, preview_s, preview_step_s, thermal,
+            random_start, info_keys)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
-        self._rows = EpisodeRows(self.core, self.num_envs, self.offsets, low, high, resolve_reward(reward))
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._started = np.zeros(self.num_envs, dtype=bool)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
-        self._episode_cols = {key: np.zeros(self.num_envs, dtype=np.float64 if key in _FLOAT_EPISODE_KEYS else np.int64)
+        floats = ("soc_target", "ambient_temp_c")  # the other episode values are integers (codes, start_s)
+        self._episode_cols = {key: np.zeros(self.num_envs, dtype=np.float64 if key in floats else np.int64)
                               for key in EPISODE_INFO_KEYS}
 
     # -- batch attributes --------------------------------------------------------------------------
-
-    @property
-    def reward_params(self) -> RewardParams:
-        return self._rows.reward_params
-
-    @reward_params.setter
-    def reward_params(self, value: RewardParams | dict) -> None:
-        self._rows.reward_params = resolve_reward(value)
 
     @property
     def cycles(self) -> list:
@@ -155,14 +96,6 @@ class HevThermalVectorEnv(VectorEnv):
     @property
     def k(self) -> np.ndarray:
         return self._rows.k.copy()
-
-    @property
-    def phys_state(self) -> np.ndarray:
-        return self._rows.state
-
-    @property
-    def cond(self) -> np.ndarray:
-        return self._rows.cond
 
     @property
     def soc_target(self) -> np.ndarray:
@@ -182,7 +115,11 @@ class HevThermalVectorEnv(VectorEnv):
         if isinstance(options, dict):
             options = dict(options)
             if "reset_mask" in options:
-                mask = _check_mask(options.pop("reset_mask"), self.num_envs)
+                mask = options.pop("reset_mask")
+                if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
+                    raise ValueError(f"options['reset_mask'] must be a numpy bool array of shape ({self.num_envs},)")
+                if not mask.any():
+                    raise ValueError("options['reset_mask'] must select at least one sub-environment")
             per_env = [options] * self.num_envs
         elif options is None:
             per_env = [None] * self.num_envs
@@ -194,7 +131,9 @@ class HevThermalVectorEnv(VectorEnv):
         if isinstance(seed, int) and not isinstance(seed, bool):
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         idx = np.flatnonzero(mask)
-        self._seed_rows(idx, seeds)
+        for i in idx:  # a new generator where a seed is given (or none exists yet), made as the single env's
+            if seeds[i] is not None or self._rngs[i] is None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
         reset_infos = self._start_episodes(idx, [per_env[i] for i in idx])
         self._autoreset[idx] = False
         obs = self._rows.observe()
@@ -210,11 +149,9 @@ class HevThermalVectorEnv(VectorEnv):
             ended = np.flatnonzero(rows.k >= rows.end)
             raise RuntimeError(f"sub-environment(s) {ended.tolist()} have ended and autoreset is disabled; "
                                "reset them with reset(options={'reset_mask': mask})")
-        resetting = self._autoreset if mode == AutoresetMode.NEXT_STEP else None
-        if resetting is not None and resetting.any():
-            idx = np.flatnonzero(resetting)
-            u[idx] = 0.0
-            clipped[idx] = False
+        resetting = np.flatnonzero(self._autoreset) if mode == AutoresetMode.NEXT_STEP else np.empty(0, np.int64)
+        u[resetting] = 0.0  # the step after a truncation only resets
+        clipped[resetting] = False
         reward, terms, out, obs = rows.step(u)
         state = rows.state
         truncated = rows.k >= rows.end
@@ -222,15 +159,14 @@ class HevThermalVectorEnv(VectorEnv):
         cycle_speed = rows.speed[rows.all_rows, rows.k]  # before any reset (which may widen the tables)
         time_s = rows.k.astype(np.float64)
         step_mask = np.ones(self.num_envs, dtype=bool)
-        if mode == AutoresetMode.NEXT_STEP and resetting.any():
-            idx = np.flatnonzero(resetting)
-            reset_infos = self._start_episodes(idx, [None] * idx.size)  # new state array, out rows zeroed
+        if resetting.size:
+            reset_infos = self._start_episodes(resetting, [None] * resetting.size)  # new state array, out rows zeroed
             for arr in (out, state, reward, cycle_speed, time_s, terms):
-                arr[idx] = 0.0
-            truncated[idx] = False
-            step_mask[idx] = False
+                arr[resetting] = 0.0
+            truncated[resetting] = False
+            step_mask[resetting] = False
             infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
-            infos = self._reset_info_arrays(idx, reset_infos, infos)
+            infos = self._reset_info_arrays(resetting, reset_infos, infos)
             obs = rows.observe()
         elif mode == AutoresetMode.SAME_STEP and truncated.any():
             idx = np.flatnonzero(truncated)
@@ -239,17 +175,11 @@ class HevThermalVectorEnv(VectorEnv):
             for i in idx:
                 final_obs[i] = obs[i].copy()
             done_mask = truncated.copy()
-            final_info = {}
-            for key in self.info_keys:
-                final_info[key] = step_infos[key]
-                final_info["_" + key] = done_mask
+            final_info = {key: done_mask if key.startswith("_") else value for key, value in step_infos.items()}
             rows.last_out = out.copy()  # the final infos keep viewing ``out``
             reset_infos = self._start_episodes(idx, [None] * idx.size)
             obs[idx] = rows.observe(idx)
-            infos = {key: value for key, value in step_infos.items()}
-            for key in RESET_INFO_KEYS:
-                if key in infos:
-                    infos[key] = infos[key].copy()
+            infos = {key: value.copy() if key in RESET_INFO_KEYS else value for key, value in step_infos.items()}
             infos = self._reset_info_arrays(idx, reset_infos, infos)
             infos["final_obs"], infos["_final_obs"] = final_obs, done_mask
             infos["final_info"], infos["_final_info"] = final_info, done_mask
@@ -260,8 +190,8 @@ class HevThermalVectorEnv(VectorEnv):
 
     def get_attr(self, name: str) -> tuple:
         """The attribute of every sub-environment: per-env values for the episode attributes
-        (``cycle``, ``conditions``, ``k``, ``soc_target``, ``phys_state``, ``cond``, ``last_out``,
-        ``np_random``), else the shared attribute of the vector env repeated."""
+        (``cycle``, ``conditions``, ``k``, ``soc_target``, ``phys_state``, ``cond``, ``last_out``, ``np_random``), else
+        the shared attribute of the vector env repeated."""
         rows = self._rows
         if name in _PER_ENV_ATTRS:
             per = {
@@ -313,12 +243,6 @@ class HevThermalVectorEnv(VectorEnv):
             raise ValueError(f"seed: a list needs one seed per sub-environment ({self.num_envs}), got {len(seeds)}")
         return seeds
 
-    def _seed_rows(self, idx: np.ndarray, seeds: list[int | None]) -> None:
-        """New generators for the rows given a seed (and for rows that have none yet), as the single env."""
-        for i in idx:
-            if seeds[i] is not None or self._rngs[i] is None:
-                self._rngs[i] = seeding.np_random(seeds[i])[0]
-
     def _check_actions(self, actions: Any) -> tuple[np.ndarray, np.ndarray]:
         a = np.asarray(actions)
         if a.shape != (self.num_envs, 1):
@@ -358,22 +282,8 @@ class HevThermalVectorEnv(VectorEnv):
         mask[idx] = True
         for key in self.reset_info_keys:
             values = [ri[key] for ri in reset_infos]
-            arr = infos.get(key)
-            if arr is None:
-                arr = np.zeros(self.num_envs, dtype=type(values[0]))
-                key_mask = mask
-            else:
-                key_mask = infos["_" + key] | mask
-            arr[idx] = values
-            infos[key] = arr
-            infos["_" + key] = key_mask
+            if key not in infos:
+                infos[key], infos["_" + key] = np.zeros(self.num_envs, dtype=type(values[0])), np.zeros_like(mask)
+            infos[key][idx] = values
+            infos["_" + key] = infos["_" + key] | mask
         return infos
-
-
-def _check_mask(mask: Any, n: int) -> np.ndarray:
-    if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (n,):
-        raise ValueError(f"options['reset_mask'] must be a numpy bool array of shape ({n},)")
-    if not mask.any():
-        raise ValueError("options['reset_mask'] must select at least one sub-environment")
-    return mask
-

@@ -11,7 +11,9 @@ with the interquartile mean over their seeds and its bootstrap interval.
 
 Independent runs are spread over processes or Ray tasks (:mod:`.executors`); each run is
 deterministic (fixed seed, no shared state), so the results equal a serial run's, byte for byte:
-wall times go to ``timings.json``, not into the results. Every file is written atomically.
+wall times go to ``timings.json``, not into the results. Every file is written atomically. The
+progress bar (:mod:`.progress`) names the runs in progress and weighs the time left by each run's
+expected cost.
 """
 
 from __future__ import annotations
@@ -23,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from hev_thermal_env.agents import get_strategy, list_strategies
 from hev_thermal_env.cycles import ImplausibleCycleWarning, load_cycle
@@ -32,8 +33,9 @@ from hev_thermal_env.io import check_writable_dir
 from hev_thermal_env.scenarios import get_scenario
 
 from .executors import make_executor
-from .families import Family, as_families, family_rows, representative, tag_members
+from .families import Family, family_rows, representative, tag_members
 from .plots import plot_benchmark
+from .progress import BenchmarkProgress, expected_cost_s
 from .results_table import COLUMNS, _fmt, write_results
 from .runner import run_strategy
 from .yardstick import REFERENCE, add_yardstick_columns, with_reference
@@ -63,11 +65,11 @@ def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
 
 
 def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None,
-             families: list[Family] | None = None) -> None:
+             families: list[Family] | None = None) -> dict[str, Any]:
     """Fail before any work on unknown names, strategies that cannot be built (a missing model, an unknown
-    option), a family named like a strategy or another family, or an unusable output directory."""
-    for c in cycles:
-        load_cycle(c)
+    option), a family named like a strategy or another family, or an unusable output directory; returns the
+    cycles by the names given."""
+    loaded = {c: load_cycle(c) for c in cycles}
     for s in scenarios:
         get_scenario(s)
     names = set(list_strategies()) | set(strategies)
@@ -85,23 +87,24 @@ def validate(cycles, strategies, scenarios, out: Path, options: dict | None = No
                 kind = ValueError if isinstance(exc, ValueError) else OSError
                 raise kind(f"--family {f.name}: {path}: {' '.join(str(exc).split())}") from None
     check_writable_dir(out)
+    return loaded
 
 
 def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT_STRATEGIES,
                   scenarios=DEFAULT_SCENARIOS, *, jobs: int | None = None, options: dict | None = None,
                   progress: bool = True, plots: bool = True, executor: str = "local",
-                  address: str | None = None, families=None) -> list[dict]:
+                  address: str | None = None, families: list[Family] | None = None) -> list[dict]:
     """Run every combination, write the result files and plots, return the rows (runs, then families).
 
     ``dp_thermal``, the reference, is added to ``strategies`` if missing (``results.md`` says so).
-    ``families``: seed families, ``{name: [model path, ...]}`` or :class:`~.families.Family` objects;
+    ``families``: seed families (:class:`~.families.Family`, from :func:`~.families.parse_family`);
     each member runs as ``ppo:PATH``. ``executor`` is where the runs happen (:mod:`.executors`):
     ``local`` processes (``jobs`` of them) or ``ray`` tasks (a local Ray runtime of ``jobs`` CPUs,
     or the cluster at ``address``); the files are the same, byte for byte."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
-    fams = as_families(families)
-    validate(cycles, strategies, scenarios, out, options, fams)
+    fams = list(families or [])
+    loaded = validate(cycles, strategies, scenarios, out, options, fams)
     options = options or {}
     run_names = list(dict.fromkeys([*strategies, *(m for f in fams for m in f.members)]))
     tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in run_names]
@@ -109,7 +112,7 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     runner = make_executor(executor, jobs=jobs, address=address)
     t0 = time.perf_counter()
     with runner:
-        results = _run_tasks(tasks, runner, progress)
+        results = _run_tasks(tasks, runner, progress, {c: (cyc.name, cyc.n_steps) for c, cyc in loaded.items()})
     rows = [r[0] for r in results]
     traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}
     add_yardstick_columns(rows)
@@ -123,16 +126,20 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     return rows
 
 
-def _run_tasks(tasks: list[tuple], executor, progress: bool) -> list[tuple[dict, dict]]:
-    """``_run_one`` of every task (on ``executor``, see :mod:`.executors`), results in the order of ``tasks``."""
-    # slow runs first so that the workers stay busy
-    order = sorted(range(len(tasks)), key=lambda i: (0 if tasks[i][2].startswith("dp") else 1, i))
+def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, tuple[str, int]]
+               ) -> list[tuple[dict, dict]]:
+    """``_run_one`` of every task (on ``executor``, see :mod:`.executors`), results in the order of ``tasks``;
+    ``cycles``: (name, steps) of each cycle, for the progress bar."""
+    costs = [expected_cost_s(st, cycles[c][1]) for c, _, st, _ in tasks]
+    order = sorted(range(len(tasks)), key=lambda i: (-costs[i], i))  # slow runs first: the workers stay busy
+    labels = [f"{cycles[c][0]}/{sc}/{st}" for c, sc, st, _ in tasks]
     results: list[Any] = [None] * len(tasks)
-    with tqdm(total=len(tasks), desc="benchmark runs", unit="run", disable=not progress) as bar:
-        for i, result in executor.map(_run_one, tasks, order):
-            results[i] = result
-            bar.set_postfix_str(f"{tasks[i][0]}/{tasks[i][1]}/{tasks[i][2]}")
-            bar.update()
+    with BenchmarkProgress(labels, costs, order, executor.slots, enabled=progress) as bar:
+        for item in executor.map(_run_one, tasks, order, tick_s=1.0):
+            if item is not None:
+                results[item[0]] = item[1]
+                bar.finished(item[0])
+            bar.show()
     return results
 
 

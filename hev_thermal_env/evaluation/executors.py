@@ -1,11 +1,14 @@
 """Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
 
 An executor runs one function over a list of independent tasks and yields ``(index, result)`` as the
-cells finish; the benchmark puts each result in its place and writes the files itself, so the
-files do not depend on the executor (nor on the order in which cells finish).
+cells finish (and ``None`` every ``tick_s`` seconds without one, for a progress display); the
+benchmark puts each result in its place and writes the files itself, so the files do not depend on
+the executor (nor on the order in which cells finish). ``slots`` is how many cells run at once.
 
 * :class:`LocalExecutor` (the default, needs nothing beyond the package): the cells in this process
-  (``jobs=1``) or in a pool of ``jobs`` spawned processes.
+  (``jobs=1``) or in a pool of ``jobs`` spawned processes. The workers ignore Ctrl-C (SIGINT), so
+  that only this process reports it (as ``KeyboardInterrupt``); leaving the executor on an
+  exception stops the workers instead of waiting for the cells in progress.
 * :class:`RayExecutor`: one Ray task per cell (one CPU each). Without an address it starts a local
   Ray runtime with ``jobs`` CPUs; with one it joins a running cluster (``ray start --head`` on
   one machine, ``ray start --address=HOST:PORT`` on the others; every node needs this package,
@@ -20,11 +23,14 @@ address where no cluster answers, raises :class:`ExecutorError` with a one-line 
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing
+import signal
 import socket
+import threading
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
 EXECUTORS = ("local", "ray")
@@ -61,33 +67,60 @@ def make_executor(name: str, *, jobs: int = 1, address: str | None = None):
     raise ValueError(f"unknown executor {name!r}; choose one of {', '.join(EXECUTORS)}")
 
 
+@contextlib.contextmanager
+def sigint_ignored() -> Iterator[None]:
+    """Ctrl-C (SIGINT) ignored within the block, in the main thread (the only one that may change it): a
+    process started in the block ignores it for life, as Python keeps an inherited ignored SIGINT."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 class LocalExecutor:
-    """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes."""
+    """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes that ignore Ctrl-C."""
 
     def __init__(self, jobs: int = 1):
-        self.jobs = max(1, int(jobs))
+        self.jobs = self.slots = max(1, int(jobs))
         self.pool: ProcessPoolExecutor | None = None
+        self.others: set = set()
 
     def __enter__(self) -> LocalExecutor:
         if self.jobs > 1:
+            self.others = set(multiprocessing.active_children())  # child processes that are not the workers
             # spawn, not fork: a forked child would inherit the parent's thread pools (DP) mid-lock
             self.pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=multiprocessing.get_context("spawn"))
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type, *exc) -> None:
         if self.pool is not None:
-            self.pool.shutdown(cancel_futures=True)
+            self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
+            if exc_type is not None:  # interrupted or failed: stop the cells in progress rather than wait for them
+                for worker in set(multiprocessing.active_children()) - self.others:
+                    worker.terminate()
             self.pool = None
 
-    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int]) -> Iterator[tuple[int, Any]]:
-        """``(i, fn(tasks[i]))`` for every ``i`` of ``order`` (submitted in that order)."""
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int],
+            tick_s: float | None = None) -> Iterator[tuple[int, Any] | None]:
+        """``(i, fn(tasks[i]))`` for every ``i`` of ``order`` (submitted in that order) as they finish, and None
+        every ``tick_s`` seconds without one (in a pool)."""
         if self.pool is None:
             for i in order:
                 yield i, fn(tasks[i])
             return
-        futures = {i: self.pool.submit(fn, tasks[i]) for i in order}
-        for i in order:
-            yield i, futures[i].result()
+        with sigint_ignored():  # the workers start within: they ignore Ctrl-C, this process reports it
+            futures = {self.pool.submit(fn, tasks[i]): i for i in order}
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, timeout=tick_s, return_when=FIRST_COMPLETED)
+            if not done:
+                yield None
+            for future in sorted(done, key=futures.__getitem__):
+                yield futures[future], future.result()
 
 
 class RayExecutor:
@@ -95,13 +128,14 @@ class RayExecutor:
 
     def __init__(self, jobs: int = 1, address: str | None = None, max_retries: int = MAX_RETRIES):
         self.ray = import_ray()
-        self.jobs = max(1, int(jobs))
+        self.jobs = self.slots = max(1, int(jobs))
         self.address = address
         self.max_retries = int(max_retries)
         self.started = False
 
     def __enter__(self) -> RayExecutor:
         self.started = start_ray(self.ray, self.jobs, self.address)
+        self.slots = max(1, int(self.ray.cluster_resources().get("CPU", self.jobs)))
         return self
 
     def __exit__(self, *exc) -> None:
@@ -109,13 +143,19 @@ class RayExecutor:
             self.ray.shutdown()
             self.started = False
 
-    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int]) -> Iterator[tuple[int, Any]]:
-        """``(i, fn(tasks[i]))`` as the tasks finish (submitted in ``order``)."""
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int],
+            tick_s: float | None = None) -> Iterator[tuple[int, Any] | None]:
+        """``(i, fn(tasks[i]))`` as the tasks finish (submitted in ``order``), None every ``tick_s`` seconds
+        without one."""
         ray = self.ray
         remote = ray.remote(num_cpus=1, max_retries=self.max_retries)(fn)
         pending = {remote.remote(tasks[i]): i for i in order}
         while pending:
-            (ref,), _ = ray.wait(list(pending), num_returns=1)
+            ready, _ = ray.wait(list(pending), num_returns=1, timeout=tick_s)
+            if not ready:
+                yield None
+                continue
+            ref = ready[0]
             i = pending.pop(ref)
             try:
                 result = ray.get(ref)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -84,15 +84,6 @@ def parse_family(text: str, taken: Iterable[str] = ()) -> Family:
         raise ValueError(f"--family {name}: a seed family needs at least {MIN_SEEDS} runs, got {len(paths)} "
                          f"({', '.join(paths)}); benchmark one policy as ppo:{paths[0]}")
     return Family(name, tuple(paths))
-
-
-def as_families(families: Mapping[str, Sequence[str]] | Iterable[Family] | None) -> list[Family]:
-    """``{name: [path, ...]}`` or Family objects, as Family objects (checked as :func:`parse_family`)."""
-    if not families:
-        return []
-    if isinstance(families, Mapping):
-        return [parse_family(f"{name}={','.join(str(p) for p in paths)}") for name, paths in families.items()]
-    return list(families)
 
 
 def tag_members(rows: list[dict], families: Sequence[Family], strategies: Iterable[str] = ()) -> None:

@@ -8,25 +8,22 @@ optimum), shared by every panel and always including 1, so a dot's distance from
 the same everywhere; each dot carries its value. A seed family (:mod:`.families`) is one row: its
 interquartile mean (diamond), the 95 % bootstrap interval (whiskers) and each seed (small dots).
 A strategy without a ratio on a panel (final SOC outside the frontier) is marked "n/a" there.
-Without any frontier the chart shows the fixed-price ratio (corrected fuel over ``dp_thermal``'s),
-and without ``dp_thermal`` the corrected fuel in L/100 km on an axis from 0.
+Without any frontier the chart shows the fixed-price ratio (corrected fuel over ``dp_thermal``'s).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from hev_thermal_env.io import save_png
-
 from .families import OVERALL
 from .styles import (
     LEARNED_BAND_COLOUR,
-    close,
     figure_title,
     is_learned,
     legend_outside,
     ordered,
     pyplot,
+    save_fig,
     short_label,
     strategy_styles,
 )
@@ -43,8 +40,6 @@ MEASURES = (
      "thermal optimum = 1"),
     ("fixed_price_ratio", f"fixed-price ratio: corrected fuel / {REFERENCE}'s (lower is better; no frontier)",
      f"Corrected fuel relative to {REFERENCE} (fixed battery price)", f"{REFERENCE} = 1"),
-    ("fuel_corrected_l_per_100km", f"corrected fuel (L/100 km, lower is better; no {REFERENCE} in this benchmark)",
-     "Corrected fuel", "0 L/100 km"),
 )
 
 
@@ -58,15 +53,13 @@ def _positions(strategies: list[str], learned: set[str]) -> dict[str, float]:
     return pos
 
 
-def _value_range(values: list[float], base: float | None, wide_right: bool = False) -> tuple[float, float]:
-    """One x range for every panel: from the reference 1 (or 0 L/100 km) to the largest value, room for labels
-    (more on the right with ``wide_right``: a family's label carries its interval)."""
+def _value_range(values: list[float], wide_right: bool = False) -> tuple[float, float]:
+    """One x range for every panel: from the reference 1 to the largest value, room for labels (more on the right
+    with ``wide_right``: a family's label carries its interval)."""
     right = 0.38 if wide_right else 0.16
-    if base is None:
-        return 0.0, max(values) * (1.0 + right)
-    lo, hi = min(min(values), base), max(max(values), base)
+    lo, hi = min(min(values), 1.0), max(max(values), 1.0)
     span = max(hi - lo, 0.01)
-    return lo - (0.12 if lo < base else 0.03) * span, hi + right * span
+    return lo - (0.12 if lo < 1.0 else 0.03) * span, hi + right * span
 
 
 def _split(rows: list[dict]) -> tuple[list[dict], dict[str, list[dict]]]:
@@ -99,7 +92,6 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in drawn]))
     key, xlabel, title, base_label = next((m for m in MEASURES if any(r.get(m[0]) is not None for r in drawn)),
                                           MEASURES[-1])
-    base = None if key == MEASURES[-1][0] else 1.0
     families = set(members) | {r["family"] for r in drawn if r.get("family")}
     strategies = ordered((r["strategy"] for r in drawn), families)
     styles = strategy_styles(strategies, families)
@@ -109,12 +101,12 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     height = 0.27 * (max(pos.values()) + 1.0) + 1.1
     fig, axes = plt.subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
                              figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2), layout="constrained")
-    axes[0, 0].set_xlim(*_value_range(values or [1.0], base, bool(families)))  # shared: before the labels
+    axes[0, 0].set_xlim(*_value_range(values or [1.0], bool(families)))  # shared: before the labels
     for i, sc in enumerate(scenarios):
         for j, cyc in enumerate(cycles):
             sel = {r["strategy"]: r for r in drawn if r["cycle"] == cyc and r["scenario"] == sc}
             seeds = {f: [m for m in ms if m["cycle"] == cyc and m["scenario"] == sc] for f, ms in members.items()}
-            _panel(axes[i, j], sel, seeds, key, pos, styles, base, families)
+            _panel(axes[i, j], sel, seeds, key, pos, styles, families)
             axes[i, j].set_title(f"{cyc} cycle, {sc} scenario", fontsize=10)
     ax0 = axes[0, 0]
     ax0.ticklabel_format(axis="x", useOffset=False, style="plain")
@@ -152,15 +144,15 @@ def _row_label(name: str, families: set[str], members: dict[str, list[dict]]) ->
 def _reference_line(rows: list[dict], key: str) -> str:
     """A second x-label line naming the reference, when the ratio has one reference everywhere."""
     refs = {r.get("reference") for r in rows if r.get("reference")}
-    if key == MEASURES[-1][0] or len(refs) != 1:
+    if len(refs) != 1:
         return ""
     ref = refs.pop()
     return "\n1 = " + (ref if len(ref) <= 110 else ref[:109] + "…")
 
 
 def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos: dict[str, float], styles: dict,
-           base: float | None, families: set[str]) -> None:
-    origin = 0.0 if base is None else base
+           families: set[str]) -> None:
+    origin = 1.0
     learned = [p for s, p in pos.items() if is_learned(s, families)]
     if learned:
         ax.axhspan(min(learned) - 0.5, max(learned) + 0.5, color=LEARNED_BAND_COLOUR, zorder=0, lw=0)
@@ -189,7 +181,7 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         lo, hi = ax.get_xlim()
         below = right < origin - 0.08 * (hi - lo) and name not in families
         right = max(right, origin)
-        text = f"{v:.3f}" if base is not None else f"{v:.2f}"
+        text = f"{v:.3f}"
         if name in families and r.get(f"{key}_ci_low") is not None:
             text += f" [{r[f'{key}_ci_low']:.3f}, {r[f'{key}_ci_high']:.3f}]"
         ax.annotate(text, (left if below else right, y), xytext=(-7 if below else 7, 0),
@@ -219,8 +211,4 @@ def _family(ax, r: dict, seeds: list[dict], key: str, y: float, colour: str) -> 
 def plot_fuel_chart(rows: list[dict], path: Path, cycles: list[str] | None = None,
                     scenarios: list[str] | None = None) -> Path:
     """Write :func:`fuel_figure` of ``rows`` to ``path``; returns the path."""
-    fig = fuel_figure(rows, cycles, scenarios)
-    try:
-        return save_png(fig, path)
-    finally:
-        close(fig)
+    return save_fig(fuel_figure(rows, cycles, scenarios), path)

@@ -26,10 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
-from hev_thermal_env.io import save_png
 
 from .fuel_chart import FUEL_CHART_FILE, plot_fuel_chart
-from .styles import CYCLE_COLOUR, close, figure_title, legend_outside, ordered, pyplot, short_label, strategy_styles
+from .styles import CYCLE_COLOUR, figure_title, legend_outside, ordered, pyplot, save_fig, short_label, strategy_styles
 
 __all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure", "temperature_limits_c"]
 
@@ -48,26 +47,19 @@ def temperature_limits_c() -> tuple[float, float]:
 
 
 def _series(trace: Mapping[str, np.ndarray], key: str) -> np.ndarray | None:
-    if key in trace:
-        return np.asarray(trace[key], dtype=float)
-    if key == SPLIT_INFO_KEY and "u" in trace:
-        return np.asarray(trace["u"], dtype=float)
-    return None
+    return np.asarray(trace[key], dtype=float) if key in trace else None
 
 
 def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
-    if "time_s" in trace:
-        return np.asarray(trace["time_s"], dtype=float)
-    n = len(next(iter(trace.values())))
-    return np.arange(1, n + 1, dtype=float)
+    return np.asarray(trace["time_s"], dtype=float)
 
 
 def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
                temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()):
     """The trace figure of ``{label: trace}`` (see the module docstring); returns the matplotlib figure.
 
-    Each trace needs per-step arrays ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and the
-    split (``motor_share`` or ``u``); ``time_s``, ``cycle_speed_mps``, ``missed_wheel_energy_j``,
+    Each trace needs per-step arrays ``time_s``, ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and
+    the split ``motor_share`` (a run's trace holds them); ``cycle_speed_mps``, ``missed_wheel_energy_j``,
     ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. ``temp_limits_c`` is
     (soft limit, cutoff), by default those of ``paper_bus`` and the default reward. ``learned``:
     more names drawn as learned policies (seed families; ``ppo`` and ``ppo:PATH`` always are).
@@ -193,11 +185,7 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
 def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.PathLike, title: str = "",
              temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()) -> Path:
     """Draw one or more runs (``{label: trace}``) into a PNG at ``path`` (see :func:`run_figure`); returns the path."""
-    fig = run_figure(traces, title, temp_limits_c, learned)
-    try:
-        return save_png(fig, path)
-    finally:
-        close(fig)
+    return save_fig(run_figure(traces, title, temp_limits_c, learned), path)
 
 
 def plot_benchmark(out: Path, rows: list[dict], traces: dict, cycles: list[str] | None = None,

@@ -1,4 +1,4 @@
-"""Run one strategy over one cycle in ``HevThermal-v0`` and report the metrics of DESIGN §6.
+"""Run one strategy over one cycle in ``HevThermal-v0`` and report its metrics.
 
 :func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
 resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
@@ -25,6 +25,7 @@ from hev_thermal_env.metrics import run_metrics, yardstick_cost_g
 from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.scenarios import Scenario, get_scenario
+from hev_thermal_env.simulate import step_traces
 
 SUMMARY_KEYS = (
     "cycle", "strategy", "scenario", "distance_km", "duration_s", "fuel_g", "fuel_l_per_100km",
@@ -46,7 +47,7 @@ class RunResult:
     info_keys: tuple[str, ...] = ()
 
     def to_json_dict(self) -> dict[str, Any]:
-        return _jsonable(self.summary)
+        return jsonable(self.summary)
 
     def trace_csv(self, keys: tuple[str, ...] | None = None) -> str:
         """The per-second trace as CSV text (the env's ``info`` fields by default, then the action)."""
@@ -67,13 +68,14 @@ def _fmt(v: Any) -> str:
     return repr(int(f)) if f.is_integer() and abs(f) < 1e15 else f"{f:.9g}"
 
 
-def _jsonable(x: Any) -> Any:
+def jsonable(x: Any) -> Any:
+    """``x`` with numpy values as Python's and a non-finite float as None (strict JSON)."""
     if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
+        return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
+        return [jsonable(v) for v in x]
     if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
+        return jsonable(x.tolist())
     if isinstance(x, (np.bool_, bool)):
         return bool(x)
     if isinstance(x, np.integer):
@@ -82,13 +84,6 @@ def _jsonable(x: Any) -> Any:
         f = float(x)
         return f if np.isfinite(f) else None
     return x
-
-
-def make_env(strategy: Strategy, cycle: Any, scenario: str | Scenario = "paper", *, config: VehicleConfig | None = None,
-             conditions: Conditions | None = None, **env_kwargs: Any):
-    """``HevThermalEnv`` for ``strategy`` on ``cycle``: the strategy chooses its vehicle (``vehicle_config``)."""
-    vehicle = strategy.vehicle_config(config if config is not None else paper_bus())
-    return HevThermalEnv(cycle=cycle, scenario=scenario, config=vehicle, conditions=conditions, **env_kwargs)
 
 
 def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
@@ -115,7 +110,8 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()
-    env = make_env(strategy, cyc, scen, config=config, conditions=conditions)
+    vehicle = strategy.vehicle_config(config if config is not None else paper_bus())  # the strategy's vehicle
+    env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions)
     try:
         obs, info = env.reset(seed=seed)
         e = env.unwrapped
@@ -144,10 +140,7 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
         wall = time.perf_counter() - t_start
     finally:
         env.close()
-    trace: dict[str, np.ndarray] = {name: outs[:steps, i].copy() for i, name in enumerate(C.OUT_NAMES)}
-    for i, name in enumerate(C.STATE_NAMES):
-        trace[name] = states[:steps, i].copy()
-    trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
+    trace = step_traces(outs[:steps], states[:steps])
     for key, values in infos.items():
         trace[key] = np.asarray(values)
     trace["u"] = us[:steps]
@@ -163,4 +156,4 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     summary = {k: summary[k] for k in SUMMARY_KEYS if k in summary} | {k: v for k, v in summary.items()
                                                                         if k not in SUMMARY_KEYS}
     info_keys = tuple(infos) + ("u",)
-    return RunResult(summary=_jsonable(summary), trace=trace, info_keys=info_keys)
+    return RunResult(summary=jsonable(summary), trace=trace, info_keys=info_keys)

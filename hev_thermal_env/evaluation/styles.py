@@ -11,7 +11,10 @@ Labels mark ``dp`` thermal-blind (:func:`short_label`).
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable, Sequence
+from pathlib import Path
 from typing import Any
+
+from hev_thermal_env.io import save_png
 
 from .yardstick import display_name
 
@@ -128,3 +131,11 @@ def figure_title(fig, text: str, fontsize: float = 11.0):
 
 def close(fig) -> None:
     pyplot().close(fig)
+
+
+def save_fig(fig, path) -> Path:
+    """Write ``fig`` to the PNG ``path`` atomically (:func:`hev_thermal_env.io.save_png`) and close it."""
+    try:
+        return save_png(fig, path)
+    finally:
+        close(fig)

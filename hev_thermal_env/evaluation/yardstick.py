@@ -13,9 +13,9 @@ row of the same cycle and scenario gets:
   the optimum, whatever SOC the run ends at, with no price on battery energy. None when the run's
   final SOC is outside the frontier's range (or there is no frontier); ``frontier_note`` says why.
 * ``fixed_price_ratio`` = corrected fuel / the reference run's corrected fuel: the fixed battery
-  price of the corrected-fuel metric decides, as in the earlier benchmark.
-* ``fuel_vs_thermal_blind_dp_pct``: corrected fuel as a percentage of the thermal-blind ``dp``'s
-  (the earlier ``fuel_vs_dp_pct``), when ``dp`` ran.
+  price of the corrected-fuel metric decides.
+* ``fuel_vs_thermal_blind_dp_pct``: corrected fuel as a percentage of the thermal-blind ``dp``'s,
+  when ``dp`` ran.
 * ``reference``: which optimum and grid (the frontier's ``grid`` text).
 
 ``dp`` plans with the thermal state held at its start (thermal-blind, :mod:`hev_thermal_env.agents.dp`);

@@ -1,33 +1,30 @@
 """Energy audit of a run from independent quantities: each component against its own map.
 
 The closing balance of ``simulate.energy_balance`` adds up outputs that the step computed from
-one another (the engine's shaft power, the battery's chemical power, the losses as differences),
-so it closes whatever the maps say: a wrong fuel map, a SOC held inside its window by a clamp
-(energy created or destroyed), or a motor loss computed at the wrong point all pass it. The audit
-instead takes the operating points the run reports (engine speed and torque, motor speed and
-torque, gear, the state before and after each step, the cycle) and asks every component's own
-map, and conservation, what the other columns must then be:
+one another, so it closes whatever the maps say: a wrong fuel map, a SOC held inside its window
+by a clamp (energy created or destroyed), or a motor loss computed at the wrong point all pass it.
+The audit instead takes the operating points the run reports (engine and motor speed and torque,
+gear, the states before and after each step, the cycle) and asks every component's own map, and
+conservation, what the other columns must then be:
 
-* ``road_load``: the wheel power demanded, from the glider's road-load map at the cycle's speed,
+* ``road_load``: the wheel power demanded, from the road-load map at the cycle's speed,
   acceleration and grade and the run's payload;
-* ``engine_fuel``: the fuel of each step from the engine's fuel map at the reported engine speed
-  and brake torque (accessories included; nothing on overrun, the fuel cut);
-* ``engine_efficiency``: the shaft energy against the fuel energy, i.e. the engine's mean
-  efficiency, within a diesel's plausible range (0.15-0.46), and never above 0.46 in a step;
-* ``motor``: the motor's electrical power from its loss map (base loss, the extra fraction, the
-  derate at the temperature before the step) at the reported torque and speed; its loss = P_elec − T·ω;
-* ``battery``: coulomb counting from the SOC trace: the chemical energy of each step, V_oc·I·dt,
-  against −ΔSOC·capacity·V_oc (a clamp that holds the SOC in its window while current flows
-  fails here); the terminal power = V_oc·I − R·I² from the resistance map; the terminal power =
-  motor electrical power + the accessories when the engine is off;
+* ``engine_fuel``: the fuel of each step from the fuel map at the reported engine speed and brake
+  torque (accessories included; nothing on overrun, the fuel cut);
+* ``engine_efficiency``: shaft energy / fuel energy within a diesel's plausible range (0.15-0.46),
+  and never above 0.46 in a step;
+* ``motor``: the electrical power from the loss map (base loss, the extra fraction, the derate at
+  the temperature before the step) at the reported torque and speed; its loss = P_elec − T·ω;
+* ``battery``: coulomb counting, V_oc·I·dt of each step against −ΔSOC·capacity·V_oc (a clamp that
+  holds the SOC in its window while current flows fails here); the terminal power = V_oc·I − R·I²
+  from the resistance map, and = motor electrical power + the accessories when the engine is off;
 * ``driveline``: the wheel power delivered = the shaft power through the gearbox and final drive
-  efficiencies (traction), and the driveline loss their difference; the motor's and the engine's
-  speeds from the cycle's speed through the reported gear;
-* ``balance``: fuel-map-checked engine shaft energy + battery terminal energy = wheel energy,
-  brakes, motor, clutch and driveline losses and the accessories;
-* ``thermal``: the motor's generated heat = the heat stored in the network's nodes + the heat
-  given to the air (convection, radiation, radiator), per step (the paper's one-node model: the
-  motor node only, its coolant flow leaving the system).
+  efficiencies (traction); the motor's and the engine's speeds from the cycle's through the gear;
+* ``balance``: engine shaft energy + battery energy = wheel energy, brakes, motor, clutch and
+  driveline losses and the accessories;
+* ``thermal``: the motor's heat = the heat stored in the network's nodes + the heat given to the air
+  (convection, radiation, radiator), per step (``paper_eqs``: the motor node only, its coolant flow
+  leaving the system).
 
 Each check reports its worst relative error against its tolerance; :attr:`AuditReport.ok` is
 true when all pass. ``tests/test_audit.py`` shows each check failing when one component is
@@ -41,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from ..cycles import load_cycle
 from . import battery as bat
 from . import core as C
 from . import driveline as drv
@@ -51,6 +49,9 @@ from . import thermal as thm
 from .config import Conditions, VehicleConfig
 from .jit import jit
 
+#: Each per-step error relative to the component's peak power (or energy) may reach this: rounding is far below it,
+#: a changed map far above.
+REL_TOL = 1e-6
 #: The best brake efficiency a diesel reaches (≈185 g/kWh); no step may convert fuel better.
 DIESEL_MAX_EFF = 0.46
 DIESEL_MEAN_EFF_RANGE = (0.15, DIESEL_MAX_EFF)
@@ -110,46 +111,54 @@ def _rel(a: np.ndarray, b: np.ndarray, scale: float) -> float:
 
 
 def energy_audit(trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any,
-                 conditions: Conditions | None = None, dt_s: float = 1.0, rel_tol: float = 1e-6) -> AuditReport:
-    """Audit a run (``simulate(...).trace`` or an evaluation trace) of ``config`` over ``cycle``.
+                 conditions: Conditions | None = None) -> AuditReport:
+    """Audit a run at 1-s steps (``simulate(...).trace`` or an evaluation trace) of ``config`` over ``cycle``."""
+    run = _Run(trace, config, cycle, conditions or Conditions())
+    road_w = run.out["road_w"]
+    road = Check("road_load", _rel(road_w, run.g["wheel_power_demand_w"], run.peak(road_w)), REL_TOL,
+                 "wheel power demand vs the road-load map at the cycle's speed, grade and payload")
+    return AuditReport([road, *_engine_checks(run), _motor_check(run), _battery_check(run),
+                        _driveline_check(run), _balance_check(run), _thermal_check(run)])
 
-    ``rel_tol`` bounds each per-step error relative to the component's peak power (or energy):
-    rounding is far below it, a changed map far above.
-    """
-    from ..cycles import load_cycle
 
-    cyc = load_cycle(cycle)
-    conditions = conditions or Conditions()
-    phys = C.PhysicsCore(config, dt_s=dt_s)
-    n = len(trace["fuel_g"])
-    v = np.asarray(cyc.speed_mps, dtype=np.float64)
-    v0, v1 = v[:n].copy(), v[1:n + 1].copy()
-    grade = np.asarray(cyc.grade, dtype=np.float64)[:n].copy()
-    s0 = phys.initial_state(conditions, 1)[0]
-    before = {name: np.concatenate([[s0[i]], np.asarray(trace[name])[:-1]]) for i, name in enumerate(C.STATE_NAMES)}
-    g = {name: np.asarray(trace[name], dtype=np.float64) for name in C.OUT_NAMES}
-    w_e, engine_on = g["engine_speed_radps"], g["engine_on"]
-    # brake torque of the engine, accessories included, from its reported speed and power
-    t_e_brake = np.where(w_e > 0.0, g["engine_power_w"] / np.maximum(w_e, 1e-12), 0.0)
-    out = {k: np.empty(n) for k in ("road_w", "fuel_g", "p_elec", "voc", "r_dis", "r_chg", "ratio")}
-    _maps(*phys.params[:6], v0, v1, grade, float(conditions.payload_kg), dt_s, w_e, t_e_brake, engine_on,
-          g["motor_torque_nm"], g["motor_speed_radps"], before["motor_temp_c"], before["soc"], g["gear"],
-          out["road_w"], out["fuel_g"], out["p_elec"], out["voc"], out["r_dis"], out["r_chg"], out["ratio"])
-    checks: list[Check] = []
+class _Run:
+    """What the checks read: the run's outputs ``g``, its states before each step, the maps' values ``out``."""
 
-    # --- glider: road load -------------------------------------------------------------------------
-    scale = float(np.max(np.abs(out["road_w"]))) if n else 1.0
-    checks.append(Check("road_load", _rel(out["road_w"], g["wheel_power_demand_w"], scale), rel_tol,
-                        "wheel power demand vs the road-load map at the cycle's speed, grade and payload"))
+    def __init__(self, trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any, conditions: Conditions):
+        cyc = load_cycle(cycle)
+        dt_s = 1.0
+        phys = C.PhysicsCore(config, dt_s=dt_s)
+        n = len(trace["fuel_g"])
+        v = np.asarray(cyc.speed_mps, dtype=np.float64)
+        self.v0, self.v1 = v[:n].copy(), v[1:n + 1].copy()
+        grade = np.asarray(cyc.grade, dtype=np.float64)[:n].copy()
+        s0 = phys.initial_state(conditions, 1)[0]
+        self.config, self.trace, self.dt_s = config, trace, dt_s
+        self.before = {name: np.concatenate([[s0[i]], np.asarray(trace[name])[:-1]])
+                       for i, name in enumerate(C.STATE_NAMES)}
+        g = self.g = {name: np.asarray(trace[name], dtype=np.float64) for name in C.OUT_NAMES}
+        w_e = g["engine_speed_radps"]
+        # brake torque of the engine, accessories included, from its reported speed and power
+        t_e_brake = np.where(w_e > 0.0, g["engine_power_w"] / np.maximum(w_e, 1e-12), 0.0)
+        out = self.out = {k: np.empty(n) for k in ("road_w", "fuel_g", "p_elec", "voc", "r_dis", "r_chg", "ratio")}
+        _maps(*phys.params[:6], self.v0, self.v1, grade, float(conditions.payload_kg), dt_s, w_e, t_e_brake,
+              g["engine_on"], g["motor_torque_nm"], g["motor_speed_radps"], self.before["motor_temp_c"],
+              self.before["soc"], g["gear"], out["road_w"], out["fuel_g"], out["p_elec"], out["voc"], out["r_dis"],
+              out["r_chg"], out["ratio"])
 
-    # --- engine: fuel map and efficiency -----------------------------------------------------------
+    def peak(self, x: np.ndarray) -> float:
+        """The largest |x| of the run, the scale of a per-step error (1 for an empty run)."""
+        return float(np.max(np.abs(x))) if len(x) else 1.0
+
+
+def _engine_checks(run: _Run) -> list[Check]:
+    g, config, dt_s = run.g, run.config, run.dt_s
     # fuel cut on overrun: a running engine above idle that gives no power burns nothing
     idle = config.engine.idle_speed_rpm * np.pi / 30.0
-    overrun = (g["engine_power_w"] <= 0.0) & (w_e > idle * (1.0 + 1e-12))
-    out["fuel_g"] = np.where(overrun, 0.0, out["fuel_g"])
-    scale = float(np.max(out["fuel_g"])) if n else 1.0
-    checks.append(Check("engine_fuel", _rel(out["fuel_g"], g["fuel_g"], scale), rel_tol,
-                        "fuel per step vs the fuel map at the reported engine speed and brake torque"))
+    overrun = (g["engine_power_w"] <= 0.0) & (g["engine_speed_radps"] > idle * (1.0 + 1e-12))
+    fuel = np.where(overrun, 0.0, run.out["fuel_g"])
+    fuel_check = Check("engine_fuel", _rel(fuel, g["fuel_g"], run.peak(fuel)), REL_TOL,
+                       "fuel per step vs the fuel map at the reported engine speed and brake torque")
     lhv = config.engine.fuel_lhv_j_per_g
     shaft_j = float(np.sum(np.maximum(g["engine_power_w"], 0.0)) * dt_s)
     fuel_j = float(np.sum(g["fuel_g"]) * lhv)
@@ -158,73 +167,82 @@ def energy_audit(trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any
     lo, hi = DIESEL_MEAN_EFF_RANGE
     eff_err = max(float(np.max(step_eff, initial=0.0)) - DIESEL_MAX_EFF, 0.0) + (
         0.0 if fuel_j == 0.0 or lo <= mean_eff <= hi else min(abs(mean_eff - lo), abs(mean_eff - hi)))
-    checks.append(Check("engine_efficiency", eff_err, 0.0,
-                        f"shaft energy / fuel energy = {mean_eff:.3f} (diesel: {lo}-{hi}; no step above {hi})"))
+    return [fuel_check, Check("engine_efficiency", eff_err, 0.0,
+                              f"shaft energy / fuel energy = {mean_eff:.3f} (diesel: {lo}-{hi}; no step above {hi})")]
 
-    # --- motor: electrical power and loss from its map ----------------------------------------------
-    scale = float(np.max(np.abs(out["p_elec"]))) if n else 1.0
+
+def _motor_check(run: _Run) -> Check:
+    g, p_elec = run.g, run.out["p_elec"]
+    scale = run.peak(p_elec)
     mech = g["motor_torque_nm"] * g["motor_speed_radps"]
-    err = max(_rel(out["p_elec"], g["motor_elec_power_w"], scale), _rel(out["p_elec"] - mech, g["motor_loss_w"], scale))
-    checks.append(Check("motor", err, rel_tol, "electrical power and loss vs the loss map at the reported point, "
-                                               "derated at the temperature before the step"))
+    err = max(_rel(p_elec, g["motor_elec_power_w"], scale), _rel(p_elec - mech, g["motor_loss_w"], scale))
+    return Check("motor", err, REL_TOL, "electrical power and loss vs the loss map at the reported point, derated at "
+                                        "the temperature before the step")
 
-    # --- battery: coulomb counting, resistance map, terminal power ----------------------------------
-    cap_as = config.battery.capacity_ah * 3600.0
-    d_soc = np.asarray(trace["soc"]) - before["soc"]
+
+def _battery_check(run: _Run) -> Check:
+    g, out, dt_s = run.g, run.out, run.dt_s
+    cap_as = run.config.battery.capacity_ah * 3600.0
+    d_soc = np.asarray(run.trace["soc"]) - run.before["soc"]
     chem_from_soc = -d_soc * cap_as * out["voc"] / dt_s  # W
     current = g["battery_chem_power_w"] / np.maximum(out["voc"], 1e-9)
     r = np.where(current >= 0.0, out["r_dis"], out["r_chg"])
     terminal = g["battery_chem_power_w"] - r * current * current
-    acc_elec = np.where(engine_on != 0.0, 0.0, g["accessory_power_w"])
-    scale = float(np.max(np.abs(g["battery_chem_power_w"]))) if n else 1.0
+    acc_elec = np.where(g["engine_on"] != 0.0, 0.0, g["accessory_power_w"])
+    scale = run.peak(g["battery_chem_power_w"])
     err = max(_rel(chem_from_soc, g["battery_chem_power_w"], scale), _rel(terminal, g["battery_power_w"], scale),
               _rel(g["motor_elec_power_w"] + acc_elec, g["battery_power_w"], scale))
     e_chem = float(np.sum(g["battery_chem_power_w"]) * dt_s)
     e_soc = float(np.sum(chem_from_soc) * dt_s)
-    checks.append(Check("battery", err, rel_tol,
-                        f"∫P_chem dt = {e_chem / 3.6e6:.4f} kWh vs −ΔSOC·capacity·V_oc = {e_soc / 3.6e6:.4f} kWh; "
-                        "terminal power from the resistance map and from the motor and accessories"))
+    return Check("battery", err, REL_TOL,
+                 f"∫P_chem dt = {e_chem / 3.6e6:.4f} kWh vs −ΔSOC·capacity·V_oc = {e_soc / 3.6e6:.4f} kWh; "
+                 "terminal power from the resistance map and from the motor and accessories")
 
-    # --- driveline: traction through the gearbox and final drive ------------------------------------
+
+def _driveline_check(run: _Run) -> Check:
+    g, config = run.g, run.config
     eff = config.driveline.gearbox_efficiency * config.driveline.final_drive_efficiency
     shaft_w = g["wheel_power_w"] + g["driveline_loss_w"]
-    w_wheel = 0.5 * (v0 + v1) / config.glider.wheel_radius_m
-    w_shaft = w_wheel * out["ratio"]
+    w_shaft = 0.5 * (run.v0 + run.v1) / config.glider.wheel_radius_m * run.out["ratio"]
     traction = (shaft_w > 0.0) & (g["brake_power_w"] <= 0.0)
     expect = np.where(traction, shaft_w * eff, g["wheel_power_w"])
-    scale = float(np.max(np.abs(shaft_w))) if n else 1.0
-    # speeds: the motor turns at the coupler ratio times the shaft speed the gear gives; the running engine at
-    # the shaft speed (idle at least)
+    # the motor turns at the coupler ratio times the shaft speed the gear gives; the running engine at the shaft
+    # speed (idle at least)
     idle = config.engine.idle_speed_rpm * np.pi / 30.0
     w_scale = max(float(np.max(g["motor_speed_radps"])), 1.0)
     speed_err = max(_rel(w_shaft * config.driveline.coupler_ratio, g["motor_speed_radps"], w_scale),
-                    _rel(np.where(engine_on != 0.0, np.maximum(w_shaft, idle), 0.0), w_e, w_scale))
-    checks.append(Check("driveline", max(_rel(expect, g["wheel_power_w"], scale), speed_err), rel_tol,
-                        "wheel power = shaft power × gearbox × final drive efficiency; shaft, motor and engine "
-                        "speeds from the gear"))
+                    _rel(np.where(g["engine_on"] != 0.0, np.maximum(w_shaft, idle), 0.0), g["engine_speed_radps"],
+                         w_scale))
+    return Check("driveline", max(_rel(expect, g["wheel_power_w"], run.peak(shaft_w)), speed_err), REL_TOL,
+                 "wheel power = shaft power × gearbox × final drive efficiency; shaft, motor and engine speeds from "
+                 "the gear")
 
-    # --- closing balance, with the inputs checked above ------------------------------------------------
+
+def _balance_check(run: _Run) -> Check:
+    g = run.g
     e_in = g["engine_power_w"] + g["battery_chem_power_w"]
     e_out = (g["wheel_power_w"] + g["brake_power_w"] + g["battery_loss_w"] + g["motor_loss_w"] + g["clutch_loss_w"]
              + g["driveline_loss_w"] + g["accessory_power_w"])
-    scale = float(np.sum(np.abs(g["engine_power_w"]) + np.abs(g["battery_chem_power_w"]))) if n else 1.0
-    checks.append(Check("balance", abs(float(np.sum(e_in - e_out))) / max(scale, 1.0), 1e-9,
-                        "engine shaft + battery chemical energy = wheel, brakes, losses, accessories"))
+    scale = float(np.sum(np.abs(g["engine_power_w"]) + np.abs(g["battery_chem_power_w"]))) if len(e_in) else 1.0
+    return Check("balance", abs(float(np.sum(e_in - e_out))) / max(scale, 1.0), 1e-9,
+                 "engine shaft + battery chemical energy = wheel, brakes, losses, accessories")
 
-    # --- thermal network: heat generated = heat stored + heat to the air ------------------------------
-    th = config.thermal
+
+def _thermal_check(run: _Run) -> Check:
+    th, g, dt_s = run.config.thermal, run.g, run.dt_s
     heat = g["motor_heat_w"] * dt_s
+
+    def rise(name: str) -> np.ndarray:
+        return np.asarray(run.trace[name]) - run.before[name]
+
     if th.model == "network":
         c_w = th.winding_heat_capacity_j_per_k
-        stored = (c_w * (np.asarray(trace["motor_temp_c"]) - before["motor_temp_c"])
-                  + (th.heat_capacity_j_per_k - c_w) * (np.asarray(trace["housing_temp_c"]) - before["housing_temp_c"])
-                  + th.coolant_heat_capacity_j_per_k * (np.asarray(trace["coolant_temp_c"]) - before["coolant_temp_c"]))
+        stored = (c_w * rise("motor_temp_c") + (th.heat_capacity_j_per_k - c_w) * rise("housing_temp_c")
+                  + th.coolant_heat_capacity_j_per_k * rise("coolant_temp_c"))
         to_air = (g["q_air_w"] + g["q_rad_w"] + g["q_radiator_w"]) * dt_s
         detail = "winding, housing and coolant heat + convection, radiation and radiator = motor heat"
     else:  # the paper's explicit node: stored = (heat − flows at the old temperature)·dt
-        stored = th.heat_capacity_j_per_k * (np.asarray(trace["motor_temp_c"]) - before["motor_temp_c"])
+        stored = th.heat_capacity_j_per_k * rise("motor_temp_c")
         to_air = (g["q_air_w"] + g["q_rad_w"] + g["q_cool_w"]) * dt_s
         detail = "motor node heat + convection, radiation and coolant = motor heat (eq 7)"
-    scale = float(np.max(np.abs(heat))) if n else 1.0
-    checks.append(Check("thermal", _rel(stored + to_air, heat, max(scale, 1.0)), rel_tol, detail))
-    return AuditReport(checks)
+    return Check("thermal", _rel(stored + to_air, heat, max(run.peak(heat), 1.0)), REL_TOL, detail)

@@ -77,14 +77,7 @@ LAYOUT = Layout(BatteryParams, (
          fields=("module_r_charge_ohm",)),
 ), unpacked=("module_mass_kg",))
 """Packed pack-level battery parameters read by the kernels (module data scaled to the pack)."""
-CAPACITY_AS = LAYOUT["capacity_as"]
-SOC_MIN = LAYOUT["soc_min"]
-SOC_MAX = LAYOUT["soc_max"]
-P_DIS_MAX = LAYOUT["max_discharge_power_w"]
-P_CHG_MAX = LAYOUT["max_charge_power_w"]
-VOC0 = LAYOUT["voc_v"]
-RDIS0 = LAYOUT["r_discharge_ohm"]
-RCHG0 = LAYOUT["r_charge_ohm"]
+IDX = LAYOUT.index()
 
 
 @jit
@@ -97,12 +90,12 @@ def _table(ba, start, soc):
 
 @jit
 def open_circuit_voltage_v(ba, soc):
-    return _table(ba, VOC0, soc)
+    return _table(ba, IDX.voc_v, soc)
 
 
 @jit
 def resistance_ohm(ba, soc, charging):
-    return _table(ba, RCHG0 if charging else RDIS0, soc)
+    return _table(ba, IDX.r_charge_ohm if charging else IDX.r_discharge_ohm, soc)
 
 
 @jit
@@ -111,11 +104,11 @@ def power_limits_w(ba, soc, dt_s):
     voc = open_circuit_voltage_v(ba, soc)
     r_d = resistance_ohm(ba, soc, False)
     r_c = resistance_ohm(ba, soc, True)
-    i_dis = max(soc - ba[SOC_MIN], 0.0) * ba[CAPACITY_AS] / dt_s
+    i_dis = max(soc - ba[IDX.soc_min], 0.0) * ba[IDX.capacity_as] / dt_s
     i_dis = min(i_dis, voc / (2.0 * r_d))  # past the matched-load current power falls
-    p_dis = min(ba[P_DIS_MAX], voc * i_dis - r_d * i_dis * i_dis)
-    i_chg = max(ba[SOC_MAX] - soc, 0.0) * ba[CAPACITY_AS] / dt_s
-    p_chg = min(ba[P_CHG_MAX], voc * i_chg + r_c * i_chg * i_chg)
+    p_dis = min(ba[IDX.max_discharge_power_w], voc * i_dis - r_d * i_dis * i_dis)
+    i_chg = max(ba[IDX.soc_max] - soc, 0.0) * ba[IDX.capacity_as] / dt_s
+    p_chg = min(ba[IDX.max_charge_power_w], voc * i_chg + r_c * i_chg * i_chg)
     return max(p_dis, 0.0), max(p_chg, 0.0)
 
 
@@ -136,5 +129,5 @@ def current_a(ba, soc, terminal_power_w):
 @jit
 def soc_step(ba, soc, current, dt_s):
     """SOC after ``dt_s`` at ``current`` (coulomb counting), held inside the hard window."""
-    new = soc - current * dt_s / ba[CAPACITY_AS]
-    return min(max(new, ba[SOC_MIN]), ba[SOC_MAX])
+    new = soc - current * dt_s / ba[IDX.capacity_as]
+    return min(max(new, ba[IDX.soc_min]), ba[IDX.soc_max])

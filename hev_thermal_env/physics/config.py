@@ -9,11 +9,9 @@ Where the ``paper_bus`` numbers come from
 * Motor: the paper's Table 1 (rated/peak power swapped back: 30/90 kW), thermal data Table 1 and
   the paper's text (h_water 3000 W/(m²·K), thermostat 35 °C, cutoff 70 °C, 5 % extra loss, T_s 30 s,
   PWM_initial 0.3 at the 20 °C start, T_gain in [0.1, 0.3], efficiency −1 point per 15 °C).
-* Motor thermal model: the lumped network (motor + coolant loop + thermostat + radiator,
-  ``thermal_network.py``), its free parameters and the eq 10 closures fitted to the paper's
-  Figs 7-10 and Tables 2-3 by ``python -m hev_thermal_env.calibration`` within documented bounds
-  (``docs/thermal_model.md``); ``paper_bus(thermal_model="paper_eqs")`` is the paper's one-node
-  model as written.
+* Motor thermal model: the lumped network, fitted to the paper's Figs 7-10 and Tables 2-3
+  (``thermal.py``, ``docs/thermal_model.md``); ``paper_bus(thermal_model="paper_eqs")`` is the
+  paper's one-node model as written.
 * Glider: ADVISOR VEH_RTS06 (Cd 0.79, A 7.8965 m²) and WH_HEAVY (Crr 0.00938, r 0.5 m).
   Test mass 15 000 kg: ADVISOR's 40-ft bus (12 156 kg glider + 1 837 kg cargo) plus the hybrid
   powertrain, fine-tuned with the final drive so that Table 3's top speed, 0-60 km/h time and
@@ -30,7 +28,6 @@ Where the ``paper_bus`` numbers come from
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
 
 import numpy as np
 
@@ -60,9 +57,7 @@ class PowertrainParams(Params):
 
 POWERTRAIN_LAYOUT = Layout.of_fields(PowertrainParams)
 """Packed powertrain facts read by the kernel: one slot per field."""
-ACC_W = POWERTRAIN_LAYOUT["accessory_power_w"]
-STOP_START = POWERTRAIN_LAYOUT["stop_start"]
-REGEN = POWERTRAIN_LAYOUT["regen_enabled"]
+PT_IDX = POWERTRAIN_LAYOUT.index()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -138,5 +133,3 @@ class Conditions(Params):
             raise ConfigError(f"Conditions.initial_soc: {self.initial_soc} is outside the battery's SOC window "
                               f"[{battery.soc_min}, {battery.soc_max}]")
 
-
-CoolantMode = Literal["on", "degraded", "off"]

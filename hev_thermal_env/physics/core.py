@@ -10,7 +10,7 @@ Backward-facing quasi-static model (ADVISOR-style): over a step the cycle asks f
 v0 → v1 on a grade; road load gives the wheel torque at the mean speed; the driveline maps it to
 the coupler shaft; the action splits it between motor and engine.
 
-Split and limits (DESIGN §3-4). For a positive shaft demand T_dem and action u ∈ [-1, 1] the
+Split and limits. For a positive shaft demand T_dem and action u ∈ [-1, 1] the
 motor is asked for u·T_dem. That request is clipped only by the motor's own limits: its envelope
 (peak torque, the heat index of eq 8, the cutoff) and the battery's power and SOC limits. The
 engine covers the rest, T_dem − motor, up to its full-load torque. Whatever is still missing is a
@@ -36,7 +36,7 @@ from . import glider as gli
 from . import motor as mot
 from . import thermal as thm
 from . import thermal_network as tnet
-from .config import ACC_W, REGEN, STOP_START, Conditions, VehicleConfig
+from .config import PT_IDX, Conditions, VehicleConfig
 from .door_arrays import MIN_THREAD_BATCH, as_batch, as_float64, checked_out, thread_pool
 from .jit import jit
 
@@ -79,19 +79,16 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
 
     ``action``, ``v0``, ``v1``, ``grade`` have length B; ``cond`` is [B, N_COND].
 
-    Why the step of one row is written inside the loop, indexing the 2-D arrays by ``b``: numba
-    reference-counts array values with atomic calls (``NRT_incref``/``NRT_decref``). A per-row
-    view (``state[b]``) or a per-row call taking the parameter vectors (even when inlined, which
-    re-binds them) adds such pairs to every row, and they do not cancel across the branches
-    below: they were ~60 % of the time (≈270 ns/row, now ≈50-90 ns). Scalars and the component
-    functions (small, inlined by LLVM) cost none.
+    The step of one row is written inside the loop, indexing the 2-D arrays by ``b``, with no per-row
+    view (``state[b]``) and no per-row call taking a parameter vector: the speed rule of ``jit.py``
+    (such reference-counted values would take ≈270 ns of a row's ≈50-90 ns).
     """
     inv_dt = 1.0 / dt
     # the speed's factors of the thermal model (two powers), recomputed only when the speed changes from the
     # previous row: every row of a DP stage or of a batch over one cycle step shares them
-    log_air_per_mps, air_exp = math.log(th[thm.AIR_SPEED_PER_MPS]), th[thm.V_EXP]
-    log_ram_per_mps, ram_exp = math.log(th[thm.RAM_AIR_PER_MPS]), th[thm.RAD_EXP]
-    network = th[thm.MODEL] == thm.MODEL_NETWORK
+    log_air_per_mps, air_exp = math.log(th[thm.IDX.air_speed_per_mps]), th[thm.IDX.air_speed_exponent]
+    log_ram_per_mps, ram_exp = math.log(th[thm.IDX.ram_air_per_mps]), th[thm.IDX.radiator_air_exponent]
+    network = th[thm.IDX.model] == thm.MODEL_NETWORK
     v_memo = -1.0
     forced_term = 0.0
     ram_term = 0.0
@@ -108,8 +105,8 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         coolant_factor = cond[b, COOLANT_FACTOR]
         payload = cond[b, PAYLOAD_KG]
         fan_factor = cond[b, FAN_FACTOR]
-        acc_w = pt[ACC_W]
-        stop_start = pt[STOP_START] != 0.0
+        acc_w = pt[PT_IDX.accessory_power_w]
+        stop_start = pt[PT_IDX.stop_start] != 0.0
         u = min(max(action[b], -1.0), 1.0)
         v_start = v0[b]
         v_end = v1[b]
@@ -120,14 +117,14 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         accel = (v_end - v_start) / dt
         moving = v > 1e-6
         force = gli.road_force_n(gl, v, accel, slope, payload) if moving else 0.0
-        r_w = gl[gli.WHEEL_R_M]
+        r_w = gl[gli.IDX.wheel_radius_m]
         t_wheel = force * r_w
         w_wheel = v / r_w
-        p_eng_max = en[eng.MAX_POWER_W]
-        gear = drv.select_gear(dl, w_wheel, force * v / max(p_eng_max, 1.0), en[eng.MAX_RADPS])
+        p_eng_max = en[eng.IDX.max_power_w]
+        gear = drv.select_gear(dl, w_wheel, force * v / max(p_eng_max, 1.0), en[eng.IDX.max_speed_radps])
         w_s = w_wheel * drv.overall_ratio(dl, gear)
         t_s_dem = drv.shaft_torque_nm(dl, t_wheel, gear) if moving else 0.0
-        rho = dl[drv.COUPLER_RATIO]
+        rho = dl[drv.IDX.coupler_ratio]
         w_m = w_s * rho
 
         # --- motor envelope at the start of the step ------------------------------------------------
@@ -137,7 +134,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         t_env = thm.available_torque_nm(th, k_temp * mot.peak_torque_nm(mo, w_m),
                                         k_temp * mot.continuous_torque_nm(mo, w_m), hx, cutoff)
         p_dis, p_chg = bat.power_limits_w(ba, soc, dt)
-        engine_avail = w_s <= en[eng.MAX_RADPS] + 1e-9
+        engine_avail = w_s <= en[eng.IDX.max_speed_radps] + 1e-9
 
         t_m = 0.0
         t_e = 0.0
@@ -172,7 +169,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 t_m = min(max(t_m, t_m_min), t_m_max)
                 t_e = t_s_dem - rho * t_m
             if engine_on:
-                w_e = max(w_s, en[eng.IDLE_RADPS])
+                w_e = max(w_s, en[eng.IDX.idle_speed_radps])
                 t_acc = acc_w / w_e
                 t_e_max = max(eng.max_torque_nm(en, w_e) - t_acc, 0.0)
             t_e = min(max(t_e, 0.0), t_e_max)
@@ -194,8 +191,8 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 engine_on = True
             acc_take = 0.0
             if engine_on:
-                w_e = max(w_s, en[eng.IDLE_RADPS])
-                if moving and w_s >= en[eng.IDLE_RADPS]:
+                w_e = max(w_s, en[eng.IDX.idle_speed_radps])
+                if moving and w_s >= en[eng.IDX.idle_speed_radps]:
                     # overrun: fuel cut; the braking shaft drives the accessories as far as it can
                     acc_take = min(acc_w, -t_s_dem * w_s)
                 acc_from_engine = acc_w - acc_take
@@ -206,7 +203,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
             t_lo, t_hi = mot.torque_limits_for_power(mo, w_m, p_dis - acc_elec, p_chg + acc_elec, extra, derate, t_env)
             t_m_max = min(t_env, t_hi)
             t_s_free = t_s_dem + (acc_take / w_s if acc_take > 0.0 else 0.0)
-            if pt[REGEN] != 0.0 and t_s_free < 0.0:
+            if pt[PT_IDX.regen_enabled] != 0.0 and t_s_free < 0.0:
                 t_m_req = t_s_free / rho
                 t_m = max(t_m_req, max(-t_env, t_lo))
             t_m = min(t_m, t_hi)  # an empty battery: the motor's spinning loss brakes the shaft
@@ -297,11 +294,6 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         out[b, Q_RADIATOR] = q_radiator
 
 
-@jit
-def initial_heat_x(th, initial_temp_c):
-    return -thm.pwm_initial(th, initial_temp_c)
-
-
 class PhysicsCore:
     """The only door to the physics kernel: a vehicle's packed parameters and the batched step.
 
@@ -337,7 +329,7 @@ class PhysicsCore:
         st = np.zeros((batch, N_STATE))
         st[:, SOC] = conditions.initial_soc
         st[:, TEMP_C] = conditions.initial_motor_temp_c
-        st[:, HEAT_X] = initial_heat_x(self.th, conditions.initial_motor_temp_c)
+        st[:, HEAT_X] = thm.heat_index_floor(self.th, conditions.initial_motor_temp_c)
         st[:, HEAT_X_MIN] = st[:, HEAT_X]
         st[:, CUTOFF] = 1.0 if (self.config.thermal.enabled
                                 and conditions.initial_motor_temp_c >= self.config.thermal.cutoff_temp_c) else 0.0

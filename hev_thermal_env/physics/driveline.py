@@ -61,28 +61,21 @@ LAYOUT = Layout.of_fields(DrivelineParams, replace={
                                   fields=("upshift_full_load_rpm",)),
 })
 """Packed driveline parameters read by the kernels (speeds in rad/s, gear table padded)."""
-N_GEARS = LAYOUT["n_gears"]
-GEARS0 = LAYOUT["gear_ratios"]
-FD_RATIO = LAYOUT["final_drive_ratio"]
-GB_EFF = LAYOUT["gearbox_efficiency"]
-FD_EFF = LAYOUT["final_drive_efficiency"]
-COUPLER_RATIO = LAYOUT["coupler_ratio"]
-UP_LO_RADPS = LAYOUT["upshift_low_load_radps"]
-UP_HI_RADPS = LAYOUT["upshift_full_load_radps"]
+IDX = LAYOUT.index()
 
 
 @jit
 def overall_ratio(dl, gear):
     """Shaft speed / wheel speed in ``gear`` (0-based)."""
-    return dl[GEARS0 + gear] * dl[FD_RATIO]
+    return dl[IDX.gear_ratios + gear] * dl[IDX.final_drive_ratio]
 
 
 @jit
 def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
     """Stateless shift map: highest gear whose shaft speed reaches the load-dependent up-shift speed."""
-    n = int(dl[N_GEARS])
+    n = int(dl[IDX.n_gears])
     lf = min(max(load_frac, 0.0), 1.0)
-    up = dl[UP_LO_RADPS] + (dl[UP_HI_RADPS] - dl[UP_LO_RADPS]) * lf
+    up = dl[IDX.upshift_low_load_radps] + (dl[IDX.upshift_full_load_radps] - dl[IDX.upshift_low_load_radps]) * lf
     gear = 0
     lowest_ok = n - 1  # the lowest gear that does not over-speed; the top gear if none
     for k in range(n):
@@ -101,7 +94,7 @@ def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
 @jit
 def shaft_torque_nm(dl, wheel_torque_nm, gear):
     """Coupler-shaft torque for a wheel torque: losses add when driving and subtract when braking."""
-    eff = dl[GB_EFF] * dl[FD_EFF]
+    eff = dl[IDX.gearbox_efficiency] * dl[IDX.final_drive_efficiency]
     r = overall_ratio(dl, gear)
     if wheel_torque_nm >= 0.0:
         return wheel_torque_nm / (r * eff)
@@ -111,7 +104,7 @@ def shaft_torque_nm(dl, wheel_torque_nm, gear):
 @jit
 def wheel_torque_nm(dl, shaft_torque, gear):
     """Wheel torque for a coupler-shaft torque (inverse of :func:`shaft_torque_nm`)."""
-    eff = dl[GB_EFF] * dl[FD_EFF]
+    eff = dl[IDX.gearbox_efficiency] * dl[IDX.final_drive_efficiency]
     r = overall_ratio(dl, gear)
     if shaft_torque >= 0.0:
         return shaft_torque * r * eff

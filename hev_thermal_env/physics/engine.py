@@ -73,25 +73,17 @@ LAYOUT = Layout.of_fields(EngineParams, replace={
     "max_torque_nm": Slot("max_torque_nm", MAX_CURVE),
 }, derived=(Slot("max_power_w", fill=lambda p: p.max_power_w, fields=()),))
 """Packed engine parameters read by the kernels (speeds in rad/s, full-load curve padded)."""
-IDLE_RADPS = LAYOUT["idle_speed_radps"]
-MAX_RADPS = LAYOUT["max_speed_radps"]
-LHV_J_PER_G = LAYOUT["fuel_lhv_j_per_g"]
-DENSITY_KG_PER_L = LAYOUT["fuel_density_kg_per_l"]
-FUEL0 = LAYOUT["fuel_coeffs"]
-N_CURVE = LAYOUT["n_curve"]
-CURVE_SPEED0 = LAYOUT["curve_speed_radps"]
-CURVE_TORQUE0 = LAYOUT["max_torque_nm"]
-MAX_POWER_W = LAYOUT["max_power_w"]
+IDX = LAYOUT.index()
 
 
 @jit
 def max_torque_nm(en, speed_radps):
     """Full-load torque at ``speed_radps`` (linear in the table, flat beyond its ends, 0 above max speed)."""
-    if speed_radps > en[MAX_RADPS] * (1.0 + 1e-9):
+    if speed_radps > en[IDX.max_speed_radps] * (1.0 + 1e-9):
         return 0.0
-    n = int(en[N_CURVE])
-    s0 = CURVE_SPEED0
-    t0 = CURVE_TORQUE0
+    n = int(en[IDX.n_curve])
+    s0 = IDX.curve_speed_radps
+    t0 = IDX.max_torque_nm
     if speed_radps <= en[s0]:
         return en[t0]
     for k in range(1, n):
@@ -106,7 +98,7 @@ def fuel_rate_gps(en, speed_radps, torque_nm):
     """Fuel rate of the running engine at brake torque ``torque_nm`` ≥ 0 (idle fuel at zero torque)."""
     w = speed_radps
     p_kw = max(torque_nm, 0.0) * w * 1e-3
-    c = FUEL0
+    c = IDX.fuel_coeffs
     rate = (en[c] + en[c + 1] * w + en[c + 2] * w * w
             + (en[c + 3] + en[c + 4] * w) * p_kw + en[c + 5] * p_kw * p_kw)
     return max(rate, 0.0)

@@ -1,6 +1,6 @@
 """Glider and road load: the force the wheels must deliver to follow a speed trace.
 
-Road load (DESIGN §3)::
+Road load::
 
     F = m·a·(1 + f_rot) + m·g·Crr·cos(θ) + m·g·sin(θ) + ½·ρ·Cd·A·v²
 
@@ -42,33 +42,26 @@ class GliderParams(Params):
 
 LAYOUT = Layout.of_fields(GliderParams)
 """Packed glider parameters read by the kernels: one slot per field."""
-MASS_KG = LAYOUT["mass_kg"]
-ROT_FRAC = LAYOUT["rotating_mass_frac"]
-CD = LAYOUT["drag_coefficient"]
-AREA_M2 = LAYOUT["frontal_area_m2"]
-CRR = LAYOUT["rolling_resistance_coeff"]
-WHEEL_R_M = LAYOUT["wheel_radius_m"]
-RHO = LAYOUT["air_density_kgpm3"]
-GRAVITY = LAYOUT["gravity_mps2"]
+IDX = LAYOUT.index()
 
 
 @jit
 def effective_mass_kg(gl, payload_kg):
     """Mass (test mass + payload) plus the equivalent mass of the rotating parts."""
-    return (gl[MASS_KG] + payload_kg) * (1.0 + gl[ROT_FRAC])
+    return (gl[IDX.mass_kg] + payload_kg) * (1.0 + gl[IDX.rotating_mass_frac])
 
 
 @jit
 def resistance_force_n(gl, speed_mps, grade, payload_kg):
     """Rolling + grade + aerodynamic force at ``speed_mps`` on ``grade`` (rise/run)."""
-    m_g = (gl[MASS_KG] + payload_kg) * gl[GRAVITY]
+    m_g = (gl[IDX.mass_kg] + payload_kg) * gl[IDX.gravity_mps2]
     if grade == 0.0:
         cos_t, sin_t = 1.0, 0.0
     else:  # θ = atan(grade)
         inv = 1.0 / math.sqrt(1.0 + grade * grade)
         cos_t, sin_t = inv, grade * inv
-    rolling = m_g * gl[CRR] * cos_t if speed_mps > 1e-3 else 0.0
-    aero = 0.5 * gl[RHO] * gl[CD] * gl[AREA_M2] * speed_mps * speed_mps
+    rolling = m_g * gl[IDX.rolling_resistance_coeff] * cos_t if speed_mps > 1e-3 else 0.0
+    aero = 0.5 * gl[IDX.air_density_kgpm3] * gl[IDX.drag_coefficient] * gl[IDX.frontal_area_m2] * speed_mps * speed_mps
     return rolling + m_g * sin_t + aero
 
 

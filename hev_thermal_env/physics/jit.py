@@ -7,67 +7,111 @@ no NaN or inf reaches an output.
 
 Speed rule for the step (``core.step_kernel``): numba reference-counts array values with atomic
 calls (``NRT_incref``/``NRT_decref``) and removes a pair only when both sit on simple paths. In the
-per-row code these calls were most of the time, so: no per-row array views or per-row calls that
+per-row code these calls cost most of the time, so: no per-row array views or per-row calls that
 bind arrays (index the 2-D arrays with the row instead), and in a component function taking a
 packed vector, read the vector for the last time outside any branch and return from one place
 (``thermal.cutoff_step``, ``thermal.heat_flows_w``, ``driveline.select_gear``).
 
 **The cache.** numba keys a cached function on the file that defines it, but a kernel inlines the
-component functions of *other* files: after an edit of ``thermal.py`` a cached ``step_kernel``
-would still run the old thermal code. So the compiled cache lives in a directory named after a
-hash of every source file that defines kernels (the physics package, the env's reward and batch
-engine, the planners' kernels; :data:`KERNEL_SOURCES`) and of the numba version: any edit of them
-gives a new directory and a fresh compilation, and an unchanged tree reuses its cache (the env's
-fused step inlines the reward, so an edit of ``reward.py`` alone must recompile it too). The directory is
+kernels of *other* files and keeps the module-level values it reads as constants: after an edit of
+``thermal.py`` a cached ``step_kernel`` would still run the old thermal code, and after an edit of
+the observation layout in ``envs/spaces.py`` a cached observation kernel would still write the old
+order. So the compiled cache lives in a directory named after :func:`source_hash` of the kernel
+sources: every source file of the package with an ``@jit`` line (a kernel compiled with
+:func:`jit`, which refuses a function defined anywhere else), every project module those files
+import at module level, transitively, and the numba version. Any edit of them gives a new directory
+and a fresh compilation; an unchanged tree reuses its cache. The directory is
 ``$HEV_THERMAL_ENV_CACHE_DIR/<hash>`` if that variable is set, else
 ``$XDG_CACHE_HOME/hev-thermal-env/numba/<hash>`` (``~/.cache/...``). If it cannot be created the
 kernels are compiled without a cache (slower start, never stale). Every numba function of the
-project, inside or outside the physics package, is compiled with :func:`jit` so that none of them
-keeps compiled copies of physics constants from an older tree.
+project is compiled with :func:`jit` so that none of them keeps compiled copies of physics
+constants from an older tree.
+
+numba has no per-function cache directory: its documented settings (``NUMBA_CACHE_DIR``,
+``NUMBA_CACHE_LOCATOR_CLASSES``) are environment variables for the whole process, read when numba
+is imported, and would move every other library's numba cache too. So :func:`jit` sets numba's
+configured cache directory only while it creates a kernel's dispatcher (which picks its cache
+location then) and restores it at once.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
+from collections.abc import Iterable
 from pathlib import Path
 
 import numba
 from numba import njit
 from numba.core import config as _numba_config
 
-PHYSICS_DIR = Path(__file__).resolve().parent
-_PACKAGE_DIR = PHYSICS_DIR.parent
-#: Source files outside the physics package that define or inline kernels (missing ones are skipped: the
-#: strategies live in ``agents/`` of a checkout, installed as ``hev_thermal_env/agents``).
-KERNEL_SOURCES = ("envs/reward.py", "envs/batch.py", "agents/dp_grid.py", "agents/optimum_search.py",
-                  "agents/optimum_stage.py")
-
+PACKAGE_DIR = Path(__file__).resolve().parent.parent
 _OPTIONS = {"error_model": "numpy", "nogil": True}
+_KERNEL_LINE = re.compile(rb"^@jit\b", re.M)
+_IMPORT = re.compile(rb"^(?:from[ \t]+(\.*[\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)|import[ \t]+([^\n]*))", re.M)
 
 
-def _agents_dir() -> Path:
-    installed = _PACKAGE_DIR / "agents"
-    return installed if installed.is_dir() else _PACKAGE_DIR.parent / "agents"
+def package_modules() -> dict[str, Path]:
+    """Every module of the package (dotted name -> source file)."""
+    modules = {}
+    for path in PACKAGE_DIR.rglob("*.py"):
+        parts = [PACKAGE_DIR.name, *path.relative_to(PACKAGE_DIR).with_suffix("").parts]
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return modules
 
 
-def source_hash(directory: Path = PHYSICS_DIR) -> str:
-    """Hash of the kernel sources (file names and contents: ``directory``'s and :data:`KERNEL_SOURCES`) and of
-    the numba version."""
+def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
+    """The package's modules that ``name`` imports at module level (statements at the start of a line)."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for m in _IMPORT.finditer(path.read_bytes()):
+        if m[3] is not None:
+            found.update(part.split()[0] for part in m[3].decode().split(",") if part.strip())
+            continue
+        mod = m[1].decode()
+        level = len(mod) - len(mod.lstrip("."))
+        if level:
+            base = package.split(".")
+            mod = ".".join(base[:len(base) - level + 1] + ([mod[level:]] if mod[level:] else []))
+        for part in re.sub(r"#[^\n]*", "", m[2].decode()).strip("()").split(","):
+            sub = f"{mod}.{part.split()[0]}" if part.strip() else mod
+            found.add(sub if sub in modules else mod)
+    return {f for f in found if f in modules and f != name}
+
+
+def module_sources(roots: Iterable[str], modules: dict[str, Path] | None = None) -> list[Path]:
+    """The source files of the modules ``roots`` and of every package module they import, transitively."""
+    modules = package_modules() if modules is None else modules
+    seen: set[str] = set()
+    todo = list(roots)
+    while todo:
+        name = todo.pop()
+        if name not in seen:
+            seen.add(name)
+            todo.extend(_imports(name, modules[name], modules) - seen)
+    return sorted(modules[n] for n in seen)
+
+
+def kernel_modules(modules: dict[str, Path] | None = None) -> list[str]:
+    """The package's modules that define a kernel with :func:`jit` (an ``@jit`` line)."""
+    modules = package_modules() if modules is None else modules
+    return sorted(n for n, p in modules.items() if _KERNEL_LINE.search(p.read_bytes()))
+
+
+def source_hash(roots: Iterable[str] | None = None) -> str:
+    """Hash of the numba version and of the sources of ``roots`` and every package module they import
+    (:func:`module_sources`; default: the kernel modules, :func:`kernel_modules`)."""
+    modules = package_modules()
     h = hashlib.sha256(numba.__version__.encode())
-    paths = sorted(directory.glob("*.py"))
-    for rel in KERNEL_SOURCES:
-        path = (_agents_dir() / rel.split("/", 1)[1]) if rel.startswith("agents/") else _PACKAGE_DIR / rel
-        if path.is_file():
-            paths.append(path)
-    for path in paths:
-        h.update(path.name.encode())
+    for path in module_sources(kernel_modules(modules) if roots is None else roots, modules):
+        h.update(path.relative_to(PACKAGE_DIR).as_posix().encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
 
 def cache_root() -> Path:
-    """The directory that holds one cache directory per physics source hash."""
+    """The directory that holds one cache directory per kernel source hash."""
     explicit = os.environ.get("HEV_THERMAL_ENV_CACHE_DIR")
     if explicit:
         return Path(explicit)
@@ -89,10 +133,15 @@ def _usable_cache_dir() -> Path | None:
 
 CACHE_DIR = _usable_cache_dir()
 """Where the compiled kernels of this source tree are cached (None: no cache)."""
+_KERNEL_FILES = {p.resolve() for n, p in package_modules().items() if n in kernel_modules()}
 
 
 def jit(fn):
-    """``numba.njit`` with the project's options, cached in :data:`CACHE_DIR`."""
+    """``numba.njit`` with the project's options, cached in :data:`CACHE_DIR`; ``fn`` must be defined in a source
+    file of the package with an ``@jit`` line (one that :func:`source_hash` covers)."""
+    if Path(fn.__code__.co_filename).resolve() not in _KERNEL_FILES:
+        raise RuntimeError(f"{fn.__module__}.{fn.__qualname__}: a kernel is compiled with @jit in a source file of "
+                           f"{PACKAGE_DIR}, which the compiled cache's key covers")
     if CACHE_DIR is None:
         return njit(cache=False, **_OPTIONS)(fn)
     previous = _numba_config.CACHE_DIR

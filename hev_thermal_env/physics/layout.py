@@ -2,14 +2,16 @@
 
 numba kernels take a component's parameters as one flat ``float64`` array and read entries by
 index. The indices are not written by hand: a :class:`Layout` is built from the parameter
-dataclass, one :class:`Slot` per packed value, and the module's index constants are looked up by
-name (``MASS_KG = LAYOUT["mass_kg"]``). Reordering, adding or removing fields therefore cannot
-silently hand a kernel the wrong parameter, and :meth:`Layout.check_covers` makes a field that no
-slot packs an error.
+dataclass, one :class:`Slot` per packed value, and :meth:`Layout.index` gives each component
+module its offsets by slot name (``IDX = LAYOUT.index()``; a kernel reads ``gl[IDX.mass_kg]``).
+``IDX`` is a module-level namedtuple, so numba compiles every offset in as a constant. Reordering,
+adding or removing fields therefore cannot silently hand a kernel the wrong parameter, and
+:meth:`Layout.check_covers` makes a field that no slot packs an error.
 """
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
@@ -81,8 +83,10 @@ class Layout:
         except KeyError:
             raise KeyError(f"{self.params_cls.__name__} layout has no slot {name!r}") from None
 
-    def names(self) -> tuple[str, ...]:
-        return tuple(s.name for s in self.slots)
+    def index(self) -> tuple:
+        """The offset of every slot as a namedtuple field of the same name (``IDX.mass_kg``)."""
+        cls = collections.namedtuple(f"{self.params_cls.__name__}Index", list(self._offset))
+        return cls(**self._offset)
 
     def pack(self, params: Any) -> np.ndarray:
         if not isinstance(params, self.params_cls):

@@ -82,26 +82,18 @@ LAYOUT = Layout.of_fields(MotorParams, replace={
     "max_speed_rpm": Slot("max_speed_radps", fill=lambda p: p.max_speed_rpm * RPM, fields=("max_speed_rpm",)),
 }, unpacked=("mass_kg",))
 """Packed motor parameters read by the kernels (the mass belongs to the thermal model)."""
-PEAK_TORQUE = LAYOUT["peak_torque_nm"]
-CONT_TORQUE = LAYOUT["continuous_torque_nm"]
-PEAK_POWER = LAYOUT["peak_power_w"]
-CONT_POWER = LAYOUT["continuous_power_w"]
-MAX_RADPS = LAYOUT["max_speed_radps"]
-K_CU = LAYOUT["copper_loss_coeff"]
-K_FE = LAYOUT["iron_loss_coeff"]
-K_FR = LAYOUT["friction_loss_coeff"]
-ENABLED = LAYOUT["enabled"]
+IDX = LAYOUT.index()
 
 
 @jit
 def peak_torque_nm(mo, speed_radps):
     """Peak torque envelope: constant to base speed, then constant power; 0 beyond max speed."""
     w = abs(speed_radps)
-    if w > mo[MAX_RADPS] * (1.0 + 1e-9) or mo[ENABLED] == 0.0:
+    if w > mo[IDX.max_speed_radps] * (1.0 + 1e-9) or mo[IDX.enabled] == 0.0:
         return 0.0
-    if w * mo[PEAK_TORQUE] <= mo[PEAK_POWER]:
-        return mo[PEAK_TORQUE]
-    return mo[PEAK_POWER] / w
+    if w * mo[IDX.peak_torque_nm] <= mo[IDX.peak_power_w]:
+        return mo[IDX.peak_torque_nm]
+    return mo[IDX.peak_power_w] / w
 
 
 @jit
@@ -109,27 +101,29 @@ def continuous_torque_nm(mo, speed_radps):
     """Continuous torque envelope (T_cont(ω) of eq 8): constant to base speed, constant power above,
     0 beyond the maximum speed like the peak envelope."""
     w = abs(speed_radps)
-    over = w > mo[MAX_RADPS] * (1.0 + 1e-9) or mo[ENABLED] == 0.0
-    t = mo[CONT_TORQUE] if w * mo[CONT_TORQUE] <= mo[CONT_POWER] else mo[CONT_POWER] / w
+    over = w > mo[IDX.max_speed_radps] * (1.0 + 1e-9) or mo[IDX.enabled] == 0.0
+    t = (mo[IDX.continuous_torque_nm] if w * mo[IDX.continuous_torque_nm] <= mo[IDX.continuous_power_w]
+         else mo[IDX.continuous_power_w] / w)
     return 0.0 if over else t
 
 
 @jit
 def base_loss_w(mo, torque_nm, speed_radps):
     """Copper + iron + friction loss of the untouched (thermal-model-off) motor."""
-    if mo[ENABLED] == 0.0:
+    if mo[IDX.enabled] == 0.0:
         return 0.0
     w = abs(speed_radps)
-    return mo[K_CU] * torque_nm * torque_nm + mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w
+    return (mo[IDX.copper_loss_coeff] * torque_nm * torque_nm + mo[IDX.iron_loss_coeff] * w * math.sqrt(w)
+            + mo[IDX.friction_loss_coeff] * w)
 
 
 @jit
 def core_loss_w(mo, speed_radps):
     """Iron + friction part of :func:`base_loss_w` (heats the stator and housing, not the winding)."""
-    if mo[ENABLED] == 0.0:
+    if mo[IDX.enabled] == 0.0:
         return 0.0
     w = abs(speed_radps)
-    return mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w
+    return mo[IDX.iron_loss_coeff] * w * math.sqrt(w) + mo[IDX.friction_loss_coeff] * w
 
 
 @jit
@@ -154,7 +148,7 @@ def _derated_loss_w(p_mech, loss, derate):
 @jit
 def total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
     """Loss including the thermal model's extra loss fraction and efficiency derate: P_elec − T·ω."""
-    if mo[ENABLED] == 0.0:
+    if mo[IDX.enabled] == 0.0:
         return 0.0
     loss = (1.0 + extra_frac) * base_loss_w(mo, torque_nm, speed_radps)
     if derate_frac <= 0.0:
@@ -165,7 +159,7 @@ def total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
 @jit
 def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
     """Electrical input power (negative when generating), with the extra loss and the derate."""
-    if mo[ENABLED] == 0.0:
+    if mo[IDX.enabled] == 0.0:
         return 0.0
     return torque_nm * speed_radps + total_loss_w(mo, torque_nm, speed_radps, extra_frac, derate_frac)
 
@@ -189,8 +183,16 @@ def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_fra
     f = 1.0 + extra_frac
     # the packed vector is read here only: the solve below takes scalars (speed rule in jit.py; it is too
     # large to be inlined, and a call taking the array would reference-count it)
-    return _torque_limits(f * mo[K_CU], f * (mo[K_FE] * w * math.sqrt(w) + mo[K_FR] * w), w, p_dis_max_w, p_chg_max_w,
-                          derate_frac, t_cap_nm)
+    return _torque_limits(f * mo[IDX.copper_loss_coeff],
+                          f * (mo[IDX.iron_loss_coeff] * w * math.sqrt(w) + mo[IDX.friction_loss_coeff] * w), w,
+                          p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm)
+
+
+@jit
+def _upper_root(a, b, c):
+    """The larger root of a·T² + b·T + c = 0 (a > 0), or the vertex −b/(2a) where there is none."""
+    disc = b * b - 4.0 * a * c
+    return -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
 
 
 @jit
@@ -199,18 +201,8 @@ def _torque_limits(a, c0, w, p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm):
     if c0 > p_dis_max_w and w > 0.0:
         # generating side: a T² + w(1-d) T + c0 - p_dis = 0, the larger (negative) root, or the vertex
         b = w * (1.0 - derate_frac)
-        c = c0 - p_dis_max_w
-        disc = b * b - 4.0 * a * c
-        if a > 0.0:
-            t_drag = -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
-        else:
-            t_drag = -c / b
-        c = c0 + p_chg_max_w
-        disc = b * b - 4.0 * a * c
-        if a > 0.0:
-            t_gen = -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
-        else:
-            t_gen = -c / b
+        t_drag = _upper_root(a, b, c0 - p_dis_max_w) if a > 0.0 else -(c0 - p_dis_max_w) / b
+        t_gen = _upper_root(a, b, c0 + p_chg_max_w) if a > 0.0 else -(c0 + p_chg_max_w) / b
         return min(t_gen, t_drag), t_drag
     # motoring side: a T² + w(1 + d) T + c0 - p_dis = 0, positive root: exact without a derate; with one, the
     # root of the loss L + d·T·ω, a little above the exact root (the exact loss is larger), which Newton's
@@ -255,9 +247,7 @@ def _torque_limits(a, c0, w, p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm):
     b = w * (1.0 - derate_frac)
     c = c0 + p_chg_max_w
     if a > 0.0:
-        vertex = -b / (2.0 * a)
-        disc = b * b - 4.0 * a * c
-        t_lo = vertex if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
+        t_lo = _upper_root(a, b, c)
     elif b > 0.0:
         t_lo = -c / b
     else:

@@ -1,60 +1,48 @@
-"""The motor's thermal parameters and effects: the paper's eqs 1-10, and the switch to the network.
+"""The motor's thermal parameters and effects: the paper's eqs 1-10, for both thermal models.
 
-Two thermal models share one parameter record (:class:`ThermalParams`) and one interface
-(``thermal_network.thermal_step``); ``ThermalParams.model`` selects one by name:
+``ThermalParams.model`` selects the temperature model; both share this parameter record and one
+step (``thermal_network.thermal_step``):
 
-* ``"paper_eqs"``, the paper's equations as written: one lumped node, here below.
-* ``"network"`` (the default of ``paper_bus``): the motor node plus a coolant loop with its own
-  heat capacity, a thermostat and a finite radiator (``thermal_network.py``). Why: with the
-  paper's h_water·A = 1282 W/K and a perfect radiator the coolant clamps the motor at the 35 °C
-  thermostat, so the literal model cannot show the paper's own Figs 7-8 (44 °C, heat index 0.35).
-
-The paper's node (eq 7)::
+* ``"network"`` (the default of ``paper_bus``): winding and housing plus a coolant loop with its
+  own heat capacity, a thermostat and a finite radiator (``thermal_network.py``), calibrated to the
+  paper's figures. With the paper's h_water·A = 1282 W/K and a perfect radiator the coolant clamps
+  the motor at the 35 °C thermostat: the literal model cannot show the paper's own Figs 7-8.
+* ``"paper_eqs"``: the paper's equations as written, one lumped node (eq 7)::
 
     m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool
 
-* Q_gen: motor losses plus the paper's extra 5 % (noise, friction), ``extra_loss_frac``.
-* Q_air = h_air·A·(T − T_amb) (eq 1) with h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63
-  (eq 4), V the vehicle speed in km/h. ADVISOR's code feeds half the speed in m/s against 30;
-  we keep the paper's (and ADVISOR's documentation's) form.
-* Q_cool = h_water·A·(T − T_water) (eq 5) when the motor is above the thermostat (35 °C). The
-  paper assumes a perfect radiator (T_water back to its initial value); T_water is a condition
-  of the run and h_water is scaled by the coolant mode (on 1, degraded < 1, off 0).
-* Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
+  - Q_gen: motor losses plus the paper's extra 5 % (noise, friction), ``extra_loss_frac``.
+  - Q_air = h_air·A·(T − T_amb) (eq 1) with h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63
+    (eq 4), V the vehicle speed in km/h (the paper's and ADVISOR's documentation's form; ADVISOR's
+    code feeds half the speed in m/s against 30).
+  - Q_cool = h_water·A·(T − T_water) (eq 5) above the thermostat (35 °C), with a perfect radiator
+    (T_water, a condition of the run, stays at its initial value); h_water scaled by the coolant
+    mode (on 1, degraded < 1, off 0).
+  - Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
 
 Heat index (eqs 8-9): an integrator x with dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1),
 PWM = clip(x, 0, 1); the available torque is T_max = T_cont·PWM + T_peak·(1 − PWM), never above
 T_peak (both envelopes are 0 beyond the maximum speed). x starts at −PWM_initial(T₀) and is held
-in [x_min, 1] (anti-windup), where the floor **follows the motor's state**:
-x_min = −PWM_initial(T), T the motor temperature now. The negative part of x is the overload
-reserve, and a motor has the reserve its temperature allows: a hot-started motor regains it as
-it cools, a cold-started one loses it as it heats (the floor rises and pushes x up).
+in [x_min, 1] (anti-windup) with x_min = −PWM_initial(T), T the motor temperature now: the
+negative part of x is the overload reserve, and a motor has the reserve its temperature allows
+(a hot-started motor regains it as it cools, a cold-started one loses it as it heats).
 
-Eq 10 (T_gain = f(T_mc, t)) is left open by the paper, which states only that T_gain lies in
-[0.1, 0.3] in the vehicle simulation. Our closures (time enters through the temperature, which
-integrates the load history):
-
-* T_gain rises linearly from ``t_gain_cold`` at ``t_gain_temp_lo_c`` to ``t_gain_hot`` at
-  ``t_gain_temp_hi_c`` (a hotter magnet loses its overload reserve faster);
-* PWM_initial(T) is ``pwm_initial_cold`` up to ``pwm_initial_temp_lo_c`` and falls linearly to 0
-  at ``pwm_initial_temp_hi_c``: the reserve is the thermal headroom below the temperature where
-  the overload capability is used up (the paper: 0.3 at its 20 °C start).
-
-Both are fitted to the paper's figures within the bounds in their ``spec`` (``python -m
-hev_thermal_env.calibration``).
+Eq 10 (T_gain = f(T_mc, t)) is left open by the paper (T_gain in [0.1, 0.3]). Our closures, time
+entering through the temperature, which integrates the load history: T_gain rises linearly from
+``t_gain_cold`` at ``t_gain_temp_lo_c`` to ``t_gain_hot`` at ``t_gain_temp_hi_c``; PWM_initial(T)
+is ``pwm_initial_cold`` up to ``pwm_initial_temp_lo_c`` and falls linearly to 0 at
+``pwm_initial_temp_hi_c`` (the paper: 0.3 at its 20 °C start).
 
 Efficiency derate: −1 percentage point per 15 °C above 35 °C (the paper's simulation, consistent
-with eq 10's NdFeB remanence loss of ≈12.6 %/100 K): η' = η − δ with δ = ``derate_frac_per_c``·
+with eq 10's NdFeB remanence loss of ≈12.6 %/100 K): η' = η − δ, δ = ``derate_frac_per_c``·
 (T − 35 °C), the losses following from η' (``motor.py``). Protection: at ``cutoff_temp_c``
-(70 °C) the motor stops (torque 0) until it has cooled to ``cutoff_release_temp_c``.
+(70 °C) the motor stops (torque 0) until it has cooled to ``cutoff_release_temp_c``. With
+``enabled=False`` the motor is ADVISOR's unmodified one (the paper's baseline): no derate, no
+extra loss, no cutoff, peak torque always; temperatures and heat index are still reported.
 
-With ``enabled=False`` the motor is ADVISOR's unmodified one (the paper's baseline): no derate,
-no extra loss, no cutoff, peak torque always; temperatures and heat index are still computed
-and reported.
-
-Calibrated defaults: the fields marked "fitted" hold the values written by
-``python -m hev_thermal_env.calibration --out DIR`` (``DIR/fitted_params.yaml``); re-running it
-reproduces them.
+Fields whose doc starts with "fitted:" hold the values written by ``python -m
+hev_thermal_env.calibration --out DIR`` (``DIR/fitted_params.yaml``), within the plausible ranges
+of their ``spec``; docs/thermal_model.md gives every value's source.
 """
 
 from __future__ import annotations
@@ -73,7 +61,6 @@ KELVIN = 273.15
 
 #: Thermal models by name; the packed ``model`` slot holds the index.
 THERMAL_MODELS = ("paper_eqs", "network")
-MODEL_PAPER_EQS = 0.0
 MODEL_NETWORK = 1.0
 
 
@@ -81,8 +68,7 @@ MODEL_NETWORK = 1.0
 class ThermalParams(Params):
     """Motor thermal model (paper's node or lumped network), heat index and protection of the traction motor.
 
-    Fields marked "fitted" are calibrated to the paper's figures (module docstring); their
-    ``min``/``max`` are the plausible ranges the fit never leaves.
+    Fields marked "fitted" are calibrated to the paper's figures (module docstring).
     """
 
     model: str = spec("network", "thermal model: 'network' (motor + coolant loop + radiator, calibrated) or "
@@ -103,9 +89,6 @@ class ThermalParams(Params):
                                     min=0.0, max=0.1)
     extra_loss_frac: float = spec(0.05, "extra heat as a fraction of losses: noise, friction (paper: 5 %)",
                                   min=0.0, max=1.0)
-    # Fields whose doc starts with "fitted:" hold the values written by
-    #     python -m hev_thermal_env.calibration --out DIR   (DIR/fitted_params.yaml; docs/calibration/)
-    # within the bounds of their spec, the plausible ranges documented beside them.
     torque_temp_coeff_per_c: float = spec(
         0.001873, "fitted: fraction of the torque envelopes lost per °C above torque_ref_temp_c (magnet "
                   "remanence: NdFeB flux −0.126 %/K (paper); the paper's Prius data −0.32 %/K of peak torque)",
@@ -206,10 +189,6 @@ class ThermalParams(Params):
         """Heat capacity of the motor node, m·c_p."""
         return self.mass_kg * self.cp_j_per_kgk
 
-    def paper_equations(self) -> ThermalParams:
-        """The same motor with the paper's one-node model as written (eqs 1-7): the comparison model."""
-        return self.replace(model="paper_eqs")
-
     def pack(self) -> np.ndarray:
         return LAYOUT.pack(self)
 
@@ -237,60 +216,7 @@ LAYOUT = Layout.of_fields(ThermalParams, replace={
     Slot("inv_t_s", fill=lambda p: 1.0 / p.t_s_s, fields=()),
 ))
 """Packed thermal parameters: one slot per field, in field order (the model as its index), then derived constants."""
-MODEL = LAYOUT["model"]
-ENABLED = LAYOUT["enabled"]
-MASS_KG = LAYOUT["mass_kg"]
-CP = LAYOUT["cp_j_per_kgk"]
-AREA_M2 = LAYOUT["area_m2"]
-H_WATER = LAYOUT["h_water_w_per_m2k"]
-THERMOSTAT_C = LAYOUT["thermostat_temp_c"]
-EMISSIVITY = LAYOUT["emissivity"]
-CUTOFF_C = LAYOUT["cutoff_temp_c"]
-RELEASE_C = LAYOUT["cutoff_release_temp_c"]
-DERATE_START_C = LAYOUT["derate_start_temp_c"]
-DERATE_PER_C = LAYOUT["derate_frac_per_c"]
-EXTRA_LOSS = LAYOUT["extra_loss_frac"]
-TORQUE_COEFF = LAYOUT["torque_temp_coeff_per_c"]
-TORQUE_REF_C = LAYOUT["torque_ref_temp_c"]
-T_S = LAYOUT["t_s_s"]
-TGAIN_COLD = LAYOUT["t_gain_cold"]
-TGAIN_HOT = LAYOUT["t_gain_hot"]
-TGAIN_LO_C = LAYOUT["t_gain_temp_lo_c"]
-TGAIN_HI_C = LAYOUT["t_gain_temp_hi_c"]
-PWM0_COLD = LAYOUT["pwm_initial_cold"]
-PWM0_LO_C = LAYOUT["pwm_initial_temp_lo_c"]
-PWM0_HI_C = LAYOUT["pwm_initial_temp_hi_c"]
-H_AIR0 = LAYOUT["h_air_base"]
-H_AIR_NAT = LAYOUT["h_air_natural"]
-H_AIR_FORCED = LAYOUT["h_air_forced"]
-V_REF_KMH = LAYOUT["air_ref_speed_kmh"]
-V_EXP = LAYOUT["air_speed_exponent"]
-C_WINDING = LAYOUT["winding_heat_capacity_j_per_k"]
-G_WINDING = LAYOUT["winding_conductance_w_per_k"]
-G_JACKET = LAYOUT["jacket_conductance_w_per_k"]
-VALVE_BAND_K = LAYOUT["thermostat_band_k"]
-C_COOLANT = LAYOUT["coolant_heat_capacity_j_per_k"]
-UA_RAD = LAYOUT["radiator_ua_w_per_k"]
-RAD_REF_MPS = LAYOUT["radiator_ref_air_speed_mps"]
-RAD_EXP = LAYOUT["radiator_air_exponent"]
-RAM_FRAC = LAYOUT["ram_air_frac"]
-STILL_AIR_MPS = LAYOUT["still_air_speed_mps"]
-FAN_MPS = LAYOUT["fan_air_speed_mps"]
-FAN_ON_C = LAYOUT["fan_on_temp_c"]
-FAN_BAND_K = LAYOUT["fan_band_k"]
-C_MOTOR = LAYOUT["motor_heat_capacity_j_per_k"]
-C_HOUSING = LAYOUT["housing_heat_capacity_j_per_k"]
-EPS_SIGMA_AREA = LAYOUT["eps_sigma_area"]
-H_WATER_AREA = LAYOUT["h_water_area_w_per_k"]
-INV_VALVE_BAND = LAYOUT["inv_valve_band_per_k"]
-INV_FAN_BAND = LAYOUT["inv_fan_band_per_k"]
-INV_RAD_REF_MPS = LAYOUT["inv_radiator_ref_air_speed"]
-AIR_SPEED_PER_MPS = LAYOUT["air_speed_per_mps"]
-RAM_AIR_PER_MPS = LAYOUT["ram_air_per_mps"]
-STILL_AIR_TERM = LAYOUT["still_air_term"]
-TGAIN_SLOPE = LAYOUT["tgain_slope_per_c"]
-PWM0_SLOPE = LAYOUT["pwm0_slope_per_c"]
-INV_T_S = LAYOUT["inv_t_s"]
+IDX = LAYOUT.index()
 
 
 @jit
@@ -302,7 +228,8 @@ def _ramp(x, x_lo, x_hi, y_lo, slope):
 @jit
 def pwm_initial(th, temp_c):
     """PWM_initial, the overload reserve, of a motor at ``temp_c`` (our eq 10 companion)."""
-    return _ramp(temp_c, th[PWM0_LO_C], th[PWM0_HI_C], th[PWM0_COLD], th[PWM0_SLOPE])
+    return _ramp(temp_c, th[IDX.pwm_initial_temp_lo_c], th[IDX.pwm_initial_temp_hi_c], th[IDX.pwm_initial_cold],
+                 th[IDX.pwm0_slope_per_c])
 
 
 @jit
@@ -314,27 +241,29 @@ def heat_index_floor(th, temp_c):
 @jit
 def t_gain(th, temp_c):
     """T_gain = f(T_mc) (eq 10), linear between the cold and hot values."""
-    return _ramp(temp_c, th[TGAIN_LO_C], th[TGAIN_HI_C], th[TGAIN_COLD], th[TGAIN_SLOPE])
+    return _ramp(temp_c, th[IDX.t_gain_temp_lo_c], th[IDX.t_gain_temp_hi_c], th[IDX.t_gain_cold],
+                 th[IDX.tgain_slope_per_c])
 
 
 @jit
 def derate_frac(th, temp_c):
     """Efficiency points lost (as a fraction) at ``temp_c``; 0 with the model off."""
-    d = max(temp_c - th[DERATE_START_C], 0.0) * th[DERATE_PER_C]
-    return d if th[ENABLED] != 0.0 else 0.0
+    d = max(temp_c - th[IDX.derate_start_temp_c], 0.0) * th[IDX.derate_frac_per_c]
+    return d if th[IDX.enabled] != 0.0 else 0.0
 
 
 @jit
 def torque_factor(th, temp_c):
     """Share of the cold torque envelopes a motor at ``temp_c`` can give (magnet remanence); 1 with the model off."""
-    k = 1.0 - max(temp_c - th[TORQUE_REF_C], 0.0) * th[TORQUE_COEFF]
-    return max(k, 0.0) if th[ENABLED] != 0.0 else 1.0
+    k = 1.0 - max(temp_c - th[IDX.torque_ref_temp_c], 0.0) * th[IDX.torque_temp_coeff_per_c]
+    return max(k, 0.0) if th[IDX.enabled] != 0.0 else 1.0
 
 
 @jit
 def extra_loss_frac(th):
-    extra = th[EXTRA_LOSS]
-    return extra if th[ENABLED] != 0.0 else 0.0
+    """The extra heat as a fraction of the losses; 0 with the model off."""
+    extra = th[IDX.extra_loss_frac]
+    return extra if th[IDX.enabled] != 0.0 else 0.0
 
 
 @jit
@@ -350,7 +279,7 @@ def available_torque_nm(th, peak_nm, cont_nm, heat_x, cutoff):
     blended = min(cont_nm * pwm + peak_nm * (1.0 - pwm), peak_nm)
     limited = 0.0 if cutoff != 0.0 else blended
     # one return (speed rule in jit.py)
-    return limited if th[ENABLED] != 0.0 else peak_nm
+    return limited if th[IDX.enabled] != 0.0 else peak_nm
 
 
 @jit
@@ -361,7 +290,7 @@ def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
     overload ratio is then taken as 0 (the index relaxes).
     """
     ratio = abs(torque_nm) / cont_nm if cont_nm > 0.0 else 0.0
-    dx = t_gain(th, temp_c) * th[INV_T_S] * (ratio - 1.0)
+    dx = t_gain(th, temp_c) * th[IDX.inv_t_s] * (ratio - 1.0)
     return min(max(heat_x + dx * dt_s, heat_x_min), 1.0)
 
 
@@ -380,13 +309,6 @@ def air_conductance_core(h_still0, h_natural, h_forced, forced_term, area, temp_
 
 
 @jit
-def air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps):
-    """h_air·A of eqs 1 and 4 (W/K) at the motor's temperature and the vehicle speed."""
-    term = forced_air_term(th[AIR_SPEED_PER_MPS], th[V_EXP], speed_mps)
-    return air_conductance_core(th[H_AIR0], th[H_AIR_NAT], th[H_AIR_FORCED], term, th[AREA_M2], temp_c, ambient_c)
-
-
-@jit
 def paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c, ambient_c, water_c, coolant_factor):
     """(Q_air, Q_rad, Q_cool) of the paper's node (eqs 1, 5, 6) from scalars; ``g_air`` = h_air·A."""
     q_air = g_air * (temp_c - ambient_c)
@@ -400,17 +322,19 @@ def paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c, a
 
 @jit
 def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
-    """(Q_air, Q_rad, Q_cool) leaving the paper's node at ``temp_c`` (eqs 1, 4, 5, 6)."""
-    g_air = air_conductance_w_per_k(th, temp_c, ambient_c, speed_mps)
-    return paper_node_core(g_air, th[EPS_SIGMA_AREA], th[H_WATER_AREA], th[THERMOSTAT_C], temp_c, ambient_c, water_c,
-                           coolant_factor)
+    """(Q_air, Q_rad, Q_cool) leaving the paper's node at ``temp_c`` and the vehicle speed (eqs 1, 4, 5, 6)."""
+    term = forced_air_term(th[IDX.air_speed_per_mps], th[IDX.air_speed_exponent], speed_mps)
+    g_air = air_conductance_core(th[IDX.h_air_base], th[IDX.h_air_natural], th[IDX.h_air_forced], term,
+                                 th[IDX.area_m2], temp_c, ambient_c)
+    return paper_node_core(g_air, th[IDX.eps_sigma_area], th[IDX.h_water_area_w_per_k], th[IDX.thermostat_temp_c],
+                           temp_c, ambient_c, water_c, coolant_factor)
 
 
 @jit
 def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, speed_mps, dt_s):
     """One Euler step of the paper's eq 7. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
     q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
-    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[C_MOTOR]
+    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[IDX.motor_heat_capacity_j_per_k]
     return new, q_air, q_rad, q_cool
 
 
@@ -418,5 +342,5 @@ def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, spe
 def cutoff_step(th, cutoff, temp_c):
     """Protection with hysteresis: trips at cutoff_temp_c, releases at cutoff_release_temp_c."""
     # one return, not three (speed rule in jit.py)
-    tripped = temp_c >= th[CUTOFF_C] or (cutoff != 0.0 and temp_c > th[RELEASE_C])
-    return 1.0 if (th[ENABLED] != 0.0 and tripped) else 0.0
+    tripped = temp_c >= th[IDX.cutoff_temp_c] or (cutoff != 0.0 and temp_c > th[IDX.cutoff_release_temp_c])
+    return 1.0 if (th[IDX.enabled] != 0.0 and tripped) else 0.0

@@ -9,27 +9,21 @@ Nodes and heat flows of ``ThermalParams.model = "network"`` (the default of ``pa
                                    │  h_air(v)·A·(T_h − T_a) + ε·σ·A·(T_h⁴ − T_a⁴)
                                    └───────────────────────────────────────────────► ambient
 
-* Winding node: copper, insulation and resin (C_w), heated by the copper loss (k_cu·T², with the
-  paper's extra 5 % and the temperature derate's extra loss: more current for the same torque).
-  Its temperature is **the motor temperature**: the winding sensor that motor controllers read for
-  protection and derating, and what the heat index, the derate, the valve and the 70 °C cutoff
-  use. Conductance G_w to the housing through the slot insulation.
-* Housing node: stator iron, frame and rotor, the rest of Table 1's m·c_p (100 kg × 430 J/(kg·K)),
-  heated by the iron and friction losses (with the extra 5 %), cooled by air convection (eqs 1, 4)
-  and radiation (eq 6) over the paper's cooling area, as in the paper, and by the coolant jacket.
-* Thermostat valve: coolant flows through the jacket in proportion to
-  open = clip((T_w − 35 °C)/band, 0, 1): the paper's "cooling water opened when the motor
-  temperature exceeds 35 °C", proportional as a valve is. Jacket conductance G_j: at most the
-  paper's h_water·A = 1282 W/K (the film alone), lower for the jacket wall and the stator's
-  conduction.
-* Coolant node: the loop's water-glycol, radiator and pump (C_c), starting at the run's coolant
-  temperature (``Conditions.coolant_temp_c``, default the motor's start).
-* Radiator: UA(v, fan) = UA_ref·(v_face/v_ref)^n with the face air speed
-  v_face = max(ram_air_frac·v, fan·v_fan, v_still): ram air grows with vehicle speed; the fan
-  runs from ``fan_on_temp_c`` of the coolant, at full speed ``fan_band_k`` above it (the run's
-  ``fan_factor`` 0: a failed fan).
-* The coolant mode of the run (``coolant_factor`` f_c: on 1, degraded < 1, off 0) scales both
-  flow-dependent conductances, G_j and UA: a weak pump, a clogged radiator, no coolant.
+* Winding node (C_w: copper, insulation, resin), heated by the copper loss (k_cu·T², with the
+  paper's extra 5 % and the derate's extra loss). Its temperature is **the motor temperature**, the
+  sensor motor controllers read: the heat index, the derate, the valve and the 70 °C cutoff use it.
+* Housing node (C_h: stator iron, frame, rotor; the rest of Table 1's m·c_p), heated by the iron
+  and friction losses (with the extra 5 %), cooled by air convection (eqs 1, 4) and radiation
+  (eq 6) over the paper's cooling area, and by the coolant jacket.
+* Thermostat valve: open = clip((T_w − 35 °C)/band, 0, 1), the paper's "cooling water opened when
+  the motor temperature exceeds 35 °C" made proportional; the jacket conductance G_j is at most the
+  paper's h_water·A = 1282 W/K (the film alone).
+* Coolant node (C_c: water-glycol, radiator, pump), starting at ``Conditions.coolant_temp_c``.
+* Radiator: UA(v, fan) = UA_ref·(v_face/v_ref)^n, v_face = max(ram_air_frac·v, fan·v_fan, v_still);
+  the fan runs from ``fan_on_temp_c`` of the coolant, at full speed ``fan_band_k`` above it (the
+  run's ``fan_factor`` 0: a failed fan).
+* The run's coolant mode (f_c: on 1, degraded < 1, off 0) scales G_j and UA: a weak pump, a clogged
+  radiator, no coolant.
 
 Integration: the conductances are evaluated at the start of the step (h_air at the old ΔT, the
 radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin, the valve and the fan at the old
@@ -37,21 +31,16 @@ temperatures); the three temperatures then take one backward-Euler step (a tridi
 solve): stable at any step, and the reported flows close the balance exactly,
 C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt.
 
-``"paper_eqs"`` keeps the paper's node as written (``thermal.temperature_step``: explicit Euler,
-perfect radiator at the run's water temperature): the housing is the same node as the winding
-and the coolant is held.
+``"paper_eqs"`` keeps the paper's node as written (``thermal.py``: explicit Euler, perfect radiator
+at the run's water temperature): the housing is the same node as the winding and the coolant is
+held. Every parameter's value and source: docs/thermal_model.md.
 """
 
 from __future__ import annotations
 
 from . import thermal as thm
 from .jit import jit
-
-
-@jit
-def valve_open_frac(th, motor_temp_c):
-    """Thermostat valve opening: 0 up to ``thermostat_temp_c``, 1 from ``thermostat_band_k`` above."""
-    return min(max((motor_temp_c - th[thm.THERMOSTAT_C]) * th[thm.INV_VALVE_BAND], 0.0), 1.0)
+from .thermal import IDX
 
 
 @jit
@@ -75,15 +64,6 @@ def radiator_core(ua_ref, ram_term, still_term, inv_ref_mps, expo, fan_mps, fan_
     if fan > 0.0:
         factor = max(factor, (fan * fan_mps * inv_ref_mps) ** expo)
     return ua_ref * factor
-
-
-@jit
-def radiator_ua_w_per_k(th, coolant_temp_c, speed_mps, fan_factor):
-    """Radiator conductance (W/K) at the vehicle speed, with the fan as the coolant temperature asks."""
-    expo = th[thm.RAD_EXP]
-    ram = ram_air_term(th[thm.RAM_AIR_PER_MPS], expo, speed_mps)
-    return radiator_core(th[thm.UA_RAD], ram, th[thm.STILL_AIR_TERM], th[thm.INV_RAD_REF_MPS], expo, th[thm.FAN_MPS],
-                         th[thm.FAN_ON_C], th[thm.INV_FAN_BAND], coolant_temp_c, fan_factor)
 
 
 @jit
@@ -117,25 +97,6 @@ def _radiation_conductance(eps_sigma_area, temp_c, ambient_c):
 
 
 @jit
-def network_step(th, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, coolant_factor,
-                 fan_factor, speed_mps, dt_s):
-    """One backward-Euler step of the network.
-
-    Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool housing→coolant,
-    Q_radiator coolant→ambient, valve opening).
-    """
-    g_air = thm.air_conductance_w_per_k(th, housing_c, ambient_c, speed_mps)
-    valve = valve_open_frac(th, winding_c)
-    ua = radiator_ua_w_per_k(th, coolant_c, speed_mps, fan_factor) * coolant_factor
-    g_rad = _radiation_conductance(th[thm.EPS_SIGMA_AREA], housing_c, ambient_c)
-    t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
-        th[thm.C_WINDING] / dt_s, th[thm.C_HOUSING] / dt_s, th[thm.C_COOLANT] / dt_s, th[thm.G_WINDING],
-        th[thm.G_JACKET] * coolant_factor * valve, g_air, g_rad, ua, winding_c, housing_c, coolant_c, q_winding_w,
-        q_housing_w, ambient_c)
-    return t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, valve
-
-
-@jit
 def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, water_c, coolant_factor,
                  fan_factor, forced_term, ram_term, inv_dt):
     """One step of the selected thermal model (``ThermalParams.model``); ``inv_dt`` = 1 / step.
@@ -152,22 +113,23 @@ def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, amb
     Every parameter is read once, before any branch, and both models run on scalars (speed rule
     in jit.py: no packed vector inside a branch of the per-row code).
     """
-    network = th[thm.MODEL] == thm.MODEL_NETWORK
-    c_m = th[thm.C_MOTOR]
-    c_w = th[thm.C_WINDING]
-    c_h = th[thm.C_HOUSING]
-    c_c = th[thm.C_COOLANT]
-    g_w = th[thm.G_WINDING]
-    g_jacket = th[thm.G_JACKET] * coolant_factor
-    eps_sigma_area = th[thm.EPS_SIGMA_AREA]
-    h_water_area = th[thm.H_WATER_AREA]
-    thermostat_c = th[thm.THERMOSTAT_C]
-    valve = min(max((temp_c - thermostat_c) * th[thm.INV_VALVE_BAND], 0.0), 1.0)
+    network = th[IDX.model] == thm.MODEL_NETWORK
+    c_m = th[IDX.motor_heat_capacity_j_per_k]
+    c_w = th[IDX.winding_heat_capacity_j_per_k]
+    c_h = th[IDX.housing_heat_capacity_j_per_k]
+    c_c = th[IDX.coolant_heat_capacity_j_per_k]
+    g_w = th[IDX.winding_conductance_w_per_k]
+    g_jacket = th[IDX.jacket_conductance_w_per_k] * coolant_factor
+    eps_sigma_area = th[IDX.eps_sigma_area]
+    h_water_area = th[IDX.h_water_area_w_per_k]
+    thermostat_c = th[IDX.thermostat_temp_c]
+    valve = min(max((temp_c - thermostat_c) * th[IDX.inv_valve_band_per_k], 0.0), 1.0)
     surface_c = housing_c if network else temp_c
-    g_air = thm.air_conductance_core(th[thm.H_AIR0], th[thm.H_AIR_NAT], th[thm.H_AIR_FORCED], forced_term,
-                                     th[thm.AREA_M2], surface_c, ambient_c)
-    ua_ref, still, inv_ref, expo = th[thm.UA_RAD], th[thm.STILL_AIR_TERM], th[thm.INV_RAD_REF_MPS], th[thm.RAD_EXP]
-    fan_mps, fan_on, inv_fan_band = th[thm.FAN_MPS], th[thm.FAN_ON_C], th[thm.INV_FAN_BAND]
+    g_air = thm.air_conductance_core(th[IDX.h_air_base], th[IDX.h_air_natural], th[IDX.h_air_forced], forced_term,
+                                     th[IDX.area_m2], surface_c, ambient_c)
+    ua_ref, still = th[IDX.radiator_ua_w_per_k], th[IDX.still_air_term]
+    inv_ref, expo = th[IDX.inv_radiator_ref_air_speed], th[IDX.radiator_air_exponent]
+    fan_mps, fan_on, inv_fan_band = th[IDX.fan_air_speed_mps], th[IDX.fan_on_temp_c], th[IDX.inv_fan_band_per_k]
     if network:
         ua = radiator_core(ua_ref, ram_term, still, inv_ref, expo, fan_mps, fan_on, inv_fan_band, coolant_c,
                            fan_factor) * coolant_factor

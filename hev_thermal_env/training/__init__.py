@@ -13,7 +13,7 @@ Modules, each named for what it holds:
 * :mod:`.overrides`: ``--hp`` parsing; :mod:`.schedules`: ``lin_<x>`` schedules;
 * :mod:`.config`: build, validate, save and load a run's config;
 * :mod:`.artifacts`: the run directory's files, models and statistics, :class:`LoadedPolicy`;
-* :mod:`.envs`: the training vector env (native batched env by default) and ``VecNormalize``;
+* :mod:`.envs`: the training vector env (the native batched env) and ``VecNormalize``;
 * :mod:`.evaluator`: deterministic evaluation on cycles not trained on;
 * :mod:`.selection`: the rule that picks ``best_model.zip`` (corrected fuel relative to ECMS by default,
   SOC drift disqualifies); :mod:`.validation_report`: the best and final models on the full validation set;
@@ -27,12 +27,13 @@ Modules, each named for what it holds:
 Importing this package imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
 """
 
-from .artifacts import LoadedPolicy, load_policy
+from hev_thermal_env.agents.policy_files import LoadedPolicy, load_policy
+
 from .callbacks import TrainingInterrupted
-from .config import build_config, load_run_config, validate_config
+from .config import build_config, load_run_config
 from .export import export_policy
 from .loop import resume, train
 from .overrides import parse_overrides
 
 __all__ = ["LoadedPolicy", "TrainingInterrupted", "build_config", "export_policy", "load_policy", "load_run_config",
-           "parse_overrides", "resume", "train", "validate_config"]
+           "parse_overrides", "resume", "train"]

@@ -1,4 +1,4 @@
-"""The files of a training run, and loading a trained policy from them.
+"""The files of a training run: the run directory, writing models and the evaluation table.
 
 A run directory (rl-baselines3-zoo-like; written by :func:`hev_thermal_env.training.loop.train`)::
 
@@ -11,228 +11,24 @@ A run directory (rl-baselines3-zoo-like; written by :func:`hev_thermal_env.train
     DIR/tb/                                        TensorBoard logs
 
 Models and statistics are written atomically, statistics first and the model last, so a present
-model zip means a complete pair (:func:`save_model_and_stats`).
-
-:func:`load_policy` loads a trained policy (:class:`LoadedPolicy`) from a run directory (its
-``model.zip``, the final model; if the run has not finished, ``best_model.zip``, else the latest
-checkpoint) or a model zip, whose observation statistics are looked up next to it:
-``model.zip`` → ``vecnormalize.pkl``, ``best_model.zip`` → ``best_vecnormalize.pkl``,
-``checkpoints/ckpt_N_steps.zip`` → ``ckpt_N_steps_vecnormalize.pkl``, any other ``NAME.zip`` →
-``NAME_vecnormalize.pkl`` or ``vecnormalize.pkl`` in the same directory. The run's ``config.yaml``
-(in the zip's directory or the run directory above ``checkpoints/``) gives the algorithm (PPO or
-SAC) and the observation layout. Errors are one-line messages: a missing model or statistics file
-raises ``FileNotFoundError``, an unreadable one ``ValueError``.
+model zip means a complete pair (:func:`save_model_and_stats`). Where a policy's files are and how
+they are read (``load_policy``) is the policy format of :mod:`hev_thermal_env.agents.policy_files`.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import logging
 import pickle
-import re
-import warnings
-import zipfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import yaml
-
 from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
-from hev_thermal_env.physics.fingerprint import physics_fingerprint
-
-from .hyperparams import algorithm_class
-from .schedules import custom_objects
-
-CHECKPOINTS = "checkpoints"
-_CKPT_RE = re.compile(r"^ckpt_(\d+)_steps\.zip$")
 
 EVAL_COLUMNS = ("timesteps", "wall_s", "cycle", "scenario", "return_g", "fuel_corrected_l_per_100km", "delta_soc",
                 "cutoff_s", "trace_miss_max_mps", "fuel_ratio", "mean_return_g", "score", "qualified", "best")
-#: Columns of ``DIR/evaluations.csv`` added with fuel selection, and their value in older files.
+#: Columns of ``DIR/evaluations.csv`` that older runs lack, and the value they read as.
 _LATER_COLUMNS = {"fuel_ratio": "nan", "qualified": "1"}
-
-
-# --- where a trained policy is ------------------------------------------------------------------------
-
-def checkpoint_paths(run_dir: str | Path, timesteps: int) -> tuple[Path, Path, Path]:
-    """(model zip, statistics pickle, SAC replay buffer) of the run's checkpoint at ``timesteps``."""
-    stem = Path(run_dir) / CHECKPOINTS / f"ckpt_{int(timesteps)}_steps"
-    return stem.with_name(stem.name + ".zip"), Path(f"{stem}_vecnormalize.pkl"), Path(f"{stem}_replay_buffer.pkl")
-
-
-def checkpoint_files(run_dir: str | Path) -> list[tuple[int, Path, Path]]:
-    """Complete checkpoints of a run, oldest first: (timesteps, model zip, statistics pickle).
-
-    A checkpoint counts once its model zip exists (it is written last, atomically)."""
-    found = []
-    ckpt_dir = Path(run_dir) / CHECKPOINTS
-    if ckpt_dir.is_dir():
-        for p in ckpt_dir.iterdir():
-            m = _CKPT_RE.match(p.name)
-            if m:
-                n = int(m.group(1))
-                found.append((n, p, checkpoint_paths(run_dir, n)[1]))
-    return sorted(found)
-
-
-def stats_path_for(model_path: Path) -> Path:
-    """Where the observation statistics of ``model_path`` are saved (see the module docstring)."""
-    model_path = Path(model_path)
-    name = model_path.name
-    if name == "model.zip":
-        return model_path.with_name("vecnormalize.pkl")
-    if name == "best_model.zip":
-        return model_path.with_name("best_vecnormalize.pkl")
-    own = model_path.with_name(model_path.stem + "_vecnormalize.pkl")
-    if own.exists() or _CKPT_RE.match(name):
-        return own
-    return model_path.with_name("vecnormalize.pkl")
-
-
-def resolve_model_path(path: str | Path) -> Path:
-    """The model zip that ``path`` (a run directory or a zip) designates."""
-    p = Path(path).expanduser()
-    if p.is_dir():
-        for name in ("model.zip", "best_model.zip"):
-            if (p / name).is_file():
-                return p / name
-        ckpts = checkpoint_files(p)
-        if ckpts:
-            return ckpts[-1][1]
-        raise FileNotFoundError(f"ppo: no model in directory {p} (expected model.zip, best_model.zip or "
-                                f"checkpoints/ckpt_N_steps.zip from train.py)")
-    if p.is_file():
-        return p
-    if p.suffix != ".zip" and p.with_suffix(".zip").is_file():
-        return p.with_suffix(".zip")
-    raise FileNotFoundError(f"ppo: model file {p} not found")
-
-
-def find_run_config(model_path: Path) -> dict[str, Any] | None:
-    """The ``config.yaml`` of the run the model belongs to, or None."""
-    here = Path(model_path).parent
-    for d in (here, here.parent) if here.name == "checkpoints" else (here,):
-        cfg = d / "config.yaml"
-        if cfg.is_file():
-            try:
-                data = yaml.safe_load(cfg.read_text())
-            except (yaml.YAMLError, OSError, UnicodeDecodeError) as exc:
-                raise ValueError(f"ppo: {cfg} is not a readable config file ({_one_line(exc)})") from None
-            if not isinstance(data, dict):
-                raise ValueError(f"ppo: {cfg} is not a train.py config (expected a mapping)")
-            return data
-    return None
-
-
-def _one_line(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
-def load_obs_normalizer(path: Path):
-    """The pickled ``VecNormalize`` (statistics only, no env) of a run; raises one-line errors."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"ppo: observation statistics {path} not found (train.py saves them next to "
-                                f"the model; a model trained without normalisation needs normalize=False)")
-    try:
-        with open(path, "rb") as fh:
-            stats = pickle.load(fh)
-    except Exception as exc:  # noqa: BLE001 - any unpickling failure means the file is unusable
-        raise ValueError(f"ppo: {path} is not a readable VecNormalize file ({_one_line(exc)})") from None
-    if not hasattr(stats, "normalize_obs") or not hasattr(stats, "obs_rms"):
-        raise ValueError(f"ppo: {path} holds a {type(stats).__name__}, not VecNormalize statistics")
-    return stats
-
-
-def load_sb3_model(path: Path, algo: str = "ppo", hyperparams: dict[str, Any] | None = None):
-    """An SB3 model (PPO or SAC) from a zip on the CPU; raises one-line errors.
-
-    ``hyperparams`` (the run's) rebuild the saved schedules (:func:`~.schedules.custom_objects`)."""
-    cls = algorithm_class(algo)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return cls.load(path, device="cpu", custom_objects=custom_objects(hyperparams))
-    except Exception as exc:  # noqa: BLE001 - zip, pickle and torch errors all mean "unreadable model"
-        if isinstance(exc, zipfile.BadZipFile) or not zipfile.is_zipfile(path):
-            raise ValueError(f"ppo: {path} is not a model zip ({_one_line(exc)})") from None
-        raise ValueError(f"ppo: cannot load {path} as an SB3 {algo.upper()} model ({_one_line(exc)})") from None
-
-
-class LoadedPolicy:
-    """A model and its observation statistics: ``act(obs [n, dim]) -> actions [n, 1]``.
-
-    ``stats`` is a ``VecNormalize`` whose statistics are only read, or None (raw observations).
-    The one way a policy acts: the ``ppo`` strategy and the evaluation during training both call
-    :meth:`act` (the latter on the live model and training statistics).
-    """
-
-    def __init__(self, model, stats=None, config: dict[str, Any] | None = None, path: Path | None = None):
-        self.model = model
-        self.stats = stats
-        self.config = config
-        self.path = path
-        self.obs_dim = int(model.observation_space.shape[0])
-        if stats is not None and getattr(stats, "norm_obs", False):
-            n = int(np.prod(stats.obs_rms.mean.shape))
-            if n != self.obs_dim:
-                raise ValueError(f"ppo: the observation statistics hold {n} entries but the model expects "
-                                 f"{self.obs_dim}; they come from different runs")
-
-    def normalize(self, obs: np.ndarray) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float32)
-        return obs if self.stats is None else self.stats.normalize_obs(obs)
-
-    def act(self, obs: np.ndarray) -> np.ndarray:
-        """Deterministic motor shares u [n, 1] (clipped to [-1, 1]) for a batch of raw observations [n, dim]."""
-        actions, _ = self.model.policy.predict(self.normalize(obs), deterministic=True)
-        return np.asarray(actions, dtype=np.float32).reshape(-1, 1)
-
-    @property
-    def env_settings(self) -> dict[str, Any]:
-        return dict((self.config or {}).get("env") or {})
-
-
-def load_policy(path: str | Path, *, normalize: bool = True) -> LoadedPolicy:
-    """Load a trained policy: ``path`` a run directory or a model zip (see the module docstring)."""
-    model_path = resolve_model_path(path)
-    config = find_run_config(model_path)
-    algo = str((config or {}).get("algo", "ppo")).lower()
-    if algo not in ("ppo", "sac"):
-        raise ValueError(f"ppo: {model_path}: unknown algorithm {algo!r} in the run's config.yaml")
-    stats = None
-    norm_cfg = (config or {}).get("normalize")
-    wants_stats = normalize and not (isinstance(norm_cfg, dict) and not norm_cfg.get("norm_obs", True))
-    if wants_stats:
-        stats = load_obs_normalizer(stats_path_for(model_path))
-    model = load_sb3_model(model_path, algo, (config or {}).get("hyperparams"))
-    warn_if_other_physics(model_path, config)
-    return LoadedPolicy(model, stats, config, model_path)
-
-
-def warn_if_other_physics(model_path: Path, config: dict[str, Any] | None) -> str | None:
-    """Log one warning line if the policy was trained on physics that behave differently from today's.
-
-    The run's ``config.yaml`` records ``versions.physics_fingerprint``
-    (:func:`hev_thermal_env.physics.fingerprint.physics_fingerprint`); returns the warning, or None.
-    """
-    trained = ((config or {}).get("versions") or {}).get("physics_fingerprint")
-    current = physics_fingerprint()
-    if trained == current:
-        return None
-    what = "an unrecorded physics version" if trained is None else f"physics {trained}"
-    message = (f"{model_path}: this policy was trained on {what}; the physics now is {current}: "
-               "retrain it for figures that hold on today's physics")
-    if message not in _WARNED:
-        _WARNED.add(message)
-        logging.getLogger("hev_thermal_env").warning(message)
-    return message
-
-
-_WARNED: set[str] = set()
 
 
 # --- writing models and evaluations -------------------------------------------------------------------

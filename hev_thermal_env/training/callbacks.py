@@ -16,8 +16,10 @@ from typing import Any, Protocol
 from stable_baselines3.common.callbacks import BaseCallback
 
 
-class TrainingInterrupted(Exception):
-    """Training stopped on a signal after saving a checkpoint (``exit_code`` 130 for SIGINT)."""
+class TrainingInterrupted(KeyboardInterrupt):
+    """Training stopped on a signal after saving a checkpoint (``exit_code`` 130 for SIGINT, 143 for SIGTERM).
+
+    A ``KeyboardInterrupt``, like the Ctrl-C it comes from: ``train.py`` reports it in one line."""
 
     def __init__(self, message: str, exit_code: int):
         super().__init__(message)

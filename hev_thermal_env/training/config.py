@@ -13,6 +13,7 @@ numbers are one-line ``ValueError`` s. Sections: ``algo``, ``seed``, ``total_tim
 
 from __future__ import annotations
 
+import copy
 import datetime as _dt
 import inspect
 import platform
@@ -38,25 +39,22 @@ from hev_thermal_env.scenarios import get_scenario
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
 from .imitation import check_init
 from .overrides import apply_overrides
-from .selection import DEFAULT_SCORER, LEGACY_SCORER, get_scorer
+from .selection import DEFAULT_SCORER, get_scorer
 
-VEC_MODES = ("native", "subproc", "dummy")
-#: Training cycles when the hyperparameter file names none: every family of generated bus cycles.
-DEFAULT_TRAIN_CYCLES = ("random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed",
-                        "bus_express")
-#: Cycles the checkpoints are scored on during training: the last ten validation cycles (one of each rotating
-#: family, then five express routes), which ``benchmarks/ppo_vs_dp.py`` leaves out of its validation cells.
-DEFAULT_EVAL_CYCLES = ("validation_bus:20..29",)
-DEFAULT_FINAL_CYCLES = ("validation_bus",)
-DEFAULT_EVAL_SCENARIOS = ("paper", "full_bus")
-
-#: Settings of the environment a run trains on (the ``env`` section of the config).
-ENV_KEYS = ("cycles", "scenario", "random_start", "preview_s", "preview_step_s", "thermal", "reward")
-#: Settings of the periodic evaluation (the ``eval`` section).
-EVAL_KEYS = ("cycles", "scenarios", "freq", "dp_reference", "selection", "final_cycles")
-#: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's).
+#: The ``env`` section's settings (the environment a run trains on) and their defaults: every family of generated bus
+#: cycles, random service conditions, random starts, a 10 s preview.
+ENV_DEFAULTS = {"cycles": ["random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed",
+                           "bus_express"], "scenario": "random_service", "random_start": True, "preview_s": 10,
+                "preview_step_s": 2, "thermal": True, "reward": {}}
+#: The ``eval`` section's settings (the periodic evaluation) and their defaults. The checkpoints are scored on the
+#: last ten validation cycles (one of each rotating family, then five express routes), which
+#: ``benchmarks/ppo_vs_dp.py`` leaves out of its validation cells.
+EVAL_DEFAULTS = {"cycles": ["validation_bus:20..29"], "scenarios": ["paper", "full_bus"], "freq": 100_000,
+                 "selection": DEFAULT_SCORER, "final_cycles": ["validation_bus"]}
+#: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's), and their defaults.
 NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters
                        if k not in ("self", "venv", "gamma"))
+NORMALIZE_DEFAULTS = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0}
 
 
 def versions() -> dict[str, str]:
@@ -76,70 +74,49 @@ def whole_number(key: str, value: Any) -> int:
 
 def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overrides: dict[str, Any] | None = None,
                  cycles: Sequence[str] | None = None, scenario: str | None = None, timesteps: int | None = None,
-                 n_envs: int | None = None, seed: int = 0, vec: str = "native",
+                 n_envs: int | None = None, seed: int = 0,
                  eval_cycles: Sequence[str] | None = None, eval_scenarios: Sequence[str] | None = None,
                  eval_freq: int | None = None, checkpoint_freq: int | None = None,
                  command: str | None = None) -> dict[str, Any]:
-    """The complete config of a run (validated), from the hyperparameter file, overrides and settings."""
+    """The complete config of a run (validated): the hyperparameter file, the ``overrides`` (``--hp``), the
+    settings given here (None: not given), then the defaults of what none of them sets."""
     algo = str(algo).lower()
-    hp = apply_overrides(load_hyperparams(algo, hyperparams_file), overrides or {})
-    env = dict(hp.pop("env", None) or {})
-    ev = dict(hp.pop("eval", None) or {})
+    given = {"env.cycles": cycles, "env.scenario": scenario, "n_timesteps": timesteps, "n_envs": n_envs,
+             "eval.cycles": eval_cycles, "eval.scenarios": eval_scenarios, "eval.freq": eval_freq,
+             "checkpoint_freq": checkpoint_freq}
+    given = {k: list(v) if isinstance(v, (list, tuple)) else v for k, v in given.items() if v is not None}
+    hp = apply_overrides(load_hyperparams(algo, hyperparams_file), {**(overrides or {}), **given})
+    env, ev = _with_defaults(hp.pop("env", None), ENV_DEFAULTS), _with_defaults(hp.pop("eval", None), EVAL_DEFAULTS)
     normalize = hp.pop("normalize", None)
-    init = hp.pop("init", None)
-    total = hp.pop("n_timesteps", None)
-    envs = hp.pop("n_envs", None)
-    ckpt = hp.pop("checkpoint_freq", None)
-    if cycles is not None:
-        env["cycles"] = list(cycles)
-    if scenario is not None:
-        env["scenario"] = scenario
-    for key, value in (("cycles", list(DEFAULT_TRAIN_CYCLES)), ("scenario", "random_service"), ("random_start", True),
-                       ("preview_s", 10), ("preview_step_s", 2), ("thermal", True), ("reward", {})):
-        env.setdefault(key, value)
-    if eval_cycles is not None:
-        ev["cycles"] = list(eval_cycles)
-    if eval_scenarios is not None:
-        ev["scenarios"] = list(eval_scenarios)
-    if eval_freq is not None:
-        ev["freq"] = eval_freq
-    for key, value in (("cycles", list(DEFAULT_EVAL_CYCLES)), ("scenarios", list(DEFAULT_EVAL_SCENARIOS)),
-                       ("freq", 100_000), ("selection", DEFAULT_SCORER), ("final_cycles", list(DEFAULT_FINAL_CYCLES))):
-        ev.setdefault(key, value)
-    hp.setdefault("policy", "MlpPolicy")
-    if normalize is None or normalize is True:
-        normalize = {}
     if normalize is not False:
-        if not isinstance(normalize, dict):
+        if not isinstance(normalize, (dict, bool, type(None))):
             raise ValueError(f"normalize={normalize!r}: expected true, false or a mapping")
-        normalize = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0, **normalize}
-    config = {
-        "algo": algo,
-        "seed": whole_number("seed", seed),
-        "total_timesteps": whole_number("n_timesteps", timesteps if timesteps is not None else (total or 1_000_000)),
-        "n_envs": whole_number("n_envs", n_envs if n_envs is not None else (envs or 1)),
-        "vec": vec,
-        "env": env,
-        "normalize": normalize,
-        "init": dict(init or {}),
-        "hyperparams": hp,
-        "eval": ev,
-        "checkpoint_freq": whole_number("checkpoint_freq", checkpoint_freq if checkpoint_freq is not None
-                                        else (ckpt or 500_000)),
-        "command": command,
-        "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
-        "versions": versions(),
-    }
+        normalize = {**NORMALIZE_DEFAULTS, **(normalize if isinstance(normalize, dict) else {})}
+    init = dict(hp.pop("init", None) or {})
+    total = whole_number("n_timesteps", hp.pop("n_timesteps", 1_000_000))
+    envs = whole_number("n_envs", hp.pop("n_envs", 1))
+    ckpt = whole_number("checkpoint_freq", hp.pop("checkpoint_freq", 500_000))
+    hp.setdefault("policy", "MlpPolicy")
+    config = {"algo": algo, "seed": whole_number("seed", seed), "total_timesteps": total, "n_envs": envs, "env": env,
+              "normalize": normalize, "init": init, "hyperparams": hp, "eval": ev, "checkpoint_freq": ckpt,
+              "command": command, "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+              "versions": versions()}
     validate_config(config)
     return config
+
+
+def _with_defaults(section: dict[str, Any] | None, defaults: dict[str, Any]) -> dict[str, Any]:
+    """A section of the config with every setting it lacks set to its default."""
+    out = dict(section or {})
+    for key, value in defaults.items():
+        out.setdefault(key, copy.deepcopy(value))
+    return out
 
 
 def validate_config(config: dict[str, Any]) -> None:
     """Fail before any work, with one-line messages, on unknown names, wrong types and impossible numbers.
 
     Fills ``env.observation_size`` and ``env.observation_names`` (what a trained policy expects)."""
-    if config["vec"] not in VEC_MODES:
-        raise ValueError(f"unknown --vec {config['vec']!r}; choose one of {', '.join(VEC_MODES)}")
     _validate_env(config["env"])
     _validate_eval(config["eval"], config["env"])
     init = config.get("init")
@@ -171,13 +148,11 @@ def _check_batch_sizes(config: dict[str, Any]) -> None:
 
 def _validate_eval(ev: dict[str, Any], env: dict[str, Any]) -> None:
     """The evaluation settings: cycles load, scenarios exist, the scorer resolves, nothing is both trained and
-    evaluated on. A run made before fuel selection (no ``selection`` key) keeps selecting on the return."""
-    check_known("eval setting", ev, EVAL_KEYS)
-    ev.setdefault("selection", LEGACY_SCORER)
-    ev.setdefault("final_cycles", [])
+    evaluated on."""
+    check_known("eval setting", ev, EVAL_DEFAULTS)
     scorer = get_scorer(str(ev["selection"]))
     for s in ev["scenarios"]:
-        if get_scenario(s).randomized and scorer.reference is not None and ev["cycles"]:
+        if get_scenario(s).randomized and ev["cycles"]:
             raise ValueError(f"eval.selection {scorer.name} compares with a reference on the same conditions: the "
                              f"evaluation scenarios must be fixed, and {s!r} draws them at random")
     trained = {str(c).strip().lower() for c in expand_cycle_names(env["cycles"]) if not is_family(c)}
@@ -191,7 +166,7 @@ def _validate_eval(ev: dict[str, Any], env: dict[str, Any]) -> None:
 
 
 def _validate_env(env: dict[str, Any]) -> None:
-    check_known("env setting", env, (*ENV_KEYS, "observation_size", "observation_names"))
+    check_known("env setting", env, (*ENV_DEFAULTS, "observation_size", "observation_names"))
     cycles = env["cycles"] if isinstance(env["cycles"], list) else [env["cycles"]]
     if not cycles:
         raise ValueError("no training cycles given")

@@ -9,12 +9,11 @@ Three panels share the env-step axis:
 * evaluation return: per evaluation cycle and scenario, and their mean;
 * evaluation fuel: corrected fuel per evaluation cycle and scenario in % of the selection's reference
   on the same run (``fuel_vs_ecms``: ECMS) with the selection score, their mean, in black, and the
-  evaluations disqualified by their SOC marked; without a reference, in % of DP when the DP
-  reference is known (the axis then includes 100 %), else in L/100 km.
+  evaluations disqualified by their SOC marked.
 
-``best_model.zip`` is starred on the panel of the metric the run selects on (:mod:`.selection`, the
-config's ``eval.selection``; the return panel for runs that select on the mean return), and the legend
-states the rule. A dotted vertical line marks the selected evaluation on every panel.
+``best_model.zip`` is starred on the fuel panel, the metric the run selects on (:mod:`.selection`, the
+config's ``eval.selection``), and the legend states the rule. A dotted vertical line marks the selected
+evaluation on every panel.
 """
 
 from __future__ import annotations
@@ -30,10 +29,9 @@ from hev_thermal_env.io import save_png
 
 from .artifacts import read_evaluations
 from .config import load_run_config
-from .selection import LEGACY_SCORER, Scorer, get_scorer
+from .selection import Scorer, get_scorer
 
 RETURN_TAG, LENGTH_TAG = "rollout/ep_rew_mean", "rollout/ep_len_mean"
-SELECTION_METRIC = "mean evaluation return"
 
 
 def read_training_returns(run_dir: str | Path) -> dict[str, np.ndarray]:
@@ -59,22 +57,11 @@ def read_training_returns(run_dir: str | Path) -> dict[str, np.ndarray]:
 
 def selected_step(rows: list[dict[str, Any]]) -> int | None:
     """The env-step of the evaluation whose model is ``best_model.zip``: the last one flagged a new best
-    (the lowest selection score when no row is flagged; the highest mean return for rows without a score)."""
+    (the lowest selection score when no row is flagged)."""
     if not rows:
         return None
     flagged = [r["timesteps"] for r in rows if r["best"]]
-    if flagged:
-        return int(flagged[-1])
-    key = (lambda r: r["score"]) if all("score" in r for r in rows) else (lambda r: -r["mean_return_g"])
-    return int(min(rows, key=key)["timesteps"])
-
-
-def run_scorer(cfg: dict[str, Any]) -> Scorer | None:
-    """The run's selection rule (None if its scorer cannot be imported here)."""
-    try:
-        return get_scorer(str((cfg.get("eval") or {}).get("selection", LEGACY_SCORER)))
-    except ValueError:
-        return None
+    return int(flagged[-1]) if flagged else int(min(rows, key=lambda r: r["score"])["timesteps"])
 
 
 def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]]]:
@@ -90,7 +77,7 @@ def _display(by_step: dict[int, dict[str, Any]]) -> str:
     return f"{Path(str(r['cycle'])).name} / {r['scenario']}"
 
 
-def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | None = None):
+def training_curve_figure(run_dir: str | Path):
     """The figure of the run in ``run_dir`` (see the module docstring); returns the matplotlib figure."""
     plt = pyplot()
     from matplotlib.ticker import EngFormatter
@@ -105,7 +92,9 @@ def training_curve_figure(run_dir: str | Path, dp_reference: dict[str, float] | 
     best = selected_step(rows)
     cfg = load_run_config(out)
     if rows:
-        handles += _evaluation_panels(axes[1], axes[2], rows, best, dp_reference or {}, run_scorer(cfg))
+        scorer = get_scorer(cfg["eval"]["selection"])
+        handles += _return_panel(axes[1], rows) + _selection_panel(axes[2], rows, best, scorer)
+        handles += axes[2].plot([], [], color="0.35", ls=":", lw=1.2, label="selected evaluation (all panels)")
         for ax in axes:
             ax.axvline(best, color="0.35", ls=":", lw=1.2, zorder=0)
     for ax in axes:
@@ -136,44 +125,28 @@ def _training_panel(ax, training: dict[str, np.ndarray]) -> list:
     return handles
 
 
-def _evaluation_panels(ax_ret, ax_fuel, rows: list[dict[str, Any]], best: int, dp_reference: dict[str, float],
-                       scorer: Scorer | None) -> list:
-    series = _by_series(rows)
-    on_return = scorer is None or scorer.name == LEGACY_SCORER
-    rule = scorer.label if scorer is not None else "the run's eval.selection"
+def _return_panel(ax, rows: list[dict[str, Any]]) -> list:
+    """The return of every evaluation run and their mean."""
     handles = []
-    for k, by_step in enumerate(series.values()):
+    for k, by_step in enumerate(_by_series(rows).values()):
         steps = sorted(by_step)
-        handles += ax_ret.plot(steps, [by_step[s]["return_g"] for s in steps], color=f"C{k % 10}", lw=1.0,
-                               marker=".", label=f"evaluation: {_display(by_step)}")
+        handles += ax.plot(steps, [by_step[s]["return_g"] for s in steps], color=f"C{k % 10}", lw=1.0, marker=".",
+                           label=f"evaluation: {_display(by_step)}")
     mean = {r["timesteps"]: r["mean_return_g"] for r in rows}
     steps = sorted(mean)
-    handles += ax_ret.plot(steps, [mean[s] for s in steps], color="k", lw=2.0,
-                           label=SELECTION_METRIC + ("\n(selects best_model.zip)" if on_return else ""))
-    star = textwrap.fill(f"best_model.zip: step {best}, chosen on the {rule}" + (", not on fuel" if on_return else ""),
-                         42)
-    if not all(r["qualified"] for r in rows if r["timesteps"] == best):
-        star += "\n(no evaluation qualified: the least penalised)"
-    if on_return:
-        handles += ax_ret.plot([best], [mean[best]], ls="none", marker="*", ms=16, color="#ffbf00", mec="k",
-                               zorder=5, label=star)
-    ax_ret.set_title("evaluation return per cycle and their mean" +
-                     (" (the metric best_model.zip is chosen on)" if on_return else ""), fontsize=10)
-    ax_ret.set_ylabel("episode return (g)")
-    ratios = np.array([r.get("fuel_ratio", np.nan) for r in rows], dtype=float)
-    if not on_return and ratios.size and np.all(np.isfinite(ratios)):
-        handles += _selection_panel(ax_fuel, series, rows, best, scorer, star)
-    else:
-        handles += _fuel_panel(ax_fuel, series, dp_reference)
-    handles += ax_fuel.plot([], [], color="0.35", ls=":", lw=1.2, label="selected evaluation (all panels)")
+    handles += ax.plot(steps, [mean[s] for s in steps], color="k", lw=2.0, label="mean evaluation return")
+    ax.set_title("evaluation return per cycle and their mean", fontsize=10)
+    ax.set_ylabel("episode return (g)")
     return handles
 
 
-def _selection_panel(ax, series: dict[str, dict[int, dict[str, Any]]], rows: list[dict[str, Any]], best: int,
-                     scorer: Scorer, star: str) -> list:
+def _selection_panel(ax, rows: list[dict[str, Any]], best: int, scorer: Scorer) -> list:
     """Corrected fuel in % of the scorer's reference per run, the score (their mean), disqualified evaluations."""
     ref = scorer.reference_name or "the reference"
-    for k, by_step in enumerate(series.values()):
+    star = textwrap.fill(f"best_model.zip: step {best}, chosen on the {scorer.label}", 42)
+    if not all(r["qualified"] for r in rows if r["timesteps"] == best):
+        star += "\n(no evaluation qualified: the least penalised)"
+    for k, by_step in enumerate(_by_series(rows).values()):
         steps = sorted(by_step)
         ax.plot(steps, [100.0 * by_step[s]["fuel_ratio"] for s in steps], color=f"C{k % 10}", lw=1.0, marker=".")
     by_step: dict[int, list[dict[str, Any]]] = {}
@@ -199,37 +172,9 @@ def _selection_panel(ax, series: dict[str, dict[int, dict[str, Any]]], rows: lis
     return handles
 
 
-def _fuel_panel(ax_fuel, series: dict[str, dict[int, dict[str, Any]]], dp_reference: dict[str, float]) -> list:
-    """Corrected fuel per run, in % of DP when every run has a DP reference, else in L/100 km."""
-    ratio = all(label in dp_reference for label in series)
-    handles = []
-    for k, (label, by_step) in enumerate(series.items()):
-        steps = sorted(by_step)
-        colour = f"C{k % 10}"
-        fuel = np.array([by_step[s]["fuel_corrected_l_per_100km"] for s in steps])
-        if ratio:
-            fuel = 100.0 * fuel / dp_reference[label]
-        ax_fuel.plot(steps, fuel, color=colour, lw=1.0, marker=".")
-        if not ratio and label in dp_reference:
-            ax_fuel.axhline(dp_reference[label], color=colour, ls="--", lw=1.0)
-    if ratio:
-        ax_fuel.axhline(100.0, color="k", lw=1.0)
-        handles += ax_fuel.plot([], [], color="k", lw=1.0, label="DP on the same cycle = 100 %")
-        lo, hi = ax_fuel.get_ylim()
-        ax_fuel.set_ylim(min(lo, 99.5), max(hi, 100.5))
-        ax_fuel.set_title("evaluation: corrected fuel relative to DP on the same cycle (lower is better)", fontsize=10)
-        ax_fuel.set_ylabel("corrected fuel, % of DP")
-    else:
-        if dp_reference:
-            handles += ax_fuel.plot([], [], color="0.3", ls="--", lw=1.0, label="DP (dashed, cycle's colour)")
-        ax_fuel.set_title("evaluation: corrected fuel (lower is better)", fontsize=10)
-        ax_fuel.set_ylabel("corrected fuel (L/100 km)")
-    return handles
-
-
-def plot_training_curve(run_dir: str | Path, dp_reference: dict[str, float] | None = None) -> Path:
+def plot_training_curve(run_dir: str | Path) -> Path:
     """Write ``DIR/training_curve.png`` (:func:`training_curve_figure`); returns its path."""
-    fig = training_curve_figure(run_dir, dp_reference)
+    fig = training_curve_figure(run_dir)
     try:
         return save_png(fig, Path(run_dir) / "training_curve.png")
     finally:

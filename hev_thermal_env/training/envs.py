@@ -1,21 +1,18 @@
 """The training environments: the vector env of a run config, timed, and its ``VecNormalize``.
 
-By default the native batched vector env through its SB3 adapter
-(:class:`hev_thermal_env.wrappers.Sb3VecEnv`, ``vec="native"``); ``"subproc"`` and ``"dummy"``
-run SB3's ``SubprocVecEnv`` / ``DummyVecEnv`` over single ``HevThermal-v0`` envs. The time spent
-inside the environment is measured (:class:`TimedVecEnv`) and reported as a share of training.
+The native batched vector env through its SB3 adapter (:class:`hev_thermal_env.wrappers.Sb3VecEnv`).
+The time spent inside the environment is measured (:class:`TimedVecEnv`) and reported as a share of
+training.
 """
 
 from __future__ import annotations
 
-import functools
 import time
 from pathlib import Path
 from typing import Any
 
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnvWrapper, VecMonitor, VecNormalize
+from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNormalize
 
-from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
 
 
@@ -33,7 +30,6 @@ class TimedVecEnv(VecEnvWrapper):
     def __init__(self, venv):
         super().__init__(venv)
         self.seconds = 0.0
-        self.steps = 0
 
     def reset(self):
         t = time.perf_counter()
@@ -50,20 +46,12 @@ class TimedVecEnv(VecEnvWrapper):
         t = time.perf_counter()
         result = self.venv.step_wait()
         self.seconds += time.perf_counter() - t
-        self.steps += self.num_envs
         return result
 
 
 def make_vec_env(config: dict[str, Any]) -> tuple[VecMonitor, TimedVecEnv]:
     """The raw training VecEnv of the config (no normalisation), and the timer inside it."""
-    kwargs = env_kwargs(config["env"])
-    n = int(config["n_envs"])
-    if config["vec"] == "native":
-        raw = Sb3VecEnv(n, info_keys=(), **kwargs)
-    else:
-        cls = SubprocVecEnv if config["vec"] == "subproc" else DummyVecEnv
-        raw = cls([functools.partial(HevThermalEnv, **kwargs) for _ in range(n)])
-    timed = TimedVecEnv(raw)
+    timed = TimedVecEnv(Sb3VecEnv(int(config["n_envs"]), info_keys=(), **env_kwargs(config["env"])))
     return VecMonitor(timed), timed
 
 

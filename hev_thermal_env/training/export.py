@@ -4,16 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
-
-from .artifacts import (
+from hev_thermal_env.agents.policy_files import (
     find_run_config,
     load_obs_normalizer,
     load_sb3_model,
-    model_bytes,
     resolve_model_path,
     stats_path_for,
 )
+from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
+
+from .artifacts import model_bytes
 from .config import save_run_config
 
 

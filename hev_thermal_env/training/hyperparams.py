@@ -19,15 +19,11 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-import stable_baselines3 as sb3
 import torch
 
 from hev_thermal_env.agents import HYPERPARAMS_DIR
+from hev_thermal_env.agents.policy_files import SCHEDULE_KEYS, algorithm_class, schedule
 from hev_thermal_env.io import read_yaml_mapping
-
-from .schedules import SCHEDULE_KEYS, schedule
-
-ALGORITHMS = {"ppo": sb3.PPO, "sac": sb3.SAC}
 
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
 RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer")
@@ -40,14 +36,6 @@ ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "Leak
 
 _KIND_NAMES = {bool: "true or false", int: "an integer", float: "a number", str: "a string", list: "a list",
                tuple: "a list", dict: "a mapping", type(None): "null", collections.abc.Callable: "lin_<number>"}
-
-
-def algorithm_class(algo: str):
-    """The SB3 class of ``algo`` (``ppo`` or ``sac``)."""
-    name = str(algo).lower()
-    if name not in ALGORITHMS:
-        raise ValueError(f"unknown algorithm {algo!r}; known algorithms: {', '.join(ALGORITHMS)}")
-    return ALGORITHMS[name]
 
 
 def load_hyperparams(algo: str, path: str | Path | None = None) -> dict[str, Any]:

@@ -27,22 +27,17 @@ from typing import Any
 import numpy as np
 import torch
 from stable_baselines3.common.utils import set_random_seed
-from stable_baselines3.common.vec_env import VecNormalize
 
-from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
-from hev_thermal_env.scenarios import get_scenario
-
-from .artifacts import (
+from hev_thermal_env.agents.policy_files import (
     CHECKPOINTS,
     LoadedPolicy,
     checkpoint_files,
     checkpoint_paths,
-    read_evaluations,
-    save_model_and_stats,
-    write_evaluations,
+    custom_objects,
 )
+from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
+
+from .artifacts import read_evaluations, save_model_and_stats, write_evaluations
 from .callbacks import RunCallback, TrainingInterrupted, stop_on_signals
 from .config import load_run_config, save_run_config, validate_config
 from .curves import plot_training_curve
@@ -50,8 +45,7 @@ from .envs import env_kwargs, make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .imitation import imitate
-from .schedules import custom_objects
-from .selection import LEGACY_SCORER, best_row_score, compute_references, get_scorer, is_better
+from .selection import best_row_score, compute_references, get_scorer, is_better
 from .validation_report import final_validation
 
 
@@ -80,7 +74,7 @@ class TrainingRun:
         self.checkpoint_freq = int(config["checkpoint_freq"])
         self.eval_freq = int(config["eval"]["freq"])
         self.eval_rows = read_evaluations(self.out / "evaluations.csv")
-        self.scorer = get_scorer(config["eval"].get("selection", LEGACY_SCORER))
+        self.scorer = get_scorer(config["eval"]["selection"])
         self.best_score = best_row_score(self.eval_rows)
         self.eval_seconds = 0.0
         self.session_start = time.perf_counter()
@@ -96,14 +90,6 @@ class TrainingRun:
     def ckpt_dir(self) -> Path:
         return self.out / CHECKPOINTS
 
-    def stats_of(self, model):
-        env = model.get_env()
-        while env is not None:
-            if isinstance(env, VecNormalize):
-                return env
-            env = getattr(env, "venv", None)
-        return None
-
     def checkpoint(self, model) -> Path:
         n = int(model.num_timesteps)
         zip_path, stats_path, replay_path = checkpoint_paths(self.out, n)
@@ -114,14 +100,19 @@ class TrainingRun:
             for old in self.ckpt_dir.glob("ckpt_*_steps_replay_buffer.pkl"):  # keep only the newest buffer
                 if old != replay_path:
                     old.unlink(missing_ok=True)
-        save_model_and_stats(model, self.stats_of(model), zip_path, stats_path)
+        save_model_and_stats(model, model.get_vec_normalize_env(), zip_path, stats_path)
         return zip_path
+
+    def save(self, model, prefix: str = "") -> None:
+        """``DIR/<prefix>model.zip`` and its statistics ``DIR/<prefix>vecnormalize.pkl``."""
+        save_model_and_stats(model, model.get_vec_normalize_env(), self.out / f"{prefix}model.zip",
+                             self.out / f"{prefix}vecnormalize.pkl")
 
     def evaluate(self, model, logger=None) -> list[dict[str, Any]]:
         if self.evaluator is None:
             return []
         t = time.perf_counter()
-        stats = self.stats_of(model)
+        stats = model.get_vec_normalize_env()
         results = self.evaluator.run(LoadedPolicy(model, stats).act)
         self.eval_seconds += time.perf_counter() - t
         mean_return = float(np.mean([r["return_g"] for r in results]))
@@ -136,7 +127,7 @@ class TrainingRun:
         write_evaluations(self.out / "evaluations.csv", self.eval_rows)
         if best:
             self.best_score = score.value
-            save_model_and_stats(model, stats, self.out / "best_model.zip", self.out / "best_vecnormalize.pkl")
+            self.save(model, "best_")
         if logger is not None:
             logger.record("eval/mean_return_g", mean_return)
             logger.record("eval/selection_score", score.value)
@@ -160,23 +151,6 @@ class TrainingRun:
         if ref != known:
             res["selection_reference"] = ref
         return ref
-
-    def dp_reference(self) -> None:
-        """Corrected fuel of ``dp`` on the evaluation cycles (fixed scenarios), for the training curve."""
-        if not self.config["eval"].get("dp_reference", True):
-            return
-        ref = {}
-        try:
-            for scenario in self.config["eval"]["scenarios"]:
-                if get_scenario(scenario).randomized:
-                    continue
-                for cycle in self.config["eval"]["cycles"]:
-                    res = run_strategy(get_strategy("dp", on_infeasible="closest"), cycle, scenario)
-                    ref[f"{cycle} / {scenario}"] = round(float(res.summary["fuel_corrected_l_per_100km"]), 4)
-        except Exception as exc:  # noqa: BLE001 - the reference only decorates the plot
-            self.log(f"note: no DP reference for the training curve ({type(exc).__name__}: {exc})")
-            return
-        self.config.setdefault("result", {})["dp_reference_l_per_100km"] = ref
 
     def make_model(self, venv, resume_from: tuple[int, Path, Path] | None):
         cfg = self.config
@@ -206,13 +180,11 @@ class TrainingRun:
     # -- the session -----------------------------------------------------------------------------------
 
     def prepare(self, resume_from: tuple[int, Path, Path] | None = None) -> Session:
-        """The DP reference (new runs), the environment and the model; writes nothing."""
+        """The selection's references, the environment and the model; writes nothing."""
         cfg = self.config
         normalized = cfg["normalize"] is not False
         if resume_from is not None and normalized and not resume_from[2].is_file():
             raise FileNotFoundError(f"{resume_from[2]} not found: the checkpoint has no normalisation statistics")
-        if resume_from is None and self.evaluator is not None:
-            self.dp_reference()
         if self.evaluator is not None:
             self.references()
         raw, timed = make_vec_env(cfg)
@@ -245,22 +217,21 @@ class TrainingRun:
             self.record_session(result, finished=False)
             session.raw.close()
             name = signal.Signals(callback.stop_signal).name
-            raise TrainingInterrupted(f"{name}: training stopped at {model.num_timesteps} of "
-                                      f"{cfg['total_timesteps']} timesteps; checkpoint {path}; continue with "
+            raise TrainingInterrupted(f"training stopped by {name} at {model.num_timesteps} of "
+                                      f"{cfg['total_timesteps']} timesteps; checkpoint {path}; continue with: "
                                       f"python train.py --resume {self.out}", 128 + int(callback.stop_signal))
         evaluated = bool(self.eval_rows) and self.eval_rows[-1]["timesteps"] == model.num_timesteps
         if self.evaluator is not None and not evaluated:
             self.evaluate(model, model.logger if model.num_timesteps > done_before else None)
-        save_model_and_stats(model, self.stats_of(model), self.out / "model.zip", self.out / "vecnormalize.pkl")
+        self.save(model)
         if not (self.out / "best_model.zip").is_file():
-            save_model_and_stats(model, self.stats_of(model), self.out / "best_model.zip",
-                                 self.out / "best_vecnormalize.pkl")
+            self.save(model, "best_")
         self.checkpoint(model)
         if self.evaluator is not None and self.config["eval"].get("final_cycles"):
             final_validation(self)
         self.record_session(result, finished=True)
         session.raw.close()
-        plot_training_curve(self.out, (cfg.get("result") or {}).get("dp_reference_l_per_100km"))
+        plot_training_curve(self.out)
         return self.config["result"]
 
     def session_summary(self, model, done_before: int, train_s: float, env_s: float) -> dict[str, Any]:
@@ -292,14 +263,16 @@ class TrainingRun:
         save_run_config(self.out, cfg)
 
 
-def check_new_run_dir(out_dir: str | Path, overwrite: bool = False) -> Path:
-    """``out_dir`` can receive a new run: new or empty (or ``overwrite``), and writable."""
+def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "config.yaml",
+                  overwrite: bool = False) -> Path:
+    """``out_dir`` can receive a new run (or sweep: ``holds``, with its settings file ``marker``): new or empty
+    (or ``overwrite``), and writable."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"--out {out}: exists and is not a directory")
     if out.is_dir() and any(out.iterdir()) and not overwrite:
-        if (out / "config.yaml").is_file():
-            raise ValueError(f"--out {out} already holds a run; continue it with --resume {out} or choose "
+        if (out / marker).is_file():
+            raise ValueError(f"--out {out} already holds {holds}; continue it with --resume {out} or choose "
                              f"another directory")
         raise ValueError(f"--out {out} is not empty; choose an empty or new directory")
     return check_writable_dir(out)
@@ -316,7 +289,7 @@ def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True,
     by a signal. ``run_class`` (a :class:`TrainingRun`) is what runs the session (a sweep's trial
     reports its evaluations to Ray Tune through its own).
     """
-    out = check_new_run_dir(out_dir, overwrite)
+    out = check_new_dir(out_dir, overwrite=overwrite)
     validate_config(config)
     _limit_threads()
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import ast
 import copy
 from collections.abc import Iterable
 from typing import Any
@@ -11,35 +10,12 @@ import yaml
 
 
 def parse_value(text: str) -> Any:
-    """A ``--hp`` value: YAML (``0.99``, ``[64, 64]``, ``{net_arch: [64, 64]}``, ``lin_3e-4``) or ``dict(k=v, ...)``."""
+    """A ``--hp`` value, as YAML: ``0.99``, ``[64, 64]``, ``{net_arch: [64, 64]}``, ``lin_3e-4``."""
     s = text.strip()
-    if s.startswith("dict(") and s.endswith(")"):
-        try:
-            call = ast.parse(s, mode="eval").body
-            if not isinstance(call, ast.Call) or call.args:
-                raise ValueError
-            return {kw.arg: _literal(kw.value) for kw in call.keywords if kw.arg is not None}
-        except (SyntaxError, ValueError):
-            raise ValueError(f"cannot parse {text!r}: use dict(key=literal, ...) or YAML, "
-                             f"e.g. {{net_arch: [64, 64]}}") from None
     try:
         return yaml.safe_load(s) if s else None
     except yaml.YAMLError as exc:
         raise ValueError(f"cannot parse {text!r} as YAML ({' '.join(str(exc).split())})") from None
-
-
-def _literal(node: ast.AST) -> Any:
-    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
-        return {kw.arg: _literal(kw.value) for kw in node.keywords}
-    if isinstance(node, ast.Attribute):  # nn.Tanh, th.nn.ReLU -> "tanh", "relu"
-        return node.attr.lower().replace("leakyrelu", "leaky_relu")
-    if isinstance(node, ast.Name):
-        return node.id
-    if isinstance(node, (ast.List, ast.Tuple)):
-        return [_literal(e) for e in node.elts]
-    if isinstance(node, ast.Dict):
-        return {_literal(k): _literal(v) for k, v in zip(node.keys, node.values)}
-    return ast.literal_eval(node)
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, Any]:

@@ -1,9 +1,8 @@
 """Learning-rate and clip-range schedules of the hyperparameter files (``lin_3e-4``).
 
-SB3 pickles the schedule object into every model zip by its import path, so
-:class:`LinearSchedule` must stay here. Zips saved before the training code moved refer to
-``agents.training.LinearSchedule``, which no longer exists: :func:`custom_objects` rebuilds the
-schedules from the run's hyperparameters instead of unpickling them (the same values).
+SB3 pickles the schedule object into every model zip by its import path. Loading a model rebuilds
+the schedules from the run's hyperparameters instead (:func:`custom_objects`, the same values), so a
+policy loads without unpickling code of the training room.
 """
 
 from __future__ import annotations

@@ -2,17 +2,14 @@
 
 An evaluation is one result per validation cycle × scenario
 (:class:`~hev_thermal_env.training.evaluator.PolicyEvaluator`). The run's config names its scorer in
-``eval.selection``: a name of :data:`SCORERS` or ``package.module:name`` of a :class:`Scorer` (or of
-a function returning one), so another rule plugs in without touching the loop.
+``eval.selection``, one of :data:`SCORERS`:
 
-* ``fuel_vs_ecms`` (the default of new runs) and ``fuel_vs_rule``: the mean over the evaluation runs of
-  the corrected fuel (``fuel_corrected_l_per_100km``) divided by that of the ``ecms`` / ``rule``
-  strategy on the same cycle and scenario (the *reference*, computed once per run). A run whose
-  ``|ΔSOC|`` exceeds :data:`SOC_LIMIT` disqualifies the checkpoint: each such run adds
-  :data:`VIOLATION_PENALTY` to the score, so a checkpoint that holds the SOC on every cycle always beats
-  one that does not, and fewer violations beat more.
-* ``mean_return``: minus the mean evaluation return (the rule of runs made before fuel selection; their
-  configs have no ``eval.selection`` and keep it).
+``fuel_vs_ecms`` (the default) and ``fuel_vs_rule``: the mean over the evaluation runs of the corrected
+fuel (``fuel_corrected_l_per_100km``) divided by that of the ``ecms`` / ``rule`` strategy on the same
+cycle and scenario (the *reference*, computed once per run). A run whose ``|ΔSOC|`` exceeds
+:data:`SOC_LIMIT` disqualifies the checkpoint: each such run adds :data:`VIOLATION_PENALTY` to the
+score, so a checkpoint that holds the SOC on every cycle always beats one that does not, and fewer
+violations beat more.
 
 Scores are "lower is better"; :func:`is_better` is the one comparison the loop makes.
 """
@@ -20,7 +17,6 @@ Scores are "lower is better"; :func:`is_better` is the one comparison the loop m
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -30,15 +26,13 @@ import numpy as np
 SOC_LIMIT = 0.02
 #: Added to the score for every evaluation run beyond :data:`SOC_LIMIT` (a fuel ratio is about 1).
 VIOLATION_PENALTY = 1000.0
-#: The scorer of runs whose config names none (made before fuel selection existed).
-LEGACY_SCORER = "mean_return"
-#: The scorer of new runs.
+#: The scorer of a run whose hyperparameters name none.
 DEFAULT_SCORER = "fuel_vs_ecms"
 
 
 @dataclasses.dataclass(frozen=True)
 class Score:
-    """A checkpoint's score (lower is better), whether it qualifies, and the fuel ratio of each run (or NaN)."""
+    """A checkpoint's score (lower is better), whether it qualifies, and the fuel ratio of each run."""
 
     value: float
     qualified: bool
@@ -46,10 +40,8 @@ class Score:
     violations: int = 0
 
     def describe(self, short: str) -> str:
-        """One line: the mean fuel ratio (or the value) and, if so, the disqualification."""
-        ratios = np.asarray(self.ratios, dtype=float)
-        text = f"{short} {np.mean(ratios):.4f}" if ratios.size and np.all(np.isfinite(ratios)) else \
-            f"{short} score {self.value:.4g}"
+        """One line: the mean fuel ratio and, if so, the disqualification."""
+        text = f"{short} {np.mean(self.ratios):.4f}"
         return text if self.qualified else f"{text} (disqualified: {self.violations} run(s) over the SOC limit)"
 
 
@@ -60,14 +52,14 @@ class Scorer:
     ``score(results, reference) -> Score``: ``results`` one dict per evaluation run (keys ``cycle``,
     ``scenario``, ``return_g``, ``fuel_corrected_l_per_100km``, ``delta_soc``...), ``reference`` the
     reference value of each run by :func:`run_key`. ``reference(cycle, scenario) -> float``: the reference
-    value of one run (None: the scorer needs none). ``label``: the rule in words, for logs and plots;
+    value of one run. ``label``: the rule in words, for logs and plots;
     ``short``: the score's name in log lines; ``reference_name``: what the fuel ratios divide by (plots).
     """
 
     name: str
     label: str
     score: Callable[[Sequence[dict[str, Any]], dict[str, float]], Score]
-    reference: Callable[[str, str], float] | None = None
+    reference: Callable[[str, str], float]
     short: str = "score"
     reference_name: str = ""
 
@@ -106,11 +98,6 @@ def fuel_ratio_score(results: Sequence[dict[str, Any]], reference: dict[str, flo
     return Score(value, violations == 0, tuple(ratios), violations)
 
 
-def mean_return_score(results: Sequence[dict[str, Any]], reference: dict[str, float]) -> Score:
-    """Minus the mean evaluation return (higher return, lower score); every checkpoint qualifies."""
-    return Score(-float(np.mean([r["return_g"] for r in results])), True, tuple(np.nan for _ in results))
-
-
 def _fuel_scorer(strategy: str) -> Scorer:
     return Scorer(f"fuel_vs_{strategy}",
                   f"lowest mean corrected fuel ÷ {strategy.upper()} on the validation runs (|ΔSOC| > {SOC_LIMIT:g} "
@@ -123,36 +110,20 @@ def _fuel_scorer(strategy: str) -> Scorer:
 SCORERS: dict[str, Scorer] = {
     "fuel_vs_ecms": _fuel_scorer("ecms"),
     "fuel_vs_rule": _fuel_scorer("rule"),
-    "mean_return": Scorer("mean_return", "highest mean evaluation return", mean_return_score, None,
-                          short="mean return"),
 }
 
 
 def get_scorer(name: str) -> Scorer:
-    """The scorer ``name``: registered, or ``package.module:attr`` naming a :class:`Scorer` or a function giving one."""
-    if name in SCORERS:
-        return SCORERS[name]
-    if ":" not in str(name):
-        raise ValueError(f"unknown eval.selection {name!r}; registered scorers: {', '.join(SCORERS)} "
-                         f"(or package.module:function)")
-    module, _, attr = str(name).partition(":")
-    try:
-        obj = getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
-        raise ValueError(f"eval.selection {name!r}: cannot import it ({type(exc).__name__}: {exc})") from None
-    scorer = obj if isinstance(obj, Scorer) else obj() if callable(obj) else None
-    if not isinstance(scorer, Scorer):
-        raise ValueError(f"eval.selection {name!r}: expected a Scorer or a function returning one, "
-                         f"got {type(scorer).__name__}")
-    return scorer
+    """The registered scorer ``name``."""
+    if name not in SCORERS:
+        raise ValueError(f"unknown eval.selection {name!r}; registered scorers: {', '.join(SCORERS)}")
+    return SCORERS[name]
 
 
 def compute_references(scorer: Scorer, cycles: Sequence[str], scenarios: Sequence[str],
                        known: dict[str, float] | None = None) -> dict[str, float]:
     """The reference of every cycle × scenario (those in ``known`` are kept, the others computed)."""
     out = dict(known or {})
-    if scorer.reference is None:
-        return out
     for scenario in scenarios:
         for cycle in cycles:
             key = run_key(cycle, scenario)
@@ -168,5 +139,5 @@ def is_better(score: float, best: float | None) -> bool:
 
 def best_row_score(rows: Sequence[dict[str, Any]]) -> float | None:
     """The lowest score among evaluation rows (None when there is none)."""
-    scores = [float(r["score"]) for r in rows if np.isfinite(float(r.get("score", np.nan)))]
+    scores = [float(r["score"]) for r in rows if np.isfinite(float(r["score"]))]
     return min(scores) if scores else None

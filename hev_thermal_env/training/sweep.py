@@ -34,6 +34,7 @@ from hev_thermal_env.evaluation.executors import import_ray, start_ray
 from hev_thermal_env.io import atomic_write_yaml, check_writable_dir, read_yaml_mapping
 
 from .config import whole_number
+from .loop import check_new_dir
 from .sweep_report import SweepReport, collect_trials, export_best, write_report
 from .sweep_space import check_space, load_space, probe_values, tunable_keys, tune_domains
 from .sweep_trial import METRIC, MODE, SEED_INDEX, TIME_ATTR, sweep_trial, trial_config
@@ -49,7 +50,7 @@ SETTINGS_FILE = "sweep.yaml"
 EXPERIMENT = "tune"
 SCHEDULERS = ("asha", "median", "none")
 #: Keyword arguments of :func:`~hev_thermal_env.training.config.build_config` a sweep passes to every trial.
-TRAIN_KEYS = ("cycles", "scenario", "timesteps", "n_envs", "vec", "eval_cycles", "eval_scenarios", "eval_freq")
+TRAIN_KEYS = ("cycles", "scenario", "timesteps", "n_envs", "eval_cycles", "eval_scenarios", "eval_freq")
 
 
 @dataclasses.dataclass
@@ -112,17 +113,6 @@ def check_settings(settings: dict[str, Any]) -> dict[str, Any]:
     if settings["grace_timesteps"] is not None and settings["grace_timesteps"] < 1:
         raise ValueError(f"--grace must be at least 1, got {settings['grace_timesteps']}")
     return probe
-
-
-def check_new_sweep_dir(out: Path) -> Path:
-    """``out`` is new or empty (a sweep in it is continued with ``--resume``), and writable."""
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out}: exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()):
-        if (out / SETTINGS_FILE).is_file():
-            raise ValueError(f"--out {out} already holds a sweep; continue it with --resume {out}")
-        raise ValueError(f"--out {out} is not empty; choose an empty or new directory")
-    return check_writable_dir(out)
 
 
 def load_settings(out: Path) -> dict[str, Any]:
@@ -232,18 +222,15 @@ def run_sweep(settings: dict[str, Any], out_dir: str | Path, *, address: str | N
               num_cpus: int | None = None, progress: bool = True, export: str | Path | None = None,
               callbacks=()) -> SweepOutcome:
     """Run a new sweep into ``out_dir`` on a local Ray runtime of ``num_cpus`` CPUs or the cluster at ``address``."""
-    out = check_new_sweep_dir(Path(out_dir))
+    out = check_new_dir(out_dir, "a sweep", SETTINGS_FILE)
     check_settings(settings)
-    quiet_tune()
-    started = start_ray(ray, num_cpus, address)
-    try:
+
+    def fit():
         out.mkdir(parents=True, exist_ok=True)
         atomic_write_yaml(out / SETTINGS_FILE, settings)
         make_tuner(settings, out, progress, callbacks).fit()
-        return _finish(settings, out, export)
-    finally:
-        if started:
-            ray.shutdown()
+
+    return _on_ray(fit, settings, out, export, num_cpus, address)
 
 
 def resume_sweep(out_dir: str | Path, *, address: str | None = None, num_cpus: int | None = None,
@@ -253,12 +240,21 @@ def resume_sweep(out_dir: str | Path, *, address: str | None = None, num_cpus: i
     settings = load_settings(out)
     check_settings(settings)
     check_writable_dir(out)
+
+    def fit():
+        tune.Tuner.restore(str((out / EXPERIMENT).resolve()), trainable=_trainable(settings), resume_unfinished=True,
+                           resume_errored=True).fit()
+
+    return _on_ray(fit, settings, out, export, num_cpus, address)
+
+
+def _on_ray(fit, settings: dict[str, Any], out: Path, export: str | Path | None, num_cpus: int | None,
+            address: str | None) -> SweepOutcome:
+    """``fit()`` on Ray (started here unless already running), then the sweep's report and export."""
     quiet_tune()
     started = start_ray(ray, num_cpus, address)
     try:
-        tuner = tune.Tuner.restore(str((out / EXPERIMENT).resolve()), trainable=_trainable(settings),
-                                   resume_unfinished=True, resume_errored=True)
-        tuner.fit()
+        fit()
         return _finish(settings, out, export)
     finally:
         if started:

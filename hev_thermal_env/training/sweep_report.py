@@ -17,11 +17,11 @@ import io
 from pathlib import Path
 from typing import Any
 
+from hev_thermal_env.agents.policy_files import checkpoint_files
 from hev_thermal_env.evaluation.benchmark import _fmt  # the benchmark tables' cell format
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.stats import CONFIDENCE, iqm, iqm_ci
 
-from .artifacts import checkpoint_files
 from .export import export_policy
 from .sweep_space import probe_values, trial_overrides, tunable_keys
 from .sweep_trial import METRIC, RUN_DIR, SEED_INDEX, TIME_ATTR, trial_config

@@ -23,7 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from .artifacts import CHECKPOINTS, checkpoint_paths
+from hev_thermal_env.agents.policy_files import CHECKPOINTS, checkpoint_paths
+
 from .config import build_config
 from .loop import TrainingRun, resume, train
 from .sweep_space import trial_overrides

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.agents.policy_files import load_policy
 from hev_thermal_env.io import atomic_write_text
 
-from .artifacts import load_policy
 from .evaluator import PolicyEvaluator
 from .selection import compute_references, run_key
 
@@ -46,12 +46,11 @@ def final_validation(run: Any) -> dict[str, Any]:
         score = run.scorer.score(results, ref)
         for r, ratio in zip(results, score.ratios):
             rows.append({"model": name, **{k: r[k] for k in VALIDATION_COLUMNS if k in r},
-                         "reference_l_per_100km": ref.get(run_key(r["cycle"], r["scenario"]), np.nan),
+                         "reference_l_per_100km": ref[run_key(r["cycle"], r["scenario"])],
                          "fuel_ratio": ratio})
         described[name] = score.describe(run.scorer.short)
-        ratios = np.asarray(score.ratios, dtype=float)
         models[name] = {"score": round(score.value, 6), "qualified": score.qualified, "violations": score.violations,
-                        "mean_fuel_ratio": round(float(np.mean(ratios)), 6) if np.all(np.isfinite(ratios)) else None,
+                        "mean_fuel_ratio": round(float(np.mean(score.ratios)), 6),
                         "max_abs_delta_soc": round(max(abs(r["delta_soc"]) for r in results), 6),
                         "mean_fuel_corrected_l_per_100km":
                             round(float(np.mean([r["fuel_corrected_l_per_100km"] for r in results])), 4)}

@@ -1,11 +1,11 @@
-"""A light driver of the paper's strategy over the physics core, for the calibration.
+"""A light driver of a model-based strategy over the physics core, for the paper's runs.
 
-The calibration runs ADVISOR's rule strategy (``agents.rule.RuleBased``, the paper's own
-strategy) some hundreds of times. This driver gives the strategy exactly what the environment
-gives it (``core``, ``config``, ``cycle``, ``k``, ``phys_state``, ``peek``) and steps the same
-``PhysicsCore`` with the same float32 action, without the reward and observation machinery, so a
-run is a pure function of the vehicle, the cycle and the conditions (``tests/test_calibration.py``
-checks that it reproduces the environment run step for step).
+The paper report and the calibration run ADVISOR's rule strategy (``rule``, the paper's own
+strategy); the calibration some thousands of times. This driver gives the strategy exactly what
+the environment gives it (``core``, ``config``, ``cycle``, ``k``, ``phys_state``, ``peek``) and
+steps the same ``PhysicsCore`` with the same float32 action, without the reward and observation
+machinery, so a run is a pure function of the vehicle, the cycle and the conditions and equals
+the environment's run step for step.
 """
 
 from __future__ import annotations
@@ -14,9 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from ..cycles import Cycle, load_cycle
-from ..physics import Conditions, VehicleConfig
-from ..physics import core as C
+from hev_thermal_env.cycles import Cycle, load_cycle
+from hev_thermal_env.physics import Conditions, VehicleConfig
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.simulate import step_traces
 
 
 class CoreDriver:
@@ -79,10 +80,7 @@ def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
         u = min(max(float(a[0]), -1.0), 1.0)
         states[i], outs[i] = env.step(u)
         us[i] = u
-    trace = {name: outs[:, j].copy() for j, name in enumerate(C.OUT_NAMES)}
-    for j, name in enumerate(C.STATE_NAMES):
-        trace[name] = states[:, j].copy()
-    trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
+    trace = step_traces(outs, states)
     trace["u"] = us
     trace["time_s"] = np.asarray(cyc.time_s[1:], dtype=np.float64)
     return trace

@@ -7,7 +7,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from .paper_targets import PAPER_FIGURE_BY_NAME, PAPER_FIGURES, TABLE2_ROWS, PaperFigure
+from .figures import PAPER_FIGURE_BY_NAME, PAPER_FIGURES, TABLE2_ROWS, PaperFigure
 
 WITHIN, OUTSIDE = "within tolerance", "OUTSIDE tolerance"
 
@@ -73,10 +73,10 @@ def fuel_level_rows(cycles: Mapping[str, dict[str, Any]]) -> list[dict[str, Any]
             continue
         for label, thermal in (("without_thermal", "off"), ("with_thermal", "on")):
             p = PAPER_FIGURE_BY_NAME[f"{paper_row}_fuel_{label.split('_')[0]}_l100"].paper
-            ours = cycles[cyc][label]["fuel_l_per_100km"]
+            ours = cycles[cyc][label]["fuel_l100"]
             rows.append({"cycle": cyc, "paper_row": paper_row, "thermal_model": thermal, "paper_l100": p,
                          "ours_l100": ours, "gap_l100": ours - p, "gap_pct": 100.0 * (ours - p) / p,
-                         "ours_corrected_l100": cycles[cyc][label]["fuel_corrected_l_per_100km"]})
+                         "ours_corrected_l100": cycles[cyc][label]["fuel_corrected_l100"]})
     return rows
 
 

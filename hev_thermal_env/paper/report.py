@@ -1,7 +1,7 @@
 """The paper reproduction report: our results beside the paper's Tables 2-3 and Figs 4, 7-10.
 
 ``python evaluate.py paper --out DIR`` writes ``DIR/report.md``, ``DIR/paper.json`` and PNG figures.
-The report opens with the verdicts: every figure of the paper (:data:`.paper_targets.PAPER_FIGURES`)
+The report opens with the verdicts: every figure of the paper (:data:`.figures.PAPER_FIGURES`)
 with ours, the difference and whether it is within the stated tolerance, a summary line of
 agreement, and the absolute fuel levels against the paper's Table 2 (raw with raw). The sections
 after it show the runs, with the paper's points and bands drawn on the figures.
@@ -9,37 +9,33 @@ after it show the runs, with the paper's points and bands drawn on the figures.
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Any
 
+from hev_thermal_env.evaluation.runner import jsonable
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
+from hev_thermal_env.physics import VehicleConfig, paper_bus
 
-from . import paper_figures as figs
-from .paper_measure import cutoff_curve, cycle_figures, cycle_runs, fig4_curve, measured_values, table3
-from .paper_table import (
-    agreement,
-    fuel_level_markdown,
-    fuel_level_rows,
-    summary_line,
-    verdict_markdown,
-    verdict_rows,
-)
-from .paper_targets import PAPER_FIGURE_BY_NAME, VERDICT_CYCLES
-from .runner import _jsonable
+from . import plots as figs
+from .figures import PAPER_FIGURE_BY_NAME, TABLE3_RUNS, VERDICT_CYCLES, table3_paper
+from .measure import Baseline, cutoff_curve, cycle_run, fig4_curve, figure_values, table3, table3_row
+from .verdicts import agreement, fuel_level_markdown, fuel_level_rows, summary_line, verdict_markdown, verdict_rows
 
-__all__ = ["build_report", "table3"]
+__all__ = ["build_report"]
 
 
-def _cycles(out: Path, cycles: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    """Table 2 and the Figs 7-10 analogs: ``rule`` with and without the thermal model on every cycle."""
-    warm = PAPER_FIGURE_BY_NAME["beijing_temp_c"]
+def _cycles(out: Path, config: VehicleConfig, cycles: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """Table 2 and the Figs 7-10 analogs: ``rule`` without and with the thermal model on every cycle (the
+    figures of :func:`~.measure.cycle_run`), each drawn into ``out``."""
+    base = Baseline(config, cycles)
     result = {}
     for cycle in cycles:
-        row, traces = cycle_runs(cycle)
-        row["figures"] = cycle_figures(row, traces["with_thermal"], warm.paper - warm.tol)
-        figs.cycle_figure(cycle, traces, row["figures"], out / f"fig_temperature_heat_index_{cycle}.png")
-        result[cycle] = row
+        on, trace = cycle_run(config, cycle, base.fuel_l100[cycle])
+        traces = {"without_thermal": base.traces[cycle], "with_thermal": trace}
+        figs.cycle_figure(cycle, traces, on, out / f"fig_temperature_heat_index_{cycle}.png")
+        result[cycle] = {"without_thermal": base.runs[cycle], "with_thermal": on}
     return result
 
 
@@ -52,11 +48,12 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = VERDICT_CYCLE
     out = check_writable_dir(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    t3 = table3(resolution_kmh=0.5 if quick else 0.05, accel_dt_s=0.2 if quick else 0.1)
+    config = paper_bus()
+    t3 = table3(config, resolution_kmh=0.5 if quick else 0.05, accel_dt_s=0.2 if quick else 0.1)
     f4 = fig4_curve()
     tc = cutoff_curve()
-    runs = _cycles(out, tuple(dict.fromkeys((*VERDICT_CYCLES, *cycles))))
-    ours = measured_values(t3, f4, runs)
+    runs = _cycles(out, config, tuple(dict.fromkeys((*VERDICT_CYCLES, *cycles))))
+    ours = figure_values({c: r["with_thermal"] for c, r in runs.items()}, t3, f4)
     rows = verdict_rows(ours)
     levels = fuel_level_rows(runs)
     figs.verdict_figure(rows, out / "verdicts.png")
@@ -72,7 +69,7 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = VERDICT_CYCLE
         "table2": runs,
     }
     data["wall_s"] = time.perf_counter() - t0
-    atomic_write_json(out / "paper.json", _jsonable(data))  # strict JSON: a never-seen return is null
+    atomic_write_json(out / "paper.json", jsonable(data))  # strict JSON: a never-seen return is null
     md = _opening_md(data) + _performance_md(data) + _cycles_md(runs) + _checks_md(data)
     atomic_write_text(out / "report.md", "\n".join(md) + "\n")
     return data
@@ -108,22 +105,16 @@ def _levels_sentence(levels: list[dict[str, Any]]) -> str:
 
 def _performance_md(data: dict[str, Any]) -> list[str]:
     t3 = data["table3"]
-    p = {k: PAPER_FIGURE_BY_NAME[k].paper for k in ("accel_off_s", "accel_30c_delta_s", "accel_50c_delta_s")}
-    paper_abs = {
-        "top_speed_kmh": tuple(PAPER_FIGURE_BY_NAME[f"top_speed_{r}_kmh"].paper for r in ("off", "30c", "50c")),
-        "accel_0_60_s": (p["accel_off_s"], p["accel_off_s"] + p["accel_30c_delta_s"],
-                         p["accel_off_s"] + p["accel_50c_delta_s"]),
-        "grade_4pct_speed_kmh": tuple(PAPER_FIGURE_BY_NAME[f"grade_{r}_kmh"].paper for r in ("off", "30c", "50c"))}
+    p = {k: PAPER_FIGURE_BY_NAME[k].paper for k in ("accel_30c_delta_s", "accel_50c_delta_s")}
     names = {"top_speed_kmh": "top speed (km/h)", "accel_0_60_s": "0-60 km/h (s)",
              "grade_4pct_speed_kmh": "4 % grade speed (km/h)"}
     lines = ["## Table 3: vehicle performance (coolant closed)", "",
              "| figure | paper: off / 30 °C / 50 °C | ours: off / 30 °C / 50 °C |", "|---|---|---|"]
     for k, name in names.items():
-        pa = " / ".join(f"{x:g}" for x in paper_abs[k])
-        o = " / ".join(f"{t3[run][k]:.2f}" for run in ("thermal_off", "thermal_30c", "thermal_50c"))
+        pa = " / ".join(f"{table3_paper(run)[k]:g}" for run in TABLE3_RUNS)
+        o = " / ".join(f"{table3_row(t3, run)[k]:.2f}" for run in TABLE3_RUNS)
         lines.append(f"| {name} | {pa} | {o} |")
-    off = t3["thermal_off"]["accel_0_60_s"]
-    d30, d50 = t3["thermal_30c"]["accel_0_60_s"] - off, t3["thermal_50c"]["accel_0_60_s"] - off
+    d30, d50 = t3["accel_30c_delta_s"], t3["accel_50c_delta_s"]
     lines += ["", f"The 0-60 km/h time grows by {d30:+.2f} s at a 30 °C start and {d50:+.2f} s at a 50 °C start "
               f"over the thermal model off (paper: {p['accel_30c_delta_s']:+g} s and {p['accel_50c_delta_s']:+g} s); "
               "the verdicts of these rows are in the "
@@ -141,10 +132,11 @@ def _cycles_md(runs: dict[str, dict[str, Any]]) -> list[str]:
           "| cycle | temperature peak (°C) | mean of the last 300 s (°C) | heat index peak | first above 0 (s) | "
           "raw fuel with − without (L/100 km) | corrected, for reference |", "|---|---|---|---|---|---|---|"]
     for cyc, row in runs.items():
-        f = row["figures"]
-        onset = "never" if f["onset_s"] is None else f"{f['onset_s']:.0f}"
-        md.append(f"| {cyc} | {f['temp_peak_c']:.1f} | {f['temp_last300_c']:.1f} | {f['peak']:.2f} | {onset} | "
-                  f"{f['fuel_delta_l100']:+.3f} | {f['fuel_corrected_delta_l100']:+.3f} |")
+        f, off = row["with_thermal"], row["without_thermal"]
+        onset = f"{f['hi_onset_s']:.0f}" if math.isfinite(f["hi_onset_s"]) else "never"
+        corrected = f["fuel_corrected_l100"] - off["fuel_corrected_l100"]
+        md.append(f"| {cyc} | {f['temp_peak_c']:.1f} | {f['temp_last300_c']:.1f} | {f['hi_peak']:.2f} | {onset} | "
+                  f"{f['fuel_delta_l100']:+.3f} | {corrected:+.3f} |")
     md.append("")
     for cyc in runs:
         md += [f"![{cyc}](fig_temperature_heat_index_{cyc}.png)", ""]

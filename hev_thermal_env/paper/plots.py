@@ -9,26 +9,19 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.io import save_png
+from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
-from .paper_targets import PAPER_FIGURE_BY_NAME as P
-from .styles import close, figure_title, legend_outside, pyplot
+from .figures import PAPER_FIGURE_BY_NAME as P
 
 PAPER_COLOUR, OURS_COLOUR, OFF_COLOUR = "#e66101", "#1f78b4", "#999999"
 WITHIN_COLOUR, OUTSIDE_COLOUR, BAND_COLOUR = "#1a9641", "#d7191c", "#fdb863"
 RESIDUAL_SHOWN = 4.0  # verdict chart: residuals beyond ± this are drawn at the edge with their value
-
-
-def _save(fig, path: Path) -> Path:
-    try:
-        return save_png(fig, path)
-    finally:
-        close(fig)
 
 
 def _legend(fig, axes) -> None:
@@ -85,7 +78,7 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
     legend_outside(fig, handles, [h.get_label() for h in handles], ncol=3, where="bottom")
     n_in = sum(r["within"] for r in rows)
     figure_title(fig, f"Paper figures: {n_in} of {len(rows)} within tolerance", fontsize=11)
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def fig4_figure(curve: dict[str, Any], path: Path) -> Path:
@@ -104,7 +97,7 @@ def fig4_figure(curve: dict[str, Any], path: Path) -> Path:
     ax.grid(alpha=0.3)
     ax.set_title("Fig. 4 analog: heat index at 2× the continuous torque, from cold", fontsize=10)
     _legend(fig, (ax, ax2))
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def cutoff_figure(curve: dict[str, Any], path: Path) -> Path:
@@ -120,12 +113,13 @@ def cutoff_figure(curve: dict[str, Any], path: Path) -> Path:
     ax.grid(alpha=0.3)
     ax.set_title("Motor at peak power (90 kW), coolant off, from 20 °C (no paper figure: checks eq 7)", fontsize=10)
     _legend(fig, ax)
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: dict[str, Any], path: Path) -> Path:
     """Figs 7-10 analog on ``cycle``: motor temperature and heat index, thermal model on and off, with the
-    paper's bands (Figs 7-8 on ``udds`` and ``hwfet``, Figs 9-10 on ``beijing``)."""
+    paper's bands (Figs 7-8 on ``udds`` and ``hwfet``, Figs 9-10 on ``beijing``); ``figures``: the thermal-model
+    run's :func:`~.measure.cycle_run` figures."""
     plt = pyplot()
     on, off = traces["with_thermal"], traces["without_thermal"]
     t = np.arange(1, len(on["motor_temp_c"]) + 1)
@@ -151,7 +145,7 @@ def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: 
     ax_t.set_title(f"{cycle}, rule strategy, paper scenario: motor temperature", fontsize=10)
     ax_h.set_title("heat index", fontsize=10)
     figure_title(fig, f"{cycle} against the paper's {which}", fontsize=10.5)
-    return _save(fig, path)
+    return save_fig(fig, path)
 
 
 def _band(ax, lo: float, hi: float, x0: float, x1: float, label: str) -> None:
@@ -170,14 +164,14 @@ def _figs_7_8(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
     ax_h.errorbar([onset.paper], [0.0], xerr=[[onset.tol], [onset.tol]], marker="D", ms=8, mfc="none",
                   mec=PAPER_COLOUR, mew=1.8, color=PAPER_COLOUR, capsize=4, ls="none", clip_on=False,
                   label=f"paper: first above 0 at {onset.paper:g} ± {onset.tol:g} s")
-    if figures.get("onset_s") is not None:
-        ax_h.plot([figures["onset_s"]], [0.0], marker="o", ms=7, color=OURS_COLOUR, ls="none", clip_on=False,
-                  label=f"ours: first above 0 at {figures['onset_s']:.0f} s")
+    if math.isfinite(figures["hi_onset_s"]):
+        ax_h.plot([figures["hi_onset_s"]], [0.0], marker="o", ms=7, color=OURS_COLOUR, ls="none", clip_on=False,
+                  label=f"ours: first above 0 at {figures['hi_onset_s']:.0f} s")
 
 
 def _figs_9_10(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
     temp, hi_peak = P["beijing_temp_c"], P["beijing_hi_peak"]
-    start = figures.get("warm_from_s") or t[0]
+    start = figures["warm_up_s"] if math.isfinite(figures["warm_up_s"]) else t[0]
     _band(ax_t, temp.paper - temp.tol, temp.paper + temp.tol, start, t[-1],
           f"paper: {temp.paper:g} ± {temp.tol:g} °C after warm-up")
     _band(ax_h, 0.0, hi_peak.tol, t[0], t[-1], f"paper: heat index 0 (≤ {hi_peak.tol:g} accepted)")
@@ -209,4 +203,4 @@ def fuel_levels_figure(level_rows: list[dict[str, Any]], path: Path) -> Path:
     legend_outside(fig, [handles[i] for i in order], [labels[i] for i in order])
     figure_title(fig, "Absolute fuel levels against the paper's Table 2 (different bus; beijing is synthetic)",
                  fontsize=10.5)
-    return _save(fig, path)
+    return save_fig(fig, path)

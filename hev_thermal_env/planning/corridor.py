@@ -1,55 +1,29 @@
 """The reachable SOC corridor of dynamic programming: forward and backward envelopes of the SOC.
 
-Each stage's SOC grid spans only the SOCs that are reachable from the start and from which the
-final-SOC band is still reachable (:func:`corridor`), so the grid's resolution goes where paths
-can be and the final-SOC constraint is exact instead of a smeared penalty wall.
+Each stage's SOC grid spans only the SOCs that are reachable from the start and from which the final-SOC band is still
+reachable (:func:`corridor`), so the grid's resolution goes where paths can be and the final-SOC constraint is exact
+instead of a smeared penalty wall. Forward, the SOC after u = +1 (most discharge) and u = −1 (most charge) from the
+start; backward, the SOC from which u = −1 / u = +1 just reaches the band's lower / upper edge (solved per stage by a
+fixed-point iteration on the physics step).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from hev_thermal_env.physics import core as C
 
-from .dp_grid import DPInfeasibleError, DPProblem, DPSettings
-
-
-@dataclass
-class Corridor:
-    """Per-stage SOC bounds: forward-reachable [f_lo, f_hi], band-reaching [b_lo, b_hi], and the band."""
-
-    f_lo: np.ndarray
-    f_hi: np.ndarray
-    b_lo: np.ndarray
-    b_hi: np.ndarray
-    band: tuple[float, float]
-
-    @property
-    def lo(self) -> np.ndarray:
-        return np.maximum(self.f_lo, self.b_lo)
-
-    @property
-    def hi(self) -> np.ndarray:
-        return np.minimum(self.f_hi, self.b_hi)
-
-    @property
-    def feasible(self) -> bool:
-        return bool(np.all(self.lo <= self.hi + 1e-9))
-
-    @property
-    def reachable_final(self) -> tuple[float, float]:
-        return float(self.f_lo[-1]), float(self.f_hi[-1])
+from .problem import DPInfeasibleError, DPProblem
 
 
 def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lowest and highest SOC reachable at each stage from the start: u = +1 and u = −1 throughout.
 
-    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the
-    most charge (the engine up to twice the demand or its full load); regeneration is the same for
-    both. The other state columns follow ``held`` (the planning model).
+    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the most charge (the
+    engine up to twice the demand or its full load); regeneration is the same for both. The other state columns follow
+    ``held`` (the planning model).
     """
     n = problem.n_stages
     st = np.repeat(problem.state0[None, :], 2, axis=0)
@@ -65,9 +39,9 @@ def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, 
     return lo, hi
 
 
-def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float],
-                      iterations: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band."""
+def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band (three
+    fixed-point iterations per stage)."""
     n = problem.n_stages
     bat = problem.core.config.battery
     lo = np.empty(n + 1)
@@ -78,7 +52,7 @@ def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, f
     for i in range(n - 1, -1, -1):
         target = np.array([lo[i + 1], hi[i + 1]])
         guess = target.copy()
-        for _ in range(iterations):
+        for _ in range(3):
             st[:] = held[i]
             st[:, C.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
             so, _ = problem.step(st, a, i)
@@ -88,18 +62,26 @@ def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, f
     return lo, hi
 
 
-def corridor(problem: DPProblem, settings: DPSettings, held: np.ndarray) -> tuple[Corridor, dict]:
-    """The SOC corridor for the requested band, or for the nearest reachable one (``on_infeasible="closest"``)."""
+def corridor(problem: DPProblem, held: np.ndarray, soc_final: float | None, tol: float,
+             on_infeasible: str) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The SOC corridor (lowest and highest SOC per stage: reachable from the start and still reaching the band)
+    for the band ``soc_final`` ± ``tol`` (default: the initial SOC), or for the nearest reachable one
+    (``on_infeasible="closest"``)."""
     soc0 = float(problem.state0[C.SOC])
-    target = soc0 if settings.soc_final is None else float(settings.soc_final)
-    tol = settings.soc_tol
+    target = soc0 if soc_final is None else float(soc_final)
     band = (target - tol, target + tol)
     f_lo, f_hi = forward_envelope(problem, held)
     info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
-    cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
-    info["final_soc_feasible"] = cor.feasible
-    if not cor.feasible:
-        if settings.on_infeasible == "raise":
+
+    def bounds(band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, bool]:
+        b_lo, b_hi = backward_envelope(problem, held, band)
+        lo, hi = np.maximum(f_lo, b_lo), np.minimum(f_hi, b_hi)
+        return lo, hi, bool(np.all(lo <= hi + 1e-9))
+
+    lo, hi, feasible = bounds(band)
+    info["final_soc_feasible"] = feasible
+    if not feasible:
+        if on_infeasible == "raise":
             raise DPInfeasibleError(
                 f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
                 f"{soc0:.4f}: the reachable final SOC is [{f_lo[-1]:.4f}, {f_hi[-1]:.4f}] (change soc_final or "
@@ -109,9 +91,9 @@ def corridor(problem: DPProblem, settings: DPSettings, held: np.ndarray) -> tupl
             band = (float(f_hi[-1]) - 2.0 * tol, float(f_hi[-1]))
         else:
             band = (float(f_lo[-1]), float(f_lo[-1]) + 2.0 * tol)
-        cor = Corridor(f_lo, f_hi, *backward_envelope(problem, held, band), band=band)
-        if not cor.feasible:
+        lo, hi, feasible = bounds(band)
+        if not feasible:
             raise DPInfeasibleError(f"dp: even the nearest reachable final-SOC band {band} is infeasible on cycle "
                                     f"{problem.name!r}")
     info["soc_band_used"] = [float(band[0]), float(band[1])]
-    return cor, info
+    return lo, hi, info

@@ -1,0 +1,47 @@
+"""The observation of the batch engine's rows (:func:`observe_kernel`), fused into every step of both envs.
+
+A module of its own so that nothing that plans (DP, the thermal optimum) depends on it.
+"""
+
+from __future__ import annotations
+
+from ..physics import core as C
+from ..physics.jit import jit
+from . import spaces as S
+from .reward import band_center
+
+
+@jit
+def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, demand, gear, descent, offsets, dt_s,
+                   low, high, obs):
+    """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]), in the order of
+    :func:`~hev_thermal_env.envs.spaces.observation_names`; the band's center from ``descent`` and the weights ``w``."""
+    n_base = S.N_OBS_BASE
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        j = k[r]
+        v0 = speed[r, j]
+        obs[i, S.OBS_SPEED] = v0
+        obs[i, S.OBS_ACCEL] = (speed[r, j + 1] - v0) / dt_s
+        obs[i, S.OBS_DEMAND] = demand[r, j]
+        obs[i, S.OBS_SOC] = state[r, C.SOC]
+        center = band_center(w, soc_target[r], descent[r, j])
+        obs[i, S.OBS_SOC_TARGET] = center
+        obs[i, S.OBS_SOC_DEVIATION] = state[r, C.SOC] - center
+        obs[i, S.OBS_TEMP] = state[r, C.TEMP_C]
+        obs[i, S.OBS_PWM] = state[r, C.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
+        obs[i, S.OBS_HEAT_X] = state[r, C.HEAT_X]
+        obs[i, S.OBS_CUTOFF] = state[r, C.CUTOFF]
+        obs[i, S.OBS_AVAIL] = avail[r]
+        obs[i, S.OBS_GEAR] = gear[r, j]
+        obs[i, S.OBS_PROGRESS] = j / n_steps[r]
+        obs[i, S.OBS_AMBIENT] = cond[r, C.AMBIENT_C]
+        obs[i, S.OBS_COOLANT] = cond[r, C.COOLANT_FACTOR]
+        for p in range(offsets.shape[0]):
+            obs[i, n_base + p] = speed[r, j + offsets[p]]
+        for c in range(obs.shape[1]):
+            x = obs[i, c]
+            if x < low[c]:
+                obs[i, c] = low[c]
+            elif x > high[c]:
+                obs[i, c] = high[c]

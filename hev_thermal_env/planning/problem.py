@@ -1,0 +1,89 @@
+"""What a planner needs from an environment (:class:`DPProblem`): every planner here steps it through the one
+physics core and prices it with the env's own compiled reward.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.physics import core as C
+
+
+class DPInfeasibleError(ValueError):
+    """No control sequence reaches the final-SOC band on this cycle from this start."""
+
+
+def default_threads() -> int:
+    """Threads for large batched physics calls (DP stages): the machine's cores, at most 8."""
+    return max(1, min(os.cpu_count() or 1, 8))
+
+
+def argmin_small_action(cost: np.ndarray, actions: np.ndarray, tol_g: float = 1e-9) -> int:
+    """Index of the cheapest candidate; among equally cheap ones (e.g. the motor cut off) the smallest |u|."""
+    best = float(np.min(cost))
+    ties = np.flatnonzero(cost <= best + tol_g)
+    if ties.size == 1:
+        return int(ties[0])
+    return int(ties[np.argmin(np.abs(actions[ties]))])
+
+
+@dataclass
+class DPProblem:
+    """What DP needs from an environment: the vehicle, the cycle from step ``k0``, the start, the prices."""
+
+    core: C.PhysicsCore
+    speed_mps: np.ndarray
+    grade: np.ndarray
+    k0: int
+    state0: np.ndarray  # [N_STATE]
+    cond: np.ndarray  # [N_COND]
+    reward_params: RewardParams
+    soc_target: float
+    name: str = "cycle"
+
+    @classmethod
+    def from_env(cls, env: Any) -> DPProblem:
+        e = env.unwrapped if hasattr(env, "unwrapped") else env
+        return cls(core=e.core, speed_mps=np.asarray(e.cycle.speed_mps, dtype=np.float64),
+                   grade=np.asarray(e.cycle.grade, dtype=np.float64), k0=int(e.k),
+                   state0=np.array(e.phys_state[0], dtype=np.float64), cond=np.array(e.cond[0], dtype=np.float64),
+                   reward_params=e.reward_params, soc_target=float(e.soc_target),
+                   name=getattr(e.cycle, "name", "cycle"))
+
+    @property
+    def n_stages(self) -> int:
+        return len(self.speed_mps) - 1 - self.k0
+
+    @property
+    def lhv(self) -> float:
+        return self.core.config.engine.fuel_lhv_j_per_g
+
+    def key(self) -> str:
+        h = hashlib.sha1()
+        for a in (self.speed_mps, self.grade, self.state0, self.cond, *self.core.params):
+            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        h.update(repr((self.k0, self.reward_params, self.soc_target, self.core.dt_s)).encode())
+        return h.hexdigest()
+
+    def stage_inputs(self, i: int, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        k = self.k0 + i
+        return (np.full(b, self.speed_mps[k]), np.full(b, self.speed_mps[k + 1]), np.full(b, self.grade[k]))
+
+    def step(self, states: np.ndarray, actions: np.ndarray, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """The physics step of stage i for a small batch (planning helpers)."""
+        v0, v1, g = self.stage_inputs(i, states.shape[0])
+        return self.core.step(states, actions, v0, v1, g, self.cond)
+
+    def demand_positive(self) -> np.ndarray:
+        """Whether the shaft demand of each stage is positive (else the action has no effect)."""
+        n = self.n_stages
+        k = self.k0
+        _, out = self.core.step(np.repeat(self.state0[None, :], n, axis=0), 0.0, self.speed_mps[k:-1],
+                                self.speed_mps[k + 1:], self.grade[k:k + n], self.cond)
+        return out[:, C.SHAFT_DEMAND] > 0.0

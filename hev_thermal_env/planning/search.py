@@ -1,0 +1,246 @@
+"""The thermal optimum's search: forward dynamic programming over exact physics states (cost-to-come).
+
+Why forward, the bins and the passes: docs/strategies.md. Each stage expands every surviving state by every split (one
+split where the shaft demand is not positive: the action has no effect) in batched calls of the physics core, prices the
+candidates with the env's reward, keeps a few per bin (:mod:`.bins`) and drops those that can no longer reach the
+final-SOC window (the backward SOC envelope of :mod:`.corridor`). Nothing is interpolated: a surviving path's planned
+cost is its realised cost. The last stage's survivors give the frontier (:func:`frontier_points`), at the yardstick cost
+(fuel, missed wheel energy at the miss price, the reward's overheat terms; no battery price).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hev_thermal_env.envs.reward import stage_cost_g
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
+
+from .bins import KEY_BITS, non_dominated, survivors
+from .corridor import backward_envelope
+from .problem import DPProblem, default_threads
+
+#: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
+#: (:func:`~.bins.keep_best_per_bin`).
+SECOND_PRICE = 0.8
+#: A refining pass: every ``REFINE_STRIDE``-th split of the uniform grid and ``N_LOCAL`` splits within
+#: ± ``LOCAL_HALFWIDTH`` of each earlier path.
+REFINE_STRIDE, N_LOCAL, LOCAL_HALFWIDTH = 2, 21, 0.05
+
+
+@dataclass(frozen=True)
+class SearchGrid:
+    """Bin widths of the search (state units) and the split grid; ``scaled(f)`` divides every width by f."""
+
+    soc: float = 1.5e-4
+    winding_k: float = 4.0
+    housing_k: float = 2.0
+    coolant_k: float = 4.0
+    heat_index: float = 0.1
+    n_u: int = 31
+
+    def widths(self) -> np.ndarray:
+        return np.array([self.soc, self.winding_k, self.housing_k, self.coolant_k, self.heat_index, 1.0])
+
+    def scaled(self, factor: float) -> SearchGrid:
+        """Every bin ``factor`` times narrower, ``factor`` times as many split intervals (an even number: u = 0
+        stays)."""
+        return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor, self.coolant_k / factor,
+                          self.heat_index / factor, 2 * int(round((self.n_u - 1) * factor / 2)) + 1)
+
+    def describe(self) -> str:
+        return (f"forward DP over exact states, bins ΔSOC {self.soc:g}, winding {self.winding_k:g} K, housing "
+                f"{self.housing_k:g} K, coolant {self.coolant_k:g} K, heat index {self.heat_index:g}, "
+                f"{self.n_u} splits")
+
+
+@dataclass
+class SearchResult:
+    """The survivors of the last stage and how to get to each of them."""
+
+    final_state: np.ndarray  # [M, N_STATE]
+    final_cost_g: np.ndarray  # [M] yardstick cost
+    final_battery_j: np.ndarray  # [M] net battery chemical energy
+    parents: list[np.ndarray]  # per stage: index of each survivor's parent in the previous stage's survivors
+    actions: list[np.ndarray]  # per stage: the split each survivor took
+    grid: SearchGrid
+    solve_s: float
+    n_evals: int
+    max_states: int
+    info: dict = field(default_factory=dict)
+
+    def path(self, j: int) -> np.ndarray:
+        """The action sequence that ends in final survivor ``j``."""
+        n = len(self.actions)
+        u = np.empty(n)
+        for i in range(n - 1, -1, -1):
+            u[i] = self.actions[i][j]
+            j = self.parents[i][j]
+        return u
+
+
+def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The final states that no other beats with both more final charge and a lower cost, by SOC ascending.
+
+    F(s) = the lowest cost of a path ending at SOC >= s is the cost of the first breakpoint at or above s; linear
+    interpolation between breakpoints never exceeds it.
+    """
+    order = np.argsort(soc, kind="stable")
+    s, c = soc[order], cost[order]
+    after = np.r_[np.minimum.accumulate(c[::-1])[::-1][1:], np.inf]  # lowest cost strictly above in order
+    keep = c < after
+    return s[keep], c[keep]
+
+
+def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable.
+
+    Computed with the motor at full capability (no heat index, not cut off), which can only widen the range, and widened
+    by ``margin``.
+    """
+    ref = problem.state0.copy()
+    ref[C.HEAT_X] = min(ref[C.HEAT_X], ref[C.HEAT_X_MIN])
+    ref[C.CUTOFF] = 0.0
+    held = np.repeat(ref[None, :], problem.n_stages + 1, axis=0)
+    lo, hi = backward_envelope(problem, held, (lo_final, hi_final))
+    return lo - margin, hi + margin
+
+
+def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
+    """Raise when a bin index could leave its key field (different states would then share a bin): SOC up to 1,
+    temperatures up to ``temp_hi_c``, heat index up to 1."""
+    tops = (1.0, temp_hi_c, temp_hi_c, temp_hi_c, 1.0)
+    for name, top, width, bits in zip(("soc", "winding_k", "housing_k", "coolant_k", "heat_index"), tops,
+                                      grid.widths(), KEY_BITS):
+        if top / width >= 2 ** (bits - 1) - 1:
+            raise ValueError(f"dp_thermal: the {name} bin {width:g} is too narrow for the search's bin keys (at most "
+                             f"{2 ** (bits - 1) - 1} bins up to {top:g}); use a wider bin or a smaller grid_scale")
+
+
+class StageBuffers:
+    """Arrays of a stage's candidates, kept from stage to stage (grown when a stage has more rows): allocating
+    and zero-filling hundreds of MB every stage costs as much as the physics. Inputs that are the same for every row
+    (conditions, the state before the step as far as the cost reads it) are filled once."""
+
+    def __init__(self, problem: DPProblem):
+        self.problem, self.rows = problem, 0
+
+    def get(self, rows: int) -> StageBuffers:
+        if rows > self.rows:
+            n = max(rows, int(self.rows * 1.5))
+            p = self.problem
+            self.so, self.out = np.empty((n, C.N_STATE)), np.empty((n, C.N_OUT))
+            self.c, self.e, self.a = np.empty(n), np.empty(n), np.empty(n)
+            self.v0, self.v1, self.g = np.empty(n), np.empty(n), np.empty(n)
+            self.cond = np.ascontiguousarray(np.broadcast_to(p.cond, (n, p.cond.size)))
+            self.before = np.zeros((n, C.N_STATE))
+            self.before[:, C.SOC] = p.soc_target  # what stage_cost_g assumes without state_before
+            self.target = np.full(n, float(p.soc_target))
+            self.rows = n
+        return self
+
+
+def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, batt_j: np.ndarray, u: np.ndarray,
+            threads: int, buf: StageBuffers) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every state × every split of stage ``i``: next states, cost-to-come, battery energy and the splits (views of
+    ``buf``, valid until the next stage).
+
+    Row r is state r // m with split u[r % m]. Chunks of states run on separate threads, each doing its physics step and
+    its cost (both compiled kernels release the GIL).
+    """
+    p, m = states.shape[0], u.size
+    rows = p * m
+    b = buf.get(rows)
+    so, out, c, e, a = b.so[:rows], b.out[:rows], b.c[:rows], b.e[:rows], b.a[:rows]
+    a.reshape(p, m)[:] = u
+    v0, v1, g = (float(x[0]) for x in problem.stage_inputs(i, 1))
+    rp, lhv, dt = problem.reward_params, problem.lhv, problem.core.dt_s
+
+    def run(span: tuple[int, int]) -> None:
+        lo, hi = span
+        r = slice(lo * m, hi * m)
+        b.v0[r], b.v1[r], b.g[r] = v0, v1, g
+        problem.core.step(np.repeat(states[lo:hi], m, axis=0), a[r], b.v0[r], b.v1[r], b.g[r], b.cond[r],
+                          state_out=so[r], out=out[r])
+        c[r] = np.repeat(cost[lo:hi], m) + stage_cost_g(rp, out[r], so[r], b.target[r], lhv, dt, battery=False,
+                                                         overheat=True, state_before=b.before[r])
+        e[r] = np.repeat(batt_j[lo:hi], m) + out[r, C.BATT_CHEM] * dt
+
+    parts = threads if p >= MIN_THREAD_BATCH and threads > 1 else 1
+    if parts == 1:
+        run((0, p))
+    else:
+        edges = np.linspace(0, p, parts + 1).astype(int)
+        list(thread_pool(parts).map(run, zip(edges[:-1].tolist(), edges[1:].tolist())))
+    return so, c, e, a
+
+
+def _stage_splits(u_grid: np.ndarray, centers: np.ndarray | None, i: int) -> np.ndarray:
+    """The splits of stage ``i``: the uniform grid, or a refining pass's around each of ``centers``."""
+    if centers is None:
+        return u_grid
+    near = np.clip((centers[:, i, None] + np.linspace(-LOCAL_HALFWIDTH, LOCAL_HALFWIDTH, N_LOCAL)).ravel(), -1.0, 1.0)
+    return np.unique(np.r_[u_grid[::REFINE_STRIDE], u_grid[-1], near].astype(np.float32)).astype(np.float64)
+
+
+def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.ndarray] | None, k: int) -> np.ndarray:
+    """The candidates within the SOC window [lo, hi] (and the tube at stage ``k``, where any is in it); at least the
+    one nearest the window."""
+    inside = (soc >= lo) & (soc <= hi)
+    if tube is not None:
+        in_tube = inside & (soc >= tube[0][k]) & (soc <= tube[1][k])
+        if np.any(in_tube):
+            inside = in_tube
+    if not np.any(inside):
+        inside[np.argmin(np.minimum(np.abs(soc - lo), np.abs(soc - hi)))] = True
+    return inside
+
+
+def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
+           progress=None, u_center: np.ndarray | None = None,
+           tube: tuple[np.ndarray, np.ndarray] | None = None) -> SearchResult:
+    """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
+
+    ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`). ``tube`` (SOC
+    bounds per stage 0..n) also drops the states outside it (at a stage where none is inside, the tube is ignored).
+    ``progress(stage, n_stages, n_states)`` is called after every stage.
+    """
+    t0 = time.perf_counter()
+    n = problem.n_stages
+    if n < 1:
+        raise ValueError("dp_thermal: the cycle has no step left to plan")
+    threads = default_threads() if threads is None else threads
+    lo_win, hi_win = soc_window(problem, final_window[0], final_window[1], margin=2.0 * grid.soc)
+    check_key_range(grid)
+    u_grid = np.linspace(-1.0, 1.0, grid.n_u).astype(np.float32).astype(np.float64)  # replayable exactly
+    centers = None if u_center is None else np.atleast_2d(np.asarray(u_center, dtype=np.float64))
+    active = problem.demand_positive()
+    batt_g_per_j = problem.reward_params.prices.battery_g_per_j(problem.lhv) * problem.reward_params.soc_energy_weight
+    widths = grid.widths()
+    states, cost, batt_j = problem.state0[None, :].copy(), np.zeros(1), np.zeros(1)
+    parents: list[np.ndarray] = []
+    actions: list[np.ndarray] = []
+    n_evals, max_states = 0, 1
+    buffers = StageBuffers(problem)
+    for i in range(n):
+        u = _stage_splits(u_grid, centers, i) if active[i] else np.zeros(1)
+        so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
+        n_evals += so.shape[0]
+        inside = _inside(so[:, C.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
+        keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, widths, states.shape[0], threads)
+        if keep.size > 1:
+            keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
+        keep = np.sort(keep)
+        states, cost, batt_j = so[keep], c[keep], e[keep]
+        parents.append((keep // u.size).astype(np.int32))
+        actions.append(a[keep].astype(np.float32) if active[i] else np.zeros(keep.size, dtype=np.float32))
+        max_states = max(max_states, keep.size)
+        if progress is not None:
+            progress(i + 1, n, keep.size)
+    return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents,
+                        actions=actions, grid=grid, solve_s=time.perf_counter() - t0, n_evals=n_evals,
+                        max_states=max_states, info={"threads": threads, "final_soc_window": list(final_window),
+                                              "tube": tube is not None})

@@ -1,0 +1,207 @@
+"""Dynamic programming over a known cycle with SOC as the state (the ``dp`` strategy's planner).
+
+Backward recursion over the stages on a grid of SOC states, the thermal state held at its initial value: thermal-blind,
+so where heat binds (``hot``, ``summer``, long climbs) not an optimum (the yardstick is :mod:`.thermal_optimum`). Each
+stage is ONE batched call of the physics step (split over threads) for every grid state × every split u (once per grid
+state where the demand is not positive).
+
+Cost (g of fuel equivalent, the env's reward, :func:`~hev_thermal_env.envs.reward.stage_cost_g`): fuel, missed wheel
+energy and battery energy at the reward's prices, so DP minimises the corrected fuel; ``price_soc_deviation`` adds the
+SOC terms (the band settlement charged on the final SOC, :func:`~hev_thermal_env.envs.reward.soc_band_charge_g`).
+
+The final SOC lies within ``soc_tol`` of ``soc_final`` (default: the initial SOC ± 0.005). A penalty wall between fixed
+grid points would diffuse back through the stages (the SOC moves far less than a cell per step), so each stage's
+``n_soc`` points span exactly its corridor (:mod:`.corridor`), and beyond the grid's ends the cost-to-go continues with
+the slope :data:`WALL_G_PER_SOC`. An unreachable band raises :class:`~.problem.DPInfeasibleError`;
+``on_infeasible="closest"`` plans for the nearest reachable one. At each real step :func:`choose` picks among a finer u
+grid from the actual state, by stage cost plus interpolated cost-to-go.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hev_thermal_env.envs.reward import soc_band_charge_g, stage_cost_g
+from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.jit import jit
+
+from .corridor import corridor
+from .problem import DPProblem, argmin_small_action, default_threads
+
+#: Beyond the corridor's ends the cost-to-go continues with this slope (g per unit SOC).
+WALL_G_PER_SOC = 1e6
+
+
+@jit
+def interp_soc(values, lo, step, n, soc, wall, result):
+    """Linear interpolation of ``values`` (``n`` points from ``lo``, spacing ``step``) at every ``soc[b]``.
+
+    Beyond the grid's ends the value continues with slope ``wall`` (value at the end + wall × distance).
+    """
+    top = n - 1.0
+    for b in range(soc.shape[0]):
+        excess = 0.0
+        f = (soc[b] - lo) / step
+        if f < 0.0:
+            excess = (0.0 - f) * step
+            f = 0.0
+        elif f > top:
+            excess = (f - top) * step
+            f = top
+        i = min(int(f), n - 2)
+        w = f - i
+        acc = 0.0
+        if 1.0 - w != 0.0:
+            acc += (1.0 - w) * values[i]
+        if w != 0.0:
+            acc += w * values[i + 1]
+        result[b] = acc + wall * excess
+
+
+@dataclass
+class DPSettings:
+    """Grid and pricing options of a DP solve (see the module docstring)."""
+
+    n_soc: int = 401
+    n_u: int = 41
+    n_u_exec: int = 101
+    soc_final: float | None = None  # default: the initial SOC
+    soc_tol: float = 0.005
+    on_infeasible: str = "raise"
+    price_soc_deviation: bool = False
+    threads: int | None = None
+
+
+@dataclass
+class DPPlan:
+    """A solved DP: the cost-to-go on the SOC grid of every stage, and how it was made.
+
+    The SOC grid of stage i has ``n_soc`` points from ``soc_lo[i]`` to ``soc_hi[i]`` (the corridor).
+    """
+
+    soc_lo: np.ndarray  # [n_stages + 1]
+    soc_hi: np.ndarray  # [n_stages + 1]
+    cost_to_go: np.ndarray  # [n_stages + 1, n_soc]
+    k0: int
+    solve_s: float
+    n_evals: int
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_stages(self) -> int:
+        return self.cost_to_go.shape[0] - 1
+
+    @property
+    def n_soc(self) -> int:
+        return self.cost_to_go.shape[1]
+
+    def lookup(self, stage: int, states: np.ndarray) -> np.ndarray:
+        """Cost-to-go at ``stage`` (0 = plan start) of full states [B, N_STATE]."""
+        res = np.empty(states.shape[0])
+        lo, hi = self.soc_lo[stage], self.soc_hi[stage]
+        interp_soc(self.cost_to_go[stage], lo, (hi - lo) / (self.n_soc - 1), self.n_soc, states[:, C.SOC],
+                   WALL_G_PER_SOC, res)
+        return res
+
+
+class _Batch:
+    """Every SOC grid point × ``u.size`` splits (row r·reps + j: point r, split u[j]), reused across stages."""
+
+    def __init__(self, problem: DPProblem, unit: np.ndarray, u: np.ndarray):
+        n = unit.size * u.size
+        self.reps = u.size
+        self.x = np.repeat(problem.state0[None, :], n, axis=0)
+        self.frac = np.repeat(unit, u.size)
+        self.a = np.tile(u, unit.size)
+        self.so, self.out = np.empty_like(self.x), np.empty((n, C.N_OUT))
+        self.cond = np.repeat(problem.cond[None, :], n, axis=0)
+        self.jn = np.empty(n)
+
+
+def _backward(problem: DPProblem, s: DPSettings, soc_lo: np.ndarray, soc_hi: np.ndarray,
+              threads: int) -> tuple[np.ndarray, int]:
+    """The cost-to-go [n_stages + 1, n_soc] on the corridor grids, and the vehicle-steps evaluated."""
+    n_stages, n_soc = problem.n_stages, s.n_soc
+    unit = np.linspace(0.0, 1.0, n_soc)
+    big, small = _Batch(problem, unit, np.linspace(-1.0, 1.0, s.n_u)), _Batch(problem, unit, np.zeros(1))
+    J = np.empty((n_stages + 1, n_soc))
+    J[n_stages] = 0.0  # the last stage's grid lies inside the band
+    if s.price_soc_deviation:  # the reward's band settlement adds up to a charge on the final SOC: paid there
+        final_soc = soc_lo[-1] + unit * (soc_hi[-1] - soc_lo[-1])
+        J[n_stages] = soc_band_charge_g(problem.reward_params, final_soc, problem.soc_target)
+    active = problem.demand_positive()
+    n_evals = 0
+    for i in range(n_stages - 1, -1, -1):
+        b = big if active[i] else small
+        b.x[:, C.SOC] = soc_lo[i] + b.frac * (soc_hi[i] - soc_lo[i])
+        v0, v1, g = problem.stage_inputs(i, b.x.shape[0])
+        problem.core.step(b.x, b.a, v0, v1, g, b.cond, state_out=b.so, out=b.out, threads=threads)
+        n_evals += b.x.shape[0]
+        cost = stage_cost_g(problem.reward_params, b.out, b.so, problem.soc_target, problem.lhv, problem.core.dt_s,
+                            soc_deviation=s.price_soc_deviation, soc_band=False)
+        lo = soc_lo[i + 1]
+        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, C.SOC], WALL_G_PER_SOC,
+                   b.jn)
+        J[i] = (cost + b.jn).reshape(n_soc, b.reps).min(axis=1)
+    return J, n_evals
+
+
+def solve(problem: DPProblem, settings: DPSettings) -> DPPlan:
+    """Backward DP over the cycle, the thermal state held at the start's (see the module docstring)."""
+    t_start = time.perf_counter()
+    if problem.n_stages < 1:
+        raise ValueError("dp: the cycle has no step left to plan")
+    held = np.repeat(problem.state0[None, :], problem.n_stages + 1, axis=0)
+    soc_lo, soc_hi, info = corridor(problem, held, settings.soc_final, settings.soc_tol, settings.on_infeasible)
+    soc_hi = np.maximum(soc_hi, soc_lo + 1e-9)
+    threads = default_threads() if settings.threads is None else settings.threads
+    J, n_evals = _backward(problem, settings, soc_lo, soc_hi, threads)
+    return DPPlan(soc_lo=soc_lo, soc_hi=soc_hi, cost_to_go=J, k0=problem.k0, solve_s=time.perf_counter() - t_start,
+                  n_evals=n_evals,
+                  info={**info, "threads": threads, "corridor_max_width": float(np.max(soc_hi - soc_lo))})
+
+
+def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, problem: DPProblem,
+           settings: DPSettings, actions: np.ndarray) -> int:
+    """Index of the cheapest candidate: stage cost + interpolated cost-to-go of its next state."""
+    cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv,
+                        problem.core.dt_s, soc_deviation=settings.price_soc_deviation,
+                        soc_band=False)
+    return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions)
+
+
+def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: bool) -> dict[str, np.ndarray]:
+    """Run the plan forward on the physics from the start state, re-optimising each step.
+
+    ``free=False`` holds the thermal state at the start's (the planning model: the plan's own prediction, reported by
+    the ``dp`` strategy); ``free=True`` lets the whole state evolve (as the environment would).
+    """
+    u_exec = np.linspace(-1.0, 1.0, settings.n_u_exec)
+    n = plan.n_stages
+    st = problem.state0.copy()
+    states = np.empty((n + 1, C.N_STATE))
+    outs = np.empty((n, C.N_OUT))
+    us = np.empty(n)
+    states[0] = st
+    m = len(u_exec)
+    idle = int(np.argmin(np.abs(u_exec)))  # the action has no effect: report u = 0
+    cond = np.repeat(problem.cond[None, :], m, axis=0)
+    so = np.empty((m, C.N_STATE))
+    out = np.empty((m, C.N_OUT))
+    for i in range(n):
+        x = np.repeat(st[None, :], m, axis=0)
+        v0, v1, g = problem.stage_inputs(i, m)
+        problem.core.step(x, u_exec, v0, v1, g, cond, state_out=so, out=out)
+        j = choose(plan, i, so, out, problem, settings, u_exec) if out[0, C.SHAFT_DEMAND] > 0.0 else idle
+        st = so[j].copy()
+        if not free:  # the thermal state held at the start's
+            soc = st[C.SOC]
+            st[:] = problem.state0
+            st[C.SOC] = soc
+        states[i + 1] = st
+        outs[i] = out[j]
+        us[i] = u_exec[j]
+    return {"state": states, "out": outs, "u": us}

@@ -1,0 +1,227 @@
+"""The thermal optimum over a known cycle and its fuel-versus-final-SOC frontier (the ``dp_thermal`` planner).
+
+The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md); the SOC DP
+(:mod:`.soc_dp`) seeds the refining passes with its path. The plan is the cheapest path into the final-SOC band
+(default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the battery energy at the reward's
+price (as the SOC DP and the reward choose): an exact action sequence, so the env realises the planned cost (the report
+gives both). The report's ``frontier``, over the final states of the same passes, is the cost by final SOC within
+``frontier_halfwidth`` of the target: the benchmark divides each strategy's cost by it at the strategy's own final SOC.
+
+Every pass shows a bar of its stages on stderr, cleared when the pass ends; hidden off a terminal and in worker
+processes (a pool's parent shows its own progress).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import multiprocessing
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from hev_thermal_env.envs.reward import stage_cost_g
+from hev_thermal_env.physics import core as C
+
+from .problem import DPInfeasibleError, DPProblem
+from .search import LOCAL_HALFWIDTH, N_LOCAL, REFINE_STRIDE, SearchGrid, SearchResult, frontier_points, search
+from .soc_dp import DPSettings, rollout, solve
+
+#: Cycles shorter than this (steps) get a proportionally narrower SOC bin (:meth:`OptimumSettings.grid_for`).
+SHORT_CYCLE_STEPS = 600
+#: The first pass's grid: every bin twice as wide, half the splits (:meth:`SearchGrid.scaled`).
+FIRST_PASS_SCALE = 0.5
+#: The third pass narrows the SOC bin until one bin of charge, priced and summed over the stages, is at most this
+#: share of the cycle's cost (:meth:`OptimumSettings.refined_grid`) ...
+BIN_BUDGET = 0.25
+#: ... and keeps states within this much SOC of the second pass's path and of the DP's.
+TUBE_HALFWIDTH = 0.01
+
+
+def in_worker_process() -> bool:
+    """True in a child process of ``multiprocessing`` (a pool worker), whose parent shows the progress."""
+    return multiprocessing.parent_process() is not None
+
+
+@dataclass(frozen=True)
+class OptimumSettings:
+    """What the thermal optimum is asked for (the ``dp_thermal`` strategy's options; see the module docstring).
+
+    ``fixed_soc_bin``: the SOC bin was given, so it is not narrowed on short or cheap cycles.
+    """
+
+    grid: SearchGrid = SearchGrid()
+    fixed_soc_bin: bool = False
+    soc_final: float | None = None
+    soc_tol: float = 0.005
+    on_infeasible: str = "raise"
+    frontier_halfwidth: float = 0.08
+    threads: int | None = field(default=None, repr=False, compare=False)  # the same plan on any number
+
+    def key(self, problem: DPProblem) -> str:
+        """What makes a plan: the problem and every setting that changes it."""
+        return problem.key() + repr(dataclasses.replace(self, grid=self.grid_for(problem.n_stages)))
+
+    def grid_for(self, n_stages: int) -> SearchGrid:
+        """The grid of a cycle of ``n_stages`` steps: below 600 steps the SOC bin narrows with the cycle (at most
+        10×, unless ``fixed_soc_bin``). A bin of charge is worth a fixed number of grams (≈1.4 g at 1.5·10⁻⁴), so on a
+        short cycle it would be a larger share of the cost."""
+        if self.fixed_soc_bin:
+            return self.grid
+        return dataclasses.replace(self.grid, soc=self.grid.soc * min(max(n_stages / SHORT_CYCLE_STEPS, 0.1), 1.0))
+
+    def refined_grid(self, grid: SearchGrid, first: SearchResult, problem: DPProblem, cost_g: float) -> SearchGrid:
+        """The refining pass's grid: the SOC bin narrowed until one bin of charge, priced, summed over the stages is at
+        most :data:`BIN_BUDGET` of the cycle's cost (at most 5× narrower)."""
+        if self.fixed_soc_bin:
+            return grid
+        soc, e = first.final_state[:, C.SOC], first.final_battery_j
+        if soc.size < 3 or np.ptp(soc) <= 0.0:
+            return grid
+        j_per_soc = -np.polyfit(soc, e, 1)[0]
+        rp = problem.reward_params
+        bin_g = grid.soc * j_per_soc * rp.prices.battery_g_per_j(problem.lhv)
+        if not (bin_g > 0.0 and cost_g > 0.0):
+            return grid
+        factor = min(max(BIN_BUDGET * cost_g / (bin_g * problem.n_stages), 0.2), 1.0)
+        return dataclasses.replace(grid, soc=grid.soc * factor)
+
+
+@dataclass
+class OptimumPlan:
+    """A planned action sequence, its report (in the strategy's ``describe()``) and the finest grid searched."""
+
+    u: np.ndarray
+    report: dict[str, Any]
+    grid: SearchGrid
+
+
+def adjusted_cost(result: SearchResult, problem: DPProblem) -> np.ndarray:
+    """Cost of every final survivor plus its battery energy at the reward's price (g): what picks the plan."""
+    rp = problem.reward_params
+    return result.final_cost_g + rp.soc_energy_weight * rp.prices.battery_g_per_j(problem.lhv) * result.final_battery_j
+
+
+def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, float], on_infeasible: str) -> int:
+    """The final survivor to drive to: cheapest (cost + battery energy at the reward's price) in ``band``."""
+    soc = result.final_state[:, C.SOC]
+    adj = adjusted_cost(result, problem)
+    inside = np.flatnonzero((soc >= band[0]) & (soc <= band[1]))
+    if inside.size:
+        return int(inside[np.argmin(adj[inside])])
+    if on_infeasible == "raise":
+        raise DPInfeasibleError(
+            f"dp_thermal: no path on cycle {problem.name!r} ends in the final-SOC band [{band[0]:.4f}, {band[1]:.4f}]; "
+            f"planned paths end in [{soc.min():.4f}, {soc.max():.4f}] (change soc_final or soc_tol, or pass "
+            f"on_infeasible='closest')")
+    dist = np.maximum(band[0] - soc, soc - band[1])
+    near = np.flatnonzero(dist <= dist.min() + 1e-12)
+    return int(near[np.argmin(adj[near])])
+
+
+def soc_dp_path(problem: DPProblem, target: float, soc_tol: float,
+                threads: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """The SOC-state DP's (thermal state held) action sequence on ``problem`` and its SOC trace: a centre for
+    the refining passes."""
+    settings = DPSettings(soc_final=target, soc_tol=soc_tol, on_infeasible="closest", threads=threads)
+    run = rollout(solve(problem, settings), problem, settings, free=True)
+    return np.asarray(run["u"], dtype=np.float64), run["state"][:, C.SOC].copy()
+
+
+def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
+    """Drive the action sequence ``u`` on the physics from the start: states, outputs and the yardstick cost."""
+    n = u.size
+    st = problem.state0[None, :].copy()
+    states = np.empty((n + 1, C.N_STATE))
+    outs = np.empty((n, C.N_OUT))
+    states[0] = st[0]
+    for i in range(n):
+        st, out = problem.step(st, np.array([u[i]]), i)
+        states[i + 1], outs[i] = st[0], out[0]
+    cost = stage_cost_g(problem.reward_params, outs, states[1:], problem.soc_target, problem.lhv,
+                        problem.core.dt_s, battery=False, overheat=True)
+    return {"state": states, "out": outs, "cost_g": float(cost.sum())}
+
+
+def _search(problem: DPProblem, grid: SearchGrid, window: tuple[float, float], label: str, threads: int | None,
+            **refine: Any) -> SearchResult:
+    """:func:`~.search.search` with a bar of its stages (see "Progress" in the module docstring)."""
+    hidden = True if in_worker_process() else None  # None: tqdm hides it off a terminal
+    with tqdm(total=problem.n_stages, desc=f"dp_thermal {problem.name}: {label}", unit="stage", leave=False,
+              disable=hidden) as bar:
+
+        def progress(stage: int, n_stages: int, n_states: int) -> None:
+            bar.set_postfix_str(f"{n_states} states", refresh=False)
+            bar.update()
+
+        return search(problem, grid, window, threads=threads, progress=progress, **refine)
+
+
+def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
+    """Search the passes (see the module docstring) and return the plan into the final-SOC band."""
+    t0 = time.perf_counter()
+    grid = s.grid_for(problem.n_stages)
+    target = float(problem.state0[C.SOC]) if s.soc_final is None else float(s.soc_final)
+    window = (target - s.frontier_halfwidth, target + s.frontier_halfwidth)
+    band = (target - s.soc_tol, target + s.soc_tol)
+    first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads)
+    j_first = pick_final(first, problem, band, s.on_infeasible)
+    first_pass = {"solve_s": first.solve_s, "cost_g": float(first.final_cost_g[j_first])}
+    dp_u, dp_soc = soc_dp_path(problem, target, s.soc_tol, s.threads)
+    centers = [first.path(j_first), dp_u]
+    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc)  # they make the plan and the frontier
+    searched = [first] + passes
+    result, j = _pick(passes, problem, band, s.on_infeasible)
+    u = result.path(j)
+    run = replay(problem, u)
+    soc_f, cost_f = frontier_points(np.concatenate([r.final_state[:, C.SOC] for r in passes]),
+                                    np.concatenate([r.final_cost_g for r in passes]))
+    report = {
+        "planned_cost_g": float(result.final_cost_g[j]), "replayed_cost_g": run["cost_g"],
+        "planned_soc_final": float(result.final_state[j, C.SOC]),
+        "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
+        "solve_s": sum(r.solve_s for r in searched), "plan_total_s": time.perf_counter() - t0,
+        "first_pass": first_pass,
+        "passes": [{"solve_s": r.solve_s, "soc_bin": r.grid.soc, "max_states": r.max_states,
+                    "tube": r.info.get("tube", False)} for r in searched],
+        "vehicle_steps_evaluated": int(sum(r.n_evals for r in searched)),
+        "max_states": int(max(r.max_states for r in searched)),
+        "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(),
+                     "grid": grid.describe() + f" (every {REFINE_STRIDE}. split) + {N_LOCAL} splits within "
+                                               f"±{LOCAL_HALFWIDTH:g} of {len(centers)} earlier path(s)",
+                     "soc_min": float(min(r.final_state[:, C.SOC].min() for r in passes)),
+                     "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
+    }
+    return OptimumPlan(u=u, report=report, grid=grid)
+
+
+def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tuple[float, float],
+            band: tuple[float, float], centers: list[np.ndarray],
+            dp_soc: np.ndarray) -> tuple[list[SearchResult], SearchGrid]:
+    """The second pass around ``centers`` and, where :meth:`OptimumSettings.refined_grid` narrows the SOC bin, the
+    third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid used."""
+    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers))
+    j2 = pick_final(second, problem, band, s.on_infeasible)
+    fine = s.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
+    if not fine.soc < grid.soc:
+        return [second], grid
+    u2 = second.path(j2)
+    socs = [replay(problem, u2)["state"][:, C.SOC], dp_soc]
+    tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
+    third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:]), tube=tube)
+    return [second, third], fine
+
+
+def _pick(passes: list[SearchResult], problem: DPProblem, band: tuple[float, float],
+          on_infeasible: str) -> tuple[SearchResult, int]:
+    """The pass and final survivor to drive to: the cheapest path into ``band`` (cost + battery energy at the
+    reward's price) over the passes; a pass after the first counts only where it reaches the band."""
+    picks = [(passes[0], pick_final(passes[0], problem, band, on_infeasible))]
+    for r in passes[1:]:
+        try:
+            picks.append((r, pick_final(r, problem, band, "raise")))
+        except DPInfeasibleError:
+            pass
+    return min(picks, key=lambda rj: adjusted_cost(rj[0], problem)[rj[1]])
