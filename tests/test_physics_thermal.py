@@ -152,7 +152,7 @@ def network_step(p, tw, thh, tc, q_w, q_h, amb, coolant_factor, fan_factor, spee
 
     ix = thm.IDX
     forced = thm.forced_air_term(p[ix.air_speed_per_mps], p[ix.air_speed_exponent], speed_mps)
-    ram = tnet.ram_air_term(p[ix.ram_air_per_mps], p[ix.radiator_air_exponent], speed_mps)
+    ram = (speed_mps * p[ix.ram_air_per_mps]) ** p[ix.radiator_air_exponent] if speed_mps > 0.0 else 0.0
     return tnet.thermal_step(p, tw, thh, tc, q_w, q_h, amb, amb, coolant_factor, fan_factor, forced, ram, 1.0 / dt_s)
 
 

@@ -1,20 +1,14 @@
-"""Drive cycles for the hybrid city-bus environment: a :class:`Cycle` is a speed trace [m/s] and road grade
-(rise/run) sampled every second from 0 s, with read-only arrays and summary properties.
+"""Drive cycles: a :class:`Cycle` is a speed trace [m/s] and road grade (rise/run) sampled every second from 0 s.
 
-* :func:`load_cycle` / :func:`list_cycles`: the built-in cycles (:mod:`.loader`), user CSV files
-  (``time_s,speed_mps[,grade]``) and generated cycles by name; :func:`cycle_from_arrays`: a
-  validated cycle from arrays. User data beyond a bus's range gives an
-  :class:`ImplausibleCycleWarning`.
-* :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles (:mod:`.generator`).
-* :func:`generate_grade_profile`, :func:`with_grade_profile`, :func:`hilly_route`: seeded hilly
-  roads under any cycle (:mod:`.grades`).
-* :func:`generate_family_cycle`, :func:`list_families`: named families of generated bus cycles, loadable
-  as ``FAMILY:SEED`` (:mod:`.families`); ``validation_bus`` is a fixed set of them that training never
-  draws (:mod:`.validation`, :func:`expand_cycle_names`).
-
->>> from hev_thermal_env.cycles import load_cycle
->>> round(load_cycle("udds").distance_km, 2)
-11.99
+* :func:`load_cycle`, :func:`list_cycles`, :func:`cycle_from_arrays`: built-in cycles, user CSV files
+  (``time_s,speed_mps[,grade]``), generated cycles by name and arrays (:mod:`.loader`); user data beyond a bus's
+  range gives an :class:`ImplausibleCycleWarning`.
+* :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles (:mod:`.generator`);
+  :func:`generate_grade_profile`, :func:`with_grade_profile`, :func:`hilly_route`: seeded hilly roads
+  (:mod:`.grades`).
+* :func:`generate_family_cycle`, :func:`list_families`: families of generated bus cycles, loadable as
+  ``FAMILY:SEED`` (:mod:`.families`); ``validation_bus``, a fixed set of them that training never draws
+  (:mod:`.validation`, :func:`expand_cycle_names`).
 """
 
 from .cycle import PLAUSIBLE_ACCEL_MAX_MPS2, PLAUSIBLE_SPEED_MAX_MPS, Cycle, ImplausibleCycleWarning

@@ -55,13 +55,12 @@ def _first(mask: np.ndarray) -> int | None:
 
 def check_samples(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, *, origin: str,
                   locate: Locate = _index_locator) -> float:
-    """Check raw cycle samples (1-D float arrays of equal length) and return their uniform time step [s].
+    """The uniform time step [s] of raw cycle samples (1-D float arrays of equal length).
 
-    ``origin`` (where the samples come from, e.g. ``"cycle file 'x.csv'"``) starts every error message;
-    ``locate`` maps a 0-based sample index to a readable position (e.g. ``"data row 3 (line 4)"``;
-    default ``"index i"``). Raises ``ValueError`` with the origin, the position and the problem if there
-    are fewer than two samples, a value is NaN/inf, a speed is negative, ``|grade|`` exceeds
-    :data:`MAX_ABS_GRADE`, the time does not increase, or the time step is not uniform.
+    Raises ``ValueError`` starting with ``origin`` (e.g. ``"cycle file 'x.csv'"``) and the position
+    (``locate`` of the 0-based sample index, e.g. ``"data row 3 (line 4)"``) if there are fewer than two
+    samples, a value is NaN/inf, a speed is negative, ``|grade|`` exceeds :data:`MAX_ABS_GRADE`, or the time
+    does not increase by a uniform step.
     """
 
     def fail(i: int, problem: str) -> ValueError:
@@ -117,37 +116,27 @@ def warn_implausible(time_s: np.ndarray, speed_mps: np.ndarray, *, origin: str,
                       stacklevel=4)
 
 
-def regrid_to_1s(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray,
-                 dt_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
-    """Shift samples that passed :func:`check_samples` (time step ``dt_s``) to start at 0 s and bring them to a
-    1-s grid; returns ``(time_s, speed_mps, grade, resampled)``.
-
-    A step of 1 s (within :data:`TIME_TOL_S`) only snaps the time stamps to ``0, 1, 2, ...``.
-    Any other uniform step is resampled by linear interpolation onto whole seconds from 0 to
-    the last whole second covered (``resampled`` is then True); a trailing fraction of a second
-    is dropped. Downsampling (steps below 1 s) therefore picks interpolated points and does not
-    average.
-    """
-    t_rel = time_s - time_s[0]
-    if abs(dt_s - 1.0) <= TIME_TOL_S:
-        return np.arange(len(t_rel), dtype=np.float64), speed_mps, grade, False
-    n_whole_s = int(math.floor(t_rel[-1] + TIME_TOL_S))
-    t_new = np.arange(n_whole_s + 1, dtype=np.float64)
-    speed_new = np.maximum(np.interp(t_new, t_rel, speed_mps), 0.0)
-    grade_new = np.interp(t_new, t_rel, grade)
-    return t_new, speed_new, grade_new, True
-
-
 def to_1s_grid(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, *, origin: str,
                locate: Locate = _index_locator,
                plausibility: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-    """Samples checked (:func:`check_samples`; with ``plausibility`` also :func:`warn_implausible`) and on the
-    1-s grid (:func:`regrid_to_1s`), with ``original_time_step_s``, ``time_offset_s`` and ``resampled``."""
+    """Samples checked (:func:`check_samples`; with ``plausibility`` also :func:`warn_implausible`) and shifted to
+    0 s on a 1-s grid, with ``original_time_step_s``, ``time_offset_s`` and ``resampled``.
+
+    A 1-s step only snaps the time stamps to ``0, 1, 2, ...``; any other step is interpolated linearly onto the
+    whole seconds covered (``resampled``; a trailing fraction of a second is dropped, a step below 1 s picks
+    interpolated points and does not average).
+    """
     dt_s = check_samples(time_s, speed_mps, grade, origin=origin, locate=locate)
     if plausibility:
         warn_implausible(time_s, speed_mps, origin=origin, locate=locate)
-    info: dict[str, Any] = {"original_time_step_s": dt_s, "time_offset_s": float(time_s[0])}
-    time_s, speed_mps, grade, info["resampled"] = regrid_to_1s(time_s, speed_mps, grade, dt_s)
+    info: dict[str, Any] = {"original_time_step_s": dt_s, "time_offset_s": float(time_s[0]),
+                            "resampled": abs(dt_s - 1.0) > TIME_TOL_S}
+    t_rel = time_s - time_s[0]
+    time_s = np.arange(int(math.floor(t_rel[-1] + TIME_TOL_S)) + 1 if info["resampled"] else len(t_rel),
+                       dtype=np.float64)
+    if info["resampled"]:
+        speed_mps = np.maximum(np.interp(time_s, t_rel, speed_mps), 0.0)
+        grade = np.interp(time_s, t_rel, grade)
     if len(time_s) < 2:
         raise ValueError(f"{origin}: cycle is shorter than 1 s, nothing left on a 1-s grid")
     return time_s, speed_mps, grade, info
@@ -172,26 +161,14 @@ def float_vector(label: str, values: Any, origin: str) -> np.ndarray:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Cycle:
-    """A drive cycle sampled at 1 s.
+    """A drive cycle sampled at 1 s: ``time_s`` ``0, 1, 2, ...`` [s], ``speed_mps`` ``>= 0`` and ``grade`` (rise/run:
+    0.04 is a 4 % climb), stored as read-only float64 copies.
 
-    Build cycles with :func:`~hev_thermal_env.cycles.load_cycle`,
-    :func:`~hev_thermal_env.cycles.cycle_from_arrays` or
-    :func:`~hev_thermal_env.cycles.generate_bus_cycle`; the constructor accepts only data
-    already on the 1-s grid. The arrays are stored as read-only float64 copies.
-
-    * ``name``: short identifier, e.g. ``"hwfet"``.
-    * ``time_s``: time [s], ``0, 1, 2, ...``.
-    * ``speed_mps``: vehicle speed [m/s], ``>= 0``.
-    * ``grade``: road grade as a rise/run fraction (0.04 is a 4 % climb), same length.
-    * ``synthetic``: True if the speed trace was generated rather than measured or standardised.
-    * ``description``: one-line human description; ``source``: where the data come from (package,
-      file or generator).
-    * ``metadata``: free-form extra information (seed and parameters of a generated cycle, original
-      time step of a resampled file, ...).
-
-    Raises ``ValueError`` if the arrays differ in length, hold fewer than 2 samples, contain NaN/inf,
-    a negative speed or an implausible grade, or ``time_s`` is not ``0, 1, 2, ...``. Instances
-    compare by identity; compare arrays explicitly when needed.
+    Build cycles with :func:`~hev_thermal_env.cycles.load_cycle`, :func:`~hev_thermal_env.cycles.cycle_from_arrays`
+    or :func:`~hev_thermal_env.cycles.generate_bus_cycle`; the constructor accepts only data already on the 1-s
+    grid and raises ``ValueError`` for the faults of :func:`check_samples`. ``synthetic``: generated rather than
+    measured or standardised; ``source``: where the data come from; ``metadata``: free-form (a generated cycle's
+    seed and parameters, a resampled file's original time step). Instances compare by identity.
     """
 
     name: str
@@ -216,8 +193,6 @@ class Cycle:
         object.__setattr__(self, "synthetic", bool(self.synthetic))
         object.__setattr__(self, "metadata", dict(self.metadata))
 
-    # -- summary quantities -------------------------------------------------------------
-
     @property
     def duration_s(self) -> float:
         """Duration [s]: the last time stamp."""
@@ -225,7 +200,7 @@ class Cycle:
 
     @property
     def n_steps(self) -> int:
-        """Number of 1-s steps (number of samples minus one)."""
+        """Number of 1-s steps (samples minus one)."""
         return len(self.time_s) - 1
 
     @property
@@ -264,21 +239,9 @@ class Cycle:
         """Largest ``|acceleration|`` [m/s^2] from the 1-s forward difference of the speed."""
         return float(np.max(np.abs(self.accel_mps2)))
 
-    def summary(self) -> dict[str, float]:
-        """Summary statistics: ``duration_s``, ``distance_km``, ``mean_speed_kmh``, ``max_speed_kmh``,
-        ``idle_fraction`` and ``max_abs_accel_mps2``."""
-        return {"duration_s": self.duration_s, "distance_km": self.distance_km, "mean_speed_kmh": self.mean_speed_kmh,
-                "max_speed_kmh": self.max_speed_kmh, "idle_fraction": self.idle_fraction,
-                "max_abs_accel_mps2": self.max_abs_accel_mps2}
-
-    # -- output ------------------------------------------------------------------------
-
     def to_csv(self, path: str | os.PathLike) -> Path:
-        """Write the cycle to ``path`` (overwritten) as CSV with columns ``time_s,speed_mps,grade``; returns the path.
-
-        Floats are written in the shortest form that reads back to the same value, so
-        ``load_cycle(cycle.to_csv(p))`` reproduces the arrays exactly.
-        """
+        """Write the cycle to ``path`` (overwritten) as CSV ``time_s,speed_mps,grade`` and return the path;
+        ``load_cycle(cycle.to_csv(p))`` reproduces the arrays exactly."""
         path = Path(path)
         lines = ["time_s,speed_mps,grade"]
         rows = zip(self.time_s, self.speed_mps, self.grade)

@@ -1,28 +1,18 @@
 """Named, seeded families of synthetic bus cycles: what a city bus meets in service.
 
-Every family cycle is a chain of *segments*, each a :func:`~hev_thermal_env.cycles.generate_bus_cycle`
-run of one kind (:data:`SEGMENT_KINDS`), joined at standstill, optionally laid over a closed hilly
-road (:func:`~hev_thermal_env.cycles.generate_grade_profile`, no net climb). All of it is synthetic:
-generated, not measured.
+Every family cycle is a chain of *segments*, each a :func:`~hev_thermal_env.cycles.generate_bus_cycle` run of one
+kind (:data:`SEGMENT_KINDS`), joined at standstill, optionally over a closed hilly road
+(:func:`~hev_thermal_env.cycles.generate_grade_profile`, no net climb); all of it generated, not measured, and
+within what the loader accepts without an :class:`~hev_thermal_env.cycles.ImplausibleCycleWarning`. The families:
+:data:`FAMILIES`; their statistics and why each is there: docs/cycle-families.md. Payload is a condition of the
+run, not part of a cycle.
 
-The families, and what each covers: :data:`FAMILIES`; their statistics, and why each is there:
-the cycle families page of the docs (``docs/cycle-families.md``).
-
-Every cycle stays within what the cycle loader accepts without an
-:class:`~hev_thermal_env.cycles.ImplausibleCycleWarning` (speed ≤ 35 m/s, ``|a|`` ≤ 3.5 m/s²). Payload is
-not part of a cycle but of the run's conditions: the ``random_service`` scenario draws it per episode.
-
-Seeds
------
-Names (``FAMILY:SEED``, a bare family name): :mod:`~hev_thermal_env.cycles.names`.
-
-* A fresh training cycle's seed is drawn by :func:`training_seed` from ``[0, TRAINING_SEED_LIMIT)``.
-* The validation set ``validation_bus`` (:mod:`~hev_thermal_env.cycles.validation`) uses seeds from
-  :data:`VALIDATION_SEED_BASE` up: disjoint from every training seed by construction.
-* The segments and the road are seeded with :func:`inner_seed`, an injective map of (family, seed, part)
-  onto integers from 2**48 up: no two family cycles share a generator seed, and none is the seed of a
-  built-in or ``random_bus`` cycle. The per-cycle draws (durations, segment kinds, launch accelerations,
-  hill heights) come from a generator seeded with ``inner_seed(family, seed, 0)``.
+Seeds (names: :mod:`~hev_thermal_env.cycles.names`): training draws from ``[0, TRAINING_SEED_LIMIT)``
+(:func:`training_seed`); the validation set (:mod:`~hev_thermal_env.cycles.validation`) uses seeds from
+:data:`VALIDATION_SEED_BASE` up, disjoint by construction. Segments and roads are seeded with :func:`inner_seed`,
+an injective map of (family, seed, part) onto integers from 2**48 up: no two family cycles share a generator
+seed, and none is the seed of a built-in or ``random_bus`` cycle; the per-cycle draws (durations, segment kinds,
+launch accelerations, hill heights) use ``inner_seed(family, seed, 0)``.
 """
 
 from __future__ import annotations
@@ -126,8 +116,7 @@ def _plan_mixed(rng: np.random.Generator) -> Plan:
     lengths = [least + int(x) for x in share]
     lengths[-1] += total - sum(lengths)
     kinds = rng.choice(list(MIXED_KINDS), size=n, p=list(MIXED_KINDS.values()))
-    hilly = rng.random() < 0.5
-    max_grade = float(rng.uniform(0.03, 0.07)) if hilly else None
+    max_grade = float(rng.uniform(0.03, 0.07)) if rng.random() < 0.5 else None  # hilly on half
     return Plan([(str(k), d) for k, d in zip(kinds, lengths)], max_grade)
 
 
@@ -135,8 +124,7 @@ def _plan_express(rng: np.random.Generator) -> Plan:
     total = int(rng.integers(1800, 3601))
     motorway = int(total * rng.uniform(0.6, 0.75))
     first = int(rng.integers(150, total - motorway - 150 + 1))
-    hilly = rng.random() < 0.5
-    max_grade = float(rng.uniform(0.02, 0.05)) if hilly else None
+    max_grade = float(rng.uniform(0.02, 0.05)) if rng.random() < 0.5 else None  # hilly on half
     return Plan([("city", first), ("motorway", motorway), ("city", total - first - motorway)], max_grade)
 
 
@@ -162,19 +150,14 @@ def list_families() -> list[str]:
     return list(FAMILIES)
 
 
-def family_index(family: str) -> int:
-    """The family's fixed position in :data:`FAMILIES` (part of its inner seeds; never reorder)."""
-    try:
-        return list(FAMILIES).index(family)
-    except ValueError:
-        raise ValueError(f"unknown cycle family {family!r}; families: {', '.join(FAMILIES)}") from None
-
-
 def inner_seed(family: str, seed: int, part: int) -> int:
-    """The seed of part ``part`` (0: the draws, 1...: segments, last: the road) of cycle ``family:seed``."""
+    """The seed of part ``part`` (0: the draws, 1...: segments, last: the road) of cycle ``family:seed``; the
+    family's position in :data:`FAMILIES` is part of it (never reorder them)."""
     if not 0 <= part < _PARTS:
         raise ValueError(f"part must be in [0, {_PARTS}), got {part}")
-    return _INNER_BASE + (int(seed) * _PARTS + family_index(family)) * _PARTS + part
+    if family not in FAMILIES:
+        raise ValueError(f"unknown cycle family {family!r}; families: {', '.join(FAMILIES)}")
+    return _INNER_BASE + (int(seed) * _PARTS + list(FAMILIES).index(family)) * _PARTS + part
 
 
 def training_seed(rng: np.random.Generator, family: str) -> int:
@@ -201,17 +184,11 @@ def _segment_kwargs(kind: str, rng: np.random.Generator) -> dict[str, Any]:
 
 
 def generate_family_cycle(family: str, seed: int, *, name: str | None = None) -> Cycle:
-    """Cycle ``seed`` (a non-negative integer) of ``family`` (one of :func:`list_families`); the same arguments
-    always give the same cycle.
+    """Cycle ``seed`` (a non-negative integer) of ``family`` (one of :func:`list_families`), always the same.
 
-    ``name`` defaults to ``"FAMILY:SEED"``, which :func:`~hev_thermal_env.cycles.load_cycle` reloads. The
-    cycle is synthetic, on a 1-s grid, from and to standstill; its ``metadata`` holds the family, the
-    seed, the segments (kind, duration, generator seed and arguments) and the road profile (seed and
-    arguments).
-
-    >>> cyc = generate_family_cycle("bus_long", 7)
-    >>> cyc.name, cyc.duration_s >= 3000.0
-    ('bus_long:7', True)
+    ``name`` defaults to ``"FAMILY:SEED"``, which :func:`~hev_thermal_env.cycles.load_cycle` reloads. The cycle runs
+    from and to standstill; its ``metadata`` holds the family, the seed, the segments (kind, duration, generator
+    seed and arguments) and the road profile (seed and arguments).
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed of a {family} cycle must be a non-negative integer, got {seed!r}")
@@ -248,11 +225,9 @@ def generate_family_cycle(family: str, seed: int, *, name: str | None = None) ->
 
 
 def cycle_statistics(cycle: Cycle) -> dict[str, float]:
-    """What the family pages document of a cycle: duration, distance, speeds, stops, idling, accelerations, grade.
-
-    ``stops_per_km`` counts the arrivals at standstill (speed falling below 0.1 m/s) per km driven;
-    ``max_accel_mps2`` / ``max_decel_mps2`` are the largest 1-s speed gain / loss.
-    """
+    """What the family pages document of a cycle: duration, distance, speeds, ``stops_per_km`` (arrivals at
+    standstill, below 0.1 m/s, per km), idling, ``max_accel_mps2`` / ``max_decel_mps2`` (the largest 1-s speed
+    gain / loss) and grade."""
     v = np.asarray(cycle.speed_mps)
     a = np.diff(v)
     moving = v >= IDLE_SPEED_MPS

@@ -1,31 +1,17 @@
 """Seeded stop-to-stop (micro-trip) generator of synthetic city-bus cycles.
 
-A bus cycle is a chain of micro-trips, each starting and ending at standstill::
+A bus cycle is a chain of micro-trips, each from standstill to standstill: dwell, accelerate, cruise (possibly
+change speed, traffic), brake to a stop. Dwells, cruise durations, per-trip driver factors on the traction curve
+and braking decelerations are uniform draws; cruise targets triangular (most trips slow, a few fast). Acceleration
+follows a bus traction curve, constant at low speed and power-limited (∝ 1/v) above; a cruise follows its target
+plus a first-order autoregressive fluctuation. Every change of acceleration is limited by the jerk and targets are
+approached along a jerk-limited profile that lands on them exactly (only that last step may exceed the jerk limit
+slightly). The cycle lasts exactly ``round(duration_s)`` seconds and ends at standstill: a trip that would
+overrun is shortened (shorter cruise, then lower speed) and the remainder becomes the final dwell. Speeds are
+rounded to 1e-6 m/s so that a generated cycle written to CSV reads back identically; the road is flat.
 
-    dwell -> accelerate -> cruise (-> change speed -> cruise) -> brake to stop -> dwell -> ...
-
-* Dwell times at stops are drawn uniformly from ``dwell_s_range``.
-* Acceleration follows a bus traction curve: a constant limit ``max_accel_mps2`` at low speed
-  and a power limit ``accel_power_w_per_kg / v`` above it, so it falls with speed. Each trip
-  scales the curve by a driver factor drawn from ``accel_scale_range``.
-* Cruise targets are drawn from a triangular distribution over ``cruise_speed_kmh_range`` with
-  mode ``cruise_speed_mode_kmh`` (most trips slow, a few fast); during a cruise the speed
-  follows the target plus a first-order autoregressive fluctuation of standard deviation
-  ``speed_noise_kmh``, never above ``max_speed_kmh``. With probability ``speed_change_prob``
-  a trip changes to a second cruise speed before stopping (traffic).
-* Braking uses a per-trip deceleration drawn from ``decel_mps2_range``.
-* Every change of acceleration is limited to ``max_jerk_mps3`` and speed targets are approached
-  along a jerk-limited profile, so the speed is smooth and ends exactly at the target. Only the
-  last step of an approach may exceed the jerk limit slightly, to land on the target.
-
-The cycle lasts exactly ``round(duration_s)`` seconds and ends at standstill: a trip that would
-overrun the remaining time is shortened (shorter cruise, then lower speed) and the remainder
-becomes the final dwell. Speeds are rounded to 1e-6 m/s so a generated cycle written to CSV
-reads back identically. The road is flat (grade 0).
-
-The built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and
-:data:`BEIJING_KWARGS`; it is synthetic, not a measured Beijing bus cycle. Hilly roads under
-any cycle: :mod:`~hev_thermal_env.cycles.grades`.
+The built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and :data:`BEIJING_KWARGS`; it is
+synthetic, not a measured Beijing bus cycle. Hilly roads under any cycle: :mod:`~hev_thermal_env.cycles.grades`.
 """
 
 from __future__ import annotations
@@ -59,26 +45,16 @@ _MAX_APPROACH_STEPS = 10_000
 
 def _step_accel(v_mps: float, a_mps2: float, target_mps: float, accel_limit_mps2: float, decel_limit_mps2: float,
                 jerk_mps3: float) -> float:
-    """Acceleration over the next 1-s step towards ``target_mps``.
-
-    The desired acceleration follows ``sqrt(2 j dv)`` (the fastest profile from which the
-    acceleration can still be ramped to zero at jerk ``j`` on reaching the target), capped by
-    the acceleration or deceleration limit, then rate-limited by the jerk and finally clipped
-    so that the step never overshoots the target.
-    """
+    """Acceleration over the next 1-s step towards ``target_mps``: ``sqrt(2 j dv)`` (the fastest profile from which
+    the acceleration can still be ramped to zero at jerk ``j`` on reaching the target), capped by the acceleration
+    or deceleration limit, rate-limited by the jerk and clipped so that the step never overshoots the target."""
     dv = target_mps - v_mps
     # 0.8: margin so the discrete ramp-down keeps within the jerk limit.
     ramp = math.sqrt(2.0 * 0.8 * jerk_mps3 * abs(dv))
-    if dv >= 0.0:
-        a_des = min(accel_limit_mps2, ramp)
-    else:
-        a_des = -min(decel_limit_mps2, ramp)
+    a_des = min(accel_limit_mps2, ramp) if dv >= 0.0 else -min(decel_limit_mps2, ramp)
     a_new = min(max(a_des, a_mps2 - jerk_mps3), a_mps2 + jerk_mps3)
     # Never cross the target in one step (this may exceed the jerk limit on the last step).
-    if dv >= 0.0:
-        a_new = min(a_new, dv)
-    else:
-        a_new = max(a_new, dv)
+    a_new = min(a_new, dv) if dv >= 0.0 else max(a_new, dv)
     # Physical limits hold even when the jerk limit would ask for more.
     return min(max(a_new, -decel_limit_mps2), accel_limit_mps2)
 
@@ -91,11 +67,8 @@ def _accel_limit_mps2(v_mps: float, *, scale: float, max_accel_mps2: float, powe
 def _build_trip(segments: list[tuple[float, int]], noise: np.ndarray, accel_limit: Callable[[float], float],
                 decel_mps2: float, jerk_mps3: float, max_speed_mps: float, noise_std_mps: float,
                 noise_corr: float) -> list[float]:
-    """Speeds after each 1-s step of one micro-trip from standstill back to standstill.
-
-    ``segments`` is a list of ``(cruise_speed_mps, cruise_s)``; ``noise`` holds standard
-    normal draws for the cruise fluctuations (at least the total cruise time).
-    """
+    """Speeds after each 1-s step of one micro-trip from standstill back to standstill over ``segments``
+    ``(cruise_speed_mps, cruise_s)``; ``noise``: standard normal draws, one per second of cruise."""
     v, a = 0.0, 0.0
     out: list[float] = []
     k_noise = 0
@@ -145,122 +118,63 @@ def check_range(name: str, rng_: tuple[float, float], lo: float = 0.0) -> tuple[
     return a, b
 
 
-def generate_bus_cycle(
-    seed: int,
-    duration_s: float = 1300.0,
-    *,
-    max_speed_kmh: float = 60.0,
-    cruise_speed_kmh_range: tuple[float, float] = (8.0, 60.0),
-    cruise_speed_mode_kmh: float = 10.0,
-    cruise_s_range: tuple[float, float] = (0.0, 45.0),
-    speed_change_prob: float = 0.25,
-    speed_noise_kmh: float = 1.0,
-    dwell_s_range: tuple[float, float] = (5.0, 27.0),
-    max_accel_mps2: float = 1.0,
-    accel_power_w_per_kg: float = 7.0,
-    accel_scale_range: tuple[float, float] = (0.8, 1.0),
-    decel_mps2_range: tuple[float, float] = (0.7, 1.0),
-    max_jerk_mps3: float = 0.5,
-    name: str | None = None,
-    description: str | None = None,
-) -> Cycle:
-    """Generate a synthetic stop-to-stop city-bus cycle (the micro-trip model of the module docstring).
-
-    The same seed and arguments always give the same cycle (``numpy.random.default_rng(seed)``).
-
-    * ``seed``: seed of ``numpy.random.default_rng`` (an integer, else ``TypeError``).
-    * ``duration_s``: cycle duration [s], rounded to whole seconds (at least 60).
-    * ``max_speed_kmh``: hard speed ceiling [km/h], including fluctuations.
-    * ``cruise_speed_kmh_range``, ``cruise_speed_mode_kmh``: range and mode [km/h] of the triangular
-      distribution of cruise speeds; ``cruise_s_range``: of the uniform cruise durations [s].
-    * ``speed_change_prob``: probability of a second cruise speed before a stop; ``speed_noise_kmh``:
-      standard deviation of the cruising fluctuation [km/h].
-    * ``dwell_s_range``: range of the uniform dwell times at stops [s], also the initial dwell.
-    * ``max_accel_mps2`` [m/s²] and ``accel_power_w_per_kg`` [W/kg]: the acceleration limit, constant
-      at low speed and ``accel_power_w_per_kg / v`` above; with the defaults the 1-s acceleration and
-      deceleration never exceed 1.1 m/s² in magnitude. ``accel_scale_range``: the per-trip driver
-      factor on it; ``decel_mps2_range``: the per-trip braking deceleration [m/s²].
-    * ``max_jerk_mps3``: limit on the change of acceleration per second [m/s³].
-    * ``name``: default ``"bus_seed<seed>"``; ``description``: default a text stating that the cycle
-      is synthetic.
-
-    Returns a :class:`Cycle` with ``synthetic=True``, a flat road, speed 0 at the first and last
-    sample, and ``metadata`` holding ``synthetic``, ``generator``, ``seed`` and all parameters.
-    Raises ``ValueError`` if a parameter is out of range.
-
-    >>> cyc = generate_bus_cycle(seed=3)
-    >>> cyc.duration_s, cyc.synthetic, float(cyc.speed_mps[-1])
-    (1300.0, True, 0.0)
-    """
+def _checked_params(seed: Any, **p: Any) -> dict[str, Any]:
+    """The arguments of :func:`generate_bus_cycle` as floats and ``[low, high]`` lists (its cycles' metadata);
+    ``TypeError`` for a seed that is not an integer, ``ValueError`` naming a value out of range."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise TypeError(f"seed must be an integer, got {seed!r}")
-    if not (math.isfinite(duration_s) and duration_s >= 60.0):
-        raise ValueError(f"duration_s must be at least 60 s, got {duration_s!r}")
-    if not (math.isfinite(max_speed_kmh) and max_speed_kmh > 0.0):
-        raise ValueError(f"max_speed_kmh must be positive, got {max_speed_kmh!r}")
-    cruise_lo, cruise_hi = check_range("cruise_speed_kmh_range", cruise_speed_kmh_range)
-    if cruise_lo <= 0.0 or cruise_hi > max_speed_kmh:
+    if not (math.isfinite(p["duration_s"]) and p["duration_s"] >= 60.0):
+        raise ValueError(f"duration_s must be at least 60 s, got {p['duration_s']!r}")
+    for label in ("max_speed_kmh", "max_accel_mps2", "accel_power_w_per_kg", "max_jerk_mps3"):
+        if not (math.isfinite(p[label]) and p[label] > 0.0):
+            raise ValueError(f"{label} must be positive, got {p[label]!r}")
+    for label in ("cruise_speed_kmh_range", "cruise_s_range", "dwell_s_range", "accel_scale_range",
+                  "decel_mps2_range"):
+        p[label] = list(check_range(label, p[label]))
+    cruise_lo, cruise_hi = p["cruise_speed_kmh_range"]
+    if cruise_lo <= 0.0 or cruise_hi > p["max_speed_kmh"]:
         raise ValueError("cruise_speed_kmh_range must lie in (0, max_speed_kmh]")
-    cruise_mode = float(cruise_speed_mode_kmh)
-    if not (cruise_lo <= cruise_mode <= cruise_hi):
+    if not (cruise_lo <= float(p["cruise_speed_mode_kmh"]) <= cruise_hi):
         raise ValueError("cruise_speed_mode_kmh must lie within cruise_speed_kmh_range")
-    cruise_s_lo, cruise_s_hi = check_range("cruise_s_range", cruise_s_range)
-    dwell_lo, dwell_hi = check_range("dwell_s_range", dwell_s_range)
-    scale_lo, scale_hi = check_range("accel_scale_range", accel_scale_range)
-    decel_lo, decel_hi = check_range("decel_mps2_range", decel_mps2_range)
-    if scale_lo <= 0.0 or decel_lo <= 0.0:
+    if p["accel_scale_range"][0] <= 0.0 or p["decel_mps2_range"][0] <= 0.0:
         raise ValueError("accel_scale_range and decel_mps2_range must be positive")
-    for label, value in (("max_accel_mps2", max_accel_mps2), ("accel_power_w_per_kg", accel_power_w_per_kg),
-                         ("max_jerk_mps3", max_jerk_mps3)):
-        if not (math.isfinite(value) and value > 0.0):
-            raise ValueError(f"{label} must be positive, got {value!r}")
-    if not (0.0 <= speed_change_prob <= 1.0):
-        raise ValueError(f"speed_change_prob must be in [0, 1], got {speed_change_prob!r}")
-    if not (math.isfinite(speed_noise_kmh) and speed_noise_kmh >= 0.0):
-        raise ValueError(f"speed_noise_kmh must be >= 0, got {speed_noise_kmh!r}")
+    if not (0.0 <= p["speed_change_prob"] <= 1.0):
+        raise ValueError(f"speed_change_prob must be in [0, 1], got {p['speed_change_prob']!r}")
+    if not (math.isfinite(p["speed_noise_kmh"]) and p["speed_noise_kmh"] >= 0.0):
+        raise ValueError(f"speed_noise_kmh must be >= 0, got {p['speed_noise_kmh']!r}")
+    return {k: v if isinstance(v, list) else float(v) for k, v in p.items()}
 
-    params: dict[str, Any] = {
-        "duration_s": float(duration_s), "max_speed_kmh": float(max_speed_kmh),
-        "cruise_speed_kmh_range": [cruise_lo, cruise_hi], "cruise_speed_mode_kmh": cruise_mode,
-        "cruise_s_range": [cruise_s_lo, cruise_s_hi], "speed_change_prob": float(speed_change_prob),
-        "speed_noise_kmh": float(speed_noise_kmh), "dwell_s_range": [dwell_lo, dwell_hi],
-        "max_accel_mps2": float(max_accel_mps2), "accel_power_w_per_kg": float(accel_power_w_per_kg),
-        "accel_scale_range": [scale_lo, scale_hi], "decel_mps2_range": [decel_lo, decel_hi],
-        "max_jerk_mps3": float(max_jerk_mps3),
-    }
 
-    rng = np.random.default_rng(int(seed))
-    n_total = int(round(duration_s))
-    max_speed_mps = max_speed_kmh * _KMH
-    noise_std_mps = speed_noise_kmh * _KMH
-    noise_corr = 0.9
+def _micro_trips(rng: np.random.Generator, n_total: int, p: dict[str, Any]) -> tuple[list[float], int]:
+    """The speeds [m/s] of ``n_total`` 1-s steps of dwells and micro-trips from standstill (``p``: the checked
+    parameters), and the number of trips. The order of the draws fixes every generated cycle."""
+    cruise_lo, cruise_hi = p["cruise_speed_kmh_range"]
+    cruise_mode = p["cruise_speed_mode_kmh"]
     min_trip_speed_mps = min(10.0 * _KMH, cruise_lo * _KMH)
 
     def draw_dwell() -> int:
-        return int(round(rng.uniform(dwell_lo, dwell_hi)))
+        return int(round(rng.uniform(*p["dwell_s_range"])))
 
     def draw_cruise() -> tuple[float, int]:
         speed_kmh = rng.triangular(cruise_lo, cruise_mode, cruise_hi) if cruise_hi > cruise_lo else cruise_lo
-        return speed_kmh * _KMH, int(round(rng.uniform(cruise_s_lo, cruise_s_hi)))
+        return speed_kmh * _KMH, int(round(rng.uniform(*p["cruise_s_range"])))
 
     speeds: list[float] = [0.0] * (1 + min(draw_dwell(), n_total))
     n_trips = 0
     while len(speeds) - 1 < n_total:
         remaining = n_total - (len(speeds) - 1)
         segments = [draw_cruise()]
-        if rng.random() < speed_change_prob:
+        if rng.random() < p["speed_change_prob"]:
             segments.append(draw_cruise())
-        scale = rng.uniform(scale_lo, scale_hi)
-        decel = rng.uniform(decel_lo, decel_hi)
+        scale = rng.uniform(*p["accel_scale_range"])
+        decel = rng.uniform(*p["decel_mps2_range"])
         dwell = draw_dwell()
         noise = rng.standard_normal(sum(s for _, s in segments))
-
-        accel_limit = functools.partial(_accel_limit_mps2, scale=scale, max_accel_mps2=max_accel_mps2,
-                                        power_w_per_kg=accel_power_w_per_kg)
+        accel_limit = functools.partial(_accel_limit_mps2, scale=scale, max_accel_mps2=p["max_accel_mps2"],
+                                        power_w_per_kg=p["accel_power_w_per_kg"])
         build = functools.partial(_build_trip, noise=noise, accel_limit=accel_limit, decel_mps2=decel,
-                                  jerk_mps3=max_jerk_mps3, max_speed_mps=max_speed_mps, noise_std_mps=noise_std_mps,
-                                  noise_corr=noise_corr)
-
+                                  jerk_mps3=p["max_jerk_mps3"], max_speed_mps=p["max_speed_kmh"] * _KMH,
+                                  noise_std_mps=p["speed_noise_kmh"] * _KMH, noise_corr=0.9)
         # Shorten a trip that does not fit, keeping at least one second of final dwell:
         # first drop the second segment and cruise time, then lower the speed.
         trip = build(segments)
@@ -277,7 +191,41 @@ def generate_bus_cycle(
         n_trips += 1
         remaining = n_total - (len(speeds) - 1)
         speeds.extend([0.0] * min(max(dwell, 1), remaining))
+    return speeds, n_trips
 
+
+def generate_bus_cycle(seed: int, duration_s: float = 1300.0, *, max_speed_kmh: float = 60.0,
+                       cruise_speed_kmh_range: tuple[float, float] = (8.0, 60.0), cruise_speed_mode_kmh: float = 10.0,
+                       cruise_s_range: tuple[float, float] = (0.0, 45.0), speed_change_prob: float = 0.25,
+                       speed_noise_kmh: float = 1.0, dwell_s_range: tuple[float, float] = (5.0, 27.0),
+                       max_accel_mps2: float = 1.0, accel_power_w_per_kg: float = 7.0,
+                       accel_scale_range: tuple[float, float] = (0.8, 1.0),
+                       decel_mps2_range: tuple[float, float] = (0.7, 1.0), max_jerk_mps3: float = 0.5,
+                       name: str | None = None, description: str | None = None) -> Cycle:
+    """A synthetic stop-to-stop city-bus cycle (the micro-trip model of the module docstring); the same seed
+    (``numpy.random.default_rng(seed)``, an integer) and arguments always give the same cycle.
+
+    ``duration_s`` is rounded to whole seconds (at least 60); ``max_speed_kmh`` is a hard ceiling. Cruise speeds
+    are triangular over ``cruise_speed_kmh_range`` with mode ``cruise_speed_mode_kmh``; cruise durations
+    (``cruise_s_range``) and dwells (``dwell_s_range``, also the initial dwell) uniform [s].
+    ``speed_change_prob``: chance of a second cruise speed before a stop; ``speed_noise_kmh``: standard deviation
+    of the cruising fluctuation. The acceleration limit is ``max_accel_mps2``, ``accel_power_w_per_kg / v``
+    above (with the defaults |a| never exceeds 1.1 m/s²), times a per-trip driver factor from
+    ``accel_scale_range``; braking at a per-trip deceleration from ``decel_mps2_range`` [m/s²]; ``max_jerk_mps3``
+    limits the change of acceleration per second. ``name`` defaults to ``"bus_seed<seed>"``.
+
+    Returns a :class:`Cycle` with ``synthetic=True``, a flat road, speed 0 at the first and last sample, and
+    ``metadata`` holding ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
+    ``TypeError`` for a seed that is not an integer, ``ValueError`` if a parameter is out of range.
+    """
+    params = _checked_params(
+        seed, duration_s=duration_s, max_speed_kmh=max_speed_kmh, cruise_speed_kmh_range=cruise_speed_kmh_range,
+        cruise_speed_mode_kmh=cruise_speed_mode_kmh, cruise_s_range=cruise_s_range,
+        speed_change_prob=speed_change_prob, speed_noise_kmh=speed_noise_kmh, dwell_s_range=dwell_s_range,
+        max_accel_mps2=max_accel_mps2, accel_power_w_per_kg=accel_power_w_per_kg,
+        accel_scale_range=accel_scale_range, decel_mps2_range=decel_mps2_range, max_jerk_mps3=max_jerk_mps3)
+    n_total = int(round(duration_s))
+    speeds, n_trips = _micro_trips(np.random.default_rng(int(seed)), n_total, params)
     speed_mps = np.round(np.asarray(speeds, dtype=np.float64), _SPEED_DECIMALS)
     speed_mps = np.maximum(speed_mps, 0.0) + 0.0  # no negative zeros
     metadata = {"synthetic": True, "generator": "hev_thermal_env.cycles.generate_bus_cycle", "seed": int(seed),

@@ -1,13 +1,9 @@
 """Seeded road grade profiles under any cycle: hilly routes for the heat scenarios.
 
-:func:`generate_grade_profile` draws a road profile along the distance, independent of the speed
-trace and from its own seed (so no flat cycle changes): straight grades on segments of
-``segment_m_range`` metres, drawn from a normal distribution of standard deviation ``grade_std``
-clipped to ``±max_grade``, joined by vertical curves of ``transition_m`` metres, and
-(``closed=True``) shifted so that the route ends at the height it started (a bus line loops
-back): no net climb to bias the fuel. :func:`with_grade_profile` lays such a profile under any
-cycle (:func:`grade_along`); :func:`hilly_route` is the named hilly route, the ``beijing`` speeds
-over the profile of :data:`HILLY_SEED` (synthetic as well).
+:func:`generate_grade_profile` draws a road along the distance from its own seed (so no flat cycle changes):
+normal grades clipped to ``±max_grade`` on segments, joined by vertical curves, and (``closed``) ending at the
+height it started (a bus line loops back: no net climb to bias the fuel). :func:`with_grade_profile` lays it
+under any cycle; :func:`hilly_route` is the ``beijing`` speeds over the road of :data:`HILLY_SEED`.
 """
 
 from __future__ import annotations
@@ -37,11 +33,10 @@ HILLY_KWARGS: dict[str, Any] = hill_kwargs(0.07)
 def generate_grade_profile(seed: int, length_m: float, *, max_grade: float = 0.07, grade_std: float = 0.035,
                            segment_m_range: tuple[float, float] = (150.0, 600.0), transition_m: float = 40.0,
                            closed: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """A seeded road profile: (positions [m], grade there) from 0 to at least ``length_m``.
+    """A seeded road, piecewise linear in the returned (positions [m], grade there) from 0 to at least ``length_m``.
 
-    Grades (rise/run) are constant on segments with linear vertical curves of ``transition_m``
-    between them; with ``closed`` the length-weighted mean grade is removed (no net climb). The
-    profile is piecewise linear in the returned points; interpolate between them.
+    Grades (rise/run) are constant on segments of ``segment_m_range`` metres, with linear vertical curves of
+    ``transition_m`` between them; with ``closed`` the length-weighted mean grade is removed (no net climb).
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise TypeError(f"seed must be an integer, got {seed!r}")
@@ -66,21 +61,18 @@ def generate_grade_profile(seed: int, length_m: float, *, max_grade: float = 0.0
     half = 0.5 * transition_m
     pos = [0.0]
     val = [float(grades[0])]
-    for i in range(len(seg)):
-        if i > 0:  # vertical curve around the boundary at starts[i]
-            pos += [starts[i] - half, starts[i] + half]
-            val += [float(grades[i - 1]), float(grades[i])]
+    for i in range(1, len(seg)):  # vertical curve around the boundary at starts[i]
+        pos += [starts[i] - half, starts[i] + half]
+        val += [float(grades[i - 1]), float(grades[i])]
     pos.append(float(ends[-1]))
     val.append(float(grades[-1]))
     return np.asarray(pos), np.asarray(val)
 
 
 def grade_along(speed_mps: np.ndarray, seed: int, **kwargs: Any) -> np.ndarray:
-    """The grade under each sample of a 1-s speed trace driven over the road of :func:`generate_grade_profile`.
-
-    Step k (from ``speed[k]`` to ``speed[k + 1]``) climbs the grade at the middle of the distance it
-    covers; the last sample repeats the last step's grade. Rounded to 1e-9 (a CSV round trip keeps it).
-    """
+    """The grade under each sample of a 1-s speed trace driven over the road of :func:`generate_grade_profile`:
+    step k climbs the grade at the middle of the distance it covers, the last sample repeats the last step's grade;
+    rounded to 1e-9 (a CSV round trip keeps it)."""
     v = np.asarray(speed_mps, dtype=np.float64)
     step_m = 0.5 * (v[1:] + v[:-1])
     start_m = np.concatenate([[0.0], np.cumsum(step_m)[:-1]])
@@ -107,10 +99,8 @@ def with_grade_profile(cycle: Cycle, seed: int, *, name: str | None = None, **kw
 
 
 def hilly_route(seed: int = HILLY_SEED, base: Cycle | None = None) -> Cycle:
-    """The hilly route: ``base`` (default the built-in ``beijing``) over the rolling hills of ``seed``.
-
-    Named ``"hilly"`` for the default seed and base. Synthetic: generated speeds on a generated road.
-    """
+    """The hilly route: ``base`` (default the built-in ``beijing``) over the rolling hills of ``seed``; named
+    ``"hilly"`` for the default seed and base."""
     from .loader import load_cycle
 
     cyc = base if base is not None else load_cycle("beijing")

@@ -1,14 +1,11 @@
 """Names of generated cycles: one cycle (``FAMILY:SEED``, ``validation_bus:K``), a family, or a set.
 
-* ``FAMILY:SEED`` (``bus_long:7``, ``random_bus:3``): one cycle of a family
-  (:func:`~hev_thermal_env.cycles.families.generate_family_cycle`).
-* ``validation_bus:K``: validation cycle ``K`` (:mod:`~hev_thermal_env.cycles.validation`).
-* ``validation_bus`` (every validation cycle), ``validation_bus:A..B`` (cycles A to B, inclusive) and
-  ``FAMILY:A..B`` (seeds A to B of a family, at most :data:`MAX_RANGE` of them) are *sets*:
-  :func:`expand_cycle_names` replaces them by their cycles' names wherever a list of cycles is accepted
-  (the env's ``cycle``, ``train.py --cycles`` / ``--eval-cycles``, ``evaluate.py benchmark --cycles``).
-* A bare family name (``bus_long``) is not one cycle: in an env's or training run's cycle list it draws
-  a fresh cycle of the family every episode.
+``FAMILY:SEED`` is one cycle of a family (:func:`~hev_thermal_env.cycles.families.generate_family_cycle`),
+``validation_bus:K`` validation cycle ``K``. ``validation_bus``, ``validation_bus:A..B`` and ``FAMILY:A..B``
+(inclusive, at most :data:`MAX_RANGE` seeds) are *sets*: :func:`expand_cycle_names` replaces them by their cycles'
+names wherever a list of cycles is accepted (the env's ``cycle``, ``train.py --cycles`` / ``--eval-cycles``,
+``evaluate.py benchmark --cycles``). A bare family name (``bus_long``) in an env's or training run's cycle list
+draws a fresh cycle of the family every episode.
 """
 
 from __future__ import annotations
@@ -62,24 +59,17 @@ def generated_cycle(name: str) -> Cycle | None:
                          f"pass it where a list of cycles is accepted, or name one cycle (FAMILY:SEED, "
                          f"{VALIDATION_SET}:K)")
     m = _ONE.match(key)
-    if m is None:
-        return None
-    prefix, number = m.group(1), int(m.group(2))
-    if prefix == VALIDATION_SET:
-        return validation_cycle(number)
-    if prefix in FAMILIES:
-        return generate_family_cycle(prefix, number)
+    if m is not None and m.group(1) == VALIDATION_SET:
+        return validation_cycle(int(m.group(2)))
+    if m is not None and m.group(1) in FAMILIES:
+        return generate_family_cycle(m.group(1), int(m.group(2)))
     return None
 
 
 def expand_cycle_names(cycles: Any) -> list[Any]:
-    """``cycles`` (one item or a list) with every set name replaced by the names of its cycles, in order.
-
-    Other items (built-in names, paths, ``FAMILY:SEED``, family names, :class:`Cycle` objects) pass through.
-
-    >>> expand_cycle_names(["beijing", "validation_bus:0..2"])
-    ['beijing', 'validation_bus:0', 'validation_bus:1', 'validation_bus:2']
-    """
+    """``cycles`` (one item or a list) with every set name replaced by the names of its cycles, in order
+    (``["beijing", "validation_bus:0..2"]`` gives ``beijing`` and ``validation_bus:0`` to ``:2``); other items
+    (built-in names, paths, ``FAMILY:SEED``, family names, :class:`Cycle` objects) pass through."""
     items: Iterable[Any] = cycles if isinstance(cycles, (list, tuple)) else [cycles]
     out: list[Any] = []
     for item in items:

@@ -1,14 +1,9 @@
 """The validation set ``validation_bus``: fixed generated bus cycles that training never draws.
 
-:data:`VALIDATION_SIZE` cycles; cycle ``k`` (named ``validation_bus:k``) is a cycle of family
-:func:`validation_family` with seed ``VALIDATION_SEED_BASE + k``: for ``k`` below
-:data:`ROTATION_SIZE`, ``VALIDATION_FAMILIES[k % 5]`` (any five consecutive cycles hold one of each
-family: long, congested, hard launches, hilly, mixed), and from there on express routes
-(``bus_express``). ``validation_bus:20..29`` are the cycles a training run selects its checkpoints on;
-``benchmarks/ppo_vs_dp.py`` judges on ``validation_bus:0..19``, which no selection saw.
-
-No training episode can drive a validation cycle, nor a stretch generated from the same seed (the
-seeds: :mod:`~hev_thermal_env.cycles.families`); :func:`validation_seed` asserts it.
+Cycle ``k`` (``validation_bus:k``) has family :func:`validation_family` (below :data:`ROTATION_SIZE` the five of
+:data:`VALIDATION_FAMILIES` in turn, then express routes) and seed ``VALIDATION_SEED_BASE + k``, above every
+training seed (:func:`validation_seed` asserts it). A training run selects its checkpoints on
+``validation_bus:20..29``; ``benchmarks/ppo_vs_dp.py`` judges on ``validation_bus:0..19``, which no selection saw.
 """
 
 from __future__ import annotations
@@ -39,9 +34,7 @@ def validation_seed(k: int) -> int:
 
 def validation_family(k: int) -> str:
     """The family of validation cycle ``k``."""
-    if int(k) >= ROTATION_SIZE:
-        return EXPRESS_FAMILY
-    return VALIDATION_FAMILIES[int(k) % len(VALIDATION_FAMILIES)]
+    return EXPRESS_FAMILY if int(k) >= ROTATION_SIZE else VALIDATION_FAMILIES[int(k) % len(VALIDATION_FAMILIES)]
 
 
 def validation_cycle(k: int) -> Cycle:

@@ -1,34 +1,16 @@
 """Energy audit of a run from independent quantities: each component against its own map.
 
-The closing balance of ``simulate.energy_balance`` adds up outputs that the step computed from
-one another, so it closes whatever the maps say: a wrong fuel map, a SOC held inside its window
-by a clamp (energy created or destroyed), or a motor loss computed at the wrong point all pass it.
-The audit instead takes the operating points the run reports (engine and motor speed and torque,
-gear, the states before and after each step, the cycle) and asks every component's own map, and
-conservation, what the other columns must then be:
-
-* ``road_load``: the wheel power demanded, from the road-load map at the cycle's speed,
-  acceleration and grade and the run's payload;
-* ``engine_fuel``: the fuel of each step from the fuel map at the reported engine speed and brake
-  torque (accessories included; nothing on overrun, the fuel cut);
-* ``engine_efficiency``: shaft energy / fuel energy within a diesel's plausible range (0.15-0.46),
-  and never above 0.46 in a step;
-* ``motor``: the electrical power from the loss map (base loss, the extra fraction, the derate at
-  the temperature before the step) at the reported torque and speed; its loss = P_elec − T·ω;
-* ``battery``: coulomb counting, V_oc·I·dt of each step against −ΔSOC·capacity·V_oc (a clamp that
-  holds the SOC in its window while current flows fails here); the terminal power = V_oc·I − R·I²
-  from the resistance map, and = motor electrical power + the accessories when the engine is off;
-* ``driveline``: the wheel power delivered = the shaft power through the gearbox and final drive
-  efficiencies (traction); the motor's and the engine's speeds from the cycle's through the gear;
-* ``balance``: engine shaft energy + battery energy = wheel energy, brakes, motor, clutch and
-  driveline losses and the accessories;
-* ``thermal``: the motor's heat = the heat stored in the network's nodes + the heat given to the air
-  (convection, radiation, radiator), per step (``paper_eqs``: the motor node only, its coolant flow
-  leaving the system).
-
-Each check reports its worst relative error against its tolerance; :attr:`AuditReport.ok` is
-true when all pass. ``tests/test_audit.py`` shows each check failing when one component is
-changed without the others.
+The closing balance of ``simulate.energy_balance`` adds up outputs that the step computed from one another, so it
+closes whatever the maps say (a wrong fuel map, a SOC held in its window by a clamp, a motor loss at the wrong
+point all pass it). The audit takes the operating points the run reports (engine and motor speed and torque,
+gear, the states before and after each step, the cycle) and asks each component's own map, and conservation,
+what the other columns must be: ``road_load``, ``engine_fuel`` (nothing on overrun), ``engine_efficiency`` (a
+diesel's 0.15-0.46, no step above 0.46), ``motor`` (the loss map derated at the temperature before the step),
+``battery`` (coulomb counting against −ΔSOC·capacity·V_oc, terminal power from the resistance map and from motor
+and accessories), ``driveline`` (efficiencies and the speed chain from the gear), ``balance`` and ``thermal`` (the
+motor's heat = heat stored in the nodes + heat given to the air; ``paper_eqs``: the motor node, its coolant flow
+leaving the system). Each check reports its worst relative error against its tolerance. docs/thermal_model.md
+(Energy audit); ``tests/test_audit.py`` shows each check failing when one component changes alone.
 """
 
 from __future__ import annotations
@@ -76,12 +58,6 @@ class AuditReport:
     @property
     def ok(self) -> bool:
         return all(c.ok for c in self.checks)
-
-    def __getitem__(self, name: str) -> Check:
-        for c in self.checks:
-            if c.name == name:
-                return c
-        raise KeyError(name)
 
     def failed(self) -> list[str]:
         return [c.name for c in self.checks if not c.ok]
@@ -134,6 +110,7 @@ class _Run:
         grade = np.asarray(cyc.grade, dtype=np.float64)[:n].copy()
         s0 = phys.initial_state(conditions, 1)[0]
         self.config, self.trace, self.dt_s = config, trace, dt_s
+        self.idle_radps = config.engine.idle_speed_rpm * np.pi / 30.0
         self.before = {name: np.concatenate([[s0[i]], np.asarray(trace[name])[:-1]])
                        for i, name in enumerate(C.STATE_NAMES)}
         g = self.g = {name: np.asarray(trace[name], dtype=np.float64) for name in C.OUT_NAMES}
@@ -154,8 +131,7 @@ class _Run:
 def _engine_checks(run: _Run) -> list[Check]:
     g, config, dt_s = run.g, run.config, run.dt_s
     # fuel cut on overrun: a running engine above idle that gives no power burns nothing
-    idle = config.engine.idle_speed_rpm * np.pi / 30.0
-    overrun = (g["engine_power_w"] <= 0.0) & (g["engine_speed_radps"] > idle * (1.0 + 1e-12))
+    overrun = (g["engine_power_w"] <= 0.0) & (g["engine_speed_radps"] > run.idle_radps * (1.0 + 1e-12))
     fuel = np.where(overrun, 0.0, run.out["fuel_g"])
     fuel_check = Check("engine_fuel", _rel(fuel, g["fuel_g"], run.peak(fuel)), REL_TOL,
                        "fuel per step vs the fuel map at the reported engine speed and brake torque")
@@ -208,11 +184,10 @@ def _driveline_check(run: _Run) -> Check:
     expect = np.where(traction, shaft_w * eff, g["wheel_power_w"])
     # the motor turns at the coupler ratio times the shaft speed the gear gives; the running engine at the shaft
     # speed (idle at least)
-    idle = config.engine.idle_speed_rpm * np.pi / 30.0
     w_scale = max(float(np.max(g["motor_speed_radps"])), 1.0)
     speed_err = max(_rel(w_shaft * config.driveline.coupler_ratio, g["motor_speed_radps"], w_scale),
-                    _rel(np.where(g["engine_on"] != 0.0, np.maximum(w_shaft, idle), 0.0), g["engine_speed_radps"],
-                         w_scale))
+                    _rel(np.where(g["engine_on"] != 0.0, np.maximum(w_shaft, run.idle_radps), 0.0),
+                         g["engine_speed_radps"], w_scale))
     return Check("driveline", max(_rel(expect, g["wheel_power_w"], run.peak(shaft_w)), speed_err), REL_TOL,
                  "wheel power = shaft power × gearbox × final drive efficiency; shaft, motor and engine speeds from "
                  "the gear")

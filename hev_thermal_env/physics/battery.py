@@ -60,11 +60,8 @@ class BatteryParams(Params):
     def nominal_energy_kwh(self) -> float:
         return self.capacity_ah * self.module_voc_v[5] * self.n_series / 1000.0
 
-    def pack(self) -> np.ndarray:
-        return LAYOUT.pack(self)
 
-
-LAYOUT = Layout(BatteryParams, (
+LAYOUT = BatteryParams.LAYOUT = Layout(BatteryParams, (
     Slot("capacity_as", fill=lambda p: p.capacity_ah * 3600.0, fields=("module_capacity_ah", "n_parallel")),
     Slot("soc_min"),
     Slot("soc_max"),

@@ -1,35 +1,28 @@
 """The whole-vehicle configuration, the run conditions, and the default ``paper_bus``.
 
-``VehicleConfig`` groups one frozen parameter record per component; ``Conditions`` holds what
-varies between runs of the same vehicle (ambient, starting temperature and SOC, coolant mode).
-Both round-trip through YAML (``to_yaml`` / ``from_yaml``).
+``VehicleConfig`` groups one frozen parameter record per component; ``Conditions`` holds what varies between runs
+of the same vehicle (ambient, starting temperature and SOC, coolant mode). Both round-trip through YAML.
 
-Where the ``paper_bus`` numbers come from
------------------------------------------
-* Motor: the paper's Table 1 (rated/peak power swapped back: 30/90 kW), thermal data Table 1 and
-  the paper's text (h_water 3000 W/(m²·K), thermostat 35 °C, cutoff 70 °C, 5 % extra loss, T_s 30 s,
-  PWM_initial 0.3 at the 20 °C start, T_gain in [0.1, 0.3], efficiency −1 point per 15 °C).
-* Motor thermal model: the lumped network, fitted to the paper's Figs 7-10 and Tables 2-3
-  (``thermal.py``, ``docs/thermal_model.md``); ``paper_bus(thermal_model="paper_eqs")`` is the
-  paper's one-node model as written.
-* Glider: ADVISOR VEH_RTS06 (Cd 0.79, A 7.8965 m²) and WH_HEAVY (Crr 0.00938, r 0.5 m).
-  Test mass 15 000 kg: ADVISOR's 40-ft bus (12 156 kg glider + 1 837 kg cargo) plus the hybrid
-  powertrain, fine-tuned with the final drive so that Table 3's top speed, 0-60 km/h time and
-  4 % grade speed are met with the thermal model off (``tests/test_physics.py``, Table 3 tests).
+Where the ``paper_bus`` numbers come from:
+
+* Motor: the paper's Table 1 (rated/peak power swapped back: 30/90 kW) and its text (h_water 3000 W/(m²·K),
+  thermostat 35 °C, cutoff 70 °C, 5 % extra loss, T_s 30 s, PWM_initial 0.3 at the 20 °C start, T_gain in
+  [0.1, 0.3], efficiency −1 point per 15 °C); the lumped thermal network fitted to the paper's Figs 7-10 and
+  Tables 2-3 (docs/thermal_model.md); ``paper_bus(thermal_model="paper_eqs")`` is the paper's one node as written.
+* Glider: ADVISOR VEH_RTS06 (Cd 0.79, A 7.8965 m²) and WH_HEAVY (Crr 0.00938, r 0.5 m). Test mass 15 000 kg:
+  ADVISOR's 40-ft bus (12 156 kg glider + 1 837 kg cargo) plus the hybrid powertrain, fine-tuned with the final
+  drive so that Table 3's top speed, 0-60 km/h time and 4 % grade speed are met with the thermal model off.
 * Engine: ADVISOR FC_CI119 (6.5 L, 119 kW diesel) full-load curve and fitted fuel surface.
-* Driveline: 5-speed AMT (ratios 5.0/3.3/2.37/1.45/1.0, final drive 5.6, chosen so the
-  engine runs near its peak power on the 4 % grade in third gear), lossless coupler with
-  ADVISOR's TC_DUMMY speed-ratio rule.
-* Battery: 2 × 30 ADVISOR Ovonic 45 Ah NiMH modules (402 V, 90 Ah, 36 kWh nominal), power limits
-  130/110 kW, SOC window 0.4-0.8.
+* Driveline: 5-speed AMT (ratios 5.0/3.3/2.37/1.45/1.0, final drive 5.6, chosen so the engine runs near its peak
+  power on the 4 % grade in third gear), lossless coupler with ADVISOR's TC_DUMMY speed-ratio rule.
+* Battery: 2 × 30 ADVISOR Ovonic 45 Ah NiMH modules (402 V, 90 Ah, 36 kWh nominal), power limits 130/110 kW,
+  SOC window 0.4-0.8.
 * Accessories: ADVISOR ACC_HEAVY 7.457 kW, on the engine when it runs, else from the battery.
 """
 
 from __future__ import annotations
 
 import dataclasses
-
-import numpy as np
 
 from .battery import BatteryParams
 from .driveline import DrivelineParams
@@ -51,11 +44,8 @@ class PowertrainParams(Params):
     stop_start: bool = spec(True, "engine off (no fuel) whenever it is not needed")
     regen_enabled: bool = spec(True, "regenerative braking by the motor within its and the battery's limits")
 
-    def pack(self) -> np.ndarray:
-        return POWERTRAIN_LAYOUT.pack(self)
 
-
-POWERTRAIN_LAYOUT = Layout.of_fields(PowertrainParams)
+POWERTRAIN_LAYOUT = PowertrainParams.LAYOUT = Layout.of_fields(PowertrainParams)
 """Packed powertrain facts read by the kernel: one slot per field."""
 PT_IDX = POWERTRAIN_LAYOUT.index()
 
@@ -87,11 +77,8 @@ class VehicleConfig(Params):
 
 
 def paper_bus(thermal_model: str = "network") -> VehicleConfig:
-    """The default vehicle: the paper's parallel hybrid city bus (see the module docstring).
-
-    ``thermal_model="paper_eqs"`` gives the same bus with the paper's one-node thermal model as
-    written (eqs 1-7), for the "equations as written" comparison.
-    """
+    """The default vehicle, the paper's parallel hybrid city bus; ``thermal_model="paper_eqs"``: with the paper's
+    one-node thermal model as written (eqs 1-7)."""
     config = VehicleConfig()
     return config if thermal_model == "network" else config.with_thermal_model(thermal_model)
 

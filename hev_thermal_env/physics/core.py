@@ -1,26 +1,19 @@
 """The one physics step of the vehicle, vectorised over a batch axis.
 
-``step_kernel`` advances B independent vehicles by one time step. It is the only place where
-the components are put together; the environment, the vector environment, ECMS, dynamic
-programming, the whole-cycle simulation and the performance tests all call it (through
-:class:`PhysicsCore`). It is compiled with numba: the same source serves a batch of one (an env
-step) and a batch of thousands (a vector env step, a DP stage).
+``step_kernel`` advances B independent vehicles by one time step: the only place where the components are put
+together, called through :class:`PhysicsCore` by everything that steps a vehicle (docs/architecture.md).
+Backward-facing quasi-static model (ADVISOR-style): the cycle asks for a speed change v0 → v1 on a grade; road
+load gives the wheel torque at the mean speed, the driveline maps it to the coupler shaft, the action splits it.
 
-Backward-facing quasi-static model (ADVISOR-style): over a step the cycle asks for a speed change
-v0 → v1 on a grade; road load gives the wheel torque at the mean speed; the driveline maps it to
-the coupler shaft; the action splits it between motor and engine.
-
-Split and limits. For a positive shaft demand T_dem and action u ∈ [-1, 1] the
-motor is asked for u·T_dem. That request is clipped only by the motor's own limits: its envelope
-(peak torque, the heat index of eq 8, the cutoff) and the battery's power and SOC limits. The
-engine covers the rest, T_dem − motor, up to its full-load torque. Whatever is still missing is a
-trace miss: the step delivers what it can, the missed wheel energy and the speed deficit it would
-cause (``trace_miss_mps`` = missed force·dt / effective mass) are reported, and the next step again
-follows the cycle. The motor never tops up by itself: where the engine alone falls short, the
-action chooses between assisting (battery energy, motor heat) and missing (priced by the reward
-and the corrected-fuel metric alike), so every strategy and DP face the same choice at the same
-price. Braking: the motor regenerates up to its and the battery's limits; friction brakes take
-the rest. The action has no effect while braking or at standstill.
+Split and limits. For a positive shaft demand T_dem and action u ∈ [-1, 1] the motor is asked for u·T_dem,
+clipped only by its own limits (peak torque, the heat index of eq 8, the cutoff) and the battery's power and SOC
+limits; the engine covers the rest up to its full-load torque. Whatever is still missing is a trace miss: the
+step delivers what it can and reports the missed wheel energy and the speed deficit it would cause
+(``trace_miss_mps`` = missed force·dt / effective mass); the next step follows the cycle again. The motor never
+tops up by itself: where the engine alone falls short, the action chooses between assisting (battery energy,
+motor heat) and missing (priced by the reward and the corrected-fuel metric alike), so every strategy and DP face
+the same choice at the same price. Braking: the motor regenerates up to its and the battery's limits, friction
+brakes take the rest; the action has no effect while braking or at standstill.
 """
 
 from __future__ import annotations
@@ -77,11 +70,9 @@ N_OUT = len(OUT_NAMES)
 def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, dt, state_out, out):
     """Advance every row of ``state`` [B, N_STATE] by one step; write ``state_out`` and ``out`` [B, N_OUT].
 
-    ``action``, ``v0``, ``v1``, ``grade`` have length B; ``cond`` is [B, N_COND].
-
-    The step of one row is written inside the loop, indexing the 2-D arrays by ``b``, with no per-row
-    view (``state[b]``) and no per-row call taking a parameter vector: the speed rule of ``jit.py``
-    (such reference-counted values would take ≈270 ns of a row's ≈50-90 ns).
+    ``action``, ``v0``, ``v1``, ``grade`` have length B; ``cond`` is [B, N_COND]. One row's step is written inside
+    the loop, indexing the 2-D arrays by ``b``, with no per-row view (``state[b]``) and no per-row call taking a
+    parameter vector: the speed rule of ``jit.py`` (such reference-counted values take ≈270 ns; a row ≈50-90 ns).
     """
     inv_dt = 1.0 / dt
     # the speed's factors of the thermal model (two powers), recomputed only when the speed changes from the
@@ -302,10 +293,8 @@ class PhysicsCore:
     >>> new_state, out = core.step(state, action=np.zeros(4), speed_start_mps=np.zeros(4),
     ...                            speed_end_mps=np.ones(4), grade=0.0, cond=core.conditions_array(Conditions(), 4))
 
-    :meth:`step` takes named arguments, coerces every input to float64 C-contiguous arrays (one
-    compiled specialisation, no silent recompilation for float32 or strided input), broadcasts
-    scalars over the batch and checks shapes; large batches can be split over threads (the kernel
-    releases the GIL).
+    :meth:`step` coerces every input to float64 C-contiguous arrays (``door_arrays``), broadcasts scalars over the
+    batch, checks shapes and can split large batches over threads (the kernel releases the GIL).
     """
 
     def __init__(self, config: VehicleConfig, dt_s: float = 1.0):
@@ -351,10 +340,9 @@ class PhysicsCore:
              threads: int = 1):
         """Advance a batch of B vehicles by one step; returns (new state [B, N_STATE], outputs [B, N_OUT]).
 
-        ``state`` [B, N_STATE]; ``action`` (the motor share u), ``speed_start_mps``, ``speed_end_mps``
-        and ``grade`` of the step, each [B] or a scalar; ``cond`` [B, N_COND] or [N_COND].
-        ``state_out``/``out`` (float64, C-contiguous) are filled if given. ``threads`` > 1 splits
-        batches of at least :data:`MIN_THREAD_BATCH` rows over that many threads.
+        ``action`` (the motor share u), ``speed_start_mps``, ``speed_end_mps`` and ``grade``: [B] or scalars;
+        ``cond`` [B, N_COND] or [N_COND]. ``state_out``/``out`` (float64, C-contiguous) are filled if given.
+        ``threads`` > 1 splits batches of at least :data:`MIN_THREAD_BATCH` rows over that many threads.
         """
         state = as_float64(state, "state")
         if state.ndim != 2 or state.shape[1] != N_STATE:

@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 
 from .config import Conditions, VehicleConfig, paper_bus
-from .params import Params
 
 
 def _fmt(v) -> str:
@@ -26,18 +25,18 @@ def parameters_markdown(config: VehicleConfig | None = None) -> str:
              "(`VehicleConfig.to_yaml`). Units are in the names. Sources are in the docs column and in "
              "`hev_thermal_env/physics/config.py`.", ""]
     for f in dataclasses.fields(config):
-        part: Params = getattr(config, f.name)
+        part = getattr(config, f.name)
         lines += [f"## `{f.name}`: {type(part).__name__}", "", (type(part).__doc__ or "").strip().splitlines()[0], "",
                   "| field | default | meaning and source |", "|---|---|---|"]
-        for name, _default, doc in type(part).describe():
-            lines.append(f"| `{name}` | {_fmt(getattr(part, name))} | {doc} |")
+        for field in dataclasses.fields(part):
+            lines.append(f"| `{field.name}` | {_fmt(getattr(part, field.name))} | {field.metadata.get('doc', '')} |")
         lines.append("")
     lines += ["## Run conditions: `Conditions`", "", "| field | default | meaning |", "|---|---|---|"]
     extra = {"coolant": "on, degraded or off",
              "coolant_temp_c": "coolant temperature at the start (network) and the paper's perfect-radiator water "
                                "temperature (paper_eqs); default: the initial motor temperature"}
-    for name, default, doc in Conditions.describe():
-        lines.append(f"| `{name}` | {_fmt(default)} | {doc or extra.get(name, '')} |")
+    for f in dataclasses.fields(Conditions):
+        lines.append(f"| `{f.name}` | {_fmt(f.default)} | {f.metadata.get('doc') or extra.get(f.name, '')} |")
     return "\n".join(lines) + "\n"
 
 

@@ -1,12 +1,12 @@
 """Argument handling of the door to the kernel (:meth:`PhysicsCore.step`): dtype, shape and threads.
 
-Every input reaches the compiled kernel as a float64 C-contiguous array (one specialisation, no
-silent recompilation for float32 or strided input); scalars are broadcast over the batch; bad
-shapes raise a one-line ``ValueError`` naming the argument.
+Every input reaches the kernel as a float64 C-contiguous array (one compiled specialisation, no silent
+recompilation for float32 or strided input); bad shapes raise a one-line ``ValueError`` naming the argument.
 """
 
 from __future__ import annotations
 
+import functools
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -14,13 +14,11 @@ import numpy as np
 #: Batches smaller than this are not split over threads (thread start-up would dominate).
 MIN_THREAD_BATCH = 4096
 
-_POOLS: dict[int, ThreadPoolExecutor] = {}
 
-
+@functools.cache
 def thread_pool(n: int) -> ThreadPoolExecutor:
-    if n not in _POOLS:
-        _POOLS[n] = ThreadPoolExecutor(max_workers=n, thread_name_prefix="hev-kernel")
-    return _POOLS[n]
+    """The process's pool of ``n`` kernel threads."""
+    return ThreadPoolExecutor(max_workers=n, thread_name_prefix="hev-kernel")
 
 
 def as_float64(x, name: str) -> np.ndarray:

@@ -16,8 +16,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numpy as np
-
 from .jit import jit
 from .layout import Layout, Slot
 from .params import ConfigError, Params, spec
@@ -49,11 +47,8 @@ class DrivelineParams(Params):
         if self.upshift_full_load_rpm < self.upshift_low_load_rpm:
             raise ConfigError("DrivelineParams.upshift_full_load_rpm: must be >= upshift_low_load_rpm")
 
-    def pack(self) -> np.ndarray:
-        return LAYOUT.pack(self)
 
-
-LAYOUT = Layout.of_fields(DrivelineParams, replace={
+LAYOUT = DrivelineParams.LAYOUT = Layout.of_fields(DrivelineParams, replace={
     "gear_ratios": (Slot("n_gears", fill=lambda p: len(p.gear_ratios), fields=()), Slot("gear_ratios", MAX_GEARS)),
     "upshift_low_load_rpm": Slot("upshift_low_load_radps", fill=lambda p: p.upshift_low_load_rpm * RPM,
                                  fields=("upshift_low_load_rpm",)),

@@ -58,11 +58,8 @@ class EngineParams(Params):
     def max_power_w(self) -> float:
         return max(s * RPM * t for s, t in zip(self.max_torque_speed_rpm, self.max_torque_nm))
 
-    def pack(self) -> np.ndarray:
-        return LAYOUT.pack(self)
 
-
-LAYOUT = Layout.of_fields(EngineParams, replace={
+LAYOUT = EngineParams.LAYOUT = Layout.of_fields(EngineParams, replace={
     "idle_speed_rpm": Slot("idle_speed_radps", fill=lambda p: p.idle_speed_rpm * RPM, fields=("idle_speed_rpm",)),
     "max_speed_rpm": Slot("max_speed_radps", fill=lambda p: p.max_speed_rpm * RPM, fields=("max_speed_rpm",)),
     "fuel_coeffs": Slot("fuel_coeffs", 6),
@@ -71,7 +68,7 @@ LAYOUT = Layout.of_fields(EngineParams, replace={
         Slot("curve_speed_radps", MAX_CURVE, fill=lambda p: np.asarray(p.max_torque_speed_rpm) * RPM,
              fields=("max_torque_speed_rpm",))),
     "max_torque_nm": Slot("max_torque_nm", MAX_CURVE),
-}, derived=(Slot("max_power_w", fill=lambda p: p.max_power_w, fields=()),))
+}, derived={"max_power_w": lambda p: p.max_power_w})
 """Packed engine parameters read by the kernels (speeds in rad/s, full-load curve padded)."""
 IDX = LAYOUT.index()
 

@@ -1,11 +1,9 @@
 """A fingerprint of the physics' behaviour: which physics a trained policy was trained on.
 
-:func:`physics_fingerprint` drives the default vehicle (``paper_bus()``) through a fixed probe
-(a grid of starting states, motor shares, speeds and grades, three steps each, at a cold and a hot
-motor) and hashes the outputs rounded to 6 significant digits. A change of the numbers the physics
-produces changes the fingerprint; editing comments, moving code or rounding noise across machines
-does not. Training records it beside the model; loading a policy on physics with another
-fingerprint logs one warning line.
+:func:`physics_fingerprint` drives the default vehicle through a fixed probe (motor shares, speeds and grades,
+three steps each, at a cold and a hot motor) and hashes the outputs rounded to 6 significant digits: a change of
+the physics' numbers changes it, editing comments, moving code or rounding noise across machines does not.
+Training records it beside the model; loading a policy on physics with another fingerprint logs a warning.
 """
 
 from __future__ import annotations

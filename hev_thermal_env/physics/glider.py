@@ -15,8 +15,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numpy as np
-
 from .jit import jit
 from .layout import Layout
 from .params import Params, spec
@@ -36,11 +34,8 @@ class GliderParams(Params):
     air_density_kgpm3: float = spec(1.23, "air density", min=0.5, max=2.0)
     gravity_mps2: float = spec(9.81, "gravitational acceleration", min=9.0, max=10.5)
 
-    def pack(self) -> np.ndarray:
-        return LAYOUT.pack(self)
 
-
-LAYOUT = Layout.of_fields(GliderParams)
+LAYOUT = GliderParams.LAYOUT = Layout.of_fields(GliderParams)
 """Packed glider parameters read by the kernels: one slot per field."""
 IDX = LAYOUT.index()
 

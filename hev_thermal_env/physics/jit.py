@@ -1,37 +1,20 @@
 """The compile decorator of every numba kernel in the project, with a cache that cannot go stale.
 
-``error_model="numpy"``: division by zero gives inf/NaN instead of raising, which removes a
-branch from every division in the hot loop; the kernels never divide by a quantity that can be
-zero in a valid configuration (the configs validate their ranges), and the fuzz tests check that
-no NaN or inf reaches an output.
+``error_model="numpy"``: division by zero gives inf/NaN instead of raising, which removes a branch from every
+division in the hot loop; valid configurations never divide by zero and the fuzz tests check that no NaN or inf
+reaches an output.
 
-Speed rule for the step (``core.step_kernel``): numba reference-counts array values with atomic
-calls (``NRT_incref``/``NRT_decref``) and removes a pair only when both sit on simple paths. In the
-per-row code these calls cost most of the time, so: no per-row array views or per-row calls that
-bind arrays (index the 2-D arrays with the row instead), and in a component function taking a
-packed vector, read the vector for the last time outside any branch and return from one place
-(``thermal.cutoff_step``, ``thermal.heat_flows_w``, ``driveline.select_gear``).
+Speed rule for the step (``core.step_kernel``): numba reference-counts array values with atomic calls
+(``NRT_incref``/``NRT_decref``) and removes a pair only when both sit on simple paths; in the per-row code these
+calls cost most of the time. So: no per-row array views or per-row calls that bind arrays (index the 2-D arrays
+with the row), and a component function taking a packed vector reads it for the last time outside any branch and
+returns from one place (``thermal.cutoff_step``, ``thermal.heat_flows_w``, ``driveline.select_gear``).
 
-**The cache.** numba keys a cached function on the file that defines it, but a kernel inlines the
-kernels of *other* files and keeps the module-level values it reads as constants: after an edit of
-``thermal.py`` a cached ``step_kernel`` would still run the old thermal code, and after an edit of
-the observation layout in ``envs/spaces.py`` a cached observation kernel would still write the old
-order. So the compiled cache lives in a directory named after :func:`source_hash` of the kernel
-sources: every source file of the package with an ``@jit`` line (a kernel compiled with
-:func:`jit`, which refuses a function defined anywhere else), every project module those files
-import at module level, transitively, and the numba version. Any edit of them gives a new directory
-and a fresh compilation; an unchanged tree reuses its cache. The directory is
-``$HEV_THERMAL_ENV_CACHE_DIR/<hash>`` if that variable is set, else
-``$XDG_CACHE_HOME/hev-thermal-env/numba/<hash>`` (``~/.cache/...``). If it cannot be created the
-kernels are compiled without a cache (slower start, never stale). Every numba function of the
-project is compiled with :func:`jit` so that none of them keeps compiled copies of physics
-constants from an older tree.
-
-numba has no per-function cache directory: its documented settings (``NUMBA_CACHE_DIR``,
-``NUMBA_CACHE_LOCATOR_CLASSES``) are environment variables for the whole process, read when numba
-is imported, and would move every other library's numba cache too. So :func:`jit` sets numba's
-configured cache directory only while it creates a kernel's dispatcher (which picks its cache
-location then) and restores it at once.
+**The cache** (docs/architecture.md) lives in ``cache_root() / source_hash()``: a hash of the numba version, of
+every package file with an ``@jit`` line (:func:`jit` refuses a function defined anywhere else) and of the project
+modules those import at module level, transitively, since a kernel inlines other files' kernels and constants.
+Without a writable directory the kernels compile uncached. numba's own cache settings are process-wide, so
+:func:`jit` sets its cache directory only while it creates a dispatcher.
 """
 
 from __future__ import annotations
@@ -80,9 +63,8 @@ def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
     return {f for f in found if f in modules and f != name}
 
 
-def module_sources(roots: Iterable[str], modules: dict[str, Path] | None = None) -> list[Path]:
+def module_sources(roots: Iterable[str], modules: dict[str, Path]) -> list[Path]:
     """The source files of the modules ``roots`` and of every package module they import, transitively."""
-    modules = package_modules() if modules is None else modules
     seen: set[str] = set()
     todo = list(roots)
     while todo:

@@ -1,12 +1,9 @@
 """Where each parameter sits in the packed float64 vector a compiled kernel reads.
 
-numba kernels take a component's parameters as one flat ``float64`` array and read entries by
-index. The indices are not written by hand: a :class:`Layout` is built from the parameter
-dataclass, one :class:`Slot` per packed value, and :meth:`Layout.index` gives each component
-module its offsets by slot name (``IDX = LAYOUT.index()``; a kernel reads ``gl[IDX.mass_kg]``).
-``IDX`` is a module-level namedtuple, so numba compiles every offset in as a constant. Reordering,
-adding or removing fields therefore cannot silently hand a kernel the wrong parameter, and
-:meth:`Layout.check_covers` makes a field that no slot packs an error.
+A :class:`Layout` is built from the parameter dataclass, one :class:`Slot` per packed value, and
+:meth:`Layout.index` gives the component module its offsets by slot name (``IDX = LAYOUT.index()``; a kernel reads
+``gl[IDX.mass_kg]``): a module-level namedtuple, which numba compiles in as constants. Reordering, adding or
+removing fields cannot hand a kernel the wrong parameter, and a field that no slot packs is an error.
 """
 
 from __future__ import annotations
@@ -21,12 +18,8 @@ import numpy as np
 
 @dataclasses.dataclass(frozen=True)
 class Slot:
-    """``size`` consecutive packed values named ``name``.
-
-    ``fill(params)`` gives the value(s); by default the field of the same name (bools as 0/1).
-    A table shorter than ``size`` is zero-padded. ``fields`` names the dataclass fields it packs
-    (default: ``name``), for :meth:`Layout.check_covers`.
-    """
+    """``size`` consecutive packed values named ``name``: ``fill(params)``, by default the field of the same name
+    (bools as 0/1), a table shorter than ``size`` zero-padded; ``fields``: the fields it packs (default ``name``)."""
 
     name: str
     size: int = 1
@@ -64,9 +57,10 @@ class Layout:
 
     @classmethod
     def of_fields(cls, params_cls: type, *, replace: dict[str, Slot | Sequence[Slot]] | None = None,
-                  derived: Iterable[Slot] = (), unpacked: Iterable[str] = ()) -> Layout:
-        """One slot per field in declaration order (``replace`` maps a field to its own slot(s): a
-        unit conversion, a padded table), then the ``derived`` slots; ``unpacked`` fields are left out."""
+                  derived: dict[str, Callable[[Any], Any]] | None = None, unpacked: Iterable[str] = ()) -> Layout:
+        """One slot per field in declaration order (``replace`` maps a field to its own slot(s): a unit conversion,
+        a padded table), then one slot per ``derived`` name filled by its function of the params (a constant the
+        kernels would otherwise recompute per row); ``unpacked`` fields are left out."""
         replace = replace or {}
         unpacked = tuple(unpacked)
         slots: list[Slot] = []
@@ -75,7 +69,8 @@ class Layout:
                 continue
             mapped = replace.get(f.name, Slot(f.name))
             slots.extend([mapped] if isinstance(mapped, Slot) else mapped)
-        return cls(params_cls, [*slots, *derived], unpacked=unpacked)
+        slots += [Slot(name, fill=fill, fields=()) for name, fill in (derived or {}).items()]
+        return cls(params_cls, slots, unpacked=unpacked)
 
     def __getitem__(self, name: str) -> int:
         try:

@@ -1,32 +1,15 @@
 """Permanent-magnet synchronous traction motor (paper Table 1) with a loss-model efficiency map.
 
-Table 1 swaps the rated and peak power; read correctly: rated 30 kW, peak 90 kW, base/max speed
-3600/6000 rpm, peak torque 240 N·m, hence continuous torque 80 N·m below base speed and constant
-power above it.
+Table 1 swaps the rated and peak power; read correctly: rated 30 kW, peak 90 kW, base/max speed 3600/6000 rpm,
+peak torque 240 N·m, hence 80 N·m continuous below base speed and constant power above. Both envelopes are 0 above
+the maximum speed, so a derated motor (eq 8 blends them) never gets more torque than a cold one.
 
-Losses (motor + inverter), a function of torque T [N·m] and speed ω [rad/s]::
-
-    P_loss = k_cu·T² + k_fe·ω^1.5 + k_fr·ω
-
-copper ∝ T², iron ∝ ω^1.5, friction and windage ∝ ω. The defaults give a peak efficiency of
-≈95 % and an efficiency shape close to ADVISOR's UQM PowerPhase 100 map scaled to 90 kW
-(``tests/test_physics.py`` checks the peak and the shape).
-
-Thermal effects (``thermal.py``) enter through two numbers: ``extra``, the paper's extra loss
-fraction (5 %: noise, friction), and ``derate`` = δ, the efficiency lost in percentage points
-(the paper: one point per 15 °C above 35 °C). With L = (1 + extra)·P_loss:
-
-* generating (T·ω < 0): η₀ = (|T·ω| − L)/|T·ω|, η' = η₀ − δ, so
-  ``P_elec = −|T·ω|·η' = T·ω + L + δ·|T·ω|``;
-* motoring (T·ω > 0): η₀ = T·ω/(T·ω + L), η' = η₀ − δ·s(η₀/η_k) with η_k = 0.5, s(x) = 1 for
-  x ≥ 1 and the smoothstep x²(3 − 2x) below, and ``P_elec = T·ω/η'``. Wherever the motor runs at
-  η₀ ≥ 50 % (every loaded operating point) the efficiency falls by exactly δ, as the paper states;
-  below, the derate fades out smoothly (s and s' continuous) so that the loss stays finite and
-  continuous at zero torque (where η₀ = 0 and a fixed δ would ask for an efficiency below zero).
-
-The loss is always ``P_elec − T·ω``. Torque envelopes are 0 above the maximum speed, the peak
-and the continuous one alike, so a derated motor (eq 8 blends the two) never gets more torque
-than a cold one.
+Losses (motor + inverter): P_loss = k_cu·T² + k_fe·ω^1.5 + k_fr·ω; the defaults give ≈95 % peak efficiency and a
+shape close to ADVISOR's UQM PowerPhase 100 map scaled to 90 kW (``tests/test_physics.py``). Thermal effects: the
+paper's 5 % extra loss and the derate δ (one efficiency point per 15 °C above 35 °C). With L = (1 + extra)·P_loss:
+generating, P_elec = T·ω + L + δ·|T·ω|; motoring, P_elec = T·ω/η' with η' = η₀ − δ·s(η₀/0.5), s = 1 above 1 and
+the smoothstep x²(3 − 2x) below: exactly δ wherever η₀ ≥ 50 % (every loaded point), fading out so that the loss
+stays finite and continuous at zero torque (docs/thermal_model.md). The loss is always P_elec − T·ω.
 """
 
 from __future__ import annotations
@@ -34,15 +17,13 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numpy as np
-
 from .jit import jit
 from .layout import Layout, Slot
 from .params import ConfigError, Params, spec
 
 RPM = math.pi / 30.0
 
-#: Efficiency below which the temperature derate fades out (motoring), see the module docstring.
+#: Efficiency below which the temperature derate fades out (motoring), η_k.
 DERATE_KNEE_EFF = 0.5
 #: Newton iterations of the motoring torque limit under a derate (from a close start, quadratically).
 _NEWTON_ITERS = 3
@@ -74,11 +55,8 @@ class MotorParams(Params):
     def base_speed_rpm(self) -> float:
         return self.peak_power_w / self.peak_torque_nm / RPM
 
-    def pack(self) -> np.ndarray:
-        return LAYOUT.pack(self)
 
-
-LAYOUT = Layout.of_fields(MotorParams, replace={
+LAYOUT = MotorParams.LAYOUT = Layout.of_fields(MotorParams, replace={
     "max_speed_rpm": Slot("max_speed_radps", fill=lambda p: p.max_speed_rpm * RPM, fields=("max_speed_rpm",)),
 }, unpacked=("mass_kg",))
 """Packed motor parameters read by the kernels (the mass belongs to the thermal model)."""
@@ -128,11 +106,9 @@ def core_loss_w(mo, speed_radps):
 
 @jit
 def _derated_loss_w(p_mech, loss, derate):
-    """Loss P_elec − T·ω under the derate: motoring T·ω/η' − T·ω (module docstring), generating L + δ·|T·ω|.
-
-    With u = T·ω, v = u + L and K = η_k: above the knee P = u·v/(u − δ·v); below it
-    P = K³v³/(K³v² − δ·u·(3K·v − 2u)), so P − u = L + v·δ·u·(3K·v − 2u)/(K³v² − δ·u·(3K·v − 2u)).
-    """
+    """Loss P_elec − T·ω under the derate: motoring T·ω/η' − T·ω, generating L + δ·|T·ω|. With u = T·ω, v = u + L
+    and K = η_k: above the knee P = u·v/(u − δ·v); below it P = K³v³/(K³v² − δ·u·(3K·v − 2u)), so
+    P − u = L + v·δ·u·(3K·v − 2u)/(K³v² − δ·u·(3K·v − 2u))."""
     if p_mech <= 0.0:
         return loss - derate * p_mech
     u = p_mech
@@ -168,16 +144,11 @@ def electric_power_w(mo, torque_nm, speed_radps, extra_frac, derate_frac):
 def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_frac, derate_frac, t_cap_nm):
     """Torque range [t_lo, t_hi] whose electrical power stays within [-p_chg_max_w, p_dis_max_w].
 
-    Without a derate both sides are quadratics in T. Motoring with a derate, P_elec(T) = T·ω/η'
-    is solved by Newton's method from the root for the loss L + δ·T·ω (a close start just above
-    the exact root). ``t_cap_nm`` is the torque envelope the motor cannot exceed anyway: where the
-    exact power at the cap is within the limit, the power limit does not bind and t_hi is that
-    start (at or above the cap) without iterating. So t_hi is exact wherever it is below the cap.
-
-    When even zero torque needs more than ``p_dis_max_w`` (the spinning motor's iron and friction
-    loss with an empty battery), t_hi < 0: the motor must brake the shaft enough to cover its own
-    loss (P_elec = the limit), the shaft pays for it, and the battery never gives energy it does not
-    have.
+    Without a derate both sides are quadratics in T; motoring with one, P_elec(T) = T·ω/η' is solved by Newton's
+    method from just above the root. Where the exact power at ``t_cap_nm`` (the envelope the motor cannot exceed
+    anyway) is within the limit, t_hi is that start without iterating: t_hi is exact wherever it is below the cap.
+    When even zero torque needs more than ``p_dis_max_w`` (the spinning motor's loss, an empty battery), t_hi < 0:
+    the motor brakes the shaft to cover its own loss, and the battery never gives energy it does not have.
     """
     w = abs(speed_radps)
     f = 1.0 + extra_frac
@@ -190,7 +161,9 @@ def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_fra
 
 @jit
 def _upper_root(a, b, c):
-    """The larger root of a·T² + b·T + c = 0 (a > 0), or the vertex −b/(2a) where there is none."""
+    """The larger root of a·T² + b·T + c = 0 for a > 0, or the vertex −b/(2a) where there is none; −c/b if a = 0."""
+    if not a > 0.0:
+        return -c / b
     disc = b * b - 4.0 * a * c
     return -b / (2.0 * a) if disc < 0.0 else (-b + math.sqrt(disc)) / (2.0 * a)
 
@@ -198,12 +171,11 @@ def _upper_root(a, b, c):
 @jit
 def _torque_limits(a, c0, w, p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm):
     """:func:`torque_limits_for_power` on scalars: P_loss = a·T² + c0 at speed ``w``."""
+    b = w * (1.0 - derate_frac)  # generating: a T² + b T + c0 + p = 0 at electrical power −p
     if c0 > p_dis_max_w and w > 0.0:
-        # generating side: a T² + w(1-d) T + c0 - p_dis = 0, the larger (negative) root, or the vertex
-        b = w * (1.0 - derate_frac)
-        t_drag = _upper_root(a, b, c0 - p_dis_max_w) if a > 0.0 else -(c0 - p_dis_max_w) / b
-        t_gen = _upper_root(a, b, c0 + p_chg_max_w) if a > 0.0 else -(c0 + p_chg_max_w) / b
-        return min(t_gen, t_drag), t_drag
+        # the drag that covers the loss beyond p_dis: the larger (negative) root, or the vertex
+        t_drag = _upper_root(a, b, c0 - p_dis_max_w)
+        return min(_upper_root(a, b, c0 + p_chg_max_w), t_drag), t_drag
     # motoring side: a T² + w(1 + d) T + c0 - p_dis = 0, positive root: exact without a derate; with one, the
     # root of the loss L + d·T·ω, a little above the exact root (the exact loss is larger), which Newton's
     # method then reaches from above in two steps (the error ~d²/100 squares twice)
@@ -220,36 +192,36 @@ def _torque_limits(a, c0, w, p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm):
         u = t_cap_nm * w
         binds = u + _derated_loss_w(u, a * t_cap_nm * t_cap_nm + c0, derate_frac) > p_dis_max_w
     if derate_frac > 0.0 and w > 1e-6 and t_hi > 1e-9 and binds:
-        d = derate_frac
-        k = DERATE_KNEE_EFF
-        k3 = k * k * k
-        for _ in range(_NEWTON_ITERS):
-            u = t_hi * w
-            v = u + a * t_hi * t_hi + c0
-            dv = w + 2.0 * a * t_hi
-            if u >= k * v:  # P = u·v/(u − δ·v)
-                num = u * v
-                den = u - d * v
-                dnum = w * v + u * dv
-                dden = w - d * dv
-            else:  # P = K³v³/(K³v² − δ·u·(3K·v − 2u))
-                num = k3 * v * v * v
-                den = k3 * v * v - d * u * (3.0 * k * v - 2.0 * u)
-                dnum = 3.0 * k3 * v * v * dv
-                dden = 2.0 * k3 * v * dv - d * (3.0 * k * (w * v + u * dv) - 4.0 * u * w)
-            # Newton on P = num/den: T -= (num/den − p)/P' with P' = (dnum·den − num·dden)/den², one division
-            slope = dnum * den - num * dden
-            if not (slope > 0.0 and den > 0.0):
-                break
-            t_hi = max(t_hi - (num - p_dis_max_w * den) * den / slope, 0.0)
-    # generating side: a T² + w(1-d) T + c0 + p_chg = 0; allowed T >= larger root, and never
-    # beyond the vertex where more braking torque would return less power
-    b = w * (1.0 - derate_frac)
-    c = c0 + p_chg_max_w
-    if a > 0.0:
-        t_lo = _upper_root(a, b, c)
-    elif b > 0.0:
-        t_lo = -c / b
-    else:
-        t_lo = -1e12
+        t_hi = _derated_motoring_limit(t_hi, a, c0, w, p_dis_max_w, derate_frac)
+    # generating side: allowed T >= the larger root, never beyond the vertex where more braking torque would
+    # return less power
+    t_lo = _upper_root(a, b, c0 + p_chg_max_w) if (a > 0.0 or b > 0.0) else -1e12
     return min(t_lo, 0.0), max(t_hi, 0.0)
+
+
+@jit
+def _derated_motoring_limit(t_hi, a, c0, w, p_dis_max_w, d):
+    """The torque where the derated P_elec = T·ω/η' (:func:`_derated_loss_w`'s two branches) reaches
+    ``p_dis_max_w``: Newton's method from ``t_hi``, just above it."""
+    k = DERATE_KNEE_EFF
+    k3 = k * k * k
+    for _ in range(_NEWTON_ITERS):
+        u = t_hi * w
+        v = u + a * t_hi * t_hi + c0
+        dv = w + 2.0 * a * t_hi
+        if u >= k * v:  # P = u·v/(u − δ·v)
+            num = u * v
+            den = u - d * v
+            dnum = w * v + u * dv
+            dden = w - d * dv
+        else:  # P = K³v³/(K³v² − δ·u·(3K·v − 2u))
+            num = k3 * v * v * v
+            den = k3 * v * v - d * u * (3.0 * k * v - 2.0 * u)
+            dnum = 3.0 * k3 * v * v * dv
+            dden = 2.0 * k3 * v * dv - d * (3.0 * k * (w * v + u * dv) - 4.0 * u * w)
+        # Newton on P = num/den: T -= (num/den − p)/P' with P' = (dnum·den − num·dden)/den², one division
+        slope = dnum * den - num * dden
+        if not (slope > 0.0 and den > 0.0):
+            break
+        t_hi = max(t_hi - (num - p_dis_max_w * den) * den / slope, 0.0)
+    return t_hi

@@ -11,8 +11,9 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, ClassVar, TypeVar
 
+import numpy as np
 import yaml
 
 P = TypeVar("P", bound="Params")
@@ -21,10 +22,12 @@ P = TypeVar("P", bound="Params")
 def spec(default: Any, doc: str, *, min: float | None = None, max: float | None = None,
          min_exclusive: bool = False) -> Any:
     """A dataclass field with a documented meaning and an admissible range."""
-    return dataclasses.field(
-        default=default,
-        metadata={"doc": doc, "min": min, "max": max, "min_exclusive": min_exclusive},
-    )
+    return dataclasses.field(default=default, metadata={"doc": doc, "min": min, "max": max,
+                                                        "min_exclusive": min_exclusive})
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
 class ConfigError(ValueError):
@@ -33,33 +36,34 @@ class ConfigError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class Params:
-    """Base class: validation on construction, dict and YAML conversion."""
+    """Base class: validation on construction, dict and YAML conversion, and (a component's record) packing."""
+
+    #: The packed layout the kernels read, set by a component's module (``LAYOUT = GliderParams.LAYOUT = ...``).
+    LAYOUT: ClassVar[Any] = None
+
+    def pack(self) -> np.ndarray:
+        """The float64 vector of :attr:`LAYOUT` that the kernels read."""
+        return self.LAYOUT.pack(self)
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if isinstance(value, Params):
-                continue
             if isinstance(value, (list, tuple)):
-                object.__setattr__(self, f.name, tuple(float(v) for v in value))
-                values = getattr(self, f.name)
-            elif isinstance(value, bool):
-                continue
-            elif isinstance(value, (int, float)):
+                values = tuple(float(v) for v in value)
+                object.__setattr__(self, f.name, values)
+            elif _is_number(value):
                 values = (float(value),)
             else:
                 continue
-            lo, hi = f.metadata.get("min"), f.metadata.get("max")
+            where, lo, hi = f"{type(self).__name__}.{f.name}", f.metadata.get("min"), f.metadata.get("max")
+            exclusive = f.metadata.get("min_exclusive")
             for v in values:
                 if not math.isfinite(v):
-                    raise ConfigError(f"{type(self).__name__}.{f.name}: value {v} is not finite")
-                if lo is not None and (v < lo or (f.metadata.get("min_exclusive") and v == lo)):
-                    op = ">" if f.metadata.get("min_exclusive") else ">="
-                    raise ConfigError(
-                        f"{type(self).__name__}.{f.name}: value {v} is out of range (must be {op} {lo})")
+                    raise ConfigError(f"{where}: value {v} is not finite")
+                if lo is not None and (v < lo or (exclusive and v == lo)):
+                    raise ConfigError(f"{where}: value {v} is out of range (must be {'>' if exclusive else '>='} {lo})")
                 if hi is not None and v > hi:
-                    raise ConfigError(
-                        f"{type(self).__name__}.{f.name}: value {v} is out of range (must be <= {hi})")
+                    raise ConfigError(f"{where}: value {v} is out of range (must be <= {hi})")
         self.validate()
 
     def validate(self) -> None:
@@ -70,49 +74,35 @@ class Params:
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for f in dataclasses.fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, Params):
-                out[f.name] = v.to_dict()
-            elif isinstance(v, tuple):
-                out[f.name] = [float(x) for x in v]
-            else:
-                out[f.name] = v
-        return out
+        """The fields as plain values (nested records as dicts, tuples as lists): the YAML form."""
+        return dataclasses.asdict(self, dict_factory=lambda kv: {k: list(v) if isinstance(v, tuple) else v
+                                                                  for k, v in kv})
 
     @classmethod
     def from_dict(cls: type[P], data: dict[str, Any], *, where: str = "") -> P:
+        label = where or cls.__name__
         if not isinstance(data, dict):
-            raise ConfigError(f"{where or cls.__name__}: expected a mapping, got {type(data).__name__}")
+            raise ConfigError(f"{label}: expected a mapping, got {type(data).__name__}")
         known = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - set(known))
         if unknown:
-            raise ConfigError(
-                f"{where or cls.__name__}: unknown field(s) {unknown}; known: {sorted(known)}")
+            raise ConfigError(f"{label}: unknown field(s) {unknown}; known: {sorted(known)}")
         kwargs: dict[str, Any] = {}
         for name, value in data.items():
             f = known[name]
-            default = getattr(cls, name, None) if f.default is dataclasses.MISSING else f.default
-            if f.default_factory is not dataclasses.MISSING:  # nested Params
-                default = f.default_factory()
+            default = f.default if f.default_factory is dataclasses.MISSING else f.default_factory()
             if isinstance(default, Params):
-                kwargs[name] = type(default).from_dict(value, where=f"{where or cls.__name__}.{name}")
+                value = type(default).from_dict(value, where=f"{label}.{name}")
             elif isinstance(default, bool):
                 if not isinstance(value, bool):
-                    raise ConfigError(f"{where or cls.__name__}.{name}: expected true/false, got {value!r}")
-                kwargs[name] = value
+                    raise ConfigError(f"{label}.{name}: expected true/false, got {value!r}")
             elif isinstance(default, tuple):
-                if not isinstance(value, (list, tuple)) or not all(
-                        isinstance(x, (int, float)) and not isinstance(x, bool) for x in value):
-                    raise ConfigError(f"{where or cls.__name__}.{name}: expected a list of numbers, got {value!r}")
-                kwargs[name] = tuple(float(x) for x in value)
-            elif isinstance(default, (int, float)):
-                if isinstance(value, bool) or not isinstance(value, (int, float)):
-                    raise ConfigError(f"{where or cls.__name__}.{name}: expected a number, got {value!r}")
-                kwargs[name] = value
-            else:
-                kwargs[name] = value
+                if not isinstance(value, (list, tuple)) or not all(_is_number(x) for x in value):
+                    raise ConfigError(f"{label}.{name}: expected a list of numbers, got {value!r}")
+                value = tuple(float(x) for x in value)
+            elif isinstance(default, (int, float)) and not _is_number(value):
+                raise ConfigError(f"{label}.{name}: expected a number, got {value!r}")
+            kwargs[name] = value
         try:
             return cls(**kwargs)
         except ConfigError as exc:
@@ -144,12 +134,3 @@ class Params:
         if data is None:
             raise ConfigError(f"{where}: the config is empty")
         return cls.from_dict(data, where=where)
-
-    @classmethod
-    def describe(cls) -> list[tuple[str, Any, str]]:
-        """(name, default, doc) for every field: the parameter table in the docs."""
-        rows = []
-        for f in dataclasses.fields(cls):
-            default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-            rows.append((f.name, default, f.metadata.get("doc", "")))
-        return rows

@@ -1,56 +1,25 @@
 """The motor's thermal parameters and effects: the paper's eqs 1-10, for both thermal models.
 
-``ThermalParams.model`` selects the temperature model; both share this parameter record and one
-step (``thermal_network.thermal_step``):
+``ThermalParams.model`` selects the temperature model, both stepped by ``thermal_network.thermal_step``:
+``"network"`` (the default; winding, housing, coolant loop, calibrated to the paper's figures, which the literal
+model cannot show: its h_water·A = 1282 W/K with a perfect radiator clamps the motor at the 35 °C thermostat) or
+``"paper_eqs"``, the paper's one node as written: m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool (eq 7) with
+Q_air = h_air·A·(T − T_amb) (eq 1), h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63 with V in km/h (eq 4, the
+documented form; ADVISOR's code feeds half the speed in m/s against 30), Q_cool = h_water·A·(T − T_water) above
+the thermostat (eq 5, T_water held) and Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
 
-* ``"network"`` (the default of ``paper_bus``): winding and housing plus a coolant loop with its
-  own heat capacity, a thermostat and a finite radiator (``thermal_network.py``), calibrated to the
-  paper's figures. With the paper's h_water·A = 1282 W/K and a perfect radiator the coolant clamps
-  the motor at the 35 °C thermostat: the literal model cannot show the paper's own Figs 7-8.
-* ``"paper_eqs"``: the paper's equations as written, one lumped node (eq 7)::
-
-    m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool
-
-  - Q_gen: motor losses plus the paper's extra 5 % (noise, friction), ``extra_loss_frac``.
-  - Q_air = h_air·A·(T − T_amb) (eq 1) with h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63
-    (eq 4), V the vehicle speed in km/h (the paper's and ADVISOR's documentation's form; ADVISOR's
-    code feeds half the speed in m/s against 30).
-  - Q_cool = h_water·A·(T − T_water) (eq 5) above the thermostat (35 °C), with a perfect radiator
-    (T_water, a condition of the run, stays at its initial value); h_water scaled by the coolant
-    mode (on 1, degraded < 1, off 0).
-  - Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
-
-Heat index (eqs 8-9): an integrator x with dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1),
-PWM = clip(x, 0, 1); the available torque is T_max = T_cont·PWM + T_peak·(1 − PWM), never above
-T_peak (both envelopes are 0 beyond the maximum speed). x starts at −PWM_initial(T₀) and is held
-in [x_min, 1] (anti-windup) with x_min = −PWM_initial(T), T the motor temperature now: the
-negative part of x is the overload reserve, and a motor has the reserve its temperature allows
-(a hot-started motor regains it as it cools, a cold-started one loses it as it heats).
-
-Eq 10 (T_gain = f(T_mc, t)) is left open by the paper (T_gain in [0.1, 0.3]). Our closures, time
-entering through the temperature, which integrates the load history: T_gain rises linearly from
-``t_gain_cold`` at ``t_gain_temp_lo_c`` to ``t_gain_hot`` at ``t_gain_temp_hi_c``; PWM_initial(T)
-is ``pwm_initial_cold`` up to ``pwm_initial_temp_lo_c`` and falls linearly to 0 at
-``pwm_initial_temp_hi_c`` (the paper: 0.3 at its 20 °C start).
-
-Efficiency derate: −1 percentage point per 15 °C above 35 °C (the paper's simulation, consistent
-with eq 10's NdFeB remanence loss of ≈12.6 %/100 K): η' = η − δ, δ = ``derate_frac_per_c``·
-(T − 35 °C), the losses following from η' (``motor.py``). Protection: at ``cutoff_temp_c``
-(70 °C) the motor stops (torque 0) until it has cooled to ``cutoff_release_temp_c``. With
-``enabled=False`` the motor is ADVISOR's unmodified one (the paper's baseline): no derate, no
-extra loss, no cutoff, peak torque always; temperatures and heat index are still reported.
-
-Fields whose doc starts with "fitted:" hold the values written by ``python -m
-hev_thermal_env.calibration --out DIR`` (``DIR/fitted_params.yaml``), within the plausible ranges
-of their ``spec``; docs/thermal_model.md gives every value's source.
+Heat index (eqs 8-9): dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1), PWM = clip(x, 0, 1), available torque
+T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; eq 10's T_gain and PWM_initial are our
+linear ramps in the motor temperature. Efficiency derate −1 point per 15 °C above 35 °C (``motor.py``), cutoff at
+70 °C until cooled to 60 °C; ``enabled=False`` is ADVISOR's unmodified motor (the paper's baseline). Fields whose
+doc starts with "fitted:" hold the values of ``python -m hev_thermal_env.calibration``. Sources and rationale:
+docs/thermal_model.md.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-
-import numpy as np
 
 from .jit import jit
 from .layout import Layout, Slot
@@ -189,32 +158,25 @@ class ThermalParams(Params):
         """Heat capacity of the motor node, m·c_p."""
         return self.mass_kg * self.cp_j_per_kgk
 
-    def pack(self) -> np.ndarray:
-        return LAYOUT.pack(self)
 
-
-LAYOUT = Layout.of_fields(ThermalParams, replace={
+LAYOUT = ThermalParams.LAYOUT = Layout.of_fields(ThermalParams, replace={
     "model": Slot("model", fill=lambda p: float(THERMAL_MODELS.index(p.model))),
-}, derived=(
+}, derived={
     # constants of the per-row code, computed once here (the kernel has ~100 ns per row; a division is ~5)
-    Slot("motor_heat_capacity_j_per_k", fill=lambda p: p.mass_kg * p.cp_j_per_kgk, fields=()),
-    Slot("housing_heat_capacity_j_per_k", fill=lambda p: p.mass_kg * p.cp_j_per_kgk - p.winding_heat_capacity_j_per_k,
-         fields=()),
-    Slot("eps_sigma_area", fill=lambda p: p.emissivity * SIGMA * p.area_m2, fields=()),
-    Slot("h_water_area_w_per_k", fill=lambda p: p.h_water_w_per_m2k * p.area_m2, fields=()),
-    Slot("inv_valve_band_per_k", fill=lambda p: 1.0 / p.thermostat_band_k, fields=()),
-    Slot("inv_fan_band_per_k", fill=lambda p: 1.0 / p.fan_band_k, fields=()),
-    Slot("inv_radiator_ref_air_speed", fill=lambda p: 1.0 / p.radiator_ref_air_speed_mps, fields=()),
-    Slot("air_speed_per_mps", fill=lambda p: 3.6 / p.air_ref_speed_kmh, fields=()),
-    Slot("ram_air_per_mps", fill=lambda p: p.ram_air_frac / p.radiator_ref_air_speed_mps, fields=()),
-    Slot("still_air_term", fill=lambda p: (p.still_air_speed_mps / p.radiator_ref_air_speed_mps)
-         ** p.radiator_air_exponent, fields=()),
-    Slot("tgain_slope_per_c", fill=lambda p: (p.t_gain_hot - p.t_gain_cold) / (p.t_gain_temp_hi_c - p.t_gain_temp_lo_c),
-         fields=()),
-    Slot("pwm0_slope_per_c", fill=lambda p: -p.pwm_initial_cold / (p.pwm_initial_temp_hi_c - p.pwm_initial_temp_lo_c),
-         fields=()),
-    Slot("inv_t_s", fill=lambda p: 1.0 / p.t_s_s, fields=()),
-))
+    "motor_heat_capacity_j_per_k": lambda p: p.mass_kg * p.cp_j_per_kgk,
+    "housing_heat_capacity_j_per_k": lambda p: p.mass_kg * p.cp_j_per_kgk - p.winding_heat_capacity_j_per_k,
+    "eps_sigma_area": lambda p: p.emissivity * SIGMA * p.area_m2,
+    "h_water_area_w_per_k": lambda p: p.h_water_w_per_m2k * p.area_m2,
+    "inv_valve_band_per_k": lambda p: 1.0 / p.thermostat_band_k,
+    "inv_fan_band_per_k": lambda p: 1.0 / p.fan_band_k,
+    "inv_radiator_ref_air_speed": lambda p: 1.0 / p.radiator_ref_air_speed_mps,
+    "air_speed_per_mps": lambda p: 3.6 / p.air_ref_speed_kmh,
+    "ram_air_per_mps": lambda p: p.ram_air_frac / p.radiator_ref_air_speed_mps,
+    "still_air_term": lambda p: (p.still_air_speed_mps / p.radiator_ref_air_speed_mps) ** p.radiator_air_exponent,
+    "tgain_slope_per_c": lambda p: (p.t_gain_hot - p.t_gain_cold) / (p.t_gain_temp_hi_c - p.t_gain_temp_lo_c),
+    "pwm0_slope_per_c": lambda p: -p.pwm_initial_cold / (p.pwm_initial_temp_hi_c - p.pwm_initial_temp_lo_c),
+    "inv_t_s": lambda p: 1.0 / p.t_s_s,
+})
 """Packed thermal parameters: one slot per field, in field order (the model as its index), then derived constants."""
 IDX = LAYOUT.index()
 

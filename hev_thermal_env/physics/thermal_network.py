@@ -1,39 +1,16 @@
 """The motor's lumped thermal network, and the one thermal step both thermal models go through.
 
-Nodes and heat flows of ``ThermalParams.model = "network"`` (the default of ``paper_bus``)::
+Nodes of ``ThermalParams.model = "network"`` (diagram, equations and every parameter's source:
+docs/thermal_model.md): the winding (heated by the copper loss; its temperature is **the motor temperature**
+that the heat index, the derate, the valve and the cutoff read), the housing (heated by the iron and friction
+losses, cooled by air convection, eqs 1 and 4, and radiation, eq 6, over the paper's cooling area) and the
+coolant (through a proportional thermostat valve on the winding temperature, to a radiator whose UA grows with
+the ram air and the fan). The run's coolant mode scales the jacket and radiator conductances.
 
-     copper loss          G_w                 G_j·open·f_c                UA(v, fan)·f_c
-    ───────────► winding ─────► housing ───────────────► coolant ──────────────────► ambient
-                 T_w, C_w       T_h, C_h   iron+friction   T_c, C_c     (radiator)
-                                   │  ◄──────────────
-                                   │  h_air(v)·A·(T_h − T_a) + ε·σ·A·(T_h⁴ − T_a⁴)
-                                   └───────────────────────────────────────────────► ambient
-
-* Winding node (C_w: copper, insulation, resin), heated by the copper loss (k_cu·T², with the
-  paper's extra 5 % and the derate's extra loss). Its temperature is **the motor temperature**, the
-  sensor motor controllers read: the heat index, the derate, the valve and the 70 °C cutoff use it.
-* Housing node (C_h: stator iron, frame, rotor; the rest of Table 1's m·c_p), heated by the iron
-  and friction losses (with the extra 5 %), cooled by air convection (eqs 1, 4) and radiation
-  (eq 6) over the paper's cooling area, and by the coolant jacket.
-* Thermostat valve: open = clip((T_w − 35 °C)/band, 0, 1), the paper's "cooling water opened when
-  the motor temperature exceeds 35 °C" made proportional; the jacket conductance G_j is at most the
-  paper's h_water·A = 1282 W/K (the film alone).
-* Coolant node (C_c: water-glycol, radiator, pump), starting at ``Conditions.coolant_temp_c``.
-* Radiator: UA(v, fan) = UA_ref·(v_face/v_ref)^n, v_face = max(ram_air_frac·v, fan·v_fan, v_still);
-  the fan runs from ``fan_on_temp_c`` of the coolant, at full speed ``fan_band_k`` above it (the
-  run's ``fan_factor`` 0: a failed fan).
-* The run's coolant mode (f_c: on 1, degraded < 1, off 0) scales G_j and UA: a weak pump, a clogged
-  radiator, no coolant.
-
-Integration: the conductances are evaluated at the start of the step (h_air at the old ΔT, the
-radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin, the valve and the fan at the old
-temperatures); the three temperatures then take one backward-Euler step (a tridiagonal 3 × 3
-solve): stable at any step, and the reported flows close the balance exactly,
-C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt.
-
-``"paper_eqs"`` keeps the paper's node as written (``thermal.py``: explicit Euler, perfect radiator
-at the run's water temperature): the housing is the same node as the winding and the coolant is
-held. Every parameter's value and source: docs/thermal_model.md.
+Integration: conductances at the start of the step (radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in
+kelvin), then one backward-Euler step of the three temperatures (a tridiagonal solve): stable at any step, and
+the reported flows close the balance exactly, C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad −
+Q_radiator)·dt. ``"paper_eqs"`` (``thermal.py``): one explicit-Euler node, the coolant held.
 """
 
 from __future__ import annotations
@@ -44,21 +21,10 @@ from .thermal import IDX
 
 
 @jit
-def ram_air_term(ram_air_per_mps, expo, speed_mps):
-    """(ram_air_frac·v / v_ref)^n: the radiator's ram-air factor at the vehicle speed (0 standing)."""
-    x = max(speed_mps, 0.0) * ram_air_per_mps
-    return x ** expo if x > 0.0 else 0.0
-
-
-@jit
 def radiator_core(ua_ref, ram_term, still_term, inv_ref_mps, expo, fan_mps, fan_on_c, inv_fan_band, coolant_temp_c,
                   fan_factor):
-    """UA_ref·(v_face/v_ref)^n with v_face = max(ram air, fan, still air), from scalars.
-
-    The power is monotone, so the factor is the largest of the three factors: ram air
-    (:func:`ram_air_term`, by speed) and still air (a constant) come precomputed; the fan's is
-    computed only while the fan runs.
-    """
+    """UA_ref·(v_face/v_ref)^n with v_face = max(ram air, fan, still air), from scalars: the largest of the three
+    factors (the power is monotone); ram air's (ram_air_frac·v/v_ref)^n and still air's come precomputed."""
     fan = min(max((coolant_temp_c - fan_on_c) * inv_fan_band, 0.0), 1.0) * fan_factor
     factor = max(ram_term, still_term)
     if fan > 0.0:
@@ -69,12 +35,9 @@ def radiator_core(ua_ref, ram_term, still_term, inv_ref_mps, expo, fan_mps, fan_
 @jit
 def network_core(a_w, a_h, a_c, g_w, g, g_air, g_rad, ua, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w,
                  ambient_c):
-    """One backward-Euler step of the three nodes from scalars.
-
-    ``a_*`` = heat capacity / step, ``g`` the jacket conductance at the valve's opening; every
-    conductance is taken at the start of the step. Returns (winding, housing, coolant
-    temperature, Q_air, Q_rad, Q_cool, Q_radiator).
-    """
+    """One backward-Euler step of the three nodes from scalars; ``a_*`` = heat capacity / step, ``g`` the jacket
+    conductance at the valve's opening. Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool,
+    Q_radiator)."""
     # tridiagonal system in (T_w', T_h', T_c'): eliminate the winding and the coolant into the housing row
     inv_w = 1.0 / (a_w + g_w)
     inv_c = 1.0 / (a_c + g + ua)
@@ -99,19 +62,13 @@ def _radiation_conductance(eps_sigma_area, temp_c, ambient_c):
 @jit
 def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, water_c, coolant_factor,
                  fan_factor, forced_term, ram_term, inv_dt):
-    """One step of the selected thermal model (``ThermalParams.model``); ``inv_dt`` = 1 / step.
+    """One step of the selected thermal model; ``temp_c`` is the motor (winding) temperature, ``inv_dt`` = 1 / step.
 
-    ``temp_c`` is the motor temperature (the winding node of the network). ``forced_term`` and
-    ``ram_term`` are the speed's factors of eq 4 and of the radiator (``thermal.forced_air_term``,
-    :func:`ram_air_term`): the step kernel computes them once per distinct speed, since every row
-    of a DP stage (or of a batch over one cycle step) shares it. Returns (motor, housing, coolant
-    temperature, Q_air, Q_rad, Q_cool, Q_radiator, coolant on), where Q_cool leaves the motor
-    into the coolant and Q_radiator leaves the coolant into the air. For ``paper_eqs`` the whole
-    motor is one node heated by both loss parts, the coolant is the run's water temperature (a
-    perfect radiator: Q_radiator = Q_cool) and the coolant node is held.
-
-    Every parameter is read once, before any branch, and both models run on scalars (speed rule
-    in jit.py: no packed vector inside a branch of the per-row code).
+    ``forced_term`` and ``ram_term`` are the speed's factors of eq 4 and of the radiator, which the step kernel
+    computes once per distinct speed. Returns (motor, housing, coolant temperature, Q_air, Q_rad, Q_cool (motor to
+    coolant), Q_radiator (coolant to air), coolant on). ``paper_eqs``: one node heated by both loss parts, a
+    perfect radiator at the run's water temperature (Q_radiator = Q_cool), the coolant node held. Every parameter
+    is read before any branch (speed rule in jit.py).
     """
     network = th[IDX.model] == thm.MODEL_NETWORK
     c_m = th[IDX.motor_heat_capacity_j_per_k]
