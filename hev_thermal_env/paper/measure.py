@@ -1,22 +1,11 @@
 """The runs behind the paper's figures and what is measured on them, for the report and the calibration alike.
 
-Every cycle run is the paper's own strategy, ``rule`` (ADVISOR's parallel electric assist), in the
-paper's conditions (ambient and motor at 20 °C, coolant on), driven over the physics core by
-:func:`.drive.drive`; Table 3's runs have the coolant closed, the motor starting at 30 or 50 °C.
-
-* :func:`cycle_run`: one cycle's heat-index, temperature and fuel figures (Table 2, Figs 7-10);
-* :class:`Baseline`: the thermal-off runs, which no thermal parameter changes;
-* :func:`accel_times`, :func:`sustained_speeds`, :func:`table3`: Table 3;
-* :func:`measure`: every figure of the calibration's targets on a vehicle;
-* :func:`figure_values`: our value of each row of :data:`~.figures.PAPER_FIGURES` from the above;
-* :func:`fig4_curve`: the heat index at twice the continuous torque from cold (Fig. 4);
-* :func:`cutoff_curve`: the motor at peak power without coolant, from 20 °C to the cutoff.
-
-"After warm-up" on beijing: from the first second the motor reaches 33.5 °C (the lower edge of
-the paper's band) to the end; a motor that never gets there is scored by its maximum. A heat index
-that never rises has its onset at ``inf`` and its return at 0 (the "back to 0" row is met trivially).
-Top speed and the 4 % grade speed are sustained engine-alone speeds, unchanged by the thermal
-model by construction.
+Every cycle run is the paper's own strategy, ``rule``, in the paper's conditions (ambient and motor at 20 °C,
+coolant on), driven over the physics core (:func:`hev_thermal_env.simulate.drive`); Table 3's runs have the
+coolant closed, the motor starting at 30 or 50 °C. "After warm-up" on beijing: from the first second the motor
+reaches 33.5 °C (the lower edge of the paper's band); a motor that never gets there is scored by its maximum. A
+heat index that never rises has its onset at ``inf`` and its return at 0 (the "back to 0" row is met trivially).
+Top speed and the 4 % grade speed are sustained engine-alone speeds, unchanged by the thermal model.
 """
 
 from __future__ import annotations
@@ -34,8 +23,8 @@ from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, pa
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
+from hev_thermal_env.simulate import drive
 
-from .drive import drive
 from .figures import CALIBRATION_TARGETS, PAPER_FIGURE_BY_NAME, TABLE3_RUNS
 
 RPM = math.pi / 30.0
