@@ -1,21 +1,11 @@
 """Reliability checks: random-action fuzzing of the environment against physical invariants.
 
-:func:`fuzz` drives the native vector environment with random actions (including the bounds and
-values beyond them) over every built-in cycle, every scenario and random bus cycles, and checks
-at every step that
-
-* observations, rewards and infos hold no NaN or inf, and observations lie in their space;
-* SOC stays within the battery's hard window; the heat index within [0, 1]; fuel is never negative;
-* the motor temperature is finite and never below the coolest heat sink (ambient, coolant, or
-  its own starting temperature) minus :data:`TEMP_TOL_C`;
-* the battery's chemical power of every step equals −ΔSOC·capacity·V_oc (coulomb counting from the
-  SOC itself, independent of the step's power bookkeeping: a SOC held in its window by a clamp
-  while current flows fails here, see ``physics/audit.py``);
-
-and at the end of every episode that the energy balance closes within :data:`BALANCE_TOL` (engine
-shaft energy + battery energy = wheel energy + losses + brakes + accessories).
-
-``python benchmarks/fuzz.py --steps 1000000`` runs the long version and writes JSON.
+:func:`fuzz` drives the native vector environment with random actions (the bounds and beyond) over every built-in
+cycle, scenario and random bus cycles and checks every step: no NaN or inf, observations in their space, SOC in the
+battery's hard window, heat index in [0, 1], no negative fuel, the motor never below its coolest heat sink (ambient,
+coolant, its start) minus :data:`TEMP_TOL_C`, and the battery's chemical power equal to −ΔSOC·capacity·V_oc
+(coulomb counting from the SOC itself: a SOC held in its window by a clamp while current flows fails here); and the
+energy balance of every episode within :data:`BALANCE_TOL`. The long run: ``python benchmarks/fuzz.py``.
 """
 
 from __future__ import annotations
@@ -47,11 +37,7 @@ def _balance_terms(out: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, progress: bool = False) -> dict[str, Any]:
     """Run about ``n_steps`` random env-steps, shared by the scenarios; raise AssertionError on the first violation.
-
-    Every scenario of :func:`~hev_thermal_env.scenarios.list_scenarios` over every built-in cycle and
-    random bus cycles. Returns counts and the worst values seen (steps, episodes, max energy-balance
-    error, SOC range...).
-    """
+    Returns counts and the worst values seen (steps, episodes, max energy-balance error, SOC range...)."""
     scenarios = list_scenarios()
     cycles = list_cycles() + ["random_bus"]
     rng = np.random.default_rng(seed)
@@ -133,10 +119,7 @@ def _random_actions(rng: np.random.Generator, aggressive: np.ndarray) -> np.ndar
 
 
 def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, soc_before):
-    """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink.
-
-    Coulomb counting too: the battery's chemical power equals −ΔSOC·capacity·V_oc(SOC before).
-    """
+    """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink."""
     bat = env.config.battery
     space = env.single_observation_space
     _check_finite(obs, rew, info, out)
@@ -175,12 +158,9 @@ def _sinks(env) -> np.ndarray:
 
 
 def _check_finite(obs, rew, info, out) -> None:
-    if not np.all(np.isfinite(obs)):
-        raise AssertionError("NaN or inf in an observation")
-    if not np.all(np.isfinite(rew)):
-        raise AssertionError("NaN or inf in a reward")
-    if not np.all(np.isfinite(out)):
-        raise AssertionError("NaN or inf in a physics output")
+    for what, x in (("an observation", obs), ("a reward", rew), ("a physics output", out)):
+        if not np.all(np.isfinite(x)):
+            raise AssertionError(f"NaN or inf in {what}")
     for key, val in info.items():
         if key.startswith("_") or not isinstance(val, np.ndarray) or val.dtype.kind not in "fiub":
             continue

@@ -1,16 +1,7 @@
-"""Statistics over training seeds: the interquartile mean (IQM) and its bootstrap confidence interval.
-
-A learned policy's score is a random variable of its training seed, so a result over several seeds
-is reported as the IQM (the mean of the middle 50 %, robust to one bad seed yet less noisy than the
-median) with a 95 % percentile bootstrap interval (``scipy.stats.bootstrap``, 2,000 resamples, a
-fixed random seed, so the same scores give the same interval), as recommended by Agarwal et al.,
-*Deep RL at the edge of the statistical precipice* (NeurIPS 2021).
-
-Over several tasks (cycle × scenario), :func:`stratified_iqm_ci` pools the scores of every task into
-one IQM and resamples the seeds within each task (a stratified bootstrap), so a task with many
-seeds cannot stand in for one with few. Used by the sweep reports
-(:mod:`hev_thermal_env.training.sweep_report`) and the benchmark's seed families
-(:mod:`hev_thermal_env.evaluation.families`).
+"""Statistics over training seeds: the interquartile mean (IQM, robust to one bad seed, less noisy than the median)
+and its 95 % percentile bootstrap interval (``scipy.stats.bootstrap``, 2,000 resamples, a fixed seed), as Agarwal et
+al., *Deep RL at the edge of the statistical precipice* (NeurIPS 2021) recommend; over several tasks, a stratified
+bootstrap (:func:`stratified_iqm_ci`). See docs/metrics.md, *Seed families*.
 """
 
 from __future__ import annotations

@@ -1,11 +1,6 @@
-"""``python -m hev_thermal_env.calibration --out DIR``: fit, then write the parameters and the residual table.
-
-Writes ``DIR/fitted_params.yaml`` (a partial ``VehicleConfig``: ``VehicleConfig.from_yaml`` gives
-``paper_bus`` with these thermal values), ``DIR/residuals.md`` and ``DIR/residuals.json``.
-``--check`` exits with status 1 if the fitted values differ from ``ThermalParams``'s defaults;
-``--write-defaults`` writes them into ``ThermalParams``'s defaults (``physics/thermal.py``).
-``--no-fit`` skips the fit and reports the current defaults.
-"""
+"""``python -m hev_thermal_env.calibration --out DIR``: fit, then write ``DIR/fitted_params.yaml`` (a partial
+``VehicleConfig``: ``VehicleConfig.from_yaml`` gives ``paper_bus`` with these thermal values), ``DIR/residuals.md``
+and ``DIR/residuals.json``."""
 
 from __future__ import annotations
 

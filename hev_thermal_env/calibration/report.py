@@ -1,7 +1,5 @@
-"""The residual table: each target, the paper, ours (calibrated network), ours (paper's equations), verdicts.
-
-The targets are rows of the paper's one table of figures (:mod:`hev_thermal_env.paper.figures`), measured
-by :func:`hev_thermal_env.paper.measure.measure`.
+"""The residual table: each target (:data:`~hev_thermal_env.paper.figures.CALIBRATION_TARGETS`), the paper, ours
+(calibrated network), ours (the paper's equations), verdicts; measured by :func:`hev_thermal_env.paper.measure.measure`.
 """
 
 from __future__ import annotations

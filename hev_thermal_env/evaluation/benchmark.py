@@ -1,19 +1,11 @@
-"""The benchmark: every strategy on every cycle and scenario, one table and plots.
+"""The benchmark: every strategy on every cycle and scenario, measured against the thermal optimum.
 
-``python evaluate.py benchmark --out DIR`` writes ``results.csv``, ``results.json``, ``results.md``
-(:mod:`.results_table`: one row per cycle × scenario × strategy, measured against the thermal
-optimum ``dp_thermal`` of the same cycle and scenario, :mod:`.yardstick`; ``dp_thermal`` is added
-to every benchmark that lacks it) and PNGs: per cycle and scenario, speed / missed wheel energy /
-SOC / motor temperature / heat index / split over time for every strategy on shared axes
-(:mod:`.plots`), and a dot chart of the frontier ratio, one row of panels per scenario
-(:mod:`.fuel_chart`). Seed families (several trained policies as one, :mod:`.families`) add rows
-with the interquartile mean over their seeds and its bootstrap interval.
-
-Independent runs are spread over processes or Ray tasks (:mod:`.executors`); each run is
-deterministic (fixed seed, no shared state), so the results equal a serial run's, byte for byte:
-wall times go to ``timings.json``, not into the results. Every file is written atomically. The
-progress bar (:mod:`.progress`) names the runs in progress and weighs the time left by each run's
-expected cost.
+``evaluate.py benchmark`` (:func:`run_benchmark`) writes the result files (:mod:`.results_table`: one row per
+cycle × scenario × strategy with the ratios of :mod:`.yardstick`; ``dp_thermal``, the reference, is added where
+missing), the seed families' rows (:mod:`.families`) and the figures (:mod:`.plots`, :mod:`.fuel_chart`). The runs
+are spread over processes or Ray tasks (:mod:`.executors`) behind a progress bar (:mod:`.progress`); each is
+deterministic, so the files equal a serial run's byte for byte (wall times go to ``timings.json`` only). See
+docs/benchmark.md.
 """
 
 from __future__ import annotations
@@ -36,7 +28,7 @@ from .executors import make_executor
 from .families import Family, family_rows, representative, tag_members
 from .plots import plot_benchmark
 from .progress import BenchmarkProgress, expected_cost_s
-from .results_table import COLUMNS, _fmt, write_results
+from .results_table import write_results
 from .runner import run_strategy
 from .yardstick import REFERENCE, add_yardstick_columns, with_reference
 
@@ -47,9 +39,6 @@ REFERENCE_ADDED_NOTE = f"{REFERENCE} was added to the strategies: it is the refe
 TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", SPLIT_INFO_KEY,
               "motor_torque_nm", "engine_torque_nm", "fuel_g", "missed_wheel_energy_j", "motor_cutoff",
               "shaft_torque_demand_nm")
-
-__all__ = ["COLUMNS", "DEFAULT_CYCLES", "DEFAULT_SCENARIOS", "DEFAULT_STRATEGIES", "_fmt", "run_benchmark",
-           "validate", "write_results"]
 
 
 def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
@@ -96,11 +85,9 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
                   address: str | None = None, families: list[Family] | None = None) -> list[dict]:
     """Run every combination, write the result files and plots, return the rows (runs, then families).
 
-    ``dp_thermal``, the reference, is added to ``strategies`` if missing (``results.md`` says so).
-    ``families``: seed families (:class:`~.families.Family`, from :func:`~.families.parse_family`);
-    each member runs as ``ppo:PATH``. ``executor`` is where the runs happen (:mod:`.executors`):
-    ``local`` processes (``jobs`` of them) or ``ray`` tasks (a local Ray runtime of ``jobs`` CPUs,
-    or the cluster at ``address``); the files are the same, byte for byte."""
+    ``dp_thermal`` is added to ``strategies`` if missing (``results.md`` says so). ``families``: seed families
+    (:func:`~.families.parse_family`), each member run as ``ppo:PATH``. ``executor``: ``local`` (``jobs``
+    processes) or ``ray`` (a local runtime of ``jobs`` CPUs, or the cluster at ``address``)."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
     fams = list(families or [])

@@ -1,24 +1,10 @@
 """Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
 
-An executor runs one function over a list of independent tasks and yields ``(index, result)`` as the
-cells finish (and ``None`` every ``tick_s`` seconds without one, for a progress display); the
-benchmark puts each result in its place and writes the files itself, so the files do not depend on
-the executor (nor on the order in which cells finish). ``slots`` is how many cells run at once.
-
-* :class:`LocalExecutor` (the default, needs nothing beyond the package): the cells in this process
-  (``jobs=1``) or in a pool of ``jobs`` spawned processes. The workers ignore Ctrl-C (SIGINT), so
-  that only this process reports it (as ``KeyboardInterrupt``); leaving the executor on an
-  exception stops the workers instead of waiting for the cells in progress.
-* :class:`RayExecutor`: one Ray task per cell (one CPU each). Without an address it starts a local
-  Ray runtime with ``jobs`` CPUs; with one it joins a running cluster (``ray start --head`` on
-  one machine, ``ray start --address=HOST:PORT`` on the others; every node needs this package,
-  ``pip install "hev-thermal-env[ray]"``) and uses every CPU the cluster has. A runtime already
-  started in this process (``ray.init`` before the call) is used as it is. A task whose worker
-  process dies (killed, out of memory, node lost) is run again on another worker, up to
-  ``max_retries`` times: the cells are deterministic, so a re-run gives the same result.
-
-Ray is an optional dependency (the ``ray`` extra); asking for it without it installed, or for an
-address where no cluster answers, raises :class:`ExecutorError` with a one-line message.
+An executor runs one function over independent tasks and yields ``(index, result)`` as the cells finish (and
+``None`` every ``tick_s`` seconds without one, for the progress bar); ``slots`` is how many run at once. The
+benchmark puts each result in its place, so its files depend neither on the executor nor on the order in which
+cells finish. Ray is optional (the ``ray`` extra): asking for it without it installed, or for an address where no
+cluster answers, raises :class:`ExecutorError` in one line. See README, *Scaling out*.
 """
 
 from __future__ import annotations
@@ -82,7 +68,8 @@ def sigint_ignored() -> Iterator[None]:
 
 
 class LocalExecutor:
-    """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes that ignore Ctrl-C."""
+    """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes. The workers ignore Ctrl-C, so only this
+    process reports it (``KeyboardInterrupt``); leaving on an exception stops the workers, not waiting for them."""
 
     def __init__(self, jobs: int = 1):
         self.jobs = self.slots = max(1, int(jobs))
@@ -124,7 +111,9 @@ class LocalExecutor:
 
 
 class RayExecutor:
-    """One Ray task per cell; a local runtime of ``jobs`` CPUs, or the cluster at ``address``."""
+    """One Ray task (one CPU) per cell, on a local runtime of ``jobs`` CPUs or the cluster at ``address`` (every CPU
+    it has). A cell whose worker process dies is run again on another, up to ``max_retries`` times (the cells are
+    deterministic)."""
 
     def __init__(self, jobs: int = 1, address: str | None = None, max_retries: int = MAX_RETRIES):
         self.ray = import_ray()

@@ -1,14 +1,11 @@
-"""``fuel_vs_optimum.png``: every strategy against the thermal optimum, one panel per cycle and scenario.
+"""``fuel_vs_optimum.png``: every strategy against the thermal optimum, one panel per cycle (columns) and scenario
+(rows).
 
-A dot chart that stays readable as the benchmark grows: one row of panels per scenario, one
-column per cycle (both in the benchmark's order), the strategies from the simplest (top) to the
-optimum, and the learned policies below a gap on a shaded band. The x axis is the frontier ratio
-(:mod:`.yardstick`: the run's cost over the thermal optimum's at the same final SOC; 1 = the
-optimum), shared by every panel and always including 1, so a dot's distance from the 1 line reads
-the same everywhere; each dot carries its value. A seed family (:mod:`.families`) is one row: its
-interquartile mean (diamond), the 95 % bootstrap interval (whiskers) and each seed (small dots).
-A strategy without a ratio on a panel (final SOC outside the frontier) is marked "n/a" there.
-Without any frontier the chart shows the fixed-price ratio (corrected fuel over ``dp_thermal``'s).
+Rows go from the simplest strategy (top) to the optimum, the learned policies below a gap on a shaded band. The
+shared x axis is the frontier ratio (:mod:`.yardstick`; 1 = the optimum at the run's final SOC) and always holds 1;
+each dot carries its value. A seed family (:mod:`.families`) is one row: IQM (diamond), 95 % bootstrap interval
+(whiskers), each seed (small dots). A run without a ratio is marked "n/a"; without any frontier the chart shows the
+fixed-price ratio (corrected fuel over ``dp_thermal``'s).
 """
 
 from __future__ import annotations

@@ -1,20 +1,9 @@
-"""Trace figures: every strategy of one cycle and scenario on shared time axes.
-
-:func:`plot_run` draws any number of runs (one per strategy), so the benchmark and
-``evaluate.py run`` draw the same figure. Panels, top to bottom:
-
-* speed: the cycle's demanded speed as a thick light line, each strategy's delivered speed thin;
-* missed wheel energy, cumulative: where and how much a strategy could not follow the cycle;
-* battery SOC;
-* motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the motor comes near
-  them (and a mark on each strategy's line wherever its motor is cut off);
-* heat index, 0 to 1;
-* the split, one strip per strategy (colour = motor share u; grey where no traction torque is
-  demanded and u has no effect), readable on long stop-and-go cycles.
-
-:func:`plot_benchmark` draws one such figure per cycle and scenario and the fuel chart
-(:mod:`.fuel_chart`); the benchmark passes a seed family's member nearest the family's IQM. Every
-PNG is written atomically (:func:`hev_thermal_env.io.save_png`).
+"""Trace figures: every strategy of one cycle and scenario on shared time axes (:func:`plot_run`, drawn alike by the
+benchmark and ``evaluate.py run``). Panels, top to bottom: the cycle's speed (thick, light) and each strategy's;
+the cumulative missed wheel energy; SOC; motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the
+motor comes near them (a mark wherever a motor is cut off); the heat index; the split, one strip per strategy
+(colour = motor share u, grey where no traction torque is demanded). :func:`plot_benchmark` draws one per cycle and
+scenario (a seed family as its member nearest the IQM) and the fuel chart (:mod:`.fuel_chart`).
 """
 
 from __future__ import annotations

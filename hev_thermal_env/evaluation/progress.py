@@ -1,16 +1,11 @@
 """The benchmark's progress bar: the runs in progress by name, and the time left weighted by each run's cost.
 
-Runs differ in cost by four orders of magnitude: the thermal optimum ``dp_thermal`` searches its plan
-for minutes, about 0.03-0.12 s per second of cycle on one core (0.06 in :data:`SECONDS_PER_STEP`),
-unless an earlier run left the plan on disk (then it costs nothing); the SOC DP ``dp`` takes
-seconds; the other strategies drive a cycle in a fraction of a second. So the bar counts expected
-seconds, not runs: a run weighs :func:`expected_cost_s`, a finished run adds its weight, a run in
-progress its elapsed time, counted as at most 90 % of its weight (a run that takes longer than
-expected weighs more as it goes), and the time left is tqdm's, from the rate of that work so far;
-when the plans come from disk, the first ``dp_thermal`` finishes at once and the estimate follows.
-The postfix counts the finished runs and names the runs in progress with how long each has run:
-the first ``slots`` unfinished runs in the order they were handed out (the workers take them first
-in, first out).
+Runs differ in cost by four orders of magnitude (``dp_thermal`` searches for minutes unless its plan is on disk;
+``dp`` takes seconds; the others a fraction of a second), so the bar counts expected seconds, not runs: a run weighs
+:func:`expected_cost_s`; a finished run adds its weight, a run in progress its elapsed time up to
+:data:`RUNNING_CREDIT` of its weight (a run slower than expected weighs more as it goes); the time left is tqdm's.
+The postfix names the first ``slots`` unfinished runs in the order handed out (the workers take them first in,
+first out) with how long each has run.
 """
 
 from __future__ import annotations
@@ -20,7 +15,7 @@ from collections.abc import Sequence
 
 from tqdm.auto import tqdm
 
-#: Expected seconds of a run per second of cycle on one core, by strategy (the plan searches).
+#: Expected seconds of a run per second of cycle on one core, by strategy (the plan searches; dp_thermal: 0.03-0.12).
 SECONDS_PER_STEP = {"dp_thermal": 0.06, "dp": 0.004}
 #: The same for every other strategy (a drive through the cycle).
 OTHER_SECONDS_PER_STEP = 1e-4

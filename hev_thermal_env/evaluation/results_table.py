@@ -1,11 +1,8 @@
 """The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` and ``timings.json``.
 
-One row per cycle × scenario × strategy run (seed-family members included, ``family`` naming their
-family), then the seed families' rows (:mod:`.families`): per cycle × scenario and over every one
-(cycle and scenario ``all``), with the IQM in the ratio columns and the interval in the ``_ci_low`` /
-``_ci_high`` columns. ``results.md`` shows the runs and the families (not the members one by one),
-then the families over every cycle × scenario, then what the columns mean and why a ratio is
-missing. Every file is written atomically; wall times go to ``timings.json`` only, so the other
+One row per cycle × scenario × strategy run (seed-family members with ``family``), then the families' rows
+(:mod:`.families`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
+scenario, what the columns mean and why a ratio is missing. Wall times go to ``timings.json`` only, so the other
 files are the same byte for byte run after run.
 """
 

@@ -1,11 +1,7 @@
-"""Run one strategy over one cycle in ``HevThermal-v0`` and report its metrics.
+"""Run one strategy over one cycle in ``HevThermal-v0`` and report its metrics (:func:`run_strategy`).
 
-:func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
-resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
-:class:`RunResult`: the JSON summary (the metrics come from
-:func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation, and
-``cost_g``, the yardstick cost of :func:`hev_thermal_env.metrics.yardstick_cost_g` at the env's
-reward weights) and per-step traces of every ``info`` field, of every physics output and of the state.
+The metrics come from :func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation, with
+``cost_g``, the yardstick cost of :func:`hev_thermal_env.metrics.yardstick_cost_g` at the env's reward weights.
 """
 
 from __future__ import annotations
@@ -89,23 +85,13 @@ def jsonable(x: Any) -> Any:
 def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
                  config: VehicleConfig | None = None, conditions: Conditions | None = None,
                  seed: int = 0) -> RunResult:
-    """Drive ``cycle`` with ``strategy`` in the ``scenario`` (or explicit ``conditions``) and measure it.
+    """Drive ``cycle`` (a built-in name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`) with ``strategy``
+    (e.g. from :func:`hev_thermal_env.agents.get_strategy`) in the ``scenario`` (``"random"`` draws from the env's
+    reset ``seed``) or explicit ``conditions``; ``config``: the vehicle before the strategy's change (default
+    ``paper_bus()``).
 
-    Parameters
-    ----------
-    strategy : a :class:`hev_thermal_env.agents.base.Strategy` (e.g. from
-        :func:`hev_thermal_env.agents.get_strategy`).
-    cycle : a built-in cycle name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`.
-    scenario : ``"paper"``, ``"hot"``, ``"random"`` (drawn from ``seed``) or a Scenario.
-    config : the vehicle before the strategy's change (default ``paper_bus()``).
-    conditions : explicit run conditions, overriding the scenario's.
-    seed : the env's reset seed.
-
-    Returns
-    -------
-    RunResult with ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every ``info`` field,
-    every physics output (:data:`hev_thermal_env.physics.core.OUT_NAMES`), the state after each
-    step (``soc``, ``motor_temp_c``, ``heat_x``, ``motor_cutoff``) and ``u`` (the action taken).
+    Returns a :class:`RunResult`: ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every ``info`` field, every
+    physics output (:data:`hev_thermal_env.physics.core.OUT_NAMES`), the state after each step and ``u``.
     """
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)

@@ -1,10 +1,7 @@
-"""The paper reproduction report: our results beside the paper's Tables 2-3 and Figs 4, 7-10.
-
-``python evaluate.py paper --out DIR`` writes ``DIR/report.md``, ``DIR/paper.json`` and PNG figures.
-The report opens with the verdicts: every figure of the paper (:data:`.figures.PAPER_FIGURES`)
-with ours, the difference and whether it is within the stated tolerance, a summary line of
-agreement, and the absolute fuel levels against the paper's Table 2 (raw with raw). The sections
-after it show the runs, with the paper's points and bands drawn on the figures.
+"""``evaluate.py paper --out DIR``: ``report.md``, ``paper.json`` and the figures, our results beside the paper's
+Tables 2-3 and Figs 4, 7-10. The report opens with the verdicts (:mod:`.verdicts`: every judged figure, ours, the
+difference, within tolerance or not, the agreement) and the absolute fuel levels against Table 2 (raw with raw);
+the sections after show the runs, with the paper's points and bands drawn on the figures (:mod:`.plots`).
 """
 
 from __future__ import annotations
