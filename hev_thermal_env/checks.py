@@ -60,7 +60,7 @@ def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n
     """At least ``n_steps`` random steps of one scenario, checked step by step and episode by episode."""
     env = HevThermalVectorEnv(num_envs, cycle=cycles, scenario=scenario, random_start=True)
     env.reset(seed=seed)
-    e_in, e_out, e_scale = np.zeros(num_envs), np.zeros(num_envs), np.zeros(num_envs)
+    balance = np.zeros((3, num_envs))  # energy in, energy out, scale, summed over the episode
     resetting = np.zeros(num_envs, dtype=bool)
     sink = _sinks(env)
     # a third of the episodes keep a sustained aggressive assist, to reach derating and cutoff
@@ -73,18 +73,15 @@ def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n
         out = env.last_out
         soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, env.phys_state, sink, stepped,
                                         soc_before)
-        a, b, s = _balance_terms(out)
-        e_in[stepped] += a[stepped]
-        e_out[stepped] += b[stepped]
-        e_scale[stepped] += s[stepped]
+        balance[:, stepped] += np.array(_balance_terms(out))[:, stepped]
         ended = (term | trunc) & stepped
         for i in np.flatnonzero(ended):
-            err = abs(e_in[i] - e_out[i]) / max(e_scale[i], 1.0)
+            err = abs(balance[0, i] - balance[1, i]) / max(balance[2, i], 1.0)
             report["max_balance_error"] = max(report["max_balance_error"], float(err))
             if err > BALANCE_TOL:
                 raise AssertionError(f"{scenario}: energy balance off by {err:.3%} over an episode")
             report["episodes"] += 1
-        e_in[ended] = e_out[ended] = e_scale[ended] = 0.0
+        balance[:, ended] = 0.0
         n_live = int(stepped.sum())
         done_steps += n_live
         report["steps"] += n_live

@@ -20,11 +20,9 @@ def _fmt(x: float, unit: str) -> str:
         return "-"
     if x in (float("inf"), float("-inf")):
         return "never"
-    if unit in ("s",):
-        return f"{x:.2f}" if abs(x) < 10.0 else f"{x:.1f}"
     if unit == "-":
         return f"{x:.3f}"
-    return f"{x:.2f}"
+    return f"{x:.1f}" if unit == "s" and abs(x) >= 10.0 else f"{x:.2f}"
 
 
 def _paper(row: dict[str, Any]) -> str:

@@ -48,9 +48,7 @@ def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
         cyc = load_cycle(cycle)
     res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario)
     trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
-    summary = dict(res.summary)
-    summary.update(cycle=cyc.name, scenario=scenario, strategy=strategy)
-    return summary, trace
+    return {**res.summary, "cycle": cyc.name, "scenario": scenario, "strategy": strategy}, trace
 
 
 def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None,
@@ -96,9 +94,8 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     run_names = list(dict.fromkeys([*strategies, *(m for f in fams for m in f.members)]))
     tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in run_names]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
-    runner = make_executor(executor, jobs=jobs, address=address)
     t0 = time.perf_counter()
-    with runner:
+    with make_executor(executor, jobs=jobs, address=address) as runner:
         results = _run_tasks(tasks, runner, progress, {c: (cyc.name, cyc.n_steps) for c, cyc in loaded.items()})
     rows = [r[0] for r in results]
     traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}

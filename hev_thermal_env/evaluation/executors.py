@@ -112,14 +112,13 @@ class LocalExecutor:
 
 class RayExecutor:
     """One Ray task (one CPU) per cell, on a local runtime of ``jobs`` CPUs or the cluster at ``address`` (every CPU
-    it has). A cell whose worker process dies is run again on another, up to ``max_retries`` times (the cells are
+    it has). A cell whose worker process dies is run again on another, up to :data:`MAX_RETRIES` times (the cells are
     deterministic)."""
 
-    def __init__(self, jobs: int = 1, address: str | None = None, max_retries: int = MAX_RETRIES):
+    def __init__(self, jobs: int = 1, address: str | None = None):
         self.ray = import_ray()
         self.jobs = self.slots = max(1, int(jobs))
         self.address = address
-        self.max_retries = int(max_retries)
         self.started = False
 
     def __enter__(self) -> RayExecutor:
@@ -137,25 +136,25 @@ class RayExecutor:
         """``(i, fn(tasks[i]))`` as the tasks finish (submitted in ``order``), None every ``tick_s`` seconds
         without one."""
         ray = self.ray
-        remote = ray.remote(num_cpus=1, max_retries=self.max_retries)(fn)
+        remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(fn)
         pending = {remote.remote(tasks[i]): i for i in order}
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1, timeout=tick_s)
             if not ready:
                 yield None
                 continue
-            ref = ready[0]
-            i = pending.pop(ref)
+            i = pending.pop(ready[0])
+            cell = "/".join(x for x in tasks[i] if isinstance(x, str))  # cycle/scenario/strategy
             try:
-                result = ray.get(ref)
+                result = ray.get(ready[0])
             except ray.exceptions.RayTaskError as exc:
                 # the cell's own error (a ValueError from bad input...), as the local executor raises it
                 if exc.cause is not None:
                     raise exc.cause from None
-                raise ExecutorError(f"cell {describe(tasks[i])} failed: {' '.join(str(exc).split())}") from None
+                raise ExecutorError(f"cell {cell} failed: {' '.join(str(exc).split())}") from None
             except ray.exceptions.RayError as exc:
                 first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-                raise ExecutorError(f"cell {describe(tasks[i])} lost after {self.max_retries} retries "
+                raise ExecutorError(f"cell {cell} lost after {MAX_RETRIES} retries "
                                     f"({type(exc).__name__}: {first})") from None
             yield i, result
 
@@ -177,13 +176,6 @@ def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
         raise ExecutorError(f"--address {address}: cannot join a Ray cluster there "
                             f"({' '.join(str(exc).split()) or type(exc).__name__})") from None
     return True
-
-
-def describe(task: Any) -> str:
-    """A short name of a task (``cycle/scenario/strategy`` for the benchmark's tuples)."""
-    if isinstance(task, tuple):
-        return "/".join(str(x) for x in task if isinstance(x, str))
-    return str(task)
 
 
 def split_address(address: str) -> tuple[str, int]:

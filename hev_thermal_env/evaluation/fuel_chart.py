@@ -126,7 +126,7 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
                     Line2D([], [], color="0.4", marker="o", ms=3.5, ls="none", alpha=0.6, label="one seed")]
     if any_learned:
         handles.append(Patch(facecolor=LEARNED_BAND_COLOUR, label="learned policies (set apart)"))
-    legend_outside(fig, handles, [h.get_label() for h in handles])
+    legend_outside(fig, handles)
     figure_title(fig, title, fontsize=12)
     return fig
 
@@ -186,8 +186,7 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
                     fontweight="bold" if is_learned(name, families) else "normal")
     ax.grid(axis="x", alpha=0.3)
     ax.tick_params(axis="y", length=0)
-    for side in ("top", "right"):
-        ax.spines[side].set_visible(False)
+    ax.spines[["top", "right"]].set_visible(False)
 
 
 def _family(ax, r: dict, seeds: list[dict], key: str, y: float, colour: str) -> tuple[float, float]:

@@ -15,24 +15,18 @@ from pathlib import Path
 import numpy as np
 
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
+from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.physics import paper_bus
 
 from .fuel_chart import FUEL_CHART_FILE, plot_fuel_chart
 from .styles import CYCLE_COLOUR, figure_title, legend_outside, ordered, pyplot, save_fig, short_label, strategy_styles
 
-__all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure", "temperature_limits_c"]
+__all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure"]
 
 CUTOFF_COLOUR, SOFT_LIMIT_COLOUR = "#6a3d9a", "#e08214"
 
 #: The temperature lines are drawn when the hottest motor comes within this of the soft limit.
 LIMITS_SHOWN_WITHIN_K = 20.0
-
-
-def temperature_limits_c() -> tuple[float, float]:
-    """(soft limit of the reward's overheat penalty, motor cutoff) of the default vehicle and reward, °C."""
-    from hev_thermal_env.envs.reward import RewardParams
-    from hev_thermal_env.physics import paper_bus
-
-    return float(RewardParams().overheat_soft_limit_c), float(paper_bus().thermal.cutoff_temp_c)
 
 
 def _series(trace: Mapping[str, np.ndarray], key: str) -> np.ndarray | None:
@@ -43,15 +37,14 @@ def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
     return np.asarray(trace["time_s"], dtype=float)
 
 
-def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
-               temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()):
+def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", learned: Collection[str] = ()):
     """The trace figure of ``{label: trace}`` (see the module docstring); returns the matplotlib figure.
 
     Each trace needs per-step arrays ``time_s``, ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and
     the split ``motor_share`` (a run's trace holds them); ``cycle_speed_mps``, ``missed_wheel_energy_j``,
-    ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. ``temp_limits_c`` is
-    (soft limit, cutoff), by default those of ``paper_bus`` and the default reward. ``learned``:
-    more names drawn as learned policies (seed families; ``ppo`` and ``ppo:PATH`` always are).
+    ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. The temperature limits are those of
+    ``paper_bus`` and the default reward. ``learned``: more names drawn as learned policies (seed families; ``ppo``
+    and ``ppo:PATH`` always are).
     """
     if not traces:
         raise ValueError("plot_run: no traces to plot")
@@ -64,7 +57,7 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
                              gridspec_kw={"height_ratios": heights})
     ax_v, ax_miss, ax_soc, ax_temp, ax_hi, ax_split = axes
     handles = _speed_panel(ax_v, traces, labels, styles)
-    limit_handles = _temperature_panel(ax_temp, traces, labels, styles, temp_limits_c or temperature_limits_c())
+    limit_handles = _temperature_panel(ax_temp, traces, labels, styles)
     for label in labels:
         tr, st = traces[label], styles[label]
         t = _time(tr)
@@ -85,10 +78,9 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
     for ax in axes[:-1]:
         ax.grid(alpha=0.3)
     ax_split.set_xlabel("time (s)")
-    legend_outside(fig, handles, [h.get_label() for h in handles], title="speed and strategies")
+    legend_outside(fig, handles, title="speed and strategies")
     if limit_handles:
-        legend_outside(fig, limit_handles, [h.get_label() for h in limit_handles], title="motor temperature",
-                       where="right lower")
+        legend_outside(fig, limit_handles, title="motor temperature", loc="outside right lower")
     if title:
         figure_title(fig, title, fontsize=12)
     return fig
@@ -111,8 +103,8 @@ def _speed_panel(ax, traces, labels, styles) -> list:
     return handles
 
 
-def _temperature_panel(ax, traces, labels, styles, limits_c: tuple[float, float]) -> list:
-    soft_c, cutoff_c = limits_c
+def _temperature_panel(ax, traces, labels, styles) -> list:
+    soft_c, cutoff_c = float(RewardParams().overheat_soft_limit_c), float(paper_bus().thermal.cutoff_temp_c)
     hottest = -np.inf
     for label in labels:
         tr = traces[label]
@@ -172,9 +164,9 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
 
 
 def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.PathLike, title: str = "",
-             temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()) -> Path:
+             learned: Collection[str] = ()) -> Path:
     """Draw one or more runs (``{label: trace}``) into a PNG at ``path`` (see :func:`run_figure`); returns the path."""
-    return save_fig(run_figure(traces, title, temp_limits_c, learned), path)
+    return save_fig(run_figure(traces, title, learned), path)
 
 
 def plot_benchmark(out: Path, rows: list[dict], traces: dict, cycles: list[str] | None = None,

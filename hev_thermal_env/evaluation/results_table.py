@@ -14,12 +14,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.stats import CONFIDENCE
 
 from .families import OVERALL
+from .runner import jsonable
 from .yardstick import REFERENCE, display_name
 
 COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "fuel_g", "fuel_l_per_100km",
@@ -53,20 +52,15 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def _plain(v: Any) -> Any:
-    return v.item() if isinstance(v, (np.floating, np.integer, np.bool_)) else v
-
-
 def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[str] = ()) -> None:
     """Write the four files of ``rows`` (run rows, then family rows) into ``out``; ``notes``: extra lines for
     ``results.md`` (e.g. that the reference was added)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(COLUMNS)
-    for r in rows:
-        w.writerow([_fmt(r.get(c)) for c in COLUMNS])
+    w.writerows([_fmt(r.get(c)) for c in COLUMNS] for r in rows)
     atomic_write_text(out / "results.csv", buf.getvalue())
-    clean = [{c: _plain(r.get(c)) for c in COLUMNS} for r in rows]
+    clean = [{c: jsonable(r.get(c)) for c in COLUMNS} for r in rows]
     atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean, "notes": list(notes)})
     runs = [r for r in rows if not _is_family_row(r)]
     atomic_write_json(out / "timings.json", {
@@ -148,13 +142,10 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
 
 
 def _reference_lines(rows: list[dict]) -> list[str]:
-    refs: dict[str, list[str]] = {}
+    refs: dict[str, dict[str, None]] = {}  # reference -> the cycles / scenarios it serves, in order
     for r in rows:
         if r.get("reference") and r["cycle"] != OVERALL:
-            refs.setdefault(r["reference"], [])
-            where = f"{r['cycle']} / {r['scenario']}"
-            if where not in refs[r["reference"]]:
-                refs[r["reference"]].append(where)
+            refs.setdefault(r["reference"], {})[f"{r['cycle']} / {r['scenario']}"] = None
     if len(refs) == 1:
         return [f"Reference of both ratios (1.000): {next(iter(refs))}."]
     return ["Reference of both ratios (1.000), per cycle / scenario:", ""] + [

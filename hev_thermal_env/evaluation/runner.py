@@ -25,11 +25,10 @@ from hev_thermal_env.simulate import step_traces
 
 SUMMARY_KEYS = (
     "cycle", "strategy", "scenario", "distance_km", "duration_s", "fuel_g", "fuel_l_per_100km",
-    "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km",
-    "cost_g", "battery_energy_kwh", "net_energy_ratio", "charge_sustaining", "missed_wheel_energy_kwh",
-    "soc_initial", "soc_final", "delta_soc", "max_motor_temp_c",
-    "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps", "engine_on_s", "wall_s", "plan_s",
-    "thermal_aware", "seed", "conditions", "strategy_settings",
+    "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km", "cost_g",
+    "battery_energy_kwh", "net_energy_ratio", "charge_sustaining", "missed_wheel_energy_kwh", "soc_initial",
+    "soc_final", "delta_soc", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps",
+    "engine_on_s", "wall_s", "plan_s", "thermal_aware", "seed", "conditions", "strategy_settings",
 )
 """Keys of :attr:`RunResult.summary`, in order."""
 
@@ -45,15 +44,13 @@ class RunResult:
     def to_json_dict(self) -> dict[str, Any]:
         return jsonable(self.summary)
 
-    def trace_csv(self, keys: tuple[str, ...] | None = None) -> str:
-        """The per-second trace as CSV text (the env's ``info`` fields by default, then the action)."""
-        keys = tuple(k for k in (keys or self.info_keys) if k in self.trace)
+    def trace_csv(self) -> str:
+        """The per-second trace as CSV text: the env's ``info`` fields, then the action."""
+        keys = tuple(k for k in self.info_keys if k in self.trace)
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(keys)
-        cols = [np.asarray(self.trace[k]) for k in keys]
-        for row in zip(*cols):
-            w.writerow([_fmt(v) for v in row])
+        w.writerows([_fmt(v) for v in row] for row in zip(*(np.asarray(self.trace[k]) for k in keys)))
         return buf.getvalue()
 
 
@@ -133,13 +130,9 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     metrics = run_metrics(trace, e.config, soc0, e.cycle.speed_mps, k0, steps, e.core.dt_s)
     metrics["cost_g"] = yardstick_cost_g(outs[:steps], states[:steps], e.reward_params,
                                          e.config.engine.fuel_lhv_j_per_g, e.core.dt_s, e.soc_target)
-    summary = {
-        "cycle": e.cycle.name, "strategy": getattr(strategy, "label", strategy.name), "scenario": scen.name,
-        **metrics,
-        "wall_s": wall, "plan_s": plan_s, "thermal_aware": bool(strategy.thermal_aware), "seed": seed,
-        "conditions": e.conditions.to_dict(), "strategy_settings": strategy.describe(),
-    }
+    summary = {"cycle": e.cycle.name, "strategy": getattr(strategy, "label", strategy.name), "scenario": scen.name,
+               **metrics, "wall_s": wall, "plan_s": plan_s, "thermal_aware": bool(strategy.thermal_aware),
+               "seed": seed, "conditions": e.conditions.to_dict(), "strategy_settings": strategy.describe()}
     summary = {k: summary[k] for k in SUMMARY_KEYS if k in summary} | {k: v for k, v in summary.items()
                                                                         if k not in SUMMARY_KEYS}
-    info_keys = tuple(infos) + ("u",)
-    return RunResult(summary=jsonable(summary), trace=trace, info_keys=info_keys)
+    return RunResult(summary=jsonable(summary), trace=trace, info_keys=tuple(infos) + ("u",))

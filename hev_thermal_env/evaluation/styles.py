@@ -7,6 +7,7 @@ lines. A strategy has the same colour in every figure; ``dp`` is labelled therma
 
 from __future__ import annotations
 
+import itertools
 import sys
 from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
@@ -86,31 +87,27 @@ def short_label(strategy: str, width: int = 24) -> str:
 def strategy_styles(strategies: Sequence[str], learned: Collection[str] = ()) -> dict[str, dict[str, Any]]:
     """``{strategy: matplotlib line keywords}``: colour, width and drawing order for each strategy."""
     styles: dict[str, dict[str, Any]] = {}
-    others = n_learned = 0
+    learned_colours, other_colours = itertools.cycle(_LEARNED_COLOURS), itertools.cycle(_OTHER_COLOURS)
     for name in strategies:
         base = base_name(name)
         if is_learned(name, learned):
-            colour = _LEARNED_COLOURS[n_learned % len(_LEARNED_COLOURS)]
-            n_learned += 1
-            styles[name] = {"color": colour, "lw": 1.6, "zorder": 5}
+            styles[name] = {"color": next(learned_colours), "lw": 1.6, "zorder": 5}
         elif base in _CLASSIC_COLOURS and name == base:
             styles[name] = {"color": _CLASSIC_COLOURS[base], "lw": 0.9, "zorder": 3}
         else:
-            styles[name] = {"color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)], "lw": 0.9, "zorder": 3}
-            others += 1
+            styles[name] = {"color": next(other_colours), "lw": 0.9, "zorder": 3}
         if base in OPTIMUM:
             styles[name]["ls"] = "--" if base == "dp_thermal" else "-"
     return styles
 
 
-LEGEND_PLACES = {"right": "outside right upper", "right lower": "outside right lower", "bottom": "outside lower center"}
-
-
-def legend_outside(fig, handles: Sequence[Any], labels: Sequence[str], *, ncol: int = 1, title: str | None = None,
-                   where: str = "right", fontsize: float = 8.5):
-    """A figure legend outside every axes (``where``: a key of :data:`LEGEND_PLACES`); needs a constrained layout."""
-    return fig.legend(handles, labels, loc=LEGEND_PLACES[where], ncol=ncol, title=title, fontsize=fontsize,
-                      title_fontsize=fontsize, frameon=False)
+def legend_outside(fig, handles: Sequence[Any], labels: Sequence[str] | None = None, *, ncol: int = 1,
+                   title: str | None = None, loc: str = "outside right upper", fontsize: float = 8.5):
+    """A figure legend outside every axes (``loc``: an ``"outside ..."`` place; labels by default the handles'); needs
+    a constrained layout."""
+    labels = [h.get_label() for h in handles] if labels is None else labels
+    return fig.legend(handles, labels, loc=loc, ncol=ncol, title=title, fontsize=fontsize, title_fontsize=fontsize,
+                      frameon=False)
 
 
 def figure_title(fig, text: str, fontsize: float = 11.0):

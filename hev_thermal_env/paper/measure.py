@@ -164,9 +164,8 @@ def figure_values(cycles: Mapping[str, Mapping[str, float]], t3: Mapping[str, fl
     ours: dict[str, float | None] = {k: t3[k] for k in ("accel_off_s", "accel_30c_delta_s", "accel_50c_delta_s")}
     if "top_speed_off_kmh" in t3:
         for run in TABLE3_RUNS:
-            on = "off" if run == "off" else "on"
-            ours[f"top_speed_{run}_kmh"] = t3[f"top_speed_{on}_kmh"]
-            ours[f"grade_{run}_kmh"] = t3[f"grade_speed_{on}_kmh"]
+            row = table3_row(t3, run)
+            ours[f"top_speed_{run}_kmh"], ours[f"grade_{run}_kmh"] = row["top_speed_kmh"], row["grade_4pct_speed_kmh"]
     if fig4 is not None:
         ours["fig4_leaves_zero_s"], ours["fig4_reaches_one_s"] = fig4["pwm_leaves_zero_s"], fig4["pwm_reaches_one_s"]
     for cyc in ("udds", "hwfet", "beijing"):

@@ -24,13 +24,9 @@ WITHIN_COLOUR, OUTSIDE_COLOUR, BAND_COLOUR = "#1a9641", "#d7191c", "#fdb863"
 RESIDUAL_SHOWN = 4.0  # verdict chart: residuals beyond ± this are drawn at the edge with their value
 
 
-def _legend(fig, axes) -> None:
-    handles, labels = [], []
-    for ax in np.atleast_1d(axes):
-        h, lab = ax.get_legend_handles_labels()
-        handles += h
-        labels += lab
-    legend_outside(fig, handles, labels)
+def _legend(fig, *axes) -> None:
+    pairs = [ax.get_legend_handles_labels() for ax in axes]
+    legend_outside(fig, [h for hs, _ in pairs for h in hs], [lab for _, labs in pairs for lab in labs])
 
 
 def _value_text(r: dict[str, Any]) -> str:
@@ -75,7 +71,7 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
                Line2D([], [], marker="o", ls="none", color=OUTSIDE_COLOUR, label="outside tolerance"),
                Line2D([], [], marker="<", ls="none", color=OUTSIDE_COLOUR,
                       label=f"beyond ±{RESIDUAL_SHOWN:g}: drawn at the edge, value beside it")]
-    legend_outside(fig, handles, [h.get_label() for h in handles], ncol=3, where="bottom")
+    legend_outside(fig, handles, ncol=3, loc="outside lower center")
     n_in = sum(r["within"] for r in rows)
     figure_title(fig, f"Paper figures: {n_in} of {len(rows)} within tolerance", fontsize=11)
     return save_fig(fig, path)
@@ -96,7 +92,7 @@ def fig4_figure(curve: dict[str, Any], path: Path) -> Path:
     ax2.set_ylim(bottom=0.0)
     ax.grid(alpha=0.3)
     ax.set_title("Fig. 4 analog: heat index at 2× the continuous torque, from cold", fontsize=10)
-    _legend(fig, (ax, ax2))
+    _legend(fig, ax, ax2)
     return save_fig(fig, path)
 
 
@@ -141,7 +137,7 @@ def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: 
     ax_h.set_xlabel("time (s)")
     for ax in (ax_t, ax_h):
         ax.grid(alpha=0.3)
-    _legend(fig, (ax_t, ax_h))
+    _legend(fig, ax_t, ax_h)
     ax_t.set_title(f"{cycle}, rule strategy, paper scenario: motor temperature", fontsize=10)
     ax_h.set_title("heat index", fontsize=10)
     figure_title(fig, f"{cycle} against the paper's {which}", fontsize=10.5)
