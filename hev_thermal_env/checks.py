@@ -70,10 +70,8 @@ def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n
         soc_before = env.phys_state[:, C.SOC].copy()
         obs, rew, term, trunc, info = env.step(_random_actions(rng, aggressive)[:, None])
         stepped = ~resetting
-        out = env.last_out
-        soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, env.phys_state, sink, stepped,
-                                        soc_before)
-        balance[:, stepped] += np.array(_balance_terms(out))[:, stepped]
+        soc, temp, margin = _check_step(scenario, env, obs, rew, info, sink, stepped, soc_before)
+        balance[:, stepped] += np.array(_balance_terms(env.last_out))[:, stepped]
         ended = (term | trunc) & stepped
         for i in np.flatnonzero(ended):
             err = abs(balance[0, i] - balance[1, i]) / max(balance[2, i], 1.0)
@@ -115,8 +113,9 @@ def _random_actions(rng: np.random.Generator, aggressive: np.ndarray) -> np.ndar
     return act.astype(np.float32)
 
 
-def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, soc_before):
+def _check_step(scenario: str, env, obs, rew, info, sink, stepped, soc_before):
     """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink."""
+    out, state = env.last_out, env.phys_state
     bat = env.config.battery
     space = env.single_observation_space
     _check_finite(obs, rew, info, out)

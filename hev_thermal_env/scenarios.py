@@ -1,25 +1,20 @@
-"""Named scenarios: the run conditions (and how they are randomised) for the same vehicle.
+"""Named scenarios: the run conditions (and how they are randomised) for the same vehicle; see docs/scenarios.md.
 
-* ``paper``: the paper's assumptions: ambient and motor at 20 °C, coolant on, SOC 0.65.
-* ``hot``: a hot day with a failing cooling loop: ambient 40 °C, motor starting at 50 °C, coolant at 45 °C and
-  degraded to 3 % of its conductances (jacket and radiator). A thermal-blind aggressive split derates and reaches
-  the 70 °C cutoff on HWFET and on ``beijing``; the engine alone (u = 0) does not, so a thermally aware strategy
-  can avoid it at a price in fuel.
-* ``summer``: a summer day in service, cooling intact: ambient 38 °C, the bus parked in the sun (motor and coolant
-  start at 38 °C). Above the 35 °C thermostat the valve is open from the start, the coolant runs warm enough for
-  the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets lose torque, so every
-  overload derates at once.
-* ``hilly``: the paper's conditions on the rolling hills of :func:`~hev_thermal_env.cycles.generate_grade_profile`
-  (seed :data:`~hev_thermal_env.cycles.grades.HILLY_SEED`, grades up to ±7 %, no net climb), laid under the cycle
-  by :meth:`Scenario.prepare_cycle`; ``hilly_route()`` is ``beijing`` prepared so.
-* ``full_bus``: 4.5 t of passengers (about 65) on the 15 t test mass (which already carries ADVISOR's 1.84 t of
-  cargo): 19.5 t, about the gross weight of a 12 m city bus.
-* ``random``: for training; each episode draws from the env's ``np_random`` ambient 10-40 °C, motor start ambient +
-  0-30 °C, SOC 0.55-0.75 and the coolant on (60 %), degraded (30 %) or nearly failed (10 %).
-* ``random_service``: the draws of ``random``, then a payload of 0-4,500 kg (empty to ``full_bus``) per episode.
+A scenario is a small record of deltas (:data:`SCENARIOS`), not a code path; a runner calls
+:meth:`Scenario.prepare_cycle` on the cycle before building the episode (the conditions alone do not carry the
+road). What the values do:
 
-A scenario is a small record of deltas, not a code path; a runner calls :meth:`Scenario.prepare_cycle` on the cycle
-before building the episode (the conditions alone do not carry the road).
+* ``hot`` (a failing cooling loop: jacket and radiator at 3 %): a thermal-blind aggressive split derates and reaches
+  the 70 °C cutoff on HWFET and on ``beijing``; the engine alone (u = 0) does not, so a thermally aware strategy can
+  avoid it at a price in fuel.
+* ``summer`` (parked in the sun, cooling intact): above the 35 °C thermostat the valve is open from the start, the
+  coolant runs warm enough for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets
+  lose torque, so every overload derates at once.
+* ``hilly``: the rolling hills of :func:`~hev_thermal_env.cycles.generate_grade_profile` laid under the cycle;
+  ``hilly_route()`` is ``beijing`` prepared so.
+* ``full_bus``: about 65 passengers on the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo), about
+  the gross weight of a 12 m city bus.
+* ``random``, ``random_service``: for training, drawn per episode (:meth:`Scenario.sample`).
 """
 
 from __future__ import annotations
@@ -56,7 +51,7 @@ class Scenario:
                                  f"randomized=True and 0 <= low <= high")
 
     def sample(self, rng: np.random.Generator) -> Conditions:
-        """The conditions of one episode (the fixed ones unless ``randomized``)."""
+        """The conditions of one episode: the fixed ones, or drawn from ``rng`` (the env's ``np_random``)."""
         if not self.randomized:
             return self.conditions
         ambient = float(rng.uniform(10.0, 40.0))

@@ -18,8 +18,7 @@ from .metrics import summarize
 from .physics import core as C
 from .physics.config import Conditions, VehicleConfig, paper_bus
 
-SplitFn = Callable[[int, dict], float]
-Split = float | SplitFn | np.ndarray
+Split = float | Callable[[int, dict], float] | np.ndarray
 
 
 @dataclasses.dataclass

@@ -49,7 +49,6 @@ def build(values: dict[str, float], stages: list[F.Stage] | None = None) -> dict
     corrected = {c: {"without": base.runs[c]["fuel_corrected_l100"],
                      "network": m_net[c]["fuel_corrected_l100"], "paper_eqs": m_eqs[c]["fuel_corrected_l100"]}
                  for c in ("udds", "beijing", "hwfet")}
-    speeds = sustained_speeds(net)
     bounds = F.fitted_fields()
     return {
         "values": dict(values),
@@ -62,7 +61,7 @@ def build(values: dict[str, float], stages: list[F.Stage] | None = None) -> dict
         "paper_eqs": {k: v for k, v in m_eqs.items() if k != "values"},
         "baseline": {"runs": base.runs, "accel_off_s": base.accel_off_s},
         "fuel_corrected_l100": corrected,
-        "sustained_speeds_kmh": speeds,
+        "sustained_speeds_kmh": sustained_speeds(net),
         "stages": [dataclasses.asdict(s) for s in (stages or [])],
     }
 

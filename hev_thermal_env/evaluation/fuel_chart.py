@@ -61,16 +61,11 @@ def _value_range(values: list[float], wide_right: bool = False) -> tuple[float, 
 
 def _split(rows: list[dict]) -> tuple[list[dict], dict[str, list[dict]]]:
     """(rows drawn as rows: runs and per-panel family rows, {family: its members' rows})."""
-    drawn, members = [], {}
+    drawn = [r for r in rows if r.get("family") is None or (r["strategy"] == r["family"] and r["cycle"] != OVERALL)]
+    members: dict[str, list[dict]] = {}
     for r in rows:
-        fam = r.get("family")
-        if fam is None:
-            drawn.append(r)
-        elif r["strategy"] == fam:
-            if r["cycle"] != OVERALL:
-                drawn.append(r)
-        else:
-            members.setdefault(fam, []).append(r)
+        if r.get("family") not in (None, r["strategy"]):
+            members.setdefault(r["family"], []).append(r)
     return drawn, members
 
 
@@ -81,7 +76,6 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     drawn, members = _split(rows)
     if not drawn:
         raise ValueError("fuel chart: no benchmark rows")
-    plt = pyplot()
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -96,8 +90,9 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     values = [float(r[k]) for r in drawn for k in (key, f"{key}_ci_low", f"{key}_ci_high") if r.get(k) is not None]
     values += [float(m[key]) for ms in members.values() for m in ms if m.get(key) is not None]
     height = 0.27 * (max(pos.values()) + 1.0) + 1.1
-    fig, axes = plt.subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
-                             figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2), layout="constrained")
+    fig, axes = pyplot().subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
+                                  figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2),
+                                  layout="constrained")
     axes[0, 0].set_xlim(*_value_range(values or [1.0], bool(families)))  # shared: before the labels
     for i, sc in enumerate(scenarios):
         for j, cyc in enumerate(cycles):
@@ -107,8 +102,7 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
             axes[i, j].set_title(f"{cyc} cycle, {sc} scenario", fontsize=10)
     ax0 = axes[0, 0]
     ax0.ticklabel_format(axis="x", useOffset=False, style="plain")
-    ax0.set_ylim(max(pos.values()) + 0.7, -0.7)
-    ax0.set_yticks(list(pos.values()))
+    ax0.set(ylim=(max(pos.values()) + 0.7, -0.7), yticks=list(pos.values()))
     for ax in axes[:, 0]:
         ax.set_yticklabels([_row_label(s, families, members) for s in pos], fontsize=9)
         for tick, name in zip(ax.get_yticklabels(), pos):

@@ -48,13 +48,12 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", 
     """
     if not traces:
         raise ValueError("plot_run: no traces to plot")
-    plt = pyplot()
     labels = ordered(traces, learned)
     styles = strategy_styles(labels, learned)
     n = len(labels)
     heights = [3.0, 1.5, 1.8, 2.0, 1.4, max(0.32 * n, 0.9)]
-    fig, axes = plt.subplots(len(heights), 1, figsize=(12.5, 13.0 + 0.25 * n), sharex=True, layout="constrained",
-                             gridspec_kw={"height_ratios": heights})
+    fig, axes = pyplot().subplots(len(heights), 1, figsize=(12.5, 13.0 + 0.25 * n), sharex=True, layout="constrained",
+                                  gridspec_kw={"height_ratios": heights})
     ax_v, ax_miss, ax_soc, ax_temp, ax_hi, ax_split = axes
     handles = _speed_panel(ax_v, traces, labels, styles)
     limit_handles = _temperature_panel(ax_temp, traces, labels, styles)
@@ -68,13 +67,11 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", 
         ax_hi.plot(t, _series(tr, "heat_index"), clip_on=False, **st)
     _split_panel(fig, ax_split, traces, labels, styles)
     ax_miss.set_title("missed wheel energy, cumulative: what the powertrain could not deliver", fontsize=10)
-    ax_miss.set_ylabel("missed (kWh)")
-    ax_miss.set_ylim(bottom=0.0)
+    ax_miss.set(ylabel="missed (kWh)", ylim=(0.0, None))
     ax_soc.set_title("battery state of charge", fontsize=10)
     ax_soc.set_ylabel("SOC (-)")
     ax_hi.set_title("heat index (0: full peak torque available, 1: continuous torque only)", fontsize=10)
-    ax_hi.set_ylabel("heat index (-)")
-    ax_hi.set_ylim(0.0, 1.0)
+    ax_hi.set(ylabel="heat index (-)", ylim=(0.0, 1.0))
     for ax in axes[:-1]:
         ax.grid(alpha=0.3)
     ax_split.set_xlabel("time (s)")
@@ -98,8 +95,7 @@ def _speed_panel(ax, traces, labels, styles) -> list:
         tr = traces[label]
         handles += ax.plot(_time(tr), _series(tr, "speed_mps") * 3.6, label=short_label(label), **styles[label])
     ax.set_title("speed: the cycle (thick, light) and what each strategy delivered (thin)", fontsize=10)
-    ax.set_ylabel("speed (km/h)")
-    ax.set_ylim(bottom=0.0)
+    ax.set(ylabel="speed (km/h)", ylim=(0.0, None))
     return handles
 
 

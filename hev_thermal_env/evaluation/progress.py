@@ -1,11 +1,8 @@
 """The benchmark's progress bar: the runs in progress by name, and the time left weighted by each run's cost.
 
-Runs differ in cost by four orders of magnitude (``dp_thermal`` searches for minutes unless its plan is on disk;
-``dp`` takes seconds; the others a fraction of a second), so the bar counts expected seconds, not runs: a run weighs
-:func:`expected_cost_s`; a finished run adds its weight, a run in progress its elapsed time up to
-:data:`RUNNING_CREDIT` of its weight (a run slower than expected weighs more as it goes); the time left is tqdm's.
-The postfix names the first ``slots`` unfinished runs in the order handed out (the workers take them first in,
-first out) with how long each has run.
+Runs differ in cost by four orders of magnitude (``dp_thermal`` searches for minutes unless its plan is on disk,
+``dp`` for seconds, the others drive a cycle in a fraction of one), so the bar counts expected seconds, not runs
+(:func:`expected_cost_s`); the time left is tqdm's, from the rate of that work so far.
 """
 
 from __future__ import annotations
@@ -35,10 +32,11 @@ def expected_cost_s(strategy: str, n_steps: int) -> float:
 
 
 class BenchmarkProgress:
-    """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers.
-
-    Call :meth:`finished` when a run ends and :meth:`show` to redraw (at least every second or so,
-    so that the elapsed times tick while a long run is in progress)."""
+    """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers. A
+    finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
+    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs in the order handed out
+    (the workers take them first in, first out). Call :meth:`finished` when a run ends and :meth:`show` to redraw
+    (every second or so, so that the elapsed times tick)."""
 
     def __init__(self, labels: Sequence[str], costs: Sequence[float], order: Sequence[int], slots: int,
                  enabled: bool = True):

@@ -40,38 +40,37 @@ BASELINE_CYCLES = ("udds", "beijing", "hwfet")
 
 
 def heat_index_figures(trace: Mapping[str, np.ndarray]) -> dict[str, float]:
-    """Onset (first second with PWM > 0), peak and its time, and seconds from the peak back to 0 (inf: never).
-
-    ``onset_smooth_s`` is the interpolated zero crossing of the integrator (continuous in the parameters,
-    for the fit); without any rise it lies past the cycle's end by how far the integrator stayed below 0."""
+    """``hi_onset_s`` (first second with PWM > 0), ``hi_peak`` and its time, ``hi_return_s`` (seconds from the peak
+    back to 0; inf: never), and ``hi_onset_smooth_s``, the interpolated zero crossing of the integrator (continuous
+    in the parameters, for the fit; without any rise, past the cycle's end by how far the integrator stayed below 0)."""
     pwm = np.asarray(trace["heat_index"])
     x = np.asarray(trace["heat_x"])
     t = np.arange(1, len(pwm) + 1, dtype=float)
     pos = np.flatnonzero(pwm > 0.0)
     if pos.size == 0:
-        return {"onset_s": float("inf"), "onset_smooth_s": len(pwm) + 1000.0 * float(-x.max()), "peak": 0.0,
-                "return_s": 0.0, "peak_time_s": float("nan")}
+        return {"hi_onset_s": float("inf"), "hi_onset_smooth_s": len(pwm) + 1000.0 * float(-x.max()), "hi_peak": 0.0,
+                "hi_peak_time_s": float("nan"), "hi_return_s": 0.0}
     i0 = int(pos[0])
     # the crossing of x through 0 between the last step at or below 0 and the first above
     x_prev = x[i0 - 1] if i0 > 0 else min(x[0], 0.0)
     smooth = t[i0] - 1.0 + (0.0 - x_prev) / max(x[i0] - x_prev, 1e-12) if i0 > 0 else t[i0]
     ip = int(np.argmax(pwm))
     back = np.flatnonzero(pwm[ip:] <= 0.0)
-    ret = float(back[0]) if back.size else float("inf")
-    return {"onset_s": float(t[i0]), "onset_smooth_s": float(smooth), "peak": float(pwm[ip]), "return_s": ret,
-            "peak_time_s": float(t[ip])}
+    return {"hi_onset_s": float(t[i0]), "hi_onset_smooth_s": float(smooth), "hi_peak": float(pwm[ip]),
+            "hi_peak_time_s": float(t[ip]), "hi_return_s": float(back[0]) if back.size else float("inf")}
 
 
-def warm_figures(temps_c: np.ndarray, low_c: float = WARM_BAND_LOW_C) -> dict[str, float]:
-    """Motor temperature after warm-up (from the first second at ``low_c``): mean, min, max, and the warm-up time."""
+def warm_figures(temps_c: np.ndarray) -> dict[str, float]:
+    """Motor temperature after warm-up (from the first second at :data:`WARM_BAND_LOW_C`): mean, min, max, and the
+    warm-up time."""
     temp = np.asarray(temps_c)
-    warm = np.flatnonzero(temp >= low_c)
+    warm = np.flatnonzero(temp >= WARM_BAND_LOW_C)
     if warm.size == 0:
-        return {"mean_c": float(temp.max()), "min_c": float("nan"), "max_c": float(temp.max()),
-                "warm_s": float("inf")}
+        return {"temp_warm_mean_c": float(temp.max()), "temp_warm_min_c": float("nan"),
+                "temp_warm_max_c": float(temp.max()), "warm_up_s": float("inf")}
     after = temp[warm[0]:]
-    return {"mean_c": float(after.mean()), "min_c": float(after.min()), "max_c": float(after.max()),
-            "warm_s": float(warm[0] + 1)}
+    return {"temp_warm_mean_c": float(after.mean()), "temp_warm_min_c": float(after.min()),
+            "temp_warm_max_c": float(after.max()), "warm_up_s": float(warm[0] + 1)}
 
 
 def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | None = None
@@ -82,14 +81,9 @@ def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | Non
     cyc = load_cycle(cycle)
     tr = drive(get_strategy("rule"), cyc, config, PAPER_CONDITIONS)
     summary = summarize(tr, config, PAPER_CONDITIONS.initial_soc, cyc.distance_m)
-    hi = heat_index_figures(tr)
-    warm = warm_figures(tr["motor_temp_c"])
     temp = tr["motor_temp_c"]
-    m = {"hi_onset_s": hi["onset_s"], "hi_onset_smooth_s": hi["onset_smooth_s"], "hi_peak": hi["peak"],
-         "hi_peak_time_s": hi["peak_time_s"], "hi_return_s": hi["return_s"],
-         "temp_peak_c": float(temp.max()), "temp_min_c": float(temp.min()),
-         "temp_last300_c": float(temp[-300:].mean()), "temp_warm_mean_c": warm["mean_c"],
-         "temp_warm_min_c": warm["min_c"], "temp_warm_max_c": warm["max_c"], "warm_up_s": warm["warm_s"],
+    m = {**heat_index_figures(tr), "temp_peak_c": float(temp.max()), "temp_min_c": float(temp.min()),
+         "temp_last300_c": float(temp[-300:].mean()), **warm_figures(temp),
          "coolant_peak_c": float(tr["coolant_temp_c"].max()), "fuel_l100": summary["fuel_l_per_100km"],
          "fuel_corrected_l100": summary["fuel_corrected_l_per_100km"], "soc_final": summary["soc_final"],
          "missed_wheel_energy_kwh": summary["missed_wheel_energy_kwh"],
