@@ -19,17 +19,17 @@ J1711_TOLERANCE = 0.01
 
 
 def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: float, distance_m: float,
-              dt_s: float = 1.0, prices: Prices | None = None) -> dict[str, Any]:
+              dt_s: float = 1.0) -> dict[str, Any]:
     """The run's metrics from its traces (arrays of ``fuel_g``, ``battery_chem_power_w``,
     ``missed_wheel_energy_j``, ``soc``, ``motor_temp_c``, ``heat_index``, ``motor_cutoff``,
-    ``trace_miss_mps``, ``engine_on``), priced at ``prices`` (default :class:`Prices`)."""
+    ``trace_miss_mps``, ``engine_on``), priced at :class:`Prices`' defaults."""
     fuel_g = float(trace["fuel_g"].sum())
     dist_km = max(distance_m / 1000.0, 1e-9)
     dens = config.engine.fuel_density_kg_per_l
     lhv = config.engine.fuel_lhv_j_per_g
     batt_j = float(trace["battery_chem_power_w"].sum() * dt_s)
     miss_j = float(trace["missed_wheel_energy_j"].sum())
-    corr_batt_g, corr_miss_g = (prices or Prices()).corrections_g(batt_j, miss_j, lhv)
+    corr_batt_g, corr_miss_g = Prices().corrections_g(batt_j, miss_j, lhv)
     ratio, sustaining = charge_sustaining(batt_j, fuel_g, lhv)
 
     def l100(g: float) -> float:
@@ -86,12 +86,12 @@ def yardstick_cost_g(out: np.ndarray, state_after: np.ndarray, reward_params: Re
 
 
 def run_metrics(trace: Mapping[str, np.ndarray], config: VehicleConfig, soc_initial: float, speed_mps: Any,
-                start: int, steps: int, dt_s: float, prices: Prices | None = None) -> dict[str, Any]:
+                start: int, steps: int, dt_s: float) -> dict[str, Any]:
     """:func:`summarize` of a run of ``steps`` steps from second ``start`` of a cycle (its distance by trapezoids),
     plus the SOC change: what :func:`~hev_thermal_env.evaluation.run_strategy` and the training's evaluation report.
     """
     v = np.asarray(speed_mps, dtype=np.float64)
     distance_m = float(np.sum(0.5 * (v[start:start + steps] + v[start + 1:start + steps + 1])))
-    metrics = summarize(trace, config, soc_initial, distance_m, dt_s, prices)
+    metrics = summarize(trace, config, soc_initial, distance_m, dt_s)
     metrics["delta_soc"] = metrics["soc_final"] - metrics["soc_initial"]
     return metrics

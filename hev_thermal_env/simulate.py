@@ -41,7 +41,7 @@ class CoreDriver:
         self.cycle = cycle
         self.conditions = conditions
         self.k = 0
-        self._state = self.core.initial_state(conditions, 1)
+        self.phys_state = self.core.initial_state(conditions, 1)
         self.cond = self.core.conditions_array(conditions, 1)
         self._v = np.asarray(cycle.speed_mps, dtype=np.float64)
         self._g = np.asarray(cycle.grade, dtype=np.float64)
@@ -50,22 +50,18 @@ class CoreDriver:
     def unwrapped(self) -> CoreDriver:
         return self
 
-    @property
-    def phys_state(self) -> np.ndarray:
-        return self._state
-
     def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         a = np.array(actions, dtype=np.float64).reshape(-1)
         n = a.size
         k = self.k
-        return self.core.step(np.repeat(self._state, n, axis=0), a, np.full(n, self._v[k]), np.full(n, self._v[k + 1]),
-                              np.full(n, self._g[k]), np.repeat(self.cond, n, axis=0))
+        return self.core.step(np.repeat(self.phys_state, n, axis=0), a, np.full(n, self._v[k]),
+                              np.full(n, self._v[k + 1]), np.full(n, self._g[k]), np.repeat(self.cond, n, axis=0))
 
     def step(self, u: float) -> tuple[np.ndarray, np.ndarray]:
         k = self.k
-        state, out = self.core.step(self._state, np.array([u]), self._v[k:k + 1], self._v[k + 1:k + 2],
+        state, out = self.core.step(self.phys_state, np.array([u]), self._v[k:k + 1], self._v[k + 1:k + 2],
                                     self._g[k:k + 1], self.cond)
-        self._state = state
+        self.phys_state = state
         self.k = k + 1
         return state[0], out[0]
 

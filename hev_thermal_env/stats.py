@@ -21,14 +21,13 @@ def iqm(values) -> float:
     return float(stats.trim_mean(np.asarray(values, dtype=float).ravel(), TRIM))
 
 
-def iqm_ci(values, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[float | None, float | None]:
-    """The ``confidence`` bootstrap interval of the IQM of ``values``, one task's scores (:func:`stratified_iqm_ci`
+def iqm_ci(values) -> tuple[float | None, float | None]:
+    """The :data:`CONFIDENCE` bootstrap interval of the IQM of ``values``, one task's scores (:func:`stratified_iqm_ci`
     of one group); (None, None) for fewer than two."""
-    return stratified_iqm_ci([values], confidence, seed)[1:]
+    return stratified_iqm_ci([values])[1:]
 
 
-def stratified_iqm_ci(groups: Sequence[Sequence[float]], confidence: float = CONFIDENCE,
-                      seed: int = 0) -> tuple[float | None, float | None, float | None]:
+def stratified_iqm_ci(groups: Sequence[Sequence[float]]) -> tuple[float | None, float | None, float | None]:
     """(IQM, CI low, CI high) of the pooled scores of ``groups`` (one group per task, the seeds' scores).
 
     The bootstrap resamples each group on its own (with replacement, its own size) and takes the IQM
@@ -56,6 +55,6 @@ def stratified_iqm_ci(groups: Sequence[Sequence[float]], confidence: float = CON
         parts.append(np.broadcast_to(fixed, batch + fixed.shape))
         return stats.trim_mean(np.concatenate(parts, axis=-1), TRIM, axis=-1)
 
-    res = stats.bootstrap(varying, statistic, confidence_level=confidence, n_resamples=BOOTSTRAP_RESAMPLES,
-                          method="percentile", rng=np.random.default_rng(seed), axis=-1)
+    res = stats.bootstrap(varying, statistic, confidence_level=CONFIDENCE, n_resamples=BOOTSTRAP_RESAMPLES,
+                          method="percentile", rng=np.random.default_rng(0), axis=-1)
     return centre, float(res.confidence_interval.low), float(res.confidence_interval.high)

@@ -140,12 +140,8 @@ def _powell(obj: Objective, bounds: list[tuple[float, float]], x0: np.ndarray, *
     # Powell on the unit cube: equal step scales for parameters of very different magnitudes
     lo = np.array([b[0] for b in bounds])
     span = np.array([b[1] - b[0] for b in bounds])
-
-    def scaled(z: np.ndarray) -> float:
-        return obj(lo + np.clip(z, 0.0, 1.0) * span)
-
-    res = optimize.minimize(scaled, (x0 - lo) / span, method="Powell", bounds=[(0.0, 1.0)] * len(bounds),
-                            options={"maxfev": maxfev, "xtol": 1e-4, "ftol": 1e-6})
+    res = optimize.minimize(lambda z: obj(lo + np.clip(z, 0.0, 1.0) * span), (x0 - lo) / span, method="Powell",
+                            bounds=[(0.0, 1.0)] * len(bounds), options={"maxfev": maxfev, "xtol": 1e-4, "ftol": 1e-6})
     return lo + np.clip(res.x, 0.0, 1.0) * span
 
 

@@ -181,9 +181,8 @@ def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
 def split_address(address: str) -> tuple[str, int]:
     """``(host, port)`` of ``HOST[:PORT]`` or ``ray://HOST[:PORT]`` (port 6379, or 10001 for ``ray://``)."""
     text = address.strip()
-    default = DEFAULT_RAY_PORT
-    if text.startswith("ray://"):
-        text, default = text[len("ray://"):], 10001
+    default = 10001 if text.startswith("ray://") else DEFAULT_RAY_PORT
+    text = text.removeprefix("ray://")
     host, sep, port = text.rpartition(":") if ":" in text else (text, "", "")
     host = host.strip("[]")
     if not host:

@@ -111,14 +111,13 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     fig.supxlabel(xlabel + _reference_line(drawn, key), fontsize=10)
     handles = [Line2D([], [], color="k", lw=1.0, label=base_label),
                Line2D([], [], color="0.4", marker="o", ls="-", lw=1.0, label="classic strategy")]
-    any_learned = any(is_learned(s, families) for s in strategies)
     if any(is_learned(s, families) and s not in families for s in strategies):
         handles.append(Line2D([], [], color="0.4", marker="D", ls="none", label="learned policy"))
     if families:
         handles += [Line2D([], [], color="0.4", marker="D", ms=7, ls="-", lw=2.0,
                            label="seed family: IQM (diamond),\n95 % bootstrap CI (whiskers)"),
                     Line2D([], [], color="0.4", marker="o", ms=3.5, ls="none", alpha=0.6, label="one seed")]
-    if any_learned:
+    if any(is_learned(s, families) for s in strategies):
         handles.append(Patch(facecolor=LEARNED_BAND_COLOUR, label="learned policies (set apart)"))
     legend_outside(fig, handles)
     figure_title(fig, title, fontsize=12)

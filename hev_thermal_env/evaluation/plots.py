@@ -85,12 +85,10 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", 
 
 def _speed_panel(ax, traces, labels, styles) -> list:
     handles = []
-    for label in labels:
-        if "cycle_speed_mps" in traces[label]:
-            tr = traces[label]
-            handles += ax.plot(_time(tr), np.asarray(tr["cycle_speed_mps"], dtype=float) * 3.6, color=CYCLE_COLOUR,
-                               lw=5.0, solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
-            break
+    cycle = next((traces[x] for x in labels if "cycle_speed_mps" in traces[x]), None)
+    if cycle is not None:
+        handles += ax.plot(_time(cycle), _series(cycle, "cycle_speed_mps") * 3.6, color=CYCLE_COLOUR, lw=5.0,
+                           solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
     for label in labels:
         tr = traces[label]
         handles += ax.plot(_time(tr), _series(tr, "speed_mps") * 3.6, label=short_label(label), **styles[label])
@@ -113,11 +111,11 @@ def _temperature_panel(ax, traces, labels, styles) -> list:
             ax.plot(t[on], temp[on], ls="none", marker="|", ms=7, mew=1.2, color=styles[label]["color"], zorder=6)
     handles = []
     if hottest >= soft_c - LIMITS_SHOWN_WITHIN_K:
-        handles.append(ax.axhline(cutoff_c, color=CUTOFF_COLOUR, lw=2.0, ls="-.", label=f"cutoff {cutoff_c:g} °C"))
-        handles.append(ax.axhline(soft_c, color=SOFT_LIMIT_COLOUR, lw=1.4, ls=":",
-                                  label=f"soft limit {soft_c:g} °C\n(overheat penalty)"))
-        handles += ax.plot([], [], ls="none", marker="|", ms=7, mew=1.2, color="0.3",
-                           label="motor cut off\n(mark on its line)")
+        handles = [ax.axhline(cutoff_c, color=CUTOFF_COLOUR, lw=2.0, ls="-.", label=f"cutoff {cutoff_c:g} °C"),
+                   ax.axhline(soft_c, color=SOFT_LIMIT_COLOUR, lw=1.4, ls=":",
+                              label=f"soft limit {soft_c:g} °C\n(overheat penalty)"),
+                   *ax.plot([], [], ls="none", marker="|", ms=7, mew=1.2, color="0.3",
+                            label="motor cut off\n(mark on its line)")]
         ax.set_ylim(top=cutoff_c + 4.0)
         ax.set_title("motor temperature", fontsize=10)
     else:
@@ -149,8 +147,7 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
     ax.imshow(np.where(idle > 0, 1.0, np.nan), aspect="auto", extent=extent, interpolation="nearest",
               cmap=ListedColormap(["#e0e0e0"]), vmin=0, vmax=1)
     img = ax.imshow(grid, aspect="auto", extent=extent, interpolation="nearest", cmap="RdBu_r", vmin=-1.0, vmax=1.0)
-    ax.set_yticks(range(len(labels)))
-    ax.set_yticklabels([short_label(x) for x in labels], fontsize=8)
+    ax.set_yticks(range(len(labels)), [short_label(x) for x in labels], fontsize=8)
     for tick, label in zip(ax.get_yticklabels(), labels):
         tick.set_color(styles[label]["color"])
     ax.set_title("torque split u per strategy (red: motor assists, blue: engine charges the battery, "

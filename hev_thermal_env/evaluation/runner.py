@@ -104,9 +104,7 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
         strategy.reset(env)
         plan_s = time.perf_counter() - t_plan
         n = e.cycle.n_steps - k0
-        outs = np.empty((n, C.N_OUT))
-        states = np.empty((n, C.N_STATE))
-        us = np.empty(n)
+        outs, states, us = np.empty((n, C.N_OUT)), np.empty((n, C.N_STATE)), np.empty(n)
         infos: dict[str, list] = {}
         steps = 0
         while True:

@@ -135,10 +135,10 @@ def table3_paper(run: str) -> dict[str, float]:
             "grade_4pct_speed_kmh": PAPER_FIGURE_BY_NAME[f"grade_{run}_kmh"].paper}
 
 
-def verdict_rows(ours: Mapping[str, Any], figures: tuple[PaperFigure, ...] = PAPER_FIGURES) -> list[dict[str, Any]]:
+def verdict_rows(ours: Mapping[str, Any]) -> list[dict[str, Any]]:
     """One row per judged figure: paper, ours, difference (absolute and %), residual and verdict."""
     rows = []
-    for f in figures:
+    for f in PAPER_FIGURES:
         if not f.judged:
             continue
         v = ours.get(f.name)

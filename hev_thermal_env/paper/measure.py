@@ -179,8 +179,7 @@ def fig4_curve(duration_s: int = 200) -> dict[str, Any]:
     mo = paper_bus().motor.pack()
     w = 2000 * RPM
     cont, peak = mot.continuous_torque_nm(mo, w), mot.peak_torque_nm(mo, w)
-    x = -thm.pwm_initial(th, 20.0)
-    x_min = x
+    x = x_min = -thm.pwm_initial(th, 20.0)
     t_s = np.arange(0, duration_s + 1)
     pwm, tmax = [], []
     for _ in t_s:

@@ -25,8 +25,7 @@ RESIDUAL_SHOWN = 4.0  # verdict chart: residuals beyond ± this are drawn at the
 
 
 def _legend(fig, *axes) -> None:
-    pairs = [ax.get_legend_handles_labels() for ax in axes]
-    legend_outside(fig, [h for hs, _ in pairs for h in hs], [lab for _, labs in pairs for lab in labs])
+    legend_outside(fig, [h for ax in axes for h in ax.get_legend_handles_labels()[0]])
 
 
 def _value_text(r: dict[str, Any]) -> str:
@@ -69,8 +68,7 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
                Line2D([], [], marker="<", ls="none", color=OUTSIDE_COLOUR,
                       label=f"beyond ±{RESIDUAL_SHOWN:g}: drawn at the edge, value beside it")]
     legend_outside(fig, handles, ncol=3, loc="outside lower center")
-    n_in = sum(r["within"] for r in rows)
-    figure_title(fig, f"Paper figures: {n_in} of {len(rows)} within tolerance", fontsize=11)
+    figure_title(fig, f"Paper figures: {sum(r['within'] for r in rows)} of {len(rows)} within tolerance", fontsize=11)
     return save_fig(fig, path)
 
 
