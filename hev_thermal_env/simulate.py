@@ -79,15 +79,11 @@ class CoreDriver:
 
 def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0,
              conditions: Conditions | None = None) -> SimResult:
-    """Drive ``cycle`` (anything ``load_cycle`` accepts) with ``config`` (default ``paper_bus()``) and a torque split,
-    in ``conditions`` (default ``Conditions()``), one step per second.
-
-    ``split``: the motor's share u in [-1, 1] of the coupler torque: a constant, an array with one value per
-    step, or a callable ``split(k, state) -> u`` where ``state`` holds ``soc``, ``motor_temp_c``, ``heat_x``,
-    ``heat_index``, ``motor_cutoff``, ``speed_mps``, ``next_speed_mps``, ``grade`` for step ``k``.
-
-    Returns the traces of :func:`step_traces`, ``time_s`` and ``cycle_speed_mps``, and :func:`summarize`'s metrics.
-    """
+    """Drive ``cycle`` (anything ``load_cycle`` accepts) with ``config`` (default ``paper_bus()``) in ``conditions``
+    (default ``Conditions()``), one step per second; ``split``, the motor's share u in [-1, 1] of the coupler torque,
+    is a constant, one value per step or ``split(k, state) -> u`` with ``state`` holding ``soc``, ``motor_temp_c``,
+    ``heat_x``, ``heat_index``, ``motor_cutoff``, ``speed_mps``, ``next_speed_mps`` and ``grade`` of step ``k``.
+    Returns the traces of :func:`step_traces`, ``time_s`` and ``cycle_speed_mps``, and :func:`summarize`'s metrics."""
     cyc = load_cycle(cycle)
     config = paper_bus() if config is None else config
     conditions = Conditions() if conditions is None else conditions
@@ -121,10 +117,8 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
 def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
           conditions: Conditions | None = None) -> dict[str, np.ndarray]:
     """Run ``strategy`` (an ``agents.base.Strategy``) over ``cycle`` on a :class:`CoreDriver`, with the float32
-    action the environment gives it: equals the environment's run step for step.
-
-    Returns the traces of :meth:`CoreDriver.run` and ``u`` (the action applied).
-    """
+    action the environment gives it (so the run equals the environment's step for step); the traces of
+    :meth:`CoreDriver.run` and ``u``, the action applied."""
     cyc = load_cycle(cycle)
     conditions = conditions or Conditions()
     config = strategy.vehicle_config(config)
@@ -154,12 +148,8 @@ def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def energy_balance(trace: dict[str, np.ndarray], config: VehicleConfig, dt_s: float = 1.0) -> dict[str, float]:
-    """Energy in and out over a run (J) and the relative closing error.
-
-    In: engine brake energy (fuel energy through the engine's efficiency) and battery chemical
-    energy. Out: wheel energy delivered, friction brakes, battery, motor, clutch and driveline
-    losses and the accessories.
-    """
+    """Energy in and out over a run (J) and the relative closing error. In: engine brake energy and battery chemical
+    energy. Out: wheel energy delivered, friction brakes, battery, motor, clutch and driveline losses, accessories."""
     e_in = float((trace["engine_power_w"].sum() + trace["battery_chem_power_w"].sum()) * dt_s)
     parts = {k: float(trace[k].sum() * dt_s) for k in (
         "wheel_power_w", "brake_power_w", "battery_loss_w", "motor_loss_w", "clutch_loss_w", "driveline_loss_w",

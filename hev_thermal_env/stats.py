@@ -28,12 +28,10 @@ def iqm_ci(values) -> tuple[float | None, float | None]:
 
 
 def stratified_iqm_ci(groups: Sequence[Sequence[float]]) -> tuple[float | None, float | None, float | None]:
-    """(IQM, CI low, CI high) of the pooled scores of ``groups`` (one group per task, the seeds' scores).
-
-    The bootstrap resamples each group on its own (with replacement, its own size) and takes the IQM
-    of the pooled resample; a group of one score enters every resample as it is. Non-finite scores
-    are dropped. (None, None, None) without scores; the interval is None with fewer than two.
-    """
+    """(IQM, CI low, CI high) of the pooled scores of ``groups`` (one group per task, the seeds' scores). The bootstrap
+    resamples each group on its own (with replacement, its own size) and takes the IQM of the pooled resample; a
+    group of one score enters every resample as it is. Non-finite scores are dropped. (None, None, None) without
+    scores; the interval is None with fewer than two."""
     clean = [x[np.isfinite(x)] for x in (np.asarray(g, dtype=float).ravel() for g in groups)]
     clean = [x for x in clean if x.size]
     if not clean:

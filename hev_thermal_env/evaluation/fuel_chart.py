@@ -13,6 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .families import OVERALL
+from .results_table import ratio_text
 from .styles import (
     LEARNED_BAND_COLOUR,
     figure_title,
@@ -171,10 +172,7 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         lo, hi = ax.get_xlim()
         below = right < origin - 0.08 * (hi - lo) and name not in families
         right = max(right, origin)
-        text = f"{v:.3f}"
-        if name in families and r.get(f"{key}_ci_low") is not None:
-            text += f" [{r[f'{key}_ci_low']:.3f}, {r[f'{key}_ci_high']:.3f}]"
-        ax.annotate(text, (left if below else right, y), xytext=(-7 if below else 7, 0),
+        ax.annotate(ratio_text(r, key), (left if below else right, y), xytext=(-7 if below else 7, 0),
                     textcoords="offset points", va="center", ha="right" if below else "left", fontsize=8,
                     fontweight="bold" if is_learned(name, families) else "normal")
     ax.grid(axis="x", alpha=0.3)

@@ -38,14 +38,10 @@ def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
 
 
 def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", learned: Collection[str] = ()):
-    """The trace figure of ``{label: trace}`` (see the module docstring); returns the matplotlib figure.
-
-    Each trace needs per-step arrays ``time_s``, ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and
-    the split ``motor_share`` (a run's trace holds them); ``cycle_speed_mps``, ``missed_wheel_energy_j``,
-    ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. The temperature limits are those of
-    ``paper_bus`` and the default reward. ``learned``: more names drawn as learned policies (seed families; ``ppo``
-    and ``ppo:PATH`` always are).
-    """
+    """The trace figure (module docstring) of ``{label: trace}``, each with per-step ``time_s``, ``speed_mps``,
+    ``soc``, ``motor_temp_c``, ``heat_index`` and ``motor_share`` (and, if present, ``cycle_speed_mps``,
+    ``missed_wheel_energy_j``, ``motor_cutoff``, ``shaft_torque_demand_nm``); temperature limits of ``paper_bus`` and
+    the default reward. ``learned``: more names drawn as learned policies (seed families)."""
     if not traces:
         raise ValueError("plot_run: no traces to plot")
     labels = ordered(traces, learned)

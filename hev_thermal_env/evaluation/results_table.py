@@ -62,11 +62,9 @@ def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[st
     atomic_write_text(out / "results.csv", buf.getvalue())
     clean = [{c: jsonable(r.get(c)) for c in COLUMNS} for r in rows]
     atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean, "notes": list(notes)})
-    runs = [r for r in rows if not _is_family_row(r)]
-    atomic_write_json(out / "timings.json", {
-        "total_wall_s": wall_s,
-        "runs": [{"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
-                 for r in runs]})
+    atomic_write_json(out / "timings.json", {"total_wall_s": wall_s, "runs": [
+        {"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
+        for r in rows if not _is_family_row(r)]})
     atomic_write_text(out / "results.md", markdown(rows, notes))
 
 
@@ -74,7 +72,8 @@ def _is_family_row(r: dict) -> bool:
     return r.get("family") is not None and r["strategy"] == r["family"]
 
 
-def _ratio_cell(r: dict, key: str) -> str:
+def ratio_text(r: dict, key: str) -> str:
+    """The ratio ``key`` of a row to 3 decimals, with its interval in brackets if it has one; "-" if it has none."""
     v = r.get(key)
     if v is None:
         return "-"
@@ -93,8 +92,8 @@ def _j1711_cell(r: dict) -> str:
 def _run_line(r: dict) -> list[str]:
     pct = r.get("fuel_vs_thermal_blind_dp_pct")
     return [r["cycle"], r["scenario"], display_name(r["strategy"]), f"{r['fuel_l_per_100km']:.2f}",
-            f"{r['fuel_corrected_l_per_100km']:.2f}", _ratio_cell(r, "frontier_ratio"),
-            _ratio_cell(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
+            f"{r['fuel_corrected_l_per_100km']:.2f}", ratio_text(r, "frontier_ratio"),
+            ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
             f"{r['soc_initial']:.3f} → {r['soc_final']:.3f}", f"{r['max_motor_temp_c']:.1f}",
             f"{r['heat_index_max']:.2f}", f"{r['derated_s']:.0f}", f"{r['cutoff_s']:.0f}",
             f"{r['missed_wheel_energy_kwh']:.3f}"]
@@ -103,8 +102,8 @@ def _run_line(r: dict) -> list[str]:
 def _family_line(r: dict) -> list[str]:
     fuel = r.get("fuel_corrected_l_per_100km")
     return [r["cycle"], r["scenario"], f"**{r['strategy']}** (IQM of {r['seeds']} seeds)", "-",
-            f"{fuel:.2f}" if fuel is not None else "-", _ratio_cell(r, "frontier_ratio"),
-            _ratio_cell(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-"]
+            f"{fuel:.2f}" if fuel is not None else "-", ratio_text(r, "frontier_ratio"),
+            ratio_text(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-"]
 
 
 def _table(head: Sequence[str], lines: list[list[str]]) -> list[str]:
@@ -121,8 +120,8 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
         md += ["", f"Seed families over every cycle × scenario (IQM over seeds and cycles × scenarios, "
                    f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval):", ""]
         md += _table(("family", "seeds", "runs", "frontier ratio", "fixed-price ratio", "J1711 charge-sustaining"),
-                     [[r["strategy"], str(r["seeds"]), str(r["runs"]), _ratio_cell(r, "frontier_ratio"),
-                       _ratio_cell(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
+                     [[r["strategy"], str(r["seeds"]), str(r["runs"]), ratio_text(r, "frontier_ratio"),
+                       ratio_text(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
     md += ["", *_reference_lines(rows), "", EXPLANATION]
     if any(_is_family_row(r) for r in rows):
         md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "

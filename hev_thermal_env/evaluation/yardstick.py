@@ -27,11 +27,9 @@ SOC_TOLERANCE = 1e-9  # a final SOC this close to the frontier's end is on it (f
 
 @dataclasses.dataclass(frozen=True)
 class Frontier:
-    """The optimum's cost (g) against the final SOC, sorted by SOC; ``grid`` names the method and grid.
-
-    F(s) is the lowest cost of a path ending at SOC ≥ s, so below the first point it is the first point's cost,
-    down to ``soc_min`` (the lowest final SOC the optimum searched; default the first point).
-    """
+    """The optimum's cost (g) against the final SOC, sorted by SOC; ``grid`` names the method and grid. F(s) is the
+    lowest cost of a path ending at SOC ≥ s, so below the first point it is the first point's cost, down to
+    ``soc_min`` (the lowest final SOC the optimum searched; default the first point)."""
 
     soc_final: np.ndarray
     cost_g: np.ndarray
@@ -132,13 +130,9 @@ def add_yardstick_columns(rows: list[dict]) -> None:
     for r in rows:
         key = (r["cycle"], r["scenario"])
         ref = refs.get(key)
-        frontier, problem = frontiers.get(key, (None, None))
-        if ref is None:
-            r["frontier_ratio"], r["frontier_note"] = None, f"{REFERENCE} did not run on this cycle and scenario"
-        elif problem is not None:
-            r["frontier_ratio"], r["frontier_note"] = None, problem
-        else:
-            r["frontier_ratio"], r["frontier_note"] = frontier_ratio(r["cost_g"], r["soc_final"], frontier)
+        frontier, problem = frontiers.get(key, (None, f"{REFERENCE} did not run on this cycle and scenario"))
+        r["frontier_ratio"], r["frontier_note"] = ((None, problem) if problem is not None
+                                                   else frontier_ratio(r["cost_g"], r["soc_final"], frontier))
         r["fixed_price_ratio"] = _ratio(r, ref)
         pct = _ratio(r, blind.get(key))
         r["fuel_vs_thermal_blind_dp_pct"] = None if pct is None else 100.0 * pct

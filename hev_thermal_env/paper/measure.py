@@ -137,11 +137,9 @@ class Baseline:
 
 
 def measure(config: VehicleConfig, baseline: Baseline | None = None, *, hwfet: bool = False) -> dict[str, Any]:
-    """Every calibration target's value for ``config`` (thermal model on), plus diagnostics.
-
-    Returns ``{"values": {target name: value}, "udds": {...}, "beijing": {...}, "accel": {...}}``
-    (and ``"hwfet"`` when asked), the cycles' figures as :func:`cycle_run` gives them.
-    """
+    """Every calibration target's value for ``config`` (thermal model on), plus diagnostics: ``{"values": {target:
+    value}, "udds": {...}, "beijing": {...}, "accel": {...}}`` (and ``"hwfet"`` when asked; :func:`cycle_run`'s
+    figures)."""
     base = baseline or Baseline(config)
     cycles = TARGET_CYCLES + (("hwfet",) if hwfet else ())
     runs = {c: cycle_run(config, c, base.fuel_l100[c])[0] for c in cycles}
