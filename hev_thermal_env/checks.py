@@ -148,9 +148,8 @@ def _check_step(scenario: str, env, obs, rew, info, sink, stepped, soc_before):
 
 def _sinks(env) -> np.ndarray:
     """Per env: the coolest temperature the motor can be drawn toward in this episode."""
-    cond = env.cond
     start = np.array([c.initial_motor_temp_c for c in env.conditions])
-    return np.minimum(np.minimum(cond[:, C.AMBIENT_C], cond[:, C.WATER_C]), start)
+    return np.minimum(np.minimum(env.cond[:, C.AMBIENT_C], env.cond[:, C.WATER_C]), start)
 
 
 def _check_finite(obs, rew, info, out) -> None:
@@ -158,7 +157,6 @@ def _check_finite(obs, rew, info, out) -> None:
         if not np.all(np.isfinite(x)):
             raise AssertionError(f"NaN or inf in {what}")
     for key, val in info.items():
-        if key.startswith("_") or not isinstance(val, np.ndarray) or val.dtype.kind not in "fiub":
-            continue
-        if not np.all(np.isfinite(val)):
+        numeric = not key.startswith("_") and isinstance(val, np.ndarray) and val.dtype.kind in "fiub"
+        if numeric and not np.all(np.isfinite(val)):
             raise AssertionError(f"NaN or inf in info[{key!r}]")

@@ -20,9 +20,8 @@ J1711_TOLERANCE = 0.01
 
 def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: float, distance_m: float,
               dt_s: float = 1.0) -> dict[str, Any]:
-    """The run's metrics from its traces (arrays of ``fuel_g``, ``battery_chem_power_w``,
-    ``missed_wheel_energy_j``, ``soc``, ``motor_temp_c``, ``heat_index``, ``motor_cutoff``,
-    ``trace_miss_mps``, ``engine_on``), priced at :class:`Prices`' defaults."""
+    """The run's metrics from its traces (``fuel_g``, ``battery_chem_power_w``, ``missed_wheel_energy_j``, ``soc``,
+    ``motor_temp_c``, ``heat_index``, ``motor_cutoff``, ``trace_miss_mps``, ``engine_on``) at :class:`Prices`."""
     fuel_g = float(trace["fuel_g"].sum())
     dist_km = max(distance_m / 1000.0, 1e-9)
     dens = config.engine.fuel_density_kg_per_l
@@ -61,8 +60,7 @@ def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: 
 def charge_sustaining(battery_energy_j: float, fuel_g: float, lhv_j_per_g: float) -> tuple[float | None, bool]:
     """(net energy ratio, charge-sustaining flag) of SAE J1711: the net chemical energy drawn from the battery (J,
     positive when the run ends with less charge) over the fuel energy, charge-sustaining when at most
-    :data:`J1711_TOLERANCE` in magnitude. Without fuel: None, and charge-sustaining only if the battery is unchanged.
-    """
+    :data:`J1711_TOLERANCE` in magnitude; without fuel, None and charge-sustaining only if the battery is unchanged."""
     fuel_j = float(fuel_g) * float(lhv_j_per_g)
     if fuel_j <= 0.0:
         return None, float(battery_energy_j) == 0.0
@@ -72,11 +70,10 @@ def charge_sustaining(battery_energy_j: float, fuel_g: float, lhv_j_per_g: float
 
 def yardstick_cost_g(out: np.ndarray, state_after: np.ndarray, reward_params: RewardParams, lhv_j_per_g: float,
                      dt_s: float, soc_target: float | np.ndarray = 0.0) -> float:
-    """The run's cost (g of fuel equivalent) as the thermal optimum prices it: the sum over the steps (physics outputs
-    ``out`` [n, N_OUT], the state after each, ``state_after`` [n, N_STATE]) of
-    :func:`~hev_thermal_env.envs.reward.stage_cost_g` without the battery and SOC terms, i.e. fuel + the missed
-    wheel energy at the miss price + the overheat terms of ``reward_params``. ``soc_target`` does not enter.
-    """
+    """The run's cost (g of fuel equivalent) as the thermal optimum prices it: the sum over the steps (outputs ``out``
+    [n, N_OUT], states after ``state_after`` [n, N_STATE]) of :func:`~hev_thermal_env.envs.reward.stage_cost_g`
+    without the battery and SOC terms (``soc_target`` does not enter): fuel + the missed wheel energy at the miss
+    price + the overheat terms of ``reward_params``."""
     out = np.asarray(out, dtype=np.float64)
     if out.shape[0] == 0:
         return 0.0
@@ -88,8 +85,7 @@ def yardstick_cost_g(out: np.ndarray, state_after: np.ndarray, reward_params: Re
 def run_metrics(trace: Mapping[str, np.ndarray], config: VehicleConfig, soc_initial: float, speed_mps: Any,
                 start: int, steps: int, dt_s: float) -> dict[str, Any]:
     """:func:`summarize` of a run of ``steps`` steps from second ``start`` of a cycle (its distance by trapezoids),
-    plus the SOC change: what :func:`~hev_thermal_env.evaluation.run_strategy` and the training's evaluation report.
-    """
+    plus the SOC change: what :func:`~hev_thermal_env.evaluation.run_strategy` and the training's evaluation report."""
     v = np.asarray(speed_mps, dtype=np.float64)
     distance_m = float(np.sum(0.5 * (v[start:start + steps] + v[start + 1:start + steps + 1])))
     metrics = summarize(trace, config, soc_initial, distance_m, dt_s)

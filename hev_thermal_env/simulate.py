@@ -30,10 +30,9 @@ class SimResult:
 
 
 class CoreDriver:
-    """The part of ``HevThermalEnv`` a model-based strategy reads (``core``, ``config``, ``cycle``, ``k``,
-    ``phys_state``, ``peek``) over a bare ``PhysicsCore``: the same steps without the reward and observation
-    machinery, so a run is a pure function of the vehicle, the cycle and the conditions (the paper report and the
-    calibration drive ``rule`` so, the calibration some thousands of times)."""
+    """What a model-based strategy reads of ``HevThermalEnv`` (``core``, ``config``, ``cycle``, ``k``, ``phys_state``,
+    ``peek``) over a bare ``PhysicsCore``, without the reward and observation machinery: light enough for the
+    calibration's thousands of runs, a pure function of the vehicle, the cycle and the conditions."""
 
     def __init__(self, config: VehicleConfig, cycle: Cycle, conditions: Conditions):
         self.config = config
@@ -137,9 +136,8 @@ def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
 
 
 def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
-    """Per-step traces of a run: every physics output of ``outs`` [n, N_OUT] and every state of ``states``
-    [n, N_STATE] (the state after each step) by name (:mod:`hev_thermal_env.physics.core`), and
-    ``heat_index`` = clip(heat_x, 0, 1)."""
+    """Every physics output of ``outs`` [n, N_OUT] and state of ``states`` [n, N_STATE] (after each step) by name
+    (:mod:`hev_thermal_env.physics.core`), and ``heat_index`` = clip(heat_x, 0, 1)."""
     trace = {name: outs[:, i].copy() for i, name in enumerate(C.OUT_NAMES)}
     for i, name in enumerate(C.STATE_NAMES):
         trace[name] = states[:, i].copy()

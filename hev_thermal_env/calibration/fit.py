@@ -128,14 +128,6 @@ class Objective:
         return float(sum(PAPER_FIGURE_BY_NAME[n].residual(values[n]) ** 2 for n in self.target_names))
 
 
-def _de(obj: Objective, bounds: list[tuple[float, float]], x0: np.ndarray, *, maxiter: int, popsize: int,
-        seed: int) -> np.ndarray:
-    res = optimize.differential_evolution(obj, bounds, x0=x0, seed=seed, popsize=popsize, maxiter=maxiter,
-                                          tol=1e-8, mutation=(0.5, 1.0), recombination=0.7, polish=False,
-                                          init="sobol", updating="immediate", workers=1)
-    return np.asarray(res.x)
-
-
 def _powell(obj: Objective, bounds: list[tuple[float, float]], x0: np.ndarray, *, maxfev: int) -> np.ndarray:
     # Powell on the unit cube: equal step scales for parameters of very different magnitudes
     lo = np.array([b[0] for b in bounds])
@@ -167,11 +159,12 @@ def run_fit(base: VehicleConfig | None = None, *, seed: int = 11, de_maxiter: in
         x0 = np.array([min(max(current[p], lo), hi) for p, (lo, hi) in zip(params, b)])
         c0 = obj(x0)
         if method == "de":
-            x = _de(obj, b, x0, maxiter=de_maxiter, popsize=de_popsize, seed=seed)
+            x = optimize.differential_evolution(obj, b, x0=x0, seed=seed, popsize=de_popsize, maxiter=de_maxiter,
+                                                tol=1e-8, mutation=(0.5, 1.0), recombination=0.7, polish=False,
+                                                init="sobol", updating="immediate", workers=1).x
         else:
             x = _powell(obj, b, x0, maxfev=polish_maxfev)
-        new = {p: round_sig(float(v)) for p, v in zip(params, x)}
-        new = {p: min(max(v, bounds[p][0]), bounds[p][1]) for p, v in new.items()}
+        new = {p: min(max(round_sig(float(v)), bounds[p][0]), bounds[p][1]) for p, v in zip(params, x)}
         c1 = obj(np.array([new[p] for p in params]))
         if c1 > c0:  # rounding or a poor search never makes the fit worse than its start
             new, c1 = {p: current[p] for p in params}, c0

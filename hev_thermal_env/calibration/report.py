@@ -82,10 +82,8 @@ def residuals_markdown(report: dict[str, Any]) -> str:
         lines.append(f"| {r['description']} ({r['unit']}) | {r['figure']} | {_paper(r)} | "
                      f"{_fmt(r['network'], r['unit'])} | {_fmt(r['paper_eqs'], r['unit'])} | "
                      f"{_fmt(r['difference'], r['unit'])} | {r['residual']:+.2f} | {verdict} / {verdict_eqs} |")
-    n, u, b = report["network"], report["network"]["udds"], report["network"]["beijing"]
-    e = report["paper_eqs"]
-    sp = report["sustained_speeds_kmh"]
-    c = report["fuel_corrected_l100"]
+    n, e, sp, c = report["network"], report["paper_eqs"], report["sustained_speeds_kmh"], report["fuel_corrected_l100"]
+    u, b = n["udds"], n["beijing"]
     met_eqs = sum(r["paper_eqs_met"] for r in report["rows"])
     lines += ["", f"{report['met']} of {report['n_targets']} targets met (network; cost Σr² = {report['cost']:.2f}), "
               f"{met_eqs} with the paper's equations as written. A heat index that never leaves 0 meets the "

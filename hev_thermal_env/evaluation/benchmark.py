@@ -69,9 +69,8 @@ def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
 
 def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None,
              families: list[Family] | None = None) -> dict[str, Any]:
-    """Fail before any work on unknown names, strategies that cannot be built (a missing model, an unknown
-    option), a family named like a strategy or another family, or an unusable output directory; returns the
-    cycles by the names given."""
+    """Fail before any work on unknown names, strategies that cannot be built, a family named like a strategy or
+    another family, or an unusable output directory; returns the cycles by the names given."""
     loaded = {c: load_cycle(c) for c in cycles}
     for s in scenarios:
         get_scenario(s)
@@ -162,11 +161,10 @@ def expected_cost_s(strategy: str, n_steps: int) -> float:
 
 
 class BenchmarkProgress:
-    """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers. A
+    """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers: a
     finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
-    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs in the order handed out
-    (the workers take them first in, first out). Call :meth:`finished` when a run ends and :meth:`show` to redraw
-    (every second or so, so that the elapsed times tick)."""
+    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (the workers take them
+    first in, first out). :meth:`finished` when a run ends; :meth:`show` redraws (every second or so)."""
 
     def __init__(self, labels: Sequence[str], costs: Sequence[float], order: Sequence[int], slots: int,
                  enabled: bool = True):

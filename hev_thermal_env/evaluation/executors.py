@@ -160,9 +160,8 @@ class RayExecutor:
 
 
 def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
-    """Make sure this process is connected to Ray: a runtime already started here is used as it is;
-    otherwise a local runtime of ``num_cpus`` CPUs (all when None) is started, or the cluster at
-    ``address`` joined. Returns whether it started or joined one (and so should shut it down)."""
+    """Connect this process to Ray: a runtime already started here as it is, else a local runtime of ``num_cpus`` CPUs
+    (all when None) or the cluster at ``address``. Returns whether it started or joined one (to shut down later)."""
     if ray.is_initialized():
         return False
     kwargs: dict[str, Any] = dict(logging_level=logging.WARNING, log_to_driver=False, include_dashboard=False)

@@ -1,11 +1,10 @@
 """Seed families: several trained policies (one training setup, different seeds) benchmarked as one.
 
 ``--family NAME=PATH[,PATH...]``: each PATH is what ``ppo:PATH`` loads; a single directory that is not itself a run
-stands for every run directory directly inside it (sorted by name). Each member runs as ``ppo:PATH`` (its rows carry
-``family`` = NAME); the family adds a row per cycle × scenario and one over all of them (cycle and scenario
-:data:`OVERALL`) with the IQM over the seeds of each ratio and its 95 % bootstrap interval
-(:mod:`hev_thermal_env.stats`). Seeds without a ratio are left out; the row's note counts them. See
-docs/metrics.md, *Seed families*.
+stands for every run directory directly inside it (sorted). Each member runs as ``ppo:PATH`` (its rows carry
+``family`` = NAME); the family adds a row per cycle × scenario and one over all (cycle and scenario :data:`OVERALL`)
+with the IQM over the seeds of each ratio and its 95 % bootstrap interval (:mod:`hev_thermal_env.stats`). Seeds
+without a ratio are left out; the row's note counts them. See docs/metrics.md, *Seed families*.
 """
 
 from __future__ import annotations
@@ -44,10 +43,8 @@ def _is_run(path: Path) -> bool:
 
 
 def parse_family(text: str, taken: Iterable[str] = ()) -> Family:
-    """The family of a ``NAME=PATH[,PATH...]`` option value; ``taken``: names already in use (strategies).
-
-    Raises ``ValueError`` (bad form, bad or taken name, repeated path, fewer than :data:`MIN_SEEDS`
-    runs) or ``FileNotFoundError`` (a path that does not exist), each naming the value."""
+    """The family of a ``NAME=PATH[,PATH...]`` option value (``taken``: the strategies' names). Raises ``ValueError``
+    (bad form, bad or taken name, repeated path, fewer than :data:`MIN_SEEDS` runs) or ``FileNotFoundError``."""
     name, sep, spec = str(text).partition("=")
     name = name.strip()
     if not sep or not name or not spec.strip():
@@ -124,8 +121,8 @@ def _summary_row(fam: Family, cycle: str, scenario: str, groups: list[list[dict]
 
 
 def representative(rows: Sequence[dict], fam: Family, cycle: str, scenario: str) -> str | None:
-    """The member whose frontier ratio (else fixed-price ratio) is nearest the family's IQM on a cycle and
-    scenario: the run its trace figure shows. None if no member ran there."""
+    """The member (its trace drawn) whose frontier (else fixed-price) ratio is nearest the family's IQM; None if none
+    ran on that cycle and scenario."""
     members = [r for r in rows if r["cycle"] == cycle and r["scenario"] == scenario and r["strategy"] in fam.members]
     for key in RATIOS:
         scored = [r for r in members if r.get(key) is not None]

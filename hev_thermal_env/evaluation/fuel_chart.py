@@ -1,5 +1,4 @@
-"""``fuel_vs_optimum.png``: every strategy against the thermal optimum, one panel per cycle (columns) and scenario
-(rows).
+"""``fuel_vs_optimum.png``: every strategy against the thermal optimum, a panel per cycle (column) and scenario (row).
 
 Rows go from the simplest strategy (top) to the optimum, the learned policies below a gap on a shaded band. The
 shared x axis is the frontier ratio (:mod:`.yardstick`; 1 = the optimum at the run's final SOC) and always holds 1;
@@ -71,9 +70,8 @@ def _split(rows: list[dict]) -> tuple[list[dict], dict[str, list[dict]]]:
 
 
 def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: list[str] | None = None):
-    """The chart of benchmark ``rows`` (``cycle``, ``scenario``, ``strategy``, ``frontier_ratio``,
-    ``fixed_price_ratio``, ``fuel_corrected_l_per_100km``; family rows with ``family`` and the
-    ``_ci_low``/``_ci_high`` columns); returns the matplotlib figure."""
+    """The chart of benchmark ``rows`` (``cycle``, ``scenario``, ``strategy``, the ratios; family rows with ``family``
+    and the ``_ci_low``/``_ci_high`` columns); returns the matplotlib figure."""
     drawn, members = _split(rows)
     if not drawn:
         raise ValueError("fuel chart: no benchmark rows")

@@ -160,9 +160,8 @@ def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.Path
 
 def plot_benchmark(out: Path, rows: list[dict], traces: dict, cycles: list[str] | None = None,
                    scenarios: list[str] | None = None) -> None:
-    """``out/traces_<cycle>_<scenario>.png`` (every strategy of a cycle and scenario on shared axes) and
-    ``out/fuel_vs_optimum.png`` (:mod:`.fuel_chart`); ``traces`` maps (cycle, scenario, strategy) to a run's
-    trace. Cycles and scenarios in the order given (default: as they first appear in the run rows)."""
+    """``out/traces_<cycle>_<scenario>.png`` and ``out/fuel_vs_optimum.png``; ``traces`` maps (cycle, scenario,
+    strategy) to a run's trace. Cycles and scenarios in the order given (default: as they first appear in the rows)."""
     runs = [r for r in rows if r.get("family") is None]
     cycles = list(dict.fromkeys(cycles or [r["cycle"] for r in runs]))
     scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in runs]))

@@ -1,12 +1,11 @@
 """The benchmark's yardstick: every run against the thermal optimum (``dp_thermal``) of its cycle and scenario.
 
-The reference run publishes in its settings (the summary's ``strategy_settings``) the optimum's cost against the
-final SOC, ``"frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}``, sorted by SOC, the
-cost (:func:`hev_thermal_env.metrics.yardstick_cost_g`) non-decreasing in it. :func:`add_yardstick_columns` gives
-each row of the same cycle and scenario ``frontier_ratio`` (``cost_g`` / F(``soc_final``), F interpolated on the
-frontier; None outside its range, ``frontier_note`` saying why), ``fixed_price_ratio``,
-``fuel_vs_thermal_blind_dp_pct`` and ``reference``. ``dp`` plans with the thermal state held and is always
-labelled thermal-blind (:data:`BLIND_SUFFIX`). See docs/metrics.md, *The yardstick*.
+The reference run publishes in its settings (``strategy_settings``) the optimum's cost against the final SOC,
+``"frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}``, sorted by SOC, the cost
+(:func:`hev_thermal_env.metrics.yardstick_cost_g`) non-decreasing in it. :func:`add_yardstick_columns` gives each
+row ``frontier_ratio`` (``cost_g`` / F(``soc_final``), F interpolated on the frontier; None outside its range, with
+a ``frontier_note``), ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and ``reference``. ``dp`` plans with
+the thermal state held: labelled thermal-blind everywhere (:data:`BLIND_SUFFIX`). See docs/metrics.md.
 """
 
 from __future__ import annotations

@@ -155,13 +155,9 @@ def verdict_rows(ours: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 def agreement(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """n of m within tolerance, overall and per paper figure."""
-    groups: dict[str, list[int]] = {}
-    for r in rows:
-        g = groups.setdefault(r["figure"], [0, 0])
-        g[0] += r["within"]
-        g[1] += 1
+    by_figure = {f: [r["within"] for r in rows if r["figure"] == f] for f in dict.fromkeys(r["figure"] for r in rows)}
     return {"within": sum(r["within"] for r in rows), "total": len(rows),
-            "by_figure": {k: {"within": a, "total": b} for k, (a, b) in groups.items()},
+            "by_figure": {f: {"within": sum(w), "total": len(w)} for f, w in by_figure.items()},
             "outside": [r["name"] for r in rows if not r["within"]]}
 
 

@@ -41,8 +41,8 @@ BASELINE_CYCLES = ("udds", "beijing", "hwfet")
 
 def heat_index_figures(trace: Mapping[str, np.ndarray]) -> dict[str, float]:
     """``hi_onset_s`` (first second with PWM > 0), ``hi_peak`` and its time, ``hi_return_s`` (seconds from the peak
-    back to 0; inf: never), and ``hi_onset_smooth_s``, the interpolated zero crossing of the integrator (continuous
-    in the parameters, for the fit; without any rise, past the cycle's end by how far the integrator stayed below 0)."""
+    back to 0; inf: never), ``hi_onset_smooth_s`` (the integrator's interpolated zero crossing, continuous for the
+    fit; without a rise, past the cycle's end by how far the integrator stayed below 0)."""
     pwm = np.asarray(trace["heat_index"])
     x = np.asarray(trace["heat_x"])
     t = np.arange(1, len(pwm) + 1, dtype=float)
@@ -75,9 +75,8 @@ def warm_figures(temps_c: np.ndarray) -> dict[str, float]:
 
 def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | None = None
               ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
-    """Heat-index, temperature and fuel figures of ``rule`` on ``cycle`` in the paper's conditions, and its trace.
-
-    With ``baseline_fuel_l100`` (the thermal-off run's raw fuel) the figures hold ``fuel_delta_l100``."""
+    """Heat-index, temperature and fuel figures of ``rule`` on ``cycle`` in the paper's conditions, and its trace;
+    with ``baseline_fuel_l100`` (the thermal-off run's raw fuel), ``fuel_delta_l100`` too."""
     cyc = load_cycle(cycle)
     tr = drive(get_strategy("rule"), cyc, config, PAPER_CONDITIONS)
     summary = summarize(tr, config, PAPER_CONDITIONS.initial_soc, cyc.distance_m)

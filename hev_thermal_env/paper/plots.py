@@ -1,10 +1,7 @@
-"""The paper report's figures, with the paper's own points and tolerance bands drawn on them.
-
-* ``verdicts.png``: every judged figure as its distance from the paper in tolerances;
-* ``fig4_heat_index.png``: the heat index at twice the continuous torque, with the paper's 30 s / 130 s;
-* ``thermal_time_to_cutoff.png``: coolant off at peak power, against the heat-balance estimate;
-* ``fig_temperature_heat_index_<cycle>.png``: Figs 7-10 analogs with the paper's bands;
-* ``fig_table2_fuel.png``: absolute fuel levels, ours (raw and corrected) and the paper's Table 2.
+"""The paper report's figures, with the paper's own points and tolerance bands drawn on them: ``verdicts.png`` (each
+judged figure's distance from the paper in tolerances), ``fig4_heat_index.png``, ``thermal_time_to_cutoff.png``
+(coolant off at peak power, against the heat-balance estimate), ``fig_temperature_heat_index_<cycle>.png`` (Figs
+7-10) and ``fig_table2_fuel.png`` (absolute fuel levels: ours, raw and corrected, and the paper's Table 2).
 """
 
 from __future__ import annotations

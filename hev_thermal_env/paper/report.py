@@ -24,8 +24,7 @@ __all__ = ["build_report"]
 
 
 def _cycles(out: Path, config: VehicleConfig, cycles: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    """Table 2 and the Figs 7-10 analogs: ``rule`` without and with the thermal model on every cycle (the
-    figures of :func:`~.measure.cycle_run`), each drawn into ``out``."""
+    """Table 2 and Figs 7-10: :func:`~.measure.cycle_run` without and with the thermal model, drawn into ``out``."""
     base = Baseline(config, cycles)
     result = {}
     for cycle in cycles:
@@ -38,10 +37,8 @@ def _cycles(out: Path, config: VehicleConfig, cycles: tuple[str, ...]) -> dict[s
 
 def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = VERDICT_CYCLES,
                  quick: bool = False) -> dict[str, Any]:
-    """Compute every section, write the figures, ``paper.json`` and ``report.md``; return the numbers.
-
-    The verdicts need ``hwfet``, ``udds`` and ``beijing``: they are run whatever ``cycles`` holds
-    (``cycles`` adds figures for further cycles)."""
+    """Compute every section, write the figures, ``paper.json`` and ``report.md``; return the numbers. The verdicts
+    run ``hwfet``, ``udds`` and ``beijing`` whatever ``cycles`` holds (it adds figures for further cycles)."""
     out = check_writable_dir(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
