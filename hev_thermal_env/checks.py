@@ -1,21 +1,11 @@
 """Reliability checks: random-action fuzzing of the environment against physical invariants.
 
-:func:`fuzz` drives the native vector environment with random actions (including the bounds and
-values beyond them) over every built-in cycle, every scenario and random bus cycles, and checks
-at every step that
-
-* observations, rewards and infos hold no NaN or inf, and observations lie in their space;
-* SOC stays within the battery's hard window; the heat index within [0, 1]; fuel is never negative;
-* the motor temperature is finite and never below the coolest heat sink (ambient, coolant, or
-  its own starting temperature) minus :data:`TEMP_TOL_C`;
-* the battery's chemical power of every step equals −ΔSOC·capacity·V_oc (coulomb counting from the
-  SOC itself, independent of the step's power bookkeeping: a SOC held in its window by a clamp
-  while current flows fails here, see ``physics/audit.py``);
-
-and at the end of every episode that the energy balance closes within :data:`BALANCE_TOL` (engine
-shaft energy + battery energy = wheel energy + losses + brakes + accessories).
-
-``python benchmarks/fuzz.py --steps 1000000`` runs the long version and writes JSON.
+:func:`fuzz` drives the native vector environment with random actions (the bounds and beyond) over every built-in
+cycle, scenario and random bus cycles and checks every step: no NaN or inf, observations in their space, SOC in the
+battery's hard window, heat index in [0, 1], no negative fuel, the motor never below its coolest heat sink (ambient,
+coolant, its start) minus :data:`TEMP_TOL_C`, and the battery's chemical power equal to −ΔSOC·capacity·V_oc
+(coulomb counting from the SOC itself: a SOC held in its window by a clamp while current flows fails here); and the
+energy balance of every episode within :data:`BALANCE_TOL`. The long run: ``python benchmarks/fuzz.py``.
 """
 
 from __future__ import annotations
@@ -47,11 +37,7 @@ def _balance_terms(out: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 def fuzz(n_steps: int = 100_000, *, num_envs: int = 64, seed: int = 0, progress: bool = False) -> dict[str, Any]:
     """Run about ``n_steps`` random env-steps, shared by the scenarios; raise AssertionError on the first violation.
-
-    Every scenario of :func:`~hev_thermal_env.scenarios.list_scenarios` over every built-in cycle and
-    random bus cycles. Returns counts and the worst values seen (steps, episodes, max energy-balance
-    error, SOC range...).
-    """
+    Returns counts and the worst values seen (steps, episodes, max energy-balance error, SOC range...)."""
     scenarios = list_scenarios()
     cycles = list_cycles() + ["random_bus"]
     rng = np.random.default_rng(seed)
@@ -74,7 +60,7 @@ def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n
     """At least ``n_steps`` random steps of one scenario, checked step by step and episode by episode."""
     env = HevThermalVectorEnv(num_envs, cycle=cycles, scenario=scenario, random_start=True)
     env.reset(seed=seed)
-    e_in, e_out, e_scale = np.zeros(num_envs), np.zeros(num_envs), np.zeros(num_envs)
+    balance = np.zeros((3, num_envs))  # energy in, energy out, scale, summed over the episode
     resetting = np.zeros(num_envs, dtype=bool)
     sink = _sinks(env)
     # a third of the episodes keep a sustained aggressive assist, to reach derating and cutoff
@@ -84,21 +70,16 @@ def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n
         soc_before = env.phys_state[:, C.SOC].copy()
         obs, rew, term, trunc, info = env.step(_random_actions(rng, aggressive)[:, None])
         stepped = ~resetting
-        out = env.last_out
-        soc, temp, margin = _check_step(scenario, env, obs, rew, info, out, env.phys_state, sink, stepped,
-                                        soc_before)
-        a, b, s = _balance_terms(out)
-        e_in[stepped] += a[stepped]
-        e_out[stepped] += b[stepped]
-        e_scale[stepped] += s[stepped]
+        soc, temp, margin = _check_step(scenario, env, obs, rew, info, sink, stepped, soc_before)
+        balance[:, stepped] += np.array(_balance_terms(env.last_out))[:, stepped]
         ended = (term | trunc) & stepped
         for i in np.flatnonzero(ended):
-            err = abs(e_in[i] - e_out[i]) / max(e_scale[i], 1.0)
+            err = abs(balance[0, i] - balance[1, i]) / max(balance[2, i], 1.0)
             report["max_balance_error"] = max(report["max_balance_error"], float(err))
             if err > BALANCE_TOL:
                 raise AssertionError(f"{scenario}: energy balance off by {err:.3%} over an episode")
             report["episodes"] += 1
-        e_in[ended] = e_out[ended] = e_scale[ended] = 0.0
+        balance[:, ended] = 0.0
         n_live = int(stepped.sum())
         done_steps += n_live
         report["steps"] += n_live
@@ -132,11 +113,9 @@ def _random_actions(rng: np.random.Generator, aggressive: np.ndarray) -> np.ndar
     return act.astype(np.float32)
 
 
-def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, soc_before):
-    """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink.
-
-    Coulomb counting too: the battery's chemical power equals −ΔSOC·capacity·V_oc(SOC before).
-    """
+def _check_step(scenario: str, env, obs, rew, info, sink, stepped, soc_before):
+    """The per-step invariants of a vector-env step; returns SOC, temperature and its margin above the sink."""
+    out, state = env.last_out, env.phys_state
     bat = env.config.battery
     space = env.single_observation_space
     _check_finite(obs, rew, info, out)
@@ -169,20 +148,15 @@ def _check_step(scenario: str, env, obs, rew, info, out, state, sink, stepped, s
 
 def _sinks(env) -> np.ndarray:
     """Per env: the coolest temperature the motor can be drawn toward in this episode."""
-    cond = env.cond
     start = np.array([c.initial_motor_temp_c for c in env.conditions])
-    return np.minimum(np.minimum(cond[:, C.AMBIENT_C], cond[:, C.WATER_C]), start)
+    return np.minimum(np.minimum(env.cond[:, C.AMBIENT_C], env.cond[:, C.WATER_C]), start)
 
 
 def _check_finite(obs, rew, info, out) -> None:
-    if not np.all(np.isfinite(obs)):
-        raise AssertionError("NaN or inf in an observation")
-    if not np.all(np.isfinite(rew)):
-        raise AssertionError("NaN or inf in a reward")
-    if not np.all(np.isfinite(out)):
-        raise AssertionError("NaN or inf in a physics output")
+    for what, x in (("an observation", obs), ("a reward", rew), ("a physics output", out)):
+        if not np.all(np.isfinite(x)):
+            raise AssertionError(f"NaN or inf in {what}")
     for key, val in info.items():
-        if key.startswith("_") or not isinstance(val, np.ndarray) or val.dtype.kind not in "fiub":
-            continue
-        if not np.all(np.isfinite(val)):
+        numeric = not key.startswith("_") and isinstance(val, np.ndarray) and val.dtype.kind in "fiub"
+        if numeric and not np.all(np.isfinite(val)):
             raise AssertionError(f"NaN or inf in info[{key!r}]")

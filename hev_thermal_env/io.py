@@ -1,15 +1,11 @@
 """File outputs shared by the library and the command lines: checks made before any work, atomic writes.
 
-* :func:`check_writable_dir` / :func:`check_output_path` fail at once, in one line naming the
-  directory, when an output cannot be written (a path under a file, a read-only file system, no
-  permission): they create and remove a probe file where the output will go, which is what a write
-  needs (``os.access`` says yes to root on a read-only directory).
-* :func:`atomic_write_bytes` (and ``_text``, ``_json``, ``_yaml``, :func:`save_png`): ``path`` is
-  either the old file or the complete new one, never a partial file. The new file gets the usual
-  permissions (``0o666`` less the umask), as a plain ``open`` would give it. A symbolic link is
-  followed (the file it points to is replaced, the link stays); a path that is not a regular file
-  (``/dev/stdout`` on a pipe or a terminal, a FIFO) is written to as a stream, never replaced.
-* :func:`read_yaml_mapping`: a YAML file that must hold a mapping, with one-line errors.
+* :func:`check_writable_dir` / :func:`check_output_path` fail at once, in one line naming the directory, when an
+  output cannot be written: they create and remove a probe file where it will go (``os.access`` says yes to root on
+  a read-only directory).
+* :func:`atomic_write_bytes` (and ``_text``, ``_json``, ``_yaml``, :func:`save_png`): ``path`` is either the old
+  file or the complete new one, with the permissions a plain ``open`` gives. A symbolic link is followed; a path
+  that is not a regular file (``/dev/stdout``, a FIFO) is written to as a stream, never replaced.
 """
 
 from __future__ import annotations

@@ -1,18 +1,6 @@
-"""Per-run metrics from a run's traces: fuel, corrected fuel, SOC, heat, misses; the same for every way of driving.
-
-``fuel_corrected_l_per_100km`` puts strategies on equal service: fuel plus the fuel equivalents of
-the net battery energy and of the missed wheel energy at :class:`~hev_thermal_env.prices.Prices`
-(the reward's prices), each correction also reported on its own.
-
-Two more yardsticks:
-
-* :func:`charge_sustaining`: the SAE J1711 test of a charge-sustaining run, |net battery energy| ≤
-  1 % of the fuel energy (fuel g × lower heating value); the net battery energy is the chemical
-  energy drawn over the run (``battery_energy_kwh``; J1711 measures it at the terminals).
-* :func:`yardstick_cost_g`: the run's cost in fuel-equivalent grams as the thermal optimum
-  (``dp_thermal``) prices it: fuel + missed wheel energy at the miss price + the reward's overheat
-  terms, with the battery and SOC-deviation terms off (the benchmark compares it with the optimum's
-  cost at the same final SOC, :mod:`hev_thermal_env.evaluation.yardstick`).
+"""Per-run metrics from a run's traces, the same for every way of driving: fuel, corrected fuel (equal service at
+the :class:`~hev_thermal_env.prices.Prices` of the reward), the SAE J1711 charge-sustaining test and the yardstick
+cost. See docs/metrics.md.
 """
 
 from __future__ import annotations
@@ -31,17 +19,16 @@ J1711_TOLERANCE = 0.01
 
 
 def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: float, distance_m: float,
-              dt_s: float = 1.0, prices: Prices | None = None) -> dict[str, Any]:
-    """The run's metrics from its traces (arrays of ``fuel_g``, ``battery_chem_power_w``,
-    ``missed_wheel_energy_j``, ``soc``, ``motor_temp_c``, ``heat_index``, ``motor_cutoff``,
-    ``trace_miss_mps``, ``engine_on``), priced at ``prices`` (default :class:`Prices`)."""
+              dt_s: float = 1.0) -> dict[str, Any]:
+    """The run's metrics from its traces (``fuel_g``, ``battery_chem_power_w``, ``missed_wheel_energy_j``, ``soc``,
+    ``motor_temp_c``, ``heat_index``, ``motor_cutoff``, ``trace_miss_mps``, ``engine_on``) at :class:`Prices`."""
     fuel_g = float(trace["fuel_g"].sum())
     dist_km = max(distance_m / 1000.0, 1e-9)
     dens = config.engine.fuel_density_kg_per_l
     lhv = config.engine.fuel_lhv_j_per_g
     batt_j = float(trace["battery_chem_power_w"].sum() * dt_s)
     miss_j = float(trace["missed_wheel_energy_j"].sum())
-    corr_batt_g, corr_miss_g = (prices or Prices()).corrections_g(batt_j, miss_j, lhv)
+    corr_batt_g, corr_miss_g = Prices().corrections_g(batt_j, miss_j, lhv)
     ratio, sustaining = charge_sustaining(batt_j, fuel_g, lhv)
 
     def l100(g: float) -> float:
@@ -71,13 +58,9 @@ def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: 
 
 
 def charge_sustaining(battery_energy_j: float, fuel_g: float, lhv_j_per_g: float) -> tuple[float | None, bool]:
-    """(net energy ratio, charge-sustaining flag) of SAE J1711.
-
-    The ratio is the net chemical energy drawn from the battery (J, positive when the run ends with
-    less charge) over the fuel energy ``fuel_g`` × ``lhv_j_per_g``; the run is charge-sustaining
-    when its magnitude is at most :data:`J1711_TOLERANCE`. Without fuel the ratio is None and only a
-    run that leaves the battery's energy unchanged is charge-sustaining.
-    """
+    """(net energy ratio, charge-sustaining flag) of SAE J1711: the net chemical energy drawn from the battery (J,
+    positive when the run ends with less charge) over the fuel energy, charge-sustaining when at most
+    :data:`J1711_TOLERANCE` in magnitude; without fuel, None and charge-sustaining only if the battery is unchanged."""
     fuel_j = float(fuel_g) * float(lhv_j_per_g)
     if fuel_j <= 0.0:
         return None, float(battery_energy_j) == 0.0
@@ -87,14 +70,10 @@ def charge_sustaining(battery_energy_j: float, fuel_g: float, lhv_j_per_g: float
 
 def yardstick_cost_g(out: np.ndarray, state_after: np.ndarray, reward_params: RewardParams, lhv_j_per_g: float,
                      dt_s: float, soc_target: float | np.ndarray = 0.0) -> float:
-    """The run's cost (g of fuel equivalent) as the thermal optimum prices it, from its per-step traces.
-
-    ``out`` [n, N_OUT] are the physics outputs of each step and ``state_after`` [n, N_STATE] the
-    state after it (:mod:`hev_thermal_env.physics.core`): the sum over the steps of
-    :func:`~hev_thermal_env.envs.reward.stage_cost_g` with ``battery=False, soc_deviation=False,
-    overheat=True``, i.e. fuel + the missed wheel energy at the miss price + the overheat terms (soft
-    limit, cutoff, derate) of ``reward_params``. ``soc_target`` does not enter (the SOC terms are off).
-    """
+    """The run's cost (g of fuel equivalent) as the thermal optimum prices it: the sum over the steps (outputs ``out``
+    [n, N_OUT], states after ``state_after`` [n, N_STATE]) of :func:`~hev_thermal_env.envs.reward.stage_cost_g`
+    without the battery and SOC terms (``soc_target`` does not enter): fuel + the missed wheel energy at the miss
+    price + the overheat terms of ``reward_params``."""
     out = np.asarray(out, dtype=np.float64)
     if out.shape[0] == 0:
         return 0.0
@@ -103,19 +82,12 @@ def yardstick_cost_g(out: np.ndarray, state_after: np.ndarray, reward_params: Re
     return float(cost.sum())
 
 
-def cycle_distance_m(speed_mps: Any, start: int, steps: int) -> float:
-    """Distance of the cycle's speed trace over ``steps`` steps from second ``start`` (trapezoids)."""
-    v = np.asarray(speed_mps, dtype=np.float64)
-    return float(np.sum(0.5 * (v[start:start + steps] + v[start + 1:start + steps + 1])))
-
-
 def run_metrics(trace: Mapping[str, np.ndarray], config: VehicleConfig, soc_initial: float, speed_mps: Any,
-                start: int, steps: int, dt_s: float, prices: Prices | None = None) -> dict[str, Any]:
-    """:func:`summarize` of a run of ``steps`` steps from second ``start`` of a cycle, plus the SOC change.
-
-    What :func:`hev_thermal_env.evaluation.run_strategy` reports and what the evaluation during
-    training scores.
-    """
-    metrics = summarize(trace, config, soc_initial, cycle_distance_m(speed_mps, start, steps), dt_s, prices)
+                start: int, steps: int, dt_s: float) -> dict[str, Any]:
+    """:func:`summarize` of a run of ``steps`` steps from second ``start`` of a cycle (its distance by trapezoids),
+    plus the SOC change: what :func:`~hev_thermal_env.evaluation.run_strategy` and the training's evaluation report."""
+    v = np.asarray(speed_mps, dtype=np.float64)
+    distance_m = float(np.sum(0.5 * (v[start:start + steps] + v[start + 1:start + steps + 1])))
+    metrics = summarize(trace, config, soc_initial, distance_m, dt_s)
     metrics["delta_soc"] = metrics["soc_final"] - metrics["soc_initial"]
     return metrics

@@ -1,14 +1,7 @@
-"""The prices that put every strategy on equal service: battery energy and missed wheel energy in fuel grams.
+"""The prices that put every strategy on equal service: battery and missed wheel energy in fuel grams.
 
-One configurable place, used by the env's reward (:mod:`hev_thermal_env.envs.reward`), by DP and
-ECMS (through the reward) and by the corrected-fuel metric (:mod:`hev_thermal_env.metrics`), so a
-strategy is optimised for exactly the metric it is judged by:
-
-* battery: the net chemical energy drawn from the battery costs the fuel the engine would burn to
-  put it back, 1 / (Q_lhv · η_engine · η_charge) per joule (negative when a run ends with more charge);
-* missed wheel energy costs what delivering it from the battery and putting that back with the
-  engine would cost, 1 / (Q_lhv · η_engine · η_charge · η_discharge · η_driveline) per joule: 1.23
-  times what the engine would burn to deliver it directly, so not driving never pays.
+One configurable place for the env's reward, DP and ECMS (through the reward) and the corrected-fuel metric, so a
+strategy is optimised for exactly the metric it is judged by. See docs/metrics.md, *Corrected fuel*.
 """
 
 from __future__ import annotations

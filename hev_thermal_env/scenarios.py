@@ -1,32 +1,20 @@
-"""Named scenarios: the run conditions (and how they are randomised) for the same vehicle.
+"""Named scenarios: the run conditions (and how they are randomised) for the same vehicle; see docs/scenarios.md.
 
-* ``paper``: the paper's assumptions. Ambient and motor at 20 °C, coolant on, SOC 0.65.
-* ``hot``: a hot day with a failing cooling loop. Ambient 40 °C, motor starting at 50 °C, coolant
-  degraded to 3 % of its conductances (jacket and radiator) with the coolant at 45 °C. A
-  thermal-blind aggressive split derates and reaches the 70 °C cutoff on HWFET and on
-  ``beijing``; the engine alone (u = 0) does not, so a thermally aware strategy can avoid it at a
-  price in fuel.
-* ``summer``: a summer day in service, cooling intact. Ambient 38 °C (the 35-40 °C of a hot
-  summer afternoon), the bus parked in the sun: motor and coolant start at 38 °C. The ambient
-  is above the 35 °C thermostat: the valve is open from the start, the coolant runs warm enough
-  for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets lose
-  torque, so every overload derates at once.
-* ``hilly``: the paper's conditions on a hilly road: the cycle is laid over the rolling hills of
-  :func:`~hev_thermal_env.cycles.generate_grade_profile` (seed
-  :data:`~hev_thermal_env.cycles.grades.HILLY_SEED`, grades up to ±7 %, no net climb) by
-  :meth:`Scenario.prepare_cycle`; ``hilly_route()`` is ``beijing`` prepared so.
-* ``full_bus``: the paper's conditions with a full bus: 4.5 t of passengers (about 65) on top of
-  the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo): 19.5 t, about the gross
-  weight of a 12 m city bus.
-* ``random``: for training. Each episode draws ambient 10-40 °C, motor start ambient + 0-30 °C,
-  SOC 0.55-0.75 and the coolant on (60 %), degraded (30 %) or nearly failed (10 %), all from
-  the env's ``np_random``.
-* ``random_service``: for training on buses in service: the draws of ``random``, then a payload of
-  0-4,500 kg (empty to ``full_bus``), uniform, per episode.
+A scenario is a small record of deltas (:data:`SCENARIOS`), not a code path; a runner calls
+:meth:`Scenario.prepare_cycle` on the cycle before building the episode (the conditions alone do not carry the
+road). What the values do:
 
-A scenario is a small record of deltas, not a code path: run conditions, and for ``hilly`` a road
-profile that :meth:`Scenario.prepare_cycle` lays under the cycle (a runner calls it on the cycle
-before building the episode; the conditions alone do not carry the road).
+* ``hot`` (a failing cooling loop: jacket and radiator at 3 %): a thermal-blind aggressive split derates and reaches
+  the 70 °C cutoff on HWFET and on ``beijing``; the engine alone (u = 0) does not, so a thermally aware strategy can
+  avoid it at a price in fuel.
+* ``summer`` (parked in the sun, cooling intact): above the 35 °C thermostat the valve is open from the start, the
+  coolant runs warm enough for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets
+  lose torque, so every overload derates at once.
+* ``hilly``: the rolling hills of :func:`~hev_thermal_env.cycles.generate_grade_profile` laid under the cycle;
+  ``hilly_route()`` is ``beijing`` prepared so.
+* ``full_bus``: about 65 passengers on the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo), about
+  the gross weight of a 12 m city bus.
+* ``random``, ``random_service``: for training, drawn per episode (:meth:`Scenario.sample`).
 """
 
 from __future__ import annotations
@@ -44,13 +32,9 @@ from .physics.config import Conditions
 
 @dataclasses.dataclass(frozen=True)
 class Scenario:
-    """A named set of run conditions; ``randomized`` scenarios draw new ones each episode.
-
-    ``grade_profile``: keyword arguments of :func:`~hev_thermal_env.cycles.with_grade_profile`
-    (``seed`` and the profile's parameters) for a scenario on a hilly road, else None.
-    ``payload_kg_range``: (low, high) of a payload drawn uniformly per episode after the other draws
-    (randomized scenarios only), else None.
-    """
+    """A named set of run conditions; ``randomized`` scenarios draw new ones each episode. ``grade_profile``: keyword
+    arguments of :func:`~hev_thermal_env.cycles.with_grade_profile` (``seed`` and the profile's) for a hilly road;
+    ``payload_kg_range``: (low, high) of a payload drawn uniformly per episode after the other draws (randomized)."""
 
     name: str
     description: str
@@ -67,16 +51,9 @@ class Scenario:
                                  f"randomized=True and 0 <= low <= high")
 
     def sample(self, rng: np.random.Generator) -> Conditions:
-        """The conditions of one episode (the fixed ones unless ``randomized``)."""
+        """The conditions of one episode: the fixed ones, or drawn from ``rng`` (the env's ``np_random``)."""
         if not self.randomized:
             return self.conditions
-        cond = self._sample_thermal(rng)
-        if self.payload_kg_range is not None:
-            cond = cond.replace(payload_kg=float(rng.uniform(*self.payload_kg_range)))
-        return cond
-
-    @staticmethod
-    def _sample_thermal(rng: np.random.Generator) -> Conditions:
         ambient = float(rng.uniform(10.0, 40.0))
         motor = ambient + float(rng.uniform(0.0, 30.0))
         soc = float(rng.uniform(0.55, 0.75))
@@ -87,8 +64,11 @@ class Scenario:
             coolant, factor = "degraded", float(rng.uniform(0.05, 0.5))
         else:
             coolant, factor = "degraded", 0.01
-        return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=motor, initial_soc=soc, coolant=coolant,
+        cond = Conditions(ambient_temp_c=ambient, initial_motor_temp_c=motor, initial_soc=soc, coolant=coolant,
                           coolant_degraded_factor=factor, coolant_temp_c=ambient + 5.0)
+        if self.payload_kg_range is not None:
+            cond = cond.replace(payload_kg=float(rng.uniform(*self.payload_kg_range)))
+        return cond
 
     def prepare_cycle(self, cycle: Any) -> Any:
         """The cycle this scenario drives: ``cycle`` itself, or laid over the scenario's road profile.

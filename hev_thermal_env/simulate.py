@@ -1,4 +1,5 @@
-"""Whole-cycle simulation without any environment: a cycle, a vehicle, a split → traces and summary.
+"""Whole-cycle simulation without any environment: a cycle, a vehicle and a split (:func:`simulate`) or a
+model-based strategy (:func:`drive`) → per-step traces.
 
 A consumer of the physics core like the env, DP and ECMS (cycle → kernel → simulate → metrics).
 """
@@ -12,13 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from .cycles import load_cycle
+from .cycles import Cycle, load_cycle
 from .metrics import summarize
 from .physics import core as C
 from .physics.config import Conditions, VehicleConfig, paper_bus
 
-SplitFn = Callable[[int, dict], float]
-Split = float | SplitFn | np.ndarray
+Split = float | Callable[[int, dict], float] | np.ndarray
 
 
 @dataclasses.dataclass
@@ -29,25 +29,60 @@ class SimResult:
     summary: dict[str, Any]
 
 
+class CoreDriver:
+    """What a model-based strategy reads of ``HevThermalEnv`` (``core``, ``config``, ``cycle``, ``k``, ``phys_state``,
+    ``peek``) over a bare ``PhysicsCore``, without the reward and observation machinery: light enough for the
+    calibration's thousands of runs, a pure function of the vehicle, the cycle and the conditions."""
+
+    def __init__(self, config: VehicleConfig, cycle: Cycle, conditions: Conditions):
+        self.config = config
+        self.core = C.PhysicsCore(config)
+        self.cycle = cycle
+        self.conditions = conditions
+        self.k = 0
+        self.phys_state = self.core.initial_state(conditions, 1)
+        self.cond = self.core.conditions_array(conditions, 1)
+        self._v = np.asarray(cycle.speed_mps, dtype=np.float64)
+        self._g = np.asarray(cycle.grade, dtype=np.float64)
+
+    @property
+    def unwrapped(self) -> CoreDriver:
+        return self
+
+    def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        a = np.array(actions, dtype=np.float64).reshape(-1)
+        n = a.size
+        k = self.k
+        return self.core.step(np.repeat(self.phys_state, n, axis=0), a, np.full(n, self._v[k]),
+                              np.full(n, self._v[k + 1]), np.full(n, self._g[k]), np.repeat(self.cond, n, axis=0))
+
+    def step(self, u: float) -> tuple[np.ndarray, np.ndarray]:
+        k = self.k
+        state, out = self.core.step(self.phys_state, np.array([u]), self._v[k:k + 1], self._v[k + 1:k + 2],
+                                    self._g[k:k + 1], self.cond)
+        self.phys_state = state
+        self.k = k + 1
+        return state[0], out[0]
+
+    def run(self, action: Callable[[int], float]) -> dict[str, np.ndarray]:
+        """Step to the end of the cycle with u = ``action(k)``; :func:`step_traces` and ``time_s`` (the end of
+        each step)."""
+        n = self.cycle.n_steps
+        outs, states = np.empty((n, C.N_OUT)), np.empty((n, C.N_STATE))
+        for k in range(n):
+            states[k], outs[k] = self.step(action(k))
+        trace = step_traces(outs, states)
+        trace["time_s"] = np.asarray(self.cycle.time_s[1:], dtype=np.float64)
+        return trace
+
+
 def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0,
              conditions: Conditions | None = None) -> SimResult:
-    """Drive ``cycle`` with ``config`` and a torque split, one step per second.
-
-    Parameters
-    ----------
-    cycle : a :class:`hev_thermal_env.cycles.Cycle` or anything ``load_cycle`` accepts.
-    config : the vehicle (default ``paper_bus()``).
-    split : the motor's share u in [-1, 1] of the coupler torque: a constant, an array with one
-        value per step, or a callable ``split(k, state) -> u`` where ``state`` holds ``soc``,
-        ``motor_temp_c``, ``heat_x``, ``heat_index``, ``motor_cutoff``, ``speed_mps``,
-        ``next_speed_mps``, ``grade`` for step ``k``.
-    conditions : ambient, starting state and coolant (default ``Conditions()``).
-
-    Returns
-    -------
-    SimResult with traces of every output of :data:`core.OUT_NAMES` and the state after each step
-    (``soc``, ``motor_temp_c``, ``heat_x``, ``motor_cutoff``), and :func:`summarize`'s metrics.
-    """
+    """Drive ``cycle`` (anything ``load_cycle`` accepts) with ``config`` (default ``paper_bus()``) in ``conditions``
+    (default ``Conditions()``), one step per second; ``split``, the motor's share u in [-1, 1] of the coupler torque,
+    is a constant, one value per step or ``split(k, state) -> u`` with ``state`` holding ``soc``, ``motor_temp_c``,
+    ``heat_x``, ``heat_index``, ``motor_cutoff``, ``speed_mps``, ``next_speed_mps`` and ``grade`` of step ``k``.
+    Returns the traces of :func:`step_traces`, ``time_s`` and ``cycle_speed_mps``, and :func:`summarize`'s metrics."""
     cyc = load_cycle(cycle)
     config = paper_bus() if config is None else config
     conditions = Conditions() if conditions is None else conditions
@@ -55,48 +90,54 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
         raise TypeError(f"simulate: config must be a VehicleConfig or None, got {type(config).__name__}")
     if not isinstance(conditions, Conditions):
         raise TypeError(f"simulate: conditions must be a Conditions or None, got {type(conditions).__name__}")
-    phys = C.PhysicsCore(config, dt_s=1.0)
-    n = cyc.n_steps
-    state = phys.initial_state(conditions, 1)
-    cond = phys.conditions_array(conditions, 1)
-    outs = np.empty((n, C.N_OUT))
-    states = np.empty((n, C.N_STATE))
-    v = np.asarray(cyc.speed_mps, dtype=np.float64)
-    g = np.asarray(cyc.grade, dtype=np.float64)
-    const = not callable(split)
-    if const:
-        u_all = _split_array(split, n)
-    a = np.empty(1)
+    driver = CoreDriver(config, cyc, conditions)
+    v, g = driver._v, driver._g
+
+    def called(k: int) -> float:
+        s = driver.phys_state[0]
+        u = float(split(k, {
+            "soc": s[C.SOC], "motor_temp_c": s[C.TEMP_C], "heat_x": s[C.HEAT_X],
+            "heat_index": min(max(s[C.HEAT_X], 0.0), 1.0), "motor_cutoff": s[C.CUTOFF],
+            "speed_mps": v[k], "next_speed_mps": v[k + 1], "grade": g[k]}))
+        if not np.isfinite(u):
+            raise ValueError(f"split returned {u} at step {k}")
+        return u
+
+    action = called if callable(split) else _split_array(split, cyc.n_steps).__getitem__
     t0 = time.perf_counter()
-    st_out = np.empty((1, C.N_STATE))
-    for k in range(n):
-        if const:
-            a[0] = u_all[k]
-        else:
-            s = state[0]
-            u = float(split(k, {
-                "soc": s[C.SOC], "motor_temp_c": s[C.TEMP_C], "heat_x": s[C.HEAT_X],
-                "heat_index": min(max(s[C.HEAT_X], 0.0), 1.0), "motor_cutoff": s[C.CUTOFF],
-                "speed_mps": v[k], "next_speed_mps": v[k + 1], "grade": g[k]}))
-            if not np.isfinite(u):
-                raise ValueError(f"split returned {u} at step {k}")
-            a[0] = u
-        phys.step(state, a, v[k:k + 1], v[k + 1:k + 2], g[k:k + 1], cond, state_out=st_out, out=outs[k:k + 1])
-        state, st_out = st_out, state
-        states[k] = state[0]
+    trace = driver.run(action)
     wall = time.perf_counter() - t0
-    trace = step_traces(outs, states)
-    trace["time_s"] = np.asarray(cyc.time_s[1:], dtype=np.float64)
     trace["cycle_speed_mps"] = v[1:].copy()
     summary = summarize(trace, config, conditions.initial_soc, cyc.distance_m)
     summary["wall_s"] = wall
     return SimResult(trace=trace, summary=summary)
 
 
+def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
+          conditions: Conditions | None = None) -> dict[str, np.ndarray]:
+    """Run ``strategy`` (an ``agents.base.Strategy``) over ``cycle`` on a :class:`CoreDriver`, with the float32
+    action the environment gives it (so the run equals the environment's step for step); the traces of
+    :meth:`CoreDriver.run` and ``u``, the action applied."""
+    cyc = load_cycle(cycle)
+    conditions = conditions or Conditions()
+    config = strategy.vehicle_config(config)
+    env = CoreDriver(config, cyc, conditions)
+    strategy.reset(env)
+    us = np.empty(cyc.n_steps)
+
+    def act(k: int) -> float:
+        a = np.asarray(strategy.act(None, {}), dtype=np.float32).reshape(1)
+        us[k] = u = min(max(float(a[0]), -1.0), 1.0)
+        return u
+
+    trace = env.run(act)
+    trace["u"] = us
+    return trace
+
+
 def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
-    """Per-step traces of a run: every physics output of ``outs`` [n, N_OUT] and every state of ``states``
-    [n, N_STATE] (the state after each step) by name (:mod:`hev_thermal_env.physics.core`), and
-    ``heat_index`` = clip(heat_x, 0, 1)."""
+    """Every physics output of ``outs`` [n, N_OUT] and state of ``states`` [n, N_STATE] (after each step) by name
+    (:mod:`hev_thermal_env.physics.core`), and ``heat_index`` = clip(heat_x, 0, 1)."""
     trace = {name: outs[:, i].copy() for i, name in enumerate(C.OUT_NAMES)}
     for i, name in enumerate(C.STATE_NAMES):
         trace[name] = states[:, i].copy()
@@ -105,12 +146,8 @@ def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def energy_balance(trace: dict[str, np.ndarray], config: VehicleConfig, dt_s: float = 1.0) -> dict[str, float]:
-    """Energy in and out over a run (J) and the relative closing error.
-
-    In: engine brake energy (fuel energy through the engine's efficiency) and battery chemical
-    energy. Out: wheel energy delivered, friction brakes, battery, motor, clutch and driveline
-    losses and the accessories.
-    """
+    """Energy in and out over a run (J) and the relative closing error. In: engine brake energy and battery chemical
+    energy. Out: wheel energy delivered, friction brakes, battery, motor, clutch and driveline losses, accessories."""
     e_in = float((trace["engine_power_w"].sum() + trace["battery_chem_power_w"].sum()) * dt_s)
     parts = {k: float(trace[k].sum() * dt_s) for k in (
         "wheel_power_w", "brake_power_w", "battery_loss_w", "motor_loss_w", "clutch_loss_w", "driveline_loss_w",

@@ -1,16 +1,7 @@
-"""Statistics over training seeds: the interquartile mean (IQM) and its bootstrap confidence interval.
-
-A learned policy's score is a random variable of its training seed, so a result over several seeds
-is reported as the IQM (the mean of the middle 50 %, robust to one bad seed yet less noisy than the
-median) with a 95 % percentile bootstrap interval (``scipy.stats.bootstrap``, 2,000 resamples, a
-fixed random seed, so the same scores give the same interval), as recommended by Agarwal et al.,
-*Deep RL at the edge of the statistical precipice* (NeurIPS 2021).
-
-Over several tasks (cycle × scenario), :func:`stratified_iqm_ci` pools the scores of every task into
-one IQM and resamples the seeds within each task (a stratified bootstrap), so a task with many
-seeds cannot stand in for one with few. Used by the sweep reports
-(:mod:`hev_thermal_env.training.sweep_report`) and the benchmark's seed families
-(:mod:`hev_thermal_env.evaluation.families`).
+"""Statistics over training seeds: the interquartile mean (IQM, robust to one bad seed, less noisy than the median)
+and its 95 % percentile bootstrap interval (``scipy.stats.bootstrap``, 2,000 resamples, a fixed seed), as Agarwal et
+al., *Deep RL at the edge of the statistical precipice* (NeurIPS 2021) recommend; over several tasks, a stratified
+bootstrap (:func:`stratified_iqm_ci`). See docs/metrics.md, *Seed families*.
 """
 
 from __future__ import annotations
@@ -30,20 +21,17 @@ def iqm(values) -> float:
     return float(stats.trim_mean(np.asarray(values, dtype=float).ravel(), TRIM))
 
 
-def iqm_ci(values, confidence: float = CONFIDENCE, seed: int = 0) -> tuple[float | None, float | None]:
-    """The ``confidence`` bootstrap interval of the IQM of ``values``, one task's scores (:func:`stratified_iqm_ci`
+def iqm_ci(values) -> tuple[float | None, float | None]:
+    """The :data:`CONFIDENCE` bootstrap interval of the IQM of ``values``, one task's scores (:func:`stratified_iqm_ci`
     of one group); (None, None) for fewer than two."""
-    return stratified_iqm_ci([values], confidence, seed)[1:]
+    return stratified_iqm_ci([values])[1:]
 
 
-def stratified_iqm_ci(groups: Sequence[Sequence[float]], confidence: float = CONFIDENCE,
-                      seed: int = 0) -> tuple[float | None, float | None, float | None]:
-    """(IQM, CI low, CI high) of the pooled scores of ``groups`` (one group per task, the seeds' scores).
-
-    The bootstrap resamples each group on its own (with replacement, its own size) and takes the IQM
-    of the pooled resample; a group of one score enters every resample as it is. Non-finite scores
-    are dropped. (None, None, None) without scores; the interval is None with fewer than two.
-    """
+def stratified_iqm_ci(groups: Sequence[Sequence[float]]) -> tuple[float | None, float | None, float | None]:
+    """(IQM, CI low, CI high) of the pooled scores of ``groups`` (one group per task, the seeds' scores). The bootstrap
+    resamples each group on its own (with replacement, its own size) and takes the IQM of the pooled resample; a
+    group of one score enters every resample as it is. Non-finite scores are dropped. (None, None, None) without
+    scores; the interval is None with fewer than two."""
     clean = [x[np.isfinite(x)] for x in (np.asarray(g, dtype=float).ravel() for g in groups)]
     clean = [x for x in clean if x.size]
     if not clean:
@@ -65,6 +53,6 @@ def stratified_iqm_ci(groups: Sequence[Sequence[float]], confidence: float = CON
         parts.append(np.broadcast_to(fixed, batch + fixed.shape))
         return stats.trim_mean(np.concatenate(parts, axis=-1), TRIM, axis=-1)
 
-    res = stats.bootstrap(varying, statistic, confidence_level=confidence, n_resamples=BOOTSTRAP_RESAMPLES,
-                          method="percentile", rng=np.random.default_rng(seed), axis=-1)
+    res = stats.bootstrap(varying, statistic, confidence_level=CONFIDENCE, n_resamples=BOOTSTRAP_RESAMPLES,
+                          method="percentile", rng=np.random.default_rng(0), axis=-1)
     return centre, float(res.confidence_interval.low), float(res.confidence_interval.high)

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import load_cycle
-from hev_thermal_env.evaluation.benchmark import COLUMNS, run_benchmark
-from hev_thermal_env.evaluation.progress import BenchmarkProgress, expected_cost_s
+from hev_thermal_env.evaluation.benchmark import BenchmarkProgress, expected_cost_s, run_benchmark
+from hev_thermal_env.evaluation.results_table import COLUMNS
 
 ROOT = Path(__file__).resolve().parents[1]
 

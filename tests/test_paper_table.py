@@ -7,16 +7,18 @@ import math
 
 import pytest
 
-from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME, PAPER_FIGURES, PaperFigure, table3_paper
-from hev_thermal_env.paper.verdicts import (
+from hev_thermal_env.paper.figures import (
     OUTSIDE,
+    PAPER_FIGURE_BY_NAME,
+    PAPER_FIGURES,
     WITHIN,
+    PaperFigure,
     agreement,
     fuel_level_rows,
-    summary_line,
-    verdict_markdown,
+    table3_paper,
     verdict_rows,
 )
+from hev_thermal_env.paper.report import summary_line, verdict_markdown
 
 
 def test_tolerance_kinds():

@@ -162,7 +162,7 @@ def _lines_at(ax, y: float) -> list:
 
 def test_hot_trace_draws_the_cutoff_and_soft_limit():
     fig = run_figure({"rule": fake_trace(hot=True), "dp": fake_trace(hot=True), "ppo": fake_trace(hot=True)},
-                     title="hot", temp_limits_c=(60.0, 70.0))
+                     title="hot")
     try:
         ax_temp = fig.axes[3]
         assert _lines_at(ax_temp, 70.0) and _lines_at(ax_temp, 60.0)
@@ -175,7 +175,7 @@ def test_hot_trace_draws_the_cutoff_and_soft_limit():
 
 
 def test_cool_trace_says_the_limits_are_far():
-    fig = run_figure({"rule": fake_trace(), "ecms": fake_trace()}, temp_limits_c=(60.0, 70.0))
+    fig = run_figure({"rule": fake_trace(), "ecms": fake_trace()})
     try:
         assert not _lines_at(fig.axes[3], 70.0)
         assert "far below" in fig.axes[3].get_title()

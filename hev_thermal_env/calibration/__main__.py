@@ -1,11 +1,6 @@
-"""``python -m hev_thermal_env.calibration --out DIR``: fit, then write the parameters and the residual table.
-
-Writes ``DIR/fitted_params.yaml`` (a partial ``VehicleConfig``: ``VehicleConfig.from_yaml`` gives
-``paper_bus`` with these thermal values), ``DIR/residuals.md`` and ``DIR/residuals.json``.
-``--check`` exits with status 1 if the fitted values differ from ``ThermalParams``'s defaults;
-``--write-defaults`` writes them into ``ThermalParams``'s defaults (``physics/thermal.py``).
-``--no-fit`` skips the fit and reports the current defaults.
-"""
+"""``python -m hev_thermal_env.calibration --out DIR``: fit, then write ``DIR/fitted_params.yaml`` (a partial
+``VehicleConfig``: ``VehicleConfig.from_yaml`` gives ``paper_bus`` with these thermal values), ``DIR/residuals.md``
+and ``DIR/residuals.json``."""
 
 from __future__ import annotations
 
@@ -17,20 +12,17 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..physics import paper_bus
+from ..physics import paper_bus, thermal
 from . import fit as F
 from . import report as R
 
 
 def write_defaults(values: dict[str, float]) -> Path:
     """Replace the default of each fitted field in ``physics/thermal.py`` (the value after ``spec(``)."""
-    from ..physics import thermal
-
     path = Path(thermal.__file__)
     text = path.read_text()
     for name, value in values.items():
-        pattern = re.compile(r"(    " + re.escape(name) + r": float = spec\(\n\s+)([^,\s]+)(,)")
-        match = pattern.search(text)
+        match = re.search(r"(    " + re.escape(name) + r": float = spec\(\n\s+)([^,\s]+)(,)", text)
         if match is None:
             raise ValueError(f"ThermalParams.{name}: no 'spec(' with the default on the next line in {path}")
         text = text[:match.start(2)] + repr(float(value)) + text[match.end(2):]
@@ -68,8 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     say(f"wrote {out / 'fitted_params.yaml'}, {out / 'residuals.md'}, {out / 'residuals.json'} "
         f"({report['wall_s']:.0f} s)")
     if args.write_defaults:
-        path = write_defaults(values)
-        say(f"wrote the fitted values into {path}")
+        say(f"wrote the fitted values into {write_defaults(values)}")
     if args.check:
         defaults = paper_bus().thermal
         diff = {k: (getattr(defaults, k), v) for k, v in values.items() if getattr(defaults, k) != v}

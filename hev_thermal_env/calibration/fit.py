@@ -1,23 +1,13 @@
 """Fit the thermal network and the eq 10 closures to the paper's figures, within documented bounds.
 
-Free parameters and their bounds come from :class:`~hev_thermal_env.physics.thermal.ThermalParams`
-itself: every field whose doc starts with "fitted:" is free, between the ``min`` and ``max`` of its
-``spec`` (the plausible range documented beside it). The fit never leaves them: the optimisers
-are bounded and every candidate is validated by the dataclass.
-
-Three stages, each deterministic (fixed seeds, one worker), so re-running reproduces the result:
-
-1. **network** (``scipy.optimize.differential_evolution``): the network parameters against the
-   temperature targets (Fig. 8's peak and settling, Fig. 10's warm temperature). These depend on
-   the losses, which the heat-index closures barely change.
-2. **closures** (differential evolution): T_gain(T), PWM_initial(T) and the torque's temperature
-   coefficient against every target, the network held at stage 1's values.
-3. **polish** (bounded Powell from stage 2's point): every free parameter against every target.
-
-Cost: the sum of squared residuals in tolerances (:meth:`~hev_thermal_env.paper.figures.PaperFigure.residual`;
-|r| ≤ 1 meets a target), with the heat-index onset measured as the interpolated zero crossing so the cost is
-continuous in the parameters. The fitted values are rounded to 4 significant digits, the
-precision they are written with into ``ThermalParams``'s defaults.
+The free parameters are the ``ThermalParams`` fields whose doc starts with "fitted:", bounded by the ``min`` and
+``max`` of their ``spec``; every candidate is validated by the dataclass. Three deterministic stages (fixed seeds,
+one worker): differential evolution of :data:`NETWORK_PARAMS` on the temperature targets (they depend on the
+losses, which the closures barely change), differential evolution of :data:`CLOSURE_PARAMS` on every target with
+the network held, then a bounded Powell polish of all. Cost: the sum of squared residuals in tolerances
+(:meth:`~hev_thermal_env.paper.figures.PaperFigure.residual`), with the heat-index onset taken as the interpolated
+zero crossing so the cost is continuous. The values are rounded to 4 significant digits, as written into
+``ThermalParams``'s defaults. See docs/thermal_model.md, *Calibration*.
 """
 
 from __future__ import annotations
@@ -37,9 +27,6 @@ from ..physics.thermal import ThermalParams
 
 #: The paper's figures the fit is fitted to, in the order of the residual table.
 TARGETS = tuple(PAPER_FIGURE_BY_NAME[n] for n in CALIBRATION_TARGETS)
-
-FITTED_PREFIX = "fitted:"
-
 #: The network's parameters, fitted in stage 1.
 NETWORK_PARAMS = ("winding_heat_capacity_j_per_k", "winding_conductance_w_per_k", "jacket_conductance_w_per_k",
                   "thermostat_band_k", "coolant_heat_capacity_j_per_k", "radiator_ua_w_per_k")
@@ -66,14 +53,13 @@ START: dict[str, float] = {
     "pwm_initial_temp_hi_c": 70.0,
     "torque_temp_coeff_per_c": 0.00126,  # NdFeB remanence, the paper's 12.6 % per 100 K
 }
-SIGNIFICANT_DIGITS = 4
 
 
 def fitted_fields() -> dict[str, tuple[float, float]]:
-    """Every ThermalParams field documented as fitted, with its (min, max) bounds."""
+    """Every ThermalParams field documented as fitted ("fitted: ..."), with its (min, max) bounds."""
     out = {}
     for f in dataclasses.fields(ThermalParams):
-        if f.metadata.get("doc", "").startswith(FITTED_PREFIX):
+        if f.metadata.get("doc", "").startswith("fitted:"):
             lo, hi = f.metadata.get("min"), f.metadata.get("max")
             if lo is None or hi is None:
                 raise ValueError(f"ThermalParams.{f.name} is documented as fitted but has no bounds")
@@ -81,7 +67,7 @@ def fitted_fields() -> dict[str, tuple[float, float]]:
     return out
 
 
-def round_sig(x: float, digits: int = SIGNIFICANT_DIGITS) -> float:
+def round_sig(x: float, digits: int = 4) -> float:
     if x == 0.0 or not math.isfinite(x):
         return float(x)
     return float(round(x, digits - 1 - int(math.floor(math.log10(abs(x))))))
@@ -114,25 +100,20 @@ class FitResult:
 
 
 class Objective:
-    """Cost of a parameter vector over a subset of the targets (the thermal-off baseline computed once)."""
+    """Cost of the values ``x`` of ``names`` (the other fitted fields at ``fixed``) over ``target_names`` (None:
+    every target), with the thermal-off ``baseline`` computed once."""
 
     def __init__(self, base: VehicleConfig, names: Sequence[str], fixed: dict[str, float],
                  target_names: Sequence[str] | None, baseline: Baseline):
-        self.base = base
-        self.names = tuple(names)
-        self.fixed = dict(fixed)
+        self.base, self.names, self.fixed, self.baseline = base, tuple(names), dict(fixed), baseline
         self.target_names = tuple(target_names) if target_names is not None else CALIBRATION_TARGETS
-        self.baseline = baseline
         self.evaluations = 0
         self.temperature_only = set(self.target_names) <= set(TEMPERATURE_TARGETS)
-
-    def values(self, x: Sequence[float]) -> dict[str, float]:
-        return {**self.fixed, **dict(zip(self.names, (float(v) for v in x)))}
 
     def __call__(self, x: Sequence[float]) -> float:
         self.evaluations += 1
         try:
-            cfg = with_values(self.base, self.values(x))
+            cfg = with_values(self.base, {**self.fixed, **dict(zip(self.names, (float(v) for v in x)))})
         except ConfigError:
             return 1e6
         if self.temperature_only:
@@ -144,40 +125,22 @@ class Objective:
             m = measure(cfg, self.baseline)
             values = dict(m["values"])
             values["udds_hi_onset_s"] = m["udds"]["hi_onset_smooth_s"]
-        return cost_of(values, self.target_names)
-
-
-def cost_of(values: dict[str, float], names: Sequence[str]) -> float:
-    return float(sum(PAPER_FIGURE_BY_NAME[n].residual(values[n]) ** 2 for n in names))
-
-
-def _de(obj: Objective, bounds: list[tuple[float, float]], x0: np.ndarray, *, maxiter: int, popsize: int,
-        seed: int) -> np.ndarray:
-    res = optimize.differential_evolution(obj, bounds, x0=x0, seed=seed, popsize=popsize, maxiter=maxiter,
-                                          tol=1e-8, mutation=(0.5, 1.0), recombination=0.7, polish=False,
-                                          init="sobol", updating="immediate", workers=1)
-    return np.asarray(res.x)
+        return float(sum(PAPER_FIGURE_BY_NAME[n].residual(values[n]) ** 2 for n in self.target_names))
 
 
 def _powell(obj: Objective, bounds: list[tuple[float, float]], x0: np.ndarray, *, maxfev: int) -> np.ndarray:
     # Powell on the unit cube: equal step scales for parameters of very different magnitudes
     lo = np.array([b[0] for b in bounds])
     span = np.array([b[1] - b[0] for b in bounds])
-
-    def scaled(z: np.ndarray) -> float:
-        return obj(lo + np.clip(z, 0.0, 1.0) * span)
-
-    res = optimize.minimize(scaled, (x0 - lo) / span, method="Powell", bounds=[(0.0, 1.0)] * len(bounds),
-                            options={"maxfev": maxfev, "xtol": 1e-4, "ftol": 1e-6})
+    res = optimize.minimize(lambda z: obj(lo + np.clip(z, 0.0, 1.0) * span), (x0 - lo) / span, method="Powell",
+                            bounds=[(0.0, 1.0)] * len(bounds), options={"maxfev": maxfev, "xtol": 1e-4, "ftol": 1e-6})
     return lo + np.clip(res.x, 0.0, 1.0) * span
 
 
 def run_fit(base: VehicleConfig | None = None, *, seed: int = 11, de_maxiter: int = 30, de_popsize: int = 8,
-        polish_maxfev: int = 600, progress: Callable[[str], None] | None = None) -> FitResult:
-    """Run the three stages (module docstring) from :data:`START`; return the fit.
-
-    ``base`` (default ``paper_bus()``) gives every parameter that is not fitted.
-    """
+            polish_maxfev: int = 600, progress: Callable[[str], None] | None = None) -> FitResult:
+    """Run the three stages (module docstring) from :data:`START`; ``base`` (default ``paper_bus()``) gives every
+    parameter that is not fitted."""
     say = progress or (lambda msg: None)
     base = base or paper_bus()
     bounds = fitted_fields()
@@ -196,11 +159,12 @@ def run_fit(base: VehicleConfig | None = None, *, seed: int = 11, de_maxiter: in
         x0 = np.array([min(max(current[p], lo), hi) for p, (lo, hi) in zip(params, b)])
         c0 = obj(x0)
         if method == "de":
-            x = _de(obj, b, x0, maxiter=de_maxiter, popsize=de_popsize, seed=seed)
+            x = optimize.differential_evolution(obj, b, x0=x0, seed=seed, popsize=de_popsize, maxiter=de_maxiter,
+                                                tol=1e-8, mutation=(0.5, 1.0), recombination=0.7, polish=False,
+                                                init="sobol", updating="immediate", workers=1).x
         else:
             x = _powell(obj, b, x0, maxfev=polish_maxfev)
-        new = {p: round_sig(float(v)) for p, v in zip(params, x)}
-        new = {p: min(max(v, bounds[p][0]), bounds[p][1]) for p, v in new.items()}
+        new = {p: min(max(round_sig(float(v)), bounds[p][0]), bounds[p][1]) for p, v in zip(params, x)}
         c1 = obj(np.array([new[p] for p in params]))
         if c1 > c0:  # rounding or a poor search never makes the fit worse than its start
             new, c1 = {p: current[p] for p in params}, c0

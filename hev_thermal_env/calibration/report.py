@@ -1,7 +1,5 @@
-"""The residual table: each target, the paper, ours (calibrated network), ours (paper's equations), verdicts.
-
-The targets are rows of the paper's one table of figures (:mod:`hev_thermal_env.paper.figures`), measured
-by :func:`hev_thermal_env.paper.measure.measure`.
+"""The residual table: each target (:data:`~hev_thermal_env.paper.figures.CALIBRATION_TARGETS`), the paper, ours
+(calibrated network), ours (the paper's equations), verdicts; measured by :func:`hev_thermal_env.paper.measure.measure`.
 """
 
 from __future__ import annotations
@@ -22,11 +20,9 @@ def _fmt(x: float, unit: str) -> str:
         return "-"
     if x in (float("inf"), float("-inf")):
         return "never"
-    if unit in ("s",):
-        return f"{x:.2f}" if abs(x) < 10.0 else f"{x:.1f}"
     if unit == "-":
         return f"{x:.3f}"
-    return f"{x:.2f}"
+    return f"{x:.1f}" if unit == "s" and abs(x) >= 10.0 else f"{x:.2f}"
 
 
 def _paper(row: dict[str, Any]) -> str:
@@ -53,7 +49,6 @@ def build(values: dict[str, float], stages: list[F.Stage] | None = None) -> dict
     corrected = {c: {"without": base.runs[c]["fuel_corrected_l100"],
                      "network": m_net[c]["fuel_corrected_l100"], "paper_eqs": m_eqs[c]["fuel_corrected_l100"]}
                  for c in ("udds", "beijing", "hwfet")}
-    speeds = sustained_speeds(net)
     bounds = F.fitted_fields()
     return {
         "values": dict(values),
@@ -66,7 +61,7 @@ def build(values: dict[str, float], stages: list[F.Stage] | None = None) -> dict
         "paper_eqs": {k: v for k, v in m_eqs.items() if k != "values"},
         "baseline": {"runs": base.runs, "accel_off_s": base.accel_off_s},
         "fuel_corrected_l100": corrected,
-        "sustained_speeds_kmh": speeds,
+        "sustained_speeds_kmh": sustained_speeds(net),
         "stages": [dataclasses.asdict(s) for s in (stages or [])],
     }
 
@@ -87,10 +82,8 @@ def residuals_markdown(report: dict[str, Any]) -> str:
         lines.append(f"| {r['description']} ({r['unit']}) | {r['figure']} | {_paper(r)} | "
                      f"{_fmt(r['network'], r['unit'])} | {_fmt(r['paper_eqs'], r['unit'])} | "
                      f"{_fmt(r['difference'], r['unit'])} | {r['residual']:+.2f} | {verdict} / {verdict_eqs} |")
-    n, u, b = report["network"], report["network"]["udds"], report["network"]["beijing"]
-    e = report["paper_eqs"]
-    sp = report["sustained_speeds_kmh"]
-    c = report["fuel_corrected_l100"]
+    n, e, sp, c = report["network"], report["paper_eqs"], report["sustained_speeds_kmh"], report["fuel_corrected_l100"]
+    u, b = n["udds"], n["beijing"]
     met_eqs = sum(r["paper_eqs_met"] for r in report["rows"])
     lines += ["", f"{report['met']} of {report['n_targets']} targets met (network; cost Σr² = {report['cost']:.2f}), "
               f"{met_eqs} with the paper's equations as written. A heat index that never leaves 0 meets the "

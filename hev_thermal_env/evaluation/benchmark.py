@@ -1,19 +1,15 @@
-"""The benchmark: every strategy on every cycle and scenario, one table and plots.
+"""The benchmark: every strategy on every cycle and scenario, measured against the thermal optimum.
 
-``python evaluate.py benchmark --out DIR`` writes ``results.csv``, ``results.json``, ``results.md``
-(:mod:`.results_table`: one row per cycle × scenario × strategy, measured against the thermal
-optimum ``dp_thermal`` of the same cycle and scenario, :mod:`.yardstick`; ``dp_thermal`` is added
-to every benchmark that lacks it) and PNGs: per cycle and scenario, speed / missed wheel energy /
-SOC / motor temperature / heat index / split over time for every strategy on shared axes
-(:mod:`.plots`), and a dot chart of the frontier ratio, one row of panels per scenario
-(:mod:`.fuel_chart`). Seed families (several trained policies as one, :mod:`.families`) add rows
-with the interquartile mean over their seeds and its bootstrap interval.
+``evaluate.py benchmark`` (:func:`run_benchmark`) writes the result files (:mod:`.results_table`: one row per
+cycle × scenario × strategy with the ratios of :mod:`.yardstick`; ``dp_thermal``, the reference, is added where
+missing), the seed families' rows (:mod:`.families`) and the figures (:mod:`.plots`, :mod:`.fuel_chart`). The runs
+are spread over processes or Ray tasks (:mod:`.executors`); each is deterministic, so the files equal a serial run's
+byte for byte (wall times go to ``timings.json`` only). See docs/benchmark.md.
 
-Independent runs are spread over processes or Ray tasks (:mod:`.executors`); each run is
-deterministic (fixed seed, no shared state), so the results equal a serial run's, byte for byte:
-wall times go to ``timings.json``, not into the results. Every file is written atomically. The
-progress bar (:mod:`.progress`) names the runs in progress and weighs the time left by each run's
-expected cost.
+The progress bar (:class:`BenchmarkProgress`) names the runs in progress and counts expected seconds, not runs:
+runs differ in cost by four orders of magnitude (``dp_thermal`` searches for minutes unless its plan is on disk,
+``dp`` for seconds, the others drive a cycle in a fraction of one; :func:`expected_cost_s`); the time left is
+tqdm's, from the rate of that work so far.
 """
 
 from __future__ import annotations
@@ -21,10 +17,12 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from hev_thermal_env.agents import get_strategy, list_strategies
 from hev_thermal_env.cycles import ImplausibleCycleWarning, load_cycle
@@ -35,8 +33,7 @@ from hev_thermal_env.scenarios import get_scenario
 from .executors import make_executor
 from .families import Family, family_rows, representative, tag_members
 from .plots import plot_benchmark
-from .progress import BenchmarkProgress, expected_cost_s
-from .results_table import COLUMNS, _fmt, write_results
+from .results_table import write_results
 from .runner import run_strategy
 from .yardstick import REFERENCE, add_yardstick_columns, with_reference
 
@@ -47,9 +44,17 @@ REFERENCE_ADDED_NOTE = f"{REFERENCE} was added to the strategies: it is the refe
 TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", SPLIT_INFO_KEY,
               "motor_torque_nm", "engine_torque_nm", "fuel_g", "missed_wheel_energy_j", "motor_cutoff",
               "shaft_torque_demand_nm")
-
-__all__ = ["COLUMNS", "DEFAULT_CYCLES", "DEFAULT_SCENARIOS", "DEFAULT_STRATEGIES", "_fmt", "run_benchmark",
-           "validate", "write_results"]
+#: Expected seconds of a run per second of cycle on one core, by strategy (the plan searches; dp_thermal: 0.03-0.12).
+SECONDS_PER_STEP = {"dp_thermal": 0.06, "dp": 0.004}
+#: The same for every other strategy (a drive through the cycle).
+OTHER_SECONDS_PER_STEP = 1e-4
+#: Expected seconds of a run besides its steps (building the strategy and the environment), by strategy: a
+#: learned policy loads torch in its worker first.
+OVERHEAD_S = {"ppo": 8.0}
+OTHER_OVERHEAD_S = 0.2
+#: A run in progress counts its elapsed time up to this fraction of its weight.
+RUNNING_CREDIT = 0.9
+BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]"
 
 
 def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
@@ -59,16 +64,13 @@ def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
         cyc = load_cycle(cycle)
     res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario)
     trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
-    summary = dict(res.summary)
-    summary.update(cycle=cyc.name, scenario=scenario, strategy=strategy)
-    return summary, trace
+    return {**res.summary, "cycle": cyc.name, "scenario": scenario, "strategy": strategy}, trace
 
 
 def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None,
              families: list[Family] | None = None) -> dict[str, Any]:
-    """Fail before any work on unknown names, strategies that cannot be built (a missing model, an unknown
-    option), a family named like a strategy or another family, or an unusable output directory; returns the
-    cycles by the names given."""
+    """Fail before any work on unknown names, strategies that cannot be built, a family named like a strategy or
+    another family, or an unusable output directory; returns the cycles by the names given."""
     loaded = {c: load_cycle(c) for c in cycles}
     for s in scenarios:
         get_scenario(s)
@@ -96,11 +98,9 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
                   address: str | None = None, families: list[Family] | None = None) -> list[dict]:
     """Run every combination, write the result files and plots, return the rows (runs, then families).
 
-    ``dp_thermal``, the reference, is added to ``strategies`` if missing (``results.md`` says so).
-    ``families``: seed families (:class:`~.families.Family`, from :func:`~.families.parse_family`);
-    each member runs as ``ppo:PATH``. ``executor`` is where the runs happen (:mod:`.executors`):
-    ``local`` processes (``jobs`` of them) or ``ray`` tasks (a local Ray runtime of ``jobs`` CPUs,
-    or the cluster at ``address``); the files are the same, byte for byte."""
+    ``dp_thermal`` is added to ``strategies`` if missing (``results.md`` says so). ``families``: seed families
+    (:func:`~.families.parse_family`), each member run as ``ppo:PATH``. ``executor``: ``local`` (``jobs``
+    processes) or ``ray`` (a local runtime of ``jobs`` CPUs, or the cluster at ``address``)."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
     fams = list(families or [])
@@ -109,9 +109,8 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     run_names = list(dict.fromkeys([*strategies, *(m for f in fams for m in f.members)]))
     tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in run_names]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
-    runner = make_executor(executor, jobs=jobs, address=address)
     t0 = time.perf_counter()
-    with runner:
+    with make_executor(executor, jobs=jobs, address=address) as runner:
         results = _run_tasks(tasks, runner, progress, {c: (cyc.name, cyc.n_steps) for c, cyc in loaded.items()})
     rows = [r[0] for r in results]
     traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}
@@ -153,3 +152,52 @@ def _plotted_traces(traces: dict, rows: list[dict], strategies: list[str], famil
             if pick is not None:
                 shown[(cyc, sc, f"{f.name}: seed nearest IQM")] = traces[(cyc, sc, pick)]
     return shown
+
+
+def expected_cost_s(strategy: str, n_steps: int) -> float:
+    """Expected seconds of one run of ``strategy`` over a cycle of ``n_steps`` seconds, without a plan on disk."""
+    base = strategy.split(":", 1)[0]
+    return OVERHEAD_S.get(base, OTHER_OVERHEAD_S) + SECONDS_PER_STEP.get(base, OTHER_SECONDS_PER_STEP) * n_steps
+
+
+class BenchmarkProgress:
+    """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers: a
+    finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
+    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (the workers take them
+    first in, first out). :meth:`finished` when a run ends; :meth:`show` redraws (every second or so)."""
+
+    def __init__(self, labels: Sequence[str], costs: Sequence[float], order: Sequence[int], slots: int,
+                 enabled: bool = True):
+        self.labels, self.costs = list(labels), [float(c) for c in costs]
+        self.waiting = list(order)
+        self.slots = max(1, int(slots))
+        self.started: dict[int, float] = {}
+        self.done_cost = 0.0
+        self.bar = tqdm(total=sum(self.costs), desc="benchmark", disable=not enabled, smoothing=0,
+                        bar_format=BAR_FORMAT)
+
+    def __enter__(self) -> BenchmarkProgress:
+        self.show()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.bar.close()
+
+    def finished(self, i: int) -> None:
+        self.waiting.remove(i)
+        self.started.pop(i, None)
+        self.done_cost += self.costs[i]
+
+    def show(self) -> None:
+        now = time.perf_counter()
+        running = self.waiting[:self.slots]
+        for i in running:  # a run that takes longer than expected is at most 90 % done
+            self.started.setdefault(i, now)
+            self.costs[i] = max(self.costs[i], (now - self.started[i]) / RUNNING_CREDIT)
+        self.bar.total = sum(self.costs)
+        credit = sum(min(now - self.started[i], RUNNING_CREDIT * self.costs[i]) for i in running)
+        work = self.done_cost + credit if self.waiting else self.bar.total
+        self.bar.update(max(work - self.bar.n, 0.0))
+        done = len(self.labels) - len(self.waiting)
+        names = ", ".join(f"{self.labels[i]} {tqdm.format_interval(now - self.started[i])}" for i in running)
+        self.bar.set_postfix_str(f"{done}/{len(self.labels)} runs done" + (f"; running {names}" if names else ""))

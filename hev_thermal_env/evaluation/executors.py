@@ -1,24 +1,10 @@
 """Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
 
-An executor runs one function over a list of independent tasks and yields ``(index, result)`` as the
-cells finish (and ``None`` every ``tick_s`` seconds without one, for a progress display); the
-benchmark puts each result in its place and writes the files itself, so the files do not depend on
-the executor (nor on the order in which cells finish). ``slots`` is how many cells run at once.
-
-* :class:`LocalExecutor` (the default, needs nothing beyond the package): the cells in this process
-  (``jobs=1``) or in a pool of ``jobs`` spawned processes. The workers ignore Ctrl-C (SIGINT), so
-  that only this process reports it (as ``KeyboardInterrupt``); leaving the executor on an
-  exception stops the workers instead of waiting for the cells in progress.
-* :class:`RayExecutor`: one Ray task per cell (one CPU each). Without an address it starts a local
-  Ray runtime with ``jobs`` CPUs; with one it joins a running cluster (``ray start --head`` on
-  one machine, ``ray start --address=HOST:PORT`` on the others; every node needs this package,
-  ``pip install "hev-thermal-env[ray]"``) and uses every CPU the cluster has. A runtime already
-  started in this process (``ray.init`` before the call) is used as it is. A task whose worker
-  process dies (killed, out of memory, node lost) is run again on another worker, up to
-  ``max_retries`` times: the cells are deterministic, so a re-run gives the same result.
-
-Ray is an optional dependency (the ``ray`` extra); asking for it without it installed, or for an
-address where no cluster answers, raises :class:`ExecutorError` with a one-line message.
+An executor runs one function over independent tasks and yields ``(index, result)`` as the cells finish (and
+``None`` every ``tick_s`` seconds without one, for the progress bar); ``slots`` is how many run at once. The
+benchmark puts each result in its place, so its files depend neither on the executor nor on the order in which
+cells finish. Ray is optional (the ``ray`` extra): asking for it without it installed, or for an address where no
+cluster answers, raises :class:`ExecutorError` in one line. See README, *Scaling out*.
 """
 
 from __future__ import annotations
@@ -82,7 +68,8 @@ def sigint_ignored() -> Iterator[None]:
 
 
 class LocalExecutor:
-    """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes that ignore Ctrl-C."""
+    """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes. The workers ignore Ctrl-C, so only this
+    process reports it (``KeyboardInterrupt``); leaving on an exception stops the workers, not waiting for them."""
 
     def __init__(self, jobs: int = 1):
         self.jobs = self.slots = max(1, int(jobs))
@@ -124,13 +111,14 @@ class LocalExecutor:
 
 
 class RayExecutor:
-    """One Ray task per cell; a local runtime of ``jobs`` CPUs, or the cluster at ``address``."""
+    """One Ray task (one CPU) per cell, on a local runtime of ``jobs`` CPUs or the cluster at ``address`` (every CPU
+    it has). A cell whose worker process dies is run again on another, up to :data:`MAX_RETRIES` times (the cells are
+    deterministic)."""
 
-    def __init__(self, jobs: int = 1, address: str | None = None, max_retries: int = MAX_RETRIES):
+    def __init__(self, jobs: int = 1, address: str | None = None):
         self.ray = import_ray()
         self.jobs = self.slots = max(1, int(jobs))
         self.address = address
-        self.max_retries = int(max_retries)
         self.started = False
 
     def __enter__(self) -> RayExecutor:
@@ -148,33 +136,32 @@ class RayExecutor:
         """``(i, fn(tasks[i]))`` as the tasks finish (submitted in ``order``), None every ``tick_s`` seconds
         without one."""
         ray = self.ray
-        remote = ray.remote(num_cpus=1, max_retries=self.max_retries)(fn)
+        remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(fn)
         pending = {remote.remote(tasks[i]): i for i in order}
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1, timeout=tick_s)
             if not ready:
                 yield None
                 continue
-            ref = ready[0]
-            i = pending.pop(ref)
+            i = pending.pop(ready[0])
+            cell = "/".join(x for x in tasks[i] if isinstance(x, str))  # cycle/scenario/strategy
             try:
-                result = ray.get(ref)
+                result = ray.get(ready[0])
             except ray.exceptions.RayTaskError as exc:
                 # the cell's own error (a ValueError from bad input...), as the local executor raises it
                 if exc.cause is not None:
                     raise exc.cause from None
-                raise ExecutorError(f"cell {describe(tasks[i])} failed: {' '.join(str(exc).split())}") from None
+                raise ExecutorError(f"cell {cell} failed: {' '.join(str(exc).split())}") from None
             except ray.exceptions.RayError as exc:
                 first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-                raise ExecutorError(f"cell {describe(tasks[i])} lost after {self.max_retries} retries "
+                raise ExecutorError(f"cell {cell} lost after {MAX_RETRIES} retries "
                                     f"({type(exc).__name__}: {first})") from None
             yield i, result
 
 
 def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
-    """Make sure this process is connected to Ray: a runtime already started here is used as it is;
-    otherwise a local runtime of ``num_cpus`` CPUs (all when None) is started, or the cluster at
-    ``address`` joined. Returns whether it started or joined one (and so should shut it down)."""
+    """Connect this process to Ray: a runtime already started here as it is, else a local runtime of ``num_cpus`` CPUs
+    (all when None) or the cluster at ``address``. Returns whether it started or joined one (to shut down later)."""
     if ray.is_initialized():
         return False
     kwargs: dict[str, Any] = dict(logging_level=logging.WARNING, log_to_driver=False, include_dashboard=False)
@@ -190,19 +177,11 @@ def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
     return True
 
 
-def describe(task: Any) -> str:
-    """A short name of a task (``cycle/scenario/strategy`` for the benchmark's tuples)."""
-    if isinstance(task, tuple):
-        return "/".join(str(x) for x in task if isinstance(x, str))
-    return str(task)
-
-
 def split_address(address: str) -> tuple[str, int]:
     """``(host, port)`` of ``HOST[:PORT]`` or ``ray://HOST[:PORT]`` (port 6379, or 10001 for ``ray://``)."""
     text = address.strip()
-    default = DEFAULT_RAY_PORT
-    if text.startswith("ray://"):
-        text, default = text[len("ray://"):], 10001
+    default = 10001 if text.startswith("ray://") else DEFAULT_RAY_PORT
+    text = text.removeprefix("ray://")
     host, sep, port = text.rpartition(":") if ":" in text else (text, "", "")
     host = host.strip("[]")
     if not host:

@@ -1,21 +1,10 @@
-"""Seed families: several trained policies (the same training, different seeds) benchmarked as one.
+"""Seed families: several trained policies (one training setup, different seeds) benchmarked as one.
 
-A trained policy's result depends on its training seed, so one seed says little. A *family* names
-the runs of one training configuration over several seeds (as rliable's "runs" of one algorithm)::
-
-    python evaluate.py benchmark --family ppo_hot=runs/s0,runs/s1,runs/s2 --out results
-    python evaluate.py benchmark --family ppo_hot=runs/hot_seeds --out results   # every run inside
-
-``NAME=PATH[,PATH...]``: each PATH is what ``ppo:PATH`` loads (a ``train.py`` run directory or a
-model zip); a single directory that is not itself a run stands for every run directory directly
-inside it (sorted by name), e.g. one ``train.py --seed N --out DIR/sN`` per seed. A family needs at
-least :data:`MIN_SEEDS` runs (one policy is benchmarked as ``ppo:PATH``). Each member runs as the
-strategy ``ppo:PATH`` (its row in ``results.csv``/``.json`` carries ``family`` = NAME); the family
-adds, per cycle × scenario, a row named NAME and, over every cycle × scenario, a row with cycle and
-scenario :data:`OVERALL`: the interquartile mean over the seeds of the frontier ratio and of the
-fixed-price ratio with 95 % bootstrap intervals (:mod:`hev_thermal_env.stats`; over every cycle ×
-scenario the seeds are resampled within each, a stratified bootstrap). Seeds whose ratio is
-undefined (final SOC outside the frontier) are left out, and the row's note counts them.
+``--family NAME=PATH[,PATH...]``: each PATH is what ``ppo:PATH`` loads; a single directory that is not itself a run
+stands for every run directory directly inside it (sorted). Each member runs as ``ppo:PATH`` (its rows carry
+``family`` = NAME); the family adds a row per cycle × scenario and one over all (cycle and scenario :data:`OVERALL`)
+with the IQM over the seeds of each ratio and its 95 % bootstrap interval (:mod:`hev_thermal_env.stats`). Seeds
+without a ratio are left out; the row's note counts them. See docs/metrics.md, *Seed families*.
 """
 
 from __future__ import annotations
@@ -54,10 +43,8 @@ def _is_run(path: Path) -> bool:
 
 
 def parse_family(text: str, taken: Iterable[str] = ()) -> Family:
-    """The family of a ``NAME=PATH[,PATH...]`` option value; ``taken``: names already in use (strategies).
-
-    Raises ``ValueError`` (bad form, bad or taken name, repeated path, fewer than :data:`MIN_SEEDS`
-    runs) or ``FileNotFoundError`` (a path that does not exist), each naming the value."""
+    """The family of a ``NAME=PATH[,PATH...]`` option value (``taken``: the strategies' names). Raises ``ValueError``
+    (bad form, bad or taken name, repeated path, fewer than :data:`MIN_SEEDS` runs) or ``FileNotFoundError``."""
     name, sep, spec = str(text).partition("=")
     name = name.strip()
     if not sep or not name or not spec.strip():
@@ -134,8 +121,8 @@ def _summary_row(fam: Family, cycle: str, scenario: str, groups: list[list[dict]
 
 
 def representative(rows: Sequence[dict], fam: Family, cycle: str, scenario: str) -> str | None:
-    """The member whose frontier ratio (else fixed-price ratio) is nearest the family's IQM on a cycle and
-    scenario: the run its trace figure shows. None if no member ran there."""
+    """The member (its trace drawn) whose frontier (else fixed-price) ratio is nearest the family's IQM; None if none
+    ran on that cycle and scenario."""
     members = [r for r in rows if r["cycle"] == cycle and r["scenario"] == scenario and r["strategy"] in fam.members]
     for key in RATIOS:
         scored = [r for r in members if r.get(key) is not None]

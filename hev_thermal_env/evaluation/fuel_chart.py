@@ -1,14 +1,10 @@
-"""``fuel_vs_optimum.png``: every strategy against the thermal optimum, one panel per cycle and scenario.
+"""``fuel_vs_optimum.png``: every strategy against the thermal optimum, a panel per cycle (column) and scenario (row).
 
-A dot chart that stays readable as the benchmark grows: one row of panels per scenario, one
-column per cycle (both in the benchmark's order), the strategies from the simplest (top) to the
-optimum, and the learned policies below a gap on a shaded band. The x axis is the frontier ratio
-(:mod:`.yardstick`: the run's cost over the thermal optimum's at the same final SOC; 1 = the
-optimum), shared by every panel and always including 1, so a dot's distance from the 1 line reads
-the same everywhere; each dot carries its value. A seed family (:mod:`.families`) is one row: its
-interquartile mean (diamond), the 95 % bootstrap interval (whiskers) and each seed (small dots).
-A strategy without a ratio on a panel (final SOC outside the frontier) is marked "n/a" there.
-Without any frontier the chart shows the fixed-price ratio (corrected fuel over ``dp_thermal``'s).
+Rows go from the simplest strategy (top) to the optimum, the learned policies below a gap on a shaded band. The
+shared x axis is the frontier ratio (:mod:`.yardstick`; 1 = the optimum at the run's final SOC) and always holds 1;
+each dot carries its value. A seed family (:mod:`.families`) is one row: IQM (diamond), 95 % bootstrap interval
+(whiskers), each seed (small dots). A run without a ratio is marked "n/a"; without any frontier the chart shows the
+fixed-price ratio (corrected fuel over ``dp_thermal``'s).
 """
 
 from __future__ import annotations
@@ -16,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .families import OVERALL
+from .results_table import ratio_text
 from .styles import (
     LEARNED_BAND_COLOUR,
     figure_title,
@@ -64,27 +61,20 @@ def _value_range(values: list[float], wide_right: bool = False) -> tuple[float, 
 
 def _split(rows: list[dict]) -> tuple[list[dict], dict[str, list[dict]]]:
     """(rows drawn as rows: runs and per-panel family rows, {family: its members' rows})."""
-    drawn, members = [], {}
+    drawn = [r for r in rows if r.get("family") is None or (r["strategy"] == r["family"] and r["cycle"] != OVERALL)]
+    members: dict[str, list[dict]] = {}
     for r in rows:
-        fam = r.get("family")
-        if fam is None:
-            drawn.append(r)
-        elif r["strategy"] == fam:
-            if r["cycle"] != OVERALL:
-                drawn.append(r)
-        else:
-            members.setdefault(fam, []).append(r)
+        if r.get("family") not in (None, r["strategy"]):
+            members.setdefault(r["family"], []).append(r)
     return drawn, members
 
 
 def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: list[str] | None = None):
-    """The chart of benchmark ``rows`` (``cycle``, ``scenario``, ``strategy``, ``frontier_ratio``,
-    ``fixed_price_ratio``, ``fuel_corrected_l_per_100km``; family rows with ``family`` and the
-    ``_ci_low``/``_ci_high`` columns); returns the matplotlib figure."""
+    """The chart of benchmark ``rows`` (``cycle``, ``scenario``, ``strategy``, the ratios; family rows with ``family``
+    and the ``_ci_low``/``_ci_high`` columns); returns the matplotlib figure."""
     drawn, members = _split(rows)
     if not drawn:
         raise ValueError("fuel chart: no benchmark rows")
-    plt = pyplot()
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -99,8 +89,9 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     values = [float(r[k]) for r in drawn for k in (key, f"{key}_ci_low", f"{key}_ci_high") if r.get(k) is not None]
     values += [float(m[key]) for ms in members.values() for m in ms if m.get(key) is not None]
     height = 0.27 * (max(pos.values()) + 1.0) + 1.1
-    fig, axes = plt.subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
-                             figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2), layout="constrained")
+    fig, axes = pyplot().subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
+                                  figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2),
+                                  layout="constrained")
     axes[0, 0].set_xlim(*_value_range(values or [1.0], bool(families)))  # shared: before the labels
     for i, sc in enumerate(scenarios):
         for j, cyc in enumerate(cycles):
@@ -110,8 +101,7 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
             axes[i, j].set_title(f"{cyc} cycle, {sc} scenario", fontsize=10)
     ax0 = axes[0, 0]
     ax0.ticklabel_format(axis="x", useOffset=False, style="plain")
-    ax0.set_ylim(max(pos.values()) + 0.7, -0.7)
-    ax0.set_yticks(list(pos.values()))
+    ax0.set(ylim=(max(pos.values()) + 0.7, -0.7), yticks=list(pos.values()))
     for ax in axes[:, 0]:
         ax.set_yticklabels([_row_label(s, families, members) for s in pos], fontsize=9)
         for tick, name in zip(ax.get_yticklabels(), pos):
@@ -120,16 +110,15 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     fig.supxlabel(xlabel + _reference_line(drawn, key), fontsize=10)
     handles = [Line2D([], [], color="k", lw=1.0, label=base_label),
                Line2D([], [], color="0.4", marker="o", ls="-", lw=1.0, label="classic strategy")]
-    any_learned = any(is_learned(s, families) for s in strategies)
     if any(is_learned(s, families) and s not in families for s in strategies):
         handles.append(Line2D([], [], color="0.4", marker="D", ls="none", label="learned policy"))
     if families:
         handles += [Line2D([], [], color="0.4", marker="D", ms=7, ls="-", lw=2.0,
                            label="seed family: IQM (diamond),\n95 % bootstrap CI (whiskers)"),
                     Line2D([], [], color="0.4", marker="o", ms=3.5, ls="none", alpha=0.6, label="one seed")]
-    if any_learned:
+    if any(is_learned(s, families) for s in strategies):
         handles.append(Patch(facecolor=LEARNED_BAND_COLOUR, label="learned policies (set apart)"))
-    legend_outside(fig, handles, [h.get_label() for h in handles])
+    legend_outside(fig, handles)
     figure_title(fig, title, fontsize=12)
     return fig
 
@@ -181,16 +170,12 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         lo, hi = ax.get_xlim()
         below = right < origin - 0.08 * (hi - lo) and name not in families
         right = max(right, origin)
-        text = f"{v:.3f}"
-        if name in families and r.get(f"{key}_ci_low") is not None:
-            text += f" [{r[f'{key}_ci_low']:.3f}, {r[f'{key}_ci_high']:.3f}]"
-        ax.annotate(text, (left if below else right, y), xytext=(-7 if below else 7, 0),
+        ax.annotate(ratio_text(r, key), (left if below else right, y), xytext=(-7 if below else 7, 0),
                     textcoords="offset points", va="center", ha="right" if below else "left", fontsize=8,
                     fontweight="bold" if is_learned(name, families) else "normal")
     ax.grid(axis="x", alpha=0.3)
     ax.tick_params(axis="y", length=0)
-    for side in ("top", "right"):
-        ax.spines[side].set_visible(False)
+    ax.spines[["top", "right"]].set_visible(False)
 
 
 def _family(ax, r: dict, seeds: list[dict], key: str, y: float, colour: str) -> tuple[float, float]:

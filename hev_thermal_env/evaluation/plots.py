@@ -1,20 +1,9 @@
-"""Trace figures: every strategy of one cycle and scenario on shared time axes.
-
-:func:`plot_run` draws any number of runs (one per strategy), so the benchmark and
-``evaluate.py run`` draw the same figure. Panels, top to bottom:
-
-* speed: the cycle's demanded speed as a thick light line, each strategy's delivered speed thin;
-* missed wheel energy, cumulative: where and how much a strategy could not follow the cycle;
-* battery SOC;
-* motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the motor comes near
-  them (and a mark on each strategy's line wherever its motor is cut off);
-* heat index, 0 to 1;
-* the split, one strip per strategy (colour = motor share u; grey where no traction torque is
-  demanded and u has no effect), readable on long stop-and-go cycles.
-
-:func:`plot_benchmark` draws one such figure per cycle and scenario and the fuel chart
-(:mod:`.fuel_chart`); the benchmark passes a seed family's member nearest the family's IQM. Every
-PNG is written atomically (:func:`hev_thermal_env.io.save_png`).
+"""Trace figures: every strategy of one cycle and scenario on shared time axes (:func:`plot_run`, drawn alike by the
+benchmark and ``evaluate.py run``). Panels, top to bottom: the cycle's speed (thick, light) and each strategy's;
+the cumulative missed wheel energy; SOC; motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the
+motor comes near them (a mark wherever a motor is cut off); the heat index; the split, one strip per strategy
+(colour = motor share u, grey where no traction torque is demanded). :func:`plot_benchmark` draws one per cycle and
+scenario (a seed family as its member nearest the IQM) and the fuel chart (:mod:`.fuel_chart`).
 """
 
 from __future__ import annotations
@@ -26,24 +15,18 @@ from pathlib import Path
 import numpy as np
 
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
+from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.physics import paper_bus
 
 from .fuel_chart import FUEL_CHART_FILE, plot_fuel_chart
 from .styles import CYCLE_COLOUR, figure_title, legend_outside, ordered, pyplot, save_fig, short_label, strategy_styles
 
-__all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure", "temperature_limits_c"]
+__all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure"]
 
 CUTOFF_COLOUR, SOFT_LIMIT_COLOUR = "#6a3d9a", "#e08214"
 
 #: The temperature lines are drawn when the hottest motor comes within this of the soft limit.
 LIMITS_SHOWN_WITHIN_K = 20.0
-
-
-def temperature_limits_c() -> tuple[float, float]:
-    """(soft limit of the reward's overheat penalty, motor cutoff) of the default vehicle and reward, °C."""
-    from hev_thermal_env.envs.reward import RewardParams
-    from hev_thermal_env.physics import paper_bus
-
-    return float(RewardParams().overheat_soft_limit_c), float(paper_bus().thermal.cutoff_temp_c)
 
 
 def _series(trace: Mapping[str, np.ndarray], key: str) -> np.ndarray | None:
@@ -54,28 +37,22 @@ def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
     return np.asarray(trace["time_s"], dtype=float)
 
 
-def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
-               temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()):
-    """The trace figure of ``{label: trace}`` (see the module docstring); returns the matplotlib figure.
-
-    Each trace needs per-step arrays ``time_s``, ``speed_mps``, ``soc``, ``motor_temp_c``, ``heat_index`` and
-    the split ``motor_share`` (a run's trace holds them); ``cycle_speed_mps``, ``missed_wheel_energy_j``,
-    ``motor_cutoff`` and ``shaft_torque_demand_nm`` are used when present. ``temp_limits_c`` is
-    (soft limit, cutoff), by default those of ``paper_bus`` and the default reward. ``learned``:
-    more names drawn as learned policies (seed families; ``ppo`` and ``ppo:PATH`` always are).
-    """
+def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", learned: Collection[str] = ()):
+    """The trace figure (module docstring) of ``{label: trace}``, each with per-step ``time_s``, ``speed_mps``,
+    ``soc``, ``motor_temp_c``, ``heat_index`` and ``motor_share`` (and, if present, ``cycle_speed_mps``,
+    ``missed_wheel_energy_j``, ``motor_cutoff``, ``shaft_torque_demand_nm``); temperature limits of ``paper_bus`` and
+    the default reward. ``learned``: more names drawn as learned policies (seed families)."""
     if not traces:
         raise ValueError("plot_run: no traces to plot")
-    plt = pyplot()
     labels = ordered(traces, learned)
     styles = strategy_styles(labels, learned)
     n = len(labels)
     heights = [3.0, 1.5, 1.8, 2.0, 1.4, max(0.32 * n, 0.9)]
-    fig, axes = plt.subplots(len(heights), 1, figsize=(12.5, 13.0 + 0.25 * n), sharex=True, layout="constrained",
-                             gridspec_kw={"height_ratios": heights})
+    fig, axes = pyplot().subplots(len(heights), 1, figsize=(12.5, 13.0 + 0.25 * n), sharex=True, layout="constrained",
+                                  gridspec_kw={"height_ratios": heights})
     ax_v, ax_miss, ax_soc, ax_temp, ax_hi, ax_split = axes
     handles = _speed_panel(ax_v, traces, labels, styles)
-    limit_handles = _temperature_panel(ax_temp, traces, labels, styles, temp_limits_c or temperature_limits_c())
+    limit_handles = _temperature_panel(ax_temp, traces, labels, styles)
     for label in labels:
         tr, st = traces[label], styles[label]
         t = _time(tr)
@@ -86,20 +63,17 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
         ax_hi.plot(t, _series(tr, "heat_index"), clip_on=False, **st)
     _split_panel(fig, ax_split, traces, labels, styles)
     ax_miss.set_title("missed wheel energy, cumulative: what the powertrain could not deliver", fontsize=10)
-    ax_miss.set_ylabel("missed (kWh)")
-    ax_miss.set_ylim(bottom=0.0)
+    ax_miss.set(ylabel="missed (kWh)", ylim=(0.0, None))
     ax_soc.set_title("battery state of charge", fontsize=10)
     ax_soc.set_ylabel("SOC (-)")
     ax_hi.set_title("heat index (0: full peak torque available, 1: continuous torque only)", fontsize=10)
-    ax_hi.set_ylabel("heat index (-)")
-    ax_hi.set_ylim(0.0, 1.0)
+    ax_hi.set(ylabel="heat index (-)", ylim=(0.0, 1.0))
     for ax in axes[:-1]:
         ax.grid(alpha=0.3)
     ax_split.set_xlabel("time (s)")
-    legend_outside(fig, handles, [h.get_label() for h in handles], title="speed and strategies")
+    legend_outside(fig, handles, title="speed and strategies")
     if limit_handles:
-        legend_outside(fig, limit_handles, [h.get_label() for h in limit_handles], title="motor temperature",
-                       where="right lower")
+        legend_outside(fig, limit_handles, title="motor temperature", loc="outside right lower")
     if title:
         figure_title(fig, title, fontsize=12)
     return fig
@@ -107,23 +81,20 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "",
 
 def _speed_panel(ax, traces, labels, styles) -> list:
     handles = []
-    for label in labels:
-        if "cycle_speed_mps" in traces[label]:
-            tr = traces[label]
-            handles += ax.plot(_time(tr), np.asarray(tr["cycle_speed_mps"], dtype=float) * 3.6, color=CYCLE_COLOUR,
-                               lw=5.0, solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
-            break
+    cycle = next((traces[x] for x in labels if "cycle_speed_mps" in traces[x]), None)
+    if cycle is not None:
+        handles += ax.plot(_time(cycle), _series(cycle, "cycle_speed_mps") * 3.6, color=CYCLE_COLOUR, lw=5.0,
+                           solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
     for label in labels:
         tr = traces[label]
         handles += ax.plot(_time(tr), _series(tr, "speed_mps") * 3.6, label=short_label(label), **styles[label])
     ax.set_title("speed: the cycle (thick, light) and what each strategy delivered (thin)", fontsize=10)
-    ax.set_ylabel("speed (km/h)")
-    ax.set_ylim(bottom=0.0)
+    ax.set(ylabel="speed (km/h)", ylim=(0.0, None))
     return handles
 
 
-def _temperature_panel(ax, traces, labels, styles, limits_c: tuple[float, float]) -> list:
-    soft_c, cutoff_c = limits_c
+def _temperature_panel(ax, traces, labels, styles) -> list:
+    soft_c, cutoff_c = float(RewardParams().overheat_soft_limit_c), float(paper_bus().thermal.cutoff_temp_c)
     hottest = -np.inf
     for label in labels:
         tr = traces[label]
@@ -136,11 +107,11 @@ def _temperature_panel(ax, traces, labels, styles, limits_c: tuple[float, float]
             ax.plot(t[on], temp[on], ls="none", marker="|", ms=7, mew=1.2, color=styles[label]["color"], zorder=6)
     handles = []
     if hottest >= soft_c - LIMITS_SHOWN_WITHIN_K:
-        handles.append(ax.axhline(cutoff_c, color=CUTOFF_COLOUR, lw=2.0, ls="-.", label=f"cutoff {cutoff_c:g} °C"))
-        handles.append(ax.axhline(soft_c, color=SOFT_LIMIT_COLOUR, lw=1.4, ls=":",
-                                  label=f"soft limit {soft_c:g} °C\n(overheat penalty)"))
-        handles += ax.plot([], [], ls="none", marker="|", ms=7, mew=1.2, color="0.3",
-                           label="motor cut off\n(mark on its line)")
+        handles = [ax.axhline(cutoff_c, color=CUTOFF_COLOUR, lw=2.0, ls="-.", label=f"cutoff {cutoff_c:g} °C"),
+                   ax.axhline(soft_c, color=SOFT_LIMIT_COLOUR, lw=1.4, ls=":",
+                              label=f"soft limit {soft_c:g} °C\n(overheat penalty)"),
+                   *ax.plot([], [], ls="none", marker="|", ms=7, mew=1.2, color="0.3",
+                            label="motor cut off\n(mark on its line)")]
         ax.set_ylim(top=cutoff_c + 4.0)
         ax.set_title("motor temperature", fontsize=10)
     else:
@@ -172,8 +143,7 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
     ax.imshow(np.where(idle > 0, 1.0, np.nan), aspect="auto", extent=extent, interpolation="nearest",
               cmap=ListedColormap(["#e0e0e0"]), vmin=0, vmax=1)
     img = ax.imshow(grid, aspect="auto", extent=extent, interpolation="nearest", cmap="RdBu_r", vmin=-1.0, vmax=1.0)
-    ax.set_yticks(range(len(labels)))
-    ax.set_yticklabels([short_label(x) for x in labels], fontsize=8)
+    ax.set_yticks(range(len(labels)), [short_label(x) for x in labels], fontsize=8)
     for tick, label in zip(ax.get_yticklabels(), labels):
         tick.set_color(styles[label]["color"])
     ax.set_title("torque split u per strategy (red: motor assists, blue: engine charges the battery, "
@@ -183,16 +153,15 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
 
 
 def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.PathLike, title: str = "",
-             temp_limits_c: tuple[float, float] | None = None, learned: Collection[str] = ()) -> Path:
+             learned: Collection[str] = ()) -> Path:
     """Draw one or more runs (``{label: trace}``) into a PNG at ``path`` (see :func:`run_figure`); returns the path."""
-    return save_fig(run_figure(traces, title, temp_limits_c, learned), path)
+    return save_fig(run_figure(traces, title, learned), path)
 
 
 def plot_benchmark(out: Path, rows: list[dict], traces: dict, cycles: list[str] | None = None,
                    scenarios: list[str] | None = None) -> None:
-    """``out/traces_<cycle>_<scenario>.png`` (every strategy of a cycle and scenario on shared axes) and
-    ``out/fuel_vs_optimum.png`` (:mod:`.fuel_chart`); ``traces`` maps (cycle, scenario, strategy) to a run's
-    trace. Cycles and scenarios in the order given (default: as they first appear in the run rows)."""
+    """``out/traces_<cycle>_<scenario>.png`` and ``out/fuel_vs_optimum.png``; ``traces`` maps (cycle, scenario,
+    strategy) to a run's trace. Cycles and scenarios in the order given (default: as they first appear in the rows)."""
     runs = [r for r in rows if r.get("family") is None]
     cycles = list(dict.fromkeys(cycles or [r["cycle"] for r in runs]))
     scenarios = list(dict.fromkeys(scenarios or [r["scenario"] for r in runs]))

@@ -1,11 +1,8 @@
 """The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` and ``timings.json``.
 
-One row per cycle × scenario × strategy run (seed-family members included, ``family`` naming their
-family), then the seed families' rows (:mod:`.families`): per cycle × scenario and over every one
-(cycle and scenario ``all``), with the IQM in the ratio columns and the interval in the ``_ci_low`` /
-``_ci_high`` columns. ``results.md`` shows the runs and the families (not the members one by one),
-then the families over every cycle × scenario, then what the columns mean and why a ratio is
-missing. Every file is written atomically; wall times go to ``timings.json`` only, so the other
+One row per cycle × scenario × strategy run (seed-family members with ``family``), then the families' rows
+(:mod:`.families`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
+scenario, what the columns mean and why a ratio is missing. Wall times go to ``timings.json`` only, so the other
 files are the same byte for byte run after run.
 """
 
@@ -17,12 +14,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.stats import CONFIDENCE
 
 from .families import OVERALL
+from .runner import jsonable
 from .yardstick import REFERENCE, display_name
 
 COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "fuel_g", "fuel_l_per_100km",
@@ -56,26 +52,19 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def _plain(v: Any) -> Any:
-    return v.item() if isinstance(v, (np.floating, np.integer, np.bool_)) else v
-
-
 def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[str] = ()) -> None:
     """Write the four files of ``rows`` (run rows, then family rows) into ``out``; ``notes``: extra lines for
     ``results.md`` (e.g. that the reference was added)."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(COLUMNS)
-    for r in rows:
-        w.writerow([_fmt(r.get(c)) for c in COLUMNS])
+    w.writerows([_fmt(r.get(c)) for c in COLUMNS] for r in rows)
     atomic_write_text(out / "results.csv", buf.getvalue())
-    clean = [{c: _plain(r.get(c)) for c in COLUMNS} for r in rows]
+    clean = [{c: jsonable(r.get(c)) for c in COLUMNS} for r in rows]
     atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean, "notes": list(notes)})
-    runs = [r for r in rows if not _is_family_row(r)]
-    atomic_write_json(out / "timings.json", {
-        "total_wall_s": wall_s,
-        "runs": [{"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
-                 for r in runs]})
+    atomic_write_json(out / "timings.json", {"total_wall_s": wall_s, "runs": [
+        {"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
+        for r in rows if not _is_family_row(r)]})
     atomic_write_text(out / "results.md", markdown(rows, notes))
 
 
@@ -83,7 +72,8 @@ def _is_family_row(r: dict) -> bool:
     return r.get("family") is not None and r["strategy"] == r["family"]
 
 
-def _ratio_cell(r: dict, key: str) -> str:
+def ratio_text(r: dict, key: str) -> str:
+    """The ratio ``key`` of a row to 3 decimals, with its interval in brackets if it has one; "-" if it has none."""
     v = r.get(key)
     if v is None:
         return "-"
@@ -102,8 +92,8 @@ def _j1711_cell(r: dict) -> str:
 def _run_line(r: dict) -> list[str]:
     pct = r.get("fuel_vs_thermal_blind_dp_pct")
     return [r["cycle"], r["scenario"], display_name(r["strategy"]), f"{r['fuel_l_per_100km']:.2f}",
-            f"{r['fuel_corrected_l_per_100km']:.2f}", _ratio_cell(r, "frontier_ratio"),
-            _ratio_cell(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
+            f"{r['fuel_corrected_l_per_100km']:.2f}", ratio_text(r, "frontier_ratio"),
+            ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
             f"{r['soc_initial']:.3f} → {r['soc_final']:.3f}", f"{r['max_motor_temp_c']:.1f}",
             f"{r['heat_index_max']:.2f}", f"{r['derated_s']:.0f}", f"{r['cutoff_s']:.0f}",
             f"{r['missed_wheel_energy_kwh']:.3f}"]
@@ -112,8 +102,8 @@ def _run_line(r: dict) -> list[str]:
 def _family_line(r: dict) -> list[str]:
     fuel = r.get("fuel_corrected_l_per_100km")
     return [r["cycle"], r["scenario"], f"**{r['strategy']}** (IQM of {r['seeds']} seeds)", "-",
-            f"{fuel:.2f}" if fuel is not None else "-", _ratio_cell(r, "frontier_ratio"),
-            _ratio_cell(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-"]
+            f"{fuel:.2f}" if fuel is not None else "-", ratio_text(r, "frontier_ratio"),
+            ratio_text(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-"]
 
 
 def _table(head: Sequence[str], lines: list[list[str]]) -> list[str]:
@@ -130,8 +120,8 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
         md += ["", f"Seed families over every cycle × scenario (IQM over seeds and cycles × scenarios, "
                    f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval):", ""]
         md += _table(("family", "seeds", "runs", "frontier ratio", "fixed-price ratio", "J1711 charge-sustaining"),
-                     [[r["strategy"], str(r["seeds"]), str(r["runs"]), _ratio_cell(r, "frontier_ratio"),
-                       _ratio_cell(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
+                     [[r["strategy"], str(r["seeds"]), str(r["runs"]), ratio_text(r, "frontier_ratio"),
+                       ratio_text(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
     md += ["", *_reference_lines(rows), "", EXPLANATION]
     if any(_is_family_row(r) for r in rows):
         md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "
@@ -151,13 +141,10 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
 
 
 def _reference_lines(rows: list[dict]) -> list[str]:
-    refs: dict[str, list[str]] = {}
+    refs: dict[str, dict[str, None]] = {}  # reference -> the cycles / scenarios it serves, in order
     for r in rows:
         if r.get("reference") and r["cycle"] != OVERALL:
-            refs.setdefault(r["reference"], [])
-            where = f"{r['cycle']} / {r['scenario']}"
-            if where not in refs[r["reference"]]:
-                refs[r["reference"]].append(where)
+            refs.setdefault(r["reference"], {})[f"{r['cycle']} / {r['scenario']}"] = None
     if len(refs) == 1:
         return [f"Reference of both ratios (1.000): {next(iter(refs))}."]
     return ["Reference of both ratios (1.000), per cycle / scenario:", ""] + [

@@ -1,11 +1,7 @@
-"""Run one strategy over one cycle in ``HevThermal-v0`` and report its metrics.
+"""Run one strategy over one cycle in ``HevThermal-v0`` and report its metrics (:func:`run_strategy`).
 
-:func:`run_strategy` builds the environment with the strategy's vehicle (``vehicle_config``),
-resets it, lets the strategy plan (``reset``), steps to the end of the cycle and returns a
-:class:`RunResult`: the JSON summary (the metrics come from
-:func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation, and
-``cost_g``, the yardstick cost of :func:`hev_thermal_env.metrics.yardstick_cost_g` at the env's
-reward weights) and per-step traces of every ``info`` field, of every physics output and of the state.
+The metrics come from :func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation, with
+``cost_g``, the yardstick cost of :func:`hev_thermal_env.metrics.yardstick_cost_g` at the env's reward weights.
 """
 
 from __future__ import annotations
@@ -29,11 +25,10 @@ from hev_thermal_env.simulate import step_traces
 
 SUMMARY_KEYS = (
     "cycle", "strategy", "scenario", "distance_km", "duration_s", "fuel_g", "fuel_l_per_100km",
-    "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km",
-    "cost_g", "battery_energy_kwh", "net_energy_ratio", "charge_sustaining", "missed_wheel_energy_kwh",
-    "soc_initial", "soc_final", "delta_soc", "max_motor_temp_c",
-    "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps", "engine_on_s", "wall_s", "plan_s",
-    "thermal_aware", "seed", "conditions", "strategy_settings",
+    "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km", "cost_g",
+    "battery_energy_kwh", "net_energy_ratio", "charge_sustaining", "missed_wheel_energy_kwh", "soc_initial",
+    "soc_final", "delta_soc", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps",
+    "engine_on_s", "wall_s", "plan_s", "thermal_aware", "seed", "conditions", "strategy_settings",
 )
 """Keys of :attr:`RunResult.summary`, in order."""
 
@@ -49,15 +44,13 @@ class RunResult:
     def to_json_dict(self) -> dict[str, Any]:
         return jsonable(self.summary)
 
-    def trace_csv(self, keys: tuple[str, ...] | None = None) -> str:
-        """The per-second trace as CSV text (the env's ``info`` fields by default, then the action)."""
-        keys = tuple(k for k in (keys or self.info_keys) if k in self.trace)
+    def trace_csv(self) -> str:
+        """The per-second trace as CSV text: the env's ``info`` fields, then the action."""
+        keys = tuple(k for k in self.info_keys if k in self.trace)
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(keys)
-        cols = [np.asarray(self.trace[k]) for k in keys]
-        for row in zip(*cols):
-            w.writerow([_fmt(v) for v in row])
+        w.writerows([_fmt(v) for v in row] for row in zip(*(np.asarray(self.trace[k]) for k in keys)))
         return buf.getvalue()
 
 
@@ -89,24 +82,12 @@ def jsonable(x: Any) -> Any:
 def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
                  config: VehicleConfig | None = None, conditions: Conditions | None = None,
                  seed: int = 0) -> RunResult:
-    """Drive ``cycle`` with ``strategy`` in the ``scenario`` (or explicit ``conditions``) and measure it.
-
-    Parameters
-    ----------
-    strategy : a :class:`hev_thermal_env.agents.base.Strategy` (e.g. from
-        :func:`hev_thermal_env.agents.get_strategy`).
-    cycle : a built-in cycle name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`.
-    scenario : ``"paper"``, ``"hot"``, ``"random"`` (drawn from ``seed``) or a Scenario.
-    config : the vehicle before the strategy's change (default ``paper_bus()``).
-    conditions : explicit run conditions, overriding the scenario's.
-    seed : the env's reset seed.
-
-    Returns
-    -------
-    RunResult with ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every ``info`` field,
-    every physics output (:data:`hev_thermal_env.physics.core.OUT_NAMES`), the state after each
-    step (``soc``, ``motor_temp_c``, ``heat_x``, ``motor_cutoff``) and ``u`` (the action taken).
-    """
+    """Drive ``cycle`` (a built-in name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`) with ``strategy``
+    (e.g. from :func:`hev_thermal_env.agents.get_strategy`) in the ``scenario`` (``"random"`` draws from the env's
+    reset ``seed``) or explicit ``conditions``; ``config``: the vehicle before the strategy's change (default
+    ``paper_bus()``). The :class:`RunResult` holds ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every
+    ``info`` field, every physics output (:data:`~hev_thermal_env.physics.core.OUT_NAMES`), the state after each step
+    and ``u``."""
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()
@@ -121,9 +102,7 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
         strategy.reset(env)
         plan_s = time.perf_counter() - t_plan
         n = e.cycle.n_steps - k0
-        outs = np.empty((n, C.N_OUT))
-        states = np.empty((n, C.N_STATE))
-        us = np.empty(n)
+        outs, states, us = np.empty((n, C.N_OUT)), np.empty((n, C.N_STATE)), np.empty(n)
         infos: dict[str, list] = {}
         steps = 0
         while True:
@@ -147,13 +126,9 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     metrics = run_metrics(trace, e.config, soc0, e.cycle.speed_mps, k0, steps, e.core.dt_s)
     metrics["cost_g"] = yardstick_cost_g(outs[:steps], states[:steps], e.reward_params,
                                          e.config.engine.fuel_lhv_j_per_g, e.core.dt_s, e.soc_target)
-    summary = {
-        "cycle": e.cycle.name, "strategy": getattr(strategy, "label", strategy.name), "scenario": scen.name,
-        **metrics,
-        "wall_s": wall, "plan_s": plan_s, "thermal_aware": bool(strategy.thermal_aware), "seed": seed,
-        "conditions": e.conditions.to_dict(), "strategy_settings": strategy.describe(),
-    }
+    summary = {"cycle": e.cycle.name, "strategy": getattr(strategy, "label", strategy.name), "scenario": scen.name,
+               **metrics, "wall_s": wall, "plan_s": plan_s, "thermal_aware": bool(strategy.thermal_aware),
+               "seed": seed, "conditions": e.conditions.to_dict(), "strategy_settings": strategy.describe()}
     summary = {k: summary[k] for k in SUMMARY_KEYS if k in summary} | {k: v for k, v in summary.items()
                                                                         if k not in SUMMARY_KEYS}
-    info_keys = tuple(infos) + ("u",)
-    return RunResult(summary=jsonable(summary), trace=trace, info_keys=info_keys)
+    return RunResult(summary=jsonable(summary), trace=trace, info_keys=tuple(infos) + ("u",))

@@ -1,15 +1,14 @@
-"""The look shared by every figure: the pyplot door, the order and colours of the strategies, legends
-outside the data.
+"""The look shared by every figure: the pyplot door, the order and colours of the strategies, legends outside.
 
-Strategies are drawn from the simplest to the optimum (:data:`STRATEGY_ORDER`; names not listed
-go after the classic ones and before DP), and the learned policies (``ppo``, ``ppo:PATH``) last,
-set apart in warm colours with thicker lines so that a reader finds them at once (seed families,
-named by the user, are passed as ``learned``). A strategy has the same colour in every figure.
-Labels mark ``dp`` thermal-blind (:func:`short_label`).
+Strategies go from the simplest to the optimum (:data:`STRATEGY_ORDER`; other names before DP), then the
+learned policies (``ppo``, ``ppo:PATH``, seed families passed as ``learned``) in warm colours with thicker
+lines. A strategy has the same colour in every figure; ``dp`` is labelled thermal-blind (:func:`short_label`).
 """
 
 from __future__ import annotations
 
+import itertools
+import sys
 from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -36,13 +35,8 @@ CYCLE_COLOUR = "#bdbdbd"
 
 
 def pyplot():
-    """``matplotlib.pyplot``, drawing off screen (Agg) unless the caller already chose how to draw.
-
-    A session that imported pyplot itself (a notebook's inline backend, an interactive window)
-    keeps its backend; otherwise the figures are drawn off screen, as a command-line run needs.
-    """
-    import sys
-
+    """``matplotlib.pyplot``, drawing off screen (Agg) unless the session imported pyplot already (a notebook, an
+    interactive window: its backend is kept) or chose a file backend."""
     import matplotlib
 
     if "matplotlib.pyplot" not in sys.modules and matplotlib.get_backend().lower() not in NON_INTERACTIVE_BACKENDS:
@@ -67,13 +61,11 @@ def ordered(strategies: Iterable[str], learned: Collection[str] = ()) -> list[st
     names = list(dict.fromkeys(strategies))
 
     def rank(name: str) -> tuple[int, int]:
+        base = base_name(name)
         if is_learned(name, learned):
             return (3, names.index(name))
-        base = base_name(name)
-        if base in OPTIMUM:
-            return (2, STRATEGY_ORDER.index(base) * 1000 + names.index(name))
         if base in STRATEGY_ORDER:
-            return (0, STRATEGY_ORDER.index(base) * 1000 + names.index(name))
+            return (2 if base in OPTIMUM else 0, STRATEGY_ORDER.index(base) * 1000 + names.index(name))
         return (1, names.index(name))
 
     return sorted(names, key=rank)
@@ -95,31 +87,25 @@ def short_label(strategy: str, width: int = 24) -> str:
 def strategy_styles(strategies: Sequence[str], learned: Collection[str] = ()) -> dict[str, dict[str, Any]]:
     """``{strategy: matplotlib line keywords}``: colour, width and drawing order for each strategy."""
     styles: dict[str, dict[str, Any]] = {}
-    others = n_learned = 0
+    learned_colours, other_colours = itertools.cycle(_LEARNED_COLOURS), itertools.cycle(_OTHER_COLOURS)
     for name in strategies:
         base = base_name(name)
         if is_learned(name, learned):
-            colour = _LEARNED_COLOURS[n_learned % len(_LEARNED_COLOURS)]
-            n_learned += 1
-            styles[name] = {"color": colour, "lw": 1.6, "zorder": 5}
+            styles[name] = {"color": next(learned_colours), "lw": 1.6, "zorder": 5}
         elif base in _CLASSIC_COLOURS and name == base:
             styles[name] = {"color": _CLASSIC_COLOURS[base], "lw": 0.9, "zorder": 3}
         else:
-            styles[name] = {"color": _OTHER_COLOURS[others % len(_OTHER_COLOURS)], "lw": 0.9, "zorder": 3}
-            others += 1
+            styles[name] = {"color": next(other_colours), "lw": 0.9, "zorder": 3}
         if base in OPTIMUM:
             styles[name]["ls"] = "--" if base == "dp_thermal" else "-"
     return styles
 
 
-LEGEND_PLACES = {"right": "outside right upper", "right lower": "outside right lower", "top": "outside upper center",
-                 "bottom": "outside lower center"}
-
-
-def legend_outside(fig, handles: Sequence[Any], labels: Sequence[str], *, ncol: int = 1, title: str | None = None,
-                   where: str = "right", fontsize: float = 8.5):
-    """A figure legend outside every axes (``where``: a key of :data:`LEGEND_PLACES`); needs a constrained layout."""
-    loc = LEGEND_PLACES[where]
+def legend_outside(fig, handles: Sequence[Any], labels: Sequence[str] | None = None, *, ncol: int = 1,
+                   title: str | None = None, loc: str = "outside right upper", fontsize: float = 8.5):
+    """A figure legend outside every axes (``loc``: an ``"outside ..."`` place; labels by default the handles'); needs
+    a constrained layout."""
+    labels = [h.get_label() for h in handles] if labels is None else labels
     return fig.legend(handles, labels, loc=loc, ncol=ncol, title=title, fontsize=fontsize, title_fontsize=fontsize,
                       frameon=False)
 

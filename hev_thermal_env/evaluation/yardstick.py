@@ -1,26 +1,11 @@
 """The benchmark's yardstick: every run against the thermal optimum (``dp_thermal``) of its cycle and scenario.
 
-The reference run, ``dp_thermal``, publishes in its settings (``describe()``, the summary's
-``strategy_settings``) the optimum's cost as a function of the final SOC::
-
-    "frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}
-
-sorted by final SOC, the cost (g of fuel equivalent, :func:`hev_thermal_env.metrics.yardstick_cost_g`:
-fuel + priced missed wheel energy + overheat terms, no battery price) non-decreasing in it. Each
-row of the same cycle and scenario gets:
-
-* ``frontier_ratio`` = ``cost_g`` / F(``soc_final``), F linearly interpolated on the frontier: 1 is
-  the optimum, whatever SOC the run ends at, with no price on battery energy. None when the run's
-  final SOC is outside the frontier's range (or there is no frontier); ``frontier_note`` says why.
-* ``fixed_price_ratio`` = corrected fuel / the reference run's corrected fuel: the fixed battery
-  price of the corrected-fuel metric decides.
-* ``fuel_vs_thermal_blind_dp_pct``: corrected fuel as a percentage of the thermal-blind ``dp``'s,
-  when ``dp`` ran.
-* ``reference``: which optimum and grid (the frontier's ``grid`` text).
-
-``dp`` plans with the thermal state held at its start (thermal-blind, :mod:`hev_thermal_env.agents.dp`);
-the tables and figures always label it so (:data:`BLIND_SUFFIX`), whether or not the thermal state
-binds on a given cycle.
+The reference run publishes in its settings (``strategy_settings``) the optimum's cost against the final SOC,
+``"frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}``, sorted by SOC, the cost
+(:func:`hev_thermal_env.metrics.yardstick_cost_g`) non-decreasing in it. :func:`add_yardstick_columns` gives each
+row ``frontier_ratio`` (``cost_g`` / F(``soc_final``), F interpolated on the frontier; None outside its range, with
+a ``frontier_note``), ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and ``reference``. ``dp`` plans with
+the thermal state held: labelled thermal-blind everywhere (:data:`BLIND_SUFFIX`). See docs/metrics.md.
 """
 
 from __future__ import annotations
@@ -41,24 +26,19 @@ SOC_TOLERANCE = 1e-9  # a final SOC this close to the frontier's end is on it (f
 
 @dataclasses.dataclass(frozen=True)
 class Frontier:
-    """The optimum's cost (g) against the final SOC, sorted by SOC; ``grid`` names the method and grid.
-
-    F(s) is the lowest cost of a path ending at SOC ≥ s, so below the first point it is the first
-    point's cost, down to ``soc_min`` (the lowest final SOC the optimum searched; default the first
-    point): a run ending there is compared with the cheapest path that ends with at least its charge.
-    """
+    """The optimum's cost (g) against the final SOC, sorted by SOC; ``grid`` names the method and grid. F(s) is the
+    lowest cost of a path ending at SOC ≥ s, so below the first point it is the first point's cost, down to
+    ``soc_min`` (the lowest final SOC the optimum searched; default the first point)."""
 
     soc_final: np.ndarray
     cost_g: np.ndarray
     grid: str
-    soc_min: float | None = None
+    soc_min: float
 
     @classmethod
     def from_settings(cls, settings: Mapping[str, Any] | None) -> Frontier | None:
-        """The frontier a reference run published in its ``strategy_settings``, None if it published none.
-
-        Raises ``ValueError`` naming the problem when the frontier is malformed (lengths differ, no
-        points, not finite, not sorted by SOC)."""
+        """The frontier a reference run published in its ``strategy_settings``, None if it published none; a
+        ``ValueError`` naming the problem when it is malformed (lengths differ, no points, not finite, not sorted)."""
         data = (settings or {}).get("frontier")
         if data is None:
             return None
@@ -75,22 +55,15 @@ class Frontier:
             raise ValueError("the reference's frontier holds values that are not finite")
         if np.any(np.diff(soc) < 0.0):
             raise ValueError("the reference's frontier is not sorted by soc_final")
-        soc_min = data.get("soc_min")
-        soc_min = min(float(soc_min), float(soc[0])) if soc_min is not None else None
+        soc_min = float(soc[0]) if data.get("soc_min") is None else min(float(data["soc_min"]), float(soc[0]))
         return cls(soc, cost, str(data.get("grid", "")).strip(), soc_min)
 
     def cost_at(self, soc_final: float) -> float | None:
         """F(``soc_final``) by linear interpolation; the first point's cost from ``soc_min`` up to it; None
         below ``soc_min`` or above the last point."""
-        lo = float(self.soc_final[0]) if self.soc_min is None else self.soc_min
-        hi = float(self.soc_final[-1])
-        if not lo - SOC_TOLERANCE <= soc_final <= hi + SOC_TOLERANCE:
+        if not self.soc_min - SOC_TOLERANCE <= soc_final <= float(self.soc_final[-1]) + SOC_TOLERANCE:
             return None
         return float(np.interp(soc_final, self.soc_final, self.cost_g))
-
-    def range_text(self) -> str:
-        lo = self.soc_final[0] if self.soc_min is None else self.soc_min
-        return f"[{lo:.4f}, {self.soc_final[-1]:.4f}]"
 
 
 def frontier_sample(soc_final, cost_g, max_points: int = 200) -> dict[str, Any]:
@@ -109,7 +82,8 @@ def frontier_ratio(cost_g: float, soc_final: float, frontier: Frontier | None) -
         return None, f"{REFERENCE} published no frontier"
     ref = frontier.cost_at(float(soc_final))
     if ref is None:
-        return None, f"final SOC {soc_final:.4f} outside the frontier's range {frontier.range_text()}"
+        return None, (f"final SOC {soc_final:.4f} outside the frontier's range "
+                      f"[{frontier.soc_min:.4f}, {frontier.soc_final[-1]:.4f}]")
     if ref <= 0.0:
         return None, f"the frontier's cost at final SOC {soc_final:.4f} is {ref:.6g} g, not positive"
     return float(cost_g) / ref, None
@@ -155,13 +129,9 @@ def add_yardstick_columns(rows: list[dict]) -> None:
     for r in rows:
         key = (r["cycle"], r["scenario"])
         ref = refs.get(key)
-        frontier, problem = frontiers.get(key, (None, None))
-        if ref is None:
-            r["frontier_ratio"], r["frontier_note"] = None, f"{REFERENCE} did not run on this cycle and scenario"
-        elif problem is not None:
-            r["frontier_ratio"], r["frontier_note"] = None, problem
-        else:
-            r["frontier_ratio"], r["frontier_note"] = frontier_ratio(r["cost_g"], r["soc_final"], frontier)
+        frontier, problem = frontiers.get(key, (None, f"{REFERENCE} did not run on this cycle and scenario"))
+        r["frontier_ratio"], r["frontier_note"] = ((None, problem) if problem is not None
+                                                   else frontier_ratio(r["cost_g"], r["soc_final"], frontier))
         r["fixed_price_ratio"] = _ratio(r, ref)
         pct = _ratio(r, blind.get(key))
         r["fuel_vs_thermal_blind_dp_pct"] = None if pct is None else 100.0 * pct

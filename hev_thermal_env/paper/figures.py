@@ -1,29 +1,29 @@
 """The paper's figures and the tolerances we judge ours against: one table, :data:`PAPER_FIGURES`.
 
-Each row names one quantity (the key of our measured value), the paper's figure it comes from, the
-paper's value and how far ours may be from it:
+Each row names one quantity (the key of our measured value), the paper's figure, the paper's value and how far
+ours may be from it: ``kind="abs"``, within ``paper ± tol`` (in the row's unit); ``"rel"``, within
+``paper × (1 ± tol)``; ``"max"``, at most ``tol`` (the paper gives a value or a shape; the limit is what we ask);
+``tol=None``, reported with its gap, not judged (Table 2's absolute fuel levels: our bus and our synthetic Beijing
+cycle are not the paper's).
 
-* ``kind="abs"``: within ``paper ± tol`` (in the row's unit);
-* ``kind="rel"``: within ``paper × (1 ± tol)``;
-* ``kind="max"``: at most ``tol`` (the paper gives a value or a shape; the limit is what we ask);
-* ``tol=None``: reported with its gap, not judged (the absolute fuel levels of Table 2: our bus and
-  our synthetic Beijing cycle are not the paper's).
-
-Where the figures come from: Table 3 (coolant closed; 0-60 km/h, top speed and 4 % grade speed,
-thermal model off and at a 30 / 50 °C start), Table 2 (fuel with and without the thermal model,
-``rule``; its highway row is labelled UDDS while the text says HWFET), Figs 7-8 (heat index and
-motor temperature, captioned UDDS) and Figs 9-10 (Beijing), and Fig. 4 (the heat index at twice
-the continuous torque from cold). The paper report judges every row; the calibration fits the
-thermal parameters to :data:`CALIBRATION_TARGETS` and holds the others out.
+The rows come from Table 3 (coolant closed; 0-60 km/h, top and 4 % grade speed, thermal model off and on from a
+30 or 50 °C start), Table 2 (fuel with and without the thermal model, ``rule``; its highway row is labelled UDDS
+while the text says HWFET), Figs 7-8 (heat index and motor temperature, captioned UDDS), Figs 9-10 (Beijing) and
+Fig. 4 (the heat index at twice the continuous torque from cold). The report judges every row
+(:func:`verdict_rows`, :func:`agreement`; the fuel levels, :func:`fuel_level_rows`); the calibration fits
+:data:`CALIBRATION_TARGETS` and holds the others out.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
+from typing import Any
 
 #: The residual of a quantity that is never observed (a heat index that never rises, never returns).
 UNOBSERVED_RESIDUAL = 10.0
+WITHIN, OUTSIDE = "within tolerance", "OUTSIDE tolerance"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,23 +42,16 @@ class PaperFigure:
     def judged(self) -> bool:
         return self.tol is not None
 
-    def limits(self) -> tuple[float, float]:
-        """The accepted range of ours (``-inf`` / ``inf`` where open)."""
-        if self.tol is None:
-            return -math.inf, math.inf
-        if self.kind == "rel":
-            return self.paper * (1.0 - self.tol), self.paper * (1.0 + self.tol)
-        if self.kind == "max":
-            return -math.inf, self.tol
-        return self.paper - self.tol, self.paper + self.tol
-
     def within(self, value: float | None) -> bool | None:
         """Whether ``value`` meets the tolerance (None: not judged; a missing value does not meet it)."""
         if self.tol is None:
             return None
         if value is None or not math.isfinite(value):
             return False
-        lo, hi = self.limits()
+        if self.kind == "max":
+            return value <= self.tol + 1e-9
+        lo, hi = ((self.paper * (1.0 - self.tol), self.paper * (1.0 + self.tol)) if self.kind == "rel"
+                  else (self.paper - self.tol, self.paper + self.tol))
         return lo - 1e-9 <= value <= hi + 1e-9
 
     def residual(self, value: float) -> float:
@@ -140,3 +133,44 @@ def table3_paper(run: str) -> dict[str, float]:
     accel = off if run == "off" else round(off + PAPER_FIGURE_BY_NAME[f"accel_{run}_delta_s"].paper, 6)
     return {"top_speed_kmh": PAPER_FIGURE_BY_NAME[f"top_speed_{run}_kmh"].paper, "accel_0_60_s": accel,
             "grade_4pct_speed_kmh": PAPER_FIGURE_BY_NAME[f"grade_{run}_kmh"].paper}
+
+
+def verdict_rows(ours: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One row per judged figure: paper, ours, difference (absolute and %), residual and verdict."""
+    rows = []
+    for f in PAPER_FIGURES:
+        if not f.judged:
+            continue
+        v = ours.get(f.name)
+        ok = f.within(v)
+        finite = v is not None and math.isfinite(v)
+        diff = v - f.paper if finite else None
+        rows.append({"name": f.name, "figure": f.figure, "description": f.description, "unit": f.unit,
+                     "paper": f.paper, "tolerance": f.tolerance_text(), "ours": v, "difference": diff,
+                     "difference_pct": 100.0 * diff / abs(f.paper) if finite and f.paper else None,
+                     "residual": f.residual(v) if finite else None, "within": bool(ok),
+                     "verdict": WITHIN if ok else OUTSIDE})
+    return rows
+
+
+def agreement(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """n of m within tolerance, overall and per paper figure."""
+    by_figure = {f: [r["within"] for r in rows if r["figure"] == f] for f in dict.fromkeys(r["figure"] for r in rows)}
+    return {"within": sum(r["within"] for r in rows), "total": len(rows),
+            "by_figure": {f: {"within": sum(w), "total": len(w)} for f, w in by_figure.items()},
+            "outside": [r["name"] for r in rows if not r["within"]]}
+
+
+def fuel_level_rows(cycles: Mapping[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Our raw fuel against the paper's Table 2 levels, like with like (raw with raw), per cycle and thermal model."""
+    rows = []
+    for cyc, paper_row in TABLE2_ROWS:
+        if cyc not in cycles:
+            continue
+        for label, thermal in (("without_thermal", "off"), ("with_thermal", "on")):
+            p = PAPER_FIGURE_BY_NAME[f"{paper_row}_fuel_{label.split('_')[0]}_l100"].paper
+            ours = cycles[cyc][label]["fuel_l100"]
+            rows.append({"cycle": cyc, "paper_row": paper_row, "thermal_model": thermal, "paper_l100": p,
+                         "ours_l100": ours, "gap_l100": ours - p, "gap_pct": 100.0 * (ours - p) / p,
+                         "ours_corrected_l100": cycles[cyc][label]["fuel_corrected_l100"]})
+    return rows

@@ -1,22 +1,11 @@
 """The runs behind the paper's figures and what is measured on them, for the report and the calibration alike.
 
-Every cycle run is the paper's own strategy, ``rule`` (ADVISOR's parallel electric assist), in the
-paper's conditions (ambient and motor at 20 °C, coolant on), driven over the physics core by
-:func:`.drive.drive`; Table 3's runs have the coolant closed, the motor starting at 30 or 50 °C.
-
-* :func:`cycle_run`: one cycle's heat-index, temperature and fuel figures (Table 2, Figs 7-10);
-* :class:`Baseline`: the thermal-off runs, which no thermal parameter changes;
-* :func:`accel_times`, :func:`sustained_speeds`, :func:`table3`: Table 3;
-* :func:`measure`: every figure of the calibration's targets on a vehicle;
-* :func:`figure_values`: our value of each row of :data:`~.figures.PAPER_FIGURES` from the above;
-* :func:`fig4_curve`: the heat index at twice the continuous torque from cold (Fig. 4);
-* :func:`cutoff_curve`: the motor at peak power without coolant, from 20 °C to the cutoff.
-
-"After warm-up" on beijing: from the first second the motor reaches 33.5 °C (the lower edge of
-the paper's band) to the end; a motor that never gets there is scored by its maximum. A heat index
-that never rises has its onset at ``inf`` and its return at 0 (the "back to 0" row is met trivially).
-Top speed and the 4 % grade speed are sustained engine-alone speeds, unchanged by the thermal
-model by construction.
+Every cycle run is the paper's own strategy, ``rule``, in the paper's conditions (ambient and motor at 20 °C,
+coolant on), driven over the physics core (:func:`hev_thermal_env.simulate.drive`); Table 3's runs have the
+coolant closed, the motor starting at 30 or 50 °C. "After warm-up" on beijing: from the first second the motor
+reaches 33.5 °C (the lower edge of the paper's band); a motor that never gets there is scored by its maximum. A
+heat index that never rises has its onset at ``inf`` and its return at 0 (the "back to 0" row is met trivially).
+Top speed and the 4 % grade speed are sustained engine-alone speeds, unchanged by the thermal model.
 """
 
 from __future__ import annotations
@@ -34,8 +23,8 @@ from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, pa
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
+from hev_thermal_env.simulate import drive
 
-from .drive import drive
 from .figures import CALIBRATION_TARGETS, PAPER_FIGURE_BY_NAME, TABLE3_RUNS
 
 RPM = math.pi / 30.0
@@ -51,56 +40,49 @@ BASELINE_CYCLES = ("udds", "beijing", "hwfet")
 
 
 def heat_index_figures(trace: Mapping[str, np.ndarray]) -> dict[str, float]:
-    """Onset (first second with PWM > 0), peak and its time, and seconds from the peak back to 0 (inf: never).
-
-    ``onset_smooth_s`` is the interpolated zero crossing of the integrator (continuous in the parameters,
-    for the fit); without any rise it lies past the cycle's end by how far the integrator stayed below 0."""
+    """``hi_onset_s`` (first second with PWM > 0), ``hi_peak`` and its time, ``hi_return_s`` (seconds from the peak
+    back to 0; inf: never), ``hi_onset_smooth_s`` (the integrator's interpolated zero crossing, continuous for the
+    fit; without a rise, past the cycle's end by how far the integrator stayed below 0)."""
     pwm = np.asarray(trace["heat_index"])
     x = np.asarray(trace["heat_x"])
     t = np.arange(1, len(pwm) + 1, dtype=float)
     pos = np.flatnonzero(pwm > 0.0)
     if pos.size == 0:
-        return {"onset_s": float("inf"), "onset_smooth_s": len(pwm) + 1000.0 * float(-x.max()), "peak": 0.0,
-                "return_s": 0.0, "peak_time_s": float("nan")}
+        return {"hi_onset_s": float("inf"), "hi_onset_smooth_s": len(pwm) + 1000.0 * float(-x.max()), "hi_peak": 0.0,
+                "hi_peak_time_s": float("nan"), "hi_return_s": 0.0}
     i0 = int(pos[0])
     # the crossing of x through 0 between the last step at or below 0 and the first above
     x_prev = x[i0 - 1] if i0 > 0 else min(x[0], 0.0)
     smooth = t[i0] - 1.0 + (0.0 - x_prev) / max(x[i0] - x_prev, 1e-12) if i0 > 0 else t[i0]
     ip = int(np.argmax(pwm))
     back = np.flatnonzero(pwm[ip:] <= 0.0)
-    ret = float(back[0]) if back.size else float("inf")
-    return {"onset_s": float(t[i0]), "onset_smooth_s": float(smooth), "peak": float(pwm[ip]), "return_s": ret,
-            "peak_time_s": float(t[ip])}
+    return {"hi_onset_s": float(t[i0]), "hi_onset_smooth_s": float(smooth), "hi_peak": float(pwm[ip]),
+            "hi_peak_time_s": float(t[ip]), "hi_return_s": float(back[0]) if back.size else float("inf")}
 
 
-def warm_figures(temps_c: np.ndarray, low_c: float = WARM_BAND_LOW_C) -> dict[str, float]:
-    """Motor temperature after warm-up (from the first second at ``low_c``): mean, min, max, and the warm-up time."""
+def warm_figures(temps_c: np.ndarray) -> dict[str, float]:
+    """Motor temperature after warm-up (from the first second at :data:`WARM_BAND_LOW_C`): mean, min, max, and the
+    warm-up time."""
     temp = np.asarray(temps_c)
-    warm = np.flatnonzero(temp >= low_c)
+    warm = np.flatnonzero(temp >= WARM_BAND_LOW_C)
     if warm.size == 0:
-        return {"mean_c": float(temp.max()), "min_c": float("nan"), "max_c": float(temp.max()),
-                "warm_s": float("inf")}
+        return {"temp_warm_mean_c": float(temp.max()), "temp_warm_min_c": float("nan"),
+                "temp_warm_max_c": float(temp.max()), "warm_up_s": float("inf")}
     after = temp[warm[0]:]
-    return {"mean_c": float(after.mean()), "min_c": float(after.min()), "max_c": float(after.max()),
-            "warm_s": float(warm[0] + 1)}
+    return {"temp_warm_mean_c": float(after.mean()), "temp_warm_min_c": float(after.min()),
+            "temp_warm_max_c": float(after.max()), "warm_up_s": float(warm[0] + 1)}
 
 
 def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | None = None
               ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
-    """Heat-index, temperature and fuel figures of ``rule`` on ``cycle`` in the paper's conditions, and its trace.
-
-    With ``baseline_fuel_l100`` (the thermal-off run's raw fuel) the figures hold ``fuel_delta_l100``."""
+    """Heat-index, temperature and fuel figures of ``rule`` on ``cycle`` in the paper's conditions, and its trace;
+    with ``baseline_fuel_l100`` (the thermal-off run's raw fuel), ``fuel_delta_l100`` too."""
     cyc = load_cycle(cycle)
     tr = drive(get_strategy("rule"), cyc, config, PAPER_CONDITIONS)
     summary = summarize(tr, config, PAPER_CONDITIONS.initial_soc, cyc.distance_m)
-    hi = heat_index_figures(tr)
-    warm = warm_figures(tr["motor_temp_c"])
     temp = tr["motor_temp_c"]
-    m = {"hi_onset_s": hi["onset_s"], "hi_onset_smooth_s": hi["onset_smooth_s"], "hi_peak": hi["peak"],
-         "hi_peak_time_s": hi["peak_time_s"], "hi_return_s": hi["return_s"],
-         "temp_peak_c": float(temp.max()), "temp_min_c": float(temp.min()),
-         "temp_last300_c": float(temp[-300:].mean()), "temp_warm_mean_c": warm["mean_c"],
-         "temp_warm_min_c": warm["min_c"], "temp_warm_max_c": warm["max_c"], "warm_up_s": warm["warm_s"],
+    m = {**heat_index_figures(tr), "temp_peak_c": float(temp.max()), "temp_min_c": float(temp.min()),
+         "temp_last300_c": float(temp[-300:].mean()), **warm_figures(temp),
          "coolant_peak_c": float(tr["coolant_temp_c"].max()), "fuel_l100": summary["fuel_l_per_100km"],
          "fuel_corrected_l100": summary["fuel_corrected_l_per_100km"], "soc_final": summary["soc_final"],
          "missed_wheel_energy_kwh": summary["missed_wheel_energy_kwh"],
@@ -154,11 +136,9 @@ class Baseline:
 
 
 def measure(config: VehicleConfig, baseline: Baseline | None = None, *, hwfet: bool = False) -> dict[str, Any]:
-    """Every calibration target's value for ``config`` (thermal model on), plus diagnostics.
-
-    Returns ``{"values": {target name: value}, "udds": {...}, "beijing": {...}, "accel": {...}}``
-    (and ``"hwfet"`` when asked), the cycles' figures as :func:`cycle_run` gives them.
-    """
+    """Every calibration target's value for ``config`` (thermal model on), plus diagnostics: ``{"values": {target:
+    value}, "udds": {...}, "beijing": {...}, "accel": {...}}`` (and ``"hwfet"`` when asked; :func:`cycle_run`'s
+    figures)."""
     base = baseline or Baseline(config)
     cycles = TARGET_CYCLES + (("hwfet",) if hwfet else ())
     runs = {c: cycle_run(config, c, base.fuel_l100[c])[0] for c in cycles}
@@ -175,9 +155,8 @@ def figure_values(cycles: Mapping[str, Mapping[str, float]], t3: Mapping[str, fl
     ours: dict[str, float | None] = {k: t3[k] for k in ("accel_off_s", "accel_30c_delta_s", "accel_50c_delta_s")}
     if "top_speed_off_kmh" in t3:
         for run in TABLE3_RUNS:
-            on = "off" if run == "off" else "on"
-            ours[f"top_speed_{run}_kmh"] = t3[f"top_speed_{on}_kmh"]
-            ours[f"grade_{run}_kmh"] = t3[f"grade_speed_{on}_kmh"]
+            row = table3_row(t3, run)
+            ours[f"top_speed_{run}_kmh"], ours[f"grade_{run}_kmh"] = row["top_speed_kmh"], row["grade_4pct_speed_kmh"]
     if fig4 is not None:
         ours["fig4_leaves_zero_s"], ours["fig4_reaches_one_s"] = fig4["pwm_leaves_zero_s"], fig4["pwm_reaches_one_s"]
     for cyc in ("udds", "hwfet", "beijing"):
@@ -197,8 +176,7 @@ def fig4_curve(duration_s: int = 200) -> dict[str, Any]:
     mo = paper_bus().motor.pack()
     w = 2000 * RPM
     cont, peak = mot.continuous_torque_nm(mo, w), mot.peak_torque_nm(mo, w)
-    x = -thm.pwm_initial(th, 20.0)
-    x_min = x
+    x = x_min = -thm.pwm_initial(th, 20.0)
     t_s = np.arange(0, duration_s + 1)
     pwm, tmax = [], []
     for _ in t_s:

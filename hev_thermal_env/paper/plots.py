@@ -1,10 +1,7 @@
-"""The paper report's figures, with the paper's own points and tolerance bands drawn on them.
-
-* ``verdicts.png``: every judged figure as its distance from the paper in tolerances;
-* ``fig4_heat_index.png``: the heat index at twice the continuous torque, with the paper's 30 s / 130 s;
-* ``thermal_time_to_cutoff.png``: coolant off at peak power, against the heat-balance estimate;
-* ``fig_temperature_heat_index_<cycle>.png``: Figs 7-10 analogs with the paper's bands;
-* ``fig_table2_fuel.png``: absolute fuel levels, ours (raw and corrected) and the paper's Table 2.
+"""The paper report's figures, with the paper's own points and tolerance bands drawn on them: ``verdicts.png`` (each
+judged figure's distance from the paper in tolerances), ``fig4_heat_index.png``, ``thermal_time_to_cutoff.png``
+(coolant off at peak power, against the heat-balance estimate), ``fig_temperature_heat_index_<cycle>.png`` (Figs
+7-10) and ``fig_table2_fuel.png`` (absolute fuel levels: ours, raw and corrected, and the paper's Table 2).
 """
 
 from __future__ import annotations
@@ -24,13 +21,8 @@ WITHIN_COLOUR, OUTSIDE_COLOUR, BAND_COLOUR = "#1a9641", "#d7191c", "#fdb863"
 RESIDUAL_SHOWN = 4.0  # verdict chart: residuals beyond ± this are drawn at the edge with their value
 
 
-def _legend(fig, axes) -> None:
-    handles, labels = [], []
-    for ax in np.atleast_1d(axes):
-        h, lab = ax.get_legend_handles_labels()
-        handles += h
-        labels += lab
-    legend_outside(fig, handles, labels)
+def _legend(fig, *axes) -> None:
+    legend_outside(fig, [h for ax in axes for h in ax.get_legend_handles_labels()[0]])
 
 
 def _value_text(r: dict[str, Any]) -> str:
@@ -46,8 +38,7 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
     """Each judged figure as (ours − paper) / tolerance: inside the shaded band [−1, 1] means agreement."""
     from matplotlib.lines import Line2D
 
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(13.5, 0.3 * len(rows) + 1.7), layout="constrained")
+    fig, ax = pyplot().subplots(figsize=(13.5, 0.3 * len(rows) + 1.7), layout="constrained")
     ax.axvspan(-1.0, 1.0, color=WITHIN_COLOUR, alpha=0.12, lw=0)
     ax.axvline(0.0, color="k", lw=1.0)
     for i, r in enumerate(rows):
@@ -65,51 +56,41 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
         if clipped:
             ax.annotate(f"{r['residual']:+.1f}", (x, i), xytext=(-8 if x > 0 else 8, 0), textcoords="offset points",
                         fontsize=7.5, ha="right" if x > 0 else "left", va="center", color=colour)
-    ax.set_yticks(range(len(rows)))
+    ax.set(yticks=range(len(rows)), ylim=(len(rows) - 0.5, -0.5), xlim=(-RESIDUAL_SHOWN - 0.3, RESIDUAL_SHOWN + 0.3),
+           xlabel="(ours − paper) / tolerance   (for an upper limit: ours / limit)")
     ax.set_yticklabels([f"{r['figure']}: {r['description']}" for r in rows], fontsize=8.5)
-    ax.set_ylim(len(rows) - 0.5, -0.5)
-    ax.set_xlim(-RESIDUAL_SHOWN - 0.3, RESIDUAL_SHOWN + 0.3)
-    ax.set_xlabel("(ours − paper) / tolerance   (for an upper limit: ours / limit)")
     ax.grid(axis="x", alpha=0.3)
     handles = [Line2D([], [], marker="o", ls="none", color=WITHIN_COLOUR, label="within tolerance (shaded band)"),
                Line2D([], [], marker="o", ls="none", color=OUTSIDE_COLOUR, label="outside tolerance"),
                Line2D([], [], marker="<", ls="none", color=OUTSIDE_COLOUR,
                       label=f"beyond ±{RESIDUAL_SHOWN:g}: drawn at the edge, value beside it")]
-    legend_outside(fig, handles, [h.get_label() for h in handles], ncol=3, where="bottom")
-    n_in = sum(r["within"] for r in rows)
-    figure_title(fig, f"Paper figures: {n_in} of {len(rows)} within tolerance", fontsize=11)
+    legend_outside(fig, handles, ncol=3, loc="outside lower center")
+    figure_title(fig, f"Paper figures: {sum(r['within'] for r in rows)} of {len(rows)} within tolerance", fontsize=11)
     return save_fig(fig, path)
 
 
 def fig4_figure(curve: dict[str, Any], path: Path) -> Path:
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9, 3.8), layout="constrained")
+    fig, ax = pyplot().subplots(figsize=(9, 3.8), layout="constrained")
     ax.plot(curve["time_s"], curve["pwm"], color=OURS_COLOUR, label="ours: heat index PWM")
     ax.plot([P["fig4_leaves_zero_s"].paper, P["fig4_reaches_one_s"].paper], [0.0, 1.0], ls="none", marker="D",
             ms=8, mfc="none", mec=PAPER_COLOUR, mew=1.8, label="paper Fig. 4: leaves 0 at 30 s,\nreaches 1 at 130 s")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("heat index PWM (-)")
-    ax.set_ylim(0.0, 1.05)
+    ax.set(xlabel="time (s)", ylabel="heat index PWM (-)", ylim=(0.0, 1.05))
     ax2 = ax.twinx()
     ax2.plot(curve["time_s"], curve["torque_nm"], color="#6a3d9a", ls="--", label="ours: available torque (right)")
-    ax2.set_ylabel("available torque (N·m)")
-    ax2.set_ylim(bottom=0.0)
+    ax2.set(ylabel="available torque (N·m)", ylim=(0.0, None))
     ax.grid(alpha=0.3)
     ax.set_title("Fig. 4 analog: heat index at 2× the continuous torque, from cold", fontsize=10)
-    _legend(fig, (ax, ax2))
+    _legend(fig, ax, ax2)
     return save_fig(fig, path)
 
 
 def cutoff_figure(curve: dict[str, Any], path: Path) -> Path:
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9, 3.8), layout="constrained")
+    fig, ax = pyplot().subplots(figsize=(9, 3.8), layout="constrained")
     temps, cutoff, t_an = curve["temps_c"], curve["cutoff_c"], curve["time_to_cutoff_analytic_s"]
     ax.plot(np.arange(len(temps)), temps, color=OURS_COLOUR, label="simulated (eq 7)")
     ax.plot([0, t_an], [20, cutoff], color="0.3", ls="--", label=f"m·c_p·ΔT / mean net heat\n= {t_an:.0f} s")
     ax.axhline(cutoff, color="#6a3d9a", ls="-.", lw=1.4, label=f"motor cutoff {cutoff:g} °C")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("motor temperature (°C)")
-    ax.set_ylim(bottom=0.0, top=cutoff + 8)
+    ax.set(xlabel="time (s)", ylabel="motor temperature (°C)", ylim=(0.0, cutoff + 8))
     ax.grid(alpha=0.3)
     ax.set_title("Motor at peak power (90 kW), coolant off, from 20 °C (no paper figure: checks eq 7)", fontsize=10)
     _legend(fig, ax)
@@ -120,10 +101,9 @@ def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: 
     """Figs 7-10 analog on ``cycle``: motor temperature and heat index, thermal model on and off, with the
     paper's bands (Figs 7-8 on ``udds`` and ``hwfet``, Figs 9-10 on ``beijing``); ``figures``: the thermal-model
     run's :func:`~.measure.cycle_run` figures."""
-    plt = pyplot()
     on, off = traces["with_thermal"], traces["without_thermal"]
     t = np.arange(1, len(on["motor_temp_c"]) + 1)
-    fig, (ax_t, ax_h) = plt.subplots(2, 1, figsize=(10.5, 6.0), sharex=True, layout="constrained")
+    fig, (ax_t, ax_h) = pyplot().subplots(2, 1, figsize=(10.5, 6.0), sharex=True, layout="constrained")
     ax_t.plot(t, off["motor_temp_c"], color=OFF_COLOUR, lw=1.0, label="ours, thermal model off")
     ax_t.plot(t, on["motor_temp_c"], color=OURS_COLOUR, lw=1.4, label="ours, thermal model on")
     ax_h.plot(t, on["heat_index"], color=OURS_COLOUR, lw=1.4, clip_on=False)
@@ -136,12 +116,10 @@ def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: 
     else:
         which = "figures: none for this cycle"
     ax_t.set_ylabel("motor temperature (°C)")
-    ax_h.set_ylabel("heat index PWM (-)")
-    ax_h.set_ylim(0.0, 1.0)
-    ax_h.set_xlabel("time (s)")
+    ax_h.set(ylabel="heat index PWM (-)", ylim=(0.0, 1.0), xlabel="time (s)")
     for ax in (ax_t, ax_h):
         ax.grid(alpha=0.3)
-    _legend(fig, (ax_t, ax_h))
+    _legend(fig, ax_t, ax_h)
     ax_t.set_title(f"{cycle}, rule strategy, paper scenario: motor temperature", fontsize=10)
     ax_h.set_title("heat index", fontsize=10)
     figure_title(fig, f"{cycle} against the paper's {which}", fontsize=10.5)
@@ -179,8 +157,7 @@ def _figs_9_10(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
 
 def fuel_levels_figure(level_rows: list[dict[str, Any]], path: Path) -> Path:
     """Raw fuel of ours against the paper's Table 2 (and our corrected fuel), on an axis from 0."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(10.5, 0.42 * len(level_rows) + 1.6), layout="constrained")
+    fig, ax = pyplot().subplots(figsize=(10.5, 0.42 * len(level_rows) + 1.6), layout="constrained")
     y = np.arange(len(level_rows))
     ours = [r["ours_l100"] for r in level_rows]
     ax.barh(y, ours, height=0.55, color=OURS_COLOUR, label="ours, raw fuel")
@@ -191,12 +168,10 @@ def fuel_levels_figure(level_rows: list[dict[str, Any]], path: Path) -> Path:
     for yi, r in zip(y, level_rows):
         ax.annotate(f"{r['gap_pct']:+.0f} % vs paper", (max(r["ours_l100"], r["paper_l100"]), yi), xytext=(10, 0),
                     textcoords="offset points", va="center", fontsize=8)
-    ax.set_yticks(y)
+    ax.set(yticks=y, ylim=(len(level_rows) - 0.5, -0.5), xlabel="fuel (L/100 km), rule strategy, paper scenario",
+           xlim=(0.0, max(max(ours), max(r["paper_l100"] for r in level_rows)) * 1.25))
     ax.set_yticklabels([f"{r['cycle']} (paper: {'highway row' if r['paper_row'] == 'highway' else 'Beijing'}), "
                         f"thermal {r['thermal_model']}" for r in level_rows], fontsize=8.5)
-    ax.set_ylim(len(level_rows) - 0.5, -0.5)
-    ax.set_xlim(0.0, max(max(ours), max(r["paper_l100"] for r in level_rows)) * 1.25)
-    ax.set_xlabel("fuel (L/100 km), rule strategy, paper scenario")
     ax.grid(axis="x", alpha=0.3)
     handles, labels = ax.get_legend_handles_labels()
     order = sorted(range(len(labels)), key=lambda i: not labels[i].startswith("ours, raw"))

@@ -1,10 +1,7 @@
-"""The paper reproduction report: our results beside the paper's Tables 2-3 and Figs 4, 7-10.
-
-``python evaluate.py paper --out DIR`` writes ``DIR/report.md``, ``DIR/paper.json`` and PNG figures.
-The report opens with the verdicts: every figure of the paper (:data:`.figures.PAPER_FIGURES`)
-with ours, the difference and whether it is within the stated tolerance, a summary line of
-agreement, and the absolute fuel levels against the paper's Table 2 (raw with raw). The sections
-after it show the runs, with the paper's points and bands drawn on the figures.
+"""``evaluate.py paper --out DIR``: ``report.md``, ``paper.json`` and the figures, our results beside the paper's
+Tables 2-3 and Figs 4, 7-10. The report opens with the verdicts (:func:`~.figures.verdict_rows`: every judged figure,
+ours, the difference, within tolerance or not; the agreement) and the absolute fuel levels against Table 2 (raw with
+raw); the sections after show the runs, with the paper's points and bands drawn on the figures (:mod:`.plots`).
 """
 
 from __future__ import annotations
@@ -19,16 +16,15 @@ from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writa
 from hev_thermal_env.physics import VehicleConfig, paper_bus
 
 from . import plots as figs
-from .figures import PAPER_FIGURE_BY_NAME, TABLE3_RUNS, VERDICT_CYCLES, table3_paper
+from .figures import PAPER_FIGURE_BY_NAME as P
+from .figures import TABLE3_RUNS, VERDICT_CYCLES, agreement, fuel_level_rows, table3_paper, verdict_rows
 from .measure import Baseline, cutoff_curve, cycle_run, fig4_curve, figure_values, table3, table3_row
-from .verdicts import agreement, fuel_level_markdown, fuel_level_rows, summary_line, verdict_markdown, verdict_rows
 
 __all__ = ["build_report"]
 
 
 def _cycles(out: Path, config: VehicleConfig, cycles: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    """Table 2 and the Figs 7-10 analogs: ``rule`` without and with the thermal model on every cycle (the
-    figures of :func:`~.measure.cycle_run`), each drawn into ``out``."""
+    """Table 2 and Figs 7-10: :func:`~.measure.cycle_run` without and with the thermal model, drawn into ``out``."""
     base = Baseline(config, cycles)
     result = {}
     for cycle in cycles:
@@ -41,10 +37,8 @@ def _cycles(out: Path, config: VehicleConfig, cycles: tuple[str, ...]) -> dict[s
 
 def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = VERDICT_CYCLES,
                  quick: bool = False) -> dict[str, Any]:
-    """Compute every section, write the figures, ``paper.json`` and ``report.md``; return the numbers.
-
-    The verdicts need ``hwfet``, ``udds`` and ``beijing``: they are run whatever ``cycles`` holds
-    (``cycles`` adds figures for further cycles)."""
+    """Compute every section, write the figures, ``paper.json`` and ``report.md``; return the numbers. The verdicts
+    run ``hwfet``, ``udds`` and ``beijing`` whatever ``cycles`` holds (it adds figures for further cycles)."""
     out = check_writable_dir(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -63,8 +57,7 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = VERDICT_CYCLE
     data: dict[str, Any] = {
         "agreement": agreement(rows), "verdicts": rows, "fuel_levels": levels, "table3": t3,
         "fig4": {k: v for k, v in f4.items() if k not in ("time_s", "pwm", "torque_nm")}
-        | {"paper_leaves_zero_s": PAPER_FIGURE_BY_NAME["fig4_leaves_zero_s"].paper,
-           "paper_reaches_one_s": PAPER_FIGURE_BY_NAME["fig4_reaches_one_s"].paper},
+        | {"paper_leaves_zero_s": P["fig4_leaves_zero_s"].paper, "paper_reaches_one_s": P["fig4_reaches_one_s"].paper},
         "thermal_cutoff": {k: v for k, v in tc.items() if k != "temps_c"},
         "table2": runs,
     }
@@ -105,7 +98,7 @@ def _levels_sentence(levels: list[dict[str, Any]]) -> str:
 
 def _performance_md(data: dict[str, Any]) -> list[str]:
     t3 = data["table3"]
-    p = {k: PAPER_FIGURE_BY_NAME[k].paper for k in ("accel_30c_delta_s", "accel_50c_delta_s")}
+    p = {k: P[k].paper for k in ("accel_30c_delta_s", "accel_50c_delta_s")}
     names = {"top_speed_kmh": "top speed (km/h)", "accel_0_60_s": "0-60 km/h (s)",
              "grade_4pct_speed_kmh": "4 % grade speed (km/h)"}
     lines = ["## Table 3: vehicle performance (coolant closed)", "",
@@ -165,3 +158,36 @@ def _checks_md(data: dict[str, Any]) -> list[str]:
             "its net battery energy is within 1 % of its fuel energy; a seed family is its interquartile mean "
             "with a 95 % bootstrap interval. `dp` plans with the thermal state held and is labelled thermal-blind.",
             ""]
+
+
+def _num(x: float, unit: str = "") -> str:
+    if x is None or not math.isfinite(x):
+        return "never" if x is not None else "not observed"
+    text = f"{x:.3g}" if abs(x) < 10 else f"{x:.1f}"
+    return f"{text} {unit}".rstrip(" -") if unit else text
+
+
+def summary_line(agr: dict[str, Any]) -> str:
+    parts = ", ".join(f"{k} {v['within']}/{v['total']}" for k, v in agr["by_figure"].items())
+    return (f"**Agreement: {agr['within']} of {agr['total']} paper figures within tolerance** ({parts}).")
+
+
+def verdict_markdown(rows: list[dict[str, Any]]) -> list[str]:
+    lines = ["| # | paper figure | quantity | paper | tolerance | ours | ours − paper | % | verdict |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for i, r in enumerate(rows, 1):
+        diff = "" if r["difference"] is None else f"{r['difference']:+.3g}"
+        pct = "" if r["difference_pct"] is None else f"{r['difference_pct']:+.1f} %"
+        lines.append(f"| {i} | {r['figure']} | {r['description']} | {_num(r['paper'], r['unit'])} | {r['tolerance']} | "
+                     f"{_num(r['ours'], r['unit'])} | {diff} | {pct} | {r['verdict']} |")
+    return lines
+
+
+def fuel_level_markdown(rows: list[dict[str, Any]]) -> list[str]:
+    lines = ["| our cycle | paper's row | thermal model | paper (L/100 km) | ours, raw | ours − paper | % | "
+             "ours, corrected (not compared) |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        row = "highway (labelled UDDS)" if r["paper_row"] == "highway" else "Beijing"
+        lines.append(f"| {r['cycle']} | {row} | {r['thermal_model']} | {r['paper_l100']:.1f} | {r['ours_l100']:.2f} | "
+                     f"{r['gap_l100']:+.2f} | {r['gap_pct']:+.1f} % | {r['ours_corrected_l100']:.2f} |")
+    return lines

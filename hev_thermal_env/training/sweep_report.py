@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from hev_thermal_env.agents.policy_files import checkpoint_files
-from hev_thermal_env.evaluation.benchmark import _fmt  # the benchmark tables' cell format
+from hev_thermal_env.evaluation.results_table import _fmt  # the benchmark tables' cell format
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.stats import CONFIDENCE, iqm, iqm_ci
 
