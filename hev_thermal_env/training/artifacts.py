@@ -27,11 +27,8 @@ from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
 
 EVAL_COLUMNS = ("timesteps", "wall_s", "cycle", "scenario", "return_g", "fuel_corrected_l_per_100km", "delta_soc",
                 "cutoff_s", "trace_miss_max_mps", "fuel_ratio", "mean_return_g", "score", "qualified", "best")
-#: Columns of ``DIR/evaluations.csv`` that older runs lack, and the value they read as.
-_LATER_COLUMNS = {"fuel_ratio": "nan", "qualified": "1"}
+_FLAGS = ("qualified", "best")
 
-
-# --- writing models and evaluations -------------------------------------------------------------------
 
 def model_bytes(model, exclude_optimizer_state: bool = False) -> bytes:
     """The SB3 zip of ``model`` as bytes (optionally with a fresh optimizer state: a smaller file)."""
@@ -63,17 +60,8 @@ def read_evaluations(path: Path) -> list[dict[str, Any]]:
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     for r in rows:
-        for k, default in _LATER_COLUMNS.items():
-            if r.get(k) in (None, ""):
-                r[k] = default
-        if r.get("score") in (None, ""):
-            r["score"] = str(-float(r["mean_return_g"]))  # older runs selected on the mean return
-        r["timesteps"] = int(float(r["timesteps"]))
-        for k in ("wall_s", "return_g", "fuel_corrected_l_per_100km", "delta_soc", "cutoff_s", "trace_miss_max_mps",
-                  "fuel_ratio", "mean_return_g", "score"):
-            r[k] = float(r[k])
-        for k in ("best", "qualified"):
-            r[k] = str(r[k]).lower() in ("1", "true")
+        r.update({k: float(r[k]) for k in EVAL_COLUMNS if k not in ("timesteps", "cycle", "scenario", *_FLAGS)})
+        r.update({k: r[k] == "1" for k in _FLAGS}, timesteps=int(float(r["timesteps"])))
     return rows
 
 
@@ -81,6 +69,5 @@ def write_evaluations(path: Path, rows: list[dict[str, Any]]) -> None:
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=EVAL_COLUMNS, lineterminator="\n")
     w.writeheader()
-    for r in rows:
-        w.writerow({k: (int(r[k]) if k in ("best", "qualified") else r[k]) for k in EVAL_COLUMNS})
+    w.writerows({k: (int(r[k]) if k in _FLAGS else r[k]) for k in EVAL_COLUMNS} for r in rows)
     atomic_write_text(path, buf.getvalue())

@@ -1,19 +1,12 @@
-"""``DIR/training_curve.png``: the training return and the evaluation during training, against env-steps.
+"""``DIR/training_curve.png``: three panels over env-steps.
 
-Three panels share the env-step axis:
+* training: SB3's ``rollout/ep_rew_mean`` (mean raw return of the last 100 episodes, from the run's
+  TensorBoard logs) and the mean episode length (random starts make it vary);
+* evaluation return per cycle and scenario, and their mean;
+* evaluation fuel in % of the selection's reference (:mod:`.selection`) per run, the score (their mean)
+  in black, disqualified evaluations crossed, ``best_model.zip`` starred with the rule in the legend.
 
-* training: the mean return of the last 100 training episodes (SB3's ``rollout/ep_rew_mean``,
-  read from the run's TensorBoard logs; raw rewards in grams, before normalisation), with the mean
-  episode length beside it (episodes start at random points of their cycle, so their length, and
-  with it the return, varies);
-* evaluation return: per evaluation cycle and scenario, and their mean;
-* evaluation fuel: corrected fuel per evaluation cycle and scenario in % of the selection's reference
-  on the same run (``fuel_vs_ecms``: ECMS) with the selection score, their mean, in black, and the
-  evaluations disqualified by their SOC marked.
-
-``best_model.zip`` is starred on the fuel panel, the metric the run selects on (:mod:`.selection`, the
-config's ``eval.selection``), and the legend states the rule. A dotted vertical line marks the selected
-evaluation on every panel.
+A dotted vertical line marks the selected evaluation on every panel.
 """
 
 from __future__ import annotations

@@ -22,6 +22,9 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.evaluation.runner import run_strategy
+
 #: Largest |ΔSOC| over a validation cycle a selectable checkpoint may have.
 SOC_LIMIT = 0.02
 #: Added to the score for every evaluation run beyond :data:`SOC_LIMIT` (a fuel ratio is about 1).
@@ -73,9 +76,6 @@ def strategy_reference(strategy: str, **options: Any) -> Callable[[str, str], fl
     """A reference: the corrected fuel [L/100 km] of ``strategy`` on the cycle and scenario (``run_strategy``)."""
 
     def reference(cycle: str, scenario: str) -> float:
-        from hev_thermal_env.agents import get_strategy
-        from hev_thermal_env.evaluation.runner import run_strategy
-
         res = run_strategy(get_strategy(strategy, **options), cycle, scenario)
         return float(res.summary["fuel_corrected_l_per_100km"])
 

@@ -76,8 +76,8 @@ class TuneTrainingRun(TrainingRun):
             self.report({**eval_metrics(results, n), "selection_score": self.eval_rows[-1]["score"]}, n)
         return results
 
-    def execute(self, session):
-        result = super().execute(session)
+    def execute(self):
+        result = super().execute()
         n = int(result["timesteps_done"])
         last = [r for r in self.eval_rows if int(r["timesteps"]) == n]
         if last:
