@@ -1,11 +1,9 @@
-"""Training of SB3 agents (PPO, SAC) on ``HevThermal-v0``: the library behind ``train.py``.
+"""Training of SB3 agents (PPO, SAC) on ``HevThermal-v0``: the library behind ``train.py`` (docs/training.md).
 
-A run is described by one plain dict, its config (:mod:`.config`: :func:`build_config` from the
-algorithm's hyperparameter file, ``--hp`` overrides and the command line), which :func:`train` runs
-(or :func:`resume` continues) into a run directory (:mod:`.artifacts`); :func:`load_policy` loads a
-trained policy and :func:`export_policy` packs one for shipping. Sweeps (:mod:`.sweep`, the ``ray``
-extra) are not imported here. Importing this package imports torch and Stable-Baselines3
-(``import hev_thermal_env`` does not). See docs/training.md.
+A run is one plain dict, its config (:func:`build_config`), which :func:`train` runs (or :func:`resume`
+continues) into a run directory; :func:`load_policy` loads its policy, :func:`export_policy` packs one for
+shipping. Sweeps (:mod:`.sweep`) need the ``ray`` extra and are not imported here. Importing this package
+imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
 """
 
 from hev_thermal_env.agents.policy_files import load_policy

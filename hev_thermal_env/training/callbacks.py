@@ -43,10 +43,9 @@ class RunCallback(BaseCallback):
         self.rollout_start = 0
 
     def _init_callback(self) -> None:
-        r = self.run
-        self.rollout_start = int(self.model.num_timesteps)
-        self.next_ckpt = _next_multiple(self.model.num_timesteps, r.checkpoint_freq)
-        self.next_eval = _next_multiple(self.model.num_timesteps, r.eval_freq) if r.eval_freq else math.inf
+        n, r = int(self.model.num_timesteps), self.run
+        self.rollout_start, self.next_ckpt = n, _next_multiple(n, r.checkpoint_freq)
+        self.next_eval = _next_multiple(n, r.eval_freq) if r.eval_freq else math.inf
 
     def _on_rollout_start(self) -> None:
         n = int(self.model.num_timesteps)

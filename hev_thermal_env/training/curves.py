@@ -17,12 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.evaluation.styles import close, figure_title, legend_outside, pyplot
-from hev_thermal_env.io import save_png
+from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
 from .artifacts import read_evaluations
 from .config import load_run_config
-from .selection import Scorer, get_scorer
+from .selection import Scorer, get_scorer, run_key
 
 RETURN_TAG, LENGTH_TAG = "rollout/ep_rew_mean", "rollout/ep_len_mean"
 
@@ -60,14 +59,8 @@ def selected_step(rows: list[dict[str, Any]]) -> int | None:
 def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]]]:
     series: dict[str, dict[int, dict[str, Any]]] = {}
     for r in rows:  # a resumed run may evaluate the same step twice: the later row wins
-        series.setdefault(f"{r['cycle']} / {r['scenario']}", {})[r["timesteps"]] = r
+        series.setdefault(run_key(r["cycle"], r["scenario"]), {})[r["timesteps"]] = r
     return series
-
-
-def _display(by_step: dict[int, dict[str, Any]]) -> str:
-    """``cycle / scenario`` of a series, a cycle given as a CSV path shortened to its file name."""
-    r = next(iter(by_step.values()))
-    return f"{Path(str(r['cycle'])).name} / {r['scenario']}"
 
 
 def training_curve_figure(run_dir: str | Path):
@@ -123,8 +116,9 @@ def _return_panel(ax, rows: list[dict[str, Any]]) -> list:
     handles = []
     for k, by_step in enumerate(_by_series(rows).values()):
         steps = sorted(by_step)
+        r = by_step[steps[0]]  # a cycle given as a CSV path is named by its file name
         handles += ax.plot(steps, [by_step[s]["return_g"] for s in steps], color=f"C{k % 10}", lw=1.0, marker=".",
-                           label=f"evaluation: {_display(by_step)}")
+                           label=f"evaluation: {Path(str(r['cycle'])).name} / {r['scenario']}")
     mean = {r["timesteps"]: r["mean_return_g"] for r in rows}
     steps = sorted(mean)
     handles += ax.plot(steps, [mean[s] for s in steps], color="k", lw=2.0, label="mean evaluation return")
@@ -167,8 +161,4 @@ def _selection_panel(ax, rows: list[dict[str, Any]], best: int, scorer: Scorer) 
 
 def plot_training_curve(run_dir: str | Path) -> Path:
     """Write ``DIR/training_curve.png`` (:func:`training_curve_figure`); returns its path."""
-    fig = training_curve_figure(run_dir)
-    try:
-        return save_png(fig, Path(run_dir) / "training_curve.png")
-    finally:
-        close(fig)
+    return save_fig(training_curve_figure(run_dir), Path(run_dir) / "training_curve.png")

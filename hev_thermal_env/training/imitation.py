@@ -1,16 +1,11 @@
 """A new PPO run's starting point: the policy imitates a classic strategy (behaviour cloning), then PPO learns.
 
-Why: the best split in most city seconds is the bound u = 1 (the engine off), and a Gaussian policy
-started at u ≈ 0 almost never samples it (see docs/training.md). :func:`imitate`:
-
-1. the teacher (``init.imitate``) drives ``init.episodes`` episodes of the training env itself, never
-   an evaluation cycle (:func:`demonstrations`);
-2. the ``VecNormalize`` observation statistics start from the demonstrations';
-3. the policy's mean action is fitted to the teacher's (MSE, Adam, ``init.epochs`` passes); a teacher
-   action at the upper bound is fitted at 1 + ``init.beyond_bound``, since actions are clipped to the
-   bound and the deterministic policy reaches it only if its mean lies beyond.
-
-The value function is not pretrained. ``init.imitate: null`` starts PPO from scratch.
+:func:`imitate`: the teacher (``init.imitate``) drives ``init.episodes`` episodes of the training env
+(:func:`demonstrations`), the ``VecNormalize`` observation statistics start from them, and the policy's
+mean action is fitted to the teacher's (MSE, Adam, ``init.epochs`` passes), at 1 + ``init.beyond_bound``
+where the teacher sits at the upper bound: actions are clipped, so the deterministic policy reaches the
+bound only if its mean lies beyond it. The value function is not pretrained; ``init.imitate: null``
+starts from scratch. Why (the engine-off bound a fresh policy never samples): docs/training.md.
 """
 
 from __future__ import annotations
@@ -27,6 +22,8 @@ from tqdm.auto import tqdm
 from hev_thermal_env.agents import get_strategy, list_strategies
 from hev_thermal_env.envs import HevThermalEnv
 
+from .hyperparams import check_known
+
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25}
 BATCH = 1024
@@ -35,9 +32,7 @@ LEARNING_RATE = 1e-3
 
 def check_init(init: dict[str, Any], algo: str) -> dict[str, Any]:
     """The ``init`` section completed with its defaults; one-line errors for unknown keys and bad values."""
-    unknown = sorted(set(init) - set(INIT_DEFAULTS))
-    if unknown:
-        raise ValueError(f"unknown init setting(s) {', '.join(unknown)}; known: {', '.join(INIT_DEFAULTS)}")
+    check_known("init setting", init, INIT_DEFAULTS)
     out = {**INIT_DEFAULTS, **init}
     teacher = out["imitate"]
     if teacher is None:

@@ -40,7 +40,7 @@ from .envs import env_kwargs, make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .imitation import imitate
-from .selection import best_row_score, compute_references, get_scorer, is_better
+from .selection import compute_references, get_scorer, is_better
 from .validation_report import final_validation
 
 
@@ -59,7 +59,7 @@ class TrainingRun:
         self.eval_freq = int(config["eval"]["freq"])
         self.eval_rows = read_evaluations(self.out / "evaluations.csv")
         self.scorer = get_scorer(config["eval"]["selection"])
-        self.best_score = best_row_score(self.eval_rows)
+        self.best_score = min((r["score"] for r in self.eval_rows if np.isfinite(r["score"])), default=None)
         self.eval_seconds = 0.0
         self.session_start = time.perf_counter()
         self.wall_before = float((config.get("result") or {}).get("wall_s", 0.0))
@@ -90,8 +90,7 @@ class TrainingRun:
         if self.evaluator is None:
             return []
         t = time.perf_counter()
-        stats = model.get_vec_normalize_env()
-        results = self.evaluator.run(LoadedPolicy(model, stats).act)
+        results = self.evaluator.run(LoadedPolicy(model, model.get_vec_normalize_env()).act)
         self.eval_seconds += time.perf_counter() - t
         mean_return = float(np.mean([r["return_g"] for r in results]))
         score = self.scorer.score(results, self.references())
@@ -119,16 +118,14 @@ class TrainingRun:
                      f"mean return {mean_return:.1f} g, max |dSOC| {worst:.3f} over {len(results)} runs")
         return results
 
-    def references(self) -> dict[str, float]:
-        """The scorer's reference on the evaluation runs, computed once per run and kept in the config."""
+    def references(self, cycles: list[str] | None = None) -> dict[str, float]:
+        """The scorer's reference on ``cycles`` (the evaluation's) × the evaluation scenarios, each computed once
+        per run and kept in the config."""
         res = self.config.setdefault("result", {})
-        known = res.get("selection_reference") or {}
-        ev = self.config["eval"]
-        ref = compute_references(self.scorer, self.evaluator.cycle_names if self.evaluator else [], ev["scenarios"],
-                                 known)
-        if ref != known:
-            res["selection_reference"] = ref
-        return ref
+        cycles = self.evaluator.cycle_names if cycles is None else cycles
+        res["selection_reference"] = compute_references(self.scorer, cycles, self.config["eval"]["scenarios"],
+                                                        res.get("selection_reference"))
+        return res["selection_reference"]
 
     def make_model(self, venv, resume_from: tuple[int, Path, Path] | None):
         cfg = self.config
@@ -213,22 +210,16 @@ class TrainingRun:
 
     def session_summary(self, model, done_before: int, train_s: float, env_s: float) -> dict[str, Any]:
         steps = int(model.num_timesteps) - done_before
-        return {
-            "timesteps_done": int(model.num_timesteps),
-            "session_wall_s": round(train_s, 2),
-            "session_timesteps": steps,
-            "steps_per_s": round(steps / train_s, 1) if train_s > 0 else None,
-            "env_s": round(env_s, 2),
-            "eval_s": round(self.eval_seconds, 2),
-            # share of the training loop (evaluation excluded) spent stepping the env
-            "env_share": round(env_s / (train_s - self.eval_seconds), 4) if train_s > self.eval_seconds else None,
-        }
+        loop_s = train_s - self.eval_seconds  # the training loop, evaluation excluded
+        return {"timesteps_done": int(model.num_timesteps), "session_wall_s": round(train_s, 2),
+                "session_timesteps": steps, "steps_per_s": round(steps / train_s, 1) if train_s > 0 else None,
+                "env_s": round(env_s, 2), "eval_s": round(self.eval_seconds, 2),
+                "env_share": round(env_s / loop_s, 4) if loop_s > 0 else None}
 
     def record_session(self, session: dict[str, Any], finished: bool) -> None:
         cfg = self.config
         res = dict(cfg.get("result") or {})
-        sessions = list(res.get("sessions") or [])
-        sessions.append(session)
+        sessions = [*(res.get("sessions") or []), session]
         wall = sum(s["session_wall_s"] for s in sessions)
         res.update(finished=finished, timesteps_done=session["timesteps_done"], wall_s=round(wall, 2),
                    sessions=sessions, env_share=session["env_share"], steps_per_s=session["steps_per_s"])
@@ -258,13 +249,9 @@ def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "conf
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
           overwrite: bool = False, log: Callable[[str], None] | None = None,
           run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
-    """Train a new run into ``out_dir``; returns the ``result`` section of its config.
-
-    ``out_dir`` must not hold a run already (unless ``overwrite``): continue one with :func:`resume`.
-    The config and the directory are checked, and the environment and model built, before the
-    directory is created. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped
-    by a signal. ``run_class`` (a :class:`TrainingRun`) is what runs the session (a sweep's trial
-    reports its evaluations to Ray Tune through its own).
+    """Train a new run into ``out_dir`` (new or empty unless ``overwrite``); returns the ``result`` section of its
+    config. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped by a signal.
+    ``run_class`` runs the session (a sweep's trial reports to Ray Tune through its own :class:`TrainingRun`).
     """
     out = check_new_dir(out_dir, overwrite=overwrite)
     validate_config(config)
@@ -289,12 +276,9 @@ def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, comm
     check_writable_dir(out)
     _limit_threads()
     _append_command(out, command)
-    ckpts = checkpoint_files(out)
-    start = ckpts[-1] if ckpts else None
-    if start is None:
-        log(f"{out}: no checkpoint yet; starting the run over")
-    else:
-        log(f"{out}: resuming from {start[1].name} ({start[0]} of {config['total_timesteps']} timesteps)")
+    start = (checkpoint_files(out) or [None])[-1]
+    log(f"{out}: no checkpoint yet; starting the run over" if start is None else
+        f"{out}: resuming from {start[1].name} ({start[0]} of {config['total_timesteps']} timesteps)")
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     run.prepare(resume_from=start)
     return run.execute()

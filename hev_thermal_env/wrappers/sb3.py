@@ -1,7 +1,5 @@
-"""Stable-Baselines3 ``VecEnv`` over the native vector env: SB3 trains on the batched core.
-
-Importing this module imports stable-baselines3 (and torch); ``import hev_thermal_env`` does not.
-"""
+"""Stable-Baselines3 ``VecEnv`` over the native vector env: SB3 trains on the batched core (importing this
+module imports stable-baselines3 and torch; ``import hev_thermal_env`` does not)."""
 
 from __future__ import annotations
 
@@ -28,9 +26,8 @@ class Sb3VecEnv(VecEnv):
     ``"all"`` (default) or a sequence of names; ``()`` is fastest when only the SB3 keys are needed (PPO and
     ``VecMonitor`` need no others). Other arguments build the vector env.
 
-    ``get_attr`` returns per-env values for the episode attributes and the shared value otherwise;
-    ``set_attr`` sets shared attributes (for all sub-environments at once); ``env_method`` calls a
-    method of the vector env once and returns its result per requested index.
+    ``get_attr`` returns per-env values of episode attributes, else the shared value; ``set_attr`` sets a
+    shared attribute (all indices at once); ``env_method`` calls the vector env's method once.
     """
 
     def __init__(self, num_envs: int, *, info_keys: str | Sequence[str] = "all", **env_kwargs: Any):
