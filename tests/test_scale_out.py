@@ -25,8 +25,9 @@ from hev_thermal_env.cli.train import main as train_main
 from hev_thermal_env.evaluation.benchmark import run_benchmark
 from hev_thermal_env.evaluation.executors import ExecutorError, split_address
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.training.sweep_report import TrialRecord, iqm, iqm_ci, write_report
-from hev_thermal_env.training.sweep_space import check_space, encode_choice, trial_overrides
+from hev_thermal_env.stats import iqm, iqm_ci
+from hev_thermal_env.training.sweep_report import TrialRecord, write_report
+from hev_thermal_env.training.sweep_trial import check_space, encode_choice, trial_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULT_FILES = ("results.csv", "results.json", "results.md")

@@ -1,11 +1,8 @@
 """The name a command-line program was called by, and its one-line reports (:func:`run_program`).
 
-Problems with the input (unknown names, malformed files, out-of-range values) are ``ValueError`` s;
-problems with files (missing, not a directory, read-only file system, no permission) are
-``OSError`` s. Either is printed as one line, without a traceback, with exit status 2. Warnings
-(implausible cycle data, ...) are printed as one ``warning:`` line each. Ctrl-C (a
-``KeyboardInterrupt`` anywhere in a command) is one line, ``interrupted`` (with what was saved, if
-anything), and exit status 130.
+Problems with the input are ``ValueError`` s, problems with files ``OSError`` s: either is one line,
+without a traceback, exit status 2. Warnings are one ``warning:`` line each. Ctrl-C is one line,
+``interrupted`` (with what was saved, if anything), exit status 130.
 """
 
 from __future__ import annotations

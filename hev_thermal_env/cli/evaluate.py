@@ -1,11 +1,8 @@
 """Evaluate energy-management strategies on the hybrid bus.
 
-The program behind ``evaluate.py`` and the ``hev-evaluate`` command, with one subcommand per job
-(one module each): ``benchmark`` (the main job: strategies x cycles x scenarios, table + plots),
-``run`` (one strategy on one cycle), ``paper`` (the paper reproduction report) and ``performance``
-(top speed, 0-60 km/h, 4 % grade: the paper's Table 3). ``python evaluate.py SUBCOMMAND --help``
-lists every option with its default. Errors in the input, and output paths that cannot be written
-(checked before any work), are reported in one line with a non-zero exit status.
+The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job and module:
+``benchmark`` (strategies × cycles × scenarios, table + plots), ``run`` (one strategy on one cycle),
+``paper`` (the paper reproduction report) and ``performance`` (the paper's Table 3).
 """
 
 from __future__ import annotations

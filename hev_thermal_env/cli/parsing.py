@@ -1,10 +1,6 @@
-"""Argument parsing shared by the programs: usage errors in one line, help texts that show every default.
-
-:class:`OneLineErrorParser` reports a usage error as ``PROG: error: MESSAGE (see --help)`` with exit
-status 2 (argparse prints the whole usage first); subcommand parsers inherit it. :class:`HelpFormatter`
-keeps descriptions and epilogs as written (the examples) and appends ``(default: VALUE)`` to every
-option whose default is a value. :func:`add_run_options` adds the options of a training run that
-``train.py`` and ``train.py sweep`` share, with the defaults of the hyperparameter files.
+"""Argument parsing shared by the programs: usage errors in one line (:class:`OneLineErrorParser`, inherited
+by subcommand parsers), help texts that show every default (:class:`HelpFormatter`), and the options of a
+training run that ``train.py`` and ``train.py sweep`` share (:func:`add_run_options`).
 """
 
 from __future__ import annotations
@@ -28,12 +24,8 @@ class OneLineErrorParser(argparse.ArgumentParser):
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """``(default: VALUE)`` after options with a default value; descriptions and epilogs wrapped by
-    paragraph, except paragraphs with indented lines (examples), which are kept as written.
-
-    Options without a value default (``None``, an empty list, flags that are off) and help texts that
-    already say what the default is are left alone.
-    """
+    """``(default: VALUE)`` after options with a value default (not None, [] or False) whose help does not
+    already say it; descriptions and epilogs wrapped by paragraph, except those with indented lines (examples)."""
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
@@ -61,10 +53,14 @@ def examples(lines: Sequence[str]) -> str:
     return "examples:\n" + "\n".join(f"  {line}" for line in lines)
 
 
-def refuse_settings_with_resume(args: argparse.Namespace, flags: Sequence[str], settings_file: str) -> None:
+#: Options of a training run or sweep that are not among its settings (``--resume`` keeps them).
+SESSION_FLAGS = ("resume", "no_progress", "quiet", "address", "cpus", "export")
+
+
+def refuse_settings_with_resume(args: argparse.Namespace, settings_file: str) -> None:
     """``--resume DIR`` takes every setting from ``DIR/settings_file``: a one-line error naming the setting
-    options given beside it (those of ``flags`` that are not None)."""
-    given = [f"--{f.replace('_', '-')}" for f in flags if getattr(args, f) is not None]
+    options given beside it (every option not in :data:`SESSION_FLAGS`)."""
+    given = [f"--{k.replace('_', '-')}" for k, v in vars(args).items() if v is not None and k not in SESSION_FLAGS]
     if given:
         raise ValueError(f"--resume takes every setting from {args.resume}/{settings_file}; drop {' '.join(given)}")
 

@@ -50,10 +50,8 @@ def paper_row(thermal: bool, initial_motor_temp_c: float) -> tuple[str, str] | N
     """Run and label of the paper's Table 3 row for these settings, or None when the paper has none."""
     if not thermal:
         return PAPER_ROWS[None]
-    for temp, row in PAPER_ROWS.items():
-        if temp is not None and math.isclose(initial_motor_temp_c, temp):
-            return row
-    return None
+    return next((row for t, row in PAPER_ROWS.items() if t is not None and math.isclose(initial_motor_temp_c, t)),
+                None)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -1,9 +1,4 @@
-"""``evaluate.py run``: one strategy on one cycle; a printed summary, JSON, a per-second trace CSV and a plot.
-
-Examples in :data:`EXAMPLES` (shown by ``evaluate.py run --help``). Unknown strategy, scenario or
-cycle: one line listing the valid values and exit status 2 (the errors are ``ValueError`` s,
-reported by ``evaluate.py``).
-"""
+"""``evaluate.py run``: one strategy on one cycle; a printed summary, JSON, a per-second trace CSV and a plot."""
 
 from __future__ import annotations
 
@@ -67,13 +62,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "lists the strategy's options")
 
 
-def _parse_value(text: str) -> Any:
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
-
 def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
     """The strategy's keyword options from the command line (checked)."""
     options: dict[str, Any] = {}
@@ -81,7 +69,10 @@ def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ValueError(f"--option {item!r}: expected KEY=VALUE")
-        options[key.strip()] = _parse_value(value)
+        try:  # the value as JSON when it parses, else the text
+            options[key.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            options[key.strip()] = value
     dp_flags = {"n_soc": args.dp_soc_points, "n_u": args.dp_actions, "on_infeasible": args.dp_on_infeasible,
                 "grid_scale": args.dp_grid_scale}
     given = {k: v for k, v in dp_flags.items() if v is not None}
@@ -95,17 +86,16 @@ def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError(f"--dp-grid-scale applies to dp_thermal only; {base} takes --dp-soc-points")
     if "grid_scale" in given and not given["grid_scale"] > 0:
         raise ValueError(f"--dp-grid-scale must be > 0, got {given['grid_scale']}")
-    for key in ("n_soc", "n_u"):
+    for key, flag in (("n_soc", "--dp-soc-points"), ("n_u", "--dp-actions")):
         if key in given and given[key] < 2:
-            raise ValueError(f"--dp-{'soc-points' if key == 'n_soc' else 'actions'} must be at least 2, "
-                             f"got {given[key]}")
+            raise ValueError(f"{flag} must be at least 2, got {given[key]}")
     options.update(given)
     return options
 
 
 def format_summary(summary: dict[str, Any]) -> str:
     """A readable block of the run's metrics."""
-    s = summary
+    s, ratio = summary, summary["net_energy_ratio"]
     rows = [
         ("distance", f"{s['distance_km']:.3f}", "km"),
         ("fuel", f"{s['fuel_g']:.1f}", "g"),
@@ -116,7 +106,7 @@ def format_summary(summary: dict[str, Any]) -> str:
         ("yardstick cost", f"{s['cost_g']:.1f}", "g (fuel + priced miss + overheat)"),
         ("SOC start -> end", f"{s['soc_initial']:.4f} -> {s['soc_final']:.4f}", f"(delta {s['delta_soc']:+.4f})"),
         ("J1711 charge-sustaining", "yes" if s["charge_sustaining"] else "no",
-         f"(net battery / fuel energy {_percent(s['net_energy_ratio'])})"),
+         f"(net battery / fuel energy {'n/a' if ratio is None else f'{100.0 * ratio:+.2f} %'})"),
         ("missed wheel energy", f"{s['missed_wheel_energy_kwh']:.3f}", "kWh"),
         ("max speed deficit", f"{s['trace_miss_max_mps']:.3f}", "m/s"),
         ("max motor temperature", f"{s['max_motor_temp_c']:.1f}", "degC"),
@@ -129,16 +119,11 @@ def format_summary(summary: dict[str, Any]) -> str:
     lines = [head, "-" * len(head)] + [f"  {name:<26}{value:>24}  {unit}" for name, value, unit in rows]
     settings = s.get("strategy_settings") or {}
     keys = ("grid", "n_u", "solve_s", "soc_band_used", "final_soc_feasible", "planned_cost_g", "max_states",
-            "equivalence_factor",
-            "s0", "kp", "ki")
+            "equivalence_factor", "s0", "kp", "ki")
     shown = {k: settings[k] for k in keys if k in settings}
     if shown:
         lines.append("  settings: " + ", ".join(f"{k}={_short(v)}" for k, v in shown.items()))
     return "\n".join(lines)
-
-
-def _percent(ratio: float | None) -> str:
-    return "n/a" if ratio is None else f"{100.0 * ratio:+.2f} %"
 
 
 def _short(v: Any) -> str:

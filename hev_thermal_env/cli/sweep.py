@@ -32,16 +32,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from hev_thermal_env.evaluation.executors import ExecutorError, import_ray
 
 from .errors import EXIT_INTERRUPTED, USER_ERRORS, run_program
 from .parsing import OneLineErrorParser, add_run_options, eval_cycles, refuse_settings_with_resume
-
-#: Options that describe a sweep (taken from ``sweep.yaml`` on --resume).
-SETTING_FLAGS = ("algo", "space", "samples", "seeds", "seed", "scheduler", "grace", "max_concurrent", "cycles",
-                 "scenario", "timesteps", "n_envs", "eval_cycles", "eval_scenarios", "eval_freq", "hp",
-                 "hyperparams", "out")
 
 
 def build_parser(prog: str) -> argparse.ArgumentParser:
@@ -67,7 +63,7 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace, command: str):
-    """Start or resume the sweep that ``args`` describe; returns its outcome and directory."""
+    """Start or resume the sweep that ``args`` describe; returns its report and directory."""
     import_ray()
     from hev_thermal_env.training import parse_overrides
     from hev_thermal_env.training.sweep import build_sweep, resume_sweep, run_sweep
@@ -76,7 +72,7 @@ def run(args: argparse.Namespace, command: str):
     if args.cpus is not None and args.cpus < 1:
         raise ValueError(f"--cpus must be at least 1, got {args.cpus}")
     if args.resume is not None:
-        refuse_settings_with_resume(args, SETTING_FLAGS, "sweep.yaml")
+        refuse_settings_with_resume(args, "sweep.yaml")
         return resume_sweep(args.resume, **common), args.resume
     if args.out is None:
         raise ValueError("--out DIR is required (or --resume DIR)")
@@ -92,29 +88,27 @@ def run(args: argparse.Namespace, command: str):
 
 def main(argv: list[str], prog: str = "train.py sweep", command: str | None = None) -> int:
     def body() -> int:
-        outcome, out = run(build_parser(prog).parse_args(argv), command or prog)
-        return report_outcome(outcome, out, prog)
+        report, out = run(build_parser(prog).parse_args(argv), command or prog)
+        return report_outcome(report, out, prog)
 
     return run_program(body, prog, (*USER_ERRORS, ExecutorError))
 
 
-def report_outcome(outcome, out: str, prog: str) -> int:
-    """Print the sweep's table and where its files are; returns the exit status."""
-    rep = outcome.report
-    md = next((p for p in rep.files if p.name == "sweep_configs.md"), None)
-    if md is not None:
-        print(md.read_text())
-    failed = sum(t.status == "error" for t in rep.trials)
+def report_outcome(report, out: str, prog: str) -> int:
+    """Print the sweep's table (a :class:`~hev_thermal_env.training.sweep_report.SweepReport`) and where its files
+    are; returns the exit status."""
+    print((Path(out) / "sweep_configs.md").read_text())
+    failed = sum(t.status == "error" for t in report.trials)
     if failed:
-        print(f"{failed} of {len(rep.trials)} trials failed; see error.txt in their folders under {out}/tune")
-    if not outcome.complete:
-        print(f"interrupted: {sum(t.status in ('finished', 'stopped') for t in rep.trials)} trials done; "
+        print(f"{failed} of {len(report.trials)} trials failed; see error.txt in their folders under {out}/tune")
+    if not report.complete:
+        print(f"interrupted: {sum(t.status in ('finished', 'stopped') for t in report.trials)} trials done; "
               f"continue with: {prog} --resume {out}", file=sys.stderr)
         return EXIT_INTERRUPTED
-    stopped = sum(t.status == "stopped" for t in rep.trials)
-    print(f"{len(rep.trials)} trials ({stopped} stopped early); tables and plot in {out} "
+    stopped = sum(t.status == "stopped" for t in report.trials)
+    print(f"{len(report.trials)} trials ({stopped} stopped early); tables and plot in {out} "
           f"(sweep_configs.md, sweep_trials.csv, sweep.png)")
-    if outcome.exported is not None:
-        print(f"best trial {rep.best.trial_id} exported to {outcome.exported}: "
-              f"evaluate.py run --strategy ppo:{outcome.exported}")
-    return 0 if rep.best is not None else 1
+    if report.exported is not None:
+        print(f"best trial {report.best.trial_id} exported to {report.exported}: "
+              f"evaluate.py run --strategy ppo:{report.exported}")
+    return 0 if report.best is not None else 1

@@ -1,11 +1,7 @@
 """Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus.
 
-The program behind ``train.py`` and the ``hev-train`` command, a thin layer over
-:mod:`hev_thermal_env.training`. ``--help`` shows the examples (:data:`EXAMPLES`), the notes
-(:data:`NOTES`: hyperparameters and ``--hp``, checkpoint selection, the run directory, Ctrl-C and
-``--resume``) and every default, the run settings taken from the algorithm's hyperparameter file
-(:data:`~hev_thermal_env.agents.HYPERPARAMS_DIR`). Errors in the input are reported in one line
-before anything is created. Torch runs on one thread (environment variable ``HEV_TORCH_THREADS``).
+The program behind ``train.py`` and ``hev-train``, a thin layer over :mod:`hev_thermal_env.training`;
+``--help`` shows the examples, the notes and every default (from the hyperparameter files).
 """
 
 from __future__ import annotations
@@ -29,10 +25,6 @@ from .parsing import (
 
 # The training room (torch, Stable-Baselines3) is imported inside the functions that need it, so that
 # a Ctrl-C while it loads is reported in one line like any other.
-
-SETTING_FLAGS = ("algo", "cycles", "scenario", "timesteps", "n_envs", "seed", "out", "hp", "hyperparams",
-                 "eval_cycles", "eval_scenarios", "eval_freq", "checkpoint_freq")
-
 
 EXAMPLES = (
     "python train.py --algo ppo --cycles bus_long bus_congested bus_mixed --scenario random_service \\",
@@ -66,8 +58,7 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
                            epilog=examples(EXAMPLES) + "\n\n" + NOTES)
     d = add_run_options(p)
-    p.add_argument("--seed", type=int, default=None, help="seed of the model and the environments, 0 or more "
-                                                          "(default: 0)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the model and environments, 0 or more (default: 0)")
     p.add_argument("--out", default=None, metavar="DIR", help="run directory, new or empty (required unless --resume)")
     p.add_argument("--checkpoint-freq", type=int, default=None, metavar="N",
                    help=f"checkpoint every N env-steps; {per_algo(d, 'checkpoint_freq')}")
@@ -89,7 +80,7 @@ def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
 
     progress, verbose = not args.no_progress, 0 if args.quiet else 1
     if args.resume is not None:
-        refuse_settings_with_resume(args, SETTING_FLAGS, "config.yaml")
+        refuse_settings_with_resume(args, "config.yaml")
         return resume(args.resume, progress=progress, verbose=verbose, command=command), args.resume
     if args.out is None:
         raise ValueError("--out DIR is required (or --resume DIR)")

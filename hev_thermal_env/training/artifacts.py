@@ -1,18 +1,10 @@
-"""The files of a training run: the run directory, writing models and the evaluation table.
+"""The files of a run directory (docs/training.md lists them): writing models and ``evaluations.csv``.
 
-A run directory (rl-baselines3-zoo-like; written by :func:`hev_thermal_env.training.loop.train`)::
-
-    DIR/model.zip, DIR/vecnormalize.pkl            final model and its observation/reward statistics
-    DIR/best_model.zip, DIR/best_vecnormalize.pkl  best model on the evaluation cycles, with its statistics
-    DIR/config.yaml, DIR/command.txt               the full config (incl. versions) and the command(s)
-    DIR/checkpoints/ckpt_N_steps.zip (+ _vecnormalize.pkl, + _replay_buffer.pkl for SAC)
-    DIR/evaluations.csv, DIR/training_curve.png    periodic deterministic evaluation, and its plot
-    DIR/validation.csv                             best and final model on the full validation set
-    DIR/tb/                                        TensorBoard logs
-
-Models and statistics are written atomically, statistics first and the model last, so a present
-model zip means a complete pair (:func:`save_model_and_stats`). Where a policy's files are and how
-they are read (``load_policy``) is the policy format of :mod:`hev_thermal_env.agents.policy_files`.
+Besides ``model.zip``, ``best_model.zip`` (each with its ``*vecnormalize.pkl``), ``config.yaml``,
+``command.txt``, ``evaluations.csv``, ``validation.csv``, ``training_curve.png`` and ``tb/``, a run holds
+``checkpoints/ckpt_N_steps.zip`` (+ ``_vecnormalize.pkl``, + ``_replay_buffer.pkl`` for SAC; the policy
+format of :mod:`hev_thermal_env.agents.policy_files`). Models and statistics are written atomically,
+statistics first and the model last, so a present model zip means a complete pair.
 """
 
 from __future__ import annotations
@@ -20,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import pickle
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,11 +20,8 @@ from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
 
 EVAL_COLUMNS = ("timesteps", "wall_s", "cycle", "scenario", "return_g", "fuel_corrected_l_per_100km", "delta_soc",
                 "cutoff_s", "trace_miss_max_mps", "fuel_ratio", "mean_return_g", "score", "qualified", "best")
-#: Columns of ``DIR/evaluations.csv`` that older runs lack, and the value they read as.
-_LATER_COLUMNS = {"fuel_ratio": "nan", "qualified": "1"}
+_FLAGS = ("qualified", "best")
 
-
-# --- writing models and evaluations -------------------------------------------------------------------
 
 def model_bytes(model, exclude_optimizer_state: bool = False) -> bytes:
     """The SB3 zip of ``model`` as bytes (optionally with a fresh optimizer state: a smaller file)."""
@@ -63,24 +53,17 @@ def read_evaluations(path: Path) -> list[dict[str, Any]]:
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     for r in rows:
-        for k, default in _LATER_COLUMNS.items():
-            if r.get(k) in (None, ""):
-                r[k] = default
-        if r.get("score") in (None, ""):
-            r["score"] = str(-float(r["mean_return_g"]))  # older runs selected on the mean return
-        r["timesteps"] = int(float(r["timesteps"]))
-        for k in ("wall_s", "return_g", "fuel_corrected_l_per_100km", "delta_soc", "cutoff_s", "trace_miss_max_mps",
-                  "fuel_ratio", "mean_return_g", "score"):
-            r[k] = float(r[k])
-        for k in ("best", "qualified"):
-            r[k] = str(r[k]).lower() in ("1", "true")
+        r.update({k: float(r[k]) for k in EVAL_COLUMNS if k not in ("timesteps", "cycle", "scenario", *_FLAGS)})
+        r.update({k: r[k] == "1" for k in _FLAGS}, timesteps=int(float(r["timesteps"])))
     return rows
 
 
 def write_evaluations(path: Path, rows: list[dict[str, Any]]) -> None:
+    write_csv(path, EVAL_COLUMNS, [[int(r[k]) if k in _FLAGS else r[k] for k in EVAL_COLUMNS] for r in rows])
+
+
+def write_csv(path: Path, head: Sequence[str], rows: Sequence[Sequence[Any]]) -> Path:
+    """A CSV file of ``rows`` under the header ``head``, written atomically."""
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=EVAL_COLUMNS, lineterminator="\n")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (int(r[k]) if k in ("best", "qualified") else r[k]) for k in EVAL_COLUMNS})
-    atomic_write_text(path, buf.getvalue())
+    csv.writer(buf, lineterminator="\n").writerows([head, *rows])
+    return atomic_write_text(path, buf.getvalue())

@@ -11,7 +11,7 @@ import contextlib
 import math
 import signal
 import threading
-from typing import Any, Protocol
+from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 
@@ -26,37 +26,26 @@ class TrainingInterrupted(KeyboardInterrupt):
         self.exit_code = exit_code
 
 
-class RunHooks(Protocol):
-    """What :class:`RunCallback` needs from the training session."""
-
-    checkpoint_freq: int
-    eval_freq: int
-
-    def evaluate(self, model: Any, logger: Any = None) -> Any: ...
-
-    def checkpoint(self, model: Any) -> Any: ...
-
-
 class RunCallback(BaseCallback):
     """Checkpoints, evaluation with best-model keeping, and stopping on a signal, in one callback.
 
     Checkpoints and evaluations happen at the start of a rollout, once ``model.num_timesteps``
     has crossed their next multiple of the frequency (in env-steps, so they hold across resumes):
     then every step counted has been trained on. A stop discards the partial rollout and sets the
-    count back to its start, so a resumed run ends where an uninterrupted one would.
+    count back to its start, so a resumed run ends where an uninterrupted one would. ``run`` is the
+    :class:`~hev_thermal_env.training.loop.TrainingRun` (its ``evaluate``, ``checkpoint`` and frequencies).
     """
 
-    def __init__(self, run: RunHooks):
+    def __init__(self, run: Any):
         super().__init__()
         self.run = run
         self.stop_signal: int | None = None
         self.rollout_start = 0
 
     def _init_callback(self) -> None:
-        r = self.run
-        self.rollout_start = int(self.model.num_timesteps)
-        self.next_ckpt = _next_multiple(self.model.num_timesteps, r.checkpoint_freq)
-        self.next_eval = _next_multiple(self.model.num_timesteps, r.eval_freq) if r.eval_freq else math.inf
+        n, r = int(self.model.num_timesteps), self.run
+        self.rollout_start, self.next_ckpt = n, _next_multiple(n, r.checkpoint_freq)
+        self.next_eval = _next_multiple(n, r.eval_freq) if r.eval_freq else math.inf
 
     def _on_rollout_start(self) -> None:
         n = int(self.model.num_timesteps)

@@ -1,14 +1,11 @@
 """The config of a training run: one plain dict, saved as ``DIR/config.yaml``.
 
-:func:`build_config` makes it from the algorithm's hyperparameter file
-(:func:`~hev_thermal_env.training.hyperparams.load_hyperparams`), the ``--hp`` overrides
-(:mod:`~hev_thermal_env.training.overrides`) and the command-line settings, and checks all of it
-(:func:`validate_config`) before anything is created: unknown names, wrong types and impossible
-numbers are one-line ``ValueError`` s. Sections: ``algo``, ``seed``, ``total_timesteps``,
-``n_envs``, ``vec``, ``env`` (the training env's settings), ``normalize`` (``VecNormalize``),
-``init`` (the policy's starting point: :mod:`~hev_thermal_env.training.imitation`),
-``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``command``, ``created``,
-``versions``, and after training ``result``.
+:func:`build_config` makes it from the hyperparameter file (:mod:`.hyperparams`), the ``--hp``
+overrides (:mod:`.overrides`) and the command-line settings, and :func:`validate_config` checks all of
+it before anything is created (one-line ``ValueError`` s). Sections: ``algo``, ``seed``,
+``total_timesteps``, ``n_envs``, ``env`` (the training env), ``normalize`` (``VecNormalize``), ``init``
+(:mod:`.imitation`), ``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``command``,
+``created``, ``versions``, and after training ``result``.
 """
 
 from __future__ import annotations

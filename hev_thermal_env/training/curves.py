@@ -1,19 +1,12 @@
-"""``DIR/training_curve.png``: the training return and the evaluation during training, against env-steps.
+"""``DIR/training_curve.png``: three panels over env-steps.
 
-Three panels share the env-step axis:
+* training: SB3's ``rollout/ep_rew_mean`` (mean raw return of the last 100 episodes, from the run's
+  TensorBoard logs) and the mean episode length (random starts make it vary);
+* evaluation return per cycle and scenario, and their mean;
+* evaluation fuel in % of the selection's reference (:mod:`.selection`) per run, the score (their mean)
+  in black, disqualified evaluations crossed, ``best_model.zip`` starred with the rule in the legend.
 
-* training: the mean return of the last 100 training episodes (SB3's ``rollout/ep_rew_mean``,
-  read from the run's TensorBoard logs; raw rewards in grams, before normalisation), with the mean
-  episode length beside it (episodes start at random points of their cycle, so their length, and
-  with it the return, varies);
-* evaluation return: per evaluation cycle and scenario, and their mean;
-* evaluation fuel: corrected fuel per evaluation cycle and scenario in % of the selection's reference
-  on the same run (``fuel_vs_ecms``: ECMS) with the selection score, their mean, in black, and the
-  evaluations disqualified by their SOC marked.
-
-``best_model.zip`` is starred on the fuel panel, the metric the run selects on (:mod:`.selection`, the
-config's ``eval.selection``), and the legend states the rule. A dotted vertical line marks the selected
-evaluation on every panel.
+A dotted vertical line marks the selected evaluation on every panel.
 """
 
 from __future__ import annotations
@@ -24,12 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.evaluation.styles import close, figure_title, legend_outside, pyplot
-from hev_thermal_env.io import save_png
+from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
 from .artifacts import read_evaluations
 from .config import load_run_config
-from .selection import Scorer, get_scorer
+from .selection import Scorer, get_scorer, run_key
 
 RETURN_TAG, LENGTH_TAG = "rollout/ep_rew_mean", "rollout/ep_len_mean"
 
@@ -67,14 +59,8 @@ def selected_step(rows: list[dict[str, Any]]) -> int | None:
 def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]]]:
     series: dict[str, dict[int, dict[str, Any]]] = {}
     for r in rows:  # a resumed run may evaluate the same step twice: the later row wins
-        series.setdefault(f"{r['cycle']} / {r['scenario']}", {})[r["timesteps"]] = r
+        series.setdefault(run_key(r["cycle"], r["scenario"]), {})[r["timesteps"]] = r
     return series
-
-
-def _display(by_step: dict[int, dict[str, Any]]) -> str:
-    """``cycle / scenario`` of a series, a cycle given as a CSV path shortened to its file name."""
-    r = next(iter(by_step.values()))
-    return f"{Path(str(r['cycle'])).name} / {r['scenario']}"
 
 
 def training_curve_figure(run_dir: str | Path):
@@ -130,8 +116,9 @@ def _return_panel(ax, rows: list[dict[str, Any]]) -> list:
     handles = []
     for k, by_step in enumerate(_by_series(rows).values()):
         steps = sorted(by_step)
+        r = by_step[steps[0]]  # a cycle given as a CSV path is named by its file name
         handles += ax.plot(steps, [by_step[s]["return_g"] for s in steps], color=f"C{k % 10}", lw=1.0, marker=".",
-                           label=f"evaluation: {_display(by_step)}")
+                           label=f"evaluation: {Path(str(r['cycle'])).name} / {r['scenario']}")
     mean = {r["timesteps"]: r["mean_return_g"] for r in rows}
     steps = sorted(mean)
     handles += ax.plot(steps, [mean[s] for s in steps], color="k", lw=2.0, label="mean evaluation return")
@@ -174,8 +161,4 @@ def _selection_panel(ax, rows: list[dict[str, Any]], best: int, scorer: Scorer) 
 
 def plot_training_curve(run_dir: str | Path) -> Path:
     """Write ``DIR/training_curve.png`` (:func:`training_curve_figure`); returns its path."""
-    fig = training_curve_figure(run_dir)
-    try:
-        return save_png(fig, Path(run_dir) / "training_curve.png")
-    finally:
-        close(fig)
+    return save_fig(training_curve_figure(run_dir), Path(run_dir) / "training_curve.png")

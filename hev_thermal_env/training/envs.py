@@ -1,9 +1,6 @@
-"""The training environments: the vector env of a run config, timed, and its ``VecNormalize``.
-
-The native batched vector env through its SB3 adapter (:class:`hev_thermal_env.wrappers.Sb3VecEnv`).
-The time spent inside the environment is measured (:class:`TimedVecEnv`) and reported as a share of
-training.
-"""
+"""The training environments: the native vector env of a run config through its SB3 adapter
+(:class:`~hev_thermal_env.wrappers.sb3.Sb3VecEnv`), timed (:class:`TimedVecEnv`: the env's share of
+training is reported), and its ``VecNormalize``."""
 
 from __future__ import annotations
 
@@ -31,22 +28,21 @@ class TimedVecEnv(VecEnvWrapper):
         super().__init__(venv)
         self.seconds = 0.0
 
-    def reset(self):
+    def _timed(self, method, *args):
         t = time.perf_counter()
-        obs = self.venv.reset()
-        self.seconds += time.perf_counter() - t
-        return obs
+        try:
+            return method(*args)
+        finally:
+            self.seconds += time.perf_counter() - t
+
+    def reset(self):
+        return self._timed(self.venv.reset)
 
     def step_async(self, actions):
-        t = time.perf_counter()
-        self.venv.step_async(actions)
-        self.seconds += time.perf_counter() - t
+        self._timed(self.venv.step_async, actions)
 
     def step_wait(self):
-        t = time.perf_counter()
-        result = self.venv.step_wait()
-        self.seconds += time.perf_counter() - t
-        return result
+        return self._timed(self.venv.step_wait)
 
 
 def make_vec_env(config: dict[str, Any]) -> tuple[VecMonitor, TimedVecEnv]:

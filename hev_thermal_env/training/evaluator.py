@@ -17,17 +17,14 @@ from .envs import env_kwargs
 #: The per-step info fields the metrics need.
 TRACE_KEYS = ("fuel_g", "battery_chem_power_w", "missed_wheel_energy_j", "soc", "motor_temp_c", "heat_index",
               "motor_cutoff", "trace_miss_mps", "engine_on")
+#: The metrics of each evaluation run.
+METRIC_KEYS = ("fuel_corrected_l_per_100km", "delta_soc", "cutoff_s", "trace_miss_max_mps")
 
 
 class PolicyEvaluator:
-    """Deterministic runs of a policy over fixed cycles × scenarios, every cycle of a scenario in one batch.
-
-    Each (cycle, scenario) runs from the cycle's start with the scenario's conditions (random
-    scenarios draw them from ``seed``), in a :class:`~hev_thermal_env.envs.HevThermalVectorEnv`
-    built with the run's env settings (preview, reward, thermal model). Cycle sets (``validation_bus``,
-    ``validation_bus:0..4``) are expanded into their cycles. The metrics are those of
-    :func:`hev_thermal_env.evaluation.runner.run_strategy`
-    (:func:`hev_thermal_env.metrics.run_metrics`).
+    """Deterministic runs of a policy over fixed cycles (sets expanded) × scenarios, all cycles of a scenario in one
+    :class:`~hev_thermal_env.envs.HevThermalVectorEnv` with the run's env settings, from the cycle's start (random
+    scenarios draw from ``seed``); the metrics are ``run_strategy``'s (:func:`hev_thermal_env.metrics.run_metrics`).
     """
 
     def __init__(self, env_cfg: dict[str, Any], cycles: Sequence[str], scenarios: Sequence[str], seed: int = 0):
@@ -44,15 +41,13 @@ class PolicyEvaluator:
     def run_scenario(self, act: Callable[[np.ndarray], np.ndarray], scenario: str) -> list[dict[str, Any]]:
         """Every cycle in ``scenario``, in one batched env."""
         kwargs = env_kwargs({**self.env_cfg, "scenario": scenario}, for_eval=True)
-        kwargs["cycle"] = self.cycles
         n = len(self.cycles)
-        venv = HevThermalVectorEnv(n, **kwargs)
+        venv = HevThermalVectorEnv(n, **{**kwargs, "cycle": self.cycles})
         obs, _ = venv.reset(seed=self.seed, options=[{"cycle": c} for c in self.cycles])
         soc0 = venv.phys_state[:, C.SOC].copy()
         lengths = np.array([c.n_steps for c in self.cycles])
         horizon = int(lengths.max())
-        traces = {k: np.zeros((horizon, n)) for k in TRACE_KEYS}
-        returns = np.zeros(n)
+        traces, returns = {k: np.zeros((horizon, n)) for k in TRACE_KEYS}, np.zeros(n)
         for t in range(horizon):
             obs, reward, _, _, info = venv.step(act(obs))
             returns += np.where(t < lengths, reward, 0.0)
@@ -61,11 +56,9 @@ class PolicyEvaluator:
         results = []
         for i, (name, cyc) in enumerate(zip(self.cycle_names, self.cycles)):
             m = int(lengths[i])
-            trace = {k: traces[k][:m, i] for k in TRACE_KEYS}
-            s = run_metrics(trace, venv.config, float(soc0[i]), cyc.speed_mps, 0, m, venv.core.dt_s)
+            s = run_metrics({k: traces[k][:m, i] for k in TRACE_KEYS}, venv.config, float(soc0[i]), cyc.speed_mps, 0,
+                            m, venv.core.dt_s)
             results.append({"cycle": name, "scenario": scenario, "return_g": float(returns[i]),
-                            "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
-                            "delta_soc": s["delta_soc"], "cutoff_s": s["cutoff_s"],
-                            "trace_miss_max_mps": s["trace_miss_max_mps"]})
+                            **{k: s[k] for k in METRIC_KEYS}})
         venv.close()
         return results

@@ -1,11 +1,8 @@
-"""The algorithms and their hyperparameters: the files in ``agents/hyperparams/``, the SB3 constructor
-arguments built from them, and their checks (names and value types, before any work).
-
-A hyperparameter file holds run settings (:data:`RUN_KEYS`) and the arguments of the SB3
-constructor (``PPO`` or ``SAC``): any key the constructor takes, except those the training sets
-itself (:data:`MANAGED_KEYS`). Unknown keys, keys inside ``policy_kwargs`` that the policy does not
-take and values of the wrong type are refused in one line naming the key, with the closest valid
-key when there is one.
+"""The algorithms' hyperparameter files (``agents/hyperparams/``), the SB3 constructor arguments built from
+them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argument of the ``PPO`` or
+``SAC`` constructor the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys (also inside
+``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
+valid one.
 """
 
 from __future__ import annotations
@@ -77,14 +74,10 @@ def check_known(what: str, keys: Iterable[Any], valid: Iterable[str]) -> None:
         raise ValueError(f"unknown {what} {unknown[0]!r} ({hint})")
 
 
-def _parameters(func) -> dict[str, inspect.Parameter]:
-    return dict(inspect.signature(func).parameters)
-
-
 def check_hyperparams(algo: str, hp: dict[str, Any]) -> None:
     """Names and value types of the ``hyperparams`` of a run config; one-line ValueError on the first problem."""
     cls = algorithm_class(algo)
-    params = {k: p for k, p in _parameters(cls.__init__).items() if k not in MANAGED_KEYS}
+    params = {k: p for k, p in inspect.signature(cls.__init__).parameters.items() if k not in MANAGED_KEYS}
     managed = sorted(k for k in hp if k in MANAGED_KEYS and k not in RUN_KEYS)
     if managed:
         hint = " (use --seed)" if managed[0] == "seed" else ""
@@ -93,7 +86,7 @@ def check_hyperparams(algo: str, hp: dict[str, Any]) -> None:
     policy = hp.get("policy", "MlpPolicy")
     if policy not in cls.policy_aliases:
         raise ValueError(f"unknown policy {policy!r}; known policies: {', '.join(cls.policy_aliases)}")
-    policy_params = set(_parameters(cls.policy_aliases[policy].__init__))
+    policy_params = set(inspect.signature(cls.policy_aliases[policy].__init__).parameters)
     policy_params -= {"self", "observation_space", "action_space", "lr_schedule"}
     policy_kwargs = hp.get("policy_kwargs") or {}
     if not isinstance(policy_kwargs, dict):

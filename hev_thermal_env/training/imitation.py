@@ -1,27 +1,11 @@
 """A new PPO run's starting point: the policy imitates a classic strategy (behaviour cloning), then PPO learns.
 
-Why. The best split in most city seconds is at the action's bound: u = 1 drives on the motor alone
-and lets the engine stop (ECMS picks it in about a third of the driving seconds on ``beijing``).
-Any u below 1 keeps the engine running, and the reward is nearly flat between u = 0 and u = 0.99,
-so a Gaussian policy started at u ≈ 0 with a small spread almost never samples the bound and learns
-a local optimum with the engine always on (3-5 % above the optimum on city cycles). Starting from a
-policy that already drives like the teacher puts the bound within the policy's reach; PPO then
-optimises the env's reward from there, and the learned policy is judged on its own.
-
-How (:func:`imitate`):
-
-1. the teacher (``init.imitate``, default ``ecms_thermal``) drives ``init.episodes`` episodes of the
-   training env itself: the training cycle families and scenario, never an evaluation cycle; the
-   observations and the teacher's actions are kept (:func:`demonstrations`);
-2. the ``VecNormalize`` observation statistics start from the demonstrations' mean and variance (and
-   keep being updated by training, as always);
-3. the policy's mean action is fitted to the teacher's actions (mean squared error, Adam, 1,024 per
-   batch, ``init.epochs`` passes). A teacher action at the upper bound (the engine off) is fitted at
-   1 + ``init.beyond_bound``: actions are clipped to the bound before the env sees them, so the
-   deterministic policy reaches the bound only if its mean lies beyond it.
-
-The value function is not pretrained. Set ``init.imitate: null`` (``--hp init.imitate=null``) to
-start PPO from scratch.
+:func:`imitate`: the teacher (``init.imitate``) drives ``init.episodes`` episodes of the training env
+(:func:`demonstrations`), the ``VecNormalize`` observation statistics start from them, and the policy's
+mean action is fitted to the teacher's (MSE, Adam, ``init.epochs`` passes), at 1 + ``init.beyond_bound``
+where the teacher sits at the upper bound: actions are clipped, so the deterministic policy reaches the
+bound only if its mean lies beyond it. The value function is not pretrained; ``init.imitate: null``
+starts from scratch. Why (the engine-off bound a fresh policy never samples): docs/training.md.
 """
 
 from __future__ import annotations
@@ -32,6 +16,13 @@ from typing import Any
 
 import numpy as np
 import torch
+from stable_baselines3.common.vec_env import VecNormalize
+from tqdm.auto import tqdm
+
+from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.envs import HevThermalEnv
+
+from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25}
@@ -41,11 +32,7 @@ LEARNING_RATE = 1e-3
 
 def check_init(init: dict[str, Any], algo: str) -> dict[str, Any]:
     """The ``init`` section completed with its defaults; one-line errors for unknown keys and bad values."""
-    from hev_thermal_env.agents import list_strategies
-
-    unknown = sorted(set(init) - set(INIT_DEFAULTS))
-    if unknown:
-        raise ValueError(f"unknown init setting(s) {', '.join(unknown)}; known: {', '.join(INIT_DEFAULTS)}")
+    check_known("init setting", init, INIT_DEFAULTS)
     out = {**INIT_DEFAULTS, **init}
     teacher = out["imitate"]
     if teacher is None:
@@ -73,9 +60,6 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed
     Episode ``i`` is reset with seed ``seed · 1,000,003 + i`` (a fresh cycle of a training family and
     fresh conditions of the training scenario) and driven from its first second.
     """
-    from hev_thermal_env.agents import get_strategy
-    from hev_thermal_env.envs import HevThermalEnv
-
     env = HevThermalEnv(**{**env_kwargs, "random_start": False})
     strategy = get_strategy(teacher)
     obs_rows: list[np.ndarray] = []
@@ -127,20 +111,9 @@ def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs
 def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, *,
             progress: bool = True) -> dict[str, Any]:
     """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config."""
-    from stable_baselines3.common.vec_env import VecNormalize
-
     t0 = time.perf_counter()
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode")
-    try:
-        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed,
-                                      bar.update if bar is not None else None)
-    finally:
-        if bar is not None:
-            bar.close()
+    with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
+        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update)
     demo_s = time.perf_counter() - t0
     x = obs
     if isinstance(venv, VecNormalize) and venv.norm_obs:

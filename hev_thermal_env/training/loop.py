@@ -2,19 +2,14 @@
 
 A session builds the environment (:mod:`.envs`) and the model, then learns with one callback
 (:mod:`.callbacks`) that checkpoints, evaluates (:mod:`.evaluator`, best model kept) and stops on
-SIGINT/SIGTERM; the files are those of :mod:`.artifacts`. A new run checks its whole config and
-its directory, builds the environment and the model, and only then creates the directory: a run
-that cannot start leaves nothing behind.
-
-Checkpoints and evaluations happen at the start of a rollout, when every step counted has been
-trained on; checkpoints are written atomically (statistics first, model last), so after a
-``kill -9`` the latest complete checkpoint is intact. :func:`resume` continues from it (model,
-statistics, timesteps done; for SAC the replay buffer) up to the original total.
+SIGINT/SIGTERM, writing the files of :mod:`.artifacts`. A new run creates its directory only once
+the config, the environment and the model are built: a run that cannot start leaves nothing behind.
+Checkpoints are atomic, so after a ``kill -9`` the latest one is intact; :func:`resume` continues
+from it (model, statistics, timesteps done; for SAC the replay buffer) up to the original total.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import os
 import signal
@@ -45,24 +40,13 @@ from .envs import env_kwargs, make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .imitation import imitate
-from .selection import best_row_score, compute_references, get_scorer, is_better
+from .selection import compute_references, get_scorer, is_better
 from .validation_report import final_validation
 
 
-@dataclasses.dataclass
-class Session:
-    """What a session trains: the raw vector env (and its timer), the wrapped one, the model, the checkpoint
-    it starts from."""
-
-    raw: Any
-    timed: Any
-    venv: Any
-    model: Any
-    resume_from: tuple[int, Path, Path] | None
-
-
 class TrainingRun:
-    """One training session of a run directory: builds env and model, trains, saves (see :func:`train`)."""
+    """One training session of a run directory: :meth:`prepare` builds the env and the model, :meth:`execute`
+    trains and saves (see :func:`train`)."""
 
     def __init__(self, config: dict[str, Any], out_dir: Path, *, progress: bool = True, verbose: int = 1,
                  log: Callable[[str], None] | None = None):
@@ -75,7 +59,7 @@ class TrainingRun:
         self.eval_freq = int(config["eval"]["freq"])
         self.eval_rows = read_evaluations(self.out / "evaluations.csv")
         self.scorer = get_scorer(config["eval"]["selection"])
-        self.best_score = best_row_score(self.eval_rows)
+        self.best_score = min((r["score"] for r in self.eval_rows if np.isfinite(r["score"])), default=None)
         self.eval_seconds = 0.0
         self.session_start = time.perf_counter()
         self.wall_before = float((config.get("result") or {}).get("wall_s", 0.0))
@@ -84,12 +68,6 @@ class TrainingRun:
             self.evaluator = PolicyEvaluator(config["env"], config["eval"]["cycles"], config["eval"]["scenarios"],
                                              seed=int(config["seed"]))
 
-    # -- pieces ----------------------------------------------------------------------------------------
-
-    @property
-    def ckpt_dir(self) -> Path:
-        return self.out / CHECKPOINTS
-
     def checkpoint(self, model) -> Path:
         n = int(model.num_timesteps)
         zip_path, stats_path, replay_path = checkpoint_paths(self.out, n)
@@ -97,7 +75,7 @@ class TrainingRun:
             buf = io.BytesIO()
             model.save_replay_buffer(buf)
             atomic_write_bytes(replay_path, buf.getvalue())
-            for old in self.ckpt_dir.glob("ckpt_*_steps_replay_buffer.pkl"):  # keep only the newest buffer
+            for old in (self.out / CHECKPOINTS).glob("ckpt_*_steps_replay_buffer.pkl"):  # keep only the newest buffer
                 if old != replay_path:
                     old.unlink(missing_ok=True)
         save_model_and_stats(model, model.get_vec_normalize_env(), zip_path, stats_path)
@@ -112,8 +90,7 @@ class TrainingRun:
         if self.evaluator is None:
             return []
         t = time.perf_counter()
-        stats = model.get_vec_normalize_env()
-        results = self.evaluator.run(LoadedPolicy(model, stats).act)
+        results = self.evaluator.run(LoadedPolicy(model, model.get_vec_normalize_env()).act)
         self.eval_seconds += time.perf_counter() - t
         mean_return = float(np.mean([r["return_g"] for r in results]))
         score = self.scorer.score(results, self.references())
@@ -141,16 +118,14 @@ class TrainingRun:
                      f"mean return {mean_return:.1f} g, max |dSOC| {worst:.3f} over {len(results)} runs")
         return results
 
-    def references(self) -> dict[str, float]:
-        """The scorer's reference on the evaluation runs, computed once per run and kept in the config."""
+    def references(self, cycles: list[str] | None = None) -> dict[str, float]:
+        """The scorer's reference on ``cycles`` (the evaluation's) × the evaluation scenarios, each computed once
+        per run and kept in the config."""
         res = self.config.setdefault("result", {})
-        known = res.get("selection_reference") or {}
-        ev = self.config["eval"]
-        ref = compute_references(self.scorer, self.evaluator.cycle_names if self.evaluator else [], ev["scenarios"],
-                                 known)
-        if ref != known:
-            res["selection_reference"] = ref
-        return ref
+        cycles = self.evaluator.cycle_names if cycles is None else cycles
+        res["selection_reference"] = compute_references(self.scorer, cycles, self.config["eval"]["scenarios"],
+                                                        res.get("selection_reference"))
+        return res["selection_reference"]
 
     def make_model(self, venv, resume_from: tuple[int, Path, Path] | None):
         cfg = self.config
@@ -177,9 +152,7 @@ class TrainingRun:
             model.load_replay_buffer(replay)
         return model
 
-    # -- the session -----------------------------------------------------------------------------------
-
-    def prepare(self, resume_from: tuple[int, Path, Path] | None = None) -> Session:
+    def prepare(self, resume_from: tuple[int, Path, Path] | None = None) -> None:
         """The selection's references, the environment and the model; writes nothing."""
         cfg = self.config
         normalized = cfg["normalize"] is not False
@@ -187,35 +160,36 @@ class TrainingRun:
             raise FileNotFoundError(f"{resume_from[2]} not found: the checkpoint has no normalisation statistics")
         if self.evaluator is not None:
             self.references()
-        raw, timed = make_vec_env(cfg)
-        venv = wrap_normalize(raw, cfg, resume_from[2] if resume_from and normalized else None)
-        model = self.make_model(venv, resume_from)
+        self.raw, self.timed = make_vec_env(cfg)
+        self.venv = wrap_normalize(self.raw, cfg, resume_from[2] if resume_from and normalized else None)
+        self.model = self.make_model(self.venv, resume_from)
+        self.resume_from = resume_from
         init = cfg.get("init") or {}
         if resume_from is None and init.get("imitate"):
-            rec = imitate(model, venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]), progress=self.progress)
+            rec = imitate(self.model, self.venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]),
+                          progress=self.progress)
             cfg.setdefault("result", {})["imitation"] = rec
             self.log(f"imitation of {rec['teacher']}: {rec['steps']} steps of {rec['episodes']} episodes, policy "
                      f"mean fitted (MSE {rec['mse_first']} -> {rec['mse_last']}) in {rec['wall_s']} s")
-        return Session(raw, timed, venv, model, resume_from)
 
-    def execute(self, session: Session) -> dict[str, Any]:
+    def execute(self) -> dict[str, Any]:
         """Learn up to the total, then save the final model and its evaluation; returns the ``result`` section."""
-        cfg, model = self.config, session.model
-        self.ckpt_dir.mkdir(parents=True, exist_ok=True)
-        session.venv.seed(int(cfg["seed"]) + int(model.num_timesteps))
+        cfg, model = self.config, self.model
+        (self.out / CHECKPOINTS).mkdir(parents=True, exist_ok=True)
+        self.venv.seed(int(cfg["seed"]) + int(model.num_timesteps))
         done_before = int(model.num_timesteps)
         remaining = int(cfg["total_timesteps"]) - done_before
         callback = RunCallback(self)
         t0 = time.perf_counter()
         if remaining > 0:
             with stop_on_signals(callback):
-                model.learn(remaining, callback=callback, reset_num_timesteps=session.resume_from is None,
+                model.learn(remaining, callback=callback, reset_num_timesteps=self.resume_from is None,
                             tb_log_name=cfg["algo"].upper(), progress_bar=self.progress)
-        result = self.session_summary(model, done_before, time.perf_counter() - t0, session.timed.seconds)
+        result = self.session_summary(model, done_before, time.perf_counter() - t0, self.timed.seconds)
         if callback.stop_signal is not None:
             path = self.checkpoint(model)
             self.record_session(result, finished=False)
-            session.raw.close()
+            self.raw.close()
             name = signal.Signals(callback.stop_signal).name
             raise TrainingInterrupted(f"training stopped by {name} at {model.num_timesteps} of "
                                       f"{cfg['total_timesteps']} timesteps; checkpoint {path}; continue with: "
@@ -230,28 +204,22 @@ class TrainingRun:
         if self.evaluator is not None and self.config["eval"].get("final_cycles"):
             final_validation(self)
         self.record_session(result, finished=True)
-        session.raw.close()
+        self.raw.close()
         plot_training_curve(self.out)
         return self.config["result"]
 
     def session_summary(self, model, done_before: int, train_s: float, env_s: float) -> dict[str, Any]:
         steps = int(model.num_timesteps) - done_before
-        return {
-            "timesteps_done": int(model.num_timesteps),
-            "session_wall_s": round(train_s, 2),
-            "session_timesteps": steps,
-            "steps_per_s": round(steps / train_s, 1) if train_s > 0 else None,
-            "env_s": round(env_s, 2),
-            "eval_s": round(self.eval_seconds, 2),
-            # share of the training loop (evaluation excluded) spent stepping the env
-            "env_share": round(env_s / (train_s - self.eval_seconds), 4) if train_s > self.eval_seconds else None,
-        }
+        loop_s = train_s - self.eval_seconds  # the training loop, evaluation excluded
+        return {"timesteps_done": int(model.num_timesteps), "session_wall_s": round(train_s, 2),
+                "session_timesteps": steps, "steps_per_s": round(steps / train_s, 1) if train_s > 0 else None,
+                "env_s": round(env_s, 2), "eval_s": round(self.eval_seconds, 2),
+                "env_share": round(env_s / loop_s, 4) if loop_s > 0 else None}
 
     def record_session(self, session: dict[str, Any], finished: bool) -> None:
         cfg = self.config
         res = dict(cfg.get("result") or {})
-        sessions = list(res.get("sessions") or [])
-        sessions.append(session)
+        sessions = [*(res.get("sessions") or []), session]
         wall = sum(s["session_wall_s"] for s in sessions)
         res.update(finished=finished, timesteps_done=session["timesteps_done"], wall_s=round(wall, 2),
                    sessions=sessions, env_share=session["env_share"], steps_per_s=session["steps_per_s"])
@@ -281,22 +249,18 @@ def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "conf
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
           overwrite: bool = False, log: Callable[[str], None] | None = None,
           run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
-    """Train a new run into ``out_dir``; returns the ``result`` section of its config.
-
-    ``out_dir`` must not hold a run already (unless ``overwrite``): continue one with :func:`resume`.
-    The config and the directory are checked, and the environment and model built, before the
-    directory is created. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped
-    by a signal. ``run_class`` (a :class:`TrainingRun`) is what runs the session (a sweep's trial
-    reports its evaluations to Ray Tune through its own).
+    """Train a new run into ``out_dir`` (new or empty unless ``overwrite``); returns the ``result`` section of its
+    config. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped by a signal.
+    ``run_class`` runs the session (a sweep's trial reports to Ray Tune through its own :class:`TrainingRun`).
     """
     out = check_new_dir(out_dir, overwrite=overwrite)
     validate_config(config)
     _limit_threads()
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
-    session = run.prepare()
+    run.prepare()
     save_run_config(out, config)
     _append_command(out, config.get("command"))
-    return run.execute(session)
+    return run.execute()
 
 
 def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, command: str | None = None,
@@ -312,14 +276,12 @@ def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, comm
     check_writable_dir(out)
     _limit_threads()
     _append_command(out, command)
-    ckpts = checkpoint_files(out)
-    start = ckpts[-1] if ckpts else None
-    if start is None:
-        log(f"{out}: no checkpoint yet; starting the run over")
-    else:
-        log(f"{out}: resuming from {start[1].name} ({start[0]} of {config['total_timesteps']} timesteps)")
+    start = (checkpoint_files(out) or [None])[-1]
+    log(f"{out}: no checkpoint yet; starting the run over" if start is None else
+        f"{out}: resuming from {start[1].name} ({start[0]} of {config['total_timesteps']} timesteps)")
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
-    return run.execute(run.prepare(resume_from=start))
+    run.prepare(resume_from=start)
+    return run.execute()
 
 
 def _append_command(out: Path, command: str | None) -> None:

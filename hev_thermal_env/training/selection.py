@@ -1,17 +1,10 @@
 """Choosing ``best_model.zip``: a scorer turns one evaluation into a score, and the lowest score wins.
 
-An evaluation is one result per validation cycle × scenario
-(:class:`~hev_thermal_env.training.evaluator.PolicyEvaluator`). The run's config names its scorer in
-``eval.selection``, one of :data:`SCORERS`:
-
-``fuel_vs_ecms`` (the default) and ``fuel_vs_rule``: the mean over the evaluation runs of the corrected
-fuel (``fuel_corrected_l_per_100km``) divided by that of the ``ecms`` / ``rule`` strategy on the same
-cycle and scenario (the *reference*, computed once per run). A run whose ``|ΔSOC|`` exceeds
-:data:`SOC_LIMIT` disqualifies the checkpoint: each such run adds :data:`VIOLATION_PENALTY` to the
-score, so a checkpoint that holds the SOC on every cycle always beats one that does not, and fewer
-violations beat more.
-
-Scores are "lower is better"; :func:`is_better` is the one comparison the loop makes.
+An evaluation is one result per validation cycle × scenario (:mod:`.evaluator`); the config's
+``eval.selection`` names the scorer, one of :data:`SCORERS`: ``fuel_vs_ecms`` (the default) or
+``fuel_vs_rule``, the mean corrected fuel relative to that strategy on the same runs plus
+:data:`VIOLATION_PENALTY` per run whose ``|ΔSOC|`` exceeds :data:`SOC_LIMIT` (:func:`fuel_ratio_score`),
+so a checkpoint that holds the SOC everywhere always beats one that does not. See docs/training.md.
 """
 
 from __future__ import annotations
@@ -21,6 +14,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.evaluation.runner import run_strategy
 
 #: Largest |ΔSOC| over a validation cycle a selectable checkpoint may have.
 SOC_LIMIT = 0.02
@@ -47,14 +43,9 @@ class Score:
 
 @dataclasses.dataclass(frozen=True)
 class Scorer:
-    """A selection rule.
-
-    ``score(results, reference) -> Score``: ``results`` one dict per evaluation run (keys ``cycle``,
-    ``scenario``, ``return_g``, ``fuel_corrected_l_per_100km``, ``delta_soc``...), ``reference`` the
-    reference value of each run by :func:`run_key`. ``reference(cycle, scenario) -> float``: the reference
-    value of one run. ``label``: the rule in words, for logs and plots;
-    ``short``: the score's name in log lines; ``reference_name``: what the fuel ratios divide by (plots).
-    """
+    """A selection rule: ``score(results, reference) -> Score`` (``results`` one dict per evaluation run,
+    ``reference`` its value per :func:`run_key`), ``reference(cycle, scenario) -> float``; ``label`` the rule in
+    words, ``short`` the score's name in log lines, ``reference_name`` what the fuel ratios divide by."""
 
     name: str
     label: str
@@ -69,22 +60,8 @@ def run_key(cycle: str, scenario: str) -> str:
     return f"{cycle} / {scenario}"
 
 
-def strategy_reference(strategy: str, **options: Any) -> Callable[[str, str], float]:
-    """A reference: the corrected fuel [L/100 km] of ``strategy`` on the cycle and scenario (``run_strategy``)."""
-
-    def reference(cycle: str, scenario: str) -> float:
-        from hev_thermal_env.agents import get_strategy
-        from hev_thermal_env.evaluation.runner import run_strategy
-
-        res = run_strategy(get_strategy(strategy, **options), cycle, scenario)
-        return float(res.summary["fuel_corrected_l_per_100km"])
-
-    return reference
-
-
-def fuel_ratio_score(results: Sequence[dict[str, Any]], reference: dict[str, float],
-                     soc_limit: float = SOC_LIMIT) -> Score:
-    """Mean fuel ratio to the reference plus :data:`VIOLATION_PENALTY` per run with |ΔSOC| > ``soc_limit``."""
+def fuel_ratio_score(results: Sequence[dict[str, Any]], reference: dict[str, float]) -> Score:
+    """Mean fuel ratio to the reference plus :data:`VIOLATION_PENALTY` per run with |ΔSOC| > :data:`SOC_LIMIT`."""
     if not results:
         raise ValueError("no evaluation results to score")
     ratios = []
@@ -93,17 +70,19 @@ def fuel_ratio_score(results: Sequence[dict[str, Any]], reference: dict[str, flo
         if key not in reference:
             raise KeyError(f"no reference fuel for {key!r}; known: {sorted(reference)}")
         ratios.append(float(r["fuel_corrected_l_per_100km"]) / float(reference[key]))
-    violations = int(sum(abs(float(r["delta_soc"])) > soc_limit for r in results))
+    violations = int(sum(abs(float(r["delta_soc"])) > SOC_LIMIT for r in results))
     value = float(np.mean(ratios)) + VIOLATION_PENALTY * violations
     return Score(value, violations == 0, tuple(ratios), violations)
 
 
 def _fuel_scorer(strategy: str) -> Scorer:
+    def reference(cycle: str, scenario: str) -> float:  # the corrected fuel [L/100 km] of the strategy
+        return float(run_strategy(get_strategy(strategy), cycle, scenario).summary["fuel_corrected_l_per_100km"])
+
     return Scorer(f"fuel_vs_{strategy}",
                   f"lowest mean corrected fuel ÷ {strategy.upper()} on the validation runs (|ΔSOC| > {SOC_LIMIT:g} "
                   f"on any run disqualifies)",
-                  fuel_ratio_score, strategy_reference(strategy), short=f"fuel ÷ {strategy.upper()}",
-                  reference_name=strategy.upper())
+                  fuel_ratio_score, reference, short=f"fuel ÷ {strategy.upper()}", reference_name=strategy.upper())
 
 
 #: The registered scorers by name.
@@ -135,9 +114,3 @@ def compute_references(scorer: Scorer, cycles: Sequence[str], scenarios: Sequenc
 def is_better(score: float, best: float | None) -> bool:
     """Whether a checkpoint scoring ``score`` replaces the best so far (``best`` None: none yet)."""
     return bool(np.isfinite(score)) and (best is None or score < best)
-
-
-def best_row_score(rows: Sequence[dict[str, Any]]) -> float | None:
-    """The lowest score among evaluation rows (None when there is none)."""
-    scores = [float(r["score"]) for r in rows if np.isfinite(float(r["score"]))]
-    return min(scores) if scores else None

@@ -1,38 +1,40 @@
-"""The results of a sweep: one row per trial, one per configuration (seeds summarised), a plot, the export.
+"""The results of a sweep: one row per trial, one per configuration (seeds summarised), ``sweep.png``, the export.
 
 A configuration's score is the interquartile mean (IQM) over its seeds of each trial's last
-validation return, with a 95 % bootstrap confidence interval (``scipy.stats.bootstrap``, percentile
-method, 2,000 resamples, fixed random seed; none for a single seed; both from
-:mod:`hev_thermal_env.stats`). Trials stopped early by the scheduler count with the return they had
-when stopped. The best configuration is the one with the highest IQM; the best trial is its seed
-with the highest last return (among those that ran to the end, if any did), and its final model
-(the latest checkpoint when stopped early) is exported as a policy that ``ppo:PATH`` loads.
+validation return, with a 95 % bootstrap confidence interval (:mod:`hev_thermal_env.stats`; none for a
+single seed). Trials stopped early by the scheduler count with the return they had when stopped. The
+best configuration is the one with the highest IQM; the best trial is its seed with the highest last
+return (among those that ran to the end, if any did), and its final model (the latest checkpoint when
+stopped early) is exported as a policy that ``ppo:PATH`` loads.
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 from pathlib import Path
 from typing import Any
 
+from matplotlib.ticker import MaxNLocator
+
 from hev_thermal_env.agents.policy_files import checkpoint_files
-from hev_thermal_env.evaluation.results_table import _fmt  # the benchmark tables' cell format
+from hev_thermal_env.evaluation.results_table import _fmt, _table  # the benchmark tables' cells and layout
+from hev_thermal_env.evaluation.styles import pyplot, save_fig
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.stats import CONFIDENCE, iqm, iqm_ci
 
+from .artifacts import write_csv
 from .export import export_policy
-from .sweep_space import probe_values, trial_overrides, tunable_keys
-from .sweep_trial import METRIC, RUN_DIR, SEED_INDEX, TIME_ATTR, trial_config
+from .sweep_trial import METRIC, RUN_DIR, SEED_INDEX, TIME_ATTR, probe_config, trial_overrides, tunable_keys
 
-#: Tune's trial statuses, as the tables name them ("stopped" = stopped early by the scheduler).
-STATUS = {"TERMINATED": "finished", "ERROR": "error", "RUNNING": "running", "PENDING": "pending",
-          "PAUSED": "paused"}
+#: Configurations shown in the right panel of ``sweep.png`` (best first).
+MAX_CONFIGS_SHOWN = 12
 
 
 @dataclasses.dataclass
 class TrialRecord:
+    """One trial; ``status`` is Tune's in lower case, ``finished`` for a trial that ran to the end and ``stopped``
+    for one the scheduler stopped early; ``score`` is the last validation return, ``curve`` all of them."""
+
     trial_id: str
     config_id: str
     hyperparams: dict[str, Any]
@@ -61,39 +63,39 @@ class ConfigSummary:
 
 @dataclasses.dataclass
 class SweepReport:
+    """What a sweep ended with; ``exported``: where the best trial's policy went (None: not exported)."""
+
     trials: list[TrialRecord]
     configs: list[ConfigSummary]  # best first
     best: TrialRecord | None
-    files: list[Path]
+    complete: bool
+    exported: Path | None = None
 
 
 def collect_trials(analysis, settings: dict[str, Any]) -> list[TrialRecord]:
     """One record per trial of a Tune ``ExperimentAnalysis`` (configurations numbered by first appearance)."""
     keys = tunable_keys(settings["space"])
-    total = int(trial_config(settings, probe_values(settings["space"]))["total_timesteps"])
+    total = int(probe_config(settings)["total_timesteps"])
     ids: dict[str, str] = {}
     records = []
     for t in analysis.trials:
-        hp = trial_overrides(settings["space"], t.config) if keys else {}
-        hp = {k: hp[k] for k in keys}
+        hp = {k: v for k, v in trial_overrides(settings["space"], t.config).items() if k in keys}
         config_id = ids.setdefault(repr(sorted(hp.items())), f"c{len(ids)}")
         df = analysis.trial_dataframes.get(t.trial_id)
-        curve = []
-        if df is not None and not df.empty and METRIC in df:
-            curve = [(int(n), float(v)) for n, v in zip(df[TIME_ATTR], df[METRIC])]
+        reported = df is not None and not df.empty and METRIC in df
+        curve = [(int(n), float(v)) for n, v in zip(df[TIME_ATTR], df[METRIC])] if reported else []
         last = t.last_result or {}
         timesteps = int(last.get(TIME_ATTR) or 0)
-        status = STATUS.get(t.status, t.status.lower())
+        status = "finished" if t.status == "TERMINATED" else t.status.lower()
         if status == "finished" and timesteps < total:
             status = "stopped"
-        ckpt = t.checkpoint
         records.append(TrialRecord(
             trial_id=t.trial_id, config_id=config_id, hyperparams=hp,
             seed=int(settings["seed"]) + int(t.config.get(SEED_INDEX, 0)), status=status, timesteps=timesteps,
             score=float(last[METRIC]) if METRIC in last else None,
             best_score=max((v for _, v in curve), default=None),
             fuel_corrected_l_per_100km=last.get("fuel_corrected_l_per_100km"), curve=curve,
-            checkpoint=Path(ckpt.path) if ckpt is not None else None, run_dir=Path(t.path) / RUN_DIR))
+            checkpoint=Path(t.checkpoint.path) if t.checkpoint is not None else None, run_dir=Path(t.path) / RUN_DIR))
     return records
 
 
@@ -127,42 +129,28 @@ def write_report(out: Path, trials: list[TrialRecord], settings: dict[str, Any],
     configs = summarise(trials)
     best = best_trial(trials, configs)
     keys = tunable_keys(settings["space"])
-    files = [_write_trials_csv(out / "sweep_trials.csv", trials, keys)]
-    files += _write_configs(out, configs, keys, best, complete)
+    write_csv(out / "sweep_trials.csv", ["trial_id", "config_id", *keys, "seed", "status", TIME_ATTR, METRIC,
+                                          f"best_{METRIC}", "fuel_corrected_l_per_100km", "checkpoint", "run_dir"],
+               [[t.trial_id, t.config_id, *(_fmt(t.hyperparams[k]) for k in keys), t.seed, t.status, t.timesteps,
+                 _fmt(t.score), _fmt(t.best_score), _fmt(t.fuel_corrected_l_per_100km), _fmt(t.checkpoint), t.run_dir]
+                for t in trials])
+    _write_configs(out, configs, keys, best, complete)
     if any(t.curve for t in trials):
-        from .sweep_plot import plot_sweep
-
-        files.append(plot_sweep(trials, configs, best, out / "sweep.png"))
-    return SweepReport(trials, configs, best, files)
-
-
-def _write_trials_csv(path: Path, trials: list[TrialRecord], keys: list[str]) -> Path:
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["trial_id", "config_id", *keys, "seed", "status", TIME_ATTR, METRIC, f"best_{METRIC}",
-                "fuel_corrected_l_per_100km", "checkpoint", "run_dir"])
-    for t in trials:
-        w.writerow([t.trial_id, t.config_id, *(_fmt(t.hyperparams[k]) for k in keys), t.seed, t.status, t.timesteps,
-                    _fmt(t.score), _fmt(t.best_score), _fmt(t.fuel_corrected_l_per_100km), _fmt(t.checkpoint),
-                    t.run_dir])
-    return atomic_write_text(path, buf.getvalue())
+        plot_sweep(trials, configs, best, out / "sweep.png")
+    return SweepReport(trials, configs, best, complete)
 
 
 def _write_configs(out: Path, configs: list[ConfigSummary], keys: list[str], best: TrialRecord | None,
-                   complete: bool) -> list[Path]:
-    head = ["config_id", *keys, "seeds", f"{METRIC}_iqm", "ci95_low", "ci95_high", "fuel_corrected_l_per_100km_iqm"]
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(head)
-    md = ["| " + " | ".join(["config", *keys, "seeds", "validation return IQM (g)", "95 % CI",
-                             "corrected fuel IQM (L/100 km)"]) + " |", "|" + "---|" * (len(keys) + 5)]
+                   complete: bool) -> None:
+    rows, lines = [], []
     for c in configs:
-        w.writerow([c.config_id, *(_fmt(c.hyperparams[k]) for k in keys), len(c.scores), _fmt(c.iqm), _fmt(c.ci_low),
-                    _fmt(c.ci_high), _fmt(c.fuel_iqm)])
-        ci = f"[{c.ci_low:.1f}, {c.ci_high:.1f}]" if c.ci_low is not None else "-"
-        md.append("| " + " | ".join([c.config_id, *(_fmt(c.hyperparams[k]) for k in keys), str(len(c.scores)),
-                                     f"{c.iqm:.1f}" if c.iqm is not None else "-", ci,
-                                     f"{c.fuel_iqm:.3f}" if c.fuel_iqm is not None else "-"]) + " |")
+        hp = [_fmt(c.hyperparams[k]) for k in keys]
+        rows.append([c.config_id, *hp, len(c.scores), _fmt(c.iqm), _fmt(c.ci_low), _fmt(c.ci_high), _fmt(c.fuel_iqm)])
+        lines.append([c.config_id, *hp, str(len(c.scores)), "-" if c.iqm is None else f"{c.iqm:.1f}",
+                      "-" if c.ci_low is None else f"[{c.ci_low:.1f}, {c.ci_high:.1f}]",
+                      "-" if c.fuel_iqm is None else f"{c.fuel_iqm:.3f}"])
+    md = _table(["config", *keys, "seeds", "validation return IQM (g)", "95 % CI", "corrected fuel IQM (L/100 km)"],
+                lines)
     md += ["", f"Validation return: mean episode return (g of diesel equivalent, higher is better) over the "
            f"evaluation cycles, at each trial's last evaluation; IQM and {100 * CONFIDENCE:.0f} % bootstrap "
            f"interval over the seeds."]
@@ -171,11 +159,49 @@ def _write_configs(out: Path, configs: list[ConfigSummary], keys: list[str], bes
                   f"{METRIC} {best.score:.1f}).")
     if not complete:
         md.append("The sweep is not complete: continue it with `train.py sweep --resume DIR`.")
-    data = {"metric": METRIC, "complete": complete, "best_trial": best.trial_id if best else None,
-            "configs": [dataclasses.asdict(c) for c in configs]}
-    return [atomic_write_text(out / "sweep_configs.csv", buf.getvalue()),
-            atomic_write_text(out / "sweep_configs.md", "\n".join(md) + "\n"),
-            atomic_write_json(out / "sweep_configs.json", data)]
+    write_csv(out / "sweep_configs.csv", ["config_id", *keys, "seeds", f"{METRIC}_iqm", "ci95_low", "ci95_high",
+                                           "fuel_corrected_l_per_100km_iqm"], rows)
+    atomic_write_text(out / "sweep_configs.md", "\n".join(md) + "\n")
+    atomic_write_json(out / "sweep_configs.json", {"metric": METRIC, "complete": complete,
+                                                   "best_trial": best.trial_id if best else None,
+                                                   "configs": [dataclasses.asdict(c) for c in configs]})
+
+
+def plot_sweep(trials: list[TrialRecord], configs: list[ConfigSummary], best: TrialRecord | None, path: Path) -> Path:
+    """``path`` (a PNG). Left: validation return over env-steps per trial (the best configuration drawn
+    thick, trials stopped early dashed). Right: per configuration, each seed's last return (dots), the
+    IQM (bar) and its 95 % bootstrap interval (whiskers)."""
+    plt = pyplot()
+    shown = [c for c in configs if c.iqm is not None][:MAX_CONFIGS_SHOWN]
+    colours = {c.config_id: plt.cm.tab10(i % 10) for i, c in enumerate(shown)}
+    fig, (ax_curve, ax_seeds) = plt.subplots(1, 2, figsize=(12, 4.8), gridspec_kw={"width_ratios": [3, 2]})
+    best_config = best.config_id if best is not None else None
+    for t in trials:
+        if t.curve:
+            ax_curve.plot(*zip(*t.curve), color=colours.get(t.config_id, "0.7"),
+                          lw=2.4 if t.config_id == best_config else 1.0, ls="--" if t.status == "stopped" else "-",
+                          marker="o", ms=3, alpha=0.9)
+    if best is not None and best.curve:
+        ax_curve.plot(*best.curve[-1], marker="*", ms=14, color="k", ls="none", label=f"best trial ({best.trial_id})")
+        ax_curve.legend(loc="lower right", fontsize=8)
+    ax_curve.set_xlabel("env-steps")
+    ax_curve.set_ylabel("validation return (g, higher is better)")
+    ax_curve.set_title("every trial (thick: best configuration, dashed: stopped early)")
+    ax_curve.grid(alpha=0.3)
+    for y, c in enumerate(shown):
+        colour = colours[c.config_id]
+        ax_seeds.scatter(c.scores, [y] * len(c.scores), color=colour, s=22, zorder=3)
+        ax_seeds.plot([c.iqm, c.iqm], [y - 0.3, y + 0.3], color=colour, lw=3)
+        if c.ci_low is not None:
+            ax_seeds.plot([c.ci_low, c.ci_high], [y, y], color=colour, lw=1.2)
+    ax_seeds.set_yticks(range(len(shown)), [f"{c.config_id} ({len(c.scores)} seeds)" for c in shown])
+    ax_seeds.set_ylim(len(shown) - 0.4, -0.6)
+    ax_seeds.xaxis.set_major_locator(MaxNLocator(4))
+    ax_seeds.set_xlabel(f"last {METRIC} (g)")
+    ax_seeds.set_title("seeds (dots), IQM (bar), 95 % bootstrap CI")
+    ax_seeds.grid(alpha=0.3, axis="x")
+    fig.tight_layout()
+    return save_fig(fig, path)
 
 
 def export_best(report: SweepReport, dest: Path, settings: dict[str, Any]) -> Path:

@@ -1,43 +1,146 @@
-"""One trial of a sweep: a ``train.py`` run that reports each evaluation to Ray Tune with a checkpoint.
+"""One trial of a sweep: the search space it is drawn from, its config, and the Ray Tune trainable that runs it.
 
-The trial's run directory is ``<trial dir>/run`` (a complete ``train.py`` run: ``ppo:PATH`` loads it,
-``train.py --resume`` continues it). At every evaluation but the last the trial writes a checkpoint
-of the run and reports the validation metrics to Tune with a *snapshot* of the run directory (its
-config, evaluations, best model and the checkpoint just written; the final report adds the final
-model) as the Tune checkpoint. A snapshot is itself a resumable run directory: a trial restored by
-Tune (an interrupted sweep resumed, a failed worker) copies the snapshot back and continues with
+A search space maps ``--hp`` keys (dotted keys included) to a fixed value or one sampler, a one-key
+mapping::
+
+    learning_rate: {loguniform: [1.0e-4, 1.0e-3]}   # log-uniform between the bounds
+    gamma: {uniform: [0.95, 0.99]}                  # uniform between the bounds
+    n_epochs: {int: [3, 10]}                        # whole numbers, both bounds included
+    policy_kwargs.net_arch: {choice: [[64, 64], [128, 128]]}
+    ent_coef: 0.0                                   # fixed
+
+Choices travel through Tune and Optuna as their YAML text (Optuna's categorical values must be scalars).
+
+A trial is a ``train.py`` run in ``<trial dir>/run`` that reports every evaluation to Tune
+(:meth:`TuneTrainingRun.report`) with a snapshot of the run directory as the checkpoint. A snapshot is
+itself a resumable run: a trial restored by Tune copies it back and continues with
 :func:`~hev_thermal_env.training.loop.resume`, so it ends where an uninterrupted trial would.
-
-The metric is the mean return over the evaluation cycles × scenarios (:data:`METRIC`, grams of
-diesel equivalent, higher is better), at :data:`TIME_ATTR` env-steps; schedulers stop trials on it.
-Each report also carries the run's checkpoint-selection score (``selection_score``, lower is better;
-:mod:`.selection`).
 """
 
 from __future__ import annotations
 
+import difflib
+import math
 import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from hev_thermal_env.agents.policy_files import CHECKPOINTS, checkpoint_paths
+from hev_thermal_env.io import read_yaml_mapping
 
 from .config import build_config
 from .loop import TrainingRun, resume, train
-from .sweep_space import trial_overrides
+from .overrides import parse_value
 
 METRIC = "eval_return_g"
-MODE = "max"
 TIME_ATTR = "timesteps"
 #: The Tune config key of the seed index (set by Tune's ``Repeater`` or the seed grid).
 SEED_INDEX = "__trial_index__"
 RUN_DIR = "run"
 SNAPSHOT_FILES = ("config.yaml", "command.txt", "evaluations.csv", "model.zip", "vecnormalize.pkl", "best_model.zip",
                   "best_vecnormalize.pkl")
+SAMPLERS = ("uniform", "loguniform", "int", "choice")
+#: What ``train.py sweep`` searches when no ``--space`` file is given.
+DEFAULT_SPACES: dict[str, dict[str, Any]] = {
+    "ppo": {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
+            "gae_lambda": {"choice": [0.9, 0.95, 0.98]}, "clip_range": {"choice": [0.1, 0.2, 0.3]},
+            "n_epochs": {"int": [3, 10]}},
+    "sac": {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
+            "tau": {"loguniform": [1.0e-3, 2.0e-2]}, "batch_size": {"choice": [128, 256, 512]}},
+}
 
+
+# --- the search space ---------------------------------------------------------------------------------
+
+def sampler_of(value: Any) -> str | None:
+    """The sampler name of a space entry, or None for a fixed value."""
+    if isinstance(value, dict) and len(value) == 1 and next(iter(value)) in SAMPLERS:
+        return next(iter(value))
+    return None
+
+
+def load_space(algo: str, path: str | Path | None = None, space: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The checked search space: ``space``, the one in the YAML file ``path``, or the default space of ``algo``."""
+    if space is not None:
+        check_space(space)
+        return space
+    if path is None:
+        if algo not in DEFAULT_SPACES:
+            raise ValueError(f"no default search space for {algo!r}; give one with --space FILE")
+        return dict(DEFAULT_SPACES[algo])
+    space = read_yaml_mapping(path)
+    check_space(space, where=str(path))
+    return space
+
+
+def check_space(space: dict[str, Any], where: str = "search space") -> None:
+    """One-line ``ValueError`` naming the key and value of a malformed sampler."""
+    for key, value in space.items():
+        kind = sampler_of(value)
+        if kind is None:
+            name = str(next(iter(value))) if isinstance(value, dict) and len(value) == 1 else ""
+            close = difflib.get_close_matches(name, SAMPLERS, n=1) if name else []
+            if close:  # {unifrom: [..]} is a misspelt sampler, not a mapping to fix
+                raise ValueError(f"{where}: {key}: unknown sampler {name!r} (did you mean {close[0]!r}?)")
+            continue
+        args = value[kind]
+        if kind == "choice":
+            if not isinstance(args, list) or not args:
+                raise ValueError(f"{where}: {key}: choice needs a non-empty list, got {args!r}")
+            continue
+        if not (isinstance(args, list) and len(args) == 2 and all(_is_number(a) for a in args)):
+            raise ValueError(f"{where}: {key}: {kind} needs [low, high] numbers, got {args!r}")
+        low, high = (float(a) for a in args)
+        if not low < high:
+            raise ValueError(f"{where}: {key}: {kind} needs low < high, got {args!r}")
+        if kind == "loguniform" and low <= 0:
+            raise ValueError(f"{where}: {key}: loguniform needs positive bounds, got {args!r}")
+        if kind == "int" and not all(float(a).is_integer() for a in args):
+            raise ValueError(f"{where}: {key}: int needs whole-number bounds, got {args!r}")
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(float(x))
+
+
+def tunable_keys(space: dict[str, Any]) -> list[str]:
+    """The keys that vary, in the space's order."""
+    return [k for k, v in space.items() if sampler_of(v) is not None]
+
+
+def encode_choice(value: Any) -> str:
+    """A choice as the text Optuna and Tune carry (``[64, 64]``, ``0.9``)."""
+    return yaml.safe_dump(value, default_flow_style=True, width=10_000).strip().removesuffix("...").strip()
+
+
+def tune_space(space: dict[str, Any]) -> dict[str, Any]:
+    """The Ray Tune search space of the varying keys."""
+    from ray import tune
+
+    out = {}
+    for key in tunable_keys(space):
+        kind, args = next(iter(space[key].items()))
+        if kind == "choice":
+            out[key] = tune.choice([encode_choice(v) for v in args])
+        elif kind == "int":
+            out[key] = tune.randint(int(args[0]), int(args[1]) + 1)
+        else:
+            out[key] = (tune.uniform if kind == "uniform" else tune.loguniform)(float(args[0]), float(args[1]))
+    return out
+
+
+def trial_overrides(space: dict[str, Any], sampled: dict[str, Any]) -> dict[str, Any]:
+    """The ``--hp`` overrides of one trial: the fixed values, then the sampled ones (choices decoded)."""
+    cast = {"choice": lambda v: parse_value(str(v)), "int": int, "uniform": float, "loguniform": float}
+    fixed = {k: v for k, v in space.items() if sampler_of(v) is None}
+    return {**fixed, **{k: cast[sampler_of(space[k])](sampled[k]) for k in tunable_keys(space)}}
+
+
+# --- the trial ----------------------------------------------------------------------------------------
 
 def trial_config(settings: dict[str, Any], sampled: dict[str, Any]) -> dict[str, Any]:
     """The ``train.py`` config of the trial that Tune sampled (``sampled``: hyperparameters and seed index)."""
@@ -50,66 +153,54 @@ def trial_config(settings: dict[str, Any], sampled: dict[str, Any]) -> dict[str,
     return config
 
 
-def eval_metrics(results: list[dict[str, Any]], timesteps: int) -> dict[str, Any]:
-    """What a trial reports to Tune from one evaluation (one result per cycle × scenario)."""
-    return {METRIC: float(np.mean([r["return_g"] for r in results])),
-            "fuel_corrected_l_per_100km": float(np.mean([r["fuel_corrected_l_per_100km"] for r in results])),
-            "delta_soc_max_abs": float(np.max(np.abs([r["delta_soc"] for r in results]))),
-            "cutoff_s": float(np.sum([r["cutoff_s"] for r in results])),
-            TIME_ATTR: int(timesteps)}
+def probe_config(settings: dict[str, Any]) -> dict[str, Any]:
+    """The config of a trial with the first value of every sampler (the low bound, the first choice): what
+    every trial shares, built to check the settings before a sweep starts."""
+    firsts = {k: next(iter(settings["space"][k].items())) for k in tunable_keys(settings["space"])}
+    return trial_config(settings, {k: encode_choice(args[0]) if kind == "choice" else args[0]
+                                   for k, (kind, args) in firsts.items()})
 
 
 class TuneTrainingRun(TrainingRun):
     """A training session that reports its evaluations, each with a checkpoint, to Ray Tune."""
-
-    resumed_from = 0
-
-    def prepare(self, resume_from=None):
-        self.resumed_from = int(resume_from[0]) if resume_from else 0
-        return super().prepare(resume_from)
 
     def evaluate(self, model, logger=None):
         results = super().evaluate(model, logger)
         n = int(model.num_timesteps)
         if results and n < int(self.config["total_timesteps"]):  # the last one is reported after the final save
             self.checkpoint(model)
-            self.report({**eval_metrics(results, n), "selection_score": self.eval_rows[-1]["score"]}, n)
+            self.report(results, n)
         return results
 
-    def execute(self, session):
-        result = super().execute(session)
+    def execute(self):
+        result = super().execute()
         n = int(result["timesteps_done"])
-        last = [r for r in self.eval_rows if int(r["timesteps"]) == n]
+        last = [r for r in self.eval_rows if r["timesteps"] == n]
         if last:
-            self.report({**eval_metrics(last, n), "selection_score": last[-1]["score"]}, n)
+            self.report(last, n)
         return result
 
-    def report(self, metrics: dict[str, Any], timesteps: int) -> None:
-        """``tune.report`` of ``metrics`` with a snapshot of the run directory at ``timesteps``."""
+    def report(self, results: list[dict[str, Any]], timesteps: int) -> None:
+        """``tune.report`` of one evaluation (a result per run) with a snapshot of the run directory at
+        ``timesteps`` (the last one with the final model) as the checkpoint: :data:`METRIC` (the mean return,
+        g, higher is better) at :data:`TIME_ATTR` env-steps and the run's ``selection_score`` (lower is better)."""
         from ray import tune
 
-        metrics = {**metrics, "seed": int(self.config["seed"]), "resumed_from_timesteps": self.resumed_from}
+        metrics = {METRIC: float(np.mean([r["return_g"] for r in results])),
+                   "fuel_corrected_l_per_100km": float(np.mean([r["fuel_corrected_l_per_100km"] for r in results])),
+                   "delta_soc_max_abs": float(np.max(np.abs([r["delta_soc"] for r in results]))),
+                   "cutoff_s": float(np.sum([r["cutoff_s"] for r in results])), TIME_ATTR: int(timesteps),
+                   "selection_score": self.eval_rows[-1]["score"], "seed": int(self.config["seed"]),
+                   "resumed_from_timesteps": int(self.resume_from[0]) if self.resume_from else 0}
         with tempfile.TemporaryDirectory(prefix="hev_sweep_ckpt_") as tmp:
-            snapshot_run(self.out, Path(tmp), timesteps)
+            (Path(tmp) / CHECKPOINTS).mkdir()
+            for name in SNAPSHOT_FILES:
+                if (self.out / name).is_file():
+                    shutil.copy2(self.out / name, Path(tmp) / name)
+            for p in checkpoint_paths(self.out, timesteps):
+                if p.is_file():
+                    shutil.copy2(p, Path(tmp) / CHECKPOINTS / p.name)
             tune.report(metrics, checkpoint=tune.Checkpoint.from_directory(tmp))
-
-
-def snapshot_run(run_dir: Path, dest: Path, timesteps: int) -> Path:
-    """Copy what resuming ``run_dir`` at ``timesteps`` needs into ``dest``."""
-    (dest / CHECKPOINTS).mkdir(parents=True, exist_ok=True)
-    for name in SNAPSHOT_FILES:
-        if (run_dir / name).is_file():
-            shutil.copy2(run_dir / name, dest / name)
-    for p in checkpoint_paths(run_dir, timesteps):
-        if p.is_file():
-            shutil.copy2(p, dest / CHECKPOINTS / p.name)
-    return dest
-
-
-def restore_run(snapshot: Path, run_dir: Path) -> None:
-    """Put a snapshot back as ``run_dir`` (later checkpoints of the interrupted session are dropped)."""
-    shutil.rmtree(run_dir / CHECKPOINTS, ignore_errors=True)
-    shutil.copytree(snapshot, run_dir, dirs_exist_ok=True)
 
 
 def sweep_trial(config: dict[str, Any], settings: dict[str, Any]) -> None:
@@ -119,8 +210,9 @@ def sweep_trial(config: dict[str, Any], settings: dict[str, Any]) -> None:
     run_dir = Path(tune.get_context().get_trial_dir()) / RUN_DIR
     checkpoint = tune.get_checkpoint()
     if checkpoint is not None:
-        with checkpoint.as_directory() as snapshot:
-            restore_run(Path(snapshot), run_dir)
+        with checkpoint.as_directory() as snapshot:  # later checkpoints of the interrupted session are dropped
+            shutil.rmtree(run_dir / CHECKPOINTS, ignore_errors=True)
+            shutil.copytree(snapshot, run_dir, dirs_exist_ok=True)
         resume(run_dir, progress=False, verbose=0, run_class=TuneTrainingRun, log=lambda msg: None)
         return
     train(trial_config(settings, config), run_dir, progress=False, verbose=0, overwrite=True,

@@ -1,25 +1,20 @@
-"""The final report of a run: the best and the final model on the full validation set.
-
-During training the checkpoints are scored on a few validation cycles (``eval.cycles``, e.g.
-``validation_bus:0..4``); at the end, ``best_model.zip`` and ``model.zip`` are driven over
-``eval.final_cycles`` (e.g. ``validation_bus``, every validation cycle) in every evaluation scenario,
-scored by the run's selection rule (:mod:`.selection`), and written to ``DIR/validation.csv`` (one row per
-model × cycle × scenario) with a summary in the ``result.validation`` section of ``DIR/config.yaml``.
+"""The final report of a run: ``best_model.zip`` and ``model.zip`` on ``eval.final_cycles`` (e.g. every
+``validation_bus`` cycle, where training scored its checkpoints on a few) in every evaluation scenario, scored
+by the run's selection rule (:mod:`.selection`): ``DIR/validation.csv`` (one row per model × cycle × scenario)
+and the ``result.validation`` section of ``DIR/config.yaml``.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 from typing import Any
 
 import numpy as np
 
 from hev_thermal_env.agents.policy_files import load_policy
-from hev_thermal_env.io import atomic_write_text
 
+from .artifacts import write_csv
 from .evaluator import PolicyEvaluator
-from .selection import compute_references, run_key
+from .selection import run_key
 
 VALIDATION_COLUMNS = ("model", "cycle", "scenario", "fuel_corrected_l_per_100km", "reference_l_per_100km",
                       "fuel_ratio", "delta_soc", "cutoff_s", "trace_miss_max_mps", "return_g")
@@ -27,16 +22,12 @@ MODELS = ("best_model.zip", "model.zip")
 
 
 def final_validation(run: Any) -> dict[str, Any]:
-    """Score the run's best and final models on ``eval.final_cycles``; writes ``validation.csv``, returns the summary.
-
-    ``run`` is the :class:`~hev_thermal_env.training.loop.TrainingRun` (its config, directory, scorer, log).
-    """
+    """Score the run's (a :class:`~hev_thermal_env.training.loop.TrainingRun`) best and final models on
+    ``eval.final_cycles``; writes ``validation.csv``, returns the summary."""
     cfg, ev = run.config, run.config["eval"]
     evaluator = PolicyEvaluator(cfg["env"], ev["final_cycles"], ev["scenarios"], seed=int(cfg["seed"]))
-    res = cfg.setdefault("result", {})
-    ref = compute_references(run.scorer, evaluator.cycle_names, ev["scenarios"], res.get("selection_reference"))
-    res["selection_reference"] = ref
-    rows: list[dict[str, Any]] = []
+    ref = run.references(evaluator.cycle_names)
+    rows: list[list[Any]] = []
     models: dict[str, Any] = {}
     described: dict[str, str] = {}
     for name in MODELS:
@@ -45,24 +36,20 @@ def final_validation(run: Any) -> dict[str, Any]:
         results = evaluator.run(load_policy(run.out / name).act)
         score = run.scorer.score(results, ref)
         for r, ratio in zip(results, score.ratios):
-            rows.append({"model": name, **{k: r[k] for k in VALIDATION_COLUMNS if k in r},
-                         "reference_l_per_100km": ref[run_key(r["cycle"], r["scenario"])],
-                         "fuel_ratio": ratio})
+            r = {**r, "model": name, "reference_l_per_100km": ref[run_key(r["cycle"], r["scenario"])],
+                 "fuel_ratio": ratio}
+            rows.append([r[k] for k in VALIDATION_COLUMNS])
         described[name] = score.describe(run.scorer.short)
         models[name] = {"score": round(score.value, 6), "qualified": score.qualified, "violations": score.violations,
                         "mean_fuel_ratio": round(float(np.mean(score.ratios)), 6),
                         "max_abs_delta_soc": round(max(abs(r["delta_soc"]) for r in results), 6),
                         "mean_fuel_corrected_l_per_100km":
                             round(float(np.mean([r["fuel_corrected_l_per_100km"] for r in results])), 4)}
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=VALIDATION_COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
-    atomic_write_text(run.out / "validation.csv", buf.getvalue())
+    write_csv(run.out / "validation.csv", VALIDATION_COLUMNS, rows)
     summary = {"selection": run.scorer.name, "rule": run.scorer.label, "cycles": list(ev["final_cycles"]),
                "runs": len(evaluator.cycle_names) * len(ev["scenarios"]), "scenarios": list(ev["scenarios"]),
                "models": models}
-    res["validation"] = summary
+    cfg["result"]["validation"] = summary
     if run.verbose:
         parts = "; ".join(f"{name}: {text}, max |dSOC| {models[name]['max_abs_delta_soc']:.3f}"
                           for name, text in described.items())

@@ -1,7 +1,5 @@
-"""Stable-Baselines3 ``VecEnv`` over the native vector env: SB3 trains on the batched core.
-
-Importing this module imports stable-baselines3 (and torch); ``import hev_thermal_env`` does not.
-"""
+"""Stable-Baselines3 ``VecEnv`` over the native vector env: SB3 trains on the batched core (importing this
+module imports stable-baselines3 and torch; ``import hev_thermal_env`` does not)."""
 
 from __future__ import annotations
 
@@ -26,29 +24,18 @@ class Sb3VecEnv(VecEnv):
 
     ``info_keys`` selects the info keys copied into SB3's per-env info dicts (and ``reset_infos``):
     ``"all"`` (default) or a sequence of names; ``()`` is fastest when only the SB3 keys are needed (PPO and
-    ``VecMonitor`` need no others). Other arguments build the vector env; or pass ``venv``, a vector
-    env created with ``autoreset_mode=SAME_STEP``.
+    ``VecMonitor`` need no others). Other arguments build the vector env.
 
-    ``get_attr`` returns per-env values for the episode attributes and the shared value otherwise;
-    ``set_attr`` sets shared attributes (for all sub-environments at once); ``env_method`` calls a
-    method of the vector env once and returns its result per requested index.
+    ``get_attr`` returns per-env values of episode attributes, else the shared value; ``set_attr`` sets a
+    shared attribute (all indices at once); ``env_method`` calls the vector env's method once.
     """
 
-    def __init__(self, num_envs: int | None = None, *, venv: HevThermalVectorEnv | None = None,
-                 info_keys: str | Sequence[str] = "all", **env_kwargs: Any):
-        if venv is None:
-            if num_envs is None:
-                raise ValueError("Sb3VecEnv: give num_envs (and env arguments) or venv")
-            venv = HevThermalVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, info_keys=info_keys,
-                                       **env_kwargs)
-        elif env_kwargs or (num_envs is not None and num_envs != venv.num_envs):
-            raise ValueError("Sb3VecEnv: with venv, give no env arguments")
-        elif venv.autoreset_mode != AutoresetMode.SAME_STEP:
-            raise ValueError("Sb3VecEnv: the vector env must use autoreset_mode=SAME_STEP")
-        self.venv = venv
-        self.info_keys = venv.info_keys
+    def __init__(self, num_envs: int, *, info_keys: str | Sequence[str] = "all", **env_kwargs: Any):
+        self.venv = HevThermalVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP, info_keys=info_keys,
+                                        **env_kwargs)
+        self.info_keys = self.venv.info_keys
         self._actions: np.ndarray | None = None
-        super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
+        super().__init__(num_envs, self.venv.single_observation_space, self.venv.single_action_space)
 
     def reset(self) -> np.ndarray:
         seeds = self._seeds if any(s is not None for s in self._seeds) else None
@@ -66,11 +53,8 @@ class Sb3VecEnv(VecEnv):
     def step_wait(self):
         obs, reward, terminated, truncated, infos = self.venv.step(self._actions)
         keys = self.info_keys
-        if keys:
-            columns = [infos[key].tolist() for key in keys]
-            dicts = [dict(zip(keys, values)) for values in zip(*columns)]
-        else:
-            dicts = [{} for _ in range(self.num_envs)]
+        columns = zip(*[infos[key].tolist() for key in keys]) if keys else [()] * self.num_envs
+        dicts = [dict(zip(keys, values)) for values in columns]
         for d in dicts:
             d["TimeLimit.truncated"] = False
         dones = terminated | truncated
