@@ -35,7 +35,7 @@ def _run(root: Path, cache: Path) -> tuple[str, str]:
     return temp, cache_dir
 
 
-@pytest.mark.slow
+@pytest.mark.full
 def test_edit_of_an_inlined_component_is_compiled_not_served_from_cache(tmp_path):
     root = tmp_path / "src"
     shutil.copytree(PACKAGE, root / "hev_thermal_env", ignore=shutil.ignore_patterns("__pycache__", "data"))

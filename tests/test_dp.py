@@ -188,7 +188,7 @@ def test_hwfet_dp_feasible_and_charge_sustaining():
     assert res.summary["missed_wheel_energy_kwh"] > 0.0
 
 
-@pytest.mark.slow
+@pytest.mark.full
 @pytest.mark.parametrize("cycle", ["beijing", "hwfet"])
 def test_ecms_and_aecms_within_3_percent_of_dp(cycle):
     dp = run_strategy(get_strategy("dp", on_infeasible="closest"), cycle).summary

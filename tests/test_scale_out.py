@@ -254,7 +254,7 @@ def test_sweep_report_ranks_configurations_by_the_iqm_of_their_seeds(tmp_path):
     ]
     report = write_report(tmp_path, trials, {"space": space}, complete=False)
     assert [c.config_id for c in report.configs] == ["c1", "c0"] and report.best.trial_id == "t2"
-    assert {p.name for p in report.files} == {
+    assert {p.name for p in tmp_path.iterdir() if p.is_file()} == {
         "sweep_trials.csv",
         "sweep_configs.csv",
         "sweep_configs.md",
