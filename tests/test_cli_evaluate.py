@@ -78,6 +78,7 @@ def test_benchmark_writes_every_file_and_column(tiny_cycles, tmp_path):
     assert "| dp (thermal-blind) |" in md and "frontier ratio" in md and "J1711" in md
 
 
+@pytest.mark.full
 def test_benchmark_parallel_equals_serial_byte_for_byte(tiny_cycles, tmp_path):
     kw = dict(cycles=tiny_cycles, strategies=("rule", "ecms", "dp"), scenarios=("paper", "hot"), progress=False,
               plots=False)

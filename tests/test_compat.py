@@ -197,6 +197,7 @@ def torch_all_finite(t) -> bool:
 
 # --- sb3-contrib ------------------------------------------------------------------------------------------
 
+@pytest.mark.full
 def test_sb3_contrib_recurrent_ppo_and_tqc_train(short_cycle):
     import sb3_contrib
     from stable_baselines3.common.vec_env import DummyVecEnv

@@ -111,6 +111,7 @@ def test_grid_doubling_changes_the_optimum_little(city200):
     assert abs(base["cost_g"] - f_fine.cost_at(base["soc_final"])) / base["cost_g"] <= 0.003
 
 
+@pytest.mark.full
 def test_a_much_finer_search_on_a_short_city_cycle_agrees(city200):
     """grid_scale=4 on 100 s: bins narrow enough that a 17-bit SOC key field once merged every SOC into one bin."""
     short = cycle_from_arrays(load_cycle("udds").speed_mps[:101], name="udds_100s")

@@ -60,7 +60,6 @@ def test_importing_the_package_leaves_torch_alone():
     assert r.stdout.strip() == "[]"
 
 
-@pytest.mark.full
 def test_the_wheel_installs_agents_under_hev_thermal_env_only(tmp_path):
     src = tmp_path / "src"
     src.mkdir()

@@ -187,6 +187,7 @@ def test_hp_overrides_yaml_dict_and_dotted_keys():
 
 # --- interruption and resume ------------------------------------------------------------------------
 
+@pytest.mark.full
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["sigint", "sigkill"])
 def test_interrupted_training_resumes_to_the_total(tmp_path, sig):
     """Ctrl-C (SIGINT) once training has started: a checkpoint and one stderr line after the progress bars, exit
@@ -242,6 +243,7 @@ def test_a_start_that_fails_after_validation_leaves_no_run_directory(tmp_path, m
     assert not out.exists()
 
 
+@pytest.mark.full
 def test_train_with_the_progress_bar_as_a_user_runs_it(tmp_path):
     """The README's command line, progress bar on (SB3 draws it with tqdm and rich)."""
     out = tmp_path / "run"

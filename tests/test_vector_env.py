@@ -294,6 +294,7 @@ def test_gymnasium_make_vec(mode):
         envs.close()
 
 
+@pytest.mark.full
 def test_sb3_subproc_vec_env():
     env = SubprocVecEnv([lambda: gym.make("hev_thermal_env:HevThermal-v0", cycle="us06") for _ in range(2)])
     try:
