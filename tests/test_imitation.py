@@ -30,6 +30,7 @@ def test_demonstrations_are_the_teachers_own_run_on_fresh_training_cycles():
     np.testing.assert_array_equal(obs[0], first)
 
 
+@pytest.mark.full
 def test_fit_brings_the_policy_mean_to_the_teacher_and_beyond_the_bound_where_it_stops_the_engine():
     from stable_baselines3 import PPO
 
