@@ -115,7 +115,7 @@ def _usable_cache_dir() -> Path | None:
 
 CACHE_DIR = _usable_cache_dir()
 """Where the compiled kernels of this source tree are cached (None: no cache)."""
-_KERNEL_FILES = {p.resolve() for n, p in package_modules().items() if n in kernel_modules()}
+_KERNEL_FILES = {package_modules()[n].resolve() for n in kernel_modules()}
 
 
 def jit(fn):
