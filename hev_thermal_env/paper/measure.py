@@ -201,7 +201,7 @@ def figure_values(cycles: Mapping[str, Mapping[str, float]], t3: Mapping[str, fl
 def fig4_curve(duration_s: int = 200) -> dict[str, Any]:
     """Fig. 4 analog: heat index and available torque at twice the continuous torque from cold (T_gain 0.3,
     T_s 30 s, PWM_initial 0.3), one value per second."""
-    th = ThermalParams(t_gain_cold=0.3, t_gain_hot=0.3, pwm_initial_cold=0.3).pack()
+    th = ThermalParams(t_gain_cold=0.3, t_gain_hot=0.3, pwm_initial_at_ref=0.3).pack()
     mo = paper_bus().motor.pack()
     w = 2000 * RPM
     cont, peak = mot.continuous_torque_nm(mo, w), mot.peak_torque_nm(mo, w)
