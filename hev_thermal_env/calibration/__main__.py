@@ -38,16 +38,17 @@ def write_defaults(values: dict[str, float]) -> Path:
 
 
 def run_fit(args: argparse.Namespace, out: Path) -> dict[str, float]:
-    settings = F.Settings(max_nfev=args.max_nfev, profile_points=args.profile_points)
+    settings = F.Settings(max_nfev=args.max_nfev, profile_points=args.profile_points, n_sobol=args.n_sobol)
     t0 = time.perf_counter()
+    prov = L.provenance()  # the tree the fit runs on, before anything is written
     attempts = F.calibrate(settings, with_profiles=not args.no_profiles, progress=not args.quiet)
     adopted = attempts[-1]
-    values = {k: F.round_sig(v) for k, v in adopted.values.items()}
+    values = {p.name: F.round_sig(adopted.values[p.name]) for p in proto.fitted_parameters()}
     extra = ("Values written to the code (4 significant digits): "
              + ", ".join(f"`{k}` = {v:g}" for k, v in values.items()) + f". Total wall time "
              f"{time.perf_counter() - t0:.0f} s." + (f" {args.note}" if args.note else ""))
     if not args.no_log:
-        L.append(attempts, extra=extra)
+        L.append(attempts, prov=prov, extra=extra)
     best = adopted.starts[adopted.best]
     meta = {"attempt": adopted.label, "free": adopted.free, "fixed": adopted.fixed, "best_start": best.label,
             "start_unit": best.x0, "x_unit": adopted.x, "cost": adopted.cost, "settings": adopted.settings}
@@ -63,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--report-only", action="store_true", help="no fit: the residuals of the current defaults")
     ap.add_argument("--max-nfev", type=int, default=F.Settings.max_nfev, help="least_squares max_nfev per start")
     ap.add_argument("--profile-points", type=int, default=F.Settings.profile_points, help="points per profile")
+    ap.add_argument("--n-sobol", type=int, default=F.Settings.n_sobol, help="Sobol starts besides the documented one")
     ap.add_argument("--no-profiles", action="store_true", help="skip the profiles (the fallback's second rule too)")
     ap.add_argument("--no-log", action="store_true", help="do not append to docs/calibration/fit_log.md")
     ap.add_argument("--note", default="", help="a sentence appended to this run's fit-log entry")

@@ -45,7 +45,7 @@ class Settings:
 
     n_sobol: int = 8
     seed: int = 23
-    max_nfev: int = 60
+    max_nfev: int = 100
     ftol: float = 1e-6
     xtol: float = 1e-6
     gtol: float = 1e-8

@@ -67,7 +67,8 @@ def residual_lines(measured: dict[str, float], residuals: dict[str, float]) -> l
 def _starts_lines(a: Attempt) -> list[str]:
     names = a.free
     lines = [f"Starts ({len(a.starts)}; unit coordinates of {', '.join(names) or 'nothing'}):", "",
-             "| start | θ̃ start | θ̃ end | values at the end | Σr² | model runs | stop |", "|---|---|---|---|---|---|---|"]
+             "| start | θ̃ start | θ̃ end | values at the end | Σr² | model runs | stop |",
+             "|---|---|---|---|---|---|---|"]
     for i, s in enumerate(a.starts):
         vals = ", ".join(f"{_g(s.values[n])}" for n in names)
         mark = " **(best)**" if i == a.best else ""

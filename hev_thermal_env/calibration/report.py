@@ -28,6 +28,10 @@ def _num(x: float | None, unit: str = "") -> str:
     return f"{x:.1f}" if abs(x) >= 100 else f"{x:.2f}"
 
 
+def _r(r: float) -> str:
+    return f"{r:+.2f}" if math.isfinite(r) else "-"
+
+
 def build(config: VehicleConfig | None = None) -> dict[str, Any]:
     """Measure every target with ``config`` (default ``paper_bus()``) and with its ``paper_eqs`` twin."""
     net = config or paper_bus()
@@ -59,8 +63,8 @@ def residual_table(report: dict[str, Any]) -> list[str]:
     for r in report["rows"]:
         met = f"{'yes' if r['network_met'] else '**no**'} / {'yes' if r['paper_eqs_met'] else 'no'}"
         lines.append(f"| {r['id']} | {r['group'].replace('_', ' ')} | {r['figure']}: {r['description']} "
-                     f"({r['unit']}) | {r['paper']} | {_num(r['network'], r['unit'])} | {r['network_r']:+.2f} | "
-                     f"{_num(r['paper_eqs'], r['unit'])} | {r['paper_eqs_r']:+.2f} | {met} |")
+                     f"({r['unit']}) | {r['paper']} | {_num(r['network'], r['unit'])} | {_r(r['network_r'])} | "
+                     f"{_num(r['paper_eqs'], r['unit'])} | {_r(r['paper_eqs_r'])} | {met} |")
     return lines
 
 
@@ -83,7 +87,7 @@ def checks_table(report: dict[str, Any]) -> list[str]:
              f"| C3 | 0-60 km/h, thermal off, coolant closed (s) | 16.4 ± 5 % | {ac['accel_off_s']:.2f} |"]
     for c in report["c4_hwfet"]:
         lines.append(f"| C4 | {c['description']} (as {c['id']}) | {c['paper']} | {_num(c['value'])} "
-                     f"(r {c['r']:+.2f}) |")
+                     f"(r {_r(c['r'])}) |")
     return lines
 
 

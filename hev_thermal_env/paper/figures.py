@@ -71,15 +71,14 @@ class PaperFigure:
         if self.kind == "max":
             return f"≤ {self.paper + self.tol:g}{unit}"
         if self.kind == "band_every_second":
-            return f"every second in [{self.low:g}, {self.high:g}]{unit}"
+            return f"every second in [{self.low:g}, {self.high:g}] °C"
         return f"± {self.tol:g}{unit}"
 
     def paper_text(self) -> str:
-        unit = "" if self.unit == "-" else f" {self.unit}"
         if self.kind == "max":
             return self.tolerance_text()
         if self.kind == "band_every_second":
-            return f"{self.low:g}-{self.high:g}{unit} from {self.start_at:g} °C on"
+            return f"{self.low:g}-{self.high:g} °C from {self.start_at:g} °C on"
         return f"{self.paper:g} {self.tolerance_text()}"
 
 

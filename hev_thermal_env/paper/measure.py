@@ -192,7 +192,8 @@ def figure_values(cycles: Mapping[str, Mapping[str, float]], t3: Mapping[str, fl
     ours["accel_off_s"] = t3.get("accel_off_s")
     if "top_speed_off_kmh" in t3:
         for on in ("off", "on"):
-            ours[f"top_speed_{on}_kmh"], ours[f"grade_{on}_kmh"] = t3[f"top_speed_{on}_kmh"], t3[f"grade_speed_{on}_kmh"]
+            ours[f"top_speed_{on}_kmh"] = t3[f"top_speed_{on}_kmh"]
+            ours[f"grade_{on}_kmh"] = t3[f"grade_speed_{on}_kmh"]
     if fig4 is not None:
         ours["fig4_leaves_zero_s"], ours["fig4_reaches_one_s"] = fig4["pwm_leaves_zero_s"], fig4["pwm_reaches_one_s"]
     return ours
