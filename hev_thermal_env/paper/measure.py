@@ -24,6 +24,7 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.metrics import summarize
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, paper_bus
+from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
@@ -40,6 +41,9 @@ TABLE3_HOT_STARTS = {"30c": Conditions(initial_motor_temp_c=30.0, coolant="off")
 #: H1's band on beijing (Fig. 10): from the first second at ``start_at``, every second within [low, high].
 WARM_BAND = TARGET_BY_ID["H1"]
 CYCLES = ("udds", "beijing", "hwfet")
+#: C6's operating point: first gear at 1.1 m/s (the motor at 1,000 rpm) on a 20 % grade, which asks more than the
+#: motor's peak torque; the launch lasts 30 s.
+LAUNCH_SPEED_MPS, LAUNCH_GRADE, LAUNCH_S = 1.1, 0.2, 30
 #: Seconds of extension per unit of the integrator where a zero crossing is not observed (module docstring).
 EXTENSION_S = 1000.0
 
@@ -239,3 +243,39 @@ def cutoff_curve() -> dict[str, Any]:
     return {"temps_c": np.array(temps), "cutoff_c": cutoff, "time_to_cutoff_simulated_s": float(len(temps) - 1),
             "time_to_cutoff_analytic_s": float(cfg.thermal.heat_capacity_j_per_k * (cutoff - 20.0) / net),
             "mean_net_heat_w": net, "heat_capacity_j_per_k": cfg.thermal.heat_capacity_j_per_k}
+
+
+def launch_run(config: VehicleConfig | None = None, warm_max_s: int = 6 * 3600) -> dict[str, Any]:
+    """The protocol's check C6 over the physics core: the motor held at its continuous torque at
+    :data:`LAUNCH_SPEED_MPS` on :data:`LAUNCH_GRADE` until the network is steady (every node within 1e-3 K over
+    a minute, at most ``warm_max_s``), then :data:`LAUNCH_S` s at peak torque (u = 1). The heat index is taken out
+    (T_s = 10⁹ s) so that the motor holds its peak; the SOC is held at its start (a rated hour would drain it).
+    Returns the steady state, the launch's per-second states (``winding_c``, ``housing_c``, ``coolant_c``, from
+    the steady state on) and outputs (``torque_nm``, ``speed_radps``), and ``winding_rise_k``."""
+    cfg = config or paper_bus()
+    cfg = cfg.replace(thermal=cfg.thermal.replace(t_s_s=1e9))
+    core = C.PhysicsCore(cfg)
+    state, cond = core.initial_state(PAPER_CONDITIONS, 1), core.conditions_array(PAPER_CONDITIONS, 1)
+    v, g = np.array([LAUNCH_SPEED_MPS]), np.array([LAUNCH_GRADE])
+    _, out = core.step(state, np.ones(1), v, v, g, cond)
+    u_rated = (mot.continuous_torque_nm(cfg.motor.pack(), out[0, C.MOTOR_SPEED]) * cfg.driveline.coupler_ratio
+               / out[0, C.SHAFT_DEMAND])
+    nodes = [C.WINDING_C, C.TEMP_C, C.COOLANT_C]
+    history = [state[0, nodes].copy()]
+    for k in range(warm_max_s):
+        state, _ = core.step(state, np.array([u_rated]), v, v, g, cond)
+        state[:, C.SOC] = PAPER_CONDITIONS.initial_soc
+        history.append(state[0, nodes].copy())
+        if k >= 60 and np.abs(history[-1] - history[-61]).max() < 1e-3:
+            break
+    temps, outs = [state[0, nodes].copy()], []
+    for _ in range(LAUNCH_S):
+        state, out = core.step(state, np.ones(1), v, v, g, cond)
+        temps.append(state[0, nodes].copy())
+        outs.append(out[0, [C.MOTOR_TORQUE, C.MOTOR_SPEED]].copy())
+    temps_a, outs_a = np.array(temps), np.array(outs)
+    return {"warm_s": float(len(history) - 1), "rated_u": float(u_rated), "winding_c": temps_a[:, 0],
+            "housing_c": temps_a[:, 1], "coolant_c": temps_a[:, 2], "torque_nm": outs_a[:, 0],
+            "speed_radps": outs_a[:, 1], "winding_rise_k": float(temps_a[-1, 0] - temps_a[0, 0]),
+            "winding_over_housing_start_k": float(temps_a[0, 0] - temps_a[0, 1]),
+            "winding_over_housing_end_k": float(temps_a[-1, 0] - temps_a[-1, 1])}
