@@ -71,7 +71,7 @@ def _integrate(cfg, start: np.ndarray, torques: np.ndarray, speeds: np.ndarray, 
     temps, h = start.astype(float).copy(), 1.0 / substeps
     out = [temps.copy()]
     for torque, w in zip(torques, speeds):
-        def f(y: np.ndarray) -> np.ndarray:
+        def f(y: np.ndarray, torque: float = torque, w: float = w) -> np.ndarray:
             return _derivatives(cfg, y, torque, w, M.LAUNCH_SPEED_MPS, M.PAPER_CONDITIONS.ambient_temp_c)
         for _ in range(substeps):
             k1 = f(temps)

@@ -1,7 +1,8 @@
 """``python -m hev_thermal_env.calibration``: the protocol's fit (:mod:`.fit`), every attempt appended to the fit log
 (:mod:`.log`), then ``fitted_params.yaml``, ``fit_result.json``, ``residuals.md`` and ``residuals.json`` in
 ``--out`` (default docs/calibration/). ``--report-only`` writes the residuals of the current defaults without
-fitting; ``--check`` fails if ``ThermalParams``'s defaults differ from the committed ``fitted_params.yaml``."""
+fitting; ``--check`` fails if ``ThermalParams``'s defaults differ from the committed ``fitted_params.yaml``;
+``--write-docs`` rewrites the generated tables of docs/thermal_model.md (:mod:`.docs`)."""
 
 from __future__ import annotations
 
@@ -70,6 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--note", default="", help="a sentence appended to this run's fit-log entry")
     ap.add_argument("--write-defaults", action="store_true", help="write the fitted values into ThermalParams")
     ap.add_argument("--check", action="store_true", help="exit 1 if ThermalParams's defaults differ from the fit")
+    ap.add_argument("--write-docs", action="store_true", help="rewrite the generated tables of docs/thermal_model.md")
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args(argv)
     say = (lambda msg: None) if args.quiet else (lambda msg: print(msg, flush=True))
@@ -85,6 +87,10 @@ def main(argv: list[str] | None = None) -> int:
     (out / "residuals.md").write_text(R.residuals_markdown(report))
     (out / "residuals.json").write_text(json.dumps(report, indent=1, default=float) + "\n")
     say(R.residuals_markdown(report))
+    if args.write_docs:
+        from . import docs
+
+        say(f"rewrote the generated tables of {docs.write()}")
     if args.check:
         committed = yaml.safe_load((out / "fitted_params.yaml").read_text())["thermal"]
         diff = {k: (proto.value_in_code(k), v) for k, v in committed.items() if proto.value_in_code(k) != v}

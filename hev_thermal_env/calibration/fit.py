@@ -121,18 +121,24 @@ def _least_squares(fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, sett
                                   gtol=settings.gtol, max_nfev=max_nfev)
 
 
+def fit_from(problem: Problem, label: str, x0: Sequence[float], settings: Settings) -> Start:
+    """One least-squares fit from the unit coordinates ``x0``."""
+    before = problem.evaluations
+    x0 = np.asarray(x0, dtype=float)
+    if problem.params:
+        res = _least_squares(problem.residuals, x0, settings, settings.max_nfev)
+        x, status, message = np.clip(res.x, 0.0, 1.0), int(res.status), str(res.message)
+    else:
+        x, status, message = x0, 0, "nothing to fit"
+    return Start(label, [float(v) for v in x0], [float(v) for v in x], problem.values(x), problem.cost(x),
+                 problem.evaluations - before, status, message)
+
+
 def fit_starts(problem: Problem, settings: Settings, tick: Callable[[str, float], None]) -> list[Start]:
     """One least-squares fit from each of :func:`start_points`."""
     starts = []
     for label, x0 in start_points(problem.params, settings):
-        before = problem.evaluations
-        if problem.params:
-            res = _least_squares(problem.residuals, x0, settings, settings.max_nfev)
-            x, status, message = np.clip(res.x, 0.0, 1.0), int(res.status), str(res.message)
-        else:
-            x, status, message = x0, 0, "nothing to fit"
-        starts.append(Start(label, [float(v) for v in x0], [float(v) for v in x], problem.values(x),
-                            problem.cost(x), problem.evaluations - before, status, message))
+        starts.append(fit_from(problem, label, x0, settings))
         tick(label, starts[-1].cost)
     return starts
 

@@ -77,7 +77,7 @@ def _starts_lines(a: Attempt) -> list[str]:
     return lines
 
 
-def _identifiability_lines(a: Attempt) -> list[str]:
+def identifiability_lines(a: Attempt) -> list[str]:
     idf = a.identifiability
     if not a.free:
         return ["No free parameter: nothing to identify."]
@@ -95,7 +95,7 @@ def _identifiability_lines(a: Attempt) -> list[str]:
     return lines
 
 
-def _profile_lines(a: Attempt) -> list[str]:
+def profile_lines(a: Attempt) -> list[str]:
     if not a.profiles:
         return ["Profiles: not computed in this attempt."]
     lines = ["Profiles (Δ(Σr²) from the fit's Σr² at the grid points, the others re-optimised):", "",
@@ -123,7 +123,7 @@ def attempt_markdown(a: Attempt, prov: dict[str, str], index: int, extra: str = 
              f"{s['jac_step']}; profiles {s['profile_points']} points, max_nfev {s['profile_max_nfev']} per point.",
              f"* Result: Σr² = {a.cost:.4f} over F1-F7; {a.evaluations} model runs; wall time {a.wall_s:.0f} s. "
              f"{a.note}.", *([f"* {extra}"] if extra else []), "",
-             *_starts_lines(a), "", *_identifiability_lines(a), "", *_profile_lines(a), "",
+             *_starts_lines(a), "", *identifiability_lines(a), "", *profile_lines(a), "",
              "Residuals at this attempt's best fit (fitted and held out):", "",
              *residual_lines(a.measured, a.residuals), ""]
     return "\n".join(lines) + "\n"
