@@ -70,8 +70,8 @@ def test_spaces():
     assert np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high)) and np.all(space.low < space.high)
     assert len(env.obs_names) == space.shape[0] == len(observation_names(10, 2))
     assert env.obs_names[-1] == "preview_speed_10s_mps"
-    assert make(preview_s=0).observation_space.shape == (15,)
-    assert make(preview_s=30, preview_step_s=5).observation_space.shape == (21,)
+    assert make(preview_s=0).observation_space.shape == (16,)
+    assert make(preview_s=30, preview_step_s=5).observation_space.shape == (22,)
     with pytest.raises(ValueError):
         make(preview_s=-1)
 
