@@ -174,8 +174,9 @@ def test_the_safety_cost_counts_seconds_of_lost_motor_capability():
     assert stopped.any() and (hot["heat_index"] > 0).any()
     assert np.all((cost >= 0.0) & (cost <= 1.0))
     assert np.all(cost[stopped] == 1.0)
-    moving = hot["motor_speed_rpm"] > 0
-    assert np.all(hot["motor_torque_avail_nm"][stopped & moving] == 0.0)  # a stopped motor gives no torque
+    # a motor stopped before the step (and so after it) gives no torque in it
+    held = stopped[1:] & stopped[:-1] & (hot["motor_speed_rpm"][1:] > 0)
+    assert held.any() and np.all(hot["motor_torque_avail_nm"][1:][held] == 0.0)
     assert np.all(cost[~stopped] == hot["heat_index"][~stopped])
     # the episode's safety cost lies between the seconds stopped and the seconds derated or stopped
     assert stopped.sum() <= cost.sum() <= (stopped | (hot["heat_index"] > 0)).sum()

@@ -156,7 +156,8 @@ class HevThermalEnv(EnvParts, gym.Env):
     torque (eq 8), that heat has taken away; ``[stopped]`` is 1 while the 70 °C protection or the 165 °C winding
     protection holds the motor at zero torque. One unit is one second of the motor fully derated or stopped, so an
     episode's safety cost reads as seconds of lost motor capability: 0 for a motor that keeps its whole envelope,
-    the episode's length for one stopped throughout. Why this measure: derating and the protections are what heat does
+    the episode's length for one stopped throughout; 0 throughout with the thermal model off (``thermal=False``:
+    nothing derates or stops). Why this measure: derating and the protections are what heat does
     to this bus (torque lost, a motor stopped); both are bounded per step, so a budget in seconds compares across
     cycles and scenarios, and the measure needs no temperature threshold besides the protections the vehicle has.
     Temperature above a limit is priced in the reward already (``reward_overheat``); an excess would add a second,
@@ -242,6 +243,7 @@ class HevThermalEnv(EnvParts, gym.Env):
         self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
                                                                 preview_s, preview_step_s, thermal, random_start,
                                                                 info_keys)
+        self._cost_step_s = S.cost_step_s(self.config, self.core.dt_s)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
         self.conditions: Conditions | None = None
@@ -300,7 +302,7 @@ class HevThermalEnv(EnvParts, gym.Env):
         info = {}
         if self.info_keys or self._history is not None:
             info = S.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], k, u, clipped,
-                                    self._episode_info, self.core.dt_s)
+                                    self._episode_info, self._cost_step_s)
             if self._history is not None:
                 self._record(info)
             if self.info_keys is not S.INFO_KEYS:

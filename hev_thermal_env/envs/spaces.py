@@ -87,7 +87,8 @@ def safety_cost(heat_index: Any, cutoff: Any, winding_trip: Any, dt_s: float) ->
     PWM (eq 9) is the share of the motor's overload reserve (peak minus continuous torque, eq 8) that the heat index
     has taken away after the step, ``stopped`` 1 while either protection (``cutoff``: 70 °C, ``winding_trip``:
     165 °C winding) holds the motor at zero torque, else 0: one unit is one second of the motor fully derated or
-    stopped. Arrays, or numpy scalars (a numpy scalar out).
+    stopped. ``dt_s``: the step's length, 0 for a motor without the thermal model (:func:`cost_step_s`). Arrays, or
+    numpy scalars (a numpy scalar out).
     """
     if isinstance(heat_index, np.ndarray):
         return np.maximum(heat_index, np.maximum(cutoff, winding_trip)) * dt_s
@@ -139,9 +140,11 @@ def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarra
 
 
 def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.float64,
-                   time_s: float, u: float, clipped: bool, episode: dict[str, Any], dt_s: float) -> dict[str, Any]:
+                   time_s: float, u: float, clipped: bool, episode: dict[str, Any],
+                   cost_step: float) -> dict[str, Any]:
     """The ``info`` of one step of the single env (same values as the vector env's info arrays), numpy scalars in
-    :data:`INFO_KEYS` order; ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (numpy scalars)."""
+    :data:`INFO_KEYS` order; ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (numpy scalars);
+    ``cost_step``: the ``dt_s`` of :func:`safety_cost` (:func:`cost_step_s`)."""
     info = {
         "fuel_g": out[C.FUEL_G], "soc": state[C.SOC], "motor_temp_c": state[C.TEMP_C],
         "heat_index": out[C.HEAT_INDEX], "motor_torque_nm": out[C.MOTOR_TORQUE],
@@ -155,13 +158,19 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
     for key, col in _REWARD_COLUMNS:
         info[key] = terms[col]
     info.update(
-        cost=safety_cost(out[C.HEAT_INDEX], state[C.CUTOFF], state[C.WINDING_TRIP], dt_s),
+        cost=safety_cost(out[C.HEAT_INDEX], state[C.CUTOFF], state[C.WINDING_TRIP], cost_step),
         missed_wheel_energy_j=out[C.MISSED_J], battery_chem_power_w=out[C.BATT_CHEM],
         battery_power_w=out[C.BATT_POWER], motor_torque_avail_nm=out[C.MOTOR_AVAIL],
         cycle_speed_mps=np.float64(cycle_speed), time_s=np.float64(time_s), motor_share=np.float64(u),
         motor_share_clipped=np.True_ if clipped else np.False_, motor_torque_clipped=out[C.MOTOR_CLIPPED] != 0.0)
     info.update(episode)
     return info
+
+
+def cost_step_s(config: VehicleConfig, dt_s: float) -> float:
+    """The ``dt_s`` of :func:`safety_cost` for ``config``: the step's length, or 0 with the thermal model off (the heat
+    index is still integrated then, but nothing derates or stops)."""
+    return float(dt_s) if config.thermal.enabled else 0.0
 
 
 _SMALL_INT64 = tuple(np.int64(i) for i in range(64))
@@ -175,9 +184,10 @@ def _int64(x: Any) -> np.int64:
 
 def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.ndarray,
                      time_s: np.ndarray, u: np.ndarray, clipped: np.ndarray, episode: dict[str, np.ndarray],
-                     dt_s: float) -> dict[str, np.ndarray]:
+                     cost_step: float) -> dict[str, np.ndarray]:
     """The step infos of a batch as one array per key (of dtype :data:`INFO_DTYPES`; one column slice per key where
-    the dtype allows); ``episode``: an array per :data:`EPISODE_INFO_KEYS` key (copied)."""
+    the dtype allows); ``episode``: an array per :data:`EPISODE_INFO_KEYS` key (copied); ``cost_step``: as in
+    :func:`step_info_dict`."""
     info = {name: out[:, col] for name, col in _INFO_OUT_COLUMNS}
     for name, col in _INFO_RPM_COLUMNS:
         info[name] = out[:, col] * RPM_PER_RADPS
@@ -188,7 +198,7 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
     info.update(gear=out[:, C.GEAR].astype(np.int64), soc=state[:, C.SOC], motor_temp_c=state[:, C.TEMP_C],
                 motor_cutoff=state[:, C.CUTOFF] != 0.0, winding_temp_c=state[:, C.WINDING_C],
                 coolant_temp_c=state[:, C.COOLANT_C], winding_trip=state[:, C.WINDING_TRIP] != 0.0,
-                cost=safety_cost(out[:, C.HEAT_INDEX], state[:, C.CUTOFF], state[:, C.WINDING_TRIP], dt_s),
+                cost=safety_cost(out[:, C.HEAT_INDEX], state[:, C.CUTOFF], state[:, C.WINDING_TRIP], cost_step),
                 cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u, motor_share_clipped=clipped,
                 **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
     return {key: info[key] for key in INFO_KEYS}
@@ -207,9 +217,8 @@ def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
     episode = {"cycle_id": np.int64(cycle_id(ep.cycle.name)), "start_s": np.int64(ep.start_s),
                "soc_target": np.float64(rows.soc_target[i]), "ambient_temp_c": np.float64(ep.conditions.ambient_temp_c),
                "coolant_code": np.int64(coolant_code(ep.conditions.coolant))}
-    info = step_info_dict(out, st, np.zeros(len(REWARD_TERMS)), rows.speed[i, k], k, 0.0, False, episode, 1.0)
-    info["cost"] = np.float64(0.0)  # a quantity of a step
-    return info
+    # cost_step 0: the safety cost, too, is a quantity of a step
+    return step_info_dict(out, st, np.zeros(len(REWARD_TERMS)), rows.speed[i, k], k, 0.0, False, episode, 0.0)
 
 
 def cycle_id(name: str) -> int:

@@ -19,7 +19,7 @@ from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
 from .batch import EnvParts
 from .reward import RewardParams
-from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, reset_info_dict, step_info_arrays
+from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, cost_step_s, reset_info_dict, step_info_arrays
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
@@ -75,6 +75,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         self.single_observation_space, self.single_action_space = self._build(
             self.num_envs, cycle, scenario, config, conditions, reward, preview_s, preview_step_s, thermal,
             random_start, info_keys)
+        self._cost_step_s = cost_step_s(self.config, self.core.dt_s)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
@@ -267,7 +268,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         if not self.info_keys:
             return {}
         arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped, self._episode_cols,
-                                  self.core.dt_s)
+                                  self._cost_step_s)
         infos = {}
         for key in self.info_keys:
             infos[key] = arrays[key]
