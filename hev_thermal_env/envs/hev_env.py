@@ -226,8 +226,9 @@ class HevThermalEnv(EnvParts, gym.Env):
       valve senses the coolant; inverter losses to their cold plate; a 165 °C winding protection), the action governs
       braking (share of the available regeneration; u ≤ 0 friction only), the braking split between axles, the
       battery's coulombic efficiency, the accessory load as a condition; observation entry 7 (winding temperature)
-      added; info keys ``winding_temp_c``, ``coolant_temp_c``, ``winding_trip``. Results of v0 do not carry over;
-      ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming ``HevThermal-v1``.
+      added; info keys ``winding_temp_c``, ``coolant_temp_c``, ``winding_trip`` and the safety cost ``cost``; the
+      info's values are numpy scalars, with the same keys at reset as at every step. Results of v0 do not carry
+      over; ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming ``HevThermal-v1``.
     * v0: initial version.
     """
 
