@@ -97,7 +97,7 @@ def test_every_train_example_builds_a_valid_config(monkeypatch):
         if argv[:2] == ["python", "train.py"] and "--resume" not in argv:
             args = train_parser().parse_args(argv[2:])
             cli_train.run(args, " ".join(argv))
-    assert len(built) == 3 and built[2]["algo"] == "sac"
+    assert len(built) == 4 and built[2]["algo"] == "sac" and built[3]["task"] == "bus-generalisation-v1"
 
 
 def test_the_scripts_print_their_help():

@@ -1,5 +1,7 @@
 """The env, unmodified, under the libraries RL researchers use: torchrl (single and batched), sb3-contrib,
-fresh worker processes (the ``module:Id`` form), gymnasium's vector wrappers on the lean info path."""
+fresh worker processes (the ``module:Id`` form), gymnasium's vector wrappers on the lean info path. The info's
+contract (numpy values, the same keys at resets and steps; torchrl's info reader on the single env, Minari):
+tests/test_info_contract.py."""
 
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ from gymnasium.vector import AutoresetMode
 
 import hev_thermal_env
 from hev_thermal_env import load_cycle
-from hev_thermal_env.envs import EPISODE_INFO_KEYS, INFO_KEYS, RESET_INFO_KEYS, coolant_mode, cycle_name
+from hev_thermal_env.envs import coolant_mode, cycle_name
 from hev_thermal_env.physics.config import COOLANT_MODES
 
 torchrl_gym = pytest.importorskip("torchrl.envs.libs.gym")  # the [dev] extra installs it
@@ -35,23 +37,6 @@ def short_cycle(tmp_path_factory) -> str:
 
 
 # --- what any library can rely on -------------------------------------------------------------------------
-
-def test_every_info_value_is_a_number_and_every_reset_key_a_step_key():
-    assert set(RESET_INFO_KEYS) <= set(INFO_KEYS) and set(EPISODE_INFO_KEYS) <= set(INFO_KEYS)
-    assert "action" not in INFO_KEYS and "action_clipped" not in INFO_KEYS  # torchrl's reserved entry
-    env = gym.make("HevThermal-v1", cycle=["hwfet", "random_bus"], scenario="random")
-    _, info = env.reset(seed=1)
-    infos = [info]
-    for _ in range(3):
-        infos.append(env.step(env.action_space.sample())[4])
-    assert tuple(infos[0]) == RESET_INFO_KEYS and all(tuple(i) == INFO_KEYS for i in infos[1:])
-    for i in infos:
-        for key, value in i.items():
-            assert isinstance(value, (bool, int, float)) and not isinstance(value, str), (key, value)
-    assert cycle_name(info["cycle_id"]) == env.unwrapped.cycle.name
-    assert coolant_mode(info["coolant_code"]) == env.unwrapped.conditions.coolant
-    assert all(infos[-1][k] == info[k] for k in EPISODE_INFO_KEYS)
-
 
 def test_codes_and_their_lookups():
     assert [cycle_name(i) for i in range(5)] == hev_thermal_env.list_cycles()
@@ -79,7 +64,8 @@ def test_the_envs_are_reachable_from_the_package():
 
 def test_module_id_form_makes_the_env_in_a_fresh_process():
     """A worker that never imported the package (RLlib's remote runners): the bare id is unknown there,
-    ``hev_thermal_env:HevThermal-v1`` imports the package and makes the env."""
+    ``hev_thermal_env:HevThermal-v1`` imports the package and makes the env; ``gym.spec`` takes no such form, the
+    bare id after the import."""
     code = (
         "import sys, gymnasium as gym\n"
         "assert 'hev_thermal_env' not in sys.modules\n"
@@ -92,12 +78,18 @@ def test_module_id_form_makes_the_env_in_a_fresh_process():
         "print(obs.shape, env.spec.id, sorted(info)[:2])\n"
         "envs = gym.make_vec('hev_thermal_env:HevThermal-v1', 3)\n"
         "print(type(envs).__name__, envs.reset(seed=0)[0].shape)\n"
+        "try:\n"
+        "    gym.spec('hev_thermal_env:HevThermal-v1')\n"
+        "except gym.error.NameNotFound:\n"
+        "    print('spec of module:Id: NameNotFound;', 'spec of the bare id:', gym.spec('HevThermal-v1').id)\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=300,
                        env={**_clean_env(), "PYTHONPATH": str(ROOT)})
     assert r.returncode == 0, r.stderr
-    assert r.stdout.splitlines() == ["bare id: NameNotFound", "(21,) HevThermal-v1 ['ambient_temp_c', 'coolant_code']",
-                                     "HevThermalVectorEnv (3, 21)"]
+    assert r.stdout.splitlines() == ["bare id: NameNotFound",
+                                     "(21,) HevThermal-v1 ['ambient_temp_c', 'battery_chem_power_w']",
+                                     "HevThermalVectorEnv (3, 21)",
+                                     "spec of module:Id: NameNotFound; spec of the bare id: HevThermal-v1"]
 
 
 def _clean_env() -> dict:
@@ -112,8 +104,8 @@ def test_info_keys_choose_the_keys_of_every_info():
     lean = gym.make("HevThermal-v1", info_keys=())
     assert lean.reset(seed=0)[1] == {} and lean.step(np.zeros(1, np.float32))[4] == {}
     some = gym.make("HevThermal-v1", info_keys=("fuel_g", "cycle_id"))
-    assert some.reset(seed=0)[1] == {"cycle_id": 0}
-    assert set(some.step(np.zeros(1, np.float32))[4]) == {"fuel_g", "cycle_id"}
+    assert some.reset(seed=0)[1] == {"fuel_g": 0.0, "cycle_id": 0}
+    assert tuple(some.step(np.zeros(1, np.float32))[4]) == ("fuel_g", "cycle_id")
     full = gym.make("HevThermal-v1")
     full.reset(seed=0)
     assert full.step(np.zeros(1, np.float32))[4]["fuel_g"] == lean_fuel(some)
@@ -159,7 +151,7 @@ def test_torchrl_single_env(short_cycle):
     td = env.rollout(100, break_when_any_done=False)  # torchrl resets at each of the two episode ends
     assert td.shape == (100,) and td["next", "truncated"].sum().item() == 2
     check_env_specs(torchrl_gym.GymEnv("HevThermal-v1", cycle=short_cycle))
-    # infos as tensors: a batch of one (torchrl's info reader wants numpy values, which a batch gives)
+    # infos as tensors through a batch of one (the single env's infos: tests/test_info_contract.py)
     one = torchrl_gym.GymWrapper(gym.make_vec("HevThermal-v1", 1, autoreset_mode=SAME_STEP, cycle=short_cycle))
     check_env_specs(one)
     td = one.rollout(50, break_when_any_done=False)

@@ -11,7 +11,7 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import hev_thermal_env  # noqa: F401  (registers HevThermal-v1)
-from hev_thermal_env.envs import INFO_KEYS, RESET_INFO_KEYS, HevThermalVectorEnv
+from hev_thermal_env.envs import INFO_KEYS, HevThermalVectorEnv
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
@@ -46,7 +46,7 @@ def test_next_step_autoreset_matches_single_envs():
     for i, env in enumerate(singles):
         obs, info = env.reset(seed=100 + i)
         np.testing.assert_array_equal(obs_v[i], obs)
-        for key in RESET_INFO_KEYS:
+        for key in INFO_KEYS:
             assert info_v[key][i] == info[key]
     done = np.zeros(n, dtype=bool)
     n_resets = 0
@@ -56,9 +56,9 @@ def test_next_step_autoreset_matches_single_envs():
             if done[i]:
                 obs, info = env.reset()
                 n_resets += 1
-                assert rew_v[i] == 0.0 and not trunc_v[i] and not info_v["_fuel_g"][i] and info_v["_cycle_id"][i]
-                for key in RESET_INFO_KEYS:
-                    assert info_v[key][i] == info[key], key
+                assert rew_v[i] == 0.0 and not trunc_v[i] and info_v["fuel_g"][i] == 0.0
+                for key in INFO_KEYS:
+                    assert info_v["_" + key][i] and info_v[key][i] == info[key], key
             else:
                 obs, rew, term, trunc, info = env.step(actions[i])
                 assert rew_v[i] == rew and term_v[i] == term and trunc_v[i] == trunc
@@ -115,7 +115,7 @@ def test_same_step_autoreset_matches_single_envs():
                 for key in INFO_KEYS:
                     assert info_v["final_info"][key][i] == info[key]
                 obs, info = env.reset()
-                for key in RESET_INFO_KEYS:
+                for key in INFO_KEYS:
                     assert info_v[key][i] == info[key]
             else:
                 assert "_final_obs" not in info_v or not info_v["_final_obs"][i]
@@ -143,7 +143,7 @@ def test_different_cycle_lengths_truncate_per_env():
 def test_infos_are_dicts_of_arrays_with_masks():
     vec = HevThermalVectorEnv(5, scenario="hot")
     _, info = vec.reset(seed=0)
-    for key in RESET_INFO_KEYS:
+    for key in INFO_KEYS:
         assert info[key].shape == (5,) and info["_" + key].all()
     _, rew, term, trunc, info = vec.step(np.full((5, 1), 0.7, np.float32))
     assert rew.dtype == np.float64 and term.dtype == trunc.dtype == np.bool_

@@ -1,7 +1,7 @@
 """Evaluate energy-management strategies on the hybrid bus.
 
 The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job and module:
-``benchmark`` (strategies × cycles × scenarios, table + plots), ``run`` (one strategy on one cycle),
+``benchmark`` (strategies × cycles × scenarios or a named task, table + plots), ``run`` (one strategy on one cycle),
 ``paper`` (the paper reproduction report) and ``performance`` (the paper's Table 3).
 """
 
@@ -21,6 +21,7 @@ SUBCOMMANDS = ("benchmark", "run", "paper", "performance")
 EXAMPLES = (
     "python evaluate.py benchmark --out results                  # shipped PPO + classic strategies",
     "python evaluate.py benchmark --scenarios paper hot --strategies rule dp dp_thermal ppo:runs/ppo",
+    "python evaluate.py benchmark --task bus-generalisation --out results_gen   # a named task (hev_thermal_env.tasks)",
     "python evaluate.py run --cycle hwfet --strategy ecms --json r.json --trace r.csv --plot r.png",
     "python evaluate.py paper --out results/paper",
     "python evaluate.py performance --initial-motor-temp-c 50 --coolant off",

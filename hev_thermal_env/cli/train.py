@@ -12,6 +12,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from hev_thermal_env.tasks import list_tasks
+
 from .errors import program_name, run_program
 from .parsing import (
     HelpFormatter,
@@ -32,6 +34,7 @@ EXAMPLES = (
     "    --n-envs 32 --seed 0 --out runs/ppo_s0",
     "python train.py --algo ppo --hp gamma=0.99 'policy_kwargs={net_arch: [128, 128]}' --out runs/ppo_wide",
     "python train.py --algo sac --hp learning_rate=lin_3e-4 env.reward.soc_deviation_weight=10 --out runs/sac",
+    "python train.py --task bus-generalisation --seed 1 --out runs/gen_s1   # the task's training cycles and scenario",
     "python train.py --resume runs/ppo_s0                 # continue an interrupted run to its total",
     "python evaluate.py run --cycle beijing --strategy ppo:runs/ppo_s0   # drive a trained run",
 )
@@ -58,6 +61,9 @@ def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
                            epilog=examples(EXAMPLES) + "\n\n" + NOTES)
     d = add_run_options(p)
+    p.add_argument("--task", default=None, metavar="NAME",
+                   help=f"train for a benchmark task ({', '.join(list_tasks())}; a name alone is its newest version): "
+                        "its training cycles and scenario, instead of --cycles and --scenario")
     p.add_argument("--seed", type=int, default=None, help="seed of the model and environments, 0 or more (default: 0)")
     p.add_argument("--out", default=None, metavar="DIR", help="run directory, new or empty (required unless --resume)")
     p.add_argument("--checkpoint-freq", type=int, default=None, metavar="N",
@@ -88,7 +94,7 @@ def run(args: argparse.Namespace, command: str) -> tuple[dict[str, Any], str]:
         args.algo or "ppo", hyperparams_file=args.hyperparams, overrides=parse_overrides(args.hp or []),
         cycles=args.cycles, scenario=args.scenario, timesteps=args.timesteps, n_envs=args.n_envs,
         seed=0 if args.seed is None else args.seed, eval_cycles=eval_cycles(args), eval_scenarios=args.eval_scenarios,
-        eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq, command=command)
+        eval_freq=args.eval_freq, checkpoint_freq=args.checkpoint_freq, command=command, task=args.task)
     return train(config, args.out, progress=progress, verbose=verbose), args.out
 
 

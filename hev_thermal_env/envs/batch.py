@@ -184,7 +184,6 @@ class EnvParts:
                info_keys: Any) -> tuple[spaces.Box, spaces.Box]:
         """Build the parts from the env's arguments; returns one env's observation and action spaces."""
         self.info_keys = S.check_info_keys(info_keys)
-        self.reset_info_keys = S.reset_info_keys(self.info_keys)
         self.config = resolve_config(config, thermal)
         self.core = C.PhysicsCore(self.config)
         self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)

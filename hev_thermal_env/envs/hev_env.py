@@ -130,15 +130,39 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Info
 
-    ``step`` returns the keys of :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the contract first: fuel, SOC, motor
-    and engine operating points, heat index, cutoff, reward terms; then extras such as ``motor_share``, the share u
-    applied after clipping, and ``motor_share_clipped``, and the episode's keys,
-    :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``. ``reset`` returns
-    :data:`~hev_thermal_env.envs.spaces.RESET_INFO_KEYS` (those among ``info_keys``). Every value is a number or a bool,
-    so that libraries that turn each info value into a tensor (torchrl) read them: the cycle and the coolant mode are
-    codes, ``cycle_id`` (:func:`~hev_thermal_env.envs.spaces.cycle_name` gives the name, as does
-    ``env.unwrapped.cycle.name``) and ``coolant_code`` (:func:`~hev_thermal_env.envs.spaces.coolant_mode`). Every key of
-    a reset's info is also a step's, so a vector wrapper that merges an autoreset into a step's info adds no new key.
+    ``reset`` and ``step`` return the same keys in the same order, :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the
+    contract first: fuel, SOC, motor and engine operating points, heat index, cutoff, reward terms, the safety cost;
+    then extras such as ``motor_share``, the share u applied after clipping, and ``motor_share_clipped``, and the
+    episode's keys, :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``, in
+    their order. Every value is a numpy scalar, ``np.float64``, ``np.int64`` or ``np.bool_``
+    (:data:`~hev_thermal_env.envs.spaces.INFO_DTYPES`), the same type for a key at every reset and step, so that
+    readers that store each info value as an array or tensor of a fixed dtype and shape (torchrl's default info
+    reader, Minari's ``DataCollector(record_infos=True)``, gymnasium's vector wrappers) take the info unchanged. A
+    reset's info holds the starting state (:data:`~hev_thermal_env.envs.spaces.STATE_INFO_KEYS`: SOC, temperatures,
+    heat index, protections, speed, time, the first step's torque envelope, the episode's keys) and zero or False
+    for every quantity of a step (fuel, torques, speeds of the machines, reward terms, ``cost``, ``motor_share``, ...).
+    The cycle and the coolant mode are codes, ``cycle_id`` (:func:`~hev_thermal_env.envs.spaces.cycle_name` gives the
+    name, as does ``env.unwrapped.cycle.name``) and ``coolant_code``
+    (:func:`~hev_thermal_env.envs.spaces.coolant_mode`).
+
+    ## Cost
+
+    ``info["cost"]``, the step's **safety cost** (Safety-Gymnasium's convention: a per-step cost beside the reward,
+    for constrained RL; the reward does not contain it and is unchanged by it)::
+
+        cost = dt · max(PWM, [stopped])        (in seconds, ≥ 0, at most 1 per 1-s step)
+
+    PWM (eq 9, the heat index after the step) is the share of the motor's overload reserve, peak minus continuous
+    torque (eq 8), that heat has taken away; ``[stopped]`` is 1 while the 70 °C protection or the 165 °C winding
+    protection holds the motor at zero torque. One unit is one second of the motor fully derated or stopped, so an
+    episode's safety cost reads as seconds of lost motor capability: 0 for a motor that keeps its whole envelope,
+    the episode's length for one stopped throughout; 0 throughout with the thermal model off (``thermal=False``:
+    nothing derates or stops). Why this measure: derating and the protections are what heat does
+    to this bus (torque lost, a motor stopped); both are bounded per step, so a budget in seconds compares across
+    cycles and scenarios, and the measure needs no temperature threshold besides the protections the vehicle has.
+    Temperature above a limit is priced in the reward already (``reward_overheat``); an excess would add a second,
+    arbitrary threshold. :func:`~hev_thermal_env.envs.spaces.safety_cost` computes it; docs/tasks.md says how the
+    benchmark's tasks use it.
 
     ## Starting State
 
@@ -202,8 +226,9 @@ class HevThermalEnv(EnvParts, gym.Env):
       valve senses the coolant; inverter losses to their cold plate; a 165 °C winding protection), the action governs
       braking (share of the available regeneration; u ≤ 0 friction only), the braking split between axles, the
       battery's coulombic efficiency, the accessory load as a condition; observation entry 7 (winding temperature)
-      added; info keys ``winding_temp_c``, ``coolant_temp_c``, ``winding_trip``. Results of v0 do not carry over;
-      ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming ``HevThermal-v1``.
+      added; info keys ``winding_temp_c``, ``coolant_temp_c``, ``winding_trip`` and the safety cost ``cost``; the
+      info's values are numpy scalars, with the same keys at reset as at every step. Results of v0 do not carry
+      over; ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming ``HevThermal-v1``.
     * v0: initial version.
     """
 
@@ -219,6 +244,7 @@ class HevThermalEnv(EnvParts, gym.Env):
         self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
                                                                 preview_s, preview_step_s, thermal, random_start,
                                                                 info_keys)
+        self._cost_step_s = S.cost_step_s(self.config, self.core.dt_s)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
         self.conditions: Conditions | None = None
@@ -258,10 +284,9 @@ class HevThermalEnv(EnvParts, gym.Env):
         self._episode_info = {key: info[key] for key in S.EPISODE_INFO_KEYS}
         if self.render_mode is not None:
             self._history = {name: [] for name in _HISTORY_KEYS}
-            v = float(ep.cycle.speed_mps[ep.start_s])
-            self._record(info, cycle_speed_mps=v, speed_mps=v, motor_share=math.nan)
+            self._record(info, motor_share=math.nan)
         if self.info_keys is not S.INFO_KEYS:
-            info = {key: info[key] for key in self.reset_info_keys}
+            info = {key: info[key] for key in self.info_keys}
         return obs, info
 
     def step(self, action):
@@ -277,8 +302,8 @@ class HevThermalEnv(EnvParts, gym.Env):
         truncated = k >= rows.end[0]
         info = {}
         if self.info_keys or self._history is not None:
-            info = S.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], float(k), u, clipped,
-                                  self._episode_info)
+            info = S.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], k, u, clipped,
+                                    self._episode_info, self._cost_step_s)
             if self._history is not None:
                 self._record(info)
             if self.info_keys is not S.INFO_KEYS:

@@ -1,6 +1,6 @@
-"""The observation and info layout of ``HevThermal-v1``: names and bounds, the info builders and codes.
+"""The observation and info layout of ``HevThermal-v1``: names and bounds, the info builders, the safety cost and codes.
 
-Shared by the single env, the batch engine and the vector env, so all three report the same keys and values. The reset
+Shared by the single env, the batch engine and the vector env, so all three report the same keys and values. The
 info's two categorical values are numeric codes (the env's spec, section Info):
 
 * ``info["cycle_id"]`` → :func:`cycle_name`: the built-in cycles have fixed ids, their order in
@@ -30,12 +30,14 @@ RPM_PER_RADPS = 30.0 / math.pi
 _OBS_FIELDS = (
     ("speed_mps", 0.0, 60.0), ("accel_mps2", -10.0, 10.0), ("wheel_power_demand_kw", -2000.0, 2000.0),
     ("soc", 0.0, 1.0), ("soc_target", 0.0, 1.0), ("soc_deviation", -1.0, 1.0), ("motor_temp_c", -40.0, 200.0),
-    ("winding_temp_c", -40.0, 250.0), ("heat_index", 0.0, 1.0), ("heat_x", -1.0, 1.0), ("motor_cutoff", 0.0, 1.0), ("motor_torque_avail_nm", 0.0, None),
-    ("gear", 0.0, None), ("cycle_progress", 0.0, 1.0), ("ambient_temp_c", -40.0, 60.0), ("coolant_factor", 0.0, 1.0),
+    ("winding_temp_c", -40.0, 250.0), ("heat_index", 0.0, 1.0), ("heat_x", -1.0, 1.0), ("motor_cutoff", 0.0, 1.0),
+    ("motor_torque_avail_nm", 0.0, None), ("gear", 0.0, None), ("cycle_progress", 0.0, 1.0),
+    ("ambient_temp_c", -40.0, 60.0), ("coolant_factor", 0.0, 1.0),
 )
 N_OBS_BASE = len(_OBS_FIELDS)
+# in _OBS_FIELDS' order:
 (OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_WINDING, OBS_PWM,
- OBS_HEAT_X, OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)  # _OBS_FIELDS' order
+ OBS_HEAT_X, OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)
 
 # --- info layout ----------------------------------------------------------------------------------
 # Step-info keys straight from an output column of the physics core.
@@ -52,21 +54,46 @@ _REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  
 _REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
 
 EPISODE_INFO_KEYS = ("cycle_id", "start_s", "soc_target", "ambient_temp_c", "coolant_code")
-"""Keys of the reset info that every step repeats (the episode's cycle, start and conditions): every key of a
-reset's info is also a step's (the env's spec, section Info, says why)."""
+"""Keys of the info that hold the episode's cycle, start and conditions (the same at its reset and every step)."""
 
 INFO_KEYS = (
     "fuel_g", "soc", "motor_temp_c", "heat_index", "motor_torque_nm", "motor_speed_rpm", "motor_heat_w",
     "engine_torque_nm", "engine_speed_rpm", "engine_on", "gear", "speed_mps", "trace_miss_mps", "motor_cutoff",
-    "coolant_on", "winding_temp_c", "coolant_temp_c", "winding_trip", *_REWARD_KEYS, "missed_wheel_energy_j", "battery_chem_power_w", "battery_power_w",
-    "motor_torque_avail_nm", "cycle_speed_mps", "time_s", "motor_share", "motor_share_clipped", "motor_torque_clipped",
-    *EPISODE_INFO_KEYS,
+    "coolant_on", "winding_temp_c", "coolant_temp_c", "winding_trip", *_REWARD_KEYS, "cost", "missed_wheel_energy_j",
+    "battery_chem_power_w", "battery_power_w", "motor_torque_avail_nm", "cycle_speed_mps", "time_s", "motor_share",
+    "motor_share_clipped", "motor_torque_clipped", *EPISODE_INFO_KEYS,
 )
-"""Keys of the ``info`` dict of every step (the documented contract first, then extras), numbers and bools only."""
+"""Keys of the ``info`` dict of every reset and every step, in this order (the documented contract first, then
+extras); the values are numpy scalars of :data:`INFO_DTYPES`."""
 
-RESET_INFO_KEYS = ("cycle_id", "start_s", "time_s", "soc", "soc_target", "motor_temp_c", "heat_index",
-                   "motor_cutoff", "ambient_temp_c", "coolant_code")
-"""Keys of the ``info`` dict returned by ``reset``: numbers only (``cycle_id`` and ``coolant_code`` are codes)."""
+_INT_KEYS = ("gear", "cycle_id", "start_s", "coolant_code")
+_BOOL_KEYS = ("engine_on", "motor_cutoff", "coolant_on", "winding_trip", "motor_share_clipped", "motor_torque_clipped")
+INFO_DTYPES: dict[str, type] = {key: np.int64 if key in _INT_KEYS else np.bool_ if key in _BOOL_KEYS else np.float64
+                                for key in INFO_KEYS}
+"""The numpy type of each info value (``np.float64``, ``np.int64`` or ``np.bool_``), at resets and steps alike, and
+the dtype of the vector env's info arrays."""
+
+#: Keys whose reset value is the episode's starting state (the others are quantities of a step: zero or False at a
+#: reset): the state, the vehicle's speed, the clock, the motor's torque envelope of the first step (the
+#: observation's entry ``motor_torque_avail_nm``) and the episode's keys.
+STATE_INFO_KEYS = ("soc", "motor_temp_c", "heat_index", "motor_cutoff", "winding_temp_c", "coolant_temp_c",
+                   "winding_trip", "speed_mps", "motor_torque_avail_nm", "cycle_speed_mps", "time_s",
+                   *EPISODE_INFO_KEYS)
+
+
+def safety_cost(heat_index: Any, cutoff: Any, winding_trip: Any, dt_s: float) -> Any:
+    """The safety cost of steps (``info["cost"]``, the env's spec, section Cost): ``dt_s · max(PWM, stopped)``.
+
+    PWM (eq 9) is the share of the motor's overload reserve (peak minus continuous torque, eq 8) that the heat index
+    has taken away after the step, ``stopped`` 1 while either protection (``cutoff``: 70 °C, ``winding_trip``:
+    165 °C winding) holds the motor at zero torque, else 0: one unit is one second of the motor fully derated or
+    stopped. ``dt_s``: the step's length, 0 for a motor without the thermal model (:func:`cost_step_s`). Arrays, or
+    numpy scalars (a numpy scalar out).
+    """
+    if isinstance(heat_index, np.ndarray):
+        return np.maximum(heat_index, np.maximum(cutoff, winding_trip)) * dt_s
+    return max(heat_index, cutoff, winding_trip) * dt_s  # one step: a tenth of the ufuncs' time
+
 
 _CYCLE_NAMES: list[str] = list(list_cycles())
 _CYCLE_IDS: dict[str, int] = {name: i for i, name in enumerate(_CYCLE_NAMES)}
@@ -77,21 +104,16 @@ def check_info_keys(info_keys: Any) -> tuple[str, ...]:
     (``()``: none)."""
     if isinstance(info_keys, str):
         if info_keys != "all":
-            raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}")
+            raise ValueError(f"info_keys: 'all' or a sequence of info keys, got {info_keys!r}")
         return INFO_KEYS
     try:
         keys = tuple(info_keys)
     except TypeError:
-        raise ValueError(f"info_keys: 'all' or a sequence of step-info keys, got {info_keys!r}") from None
+        raise ValueError(f"info_keys: 'all' or a sequence of info keys, got {info_keys!r}") from None
     unknown = [k for k in keys if k not in INFO_KEYS]
     if unknown:
         raise ValueError(f"info_keys: unknown key(s) {unknown}; known: {', '.join(INFO_KEYS)}")
     return keys
-
-
-def reset_info_keys(info_keys: tuple[str, ...]) -> tuple[str, ...]:
-    """The reset-info keys among ``info_keys``."""
-    return tuple(key for key in RESET_INFO_KEYS if key in info_keys)
 
 
 def observation_names(preview_s: int, preview_step_s: int) -> tuple[str, ...]:
@@ -117,37 +139,55 @@ def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarra
     return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
 
 
-def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: float,
-                   time_s: float, u: float, clipped: bool, episode: dict[str, Any]) -> dict[str, Any]:
-    """The ``info`` of one step of the single env (same values as the vector env's info arrays);
-    ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode."""
-    o = out.tolist()
+def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.float64,
+                   time_s: float, u: float, clipped: bool, episode: dict[str, Any],
+                   cost_step: float) -> dict[str, Any]:
+    """The ``info`` of one step of the single env (same values as the vector env's info arrays), numpy scalars in
+    :data:`INFO_KEYS` order; ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (numpy scalars);
+    ``cost_step``: the ``dt_s`` of :func:`safety_cost` (:func:`cost_step_s`)."""
     info = {
-        "fuel_g": o[C.FUEL_G], "soc": float(state[C.SOC]), "motor_temp_c": float(state[C.TEMP_C]),
-        "heat_index": o[C.HEAT_INDEX], "motor_torque_nm": o[C.MOTOR_TORQUE],
-        "motor_speed_rpm": o[C.MOTOR_SPEED] * RPM_PER_RADPS, "motor_heat_w": o[C.MOTOR_HEAT],
-        "engine_torque_nm": o[C.ENGINE_TORQUE], "engine_speed_rpm": o[C.ENGINE_SPEED] * RPM_PER_RADPS,
-        "engine_on": o[C.ENGINE_ON] != 0.0, "gear": int(o[C.GEAR]), "speed_mps": o[C.SPEED],
-        "trace_miss_mps": o[C.TRACE_MISS], "motor_cutoff": bool(state[C.CUTOFF] != 0.0),
-        "coolant_on": o[C.COOLANT_ON] != 0.0, "winding_temp_c": float(state[C.WINDING_C]),
-        "coolant_temp_c": float(state[C.COOLANT_C]), "winding_trip": bool(state[C.WINDING_TRIP] != 0.0),
+        "fuel_g": out[C.FUEL_G], "soc": state[C.SOC], "motor_temp_c": state[C.TEMP_C],
+        "heat_index": out[C.HEAT_INDEX], "motor_torque_nm": out[C.MOTOR_TORQUE],
+        "motor_speed_rpm": out[C.MOTOR_SPEED] * RPM_PER_RADPS, "motor_heat_w": out[C.MOTOR_HEAT],
+        "engine_torque_nm": out[C.ENGINE_TORQUE], "engine_speed_rpm": out[C.ENGINE_SPEED] * RPM_PER_RADPS,
+        "engine_on": out[C.ENGINE_ON] != 0.0, "gear": _int64(out[C.GEAR]), "speed_mps": out[C.SPEED],
+        "trace_miss_mps": out[C.TRACE_MISS], "motor_cutoff": state[C.CUTOFF] != 0.0,
+        "coolant_on": out[C.COOLANT_ON] != 0.0, "winding_temp_c": state[C.WINDING_C],
+        "coolant_temp_c": state[C.COOLANT_C], "winding_trip": state[C.WINDING_TRIP] != 0.0,
     }
-    t = terms.tolist()
     for key, col in _REWARD_COLUMNS:
-        info[key] = t[col]
+        info[key] = terms[col]
     info.update(
-        missed_wheel_energy_j=o[C.MISSED_J], battery_chem_power_w=o[C.BATT_CHEM], battery_power_w=o[C.BATT_POWER],
-        motor_torque_avail_nm=o[C.MOTOR_AVAIL], cycle_speed_mps=float(cycle_speed), time_s=time_s, motor_share=u,
-        motor_share_clipped=clipped, motor_torque_clipped=o[C.MOTOR_CLIPPED] != 0.0)
+        cost=safety_cost(out[C.HEAT_INDEX], state[C.CUTOFF], state[C.WINDING_TRIP], cost_step),
+        missed_wheel_energy_j=out[C.MISSED_J], battery_chem_power_w=out[C.BATT_CHEM],
+        battery_power_w=out[C.BATT_POWER], motor_torque_avail_nm=out[C.MOTOR_AVAIL],
+        cycle_speed_mps=np.float64(cycle_speed), time_s=np.float64(time_s), motor_share=np.float64(u),
+        motor_share_clipped=np.True_ if clipped else np.False_, motor_torque_clipped=out[C.MOTOR_CLIPPED] != 0.0)
     info.update(episode)
     return info
 
 
+def cost_step_s(config: VehicleConfig, dt_s: float) -> float:
+    """The ``dt_s`` of :func:`safety_cost` for ``config``: the step's length, or 0 with the thermal model off (the heat
+    index is still integrated then, but nothing derates or stops)."""
+    return float(dt_s) if config.thermal.enabled else 0.0
+
+
+_SMALL_INT64 = tuple(np.int64(i) for i in range(64))
+
+
+def _int64(x: Any) -> np.int64:
+    """``np.int64(int(x))``: a gear or a code, from a table of the small ones (a fifth of the constructor's time)."""
+    i = int(x)
+    return _SMALL_INT64[i] if 0 <= i < 64 else np.int64(i)
+
+
 def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.ndarray,
-                     time_s: np.ndarray, u: np.ndarray, clipped: np.ndarray,
-                     episode: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The step infos of a batch as one array per key (one column slice per key); ``episode``: an array per
-    :data:`EPISODE_INFO_KEYS` key (copied)."""
+                     time_s: np.ndarray, u: np.ndarray, clipped: np.ndarray, episode: dict[str, np.ndarray],
+                     cost_step: float) -> dict[str, np.ndarray]:
+    """The step infos of a batch as one array per key (of dtype :data:`INFO_DTYPES`; one column slice per key where
+    the dtype allows); ``episode``: an array per :data:`EPISODE_INFO_KEYS` key (copied); ``cost_step``: as in
+    :func:`step_info_dict`."""
     info = {name: out[:, col] for name, col in _INFO_OUT_COLUMNS}
     for name, col in _INFO_RPM_COLUMNS:
         info[name] = out[:, col] * RPM_PER_RADPS
@@ -157,19 +197,28 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
         info[key] = terms[:, col]
     info.update(gear=out[:, C.GEAR].astype(np.int64), soc=state[:, C.SOC], motor_temp_c=state[:, C.TEMP_C],
                 motor_cutoff=state[:, C.CUTOFF] != 0.0, winding_temp_c=state[:, C.WINDING_C],
-                coolant_temp_c=state[:, C.COOLANT_C], winding_trip=state[:, C.WINDING_TRIP] != 0.0, cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u,
-                motor_share_clipped=clipped, **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
+                coolant_temp_c=state[:, C.COOLANT_C], winding_trip=state[:, C.WINDING_TRIP] != 0.0,
+                cost=safety_cost(out[:, C.HEAT_INDEX], state[:, C.CUTOFF], state[:, C.WINDING_TRIP], cost_step),
+                cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u, motor_share_clipped=clipped,
+                **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
     return {key: info[key] for key in INFO_KEYS}
 
 
 def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
-    """The ``info`` of a reset (keys in :data:`RESET_INFO_KEYS` order): row ``i`` of the batch engine ``rows``
-    starting episode ``ep``."""
+    """The ``info`` of a reset: row ``i`` of the batch engine ``rows`` starting episode ``ep``. The keys and types of a
+    step's; the keys of :data:`STATE_INFO_KEYS` hold the starting state, the others (quantities of a step) zero or
+    False."""
     st = rows.state[i]
-    return {"cycle_id": cycle_id(ep.cycle.name), "start_s": ep.start_s, "time_s": float(ep.start_s),
-            "soc": float(st[C.SOC]), "soc_target": float(rows.soc_target[i]), "motor_temp_c": float(st[C.TEMP_C]),
-            "heat_index": min(max(float(st[C.HEAT_X]), 0.0), 1.0), "motor_cutoff": bool(st[C.CUTOFF] != 0.0),
-            "ambient_temp_c": float(ep.conditions.ambient_temp_c), "coolant_code": coolant_code(ep.conditions.coolant)}
+    k = int(rows.k[i])
+    out = np.zeros(C.N_OUT)
+    out[C.SPEED] = rows.speed[i, k]
+    out[C.MOTOR_AVAIL] = rows.avail[i]
+    out[C.HEAT_INDEX] = min(max(st[C.HEAT_X], 0.0), 1.0)
+    episode = {"cycle_id": np.int64(cycle_id(ep.cycle.name)), "start_s": np.int64(ep.start_s),
+               "soc_target": np.float64(rows.soc_target[i]), "ambient_temp_c": np.float64(ep.conditions.ambient_temp_c),
+               "coolant_code": np.int64(coolant_code(ep.conditions.coolant))}
+    # cost_step 0: the safety cost, too, is a quantity of a step
+    return step_info_dict(out, st, np.zeros(len(REWARD_TERMS)), rows.speed[i, k], k, 0.0, False, episode, 0.0)
 
 
 def cycle_id(name: str) -> int:

@@ -19,7 +19,7 @@ from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
 from .batch import EnvParts
 from .reward import RewardParams
-from .spaces import EPISODE_INFO_KEYS, RESET_INFO_KEYS, reset_info_dict, step_info_arrays
+from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, cost_step_s, reset_info_dict, step_info_arrays
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
@@ -33,10 +33,10 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     ``autoreset_mode`` (:class:`gymnasium.vector.AutoresetMode` or its value):
 
     - ``NEXT_STEP`` (default, as gymnasium 1.x): the step after a truncation resets that sub-env, ignores its action and
-      returns the reset observation with reward 0; its step-info keys are masked out and the reset-info keys masked in.
-    - ``SAME_STEP``: a truncating sub-env resets within the same step; the observation is the reset one,
-      ``infos["final_obs"]`` (object array) and ``infos["final_info"]`` (dict of arrays) hold the last step's, and
-      reset-info keys overwrite step-info keys for those sub-envs. The SB3 adapter uses it.
+      returns the reset observation with reward 0 and the reset's info.
+    - ``SAME_STEP``: a truncating sub-env resets within the same step; the observation and the info are the reset's,
+      ``infos["final_obs"]`` (object array) and ``infos["final_info"]`` (dict of arrays) hold the last step's. The SB3
+      adapter uses it.
     - ``DISABLED``: stepping an ended sub-env raises; reset it with ``reset(options={"reset_mask": mask})``.
 
     Sub-envs may run different cycles of different lengths; each truncates at the end of its own. Seeding follows
@@ -44,9 +44,10 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     made as the single env's. ``reset(options=...)`` takes the single env's options for every reset sub-env,
     ``reset_mask`` (bool array: reset only these), or a list of one options dict per sub-env.
 
-    Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys and values. As
-    every reset key is also a step key, the keys do not change when sub-envs reset, so torchrl reads a batch through
-    fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
+    Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys and values,
+    one array of dtype :data:`~hev_thermal_env.envs.spaces.INFO_DTYPES` per key. Resets and steps report the same keys,
+    so every mask is all True after a full reset and the keys do not change when sub-envs reset; torchrl reads a batch
+    through fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
     ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v1", n, autoreset_mode="SameStep"))``). The batch
     attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``, ``k`` [n], ``phys_state`` [n,
     N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and ``last_out`` [n, N_OUT] mirror the single env's.
@@ -74,14 +75,13 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         self.single_observation_space, self.single_action_space = self._build(
             self.num_envs, cycle, scenario, config, conditions, reward, preview_s, preview_step_s, thermal,
             random_start, info_keys)
+        self._cost_step_s = cost_step_s(self.config, self.core.dt_s)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._started = np.zeros(self.num_envs, dtype=bool)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
-        floats = ("soc_target", "ambient_temp_c")  # the other episode values are integers (codes, start_s)
-        self._episode_cols = {key: np.zeros(self.num_envs, dtype=np.float64 if key in floats else np.int64)
-                              for key in EPISODE_INFO_KEYS}
+        self._episode_cols = {key: np.zeros(self.num_envs, dtype=INFO_DTYPES[key]) for key in EPISODE_INFO_KEYS}
 
     # -- batch attributes --------------------------------------------------------------------------
 
@@ -179,8 +179,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
             rows.last_out = out.copy()  # the final infos keep viewing ``out``
             reset_infos = self._start_episodes(idx, [None] * idx.size)
             obs[idx] = rows.observe(idx)
-            infos = {key: value.copy() if key in RESET_INFO_KEYS else value for key, value in step_infos.items()}
-            infos = self._reset_info_arrays(idx, reset_infos, infos)
+            infos = self._reset_info_arrays(idx, reset_infos, dict(step_infos))
             infos["final_obs"], infos["_final_obs"] = final_obs, done_mask
             infos["final_info"], infos["_final_info"] = final_info, done_mask
         else:
@@ -268,7 +267,8 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     def _step_infos(self, out, state, terms, cycle_speed, time_s, u, clipped, mask) -> dict[str, np.ndarray]:
         if not self.info_keys:
             return {}
-        arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped, self._episode_cols)
+        arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped, self._episode_cols,
+                                  self._cost_step_s)
         infos = {}
         for key in self.info_keys:
             infos[key] = arrays[key]
@@ -276,14 +276,17 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         return infos
 
     def _reset_info_arrays(self, idx: np.ndarray, reset_infos: list[dict], infos: dict) -> dict:
+        """``infos`` with the reset infos of sub-envs ``idx`` written into fresh arrays (the step's arrays may view the
+        engine's outputs or be a final info's) and masked in."""
         if idx.size == 0:
             return infos
         mask = np.zeros(self.num_envs, dtype=bool)
         mask[idx] = True
-        for key in self.reset_info_keys:
+        for key in self.info_keys:
             values = [ri[key] for ri in reset_infos]
-            if key not in infos:
-                infos[key], infos["_" + key] = np.zeros(self.num_envs, dtype=type(values[0])), np.zeros_like(mask)
+            if key in infos:
+                infos[key], infos["_" + key] = infos[key].copy(), infos["_" + key] | mask
+            else:
+                infos[key], infos["_" + key] = np.zeros(self.num_envs, dtype=INFO_DTYPES[key]), mask.copy()
             infos[key][idx] = values
-            infos["_" + key] = infos["_" + key] | mask
         return infos

@@ -4,8 +4,9 @@
 overrides (:mod:`.overrides`) and the command-line settings, and :func:`validate_config` checks all of
 it before anything is created (one-line ``ValueError`` s). Sections: ``algo``, ``seed``,
 ``total_timesteps``, ``n_envs``, ``env`` (the training env), ``normalize`` (``VecNormalize``), ``init``
-(:mod:`.imitation`), ``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``command``,
-``created``, ``versions``, and after training ``result``.
+(:mod:`.imitation`), ``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``task`` (the id of the
+benchmark task the run trains for, :mod:`hev_thermal_env.tasks`, or None), ``command``, ``created``, ``versions``, and
+after training ``result``. No run trains or selects checkpoints on a held-out task's test cycles.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from hev_thermal_env.envs.spaces import observation_names
 from hev_thermal_env.io import atomic_write_yaml, read_yaml_mapping
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
+from hev_thermal_env.tasks import get_task, held_out_cycles
 
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
 from .imitation import check_init
@@ -74,10 +76,19 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
                  n_envs: int | None = None, seed: int = 0,
                  eval_cycles: Sequence[str] | None = None, eval_scenarios: Sequence[str] | None = None,
                  eval_freq: int | None = None, checkpoint_freq: int | None = None,
-                 command: str | None = None) -> dict[str, Any]:
+                 command: str | None = None, task: str | None = None) -> dict[str, Any]:
     """The complete config of a run (validated): the hyperparameter file, the ``overrides`` (``--hp``), the
-    settings given here (None: not given), then the defaults of what none of them sets."""
+    settings given here (None: not given), then the defaults of what none of them sets. ``task``: a benchmark task
+    (:func:`~hev_thermal_env.tasks.get_task`) whose training cycles and scenario the run trains on, instead of
+    ``cycles`` and ``scenario``."""
     algo = str(algo).lower()
+    task_id = None
+    if task is not None:
+        if cycles is not None or scenario is not None:
+            raise ValueError(f"--task {task} sets the training cycles and scenario; drop --cycles and --scenario")
+        resolved = get_task(task)
+        task_id, (task_cycles, scenario) = resolved.id, resolved.training
+        cycles = list(task_cycles)
     given = {"env.cycles": cycles, "env.scenario": scenario, "n_timesteps": timesteps, "n_envs": n_envs,
              "eval.cycles": eval_cycles, "eval.scenarios": eval_scenarios, "eval.freq": eval_freq,
              "checkpoint_freq": checkpoint_freq}
@@ -96,8 +107,8 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
     hp.setdefault("policy", "MlpPolicy")
     config = {"algo": algo, "seed": whole_number("seed", seed), "total_timesteps": total, "n_envs": envs, "env": env,
               "normalize": normalize, "init": init, "hyperparams": hp, "eval": ev, "checkpoint_freq": ckpt,
-              "command": command, "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
-              "versions": versions()}
+              "task": task_id, "command": command,
+              "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"), "versions": versions()}
     validate_config(config)
     return config
 
@@ -156,6 +167,7 @@ def _validate_eval(ev: dict[str, Any], env: dict[str, Any]) -> None:
     for key in ("cycles", "final_cycles"):
         ev[key] = [str(c) for c in (ev[key] or [])]
         for c in expand_cycle_names(ev[key]):
+            _refuse_held_out(f"eval.{key}", c)
             load_cycle(c)
             if str(c).strip().lower() in trained:
                 raise ValueError(f"eval.{key}: {c!r} is also a training cycle; a run must be scored on cycles it does "
@@ -169,6 +181,7 @@ def _validate_env(env: dict[str, Any]) -> None:
         raise ValueError("no training cycles given")
     for c in expand_cycle_names(cycles):
         if not is_family(c):
+            _refuse_held_out("env.cycles", c)
             load_cycle(c)
     env["cycles"] = [str(c) for c in cycles]
     get_scenario(env["scenario"])
@@ -177,6 +190,14 @@ def _validate_env(env: dict[str, Any]) -> None:
                               whole_number("env.preview_step_s", env["preview_step_s"]))
     env["observation_size"] = len(names)
     env["observation_names"] = list(names)
+
+
+def _refuse_held_out(key: str, cycle: Any) -> None:
+    """A one-line ValueError if ``cycle`` is a test cycle of a held-out benchmark task."""
+    task = held_out_cycles().get(str(cycle).strip().lower())
+    if task is not None:
+        raise ValueError(f"{key}: {cycle!r} is a test cycle of the benchmark task {task}; a run neither trains nor "
+                         f"selects checkpoints on a held-out test set")
 
 
 def save_run_config(run_dir: str | Path, config: dict[str, Any]) -> Path:

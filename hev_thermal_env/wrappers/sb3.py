@@ -41,7 +41,7 @@ class Sb3VecEnv(VecEnv):
         seeds = self._seeds if any(s is not None for s in self._seeds) else None
         options = list(self._options) if any(self._options) else None
         obs, infos = self.venv.reset(seed=seeds, options=options)
-        keys = self.venv.reset_info_keys
+        keys = self.info_keys
         self.reset_infos = [{key: _item(infos[key][i]) for key in keys} for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
@@ -65,7 +65,7 @@ class Sb3VecEnv(VecEnv):
                 d["terminal_observation"] = infos["final_obs"][i]
                 d["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
                 dicts[i] = d
-                self.reset_infos[i] = {key: _item(infos[key][i]) for key in self.venv.reset_info_keys}
+                self.reset_infos[i] = {key: _item(infos[key][i]) for key in keys}
         return obs, reward.astype(np.float32), dones, dicts
 
     def close(self) -> None:

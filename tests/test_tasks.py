@@ -1,0 +1,212 @@
+"""The named tasks: each resolves and runs, its definition is pinned to its version, the generalisation task's test
+routes are disjoint from every training and validation cycle, and ``train.py`` / ``evaluate.py benchmark`` take
+``--task``."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from hev_thermal_env import load_cycle
+from hev_thermal_env.cycles.families import (
+    FAMILIES,
+    TRAINING_SEED_LIMIT,
+    VALIDATION_SEED_BASE,
+    inner_seed,
+    training_seed,
+)
+from hev_thermal_env.cycles.validation import VALIDATION_SIZE, validation_cycle, validation_seed
+from hev_thermal_env.scenarios import get_scenario
+from hev_thermal_env.tasks import (
+    TASK_ARGS,
+    TASKS,
+    TEST_FAMILIES,
+    TRAINING_FAMILIES,
+    Task,
+    generalisation_cycles,
+    get_task,
+    held_out_cycles,
+    list_tasks,
+    make_task,
+)
+
+#: Each version's definition (Task.digest): a change under an existing id fails here; give the changed task a new
+#: version instead.
+DIGESTS = {
+    "hwfet-v1": "f3b8cb098f6d",
+    "beijing-v1": "776a6852e1ec",
+    "udds-hot-v1": "b4dcdc914254",
+    "hilly-v1": "34782bff794a",
+    "full-bus-v1": "e3e6cda05442",
+    "summer-v1": "8c20d4c731e5",
+    "bus-generalisation-v1": "8990109ebd3d",
+}
+_FAMILY_SEED = re.compile(r"^([a-z_]+):(\d+)$")
+
+
+# --- the registry ------------------------------------------------------------------------------------------------
+
+def test_the_registry_names_each_task_once_with_its_version():
+    assert list_tasks() == list(DIGESTS)
+    for tid, task in TASKS.items():
+        assert tid == task.id == f"{task.name}-v{task.version}" and get_task(task.name) is task
+        assert get_task(tid.upper()) is task
+        assert task.n_episodes == len(task.resets()) >= 1 and task.start_s == 0
+        assert json.loads(json.dumps(task.to_dict()))["id"] == tid
+    with pytest.raises(ValueError, match=r"unknown task 'hwfet-v9'; tasks: hwfet-v1, beijing-v1"):
+        get_task("hwfet-v9")
+    with pytest.raises(ValueError, match="cycle, scenario belong"):
+        make_task("hwfet", cycle="udds", scenario="hot")
+    assert set(TASK_ARGS) >= set(get_task("hwfet").env_kwargs())
+
+
+def test_a_name_alone_is_its_newest_version(monkeypatch):
+    newer = Task("hwfet", 2, "a later definition", ("hwfet",), "hot")
+    monkeypatch.setitem(TASKS, newer.id, newer)
+    assert get_task("hwfet") is newer and get_task("hwfet-v1") is TASKS["hwfet-v1"]
+
+
+@pytest.mark.parametrize("tid", list(DIGESTS))
+def test_each_definition_is_pinned_to_its_version(tid):
+    digest = get_task(tid).digest()
+    assert digest[:12] == DIGESTS[tid], (
+        f"{tid}: its episodes changed (digest {digest[:12]}); define a new version of the task rather than change "
+        f"this one, or, if no published result used it yet, update DIGESTS")
+
+
+@pytest.mark.parametrize("tid", list(DIGESTS))
+def test_every_task_resolves_and_runs(tid):
+    task = get_task(tid)
+    env = make_task(tid, info_keys=("cost", "time_s", "cycle_id"))
+    for seed, options in (task.resets()[0], task.resets()[-1]):
+        _, info = env.reset(seed=seed, options=options)
+        e, scenario = env.unwrapped, get_scenario(task.scenario)
+        assert e.cycle.name == scenario.prepare_cycle(load_cycle(options["cycle"])).name and info["time_s"] == 0.0
+        assert e.conditions == scenario.conditions
+        for _ in range(5):
+            obs, reward, term, trunc, info = env.step(env.action_space.sample())
+            assert np.isfinite(obs).all() and np.isfinite(reward) and not term and not trunc
+        assert info["time_s"] == 5.0 and info["cost"] >= 0.0
+    vec = make_task(tid, num_envs=2)
+    vec.reset(seed=[s for s, _ in task.resets()[:1]] * 2, options=[o for _, o in task.resets()[:1]] * 2)
+    assert vec.step(np.zeros((2, 1), np.float32))[0].shape == (2, 21)
+
+
+def test_an_episode_of_a_fixed_scenario_does_not_depend_on_the_seed():
+    """Why the tasks with a fixed scenario have one seed: a fixed scenario starting at second 0 draws nothing."""
+    task = get_task("hilly")
+    env = make_task(task)
+    actions = np.random.default_rng(0).uniform(-1, 1, (300, 1)).astype(np.float32)
+    runs = []
+    for seed in (0, 12345):
+        obs, _ = env.reset(seed=seed, options=task.resets()[0][1])
+        runs.append([obs] + [env.step(a)[0] for a in actions])
+    np.testing.assert_array_equal(np.array(runs[0]), np.array(runs[1]))
+    assert np.any(env.unwrapped.cycle.grade != 0.0)  # the scenario's road under the cycle
+
+
+# --- the generalisation task's test set ------------------------------------------------------------------------
+
+def _family_and_seed(name: str) -> tuple[str, int]:
+    m = _FAMILY_SEED.match(name)
+    assert m is not None and m.group(1) in FAMILIES, name
+    return m.group(1), int(m.group(2))
+
+
+def _generator_seeds(cycle) -> set[int]:
+    """Every seed that generated a family cycle (its draws, segments and road), from its metadata."""
+    meta = cycle.metadata
+    family, seed = meta["family"], meta["seed"]
+    seeds = {inner_seed(family, seed, 0)} | {s["seed"] for s in meta["segments"]}
+    if meta["grade_profile"] is not None:
+        seeds.add(meta["grade_profile"]["seed"])
+    return seeds
+
+
+def test_the_test_routes_use_seeds_no_training_run_and_no_validation_cycle_uses():
+    task = get_task("bus-generalisation")
+    assert task.held_out and task.cycles == generalisation_cycles() and len(set(task.cycles)) == len(task.cycles)
+    pairs = [_family_and_seed(c) for c in task.cycles]
+    assert [f for f, _ in pairs] == [TEST_FAMILIES[k % len(TEST_FAMILIES)] for k in range(len(pairs))]
+    validation_seeds = {validation_seed(k) for k in range(VALIDATION_SIZE)}
+    for _, seed in pairs:
+        # training draws rng.integers(TRAINING_SEED_LIMIT): below the limit; the validation set: 30 seeds from its base
+        assert seed >= TRAINING_SEED_LIMIT and seed not in validation_seeds
+        assert seed >= VALIDATION_SEED_BASE + VALIDATION_SIZE
+    rng = np.random.default_rng(7)
+    assert max(training_seed(rng, "bus_long") for _ in range(20_000)) < TRAINING_SEED_LIMIT
+    # every generator seed of a test route decodes to its own (family, seed): inner_seed is injective, so no other
+    # cycle shares one; and each lies above the largest generator seed of any training cycle
+    largest_training = inner_seed(list(FAMILIES)[-1], TRAINING_SEED_LIMIT - 1, 63)
+    test_gen: set[int] = set()
+    for name, (family, seed) in zip(task.cycles, pairs):
+        cyc = load_cycle(name)
+        assert cyc.metadata["family"] == family and cyc.metadata["seed"] == seed
+        for g in _generator_seeds(cyc):
+            assert (g - 2**48) // 64 // 64 == seed and list(FAMILIES)[(g - 2**48) // 64 % 64] == family
+            assert g > largest_training
+        test_gen |= _generator_seeds(cyc)
+    validation = [validation_cycle(k) for k in range(VALIDATION_SIZE)]
+    assert not test_gen & set().union(*(_generator_seeds(c) for c in validation))
+    speeds = {load_cycle(name).speed_mps.tobytes() for name in task.cycles}
+    assert not speeds & {c.speed_mps.tobytes() for c in validation}
+
+
+def test_the_training_side_matches_the_training_defaults_and_refuses_the_test_set():
+    pytest.importorskip("stable_baselines3")
+    from hev_thermal_env.training.config import ENV_DEFAULTS, build_config
+    from hev_thermal_env.training.hyperparams import load_hyperparams
+
+    assert list(TRAINING_FAMILIES) == ENV_DEFAULTS["cycles"] == load_hyperparams("ppo")["env"]["cycles"]
+    assert set(held_out_cycles()) == {c.lower() for c in generalisation_cycles()}
+    test_cycle = generalisation_cycles()[4]
+    with pytest.raises(ValueError, match=rf"env.cycles: '{test_cycle}' is a test cycle of the benchmark task "
+                                         r"bus-generalisation-v1"):
+        build_config("ppo", cycles=["bus_long", test_cycle])
+    with pytest.raises(ValueError, match=rf"eval.cycles: '{test_cycle}' is a test cycle"):
+        build_config("ppo", eval_cycles=[test_cycle])
+    with pytest.raises(ValueError, match="held-out test set"):
+        build_config("ppo", eval_cycles=["bus_mixed:2148532224..2148532230"])
+
+
+def test_train_task_sets_the_training_cycles_and_scenario():
+    pytest.importorskip("stable_baselines3")
+    from hev_thermal_env.training.config import build_config
+
+    gen = build_config("ppo", task="bus-generalisation", timesteps=64)
+    assert gen["task"] == "bus-generalisation-v1" and gen["env"]["scenario"] == "random_service"
+    assert gen["env"]["cycles"] == list(TRAINING_FAMILIES)
+    one = build_config("ppo", task="udds-hot-v1", timesteps=64)
+    assert (one["task"], one["env"]["cycles"], one["env"]["scenario"]) == ("udds-hot-v1", ["udds"], "hot")
+    assert build_config("ppo", timesteps=64)["task"] is None
+    with pytest.raises(ValueError, match="--task hwfet sets the training cycles and scenario"):
+        build_config("ppo", task="hwfet", cycles=["udds"])
+    from hev_thermal_env.cli.train import build_parser
+
+    assert build_parser().parse_args(["--task", "summer", "--out", "x"]).task == "summer"
+
+
+# --- evaluate.py benchmark --task ------------------------------------------------------------------------------
+
+def test_benchmark_task_runs_the_tasks_cycles_and_scenario(tmp_path, monkeypatch, capsys):
+    from hev_thermal_env.cli.evaluate import main
+
+    path = tmp_path / "udds_61s.csv"
+    v = load_cycle("udds").speed_mps[20:81]
+    path.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
+    tiny = Task("tiny", 1, "61 s of UDDS, hot", (str(path),), "hot")
+    monkeypatch.setitem(TASKS, tiny.id, tiny)
+    out = tmp_path / "bench"
+    assert main(["benchmark", "--task", "tiny", "--strategies", "engine_only", "--jobs", "1", "--no-plots",
+                 "--out", str(out)]) == 0
+    assert "task tiny-v1: 61 s of UDDS, hot" in capsys.readouterr().out
+    rows = json.loads((out / "results.json").read_text())
+    rows = rows["rows"] if isinstance(rows, dict) else rows
+    assert {(r["cycle"], r["scenario"]) for r in rows} == {("udds_61s", "hot")}
+    record = json.loads((out / "task.json").read_text())
+    assert record["id"] == "tiny-v1" and record["digest"] == tiny.digest()
+    assert main(["benchmark", "--task", "tiny", "--cycles", "udds", "--out", str(tmp_path / "no")]) != 0
+    assert "drop --cycles and --scenarios" in capsys.readouterr().err
