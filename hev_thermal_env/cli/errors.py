@@ -2,12 +2,16 @@
 
 Problems with the input are ``ValueError`` s, problems with files ``OSError`` s: either is one line,
 without a traceback, exit status 2. Warnings are one ``warning:`` line each. Ctrl-C is one line,
-``interrupted`` (with what was saved, if anything), exit status 130.
+``interrupted`` (with what was saved, if anything), exit status 130, wherever it arrives (:class:`KeptInterrupts`).
 """
 
 from __future__ import annotations
 
+import _thread
+import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -17,6 +21,11 @@ USER_ERRORS = (ValueError, OSError)
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
+#: Source files of functions that C code calls back: llvmlite's JIT object cache, which numba's compiler runs to
+#: record the machine code it caches. An exception raised in one cannot propagate (ctypes prints it and goes on).
+CALLBACK_FILES = (os.path.join("llvmlite", "binding", "executionengine.py"),)
+#: Seconds after which a Ctrl-C that arrived inside a callback from C is delivered again.
+REDELIVER_S = 0.02
 
 
 def program_name(argv: list[str] | None, default: str) -> str:
@@ -48,7 +57,7 @@ def run_program(body: Callable[[], int | None], prog: str | None = None,
         print(f"{f'{prog}: ' if prog else ''}warning: {' '.join(str(message).split())}", file=file or sys.stderr)
 
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), KeptInterrupts():
             warnings.showwarning = show
             return int(body() or 0)
     except KeyboardInterrupt as exc:
@@ -56,3 +65,56 @@ def run_program(body: Callable[[], int | None], prog: str | None = None,
         return int(getattr(exc, "exit_code", EXIT_INTERRUPTED))
     except errors as exc:
         return report(exc, prog)
+
+
+class KeptInterrupts:
+    """Within the block, a Ctrl-C is never lost (in the main thread, where SIGINT raises ``KeyboardInterrupt``).
+
+    Python raises the ``KeyboardInterrupt`` of a Ctrl-C at the next bytecode of the main thread, wherever that is.
+    Inside a function called from C (a ctypes callback, a finalizer ``__del__``) the exception cannot propagate:
+    Python prints it as "Exception ignored" and goes on, and the program never learns of the Ctrl-C. numba's
+    compiler runs such a callback (:data:`CALLBACK_FILES`) for every function it compiles, and cut short there it
+    also leaves the function's machine code unrecorded, so that numba's cache write fails later. So: a Ctrl-C that
+    arrives inside one of those callbacks is put off and delivered again :data:`REDELIVER_S` later; one dropped in any
+    other call from C (reported to ``sys.unraisablehook``) is delivered again the same way, without the report.
+    """
+
+    def __enter__(self) -> KeptInterrupts:
+        self.active = (threading.current_thread() is threading.main_thread()
+                       and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+        if self.active:
+            self.previous_hook = sys.unraisablehook
+            signal.signal(signal.SIGINT, self.interrupt)
+            sys.unraisablehook = self.unraisable
+        self.timer: threading.Timer | None = None
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.active:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            sys.unraisablehook = self.previous_hook
+            if self.timer is not None:
+                self.timer.cancel()
+
+    def interrupt(self, signum: int, frame) -> None:
+        """The SIGINT handler: ``KeyboardInterrupt``, unless ``frame`` runs inside a callback from C."""
+        while frame is not None:
+            if frame.f_code.co_filename.endswith(CALLBACK_FILES):
+                self.deliver_again()
+                return
+            frame = frame.f_back
+        raise KeyboardInterrupt
+
+    def unraisable(self, info) -> None:
+        """``sys.unraisablehook``: a dropped ``KeyboardInterrupt`` is delivered again, anything else reported."""
+        if isinstance(info.exc_value, KeyboardInterrupt):
+            self.deliver_again()
+        else:
+            self.previous_hook(info)
+
+    def deliver_again(self) -> None:
+        """Simulate a Ctrl-C in the main thread :data:`REDELIVER_S` from now (from another thread, so that the
+        handler does not run again before the main thread has left the code at hand)."""
+        self.timer = threading.Timer(REDELIVER_S, _thread.interrupt_main)
+        self.timer.daemon = True
+        self.timer.start()
