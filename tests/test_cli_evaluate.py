@@ -120,7 +120,7 @@ def test_ctrl_c_in_the_benchmark_prints_one_line(tiny_cycles, tmp_path, jobs):
 
 
 CTRL_C_IN_A_CALLBACK = """
-import os, signal, sys, time
+import os, signal, sys
 
 armed = False
 
@@ -153,10 +153,6 @@ def body():
         numba.njit(cache=True)(plus_one)(1)
     else:
         Finalized()
-    deadline = time.monotonic() + 20
-    while time.monotonic() < deadline:
-        pass
-    print("the Ctrl-C was lost", file=sys.stderr)
 
 sys.exit(run_program(body))
 """
@@ -165,8 +161,8 @@ sys.exit(run_program(body))
 @pytest.mark.parametrize("where", ["compile", "finalizer"])
 def test_ctrl_c_inside_a_call_from_c_is_not_lost(tmp_path, where):
     """A Ctrl-C that Python handles inside a function called from C (numba's compiler callback, a ``__del__``), where
-    a ``KeyboardInterrupt`` cannot propagate, still ends the program in one line with 130 (not lost: exit 0 after the
-    work; nor, in the compiler, numba's cache write failing on the machine code it never recorded: exit 1)."""
+    a ``KeyboardInterrupt`` cannot propagate, still ends the program in one line with 130: it is neither lost (exit 0
+    after the work) nor, in the compiler, leaves the machine code unrecorded for numba's cache write (exit 1)."""
     script = tmp_path / "ctrl_c.py"
     script.write_text(CTRL_C_IN_A_CALLBACK)
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PYTHONPATH": str(ROOT)}
@@ -189,9 +185,9 @@ def test_the_bar_names_the_run_in_progress_and_moves_during_it_in_this_process(m
     frames = [f for f in re.split(r"[\r\n]+", capsys.readouterr().err) if f.startswith("benchmark:")]
     during = [f for f in frames if "0/2 runs done; running tiny/paper/dp_thermal 00:02" in f]
     assert during, frames
-    # dp_thermal weighs 7.5 s, rule 0.2 s: 2 s into the first run the work is about 26 % done, about 5 s left
+    # dp_thermal weighs 7.5 s, rule 0.2 s: 2-2.6 s into the first run the work is 26-34 % done, about 5 s left
     percent, left = re.match(r"benchmark:\s*(\d+)%.*<(\d\d:\d\d)", during[-1]).groups()
-    assert 20 <= int(percent) <= 35 and left in ("00:04", "00:05", "00:06"), during[-1]
+    assert 20 <= int(percent) <= 40 and left in ("00:04", "00:05", "00:06"), during[-1]
     assert any("1/2 runs done; running tiny/paper/rule" in f for f in frames) and "2/2 runs done" in frames[-1]
 
 

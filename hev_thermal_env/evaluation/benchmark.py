@@ -168,10 +168,10 @@ class BenchmarkProgress:
     finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
     slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (the workers take them
     first in, first out) with their elapsed time. :meth:`finished` when a run ends; :meth:`show` redraws, as a thread
-    of the bar does every ``refresh_s`` seconds within a ``with`` block (None: only when called)."""
+    of the bar does every :data:`REFRESH_S` seconds within a ``with`` block."""
 
     def __init__(self, labels: Sequence[str], costs: Sequence[float], order: Sequence[int], slots: int,
-                 enabled: bool = True, refresh_s: float | None = REFRESH_S):
+                 enabled: bool = True):
         self.labels, self.costs = list(labels), [float(c) for c in costs]
         self.waiting = list(order)
         self.slots = max(1, int(slots))
@@ -180,15 +180,13 @@ class BenchmarkProgress:
         self.bar = tqdm(total=sum(self.costs), desc="benchmark", disable=not enabled, smoothing=0,
                         bar_format=BAR_FORMAT)
         self.lock = threading.Lock()
-        self.refresh_s = refresh_s
         self.closing = threading.Event()
         self.refresher: threading.Thread | None = None
 
     def __enter__(self) -> BenchmarkProgress:
         self.show()
-        if self.refresh_s is not None:
-            self.refresher = threading.Thread(target=self._refresh, name="benchmark-progress", daemon=True)
-            self.refresher.start()
+        self.refresher = threading.Thread(target=self._refresh, name="benchmark-progress", daemon=True)
+        self.refresher.start()
         return self
 
     def __exit__(self, *exc) -> None:
@@ -198,7 +196,7 @@ class BenchmarkProgress:
         self.bar.close()
 
     def _refresh(self) -> None:
-        while not self.closing.wait(self.refresh_s):
+        while not self.closing.wait(REFRESH_S):
             self.show()
 
     def finished(self, i: int) -> None:
