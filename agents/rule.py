@@ -98,7 +98,7 @@ class RuleBased(Strategy):
         _, out = env.peek(np.zeros(1))  # the next step's shaft demand and engine speed do not depend on u
         demand = float(out[0, C.SHAFT_DEMAND])
         if demand <= 0.0:
-            return np.zeros(1, dtype=np.float32)  # braking or standing: the action has no effect
+            return np.ones(1, dtype=np.float32)  # braking: all the regeneration available (standing: no effect)
         soc = float(env.phys_state[0, C.SOC])
         speed = float(env.cycle.speed_mps[env.k])
         t_eng = self.engine_torque_nm(demand, float(out[0, C.ENGINE_SPEED]), soc, speed)

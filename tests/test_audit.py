@@ -87,7 +87,7 @@ def test_payload_left_out_of_the_road_load_fails():
 def test_thermal_capacity_changed_in_the_run_only_fails_the_thermal_check():
     declared = paper_bus()
     ran = declared.replace(thermal=declared.thermal.replace(
-        coolant_heat_capacity_j_per_k=declared.thermal.coolant_heat_capacity_j_per_k * 0.8))
+        coolant_volume_l=declared.thermal.coolant_volume_l * 0.8))
     tr = _run(ran)
     assert energy_audit(tr, declared, "udds").failed() == ["thermal"]
 

@@ -33,9 +33,9 @@ def test_each_scalar_field_moves_only_its_own_slot(component):
             changed = params.replace(**{name: not value})
         elif isinstance(value, (int, float)):
             try:
-                changed = params.replace(**{name: type(value)(value * 1.01 + (1 if isinstance(value, int) else 0))})
+                changed = params.replace(**{name: type(value)(value * 1.001 + (1 if isinstance(value, int) else 0))})
             except ValueError:
-                changed = params.replace(**{name: type(value)(value * 0.99)})
+                changed = params.replace(**{name: type(value)(value * 0.999)})
         else:
             continue
         diff = np.flatnonzero(changed.pack() != base)

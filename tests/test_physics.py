@@ -59,7 +59,7 @@ def test_table3_thermal_shape(table3):
 # --- heat index (eqs 8-9), the paper's Fig. 4 case ---------------------------------------------------
 
 def _fig4_thermal():
-    return ThermalParams(t_gain_cold=0.3, t_gain_hot=0.3, pwm_initial_cold=0.3)
+    return ThermalParams(t_gain_cold=0.3, t_gain_hot=0.3, pwm_initial_at_ref=0.3)
 
 
 def test_heat_index_fig4_timing():
@@ -107,8 +107,8 @@ def test_heat_index_through_the_core_limits_motor_torque():
 
 
 def test_tgain_and_pwm_initial_functions():
-    p = ThermalParams(t_gain_temp_lo_c=35.0, t_gain_temp_hi_c=70.0, pwm_initial_cold=0.3, pwm_initial_temp_lo_c=20.0,
-                      pwm_initial_temp_hi_c=70.0, t_gain_cold=0.1, t_gain_hot=0.3)
+    p = ThermalParams(t_gain_temp_lo_c=35.0, t_gain_temp_hi_c=70.0, pwm_initial_at_ref=0.3, pwm_initial_ref_temp_c=20.0,
+                      pwm_initial_zero_temp_c=70.0, t_gain_cold=0.1, t_gain_hot=0.3)
     th = p.pack()
     assert thm.t_gain(th, 20.0) == pytest.approx(0.1)
     assert thm.t_gain(th, 80.0) == pytest.approx(0.3)
@@ -122,8 +122,8 @@ def test_tgain_and_pwm_initial_functions():
     assert thm.t_gain(th, 20.0) == pytest.approx(cal.t_gain_cold)
     assert thm.t_gain(th, 70.0) == pytest.approx(cal.t_gain_hot)
     assert all(0.1 <= thm.t_gain(th, t) <= 0.3 for t in range(0, 100, 5))
-    assert thm.pwm_initial(th, 20.0) == pytest.approx(cal.pwm_initial_cold)
-    assert thm.pwm_initial(th, cal.pwm_initial_temp_hi_c) == 0.0
+    assert thm.pwm_initial(th, 20.0) == pytest.approx(cal.pwm_initial_at_ref)
+    assert thm.pwm_initial(th, cal.pwm_initial_zero_temp_c) == 0.0
 
 
 # --- the paper's thermal node as written (eqs 1-7) -----------------------------------------------------------

@@ -30,6 +30,7 @@ def _batch(n=400, seed=1, target=0.62):
     st = rng.normal(size=(n, C.N_STATE))
     st[:, C.TEMP_C] = rng.uniform(20.0, 80.0, n)
     st[:, C.CUTOFF] = rng.integers(0, 2, n)
+    st[:, C.WINDING_TRIP] = rng.integers(0, 2, n)
     st0 = rng.normal(size=(n, C.N_STATE))
     st0[:, C.SOC] = target + rng.uniform(-0.05, 0.05, n)  # inside, at and beyond the band on both sides
     st[:, C.SOC] = st0[:, C.SOC] + rng.uniform(-0.02, 0.02, n)
@@ -51,7 +52,8 @@ def _documented(rp: RewardParams, out, st, st0, target, dt):
         "reward_fuel": -rp.fuel_weight * out[:, C.FUEL_G],
         "reward_miss": -rp.miss_weight * miss_g,
         "reward_soc": -rp.soc_energy_weight * batt_g + band - rp.soc_deviation_weight * dev,
-        "reward_overheat": -rp.overheat_temp_weight * over ** 2 - rp.cutoff_weight * st[:, C.CUTOFF]
+        "reward_overheat": -rp.overheat_temp_weight * over ** 2
+        - rp.cutoff_weight * ((st[:, C.CUTOFF] + st[:, C.WINDING_TRIP]) > 0)  # either protection stops the motor
         - rp.derate_weight * np.clip(st[:, C.HEAT_X], 0.0, 1.0),
     }
 
@@ -167,7 +169,7 @@ def test_env_info_reward_terms_sum_to_the_reward():
 
     import hev_thermal_env  # noqa: F401
 
-    env = gym.make("HevThermal-v0", cycle="beijing", reward={"derate_weight": 0.1})
+    env = gym.make("HevThermal-v1", cycle="beijing", reward={"derate_weight": 0.1})
     env.reset(seed=0)
     for _ in range(50):
         _, r, _, _, info = env.step(np.array([0.5], dtype=np.float32))

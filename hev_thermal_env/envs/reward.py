@@ -1,4 +1,4 @@
-"""The reward of ``HevThermal-v0``, written once: the env, the vector env, DP and ECMS all call it.
+"""The reward of ``HevThermal-v1``, written once: the env, the vector env, DP and ECMS all call it.
 
 Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here: its weights and prices
 (:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
@@ -138,7 +138,8 @@ def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
     soc = -w[W_SOC_ENERGY] * (out[b, C.BATT_CHEM] * dt_s * w[W_BATT_PRICE]) + band - w[W_SOC_DEV] * (e * e)
     over = max(st[b, C.TEMP_C] - w[W_SOFT_LIMIT], 0.0)
     pwm = min(max(st[b, C.HEAT_X], 0.0), 1.0)
-    heat = -w[W_TEMP] * over * over - w[W_CUTOFF] * st[b, C.CUTOFF] - w[W_DERATE] * pwm
+    off = max(st[b, C.CUTOFF], st[b, C.WINDING_TRIP])  # either protection stops the motor
+    heat = -w[W_TEMP] * over * over - w[W_CUTOFF] * off - w[W_DERATE] * pwm
     return fuel, miss, soc, heat, ((fuel + miss) + soc) + heat
 
 

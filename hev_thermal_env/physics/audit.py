@@ -161,9 +161,11 @@ def _battery_check(run: _Run) -> Check:
     cap_as = run.config.battery.capacity_ah * 3600.0
     d_soc = np.asarray(run.trace["soc"]) - run.before["soc"]
     chem_from_soc = -d_soc * cap_as * out["voc"] / dt_s  # W
-    current = g["battery_chem_power_w"] / np.maximum(out["voc"], 1e-9)
+    # a charging current stores the coulombic efficiency's share of voc·I (battery.soc_step)
+    eta = np.where(g["battery_chem_power_w"] < 0.0, run.config.battery.coulombic_efficiency, 1.0)
+    current = g["battery_chem_power_w"] / (eta * np.maximum(out["voc"], 1e-9))
     r = np.where(current >= 0.0, out["r_dis"], out["r_chg"])
-    terminal = g["battery_chem_power_w"] - r * current * current
+    terminal = out["voc"] * current - r * current * current
     acc_elec = np.where(g["engine_on"] != 0.0, 0.0, g["accessory_power_w"])
     scale = run.peak(g["battery_chem_power_w"])
     err = max(_rel(chem_from_soc, g["battery_chem_power_w"], scale), _rel(terminal, g["battery_power_w"], scale),
@@ -172,7 +174,8 @@ def _battery_check(run: _Run) -> Check:
     e_soc = float(np.sum(chem_from_soc) * dt_s)
     return Check("battery", err, REL_TOL,
                  f"∫P_chem dt = {e_chem / 3.6e6:.4f} kWh vs −ΔSOC·capacity·V_oc = {e_soc / 3.6e6:.4f} kWh; "
-                 "terminal power from the resistance map and from the motor and accessories")
+                 "terminal power from the resistance map and the coulombic efficiency, and from the motor and "
+                 "accessories")
 
 
 def _driveline_check(run: _Run) -> Check:
@@ -205,17 +208,18 @@ def _balance_check(run: _Run) -> Check:
 
 def _thermal_check(run: _Run) -> Check:
     th, g, dt_s = run.config.thermal, run.g, run.dt_s
-    heat = g["motor_heat_w"] * dt_s
+    heat = (g["motor_heat_w"] + g["inverter_heat_w"]) * dt_s
 
     def rise(name: str) -> np.ndarray:
         return np.asarray(run.trace[name]) - run.before[name]
 
     if th.model == "network":
         c_w = th.winding_heat_capacity_j_per_k
-        stored = (c_w * rise("motor_temp_c") + (th.heat_capacity_j_per_k - c_w) * rise("housing_temp_c")
+        stored = (c_w * rise("winding_temp_c") + (th.heat_capacity_j_per_k - c_w) * rise("motor_temp_c")
                   + th.coolant_heat_capacity_j_per_k * rise("coolant_temp_c"))
         to_air = (g["q_air_w"] + g["q_rad_w"] + g["q_radiator_w"]) * dt_s
-        detail = "winding, housing and coolant heat + convection, radiation and radiator = motor heat"
+        detail = ("winding, housing and coolant heat + convection, radiation and radiator = motor and inverter "
+                  "heat")
     else:  # the paper's explicit node: stored = (heat − flows at the old temperature)·dt
         stored = th.heat_capacity_j_per_k * rise("motor_temp_c")
         to_air = (g["q_air_w"] + g["q_rad_w"] + g["q_cool_w"]) * dt_s

@@ -40,6 +40,8 @@ class BatteryParams(Params):
     soc_max: float = spec(0.8, "hard upper SOC bound enforced by the physics", min=0.0, max=1.0)
     max_discharge_power_w: float = spec(130e3, "terminal discharge power limit", min=0.0)
     max_charge_power_w: float = spec(110e3, "terminal charge power limit", min=0.0)
+    coulombic_efficiency: float = spec(0.975, "share of the charging current's charge that is stored (ADVISOR "
+                                              "ESS_NIMH45_OVONIC 0.975; NIMH93 1.0)", min=0.95, max=1.0)
 
     def validate(self) -> None:
         if self.soc_min >= self.soc_max:
@@ -67,6 +69,7 @@ LAYOUT = BatteryParams.LAYOUT = Layout(BatteryParams, (
     Slot("soc_max"),
     Slot("max_discharge_power_w"),
     Slot("max_charge_power_w"),
+    Slot("coulombic_efficiency"),
     Slot("voc_v", N_SOC, fill=lambda p: np.asarray(p.module_voc_v) * p.n_series, fields=("module_voc_v", "n_series")),
     Slot("r_discharge_ohm", N_SOC, fill=lambda p: np.asarray(p.module_r_discharge_ohm) * p.n_series / p.n_parallel,
          fields=("module_r_discharge_ohm",)),
@@ -104,7 +107,7 @@ def power_limits_w(ba, soc, dt_s):
     i_dis = max(soc - ba[IDX.soc_min], 0.0) * ba[IDX.capacity_as] / dt_s
     i_dis = min(i_dis, voc / (2.0 * r_d))  # past the matched-load current power falls
     p_dis = min(ba[IDX.max_discharge_power_w], voc * i_dis - r_d * i_dis * i_dis)
-    i_chg = max(ba[IDX.soc_max] - soc, 0.0) * ba[IDX.capacity_as] / dt_s
+    i_chg = max(ba[IDX.soc_max] - soc, 0.0) * ba[IDX.capacity_as] / (dt_s * ba[IDX.coulombic_efficiency])
     p_chg = min(ba[IDX.max_charge_power_w], voc * i_chg + r_c * i_chg * i_chg)
     return max(p_dis, 0.0), max(p_chg, 0.0)
 
@@ -125,6 +128,8 @@ def current_a(ba, soc, terminal_power_w):
 
 @jit
 def soc_step(ba, soc, current, dt_s):
-    """SOC after ``dt_s`` at ``current`` (coulomb counting), held inside the hard window."""
-    new = soc - current * dt_s / ba[IDX.capacity_as]
+    """SOC after ``dt_s`` at ``current`` (coulomb counting; a charging current stores its coulombic efficiency's
+    share), held inside the hard window."""
+    stored = current if current >= 0.0 else current * ba[IDX.coulombic_efficiency]
+    new = soc - stored * dt_s / ba[IDX.capacity_as]
     return min(max(new, ba[IDX.soc_min]), ba[IDX.soc_max])

@@ -40,7 +40,6 @@ COOLANT_MODES = ("on", "degraded", "off")
 class PowertrainParams(Params):
     """Supervisory facts of the powertrain that are not a component's."""
 
-    accessory_power_w: float = spec(7457.0, "accessory load (ADVISOR ACC_HEAVY)", min=0.0)
     stop_start: bool = spec(True, "engine off (no fuel) whenever it is not needed")
     regen_enabled: bool = spec(True, "regenerative braking by the motor within its and the battery's limits")
 
@@ -93,11 +92,14 @@ class Conditions(Params):
                               min=0.0, max=1.0)
     coolant: str = "on"
     coolant_temp_c: float | None = None
-    coolant_degraded_factor: float = spec(0.1, "coolant conductance multiplier when degraded (network: jacket and "
-                                                     "radiator; paper_eqs: h_water)", min=0.0, max=1.0)
+    coolant_degraded_factor: float = spec(0.1, "coolant multiplier when degraded (network: the pump's flow; "
+                                                     "paper_eqs: h_water)", min=0.0, max=1.0)
     payload_kg: float = spec(0.0, "passengers on top of the 15 t test mass (which carries ADVISOR's 1.84 t cargo); "
                                   "a full 12 m bus adds up to about 5 t", min=0.0, max=5000.0)
     fan: bool = spec(True, "the radiator fan works (False: failed fan; network model)")
+    accessory_power_w: float = spec(7457.0, "accessory load: compressor and air conditioning (ADVISOR ACC_HEAVY "
+                                            "7457 W; its transit-bus files up to 20 kW; the paper states none)",
+                                    min=0.0, max=20000.0)
 
     def validate(self) -> None:
         if self.coolant not in COOLANT_MODES:

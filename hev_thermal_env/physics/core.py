@@ -12,8 +12,11 @@ step delivers what it can and reports the missed wheel energy and the speed defi
 (``trace_miss_mps`` = missed force·dt / effective mass); the next step follows the cycle again. The motor never
 tops up by itself: where the engine alone falls short, the action chooses between assisting (battery energy,
 motor heat) and missing (priced by the reward and the corrected-fuel metric alike), so every strategy and DP face
-the same choice at the same price. Braking: the motor regenerates up to its and the battery's limits, friction
-brakes take the rest; the action has no effect while braking or at standstill.
+the same choice at the same price. Braking: the driven axle takes a speed-dependent share of the braking
+(``glider.driven_axle_brake_frac``), the other axle's friction brakes the rest; of the driven axle's braking, within
+the motor's and the battery's limits (the available regeneration), the motor takes the share u > 0 and friction
+brakes the rest; u ≤ 0 brakes by friction alone. u = 0 at every step is the bus with its motor unused (no assist,
+no regeneration; the spinning motor's losses remain). At standstill the action has no effect.
 """
 
 from __future__ import annotations
@@ -33,19 +36,21 @@ from .config import PT_IDX, Conditions, VehicleConfig
 from .door_arrays import MIN_THREAD_BATCH, as_batch, as_float64, checked_out, thread_pool
 from .jit import jit
 
-# state columns (``motor_temp_c``: the winding of the network, the one node of the paper's model;
-# ``heat_x_min``: the heat index's anti-windup floor, −PWM_initial at the motor's temperature;
-# ``housing_temp_c``, ``coolant_temp_c``: the network's other nodes, the paper's model holds the
-# housing equal to the motor and the coolant at the run's water temperature)
-SOC, TEMP_C, HEAT_X, HEAT_X_MIN, CUTOFF, HOUSING_C, COOLANT_C = range(7)
-N_STATE = 7
-STATE_NAMES = ("soc", "motor_temp_c", "heat_x", "heat_x_min", "motor_cutoff", "housing_temp_c", "coolant_temp_c")
+# state columns (``motor_temp_c``: the stator/housing node of the network, the paper's one lumped motor temperature;
+# ``heat_x_min``: the heat index's anti-windup floor, −PWM_initial at the motor's temperature; ``motor_cutoff``: the
+# 70 °C protection; ``winding_temp_c``, ``coolant_temp_c``: the network's other nodes (the paper's model holds the
+# winding equal to the motor and the coolant at the run's water temperature); ``winding_trip``: the winding's own
+# protection)
+SOC, TEMP_C, HEAT_X, HEAT_X_MIN, CUTOFF, WINDING_C, COOLANT_C, WINDING_TRIP = range(8)
+N_STATE = 8
+STATE_NAMES = ("soc", "motor_temp_c", "heat_x", "heat_x_min", "motor_cutoff", "winding_temp_c", "coolant_temp_c",
+               "winding_trip")
 
 # condition columns (``water_c``: the coolant's starting temperature, and the paper's perfect-radiator
 # water temperature; ``coolant_factor``: 1 on, < 1 degraded, 0 off; ``payload_kg`` on top of the test
-# mass; ``fan_factor``: 1 the radiator fan works, 0 it has failed)
-AMBIENT_C, WATER_C, COOLANT_FACTOR, PAYLOAD_KG, FAN_FACTOR = range(5)
-N_COND = 5
+# mass; ``fan_factor``: 1 the radiator fan works, 0 it has failed; ``accessory_w``: the accessory load)
+AMBIENT_C, WATER_C, COOLANT_FACTOR, PAYLOAD_KG, FAN_FACTOR, ACCESSORY_W = range(6)
+N_COND = 6
 
 # output columns (per step; powers are means over the step, energies in J)
 OUT_NAMES = (
@@ -56,13 +61,13 @@ OUT_NAMES = (
     "missed_wheel_energy_j", "trace_miss_mps", "brake_power_w", "clutch_loss_w", "driveline_loss_w",
     "accessory_power_w", "coolant_on", "heat_index", "q_air_w", "q_rad_w", "q_cool_w",
     "shaft_torque_demand_nm", "motor_torque_clipped", "engine_torque_max_nm", "motor_torque_max_nm",
-    "q_radiator_w",
+    "q_radiator_w", "inverter_heat_w", "regen_available_nm",
 )
 (FUEL_G, ENGINE_ON, ENGINE_SPEED, ENGINE_TORQUE, ENGINE_POWER, MOTOR_TORQUE, MOTOR_SPEED, MOTOR_ELEC,
  MOTOR_LOSS, MOTOR_HEAT, MOTOR_AVAIL, MOTOR_REQ, BATT_POWER, BATT_CHEM, BATT_LOSS, BATT_CURRENT, GEAR,
  SPEED, WHEEL_DEMAND, WHEEL_POWER, MISSED_J, TRACE_MISS, BRAKE_POWER, CLUTCH_LOSS, DRIVELINE_LOSS, ACC,
  COOLANT_ON, HEAT_INDEX, Q_AIR, Q_RAD, Q_COOL, SHAFT_DEMAND, MOTOR_CLIPPED, ENGINE_MAX, MOTOR_MAX,
- Q_RADIATOR) = range(36)
+ Q_RADIATOR, INVERTER_HEAT, REGEN_AVAIL) = range(38)
 N_OUT = len(OUT_NAMES)
 
 
@@ -89,14 +94,15 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         temp = state[b, TEMP_C]
         hx = state[b, HEAT_X]
         cutoff = state[b, CUTOFF]
-        housing = state[b, HOUSING_C]
+        winding = state[b, WINDING_C]
         coolant = state[b, COOLANT_C]
+        motor_off = 1.0 if (cutoff != 0.0 or state[b, WINDING_TRIP] != 0.0) else 0.0
         ambient = cond[b, AMBIENT_C]
         water = cond[b, WATER_C]
         coolant_factor = cond[b, COOLANT_FACTOR]
         payload = cond[b, PAYLOAD_KG]
         fan_factor = cond[b, FAN_FACTOR]
-        acc_w = pt[PT_IDX.accessory_power_w]
+        acc_w = cond[b, ACCESSORY_W]
         stop_start = pt[PT_IDX.stop_start] != 0.0
         u = min(max(action[b], -1.0), 1.0)
         v_start = v0[b]
@@ -123,7 +129,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         derate = thm.derate_frac(th, temp)
         k_temp = thm.torque_factor(th, temp)
         t_env = thm.available_torque_nm(th, k_temp * mot.peak_torque_nm(mo, w_m),
-                                        k_temp * mot.continuous_torque_nm(mo, w_m), hx, cutoff)
+                                        k_temp * mot.continuous_torque_nm(mo, w_m), hx, motor_off)
         p_dis, p_chg = bat.power_limits_w(ba, soc, dt)
         engine_avail = w_s <= en[eng.IDX.max_speed_radps] + 1e-9
 
@@ -139,6 +145,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         t_e_max = 0.0
         t_m_max = 0.0
         acc_from_engine = 0.0
+        regen_avail = 0.0
 
         if t_s_dem > 0.0:
             # --- traction: motor request clipped to its limits, engine covers the rest -------------------
@@ -176,7 +183,7 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
             t_w_used = drv.wheel_torque_nm(dl, t_s_used, gear)
             driveline_loss = t_s_used * w_s - t_w_used * w_wheel
         else:
-            # --- braking, coasting or standstill: regeneration by rule, friction for the rest -------
+            # --- braking, coasting or standstill: the action's share of the available regeneration ------
             engine_on = not stop_start
             if not engine_on and p_dis < acc_w and engine_avail:
                 engine_on = True
@@ -195,8 +202,11 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
             t_m_max = min(t_env, t_hi)
             t_s_free = t_s_dem + (acc_take / w_s if acc_take > 0.0 else 0.0)
             if pt[PT_IDX.regen_enabled] != 0.0 and t_s_free < 0.0:
-                t_m_req = t_s_free / rho
-                t_m = max(t_m_req, max(-t_env, t_lo))
+                axle = gli.driven_axle_brake_frac(gl, v) * t_s_free / rho
+                regen_avail = max(axle, max(-t_env, t_lo))
+                share = max(u, 0.0)
+                t_m_req = share * axle
+                t_m = share * regen_avail
             t_m = min(t_m, t_hi)  # an empty battery: the motor's spinning loss brakes the shaft
             t_s_used = rho * t_m - (acc_take / w_s if acc_take > 0.0 else 0.0)
             if moving and engine_on and t_s_used < t_s_dem:
@@ -219,32 +229,40 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         p_batt = p_elec + acc_elec
         current = bat.current_a(ba, soc, p_batt)
         voc = bat.open_circuit_voltage_v(ba, soc)
-        p_chem = voc * current
+        # chemical power released (> 0) or stored (< 0): a charging current stores its coulombic efficiency's share
+        p_chem = voc * current if current >= 0.0 else voc * current * ba[bat.IDX.coulombic_efficiency]
         soc_new = bat.soc_step(ba, soc, current, dt)
 
-        # --- thermal: temperatures (paper's eq 7 or the network), heat index (eq 9), protection ----------
-        heat_w = motor_loss
-        q_housing = (1.0 + extra) * mot.core_loss_w(mo, w_m)  # iron and friction: the rest heats the winding
+        # --- thermal: temperatures (paper's eq 7 or the network), heat index (eq 9), protections --------
+        # the mapped loss (motor and inverter): the inverter's share heats its cold plate (network), the motor keeps
+        # the rest, split between the winding (copper, and the derate's extra current) and the housing (iron and
+        # friction) in proportion to their mapped parts
+        q_inverter = min((1.0 - th[thm.IDX.inverter_efficiency]) * abs(p_elec), motor_loss) if network else 0.0
+        heat_w = motor_loss - q_inverter
+        keep = heat_w / motor_loss if motor_loss > 0.0 else 1.0
+        q_housing = keep * (1.0 + extra) * mot.core_loss_w(mo, w_m)
         if v != v_memo:  # (k·v)^n = exp(n·(log k + log v)): one logarithm for both factors
             v_memo = v
             log_v = math.log(v) if v > 0.0 else 0.0
             forced_term = math.exp(air_exp * (log_air_per_mps + log_v)) if v > 0.0 else 0.0
             ram_term = math.exp(ram_exp * (log_ram_per_mps + log_v)) if (v > 0.0 and network) else 0.0
-        temp_new, housing_new, coolant_new, q_air, q_rad, q_cool, q_radiator, coolant_on = tnet.thermal_step(
-            th, temp, housing, coolant, heat_w - q_housing, q_housing, ambient, water, coolant_factor, fan_factor,
-            forced_term, ram_term, inv_dt)
+        temp_new, winding_new, coolant_new, q_air, q_rad, q_cool, q_radiator, coolant_on = tnet.thermal_step(
+            th, temp, winding, coolant, heat_w - q_housing, q_housing, q_inverter, ambient, water, coolant_factor,
+            fan_factor, forced_term, ram_term, inv_dt)
         cont = mot.continuous_torque_nm(mo, w_m)
         hx_min_new = thm.heat_index_floor(th, temp_new)  # the floor follows the motor's temperature
         hx_new = thm.heat_index_step(th, hx, hx_min_new, t_m, cont, temp, dt)
         cutoff_new = thm.cutoff_step(th, cutoff, temp_new)
+        trip_new = thm.winding_trip_step(th, state[b, WINDING_TRIP], winding_new)
 
         state_out[b, SOC] = soc_new
         state_out[b, TEMP_C] = temp_new
         state_out[b, HEAT_X] = hx_new
         state_out[b, HEAT_X_MIN] = hx_min_new
         state_out[b, CUTOFF] = cutoff_new
-        state_out[b, HOUSING_C] = housing_new
+        state_out[b, WINDING_C] = winding_new
         state_out[b, COOLANT_C] = coolant_new
+        state_out[b, WINDING_TRIP] = trip_new
 
         m_eff = gli.effective_mass_kg(gl, payload)
         out[b, FUEL_G] = fuel_rate * dt
@@ -283,6 +301,8 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         out[b, ENGINE_MAX] = t_e_max
         out[b, MOTOR_MAX] = t_m_max
         out[b, Q_RADIATOR] = q_radiator
+        out[b, INVERTER_HEAT] = q_inverter
+        out[b, REGEN_AVAIL] = regen_avail
 
 
 class PhysicsCore:
@@ -320,10 +340,11 @@ class PhysicsCore:
         st[:, TEMP_C] = conditions.initial_motor_temp_c
         st[:, HEAT_X] = thm.heat_index_floor(self.th, conditions.initial_motor_temp_c)
         st[:, HEAT_X_MIN] = st[:, HEAT_X]
-        st[:, CUTOFF] = 1.0 if (self.config.thermal.enabled
-                                and conditions.initial_motor_temp_c >= self.config.thermal.cutoff_temp_c) else 0.0
-        st[:, HOUSING_C] = conditions.initial_motor_temp_c
+        th = self.config.thermal
+        st[:, CUTOFF] = 1.0 if (th.enabled and conditions.initial_motor_temp_c >= th.cutoff_temp_c) else 0.0
+        st[:, WINDING_C] = conditions.initial_motor_temp_c
         st[:, COOLANT_C] = conditions.water_temp_c
+        st[:, WINDING_TRIP] = 1.0 if (th.enabled and conditions.initial_motor_temp_c >= th.winding_trip_temp_c) else 0.0
         return st
 
     @staticmethod
@@ -334,6 +355,7 @@ class PhysicsCore:
         cond[:, COOLANT_FACTOR] = conditions.coolant_factor
         cond[:, PAYLOAD_KG] = conditions.payload_kg
         cond[:, FAN_FACTOR] = 1.0 if conditions.fan else 0.0
+        cond[:, ACCESSORY_W] = conditions.accessory_power_w
         return cond
 
     def step(self, state, action, speed_start_mps, speed_end_mps, grade, cond, *, state_out=None, out=None,

@@ -33,6 +33,11 @@ class GliderParams(Params):
     wheel_radius_m: float = spec(0.5, "tyre rolling radius (ADVISOR WH_HEAVY)", min=0.05, max=2.0)
     air_density_kgpm3: float = spec(1.23, "air density", min=0.5, max=2.0)
     gravity_mps2: float = spec(9.81, "gravitational acceleration", min=9.0, max=10.5)
+    regen_driven_axle_frac_10mph: float = spec(
+        0.5, "share of the braking the driven axle takes at 10 mph (ADVISOR WH_HEAVY wh_fa_dl_brake_frac)",
+        min=0.4, max=0.7)
+    regen_driven_axle_frac_60mph: float = spec(
+        0.8, "share of the braking the driven axle takes at and above 60 mph (ADVISOR WH_HEAVY)", min=0.6, max=0.9)
 
 
 LAYOUT = GliderParams.LAYOUT = Layout.of_fields(GliderParams)
@@ -64,3 +69,19 @@ def resistance_force_n(gl, speed_mps, grade, payload_kg):
 def road_force_n(gl, speed_mps, accel_mps2, grade, payload_kg):
     """Total tractive force needed at the wheels (positive drives, negative brakes)."""
     return effective_mass_kg(gl, payload_kg) * accel_mps2 + resistance_force_n(gl, speed_mps, grade, payload_kg)
+
+
+MPH_10 = 10.0 * 0.44704
+MPH_60 = 60.0 * 0.44704
+
+
+@jit
+def driven_axle_brake_frac(gl, speed_mps):
+    """Share of the braking the driven axle takes, the rest on the other axle's friction brakes (ADVISOR WH_HEAVY):
+    0 at standstill, linear to the 10 mph value, then linear to the 60 mph value, constant above."""
+    f10 = gl[IDX.regen_driven_axle_frac_10mph]
+    f60 = gl[IDX.regen_driven_axle_frac_60mph]
+    v = max(speed_mps, 0.0)
+    low = f10 * v / MPH_10
+    high = f10 + (f60 - f10) * (min(v, MPH_60) - MPH_10) / (MPH_60 - MPH_10)
+    return low if v < MPH_10 else high

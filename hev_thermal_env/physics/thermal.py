@@ -1,19 +1,18 @@
 """The motor's thermal parameters and effects: the paper's eqs 1-10, for both thermal models.
 
 ``ThermalParams.model`` selects the temperature model, both stepped by ``thermal_network.thermal_step``:
-``"network"`` (the default; winding, housing, coolant loop, calibrated to the paper's figures, which the literal
-model cannot show: its h_water·A = 1282 W/K with a perfect radiator clamps the motor at the 35 °C thermostat) or
-``"paper_eqs"``, the paper's one node as written: m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool (eq 7) with
-Q_air = h_air·A·(T − T_amb) (eq 1), h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63 with V in km/h (eq 4, the
-documented form; ADVISOR's code feeds half the speed in m/s against 30), Q_cool = h_water·A·(T − T_water) above
-the thermostat (eq 5, T_water held) and Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
+``"network"`` (the default): a winding node, the stator/housing node, and a pumped coolant loop with a thermostat
+valve and a radiator; the paper's one lumped "motor temperature" is the stator/housing node. ``"paper_eqs"``: the
+paper's one node as written, m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool (eq 7) with Q_air = h_air·A·(T − T_amb)
+(eq 1), h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63 with V in km/h (eq 4), Q_cool = h_water·A·(T − T_water)
+above the thermostat (eq 5, T_water held) and Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
 
 Heat index (eqs 8-9): dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1), PWM = clip(x, 0, 1), available torque
-T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; eq 10's T_gain and PWM_initial are our
-linear ramps in the motor temperature. Efficiency derate −1 point per 15 °C above 35 °C (``motor.py``), cutoff at
-70 °C until cooled to 60 °C; ``enabled=False`` is ADVISOR's unmodified motor (the paper's baseline). Fields whose
-doc starts with "fitted:" hold the values of ``python -m hev_thermal_env.calibration``. Sources and rationale:
-docs/thermal_model.md.
+T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; T_gain (eq 10) and PWM_initial are linear
+in the motor temperature. Efficiency derate −1 point per 15 °C above 35 °C (``motor.py``), cutoff at 70 °C until
+cooled to 60 °C, and the winding's own protection (165 °C / 155 °C); ``enabled=False`` is ADVISOR's unmodified motor
+(the paper's baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m
+hev_thermal_env.calibration``. Every value's range and source: docs/thermal_model.md.
 """
 
 from __future__ import annotations
@@ -59,81 +58,61 @@ class ThermalParams(Params):
     extra_loss_frac: float = spec(0.05, "extra heat as a fraction of losses: noise, friction (paper: 5 %)",
                                   min=0.0, max=1.0)
     torque_temp_coeff_per_c: float = spec(
-        0.001873, "fitted: fraction of the torque envelopes lost per °C above torque_ref_temp_c (magnet "
-                  "remanence: NdFeB flux −0.126 %/K (paper); the paper's Prius data −0.32 %/K of peak torque)",
-        min=0.0, max=0.0032)
+        0.00126, "fraction of the torque envelopes lost per °C of the stator/housing node above torque_ref_temp_c: "
+                 "magnet flux at fixed current (paper: NdFeB 12.6 % per 100 K; magnet datasheets 0.08-0.13 %/K)",
+        min=0.0008, max=0.0013)
     torque_ref_temp_c: float = spec(20.0, "temperature of the unmodified (cold) torque envelopes (magnet data: 20 °C)")
     # --- heat index, eqs 8-10 ---
     t_s_s: float = spec(30.0, "T_s of eq 9: longest run time at peak torque (paper)", min=0.0, min_exclusive=True)
     t_gain_cold: float = spec(
-        0.1105, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3])",
+        0.1715, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3], varying with temperature)",
         min=0.1, max=0.3)
-    t_gain_hot: float = spec(
-        0.2742, "fitted: T_gain at and above t_gain_temp_hi_c (paper: T_gain in [0.1, 0.3])",
-        min=0.1, max=0.3)
-    t_gain_temp_lo_c: float = spec(
-        35.05, "fitted: temperature where T_gain starts to rise (from the 20 °C start to 10 K above the paper's "
-               "35 °C, where its torque and efficiency corrections start)",
-        min=20.0, max=45.0)
-    t_gain_temp_hi_c: float = spec(
-        35.79, "fitted: temperature where T_gain reaches t_gain_hot (at most the 70 °C cutoff)",
-        min=25.0, max=70.0)
-    pwm_initial_cold: float = spec(
-        0.5792, "fitted: PWM_initial up to pwm_initial_temp_lo_c, the cold overload reserve: from the paper's 0.3 "
-                "up to 0.6, the reserve for 30 s at peak torque (the paper's HEV motor) at the highest T_gain 0.3",
-        min=0.3, max=0.6)
-    pwm_initial_temp_lo_c: float = spec(
-        38.51, "fitted: the full cold reserve holds up to this temperature (from the paper's 20 °C start to 5 K "
-               "above its 35 °C thermostat)",
-        min=20.0, max=40.0)
-    pwm_initial_temp_hi_c: float = spec(
-        63.47, "fitted: temperature where the overload reserve PWM_initial reaches 0 (from 10 K above the "
-               "paper's start up to the 70 °C cutoff)",
-        min=30.0, max=70.0)
+    t_gain_hot: float = spec(0.3, "T_gain at and above t_gain_temp_hi_c (paper's upper value, Fig. 4's example)",
+                             min=0.1, max=0.3)
+    t_gain_temp_lo_c: float = spec(35.0, "T_gain starts to rise above this (paper: its corrections act above 35 °C)")
+    t_gain_temp_hi_c: float = spec(70.0, "T_gain reaches t_gain_hot here (the cutoff)")
+    pwm_initial_at_ref: float = spec(0.3, "PWM_initial, the overload reserve, at and below pwm_initial_ref_temp_c "
+                                          "(paper: 0.3 at its 20 °C start)", min=0.0, max=1.0)
+    pwm_initial_ref_temp_c: float = spec(20.0, "the paper's start temperature")
+    pwm_initial_zero_temp_c: float = spec(70.0, "PWM_initial falls linearly to 0 here: the reserve is the headroom to "
+                                                "the 70 °C cutoff")
     # --- air convection, eq 4 ---
     h_air_base: float = spec(6.0, "eq 4: still-air coefficient W/(m²·K)", min=0.0)
     h_air_natural: float = spec(6.0, "eq 4: natural convection term at ΔT = 1000 K", min=0.0)
     h_air_forced: float = spec(60.0, "eq 4: forced convection at the reference speed", min=0.0)
     air_ref_speed_kmh: float = spec(48.27, "eq 4: reference air speed", min=0.0, min_exclusive=True)
     air_speed_exponent: float = spec(0.63, "eq 4: speed exponent", min=0.0)
-    # --- the network: winding, housing, coolant loop, thermostat, radiator, fan (thermal_network.py) ---
-    winding_heat_capacity_j_per_k: float = spec(
-        3384.0, "fitted: heat capacity of the winding node (copper 8-15 kg at 385 J/(kg·K), with insulation and "
-                "resin); the housing node holds the rest of Table 1's m·c_p",
-        min=2500.0, max=10000.0)
-    winding_conductance_w_per_k: float = spec(
-        536.7, "fitted: winding-to-housing conductance through the slot insulation (the winding 1-30 K above "
-               "the housing at the continuous copper loss of 624 W)",
-        min=20.0, max=600.0)
-    jacket_conductance_w_per_k: float = spec(
-        482.4, "fitted: housing-to-coolant conductance, valve fully open; at most the paper's h_water·A = "
-               "1282 W/K (whole cooling area wetted), at least 100 W/K (a 2 kW loss 20 K above the coolant)",
-        min=100.0, max=1282.0)
-    thermostat_band_k: float = spec(
-        5.63, "fitted: proportional band of the thermostat valve: closed at thermostat_temp_c, fully open this "
-              "much above (wax thermostats: 2-12 K)",
-        min=2.0, max=12.0)
-    coolant_heat_capacity_j_per_k: float = spec(
-        62810.0, "fitted: coolant loop heat capacity: 4-20 L of 50 % glycol (3.5 kJ/(kg·K)) plus radiator and "
-                 "pump metal",
-        min=15e3, max=80e3)
-    radiator_ua_w_per_k: float = spec(
-        335.5, "fitted: radiator conductance at the reference face air speed (a low-temperature radiator for a "
-               "30 kW-continuous motor: 2-4 kW at 10-40 K)",
-        min=50.0, max=600.0)
-    radiator_ref_air_speed_mps: float = spec(5.0, "face air speed at which radiator_ua_w_per_k holds (design "
-                                                  "point of automotive radiators, 3-8 m/s)",
-                                             min=1.0, max=10.0)
-    radiator_air_exponent: float = spec(0.7, "UA ∝ (face air speed)^n: air-side Nusselt ∝ Re^0.6-0.8",
-                                        min=0.5, max=0.9)
-    ram_air_frac: float = spec(0.25, "face air speed per unit vehicle speed (ram air; a bus's side or rear "
-                                     "cooling pack sees 0.1-0.5)", min=0.1, max=0.5)
-    still_air_speed_mps: float = spec(0.5, "equivalent face air speed at standstill with the fan off (natural "
-                                           "draught)", min=0.0, max=1.0)
-    fan_air_speed_mps: float = spec(4.0, "face air speed the fan gives at full speed (2-6 m/s)", min=2.0, max=6.0)
-    fan_on_temp_c: float = spec(40.0, "the fan starts at this coolant temperature (5 K above the valve)",
-                                min=0.0, max=100.0)
-    fan_band_k: float = spec(5.0, "the fan reaches full speed this much above fan_on_temp_c", min=0.5, max=20.0)
+    # --- the network (thermal_network.py); ranges and sources: docs/calibration/parameter_ranges.yaml ---
+    inverter_efficiency: float = spec(0.98, "inverter efficiency: (1 − η)·|P_dc| of the mapped loss heats the "
+                                            "inverter's cold plate (coolant), not the motor", min=0.97, max=0.99)
+    winding_heat_capacity_j_per_k: float = spec(3300.0, "winding node: copper 5-9 kg with insulation and resin",
+                                                min=2300.0, max=5700.0)
+    winding_conductance_w_per_k: float = spec(30.0, "winding to stator/housing through slot liner and impregnation",
+                                              min=20.0, max=100.0)
+    winding_trip_temp_c: float = spec(165.0, "winding protection trips here: class 180 (H), 125 K rise (Table 1) "
+                                             "over 40 °C (IEC 60034-1)")
+    winding_release_temp_c: float = spec(155.0, "winding protection releases once cooled to this")
+    jacket_ua_w_per_k: float = spec(250.0, "fitted: housing-to-coolant UA of the water jacket (at most the paper's "
+                                           "h_water·A)", min=50.0, max=1282.0)
+    coolant_flow_l_per_min: float = spec(12.0, "pump flow through jacket, inverter plate and valve", min=6.0,
+                                         max=20.0)
+    coolant_density_kg_per_l: float = spec(1.07, "50 % ethylene glycol", min=1.06, max=1.08)
+    coolant_cp_j_per_kgk: float = spec(3300.0, "50 % ethylene glycol", min=3200.0, max=3500.0)
+    coolant_volume_l: float = spec(10.0, "coolant in jacket, hoses and radiator", min=5.0, max=20.0)
+    coolant_loop_metal_heat_capacity_j_per_k: float = spec(5600.0, "radiator, pump and pipe metal", min=2000.0,
+                                                           max=10000.0)
+    thermostat_band_k: float = spec(5.0, "the valve (on the coolant temperature) opens fully this much above "
+                                         "thermostat_temp_c", min=2.0, max=15.0)
+    radiator_ua_w_per_k: float = spec(175.0, "fitted: radiator UA at the reference face air speed", min=50.0,
+                                      max=600.0)
+    radiator_ref_air_speed_mps: float = spec(5.0, "face air speed of radiator_ua_w_per_k", min=3.0, max=8.0)
+    radiator_air_exponent: float = spec(0.7, "UA ∝ (face air speed)^n: air-side Nusselt ∝ Re^0.5-0.8",
+                                        min=0.5, max=0.8)
+    ram_air_frac: float = spec(0.25, "face air speed per unit vehicle speed (ram air)", min=0.1, max=0.5)
+    still_air_speed_mps: float = spec(0.5, "face air speed at standstill with the fan off", min=0.0, max=1.0)
+    fan_air_speed_mps: float = spec(4.0, "face air speed of the fan at full speed", min=2.0, max=6.0)
+    fan_on_temp_c: float = spec(40.0, "the fan starts at this coolant temperature", min=35.0, max=50.0)
+    fan_band_k: float = spec(5.0, "the fan reaches full speed this much above fan_on_temp_c", min=2.0, max=10.0)
 
     def validate(self) -> None:
         if self.model not in THERMAL_MODELS:
@@ -142,8 +121,10 @@ class ThermalParams(Params):
             raise ConfigError("ThermalParams.cutoff_release_temp_c: must be below cutoff_temp_c")
         if self.t_gain_temp_hi_c <= self.t_gain_temp_lo_c:
             raise ConfigError("ThermalParams.t_gain_temp_hi_c: must exceed t_gain_temp_lo_c")
-        if self.pwm_initial_temp_hi_c <= self.pwm_initial_temp_lo_c:
-            raise ConfigError("ThermalParams.pwm_initial_temp_hi_c: must exceed pwm_initial_temp_lo_c")
+        if self.pwm_initial_zero_temp_c <= self.pwm_initial_ref_temp_c:
+            raise ConfigError("ThermalParams.pwm_initial_zero_temp_c: must exceed pwm_initial_ref_temp_c")
+        if self.winding_release_temp_c >= self.winding_trip_temp_c:
+            raise ConfigError("ThermalParams.winding_release_temp_c: must be below winding_trip_temp_c")
         if self.winding_heat_capacity_j_per_k >= 0.5 * self.heat_capacity_j_per_k:
             raise ConfigError("ThermalParams.winding_heat_capacity_j_per_k: must be below half the motor's m·c_p")
         if self.model == "paper_eqs":
@@ -158,13 +139,31 @@ class ThermalParams(Params):
         """Heat capacity of the motor node, m·c_p."""
         return self.mass_kg * self.cp_j_per_kgk
 
+    @property
+    def housing_heat_capacity_j_per_k(self) -> float:
+        """Stator/housing node: the motor's m·c_p less the winding."""
+        return self.heat_capacity_j_per_k - self.winding_heat_capacity_j_per_k
+
+    @property
+    def coolant_mcp_w_per_k(self) -> float:
+        """Capacity rate ṁ·c_p of the pump's flow."""
+        return self.coolant_flow_l_per_min / 60.0 * self.coolant_density_kg_per_l * self.coolant_cp_j_per_kgk
+
+    @property
+    def coolant_heat_capacity_j_per_k(self) -> float:
+        """Coolant loop: the liquid and the loop's metal."""
+        return (self.coolant_volume_l * self.coolant_density_kg_per_l * self.coolant_cp_j_per_kgk
+                + self.coolant_loop_metal_heat_capacity_j_per_k)
+
 
 LAYOUT = ThermalParams.LAYOUT = Layout.of_fields(ThermalParams, replace={
     "model": Slot("model", fill=lambda p: float(THERMAL_MODELS.index(p.model))),
 }, derived={
     # constants of the per-row code, computed once here (the kernel has ~100 ns per row; a division is ~5)
     "motor_heat_capacity_j_per_k": lambda p: p.mass_kg * p.cp_j_per_kgk,
-    "housing_heat_capacity_j_per_k": lambda p: p.mass_kg * p.cp_j_per_kgk - p.winding_heat_capacity_j_per_k,
+    "housing_heat_capacity_j_per_k": lambda p: p.housing_heat_capacity_j_per_k,
+    "coolant_heat_capacity_j_per_k": lambda p: p.coolant_heat_capacity_j_per_k,
+    "coolant_mcp_w_per_k": lambda p: p.coolant_mcp_w_per_k,
     "eps_sigma_area": lambda p: p.emissivity * SIGMA * p.area_m2,
     "h_water_area_w_per_k": lambda p: p.h_water_w_per_m2k * p.area_m2,
     "inv_valve_band_per_k": lambda p: 1.0 / p.thermostat_band_k,
@@ -174,7 +173,7 @@ LAYOUT = ThermalParams.LAYOUT = Layout.of_fields(ThermalParams, replace={
     "ram_air_per_mps": lambda p: p.ram_air_frac / p.radiator_ref_air_speed_mps,
     "still_air_term": lambda p: (p.still_air_speed_mps / p.radiator_ref_air_speed_mps) ** p.radiator_air_exponent,
     "tgain_slope_per_c": lambda p: (p.t_gain_hot - p.t_gain_cold) / (p.t_gain_temp_hi_c - p.t_gain_temp_lo_c),
-    "pwm0_slope_per_c": lambda p: -p.pwm_initial_cold / (p.pwm_initial_temp_hi_c - p.pwm_initial_temp_lo_c),
+    "pwm0_slope_per_c": lambda p: -p.pwm_initial_at_ref / (p.pwm_initial_zero_temp_c - p.pwm_initial_ref_temp_c),
     "inv_t_s": lambda p: 1.0 / p.t_s_s,
 })
 """Packed thermal parameters: one slot per field, in field order (the model as its index), then derived constants."""
@@ -189,8 +188,9 @@ def _ramp(x, x_lo, x_hi, y_lo, slope):
 
 @jit
 def pwm_initial(th, temp_c):
-    """PWM_initial, the overload reserve, of a motor at ``temp_c`` (our eq 10 companion)."""
-    return _ramp(temp_c, th[IDX.pwm_initial_temp_lo_c], th[IDX.pwm_initial_temp_hi_c], th[IDX.pwm_initial_cold],
+    """PWM_initial, the overload reserve, of a motor at ``temp_c``: the paper's 0.3 at its 20 °C start, falling
+    linearly to 0 at the 70 °C cutoff (the paper ties it to the initial temperature)."""
+    return _ramp(temp_c, th[IDX.pwm_initial_ref_temp_c], th[IDX.pwm_initial_zero_temp_c], th[IDX.pwm_initial_at_ref],
                  th[IDX.pwm0_slope_per_c])
 
 
@@ -236,7 +236,8 @@ def heat_index_pwm(heat_x):
 
 @jit
 def available_torque_nm(th, peak_nm, cont_nm, heat_x, cutoff):
-    """Torque limit under the heat index (eq 8) and the cutoff, never above the peak; the peak with the model off."""
+    """Torque limit under the heat index (eq 8) and the protections (``cutoff`` ≠ 0: either has tripped), never above
+    the peak; the peak with the model off."""
     pwm = heat_index_pwm(heat_x)
     blended = min(cont_nm * pwm + peak_nm * (1.0 - pwm), peak_nm)
     limited = 0.0 if cutoff != 0.0 else blended
@@ -305,4 +306,11 @@ def cutoff_step(th, cutoff, temp_c):
     """Protection with hysteresis: trips at cutoff_temp_c, releases at cutoff_release_temp_c."""
     # one return, not three (speed rule in jit.py)
     tripped = temp_c >= th[IDX.cutoff_temp_c] or (cutoff != 0.0 and temp_c > th[IDX.cutoff_release_temp_c])
+    return 1.0 if (th[IDX.enabled] != 0.0 and tripped) else 0.0
+
+
+@jit
+def winding_trip_step(th, trip, winding_c):
+    """Winding protection with hysteresis: trips at winding_trip_temp_c, releases at winding_release_temp_c."""
+    tripped = winding_c >= th[IDX.winding_trip_temp_c] or (trip != 0.0 and winding_c > th[IDX.winding_release_temp_c])
     return 1.0 if (th[IDX.enabled] != 0.0 and tripped) else 0.0

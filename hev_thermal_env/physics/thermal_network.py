@@ -1,19 +1,26 @@
 """The motor's lumped thermal network, and the one thermal step both thermal models go through.
 
 Nodes of ``ThermalParams.model = "network"`` (diagram, equations and every parameter's source:
-docs/thermal_model.md): the winding (heated by the copper loss; its temperature is **the motor temperature**
-that the heat index, the derate, the valve and the cutoff read), the housing (heated by the iron and friction
-losses, cooled by air convection, eqs 1 and 4, and radiation, eq 6, over the paper's cooling area) and the
-coolant (through a proportional thermostat valve on the winding temperature, to a radiator whose UA grows with
-the ram air and the fan). The run's coolant mode scales the jacket and radiator conductances.
+docs/thermal_model.md):
 
-Integration: conductances at the start of the step (radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in
-kelvin), then one backward-Euler step of the three temperatures (a tridiagonal solve): stable at any step, and
-the reported flows close the balance exactly, C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad −
-Q_radiator)·dt. ``"paper_eqs"`` (``thermal.py``): one explicit-Euler node, the coolant held.
+* the winding (heated by the copper loss; its own protection at 165 °C),
+* the stator/housing: **the paper's lumped motor temperature** (heat index, derate, torque coefficient, 70 °C
+  cutoff); heated by iron and friction losses, cooled by air convection (eqs 1, 4) and radiation (eq 6) over the
+  paper's cooling area and by the water jacket,
+* the coolant loop: a pump's flow ṁ·c_p through the jacket (ε-NTU: G = ṁc_p·(1 − exp(−UA/ṁc_p))) and the inverter's
+  cold plate (the inverter's losses), then a thermostat valve sensing the coolant that routes the flow through the
+  radiator (UA growing with ram air and fan) or a bypass.
+
+The run's coolant mode scales the pump flow (degraded) or stops it (off). Integration: conductances at the start of
+the step (radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin), then one backward-Euler step of the three
+temperatures (a tridiagonal solve): stable at any step, and the reported flows close the balance exactly,
+C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt. ``"paper_eqs"`` (``thermal.py``): one
+explicit-Euler node heated by every loss, the coolant held.
 """
 
 from __future__ import annotations
+
+import math
 
 from . import thermal as thm
 from .jit import jit
@@ -33,16 +40,22 @@ def radiator_core(ua_ref, ram_term, still_term, inv_ref_mps, expo, fan_mps, fan_
 
 
 @jit
+def flow_conductance(mcp, ua):
+    """ε-NTU conductance of an exchanger fed by a flow of capacity rate ``mcp`` (W/K): mcp·(1 − exp(−UA/mcp))."""
+    return mcp * (1.0 - math.exp(-ua / mcp)) if mcp > 0.0 else 0.0
+
+
+@jit
 def network_core(a_w, a_h, a_c, g_w, g, g_air, g_rad, ua, winding_c, housing_c, coolant_c, q_winding_w, q_housing_w,
-                 ambient_c):
-    """One backward-Euler step of the three nodes from scalars; ``a_*`` = heat capacity / step, ``g`` the jacket
-    conductance at the valve's opening. Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool,
-    Q_radiator)."""
+                 q_coolant_w, ambient_c):
+    """One backward-Euler step of the three nodes from scalars; ``a_*`` = heat capacity / step, ``g`` the jacket's and
+    ``ua`` the radiator's conductance. Returns (winding, housing, coolant temperature, Q_air, Q_rad, Q_cool (housing to
+    coolant), Q_radiator)."""
     # tridiagonal system in (T_w', T_h', T_c'): eliminate the winding and the coolant into the housing row
     inv_w = 1.0 / (a_w + g_w)
     inv_c = 1.0 / (a_c + g + ua)
     r_w = a_w * winding_c + q_winding_w
-    r_c = a_c * coolant_c + ua * ambient_c
+    r_c = a_c * coolant_c + ua * ambient_c + q_coolant_w
     g_a = g_air + g_rad
     t_h = ((a_h * housing_c + q_housing_w + g_a * ambient_c + g_w * r_w * inv_w + g * r_c * inv_c)
            / (a_h + g_w + g_a + g - g_w * g_w * inv_w - g * g * inv_c))
@@ -60,15 +73,16 @@ def _radiation_conductance(eps_sigma_area, temp_c, ambient_c):
 
 
 @jit
-def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, ambient_c, water_c, coolant_factor,
-                 fan_factor, forced_term, ram_term, inv_dt):
-    """One step of the selected thermal model; ``temp_c`` is the motor (winding) temperature, ``inv_dt`` = 1 / step.
+def thermal_step(th, temp_c, winding_c, coolant_c, q_winding_w, q_housing_w, q_inverter_w, ambient_c, water_c,
+                 coolant_factor, fan_factor, forced_term, ram_term, inv_dt):
+    """One step of the selected thermal model; ``temp_c`` is the motor (stator/housing) temperature, ``inv_dt`` =
+    1 / step.
 
     ``forced_term`` and ``ram_term`` are the speed's factors of eq 4 and of the radiator, which the step kernel
-    computes once per distinct speed. Returns (motor, housing, coolant temperature, Q_air, Q_rad, Q_cool (motor to
-    coolant), Q_radiator (coolant to air), coolant on). ``paper_eqs``: one node heated by both loss parts, a
-    perfect radiator at the run's water temperature (Q_radiator = Q_cool), the coolant node held. Every parameter
-    is read before any branch (speed rule in jit.py).
+    computes once per distinct speed. Returns (motor, winding, coolant temperature, Q_air, Q_rad, Q_cool (motor to
+    coolant), Q_radiator (coolant to air), valve open). ``paper_eqs``: one node heated by every loss, a perfect
+    radiator at the run's water temperature (Q_radiator = Q_cool), the coolant node held. Every parameter is read
+    before any branch (speed rule in jit.py).
     """
     network = th[IDX.model] == thm.MODEL_NETWORK
     c_m = th[IDX.motor_heat_capacity_j_per_k]
@@ -76,31 +90,32 @@ def thermal_step(th, temp_c, housing_c, coolant_c, q_winding_w, q_housing_w, amb
     c_h = th[IDX.housing_heat_capacity_j_per_k]
     c_c = th[IDX.coolant_heat_capacity_j_per_k]
     g_w = th[IDX.winding_conductance_w_per_k]
-    g_jacket = th[IDX.jacket_conductance_w_per_k] * coolant_factor
+    mcp = th[IDX.coolant_mcp_w_per_k] * coolant_factor
+    ua_jacket = th[IDX.jacket_ua_w_per_k]
     eps_sigma_area = th[IDX.eps_sigma_area]
     h_water_area = th[IDX.h_water_area_w_per_k]
     thermostat_c = th[IDX.thermostat_temp_c]
-    valve = min(max((temp_c - thermostat_c) * th[IDX.inv_valve_band_per_k], 0.0), 1.0)
-    surface_c = housing_c if network else temp_c
+    valve = min(max((coolant_c - thermostat_c) * th[IDX.inv_valve_band_per_k], 0.0), 1.0)
     g_air = thm.air_conductance_core(th[IDX.h_air_base], th[IDX.h_air_natural], th[IDX.h_air_forced], forced_term,
-                                     th[IDX.area_m2], surface_c, ambient_c)
+                                     th[IDX.area_m2], temp_c, ambient_c)
     ua_ref, still = th[IDX.radiator_ua_w_per_k], th[IDX.still_air_term]
     inv_ref, expo = th[IDX.inv_radiator_ref_air_speed], th[IDX.radiator_air_exponent]
     fan_mps, fan_on, inv_fan_band = th[IDX.fan_air_speed_mps], th[IDX.fan_on_temp_c], th[IDX.inv_fan_band_per_k]
     if network:
         ua = radiator_core(ua_ref, ram_term, still, inv_ref, expo, fan_mps, fan_on, inv_fan_band, coolant_c,
-                           fan_factor) * coolant_factor
-        g_rad = _radiation_conductance(eps_sigma_area, housing_c, ambient_c)
+                           fan_factor)
+        g_rad = _radiation_conductance(eps_sigma_area, temp_c, ambient_c)
         t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
-            c_w * inv_dt, c_h * inv_dt, c_c * inv_dt, g_w, g_jacket * valve, g_air, g_rad, ua, temp_c, housing_c,
-            coolant_c, q_winding_w, q_housing_w, ambient_c)
+            c_w * inv_dt, c_h * inv_dt, c_c * inv_dt, g_w, flow_conductance(mcp, ua_jacket), g_air, g_rad,
+            flow_conductance(valve * mcp, ua), winding_c, temp_c, coolant_c, q_winding_w, q_housing_w, q_inverter_w,
+            ambient_c)
         on = valve > 0.0 and coolant_factor > 0.0
     else:
         q_air, q_rad, q_cool = thm.paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c,
                                                    ambient_c, water_c, coolant_factor)
-        t_w = temp_c + (q_winding_w + q_housing_w - q_air - q_rad - q_cool) / (c_m * inv_dt)
-        t_h = t_w
+        t_h = temp_c + (q_winding_w + q_housing_w + q_inverter_w - q_air - q_rad - q_cool) / (c_m * inv_dt)
+        t_w = t_h
         t_c = coolant_c
         q_radiator = q_cool
         on = q_cool != 0.0
-    return t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator, 1.0 if on else 0.0
+    return t_h, t_w, t_c, q_air, q_rad, q_cool, q_radiator, 1.0 if on else 0.0

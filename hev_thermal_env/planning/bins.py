@@ -17,7 +17,7 @@ from hev_thermal_env.physics.jit import jit
 #: State columns the search bins on, in key order, and the bits each gets in the 64-bit key (63 in all): a
 #: column's bin index must lie within ±2^(bits-1), which :func:`.search.check_key_range` enforces (SOC: ±2^20 bins, so
 #: bins down to 10⁻⁶ of SOC; temperatures ±512 bins; heat index ±1,024 bins).
-KEY_COLUMNS = (C.SOC, C.TEMP_C, C.HOUSING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF)
+KEY_COLUMNS = (C.SOC, C.TEMP_C, C.WINDING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF)
 KEY_BITS = (21, 10, 10, 10, 11, 1)
 _KEY_COLS = np.array(KEY_COLUMNS, dtype=np.int64)
 _BITS = np.array(KEY_BITS, dtype=np.int64)
@@ -73,7 +73,7 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bi
 def hotness(states, b):
     """One number for "cooler" within a bin: winding + housing + half the coolant temperature (K), plus 20 K per
     unit heat index and 100 K when cut off (row ``b`` of ``states``)."""
-    return (states[b, C.TEMP_C] + states[b, C.HOUSING_C] + 0.5 * states[b, C.COOLANT_C] + 20.0 * states[b, C.HEAT_X]
+    return (states[b, C.TEMP_C] + states[b, C.WINDING_C] + 0.5 * states[b, C.COOLANT_C] + 20.0 * states[b, C.HEAT_X]
             + 100.0 * states[b, C.CUTOFF])
 
 
