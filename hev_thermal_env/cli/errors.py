@@ -2,12 +2,16 @@
 
 Problems with the input are ``ValueError`` s, problems with files ``OSError`` s: either is one line,
 without a traceback, exit status 2. Warnings are one ``warning:`` line each. Ctrl-C is one line,
-``interrupted`` (with what was saved, if anything), exit status 130.
+``interrupted`` (with what was saved, if anything), exit status 130, wherever it arrives (:class:`KeptInterrupts`).
 """
 
 from __future__ import annotations
 
+import _thread
+import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -17,6 +21,11 @@ USER_ERRORS = (ValueError, OSError)
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
+#: Packages whose Python code a Ctrl-C must not cut short: llvmlite, LLVM's binding that numba's compiler drives
+#: (see :class:`KeptInterrupts`).
+UNINTERRUPTIBLE_PACKAGES = ("llvmlite",)
+#: Seconds after which a Ctrl-C put off is delivered again.
+REDELIVER_S = 0.05
 
 
 def program_name(argv: list[str] | None, default: str) -> str:
@@ -48,7 +57,7 @@ def run_program(body: Callable[[], int | None], prog: str | None = None,
         print(f"{f'{prog}: ' if prog else ''}warning: {' '.join(str(message).split())}", file=file or sys.stderr)
 
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), KeptInterrupts():
             warnings.showwarning = show
             return int(body() or 0)
     except KeyboardInterrupt as exc:
@@ -56,3 +65,68 @@ def run_program(body: Callable[[], int | None], prog: str | None = None,
         return int(getattr(exc, "exit_code", EXIT_INTERRUPTED))
     except errors as exc:
         return report(exc, prog)
+
+
+class KeptInterrupts:
+    """Within the block, a Ctrl-C is never lost, nor does it cut LLVM's bookkeeping short (in the main thread, where
+    SIGINT raises ``KeyboardInterrupt``).
+
+    Python raises the ``KeyboardInterrupt`` of a Ctrl-C at the next bytecode of the main thread, wherever that is.
+    Inside a function called from C (a ctypes callback, a finalizer ``__del__``) the exception cannot propagate:
+    Python prints it as "Exception ignored" and goes on, and the program never learns of the Ctrl-C. numba's
+    compiler drives llvmlite, whose JIT calls back into Python for every function compiled (to record the machine
+    code numba caches: cut short, numba's cache write fails later) and whose wrappers note who owns an LLVM object
+    right after the C call that hands it over (cut short in between, the object is freed twice: the interpreter
+    crashes as it exits). So a Ctrl-C that arrives while the main thread runs code of
+    :data:`UNINTERRUPTIBLE_PACKAGES` is put off and delivered again every :data:`REDELIVER_S` seconds until it is
+    outside, and one dropped in any other call from C (reported to ``sys.unraisablehook``) is delivered again the
+    same way, without the report. One still put off when the block ends raises there.
+    """
+
+    def __enter__(self) -> KeptInterrupts:
+        self.active = (threading.current_thread() is threading.main_thread()
+                       and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+        self.timer: threading.Timer | None = None
+        self.put_off = False
+        if self.active:
+            self.previous_hook = sys.unraisablehook
+            signal.signal(signal.SIGINT, self.interrupt)
+            sys.unraisablehook = self.unraisable
+        return self
+
+    def __exit__(self, exc_type, *exc) -> None:
+        if self.active:
+            if self.timer is not None:
+                self.timer.cancel()
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            sys.unraisablehook = self.previous_hook
+            if self.put_off and exc_type is None:
+                raise KeyboardInterrupt
+
+    def interrupt(self, signum: int, frame) -> None:
+        """The SIGINT handler: ``KeyboardInterrupt``, unless ``frame`` or a frame below it runs code of
+        :data:`UNINTERRUPTIBLE_PACKAGES`."""
+        folders = tuple(os.path.dirname(module.__file__) + os.sep for module in map(sys.modules.get,
+                        UNINTERRUPTIBLE_PACKAGES) if module is not None and module.__file__)
+        while frame is not None:
+            if folders and frame.f_code.co_filename.startswith(folders):
+                self.deliver_again()
+                return
+            frame = frame.f_back
+        self.put_off = False
+        raise KeyboardInterrupt
+
+    def unraisable(self, info) -> None:
+        """``sys.unraisablehook``: a dropped ``KeyboardInterrupt`` is delivered again, anything else reported."""
+        if isinstance(info.exc_value, KeyboardInterrupt):
+            self.deliver_again()
+        else:
+            self.previous_hook(info)
+
+    def deliver_again(self) -> None:
+        """Simulate a Ctrl-C in the main thread :data:`REDELIVER_S` from now (from another thread, so that the
+        handler does not run again before the main thread has moved on)."""
+        self.put_off = True
+        self.timer = threading.Timer(REDELIVER_S, _thread.interrupt_main)
+        self.timer.daemon = True
+        self.timer.start()

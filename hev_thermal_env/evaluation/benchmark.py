@@ -9,12 +9,14 @@ byte for byte (wall times go to ``timings.json`` only). See docs/benchmark.md.
 The progress bar (:class:`BenchmarkProgress`) names the runs in progress and counts expected seconds, not runs:
 runs differ in cost by four orders of magnitude (``dp_thermal`` searches for minutes unless its plan is on disk,
 ``dp`` for seconds, the others drive a cycle in a fraction of one; :func:`expected_cost_s`); the time left is
-tqdm's, from the rate of that work so far.
+tqdm's, from the rate of that work so far. It redraws itself every second from a thread of its own, so it moves
+while a run is in progress in this process too (``--jobs 1``).
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
 import warnings
 from collections.abc import Sequence
@@ -55,6 +57,8 @@ OTHER_OVERHEAD_S = 0.2
 #: A run in progress counts its elapsed time up to this fraction of its weight.
 RUNNING_CREDIT = 0.9
 BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]"
+#: Seconds between two redraws of the progress bar.
+REFRESH_S = 1.0
 
 
 def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
@@ -134,11 +138,10 @@ def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, t
     labels = [f"{cycles[c][0]}/{sc}/{st}" for c, sc, st, _ in tasks]
     results: list[Any] = [None] * len(tasks)
     with BenchmarkProgress(labels, costs, order, executor.slots, enabled=progress) as bar:
-        for item in executor.map(_run_one, tasks, order, tick_s=1.0):
+        for item in executor.map(_run_one, tasks, order, tick_s=REFRESH_S):
             if item is not None:
                 results[item[0]] = item[1]
                 bar.finished(item[0])
-            bar.show()
     return results
 
 
@@ -164,7 +167,8 @@ class BenchmarkProgress:
     """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers: a
     finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
     slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (the workers take them
-    first in, first out). :meth:`finished` when a run ends; :meth:`show` redraws (every second or so)."""
+    first in, first out) with their elapsed time. :meth:`finished` when a run ends; :meth:`show` redraws, as a thread
+    of the bar does every :data:`REFRESH_S` seconds within a ``with`` block."""
 
     def __init__(self, labels: Sequence[str], costs: Sequence[float], order: Sequence[int], slots: int,
                  enabled: bool = True):
@@ -175,29 +179,46 @@ class BenchmarkProgress:
         self.done_cost = 0.0
         self.bar = tqdm(total=sum(self.costs), desc="benchmark", disable=not enabled, smoothing=0,
                         bar_format=BAR_FORMAT)
+        self.lock = threading.Lock()
+        self.closing = threading.Event()
+        self.refresher: threading.Thread | None = None
 
     def __enter__(self) -> BenchmarkProgress:
         self.show()
+        self.refresher = threading.Thread(target=self._refresh, name="benchmark-progress", daemon=True)
+        self.refresher.start()
         return self
 
     def __exit__(self, *exc) -> None:
+        self.closing.set()
+        if self.refresher is not None:
+            self.refresher.join()
         self.bar.close()
 
+    def _refresh(self) -> None:
+        while not self.closing.wait(REFRESH_S):
+            self.show()
+
     def finished(self, i: int) -> None:
-        self.waiting.remove(i)
-        self.started.pop(i, None)
-        self.done_cost += self.costs[i]
+        with self.lock:
+            self.waiting.remove(i)
+            self.started.pop(i, None)
+            self.done_cost += self.costs[i]
+        self.show()
 
     def show(self) -> None:
-        now = time.perf_counter()
-        running = self.waiting[:self.slots]
-        for i in running:  # a run that takes longer than expected is at most 90 % done
-            self.started.setdefault(i, now)
-            self.costs[i] = max(self.costs[i], (now - self.started[i]) / RUNNING_CREDIT)
-        self.bar.total = sum(self.costs)
-        credit = sum(min(now - self.started[i], RUNNING_CREDIT * self.costs[i]) for i in running)
-        work = self.done_cost + credit if self.waiting else self.bar.total
-        self.bar.update(max(work - self.bar.n, 0.0))
-        done = len(self.labels) - len(self.waiting)
-        names = ", ".join(f"{self.labels[i]} {tqdm.format_interval(now - self.started[i])}" for i in running)
-        self.bar.set_postfix_str(f"{done}/{len(self.labels)} runs done" + (f"; running {names}" if names else ""))
+        with self.lock:
+            now = time.perf_counter()
+            running = self.waiting[:self.slots]
+            for i in running:  # a run that takes longer than expected is at most 90 % done
+                self.started.setdefault(i, now)
+                self.costs[i] = max(self.costs[i], (now - self.started[i]) / RUNNING_CREDIT)
+            self.bar.total = sum(self.costs)
+            credit = sum(min(now - self.started[i], RUNNING_CREDIT * self.costs[i]) for i in running)
+            work = self.done_cost + credit if self.waiting else self.bar.total
+            done = len(self.labels) - len(self.waiting)
+            names = ", ".join(f"{self.labels[i]} {tqdm.format_interval(now - self.started[i])}" for i in running)
+            self.bar.set_postfix_str(f"{done}/{len(self.labels)} runs done" + (f"; running {names}" if names else ""),
+                                     refresh=False)
+            self.bar.n = max(work, self.bar.n)  # tqdm's rate: work done over time elapsed (smoothing=0)
+            self.bar.refresh()

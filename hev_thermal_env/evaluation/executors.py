@@ -1,10 +1,11 @@
 """Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
 
 An executor runs one function over independent tasks and yields ``(index, result)`` as the cells finish (and
-``None`` every ``tick_s`` seconds without one, for the progress bar); ``slots`` is how many run at once. The
+``None`` every ``tick_s`` seconds without one while it waits on other processes: its wait returns to Python that
+often, so a Ctrl-C is handled within that time); ``slots`` is how many run at once. The
 benchmark puts each result in its place, so its files depend neither on the executor nor on the order in which
 cells finish. Ray is optional (the ``ray`` extra): asking for it without it installed, or for an address where no
-cluster answers, raises :class:`ExecutorError` in one line. See README, *Scaling out*.
+cluster answers, raises :class:`ExecutorError` in one line. See docs/scaling-out.md.
 """
 
 from __future__ import annotations
@@ -94,7 +95,8 @@ class LocalExecutor:
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int],
             tick_s: float | None = None) -> Iterator[tuple[int, Any] | None]:
         """``(i, fn(tasks[i]))`` for every ``i`` of ``order`` (submitted in that order) as they finish, and None
-        every ``tick_s`` seconds without one (in a pool)."""
+        every ``tick_s`` seconds without one in a pool; in this process, nothing while a cell runs (the benchmark's
+        progress bar redraws itself)."""
         if self.pool is None:
             for i in order:
                 yield i, fn(tasks[i])

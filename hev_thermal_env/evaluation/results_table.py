@@ -41,7 +41,7 @@ EXPLANATION = (
     f"price) over the {REFERENCE} run's. *vs dp (thermal-blind)*: corrected fuel as a percentage of `dp`'s, "
     "whose plan holds the thermal state at its start (labelled thermal-blind everywhere). *J1711*: SAE J1711 "
     "charge-sustaining test, |net battery energy| ≤ 1 % of the fuel energy; in brackets the signed ratio "
-    "(positive: the battery ends with less energy). See README, *Metrics*.")
+    "(positive: the battery ends with less energy). See docs/metrics.md.")
 
 
 def _fmt(v: Any) -> str:
