@@ -143,7 +143,7 @@ def test_torchrls_default_info_reader_on_the_single_env(short_cycle):
 def test_minaris_data_collector_records_the_infos(short_cycle, tmp_path, monkeypatch):
     minari = pytest.importorskip("minari")
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    env = minari.DataCollector(gym.make("HevThermal-v1", cycle=short_cycle), record_infos=True)
+    env = minari.DataCollector(gym.make("HevThermal-v1", cycle=short_cycle), record_infos=True, data_format="arrow")
     env.reset(seed=0)
     for _ in range(45):  # across the end of the 40-step episode
         if env.step(env.action_space.sample())[3]:
