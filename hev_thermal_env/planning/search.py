@@ -20,9 +20,9 @@ from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 
-from .bins import KEY_BITS, non_dominated, survivors
+from .bins import KEY_BITS, non_dominated, survivors, weaker_shares
 from .corridor import backward_envelope
-from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
+from .problem import BRAKING, IDLE, DPProblem, default_threads, split_grid, stage_splits
 
 #: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
 #: (:func:`~.bins.keep_best_per_bin`).
@@ -235,9 +235,11 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
         n_evals += so.shape[0]
         inside = _inside(so[:, C.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
+        if kinds[i] == BRAKING and u.size > 1:
+            inside &= ~weaker_shares(so, c, u.size, widths)
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, widths, states.shape[0], threads)
         if keep.size > 1:
-            keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
+            keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], c[keep], widths, keep)
         keep = np.sort(keep)
         states, cost, batt_j = so[keep], c[keep], e[keep]
         parents.append((keep // u.size).astype(np.int32))
