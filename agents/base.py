@@ -1,6 +1,6 @@
 """The protocol every strategy follows, so evaluation treats PPO, rules, ECMS and DP alike.
 
-A strategy is driven through ``HevThermal-v0``::
+A strategy is driven through ``HevThermal-v1``::
 
     strategy.reset(env)            # once per episode, after env.reset(); may plan (DP)
     action = strategy.act(obs, info)   # every step; returns np.ndarray of shape (1,)

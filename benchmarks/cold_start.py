@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Import-to-first-step time of ``HevThermal-v0`` in a fresh process, without and with the compiled cache.
+"""Import-to-first-step time of ``HevThermal-v1`` in a fresh process, without and with the compiled cache.
 
 Each measurement runs a new Python process that imports the package, makes the env, resets it and
 takes one step. ``no_cache`` uses an empty cache directory (every kernel is compiled); ``cached``
@@ -23,7 +23,7 @@ t0 = time.perf_counter()
 import gymnasium as gym
 import numpy as np
 import hev_thermal_env
-env = gym.make("HevThermal-v0")
+env = gym.make("HevThermal-v1")
 env.reset(seed=0)
 env.step(np.zeros(1, dtype=np.float32))
 print(time.perf_counter() - t0)

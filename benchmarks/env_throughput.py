@@ -1,8 +1,8 @@
-"""Throughput of HevThermal-v0: single env, native vector env, SB3 adapter, and Pendulum-v1 for reference.
+"""Throughput of HevThermal-v1: single env, native vector env, SB3 adapter, and Pendulum-v1 for reference.
 
 Measures, in one run on the same machine:
 
-* ``single_env``: steps/s of one ``gymnasium.make("HevThermal-v0")`` env (with gymnasium's default
+* ``single_env``: steps/s of one ``gymnasium.make("HevThermal-v1")`` env (with gymnasium's default
   wrappers: PassiveEnvChecker, OrderEnforcing), reset at truncation, and its ratio to Pendulum-v1
   in the same run. Target ≥ 1.0×.
 * ``pendulum_reference``: steps/s of ``gymnasium.make("Pendulum-v1")``, the same loop.
@@ -14,7 +14,7 @@ Measures, in one run on the same machine:
   almost every step.
 * ``sb3_adapter``: env-steps/s of :class:`Sb3VecEnv` with full per-env infos and with
   ``info_keys=()`` (what PPO needs).
-* ``sync_vector_env``: env-steps/s of ``gymnasium.make_vec("HevThermal-v0", 8,
+* ``sync_vector_env``: env-steps/s of ``gymnasium.make_vec("HevThermal-v1", 8,
   vectorization_mode="sync")`` (gymnasium's ``SyncVectorEnv`` over 8 single envs, which merges every
   info key of every sub-env at every step) with all infos and with ``info_keys=()``, beside one env
   (``single_env`` and ``single_env_no_infos``) in the same run: each figure is the best of
@@ -44,7 +44,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import hev_thermal_env  # noqa: E402  (registers HevThermal-v0)
+import hev_thermal_env  # noqa: E402  (registers HevThermal-v1)
 from hev_thermal_env.envs import HevThermalVectorEnv  # noqa: E402
 from hev_thermal_env.physics import core as C  # noqa: E402
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv  # noqa: E402
@@ -76,7 +76,7 @@ def single_env_rate(env_id: str, n_steps: int, seed: int = 0, **kwargs) -> dict:
 
 
 def sync_vector_rate(num_envs: int, n_steps: int, seed: int = 0, **kwargs) -> dict:
-    envs = gym.make_vec("HevThermal-v0", num_envs, vectorization_mode="sync", **kwargs)
+    envs = gym.make_vec("HevThermal-v1", num_envs, vectorization_mode="sync", **kwargs)
     envs.reset(seed=seed)
     wall, _ = timed_steps(envs, num_envs, n_steps, warmup=50, seed=seed)
     envs.close()
@@ -169,8 +169,8 @@ def main(argv: list[str] | None = None) -> dict:
     t_import = time.perf_counter()
     n_sync = max(n_single // args.sync_envs, 50)
     best = best_of(args.repeats, {
-        "single": lambda: single_env_rate("HevThermal-v0", n_single, cycle="hwfet"),
-        "single_lean": lambda: single_env_rate("HevThermal-v0", n_single, cycle="hwfet", info_keys=()),
+        "single": lambda: single_env_rate("HevThermal-v1", n_single, cycle="hwfet"),
+        "single_lean": lambda: single_env_rate("HevThermal-v1", n_single, cycle="hwfet", info_keys=()),
         "sync": lambda: sync_vector_rate(args.sync_envs, n_sync, cycle="hwfet"),
         "sync_lean": lambda: sync_vector_rate(args.sync_envs, n_sync, cycle="hwfet", info_keys=()),
     })

@@ -51,8 +51,8 @@ def paper_figures(out: Path) -> dict:
               for label, cfg in (("network", paper_bus()), ("paper_eqs", paper_bus("paper_eqs")))}
         t = np.arange(1, len(tr["network"]["motor_temp_c"]) + 1)
         ax = axes[0, j]
-        ax.plot(t, tr["network"]["motor_temp_c"], lw=0.9, label="network: motor (winding)")
-        ax.plot(t, tr["network"]["housing_temp_c"], lw=0.9, label="network: housing")
+        ax.plot(t, tr["network"]["motor_temp_c"], lw=0.9, label="network: motor (stator/housing)")
+        ax.plot(t, tr["network"]["winding_temp_c"], lw=0.9, label="network: winding")
         ax.plot(t, tr["network"]["coolant_temp_c"], lw=0.9, label="network: coolant")
         ax.plot(t, tr["paper_eqs"]["motor_temp_c"], lw=0.9, ls="--", color="k", label="paper's eqs as written")
         if cyc == "udds":
@@ -60,7 +60,7 @@ def paper_figures(out: Path) -> dict:
             ax.axhline(peak, color="tab:red", lw=0.6, ls=":", label=f"paper: peak {peak:g}, settles {last:g} °C")
             ax.axhline(last, color="tab:red", lw=0.6, ls=":")
         if cyc == "beijing":
-            warm = P["beijing_temp_c"].paper
+            warm = P["beijing_temp_warm_mean_c"].paper
             ax.axhline(warm, color="tab:red", lw=0.6, ls=":", label=f"paper: ≈{warm:g} °C")
         ax.set_title(f"{cyc}: rule strategy, paper scenario")
         ax.set_ylabel("temperature (°C)")

@@ -1,4 +1,4 @@
-"""HevThermal-v0: API checks, seeding, actions, the physics it wraps, observations, options, rendering."""
+"""HevThermal-v1: API checks, seeding, actions, the physics it wraps, observations, options, rendering."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ DESIGN_INFO_KEYS = (
 
 def make(**kwargs) -> gym.Env:
     kwargs.setdefault("cycle", "hwfet")
-    return gym.make("HevThermal-v0", **kwargs)
+    return gym.make("HevThermal-v1", **kwargs)
 
 
 def rollout(env: gym.Env, seed: int, n: int, action_seed: int = 0, options=None):
@@ -66,12 +66,12 @@ def test_spaces():
     env = make().unwrapped
     assert env.action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
     space = env.observation_space
-    assert space.dtype == np.float32 and space.shape == (20,)
+    assert space.dtype == np.float32 and space.shape == (21,)
     assert np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high)) and np.all(space.low < space.high)
     assert len(env.obs_names) == space.shape[0] == len(observation_names(10, 2))
     assert env.obs_names[-1] == "preview_speed_10s_mps"
-    assert make(preview_s=0).observation_space.shape == (15,)
-    assert make(preview_s=30, preview_step_s=5).observation_space.shape == (21,)
+    assert make(preview_s=0).observation_space.shape == (16,)
+    assert make(preview_s=30, preview_step_s=5).observation_space.shape == (22,)
     with pytest.raises(ValueError):
         make(preview_s=-1)
 
@@ -397,3 +397,30 @@ def test_direct_construction_matches_make():
     ob, ib = b.reset(seed=4)
     np.testing.assert_array_equal(oa, ob)
     assert ia == ib
+
+
+def test_the_previous_version_fails_with_one_line_naming_the_current_id():
+    with pytest.raises(gym.error.DeprecatedEnv, match="HevThermal-v1"):
+        gym.make("HevThermal-v0")
+
+
+def test_braking_share_governs_regeneration_and_the_winding_is_observed():
+    """While braking, u = 1 regenerates, u = 0 and u < 0 brake by friction alone (motor torque 0, friction brakes
+    take all); the observation's winding entry is the info's winding temperature."""
+    names = hev_thermal_env.envs.spaces.observation_names(10, 2)
+    regen, friction = {}, {}
+    for u in (1.0, 0.0, -1.0):
+        env = gym.make("HevThermal-v1", cycle="udds")
+        env.reset(seed=0)
+        torque, brake = [], []
+        for _ in range(300):
+            obs, _, _, _, info = env.step(np.array([u], dtype=np.float32))
+            out = env.unwrapped.last_out
+            if out[C.SHAFT_DEMAND] < 0.0 and out[C.SPEED] > 1.0:
+                torque.append(out[C.MOTOR_TORQUE])
+                brake.append(out[C.BRAKE_POWER])
+        assert obs[names.index("winding_temp_c")] == pytest.approx(info["winding_temp_c"], rel=1e-6)
+        regen[u], friction[u] = np.array(torque), np.array(brake)
+    assert len(regen[1.0]) > 10 and np.all(regen[1.0] < 0.0)
+    assert np.all(regen[0.0] == 0.0) and np.all(regen[-1.0] == 0.0)
+    assert friction[0.0].sum() > friction[1.0].sum() > 0.0

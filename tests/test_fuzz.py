@@ -8,4 +8,5 @@ def test_fuzz_invariants_bounded_budget():
     assert report["steps"] >= 120_000
     assert report["episodes"] > 0
     assert report["max_balance_error"] < 0.005
-    assert report["cutoff_steps"] > 0  # the hot and random scenarios do reach the protection
+    # the hot and random scenarios heat the motor into the heat index's range and near the 70 °C protection
+    assert report["derated_steps"] > 0 and report["temp_max_c"] > 60.0

@@ -169,7 +169,7 @@ def test_env_info_reward_terms_sum_to_the_reward():
 
     import hev_thermal_env  # noqa: F401
 
-    env = gym.make("HevThermal-v0", cycle="beijing", reward={"derate_weight": 0.1})
+    env = gym.make("HevThermal-v1", cycle="beijing", reward={"derate_weight": 0.1})
     env.reset(seed=0)
     for _ in range(50):
         _, r, _, _, info = env.step(np.array([0.5], dtype=np.float32))

@@ -1,6 +1,8 @@
-"""``python -m hev_thermal_env.calibration --out DIR``: fit, then write ``DIR/fitted_params.yaml`` (a partial
-``VehicleConfig``: ``VehicleConfig.from_yaml`` gives ``paper_bus`` with these thermal values), ``DIR/residuals.md``
-and ``DIR/residuals.json``."""
+"""``python -m hev_thermal_env.calibration``: the protocol's fit (:mod:`.fit`), every attempt appended to the fit log
+(:mod:`.log`), then ``fitted_params.yaml``, ``fit_result.json``, ``residuals.md`` and ``residuals.json`` in
+``--out`` (default docs/calibration/). ``--report-only`` writes the residuals of the current defaults without
+fitting; ``--check`` fails if ``ThermalParams``'s defaults differ from the committed ``fitted_params.yaml``;
+``--write-docs`` rewrites the generated tables of docs/thermal_model.md (:mod:`.docs`)."""
 
 from __future__ import annotations
 
@@ -10,62 +12,90 @@ import re
 import sys
 import time
 from pathlib import Path
-from typing import Any
+
+import yaml
 
 from ..physics import paper_bus, thermal
 from . import fit as F
+from . import log as L
+from . import protocol as proto
 from . import report as R
+
+OUT = proto.PROTOCOL_YAML.parent
 
 
 def write_defaults(values: dict[str, float]) -> Path:
-    """Replace the default of each fitted field in ``physics/thermal.py`` (the value after ``spec(``)."""
+    """Replace the default of each fitted field in ``physics/thermal.py`` (the number after ``spec(``)."""
     path = Path(thermal.__file__)
     text = path.read_text()
     for name, value in values.items():
-        match = re.search(r"(    " + re.escape(name) + r": float = spec\(\n\s+)([^,\s]+)(,)", text)
+        _, field = proto.field_of(name)
+        match = re.search(r"(    " + re.escape(field.name) + r": float = spec\(\s*)([-+0-9.eE]+)(,)", text)
         if match is None:
-            raise ValueError(f"ThermalParams.{name}: no 'spec(' with the default on the next line in {path}")
+            raise ValueError(f"{path}: ThermalParams.{field.name}: no 'spec(' followed by its default")
         text = text[:match.start(2)] + repr(float(value)) + text[match.end(2):]
     path.write_text(text)
     return path
 
 
+def run_fit(args: argparse.Namespace, out: Path) -> dict[str, float]:
+    settings = F.Settings(max_nfev=args.max_nfev, profile_points=args.profile_points, n_sobol=args.n_sobol)
+    t0 = time.perf_counter()
+    prov = L.provenance()  # the tree the fit runs on, before anything is written
+    attempts = F.calibrate(settings, with_profiles=not args.no_profiles, progress=not args.quiet)
+    adopted = attempts[-1]
+    values = {p.name: F.round_sig(adopted.values[p.name]) for p in proto.fitted_parameters()}
+    extra = ("Values written to the code (4 significant digits): "
+             + ", ".join(f"`{k}` = {v:g}" for k, v in values.items()) + f". Total wall time "
+             f"{time.perf_counter() - t0:.0f} s." + (f" {args.note}" if args.note else ""))
+    if not args.no_log:
+        L.append(attempts, prov=prov, extra=extra)
+    best = adopted.starts[adopted.best]
+    meta = {"attempt": adopted.label, "free": adopted.free, "fixed": adopted.fixed, "best_start": best.label,
+            "start_unit": best.x0, "x_unit": adopted.x, "cost": adopted.cost, "settings": adopted.settings}
+    (out / "fitted_params.yaml").write_text(R.params_yaml(values, meta))
+    (out / "fit_result.json").write_text(json.dumps([L.attempt_record(a) for a in attempts], indent=1,
+                                                    default=float) + "\n")
+    return values
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hev_thermal_env.calibration", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", required=True, help="output directory")
-    ap.add_argument("--seed", type=int, default=11, help="seed of the differential evolution stages")
-    ap.add_argument("--de-maxiter", type=int, default=30, help="generations per differential evolution stage")
-    ap.add_argument("--no-fit", action="store_true", help="report the current defaults without fitting")
-    ap.add_argument("--check", action="store_true", help="exit 1 if the fit differs from ThermalParams's defaults")
-    ap.add_argument("--write-defaults", action="store_true",
-                    help="write the fitted values into ThermalParams's defaults (physics/thermal.py)")
+    ap.add_argument("--out", default=str(OUT), help="output directory (default: docs/calibration)")
+    ap.add_argument("--report-only", action="store_true", help="no fit: the residuals of the current defaults")
+    ap.add_argument("--max-nfev", type=int, default=F.Settings.max_nfev, help="least_squares max_nfev per start")
+    ap.add_argument("--profile-points", type=int, default=F.Settings.profile_points, help="points per profile")
+    ap.add_argument("--n-sobol", type=int, default=F.Settings.n_sobol, help="Sobol starts besides the documented one")
+    ap.add_argument("--no-profiles", action="store_true", help="skip the profiles (the fallback's second rule too)")
+    ap.add_argument("--no-log", action="store_true", help="do not append to docs/calibration/fit_log.md")
+    ap.add_argument("--note", default="", help="a sentence appended to this run's fit-log entry")
+    ap.add_argument("--write-defaults", action="store_true", help="write the fitted values into ThermalParams")
+    ap.add_argument("--check", action="store_true", help="exit 1 if ThermalParams's defaults differ from the fit")
+    ap.add_argument("--write-docs", action="store_true", help="rewrite the generated tables of docs/thermal_model.md")
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args(argv)
     say = (lambda msg: None) if args.quiet else (lambda msg: print(msg, flush=True))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    if args.no_fit:
-        values = {n: float(getattr(paper_bus().thermal, n)) for n in F.NETWORK_PARAMS + F.CLOSURE_PARAMS}
-        stages: list[Any] = []
-    else:
-        result = F.run_fit(seed=args.seed, de_maxiter=args.de_maxiter, progress=say)
-        values, stages = result.values, result.stages
-    report = R.build(values, stages=stages)
-    report["wall_s"] = time.perf_counter() - t0
-    (out / "fitted_params.yaml").write_text(R.params_yaml(values))
+    config = paper_bus()
+    if not args.report_only:
+        values = run_fit(args, out)
+        config = proto.with_values(config, values)
+        if args.write_defaults:
+            say(f"wrote the fitted values into {write_defaults(values)}")
+    report = R.build(config)
     (out / "residuals.md").write_text(R.residuals_markdown(report))
-    (out / "residuals.json").write_text(json.dumps(report, indent=2, default=float) + "\n")
+    (out / "residuals.json").write_text(json.dumps(report, indent=1, default=float) + "\n")
     say(R.residuals_markdown(report))
-    say(f"wrote {out / 'fitted_params.yaml'}, {out / 'residuals.md'}, {out / 'residuals.json'} "
-        f"({report['wall_s']:.0f} s)")
-    if args.write_defaults:
-        say(f"wrote the fitted values into {write_defaults(values)}")
+    if args.write_docs:
+        from . import docs
+
+        say(f"rewrote the generated tables of {docs.write()}")
     if args.check:
-        defaults = paper_bus().thermal
-        diff = {k: (getattr(defaults, k), v) for k, v in values.items() if getattr(defaults, k) != v}
+        committed = yaml.safe_load((out / "fitted_params.yaml").read_text())["thermal"]
+        diff = {k: (proto.value_in_code(k), v) for k, v in committed.items() if proto.value_in_code(k) != v}
         if diff:
-            print("fitted values differ from ThermalParams's defaults: "
+            print("ThermalParams's defaults differ from fitted_params.yaml: "
                   + ", ".join(f"{k}: default {a!r}, fitted {b!r}" for k, (a, b) in diff.items()), file=sys.stderr)
             return 1
         say("ThermalParams's defaults hold the fitted values")

@@ -35,7 +35,7 @@ def strategies_help() -> str:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="one strategy on one cycle: summary, JSON, trace CSV, plot",
-                       description="Drive one cycle with one energy-management strategy in HevThermal-v0 and "
+                       description="Drive one cycle with one energy-management strategy in HevThermal-v1 and "
                                    "report fuel, corrected fuel, SOC, motor temperature, heat index, derating "
                                    "and cutoff time.",
                        formatter_class=HelpFormatter, epilog=examples(EXAMPLES))

@@ -1,4 +1,4 @@
-"""The MDP layer: :class:`HevThermalEnv` (``HevThermal-v0``, :mod:`.hev_env`) and :class:`HevThermalVectorEnv`
+"""The MDP layer: :class:`HevThermalEnv` (``HevThermal-v1``, :mod:`.hev_env`) and :class:`HevThermalVectorEnv`
 (:mod:`.vector_env`), both stepping through the batch engine (:mod:`.batch`); what a reset draws (:mod:`.episodes`); the
 reward, written once (:mod:`.reward`); the observation and info layout and codes (:mod:`.spaces`, :mod:`.observation`);
 rendering (:mod:`.render`).

@@ -1,4 +1,4 @@
-"""``HevThermal-v0``, a thin MDP layer in the classic-control style; its spec is the class docstring.
+"""``HevThermal-v1``, a thin MDP layer in the classic-control style; its spec is the class docstring.
 
 ``step`` is dynamics, reward and termination in one call of the batch engine (:mod:`.batch`, a batch of one); episodes
 (cycle, conditions, start) are drawn by :mod:`.episodes` from the scenario.
@@ -30,11 +30,12 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     A 15 t parallel hybrid city bus (the paper's vehicle, :func:`hev_thermal_env.paper_bus`) drives a speed cycle one
     second per step (backward-facing, ADVISOR-style). The agent is the energy-management strategy: each step it chooses
-    the share of the coupler torque the traction motor carries; the diesel engine carries the rest. The water-cooled
-    PMSM heats up (by default a lumped thermal network of winding, housing and coolant loop with thermostat and
-    radiator, calibrated to the paper's figures; ``paper_bus("paper_eqs")`` is the paper's one-node eqs 1-7:
-    :mod:`hev_thermal_env.physics.thermal`), loses peak torque as its heat index (PWM, eqs 8-9) integrates sustained
-    overload, loses efficiency as it warms and stops at 70 °C until it has cooled. Where the powertrain cannot deliver
+    the share of the coupler torque the traction motor carries (and, while braking, its share of the regeneration);
+    the diesel engine carries the rest. The water-cooled PMSM heats up (by default a lumped thermal network of winding,
+    stator/housing and a pumped coolant loop with thermostat valve and radiator, docs/thermal_model.md;
+    ``paper_bus("paper_eqs")`` is the paper's one-node eqs 1-7), loses peak torque as its heat index (PWM, eqs 8-9)
+    integrates sustained overload, loses efficiency as it warms and stops at 70 °C (the stator/housing node, the
+    paper's motor temperature) or at a 165 °C winding until it has cooled. Where the powertrain cannot deliver
     the demand, the step records a trace miss (missed wheel energy, speed deficit) and the reward prices it; the next
     step follows the cycle again. See :mod:`hev_thermal_env.physics.core`.
 
@@ -43,14 +44,17 @@ class HevThermalEnv(EnvParts, gym.Env):
     ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler. Motor u·T_dem, engine
     (1 - u)·T_dem; u < 0 loads the engine more and charges the battery. The physics core clips the motor request to its
     envelope (peak torque, heat index, cutoff) and the battery's limits and lets the engine cover the rest up to its
-    full load; what is still missing is a priced trace miss (the motor never tops up by itself). Braking is regenerative
-    by rule (the action has no effect while braking or standing). Values outside [-1, 1] are clipped
+    full load; what is still missing is a priced trace miss (the motor never tops up by itself). While braking, u > 0
+    is the share of the available regeneration the motor takes (the driven axle's share of the braking, within the
+    motor's and the battery's limits; friction brakes take the rest) and u ≤ 0 brakes by friction alone, so that u = 0
+    throughout drives the bus with its motor unused (``engine_only``); standing, the action has no effect. Values
+    outside [-1, 1] are clipped
     (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share applied); NaN or inf, or a shape other than
     ``(1,)``, raise ``ValueError``.
 
     ## Observation Space
 
-    ``Box`` of float32, ``15 + preview_s // preview_step_s`` entries, always inside the bounds (values are clipped to
+    ``Box`` of float32, ``16 + preview_s // preview_step_s`` entries, always inside the bounds (values are clipped to
     them). "Next step" is the step from ``cycle.speed_mps[k]`` to ``[k+1]``.
 
     | Num | Observation | Min | Max | Unit |
@@ -61,24 +65,25 @@ class HevThermalEnv(EnvParts, gym.Env):
     | 3 | battery state of charge | 0 | 1 | - |
     | 4 | center c(t) of the reward's SOC band (the episode's initial SOC on a flat route; see Rewards) | 0 | 1 | - |
     | 5 | SOC minus the band's center: the settlement is zero within ±0.01 of it | -1 | 1 | - |
-    | 6 | motor temperature | -40 | 200 | °C |
-    | 7 | heat index PWM (eq 9): 0 peak torque available, 1 continuous torque only | 0 | 1 | - |
-    | 8 | heat-index integrator state x (eq 9), PWM = clip(x, 0, 1) | -1 | 1 | - |
-    | 9 | motor cut off by its 70 °C protection (1) or not (0) | 0 | 1 | - |
-    | 10 | motor torque envelope of the last step (at reset: of the first step), see below | 0 | peak torque | N·m |
-    | 11 | gear of the next step (shift schedule on speed and load), 1 or more | 0 | number of gears | - |
-    | 12 | cycle progress k / n_steps | 0 | 1 | - |
-    | 13 | ambient temperature | -40 | 60 | °C |
-    | 14 | coolant heat-transfer multiplier: 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
-    | 15... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
+    | 6 | motor temperature (the stator/housing node, the paper's lumped motor temperature) | -40 | 200 | °C |
+    | 7 | winding temperature (hot-spot node; its protection trips at 165 °C) | -40 | 250 | °C |
+    | 8 | heat index PWM (eq 9): 0 peak torque available, 1 continuous torque only | 0 | 1 | - |
+    | 9 | heat-index integrator state x (eq 9), PWM = clip(x, 0, 1) | -1 | 1 | - |
+    | 10 | motor stopped by a protection (70 °C motor or 165 °C winding) (1) or not (0) | 0 | 1 | - |
+    | 11 | motor torque envelope of the last step (at reset: of the first step), see below | 0 | peak torque | N·m |
+    | 12 | gear of the next step (shift schedule on speed and load), 1 or more | 0 | number of gears | - |
+    | 13 | cycle progress k / n_steps | 0 | 1 | - |
+    | 14 | ambient temperature | -40 | 60 | °C |
+    | 15 | coolant multiplier (the pump's flow): 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
+    | 16... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
 
-    Entry 10 is the motor's torque limit in the last step: the peak torque at that speed, derated by the heat index
+    Entry 11 is the motor's torque limit in the last step: the peak torque at that speed, derated by the heat index
     (eq 8), 0 while cut off; after reset, the limit for the first step. Its upper bound is the motor's peak torque (240
-    N·m for ``paper_bus``); that of entry 11 the number of gears (5). The gear is always 1 or more, but its declared
+    N·m for ``paper_bus``); that of entry 12 the number of gears (5). The gear is always 1 or more, but its declared
     lower bound is 0, so that an all-zero observation lies inside the space (torchrl, for one, fills the final
     observation of a batch with zeros and checks it against the space); every other entry's range holds 0 already. The
     preview is taken from the start of the next step and held at the cycle's last speed past its end; with the defaults
-    (``preview_s=10``, ``preview_step_s=2``) it has 5 entries (+2 to +10 s) and the observation 20.
+    (``preview_s=10``, ``preview_step_s=2``) it has 5 entries (+2 to +10 s) and the observation 21.
     :func:`observation_names` gives the names in order.
 
     ## Rewards
@@ -93,7 +98,7 @@ class HevThermalEnv(EnvParts, gym.Env):
         reward_soc      = −soc_energy_weight · (fuel equivalent of the battery's chemical energy this step)
                           + Φ(SOC after the step, c after) − Φ(SOC before, c before)        (band settlement)
                           − soc_deviation_weight · ((SOC − c) / soc_deviation_scale)²
-        reward_overheat = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [cut off]
+        reward_overheat = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [stopped]
                           − derate_weight · PWM
         Φ(SOC, c)       = −soc_band_weight · max(|SOC − c| − soc_band, 0)
 
@@ -151,7 +156,7 @@ class HevThermalEnv(EnvParts, gym.Env):
     ## Arguments
 
     ```python
-    gymnasium.make("HevThermal-v0", cycle="hwfet", scenario="paper", config=None, conditions=None,
+    gymnasium.make("HevThermal-v1", cycle="hwfet", scenario="paper", config=None, conditions=None,
                    reward=None, preview_s=10, preview_step_s=2, render_mode=None, thermal=None,
                    random_start=False, info_keys="all")
     ```
@@ -193,6 +198,12 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Version History
 
+    * v1: the motor thermal network with physical parameters (winding, stator/housing, pumped coolant loop; the
+      valve senses the coolant; inverter losses to their cold plate; a 165 °C winding protection), the action governs
+      braking (share of the available regeneration; u ≤ 0 friction only), the braking split between axles, the
+      battery's coulombic efficiency, the accessory load as a condition; observation entry 7 (winding temperature)
+      added; info keys ``winding_temp_c``, ``coolant_temp_c``, ``winding_trip``. Results of v0 do not carry over;
+      ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming ``HevThermal-v1``.
     * v0: initial version.
     """
 

@@ -29,9 +29,10 @@ def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, d
         obs[i, S.OBS_SOC_TARGET] = center
         obs[i, S.OBS_SOC_DEVIATION] = state[r, C.SOC] - center
         obs[i, S.OBS_TEMP] = state[r, C.TEMP_C]
+        obs[i, S.OBS_WINDING] = state[r, C.WINDING_C]
         obs[i, S.OBS_PWM] = state[r, C.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
         obs[i, S.OBS_HEAT_X] = state[r, C.HEAT_X]
-        obs[i, S.OBS_CUTOFF] = state[r, C.CUTOFF]
+        obs[i, S.OBS_CUTOFF] = max(state[r, C.CUTOFF], state[r, C.WINDING_TRIP])  # either protection stops the motor
         obs[i, S.OBS_AVAIL] = avail[r]
         obs[i, S.OBS_GEAR] = gear[r, j]
         obs[i, S.OBS_PROGRESS] = j / n_steps[r]

@@ -1,4 +1,4 @@
-"""The reward of ``HevThermal-v0``, written once: the env, the vector env, DP and ECMS all call it.
+"""The reward of ``HevThermal-v1``, written once: the env, the vector env, DP and ECMS all call it.
 
 Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here: its weights and prices
 (:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation

@@ -1,4 +1,4 @@
-"""The observation and info layout of ``HevThermal-v0``: names and bounds, the info builders and codes.
+"""The observation and info layout of ``HevThermal-v1``: names and bounds, the info builders and codes.
 
 Shared by the single env, the batch engine and the vector env, so all three report the same keys and values. The reset
 info's two categorical values are numeric codes (the env's spec, section Info):
@@ -30,12 +30,12 @@ RPM_PER_RADPS = 30.0 / math.pi
 _OBS_FIELDS = (
     ("speed_mps", 0.0, 60.0), ("accel_mps2", -10.0, 10.0), ("wheel_power_demand_kw", -2000.0, 2000.0),
     ("soc", 0.0, 1.0), ("soc_target", 0.0, 1.0), ("soc_deviation", -1.0, 1.0), ("motor_temp_c", -40.0, 200.0),
-    ("heat_index", 0.0, 1.0), ("heat_x", -1.0, 1.0), ("motor_cutoff", 0.0, 1.0), ("motor_torque_avail_nm", 0.0, None),
+    ("winding_temp_c", -40.0, 250.0), ("heat_index", 0.0, 1.0), ("heat_x", -1.0, 1.0), ("motor_cutoff", 0.0, 1.0), ("motor_torque_avail_nm", 0.0, None),
     ("gear", 0.0, None), ("cycle_progress", 0.0, 1.0), ("ambient_temp_c", -40.0, 60.0), ("coolant_factor", 0.0, 1.0),
 )
 N_OBS_BASE = len(_OBS_FIELDS)
-(OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_PWM, OBS_HEAT_X,
- OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)  # _OBS_FIELDS' order
+(OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_WINDING, OBS_PWM,
+ OBS_HEAT_X, OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)  # _OBS_FIELDS' order
 
 # --- info layout ----------------------------------------------------------------------------------
 # Step-info keys straight from an output column of the physics core.
@@ -58,7 +58,7 @@ reset's info is also a step's (the env's spec, section Info, says why)."""
 INFO_KEYS = (
     "fuel_g", "soc", "motor_temp_c", "heat_index", "motor_torque_nm", "motor_speed_rpm", "motor_heat_w",
     "engine_torque_nm", "engine_speed_rpm", "engine_on", "gear", "speed_mps", "trace_miss_mps", "motor_cutoff",
-    "coolant_on", *_REWARD_KEYS, "missed_wheel_energy_j", "battery_chem_power_w", "battery_power_w",
+    "coolant_on", "winding_temp_c", "coolant_temp_c", "winding_trip", *_REWARD_KEYS, "missed_wheel_energy_j", "battery_chem_power_w", "battery_power_w",
     "motor_torque_avail_nm", "cycle_speed_mps", "time_s", "motor_share", "motor_share_clipped", "motor_torque_clipped",
     *EPISODE_INFO_KEYS,
 )
@@ -129,7 +129,8 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
         "engine_torque_nm": o[C.ENGINE_TORQUE], "engine_speed_rpm": o[C.ENGINE_SPEED] * RPM_PER_RADPS,
         "engine_on": o[C.ENGINE_ON] != 0.0, "gear": int(o[C.GEAR]), "speed_mps": o[C.SPEED],
         "trace_miss_mps": o[C.TRACE_MISS], "motor_cutoff": bool(state[C.CUTOFF] != 0.0),
-        "coolant_on": o[C.COOLANT_ON] != 0.0,
+        "coolant_on": o[C.COOLANT_ON] != 0.0, "winding_temp_c": float(state[C.WINDING_C]),
+        "coolant_temp_c": float(state[C.COOLANT_C]), "winding_trip": bool(state[C.WINDING_TRIP] != 0.0),
     }
     t = terms.tolist()
     for key, col in _REWARD_COLUMNS:
@@ -155,7 +156,8 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
     for key, col in _REWARD_COLUMNS:
         info[key] = terms[:, col]
     info.update(gear=out[:, C.GEAR].astype(np.int64), soc=state[:, C.SOC], motor_temp_c=state[:, C.TEMP_C],
-                motor_cutoff=state[:, C.CUTOFF] != 0.0, cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u,
+                motor_cutoff=state[:, C.CUTOFF] != 0.0, winding_temp_c=state[:, C.WINDING_C],
+                coolant_temp_c=state[:, C.COOLANT_C], winding_trip=state[:, C.WINDING_TRIP] != 0.0, cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u,
                 motor_share_clipped=clipped, **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
     return {key: info[key] for key in INFO_KEYS}
 

@@ -1,4 +1,4 @@
-"""Native batched vector form of ``HevThermal-v0``: n sub-environments stepped by one call of the batch engine.
+"""Native batched vector form of ``HevThermal-v1``: n sub-environments stepped by one call of the batch engine.
 
 Sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory of ``HevThermalEnv`` reset with seed
 ``s``: both step through :class:`~hev_thermal_env.envs.batch.EpisodeRows`.
@@ -26,7 +26,7 @@ _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond"
 
 
 class HevThermalVectorEnv(EnvParts, VectorEnv):
-    """``num_envs`` copies of ``HevThermal-v0`` stepped together by one batched call of the physics core.
+    """``num_envs`` copies of ``HevThermal-v1`` stepped together by one batched call of the physics core.
 
     Arguments are those of :class:`~hev_thermal_env.envs.HevThermalEnv` (shared by all sub-environments; ``render_mode``
     must be None: render single envs), plus ``max_episode_steps`` (optional cap on an episode's steps, per sub-env) and
@@ -47,7 +47,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys and values. As
     every reset key is also a step key, the keys do not change when sub-envs reset, so torchrl reads a batch through
     fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
-    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v0", n, autoreset_mode="SameStep"))``). The batch
+    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v1", n, autoreset_mode="SameStep"))``). The batch
     attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``, ``k`` [n], ``phys_state`` [n,
     N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and ``last_out`` [n, N_OUT] mirror the single env's.
     """
@@ -225,7 +225,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         return (result,) * self.num_envs
 
     def render(self):
-        gym.logger.warn("HevThermalVectorEnv does not render; render a single HevThermal-v0 env instead")
+        gym.logger.warn("HevThermalVectorEnv does not render; render a single HevThermal-v1 env instead")
         return None
 
     def __repr__(self) -> str:

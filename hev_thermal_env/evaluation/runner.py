@@ -1,4 +1,4 @@
-"""Run one strategy over one cycle in ``HevThermal-v0`` and report its metrics (:func:`run_strategy`).
+"""Run one strategy over one cycle in ``HevThermal-v1`` and report its metrics (:func:`run_strategy`).
 
 The metrics come from :func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation, with
 ``cost_g``, the yardstick cost of :func:`hev_thermal_env.metrics.yardstick_cost_g` at the env's reward weights.

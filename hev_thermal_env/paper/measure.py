@@ -1,10 +1,14 @@
-"""The runs behind the paper's figures and what is measured on them, for the report and the calibration alike.
+"""The runs behind the paper's figures and what is measured on them: the one set of measuring functions of the paper
+report, the calibration and the tests.
 
-Every cycle run is the paper's own strategy, ``rule``, in the paper's conditions (ambient and motor at 20 °C,
-coolant on), driven over the physics core (:func:`hev_thermal_env.simulate.drive`); Table 3's runs have the
-coolant closed, the motor starting at 30 or 50 °C. "After warm-up" on beijing: from the first second the motor
-reaches 33.5 °C (the lower edge of the paper's band); a motor that never gets there is scored by its maximum. A
-heat index that never rises has its onset at ``inf`` and its return at 0 (the "back to 0" row is met trivially).
+Every cycle run is the paper's own strategy, ``rule``, in the paper's conditions (ambient, motor and coolant at
+20 °C, coolant on), driven over the physics core (:func:`hev_thermal_env.simulate.drive`); Table 3's runs have the
+coolant closed, the motor starting at 30 or 50 °C. "The motor temperature" is the state's ``motor_temp_c``, the
+stator/housing node: the paper's one lumped motor temperature. :func:`target_values` maps the runs to the rows of
+:data:`~.figures.PAPER_FIGURES` (F1-F7, H1-H6 and the checks); :func:`measure` runs what a set of targets needs.
+The heat index's onset and its return to 0 are the interpolated zero crossings of its integrator x (continuous in
+the parameters, as the fit needs); an index that never rises has its onset past the cycle's end by 1,000 s per
+unit x stayed below 0 and its return at 0 s; one that never returns, past the end by 1,000 s per unit x left.
 Top speed and the 4 % grade speed are sustained engine-alone speeds, unchanged by the thermal model.
 """
 
@@ -20,12 +24,13 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.metrics import summarize
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, paper_bus
+from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
 from hev_thermal_env.simulate import drive
 
-from .figures import CALIBRATION_TARGETS, PAPER_FIGURE_BY_NAME, TABLE3_RUNS
+from .figures import PAPER_FIGURE_BY_NAME, TARGET_BY_ID, TARGETS, PaperFigure
 
 RPM = math.pi / 30.0
 #: The paper's conditions for Figs 7-10 and Table 2.
@@ -33,44 +38,54 @@ PAPER_CONDITIONS = Conditions()
 #: Table 3's runs with the thermal model on: coolant closed, the motor starting at 30 or 50 °C.
 TABLE3_HOT_STARTS = {"30c": Conditions(initial_motor_temp_c=30.0, coolant="off"),
                      "50c": Conditions(initial_motor_temp_c=50.0, coolant="off")}
-WARM_BAND_LOW_C = PAPER_FIGURE_BY_NAME["beijing_temp_c"].paper - PAPER_FIGURE_BY_NAME["beijing_temp_c"].tol
-#: Cycles the calibration measures (its targets) and reports beside them.
-TARGET_CYCLES = ("udds", "beijing")
-BASELINE_CYCLES = ("udds", "beijing", "hwfet")
+#: H1's band on beijing (Fig. 10): from the first second at ``start_at``, every second within [low, high].
+WARM_BAND = TARGET_BY_ID["H1"]
+CYCLES = ("udds", "beijing", "hwfet")
+#: C6's operating point: first gear at 1.1 m/s (the motor at 1,000 rpm) on a 20 % grade, which asks more than the
+#: motor's peak torque; the launch lasts 30 s.
+LAUNCH_SPEED_MPS, LAUNCH_GRADE, LAUNCH_S = 1.1, 0.2, 30
+#: Seconds of extension per unit of the integrator where a zero crossing is not observed (module docstring).
+EXTENSION_S = 1000.0
+
+
+def _crossing(x: np.ndarray, i: int) -> float:
+    """Interpolated time (s, the end of step i is i + 1) at which x crosses 0 between steps i − 1 and i."""
+    x_prev = x[i - 1] if i > 0 else 0.0
+    return float(i + (0.0 - x_prev) / (x[i] - x_prev)) if x[i] != x_prev else float(i + 1)
 
 
 def heat_index_figures(trace: Mapping[str, np.ndarray]) -> dict[str, float]:
-    """``hi_onset_s`` (first second with PWM > 0), ``hi_peak`` and its time, ``hi_return_s`` (seconds from the peak
-    back to 0; inf: never), ``hi_onset_smooth_s`` (the integrator's interpolated zero crossing, continuous for the
-    fit; without a rise, past the cycle's end by how far the integrator stayed below 0)."""
+    """``hi_onset_s`` (x's first crossing above 0, interpolated), ``hi_peak`` and its time, ``hi_return_s`` (from
+    the peak to x's crossing back to 0, interpolated), ``hi_onset_observed``; extensions: module docstring."""
     pwm = np.asarray(trace["heat_index"])
     x = np.asarray(trace["heat_x"])
-    t = np.arange(1, len(pwm) + 1, dtype=float)
-    pos = np.flatnonzero(pwm > 0.0)
+    n = len(x)
+    pos = np.flatnonzero(x > 0.0)
     if pos.size == 0:
-        return {"hi_onset_s": float("inf"), "hi_onset_smooth_s": len(pwm) + 1000.0 * float(-x.max()), "hi_peak": 0.0,
-                "hi_peak_time_s": float("nan"), "hi_return_s": 0.0}
-    i0 = int(pos[0])
-    # the crossing of x through 0 between the last step at or below 0 and the first above
-    x_prev = x[i0 - 1] if i0 > 0 else min(x[0], 0.0)
-    smooth = t[i0] - 1.0 + (0.0 - x_prev) / max(x[i0] - x_prev, 1e-12) if i0 > 0 else t[i0]
+        return {"hi_onset_s": n + EXTENSION_S * float(-x.max()), "hi_onset_observed": 0.0, "hi_peak": 0.0,
+                "hi_peak_time_s": float("nan"), "hi_return_s": 0.0, "hi_max": 0.0}
+    onset = _crossing(x, int(pos[0])) if pos[0] > 0 else 0.0
     ip = int(np.argmax(pwm))
-    back = np.flatnonzero(pwm[ip:] <= 0.0)
-    return {"hi_onset_s": float(t[i0]), "hi_onset_smooth_s": float(smooth), "hi_peak": float(pwm[ip]),
-            "hi_peak_time_s": float(t[ip]), "hi_return_s": float(back[0]) if back.size else float("inf")}
+    back = np.flatnonzero(x[ip:] <= 0.0)
+    ret = (_crossing(x, ip + int(back[0])) if back.size else n + EXTENSION_S * float(x[-1])) - (ip + 1)
+    return {"hi_onset_s": onset, "hi_onset_observed": 1.0, "hi_peak": float(pwm[ip]), "hi_peak_time_s": float(ip + 1),
+            "hi_return_s": ret, "hi_max": float(pwm.max())}
 
 
-def warm_figures(temps_c: np.ndarray) -> dict[str, float]:
-    """Motor temperature after warm-up (from the first second at :data:`WARM_BAND_LOW_C`): mean, min, max, and the
-    warm-up time."""
+def warm_figures(temps_c: np.ndarray, band: PaperFigure = WARM_BAND) -> dict[str, float]:
+    """Fig. 10's measures from the first second the motor temperature reaches ``band.start_at``: its mean, min,
+    max, the largest excursion beyond [low, high] (K) and the seconds outside; NaN where it never gets there."""
     temp = np.asarray(temps_c)
-    warm = np.flatnonzero(temp >= WARM_BAND_LOW_C)
+    warm = np.flatnonzero(temp >= band.start_at)
     if warm.size == 0:
-        return {"temp_warm_mean_c": float(temp.max()), "temp_warm_min_c": float("nan"),
-                "temp_warm_max_c": float(temp.max()), "warm_up_s": float("inf")}
+        nan = float("nan")
+        return {"warm_from_s": nan, "temp_warm_mean_c": nan, "temp_warm_min_c": nan, "temp_warm_max_c": nan,
+                "warm_excursion_k": nan, "warm_seconds_outside": nan}
     after = temp[warm[0]:]
-    return {"temp_warm_mean_c": float(after.mean()), "temp_warm_min_c": float(after.min()),
-            "temp_warm_max_c": float(after.max()), "warm_up_s": float(warm[0] + 1)}
+    lo, hi = float(after.min()), float(after.max())
+    return {"warm_from_s": float(warm[0] + 1), "temp_warm_mean_c": float(after.mean()), "temp_warm_min_c": lo,
+            "temp_warm_max_c": hi, "warm_excursion_k": max(0.0, band.low - lo, hi - band.high),
+            "warm_seconds_outside": float(((after < band.low) | (after > band.high)).sum())}
 
 
 def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | None = None
@@ -81,25 +96,29 @@ def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | Non
     tr = drive(get_strategy("rule"), cyc, config, PAPER_CONDITIONS)
     summary = summarize(tr, config, PAPER_CONDITIONS.initial_soc, cyc.distance_m)
     temp = tr["motor_temp_c"]
+    winding = tr.get("winding_temp_c", temp)
     m = {**heat_index_figures(tr), "temp_peak_c": float(temp.max()), "temp_min_c": float(temp.min()),
          "temp_last300_c": float(temp[-300:].mean()), **warm_figures(temp),
-         "coolant_peak_c": float(tr["coolant_temp_c"].max()), "fuel_l100": summary["fuel_l_per_100km"],
-         "fuel_corrected_l100": summary["fuel_corrected_l_per_100km"], "soc_final": summary["soc_final"],
-         "missed_wheel_energy_kwh": summary["missed_wheel_energy_kwh"],
+         "winding_peak_c": float(np.max(winding)), "coolant_peak_c": float(tr["coolant_temp_c"].max()),
+         "fuel_l100": summary["fuel_l_per_100km"], "fuel_corrected_l100": summary["fuel_corrected_l_per_100km"],
+         "soc_final": summary["soc_final"], "missed_wheel_energy_kwh": summary["missed_wheel_energy_kwh"],
          "derated_s": float((tr["heat_index"] > 0).sum()), "cutoff_s": float((tr["motor_cutoff"] > 0).sum())}
     if baseline_fuel_l100 is not None:
         m["fuel_delta_l100"] = m["fuel_l100"] - baseline_fuel_l100
     return m, tr
 
 
-def accel_times(config: VehicleConfig, accel_off_s: float | None = None, dt_s: float = 0.1) -> dict[str, float]:
+def accel_times(config: VehicleConfig, accel_off_s: float | None = None, dt_s: float = 0.1,
+                runs: Iterable[str] = ("30c", "50c")) -> dict[str, float]:
     """Table 3's 0-60 km/h times with the coolant closed: thermal off (``accel_off_s`` if measured already), and
-    thermal on from 30 and 50 °C, with their differences from thermal off."""
+    thermal on from each start of ``runs`` ("30c", "50c"), with their differences from thermal off."""
     off = accel_off_s if accel_off_s is not None else acceleration_time_s(
         config.with_thermal(False), Conditions(coolant="off"), dt_s=dt_s)
-    t30, t50 = (acceleration_time_s(config, TABLE3_HOT_STARTS[r], dt_s=dt_s) for r in ("30c", "50c"))
-    return {"accel_off_s": off, "accel_30c_s": t30, "accel_50c_s": t50, "accel_30c_delta_s": t30 - off,
-            "accel_50c_delta_s": t50 - off}
+    out = {"accel_off_s": float(off)}
+    for run in runs:
+        t = acceleration_time_s(config, TABLE3_HOT_STARTS[run], dt_s=dt_s)
+        out[f"accel_{run}_s"], out[f"accel_{run}_delta_s"] = float(t), float(t - off)
+    return out
 
 
 def sustained_speeds(config: VehicleConfig, resolution_kmh: float = 0.05) -> dict[str, float]:
@@ -126,7 +145,7 @@ def table3_row(t3: Mapping[str, float], run: str) -> dict[str, float]:
 class Baseline:
     """The thermal-off runs of a vehicle (figures and traces), which no thermal parameter changes: measured once."""
 
-    def __init__(self, config: VehicleConfig, cycles: Iterable[str] = BASELINE_CYCLES):
+    def __init__(self, config: VehicleConfig, cycles: Iterable[str] = CYCLES):
         off = config.with_thermal(False)
         measured = {c: cycle_run(off, c) for c in cycles}
         self.runs = {c: m for c, (m, _) in measured.items()}
@@ -135,37 +154,52 @@ class Baseline:
         self.accel_off_s = acceleration_time_s(off, Conditions(coolant="off"), dt_s=0.1)
 
 
-def measure(config: VehicleConfig, baseline: Baseline | None = None, *, hwfet: bool = False) -> dict[str, Any]:
-    """Every calibration target's value for ``config`` (thermal model on), plus diagnostics: ``{"values": {target:
-    value}, "udds": {...}, "beijing": {...}, "accel": {...}}`` (and ``"hwfet"`` when asked; :func:`cycle_run`'s
-    figures)."""
-    base = baseline or Baseline(config)
-    cycles = TARGET_CYCLES + (("hwfet",) if hwfet else ())
-    runs = {c: cycle_run(config, c, base.fuel_l100[c])[0] for c in cycles}
-    accel = accel_times(config, base.accel_off_s)
-    ours = figure_values(runs, accel)
-    return {"values": {n: ours[n] for n in CALIBRATION_TARGETS}, **runs, "accel": accel}
+def measure(config: VehicleConfig, baseline: Baseline | None = None,
+            targets: Iterable[PaperFigure] = TARGETS, *, cycles: Iterable[str] = ()) -> dict[str, Any]:
+    """The value of each of ``targets`` (default F1-F7 and H1-H6) for ``config`` (thermal model on), running only
+    the cycles and Table 3 starts they need (and ``cycles`` besides): ``{"values": {name: value}, "<cycle>":
+    cycle_run's figures, "accel": accel_times}``."""
+    targets = tuple(targets)
+    need = tuple(dict.fromkeys([*(t.cycle for t in targets if t.cycle in CYCLES), *cycles]))
+    base = baseline or Baseline(config, need)
+    runs = {c: cycle_run(config, c, base.fuel_l100[c])[0] for c in need}
+    accel = accel_times(config, base.accel_off_s, runs=[t.cycle for t in targets if t.cycle in TABLE3_HOT_STARTS])
+    ours = target_values(runs, accel)
+    return {"values": {t.name: ours[t.name] for t in targets}, **runs, "accel": accel}
+
+
+def target_values(cycles: Mapping[str, Mapping[str, float]], accel: Mapping[str, float]) -> dict[str, float]:
+    """Our value of every target F1-H6 whose run is in ``cycles`` (:func:`cycle_run` figures, thermal model on,
+    with ``fuel_delta_l100``) or ``accel`` (:func:`accel_times`)."""
+    measures = {
+        "udds": {"udds_hi_onset_s": "hi_onset_s", "udds_hi_peak": "hi_peak", "udds_hi_return_s": "hi_return_s",
+                 "udds_temp_peak_c": "temp_peak_c", "udds_temp_last300_c": "temp_last300_c",
+                 "udds_fuel_delta_l100": "fuel_delta_l100"},
+        "beijing": {"beijing_warm_band": "warm_excursion_k", "beijing_temp_warm_mean_c": "temp_warm_mean_c",
+                    "beijing_hi_max": "hi_max", "beijing_fuel_delta_l100": "fuel_delta_l100"},
+        "hwfet": {"hwfet_fuel_delta_l100": "fuel_delta_l100"},
+    }
+    ours = {name: float(cycles[cyc][key]) for cyc, names in measures.items() if cyc in cycles
+            for name, key in names.items()}
+    ours.update({f"accel_{run}_delta_s": float(accel[f"accel_{run}_delta_s"]) for run in TABLE3_HOT_STARTS
+                 if f"accel_{run}_delta_s" in accel})
+    return ours
 
 
 def figure_values(cycles: Mapping[str, Mapping[str, float]], t3: Mapping[str, float],
                   fig4: Mapping[str, Any] | None = None) -> dict[str, float | None]:
-    """Our value of every row of :data:`~.figures.PAPER_FIGURES` that was measured (None where its cycle did not
-    run): ``cycles`` maps a cycle to its thermal-model :func:`cycle_run` figures, ``t3`` holds
+    """Our value of every row of :data:`~.figures.PAPER_FIGURES` that was measured (None where its run did not
+    happen): ``cycles`` maps a cycle to its thermal-model :func:`cycle_run` figures, ``t3`` holds
     :func:`accel_times` and maybe :func:`sustained_speeds`, ``fig4`` is :func:`fig4_curve`."""
-    ours: dict[str, float | None] = {k: t3[k] for k in ("accel_off_s", "accel_30c_delta_s", "accel_50c_delta_s")}
+    ours: dict[str, float | None] = {name: None for name in PAPER_FIGURE_BY_NAME}
+    ours.update(target_values(cycles, t3))
+    ours["accel_off_s"] = t3.get("accel_off_s")
     if "top_speed_off_kmh" in t3:
-        for run in TABLE3_RUNS:
-            row = table3_row(t3, run)
-            ours[f"top_speed_{run}_kmh"], ours[f"grade_{run}_kmh"] = row["top_speed_kmh"], row["grade_4pct_speed_kmh"]
+        for on in ("off", "on"):
+            ours[f"top_speed_{on}_kmh"] = t3[f"top_speed_{on}_kmh"]
+            ours[f"grade_{on}_kmh"] = t3[f"grade_speed_{on}_kmh"]
     if fig4 is not None:
         ours["fig4_leaves_zero_s"], ours["fig4_reaches_one_s"] = fig4["pwm_leaves_zero_s"], fig4["pwm_reaches_one_s"]
-    for cyc in ("udds", "hwfet", "beijing"):
-        ours[f"{cyc}_fuel_delta_l100"] = cycles[cyc]["fuel_delta_l100"] if cyc in cycles else None
-    udds, beijing = cycles.get("udds", {}), cycles.get("beijing", {})
-    ours.update(udds_hi_onset_s=udds.get("hi_onset_s"), udds_hi_peak=udds.get("hi_peak"),
-                udds_hi_return_s=udds.get("hi_return_s"), udds_temp_peak_c=udds.get("temp_peak_c"),
-                udds_temp_last300_c=udds.get("temp_last300_c"), beijing_temp_c=beijing.get("temp_warm_mean_c"),
-                beijing_hi_peak=beijing.get("hi_peak"))
     return ours
 
 
@@ -209,3 +243,39 @@ def cutoff_curve() -> dict[str, Any]:
     return {"temps_c": np.array(temps), "cutoff_c": cutoff, "time_to_cutoff_simulated_s": float(len(temps) - 1),
             "time_to_cutoff_analytic_s": float(cfg.thermal.heat_capacity_j_per_k * (cutoff - 20.0) / net),
             "mean_net_heat_w": net, "heat_capacity_j_per_k": cfg.thermal.heat_capacity_j_per_k}
+
+
+def launch_run(config: VehicleConfig | None = None, warm_max_s: int = 6 * 3600) -> dict[str, Any]:
+    """The protocol's check C6 over the physics core: the motor held at its continuous torque at
+    :data:`LAUNCH_SPEED_MPS` on :data:`LAUNCH_GRADE` until the network is steady (every node within 1e-3 K over
+    a minute, at most ``warm_max_s``), then :data:`LAUNCH_S` s at peak torque (u = 1). The heat index is taken out
+    (T_s = 10⁹ s) so that the motor holds its peak; the SOC is held at its start (a rated hour would drain it).
+    Returns the steady state, the launch's per-second states (``winding_c``, ``housing_c``, ``coolant_c``, from
+    the steady state on) and outputs (``torque_nm``, ``speed_radps``), and ``winding_rise_k``."""
+    cfg = config or paper_bus()
+    cfg = cfg.replace(thermal=cfg.thermal.replace(t_s_s=1e9))
+    core = C.PhysicsCore(cfg)
+    state, cond = core.initial_state(PAPER_CONDITIONS, 1), core.conditions_array(PAPER_CONDITIONS, 1)
+    v, g = np.array([LAUNCH_SPEED_MPS]), np.array([LAUNCH_GRADE])
+    _, out = core.step(state, np.ones(1), v, v, g, cond)
+    u_rated = (mot.continuous_torque_nm(cfg.motor.pack(), out[0, C.MOTOR_SPEED]) * cfg.driveline.coupler_ratio
+               / out[0, C.SHAFT_DEMAND])
+    nodes = [C.WINDING_C, C.TEMP_C, C.COOLANT_C]
+    history = [state[0, nodes].copy()]
+    for k in range(warm_max_s):
+        state, _ = core.step(state, np.array([u_rated]), v, v, g, cond)
+        state[:, C.SOC] = PAPER_CONDITIONS.initial_soc
+        history.append(state[0, nodes].copy())
+        if k >= 60 and np.abs(history[-1] - history[-61]).max() < 1e-3:
+            break
+    temps, outs = [state[0, nodes].copy()], []
+    for _ in range(LAUNCH_S):
+        state, out = core.step(state, np.ones(1), v, v, g, cond)
+        temps.append(state[0, nodes].copy())
+        outs.append(out[0, [C.MOTOR_TORQUE, C.MOTOR_SPEED]].copy())
+    temps_a, outs_a = np.array(temps), np.array(outs)
+    return {"warm_s": float(len(history) - 1), "rated_u": float(u_rated), "winding_c": temps_a[:, 0],
+            "housing_c": temps_a[:, 1], "coolant_c": temps_a[:, 2], "torque_nm": outs_a[:, 0],
+            "speed_radps": outs_a[:, 1], "winding_rise_k": float(temps_a[-1, 0] - temps_a[0, 0]),
+            "winding_over_housing_start_k": float(temps_a[0, 0] - temps_a[0, 1]),
+            "winding_over_housing_end_k": float(temps_a[-1, 0] - temps_a[-1, 1])}

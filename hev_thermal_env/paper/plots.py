@@ -58,7 +58,7 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
                         fontsize=7.5, ha="right" if x > 0 else "left", va="center", color=colour)
     ax.set(yticks=range(len(rows)), ylim=(len(rows) - 0.5, -0.5), xlim=(-RESIDUAL_SHOWN - 0.3, RESIDUAL_SHOWN + 0.3),
            xlabel="(ours − paper) / tolerance   (for an upper limit: ours / limit)")
-    ax.set_yticklabels([f"{r['figure']}: {r['description']}" for r in rows], fontsize=8.5)
+    ax.set_yticklabels([f"{r['id']} {r['figure']}: {r['description']}" for r in rows], fontsize=8.5)
     ax.grid(axis="x", alpha=0.3)
     handles = [Line2D([], [], marker="o", ls="none", color=WITHIN_COLOUR, label="within tolerance (shaded band)"),
                Line2D([], [], marker="o", ls="none", color=OUTSIDE_COLOUR, label="outside tolerance"),
@@ -105,7 +105,10 @@ def cycle_figure(cycle: str, traces: dict[str, dict[str, np.ndarray]], figures: 
     t = np.arange(1, len(on["motor_temp_c"]) + 1)
     fig, (ax_t, ax_h) = pyplot().subplots(2, 1, figsize=(10.5, 6.0), sharex=True, layout="constrained")
     ax_t.plot(t, off["motor_temp_c"], color=OFF_COLOUR, lw=1.0, label="ours, thermal model off")
-    ax_t.plot(t, on["motor_temp_c"], color=OURS_COLOUR, lw=1.4, label="ours, thermal model on")
+    ax_t.plot(t, on["motor_temp_c"], color=OURS_COLOUR, lw=1.4, label="ours, thermal model on: stator/housing")
+    if "winding_temp_c" in on:
+        ax_t.plot(t, on["winding_temp_c"], color=OURS_COLOUR, lw=0.8, ls="--", alpha=0.7,
+                  label="ours, thermal model on: winding")
     ax_h.plot(t, on["heat_index"], color=OURS_COLOUR, lw=1.4, clip_on=False)
     if cycle in ("udds", "hwfet"):
         _figs_7_8(ax_t, ax_h, t, figures)
@@ -142,17 +145,18 @@ def _figs_7_8(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
     ax_h.errorbar([onset.paper], [0.0], xerr=[[onset.tol], [onset.tol]], marker="D", ms=8, mfc="none",
                   mec=PAPER_COLOUR, mew=1.8, color=PAPER_COLOUR, capsize=4, ls="none", clip_on=False,
                   label=f"paper: first above 0 at {onset.paper:g} ± {onset.tol:g} s")
-    if math.isfinite(figures["hi_onset_s"]):
+    if figures["hi_onset_observed"]:
         ax_h.plot([figures["hi_onset_s"]], [0.0], marker="o", ms=7, color=OURS_COLOUR, ls="none", clip_on=False,
                   label=f"ours: first above 0 at {figures['hi_onset_s']:.0f} s")
 
 
 def _figs_9_10(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
-    temp, hi_peak = P["beijing_temp_c"], P["beijing_hi_peak"]
-    start = figures["warm_up_s"] if math.isfinite(figures["warm_up_s"]) else t[0]
-    _band(ax_t, temp.paper - temp.tol, temp.paper + temp.tol, start, t[-1],
-          f"paper: {temp.paper:g} ± {temp.tol:g} °C after warm-up")
-    _band(ax_h, 0.0, hi_peak.tol, t[0], t[-1], f"paper: heat index 0 (≤ {hi_peak.tol:g} accepted)")
+    band, mean, hi_max = P["beijing_warm_band"], P["beijing_temp_warm_mean_c"], P["beijing_hi_max"]
+    start = figures["warm_from_s"] if math.isfinite(figures["warm_from_s"]) else t[0]
+    _band(ax_t, band.low, band.high, start, t[-1],
+          f"paper: {band.low:g}-{band.high:g} °C from {band.start_at:g} °C on (H1)")
+    ax_t.axhline(mean.paper, color=PAPER_COLOUR, ls=":", lw=1.2, label=f"paper: mean {mean.paper:g} ± {mean.tol:g} °C")
+    _band(ax_h, 0.0, hi_max.tol, t[0], t[-1], f"paper: heat index 0 (≤ {hi_max.tol:g} accepted)")
 
 
 def fuel_levels_figure(level_rows: list[dict[str, Any]], path: Path) -> Path:

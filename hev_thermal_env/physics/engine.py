@@ -9,6 +9,13 @@ Coefficients are a least-squares fit to ADVISOR's FC_CI119 (6.5 L, 119 kW) fuel 
 the 54 map points). The constant-plus-speed terms give the fuel at zero load (idle and
 motoring with accessories only). Fuel is cut on overrun (no positive torque requested while the
 shaft turns above idle) and zero when the engine is off.
+
+Below the map's domain. FC_CI119 is measured from 1,000 to 3,500 rpm and 120 to 420 N·m; the bus
+runs below it at idle (700 rpm), with the accessories alone (7.5 kW ≈ 100 N·m at 700 rpm) and in
+light city traction. There the fuel is the surface's extrapolation, which no measured point
+checks: 0.25 g/s (1.1 L/h) at idle with no load, 0.67 g/s (322 g/kWh) at idle carrying the
+7.5 kW accessories, 0.21 g/s at 1,000 rpm unloaded. The fuel rises with power everywhere
+there (c3 + c4·ω > 0 up to the maximum speed), so no load point below the map is free.
 """
 
 from __future__ import annotations

@@ -65,7 +65,7 @@ class ThermalParams(Params):
     # --- heat index, eqs 8-10 ---
     t_s_s: float = spec(30.0, "T_s of eq 9: longest run time at peak torque (paper)", min=0.0, min_exclusive=True)
     t_gain_cold: float = spec(
-        0.2, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3], varying with temperature)",
+        0.1715, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3], varying with temperature)",
         min=0.1, max=0.3)
     t_gain_hot: float = spec(0.3, "T_gain at and above t_gain_temp_hi_c (paper's upper value, Fig. 4's example)",
                              min=0.1, max=0.3)
