@@ -82,7 +82,7 @@ class ThermalOptimumStrategy(Strategy):
                       "winding_trip"],
             "grid": {"soc": g.soc, "winding_k": g.winding_k, "housing_k": g.housing_k, "coolant_k": g.coolant_k,
                      "heat_index": g.heat_index, "n_u": g.n_u,
-                     "dominance": "within a SOC bin, from higher SOC bins, weaker braking shares", "refine": True,
+                     "dominance": "within a SOC bin; weaker braking shares", "refine": True,
                      "n_local": N_LOCAL, "local_halfwidth": LOCAL_HALFWIDTH, "first_pass_scale": FIRST_PASS_SCALE,
                      "refine_global_stride": REFINE_STRIDE, "seed_dp": True, "bin_budget": BIN_BUDGET},
             "soc_tol": s.soc_tol, "on_infeasible": s.on_infeasible,

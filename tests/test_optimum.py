@@ -13,7 +13,7 @@ from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.planning.bins import pareto_across_soc_bins, pareto_per_soc_bin, weaker_shares
+from hev_thermal_env.planning.bins import pareto_per_soc_bin, weaker_shares
 from hev_thermal_env.planning.problem import DPProblem, stage_splits
 from hev_thermal_env.planning.search import SearchGrid, frontier_points, search
 from hev_thermal_env.prices import Prices
@@ -144,22 +144,6 @@ def test_dominance_keeps_cooler_states_and_same_bin_pairs():
     keep = np.empty(5, dtype=np.int64)
     k = pareto_per_soc_bin(soc_bin, q, np.arange(5, dtype=np.int64), keep)
     assert sorted(keep[:k].tolist()) == [0, 2, 3, 4]
-
-
-def test_dominance_across_soc_bins():
-    # rows by SOC bin, highest first; thermal bin indices (motor, winding, coolant, heat index, cutoff, winding trip);
-    # cost without a battery price
-    soc_bin = np.array([5, 4, 4, 3, 3, 3], dtype=np.int64)
-    q = np.array([[2, 2, 2, 0, 0, 0],   # the most charge, cost 10
-                  [2, 2, 2, 0, 0, 0],   # less charge, dearer, no cooler: dominated
-                  [1, 2, 2, 0, 0, 0],   # less charge, dearer, a cooler motor: kept
-                  [2, 2, 2, 0, 0, 0],   # less charge, cheaper: kept
-                  [3, 2, 2, 0, 0, 0],   # the least charge, hotter, as dear as the first: dominated
-                  [1, 2, 2, 0, 0, 1]], dtype=np.int64)  # cooler motor but the winding tripped, dearer: dominated
-    cost = np.array([10.0, 11.0, 12.0, 9.0, 10.0, 12.5])
-    keep = np.empty(6, dtype=np.int64)
-    k = pareto_across_soc_bins(soc_bin, q, cost, np.arange(6, dtype=np.int64), keep)
-    assert sorted(keep[:k].tolist()) == [0, 2, 3]
 
 
 def test_a_weaker_braking_share_in_the_same_thermal_bin_is_dropped():

@@ -2,12 +2,9 @@
 
 A candidate's bin is floor(state / width) per key column (SOC, the motor's (stator/housing), winding and coolant
 temperature, heat index, the cutoff and winding-trip flags), packed into one 64-bit key. In each occupied bin at most
-three states survive (:func:`keep_best_per_bin`); then a state is dropped when a cheaper one of its SOC bin lies in a
-cooler thermal bin (:func:`pareto_per_soc_bin`), or one of a higher SOC bin costs no more in a thermal bin no hotter
-(:func:`pareto_across_soc_bins`). On a braking stage a share of regeneration is dropped first where the next larger
-share ends in the same thermal bin at no higher cost (:func:`weaker_shares`). The freedom to regenerate less keeps
-cooler, emptier lineages that rarely pay: on the first 600 s of Beijing the search kept at most 5,400 states with
-regeneration fixed at its full share, 15,200 with every share and these two rules left out, 9,200 with them.
+three states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped when a cheaper one lies
+in a cooler thermal bin (:func:`pareto_per_soc_bin`). On a braking stage a share of regeneration is dropped first where
+the next larger share ends in the same thermal bin with no less charge at no higher cost (:func:`weaker_shares`).
 """
 
 from __future__ import annotations
@@ -163,78 +160,13 @@ def pareto_per_soc_bin(soc_bin, q, order, keep):
     return kept
 
 
-@jit
-def pareto_across_soc_bins(soc_bin, q, cost, order, keep):
-    """Drop every state that a state of a higher SOC bin dominates; returns how many survive (written to ``keep``).
-
-    ``order`` sorts the rows by SOC bin, highest first. A row is dominated when a row of a higher SOC bin costs no more
-    (``cost``: no price on the battery) and lies in a thermal bin no hotter in any of ``q``'s columns: it has more
-    charge for no more fuel, and driving on as the dominated one would, it ends with no less charge and no more cost.
-    The rows of the higher bins are summarised by their thermal bins, each with its lowest cost.
-    """
-    n = order.shape[0]
-    d_count = q.shape[1]
-    seen_q = np.empty((n, d_count), dtype=np.int64)
-    seen_cost = np.empty(n)
-    m = 0
-    kept = 0
-    start = 0
-    while start < n:
-        stop = start
-        while stop < n and soc_bin[order[stop]] == soc_bin[order[start]]:
-            stop += 1
-        first = kept
-        for t in range(start, stop):
-            b = order[t]
-            dominated = False
-            for j in range(m):
-                if seen_cost[j] > cost[b]:
-                    continue
-                cooler = True
-                for d in range(d_count):
-                    if seen_q[j, d] > q[b, d]:
-                        cooler = False
-                        break
-                if cooler:
-                    dominated = True
-                    break
-            if not dominated:
-                keep[kept] = b
-                kept += 1
-        for t in range(first, kept):  # this SOC bin's survivors join the summary
-            b = keep[t]
-            found = False
-            for j in range(m):
-                same = True
-                for d in range(d_count):
-                    if seen_q[j, d] != q[b, d]:
-                        same = False
-                        break
-                if same:
-                    found = True
-                    seen_cost[j] = min(seen_cost[j], cost[b])
-                    break
-            if not found:
-                seen_q[m, :] = q[b, :]
-                seen_cost[m] = cost[b]
-                m += 1
-        start = stop
-    return kept
-
-
-def non_dominated(states: np.ndarray, adj: np.ndarray, cost: np.ndarray, widths: np.ndarray,
-                  rows: np.ndarray) -> np.ndarray:
-    """``rows`` without the states dominated within their SOC bin (:func:`pareto_per_soc_bin`, by ``adj``, the cost
-    with the battery priced) and then by a state of a higher SOC bin (:func:`pareto_across_soc_bins`, by ``cost``)."""
+def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``rows`` without the states dominated within their SOC bin (:func:`pareto_per_soc_bin`)."""
     bins = np.floor(states[:, list(KEY_COLUMNS)] / widths).astype(np.int64)
-    soc_bin, q = bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:])
+    order = np.lexsort((adj, bins[:, 0]))
     out = np.empty(rows.size, dtype=np.int64)
-    k = pareto_per_soc_bin(soc_bin, q, np.lexsort((adj, soc_bin)), out)
-    within = np.sort(out[:k])
-    order = within[np.argsort(-soc_bin[within], kind="stable")]
-    out2 = np.empty(k, dtype=np.int64)
-    k2 = pareto_across_soc_bins(soc_bin, q, cost, order, out2)
-    return rows[out2[:k2]]
+    k = pareto_per_soc_bin(bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:]), order, out)
+    return rows[out[:k]]
 
 
 def weaker_shares(so: np.ndarray, c: np.ndarray, m: int, widths: np.ndarray) -> np.ndarray:

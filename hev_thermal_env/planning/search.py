@@ -239,7 +239,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
             inside &= ~weaker_shares(so, c, u.size, widths)
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, widths, states.shape[0], threads)
         if keep.size > 1:
-            keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], c[keep], widths, keep)
+            keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
         keep = np.sort(keep)
         states, cost, batt_j = so[keep], c[keep], e[keep]
         parents.append((keep // u.size).astype(np.int32))
