@@ -149,7 +149,7 @@ def test_dominance_keeps_cooler_states_and_same_bin_pairs():
 def test_a_weaker_braking_share_in_the_same_thermal_bin_is_dropped():
     """Two states braking with shares 0, 0.5, 1 each: a share goes when the next larger one ends in the same thermal
     bin with at least as much charge at no higher cost."""
-    widths = SearchGrid().widths()
+    widths = SearchGrid(winding_k=4.0).widths()
     so = np.zeros((6, C.N_STATE))
     so[:, C.SOC] = [0.650, 0.651, 0.652, 0.650, 0.651, 0.652]
     so[:, C.TEMP_C] = 30.5
