@@ -13,7 +13,7 @@ from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.planning.bins import pareto_per_soc_bin, weaker_shares
+from hev_thermal_env.planning.bins import pareto_per_soc_bin
 from hev_thermal_env.planning.problem import DPProblem, stage_splits
 from hev_thermal_env.planning.search import SearchGrid, frontier_points, search
 from hev_thermal_env.prices import Prices
@@ -144,20 +144,6 @@ def test_dominance_keeps_cooler_states_and_same_bin_pairs():
     keep = np.empty(5, dtype=np.int64)
     k = pareto_per_soc_bin(soc_bin, q, np.arange(5, dtype=np.int64), keep)
     assert sorted(keep[:k].tolist()) == [0, 2, 3, 4]
-
-
-def test_a_weaker_braking_share_in_the_same_thermal_bin_is_dropped():
-    """Two states braking with shares 0, 0.5, 1 each: a share goes when the next larger one ends in the same thermal
-    bin with at least as much charge at no higher cost."""
-    widths = SearchGrid(winding_k=4.0).widths()
-    so = np.zeros((6, C.N_STATE))
-    so[:, C.SOC] = [0.650, 0.651, 0.652, 0.650, 0.651, 0.652]
-    so[:, C.TEMP_C] = 30.5
-    so[:, C.WINDING_C] = [40.5, 41.0, 44.5, 40.5, 41.0, 41.5]  # 4 K bins: the first state's full share is hotter
-    so[:, C.COOLANT_C] = 30.5
-    cost = np.array([5.0, 5.0, 5.0, 5.0, 5.2, 5.1])  # the second state's half share is dearer than its no share
-    drop = weaker_shares(so, cost, 3, widths)
-    assert drop.tolist() == [True, False, False, False, True, False]
 
 
 @pytest.mark.parametrize("options, match", [

@@ -3,8 +3,7 @@
 A candidate's bin is floor(state / width) per key column (SOC, the motor's (stator/housing), winding and coolant
 temperature, heat index, the cutoff and winding-trip flags), packed into one 64-bit key. In each occupied bin at most
 three states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped when a cheaper one lies
-in a cooler thermal bin (:func:`pareto_per_soc_bin`). On a braking stage a share of regeneration is dropped first where
-the next larger share ends in the same thermal bin with no less charge at no higher cost (:func:`weaker_shares`).
+in a cooler thermal bin (:func:`pareto_per_soc_bin`).
 """
 
 from __future__ import annotations
@@ -167,18 +166,6 @@ def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows:
     out = np.empty(rows.size, dtype=np.int64)
     k = pareto_per_soc_bin(bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:]), order, out)
     return rows[out[:k]]
-
-
-def weaker_shares(so: np.ndarray, c: np.ndarray, m: int, widths: np.ndarray) -> np.ndarray:
-    """Of a braking stage's candidates (each state's ``m`` children in a row, shares of regeneration ascending), those
-    whose next larger share lands in the same thermal bin at no higher cost and with no less charge: dominated by it."""
-    p = so.shape[0] // m
-    q = np.floor(so[:, list(KEY_COLUMNS[1:])] / widths[1:]).astype(np.int64).reshape(p, m, -1)
-    cost, soc = c.reshape(p, m), so[:, C.SOC].reshape(p, m)
-    drop = np.zeros((p, m), dtype=bool)
-    drop[:, :-1] = (np.all(q[:, :-1] == q[:, 1:], axis=2) & (cost[:, 1:] <= cost[:, :-1])
-                    & (soc[:, 1:] >= soc[:, :-1]))
-    return drop.ravel()
 
 
 def survivors(so: np.ndarray, inside: np.ndarray, c: np.ndarray, e: np.ndarray, price: float, price2: float,

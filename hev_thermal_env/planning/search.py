@@ -20,9 +20,9 @@ from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 
-from .bins import KEY_BITS, non_dominated, survivors, weaker_shares
+from .bins import KEY_BITS, non_dominated, survivors
 from .corridor import backward_envelope
-from .problem import BRAKING, IDLE, DPProblem, default_threads, split_grid, stage_splits
+from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
 
 #: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
 #: (:func:`~.bins.keep_best_per_bin`).
@@ -39,7 +39,7 @@ class SearchGrid:
 
     The winding's bin holds less heat than the housing's (8 K × 3.3 kJ/K against 2 K × 43 kJ/K): the winding matters
     through the heat it passes to the housing and through its own trip, far above where the housing cuts the motor off;
-    at 4 K its bins kept more lineages of the braking shares (on Beijing, paper: 1.4 times the vehicle-steps).
+    at 4 K its bins kept more lineages of the braking shares (on Beijing, paper: 1.3 times the vehicle-steps).
     """
 
     soc: float = 1.5e-4
@@ -240,8 +240,6 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
         n_evals += so.shape[0]
         inside = _inside(so[:, C.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
-        if kinds[i] == BRAKING and u.size > 1:
-            inside &= ~weaker_shares(so, c, u.size, widths)
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, widths, states.shape[0], threads)
         if keep.size > 1:
             keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
