@@ -39,7 +39,8 @@ class SearchGrid:
 
     The winding's bin holds less heat than the housing's (8 K × 3.3 kJ/K against 2 K × 43 kJ/K): the winding matters
     through the heat it passes to the housing and through its own trip, far above where the housing cuts the motor off;
-    at 4 K its bins kept more lineages of the braking shares (on Beijing, paper: 1.3 times the vehicle-steps).
+    at 4 K its bins kept more lineages of the braking shares (the first 600 s of Beijing, paper: 1.3 times the
+    vehicle-steps).
     """
 
     soc: float = 1.5e-4
