@@ -25,6 +25,7 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 #: Strategy name -> (module, class).
 _REGISTRY: dict[str, tuple[str, str]] = {
     "engine_only": ("hev_thermal_env.agents.rule", "EngineOnly"),
+    "conventional": ("hev_thermal_env.agents.rule", "Conventional"),
     "rule": ("hev_thermal_env.agents.rule", "RuleBased"),
     "ecms": ("hev_thermal_env.agents.ecms", "ECMS"),
     "aecms": ("hev_thermal_env.agents.ecms", "AdaptiveECMS"),

@@ -5,8 +5,9 @@ A strategy is driven through ``HevThermal-v1``::
     strategy.reset(env)            # once per episode, after env.reset(); may plan (DP)
     action = strategy.act(obs, info)   # every step; returns np.ndarray of shape (1,)
 
-``vehicle_config(config)`` lets a strategy change the vehicle it drives (``engine_only`` drives the conventional bus);
-``thermal_aware`` says whether it respects the thermal model.
+``vehicle_config(config)`` lets a strategy change the vehicle it drives (``conventional`` drives the conventional bus,
+and says so with ``other_vehicle``: its rows are not compared with the hybrid's optimum); ``thermal_aware`` says whether
+it respects the thermal model.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ class Strategy:
 
     name: str = "strategy"
     thermal_aware: bool = False
+    other_vehicle: bool = False
 
     def vehicle_config(self, config: VehicleConfig) -> VehicleConfig:
         return config

@@ -10,21 +10,22 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.planning.problem import DPProblem
+from hev_thermal_env.planning.problem import DPProblem, split_grid
 from hev_thermal_env.planning.soc_dp import WALL_G_PER_SOC, DPPlan, DPSettings, choose, rollout, solve
 
 from .base import Strategy
 
 
 class DPStrategy(Strategy):
-    """Dynamic programming over the known cycle. At each real step it re-optimises one step over a finer u grid
-    against the plan's cost-to-go, from the actual state (``env.peek``); ``describe()`` records the grid sizes, the
-    solve time and the vehicle-steps evaluated (a coarse DP is not an optimum).
+    """Dynamic programming over the known cycle. At each real step it re-optimises one step over a finer u grid (its
+    shares of the available regeneration while braking) against the plan's cost-to-go, from the actual state
+    (``env.peek``); ``describe()`` records the grid sizes, the solve time and the vehicle-steps evaluated (a coarse DP
+    is not an optimum).
 
-    Options: ``n_soc`` SOC grid points across each stage's corridor, ``n_u`` splits in the backward pass and
-    ``n_u_exec`` when acting, ``soc_final`` (default: the initial SOC) and ``soc_tol``, ``on_infeasible`` (``"raise"``:
-    :class:`~hev_thermal_env.planning.problem.DPInfeasibleError`; ``"closest"``: plan for the nearest reachable band of
-    the same width), ``price_soc_deviation``, ``threads``.
+    Options: ``n_soc`` SOC grid points across each stage's corridor, ``n_u`` splits over [-1, 1] in the backward pass
+    and ``n_u_exec`` when acting (while braking those in [0, 1]), ``soc_final`` (default: the initial SOC) and
+    ``soc_tol``, ``on_infeasible`` (``"raise"``: :class:`~hev_thermal_env.planning.problem.DPInfeasibleError`;
+    ``"closest"``: plan for the nearest reachable band of the same width), ``price_soc_deviation``, ``threads``.
     """
 
     name = "dp"
@@ -46,7 +47,8 @@ class DPStrategy(Strategy):
         self.problem: DPProblem | None = None
         self._cache_key: str | None = None
         self._report: dict[str, Any] = {}
-        self._u_exec = np.linspace(-1.0, 1.0, self.settings.n_u_exec)
+        self._u_exec = split_grid(self.settings.n_u_exec)
+        self._shares = self._u_exec >= 0.0  # while braking u < 0 brakes like u = 0
 
     def plan_for(self, problem: DPProblem) -> DPPlan:
         """Solve (or reuse the last solve for the same cycle, start, vehicle and settings)."""
@@ -76,10 +78,14 @@ class DPStrategy(Strategy):
         if i < 0 or i >= plan.n_stages:
             return np.zeros(1, dtype=np.float32)
         st, out = env.peek(self._u_exec)
-        if out[0, C.SHAFT_DEMAND] <= 0.0:
-            return np.zeros(1, dtype=np.float32)  # braking or standing: the action has no effect
-        j = choose(plan, i, st, out, self.problem, self.settings, self._u_exec)
-        return np.array([self._u_exec[j]], dtype=np.float32)
+        demand = out[0, C.SHAFT_DEMAND]
+        if demand == 0.0:
+            return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
+        u = self._u_exec
+        if demand < 0.0:
+            st, out, u = st[self._shares], out[self._shares], u[self._shares]
+        j = choose(plan, i, st, out, self.problem, self.settings, u)
+        return np.array([u[j]], dtype=np.float32)
 
     def describe(self) -> dict[str, Any]:
         s = self.settings

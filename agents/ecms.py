@@ -1,7 +1,8 @@
 """Equivalent consumption minimisation: ``ecms``, ``aecms`` (adaptive) and ``ecms_thermal``.
 
 Every step one ``env.peek`` call (the batched physics step) evaluates a grid of splits u ∈ [-1, 1] (41 by default) for
-the next step, and the cheapest wins::
+the next step, and the cheapest wins, in traction and while braking alike (there u > 0 is the share of the available
+regeneration and u ≤ 0 friction alone: every u ≤ 0 costs the same and the tie goes to u = 0)::
 
     J(u) = fuel_g + s_eff · E_batt / Q_lhv + miss price
 
@@ -15,9 +16,11 @@ reward and the corrected-fuel metric do.
 * ``aecms``: s_eff = s0 + k_p·e + k_i·∫e dt, e = SOC_target − SOC (PI; the integral clamped, anti-windup).
 * ``ecms_thermal``: ``ecms`` plus a price on the peeked next thermal state, to avoid derating and the 70 °C cutoff:
   w_x · max(x' − x_thr, 0) (heat-index integrator x, eq 9, above a threshold just below 0) +
-  w_T · max(T' − T_soft, 0)² + w_cut · [cut off]'. It prices only what the split changes (regeneration and the
-  spinning motor's iron losses heat it whatever the split); in ``hot`` on HWFET plain ECMS reaches the cutoff (18 s)
-  and ``ecms_thermal`` avoids it at +0.2 % corrected fuel.
+  w_T · max(T' − T_soft, 0)² + w_cut · [cut off]'. It prices only what the split changes (the spinning motor's iron
+  losses heat it whatever the split), regeneration included: a hot motor may take less of it.
+
+While braking, fuel does not depend on the share and the battery term falls with it as long as s_eff > 0: ECMS and
+A-ECMS regenerate all that is available unless the SOC is so far above the target that s_eff ≤ 0.
 
 Tuning (one setting for both cycle families): s = 2.9, k = 1 (linear); A-ECMS s0 = 2.9, k_p = 20, k_i = 0.01 1/s, end
 ``beijing`` (``paper``) at ΔSOC ≈ +0.005 within 0.1 % of DP's corrected fuel. Without the penalty, s = 2.7 ends
@@ -89,8 +92,8 @@ class ECMS(Strategy):
         soc = float(env.phys_state[0, C.SOC])
         st, out = env.peek(self.u_grid)
         self._observe(soc)
-        if out[0, C.SHAFT_DEMAND] <= 0.0:
-            return np.zeros(1, dtype=np.float32)  # braking or standing: the action has no effect
+        if out[0, C.SHAFT_DEMAND] == 0.0:
+            return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
         cost = self.candidate_costs(st, out, soc)
         return np.array([self.u_grid[argmin_small_action(cost, self.u_grid)]], dtype=np.float32)
 

@@ -78,7 +78,8 @@ class ThermalOptimumStrategy(Strategy):
         g = self.plan.grid if self.plan is not None else s.grid
         return {
             "name": self.name, "method": g.describe(),
-            "state": ["soc", "motor_temp_c", "housing_temp_c", "coolant_temp_c", "heat_x", "motor_cutoff"],
+            "state": ["soc", "motor_temp_c", "winding_temp_c", "coolant_temp_c", "heat_x", "motor_cutoff",
+                      "winding_trip"],
             "grid": {"soc": g.soc, "winding_k": g.winding_k, "housing_k": g.housing_k, "coolant_k": g.coolant_k,
                      "heat_index": g.heat_index, "n_u": g.n_u, "dominance": True, "refine": True,
                      "n_local": N_LOCAL, "local_halfwidth": LOCAL_HALFWIDTH, "first_pass_scale": FIRST_PASS_SCALE,

@@ -1,8 +1,14 @@
-"""The conventional bus and ADVISOR's parallel electric-assist strategy.
+"""The hybrid bus with its motor unused, ADVISOR's parallel electric-assist strategy, and the conventional bus.
 
 ``engine_only``
-    The conventional bus: :meth:`VehicleConfig.conventional` (no motor, no regeneration, the engine idles instead of
-    stopping) driven with action 0.
+    The hybrid bus driven with u = 0 at every step: the engine carries everything, the friction brakes do all the
+    braking (no regeneration). The motor stays in the driveline: its spinning (zero-torque) losses still draw on the
+    battery and heat it.
+
+``conventional``
+    Another vehicle, a reference row: the conventional bus (:meth:`VehicleConfig.conventional`: no motor, no
+    regeneration, the engine idles instead of stopping), driven with action 0. It is not the hybrid's action space, so
+    it is left out of the comparison with the hybrid's optimum.
 
 ``rule``
     ADVISOR's charge-sustaining parallel electric-assist control (``PTC_PAR`` defaults), evaluated on the next step's
@@ -14,8 +20,9 @@
     * engine torque T_eng = max(T_dem + T_chg, T_min) with
       T_chg = ``charge_trq_nm``·((lo + hi)/2 − SOC)/((hi − lo)/2) and
       T_min = ``min_trq_frac``·T_eng,max(ω) when SOC < ``lo_soc`` (else 0);
-    * the motor takes the rest (u = 1 − T_eng/T_dem), including regeneration, which the physics does by itself when
-      braking.
+    * the motor takes the rest (u = 1 − T_eng/T_dem);
+    * while braking u = 1: the motor takes all the regeneration available (the driven axle's share of the braking,
+      within the motor's and the battery's limits), ADVISOR's behaviour.
 
     With ADVISOR's defaults (``off_trq_frac`` 0, launch speed 0) the engine is on whenever the bus pulls: that is
     ADVISOR's default behaviour, kept on purpose. The physics clips u to [-1, 1], so at light load the charging torque
@@ -37,10 +44,26 @@ from .base import Strategy
 
 
 class EngineOnly(Strategy):
-    """The conventional bus: no motor, the engine carries everything (action 0)."""
+    """The hybrid bus with its motor unused: u = 0 at every step (no assist, no regeneration)."""
 
     name = "engine_only"
+    thermal_aware = False  # the motor gives no torque; its spinning losses heat it whatever the strategy
+
+    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
+        return np.zeros(1, dtype=np.float32)
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "vehicle": "the hybrid bus, motor unused (no assist, no regeneration)",
+                "action": 0.0}
+
+
+class Conventional(Strategy):
+    """Another vehicle: the conventional bus (no motor), driven with action 0; a reference row, not compared with the
+    hybrid's optimum."""
+
+    name = "conventional"
     thermal_aware = False  # no motor: nothing to respect
+    other_vehicle = True
 
     def vehicle_config(self, config: VehicleConfig) -> VehicleConfig:
         return config.conventional()
@@ -49,7 +72,9 @@ class EngineOnly(Strategy):
         return np.zeros(1, dtype=np.float32)
 
     def describe(self) -> dict[str, Any]:
-        return {"name": self.name, "vehicle": "conventional (VehicleConfig.conventional())", "action": 0.0}
+        return {"name": self.name, "vehicle": "another vehicle: the conventional bus (VehicleConfig.conventional(): "
+                                              "no motor, no regeneration, the engine idling at stops)",
+                "action": 0.0, "other_vehicle": True}
 
 
 class RuleBased(Strategy):
@@ -97,8 +122,10 @@ class RuleBased(Strategy):
         env = self.env
         _, out = env.peek(np.zeros(1))  # the next step's shaft demand and engine speed do not depend on u
         demand = float(out[0, C.SHAFT_DEMAND])
-        if demand <= 0.0:
-            return np.ones(1, dtype=np.float32)  # braking: all the regeneration available (standing: no effect)
+        if demand < 0.0:
+            return np.ones(1, dtype=np.float32)  # braking: all the regeneration available
+        if demand == 0.0:
+            return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
         soc = float(env.phys_state[0, C.SOC])
         speed = float(env.cycle.speed_mps[env.k])
         t_eng = self.engine_torque_nm(demand, float(out[0, C.ENGINE_SPEED]), soc, speed)

@@ -9,8 +9,9 @@ Writes ``benchmarks/results/optimum.json``:
   final SOC and frontier ratio (cost / the optimum's frontier at the strategy's final SOC); the
   optimum's planned, replayed and realised cost, solve time and states. A run ending below the
   lowest SOC searched gets ``frontier_ratio_at_least`` (cost / F at that SOC: F is monotone, so
-  this bounds its ratio from below); ``outside_and_undecided`` lists those whose bound is < 1. ``engine_only`` drives
-  another vehicle (no motor, so no motor heat to price) and is left out.
+  this bounds its ratio from below); ``outside_and_undecided`` lists those whose bound is < 1. ``engine_only`` is the
+  hybrid with u = 0 (its motor unused) and is checked like every strategy; ``conventional`` drives another vehicle (no
+  motor) and is left out.
 * ``convergence``: every bin halved and the splits doubled (``grid_scale=2``) on Beijing and HWFET
   in ``hot`` and US06 in ``paper``, and on ≤ 120 s cycles a very fine search (``grid_scale=4``):
   change of the cost at the default's final SOC.
@@ -42,7 +43,7 @@ from hev_thermal_env.io import atomic_write_json
 OUT = Path(__file__).parent / "results" / "optimum.json"
 CYCLES = ("hwfet", "udds", "us06", "wltc_3b", "beijing")
 SCENARIOS = ("paper", "hot", "summer", "hilly", "full_bus")
-STRATEGIES = ("rule", "ecms", "aecms", "ecms_thermal", "dp", "ppo")
+STRATEGIES = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "ppo")
 TOLERANCE = 1e-3
 #: Threads per optimum inside the worker pool (the pool itself fills the cores); the speed figures use the default.
 THREADS = 1

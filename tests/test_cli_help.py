@@ -67,7 +67,7 @@ def test_train_help_shows_the_defaults_of_the_hyperparameter_files():
 def test_benchmark_help_shows_its_defaults():
     flat = " ".join(help_text(parsers()["evaluate.py benchmark"]).split())
     for text in ("(default: hwfet beijing)", "(default: paper)", "(default: results)",
-                 "(default: engine_only rule ecms aecms ecms_thermal dp dp_thermal ppo)",
+                 "(default: conventional engine_only rule ecms aecms ecms_thermal dp dp_thermal ppo)",
                  "(default: the number of cores"):
         assert text in flat, text
 

@@ -12,9 +12,10 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.planning.corridor import backward_envelope, forward_envelope
-from hev_thermal_env.planning.problem import DPInfeasibleError, DPProblem
+from hev_thermal_env.planning.corridor import backward_envelope, extreme_actions, forward_envelope
+from hev_thermal_env.planning.problem import BRAKING, DPInfeasibleError, DPProblem
 from hev_thermal_env.planning.soc_dp import DPSettings, interp_soc, rollout, solve
+from hev_thermal_env.simulate import simulate
 
 
 def problem_for(speed, grade=None, conditions=None, config=None, reward=None) -> DPProblem:
@@ -73,7 +74,7 @@ def test_forward_envelope_bounds_every_action_sequence(city200):
     st = np.repeat(p.state0[None, :], n, axis=0)
     for i in range(p.n_stages):
         u = rng.uniform(-1.0, 1.0, n)
-        u[:4] = [-1.0, 1.0, 0.0, 0.5]
+        u[:5] = [-1.0, 1.0, 0.0, 0.5, 0.999]
         x = np.repeat(held[i][None, :], n, axis=0)  # the planning model: thermal state held
         x[:, C.SOC] = st[:, C.SOC]
         so, _ = p.step(x, u, i)
@@ -87,10 +88,16 @@ def test_backward_envelope_edge_just_reaches_the_band(city200):
     band = (0.645, 0.655)
     lo, hi = backward_envelope(p, held, band)
     soc = np.array([lo[0], hi[0]])
+    # the most charge (u = -1 pulling, 1 braking) from the lowest start, the most discharge (1 pulling, 0 braking)
+    # from the highest
+    kind = p.stage_kinds()
+    assert np.sum(kind == BRAKING) > 20
     for i in range(p.n_stages):
         x = np.repeat(held[i][None, :], 2, axis=0)  # the planning model: thermal state held
         x[:, C.SOC] = soc
-        st, _ = p.step(x, np.array([-1.0, 1.0]), i)
+        a = np.array([-1.0, 1.0]) if kind[i] == 1 else np.array([1.0, 0.0]) if kind[i] == BRAKING else np.zeros(2)
+        np.testing.assert_array_equal(a, extreme_actions(p)[i, ::-1])
+        st, _ = p.step(x, a, i)
         soc = st[:, C.SOC]
     assert st[0, C.SOC] == pytest.approx(band[0], abs=2e-6)
     assert st[1, C.SOC] == pytest.approx(band[1], abs=2e-6)
@@ -99,15 +106,18 @@ def test_backward_envelope_edge_just_reaches_the_band(city200):
 # -- optimality -------------------------------------------------------------------------------------
 
 def test_dp_matches_exhaustive_search_on_a_tiny_cycle():
-    """Six steps, five splits: DP's plan costs no more than the best of all 5^6 action sequences."""
-    speed = [0.0, 2.0, 4.5, 7.0, 9.0, 10.0, 10.5]
+    """Seven steps, four pulling with five splits each, three braking with every share of regeneration in
+    {0, 0.5, 1} and the five splits' negative ones (which brake like 0): DP's plan costs no more than the best of
+    all 5^7 action sequences."""
+    speed = [0.0, 2.0, 4.5, 7.0, 9.0, 7.0, 4.5, 2.0]
     p = problem_for(speed)
+    np.testing.assert_array_equal(p.stage_kinds(), [1, 1, 1, 1, BRAKING, BRAKING, BRAKING])
     u = np.linspace(-1.0, 1.0, 5)
-    seqs = np.array(list(itertools.product(range(5), repeat=6)))
+    seqs = np.array(list(itertools.product(range(5), repeat=7)))
     n = len(seqs)
     st = np.repeat(p.state0[None, :], n, axis=0)
     total = np.zeros(n)
-    for i in range(6):
+    for i in range(7):
         so, out = p.step(st, u[seqs[:, i]], i)
         total += stage_cost_g(p.reward_params, out, so, p.soc_target, p.lhv, 1.0)
         st = so
@@ -116,7 +126,8 @@ def test_dp_matches_exhaustive_search_on_a_tiny_cycle():
     run = rollout(plan, p, settings, free=True)
     dp_cost = float(stage_cost_g(p.reward_params, run["out"], run["state"][1:], p.soc_target, p.lhv, 1.0).sum())
     assert dp_cost <= total.min() + 1e-6
-    assert plan.lookup(0, p.state0[None, :])[0] == pytest.approx(dp_cost, rel=1e-6)
+    assert np.all(run["u"][4:] >= 0.0) and total.min() < total[np.all(seqs[:, 4:] == 2, axis=1)].min() - 1e-3
+    assert plan.lookup(0, p.state0[None, :])[0] == pytest.approx(dp_cost, rel=1e-4)  # the cost-to-go interpolated
 
 
 def test_dp_plan_cost_matches_its_run_and_ends_in_the_band(city200):
@@ -131,6 +142,23 @@ def test_dp_plan_cost_matches_its_run_and_ends_in_the_band(city200):
     st = np.column_stack([res.trace[name] for name in C.STATE_NAMES])
     realized = stage_cost_g(RewardParams(), out, st, 0.65, lhv, 1.0).sum()
     assert d["planned_cost_g"] == pytest.approx(realized, rel=2e-3)
+
+
+def test_dp_braking_choices_are_shares_and_replay(city200):
+    """While braking DP chooses shares of the available regeneration in [0, 1], mostly all of it; its actions,
+    replayed open-loop on the physics (``simulate``), give its run step for step."""
+    res = run_strategy(get_strategy("dp"), city200, "paper")
+    tr = res.trace
+    u = np.asarray(tr["motor_share"], dtype=np.float64)
+    braking = tr["shaft_torque_demand_nm"] < 0.0
+    assert braking.sum() > 20 and np.all((u[braking] >= 0.0) & (u[braking] <= 1.0))
+    regen = braking & (tr["regen_available_nm"] < -10.0)
+    assert np.mean(u[regen]) > 0.5
+    assert np.all(tr["battery_power_w"][regen & (u == 1.0)] < tr["accessory_power_w"][regen & (u == 1.0)])
+    sim = simulate(city200, config=paper_bus(), split=u)
+    np.testing.assert_allclose(sim.trace["soc"], tr["soc"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sim.trace["motor_torque_nm"], tr["motor_torque_nm"], rtol=0, atol=1e-9)
+    assert sim.summary["fuel_g"] == pytest.approx(res.summary["fuel_g"], rel=1e-12)
 
 
 def test_dp_is_converged_in_grid_size(city200):

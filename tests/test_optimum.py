@@ -14,7 +14,7 @@ from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.planning.bins import pareto_per_soc_bin
-from hev_thermal_env.planning.problem import DPProblem
+from hev_thermal_env.planning.problem import DPProblem, stage_splits
 from hev_thermal_env.planning.search import SearchGrid, frontier_points, search
 from hev_thermal_env.prices import Prices
 
@@ -27,7 +27,7 @@ def city200():
 @pytest.fixture(scope="module")
 def hot_runs(city200):
     """Every classic strategy and the optimum on 200 s of Beijing in the hot scenario (motor near its limits)."""
-    names = ("dp_thermal", "rule", "ecms", "aecms", "ecms_thermal", "dp")
+    names = ("dp_thermal", "engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp")
     return {n: run_strategy(get_strategy(n), city200, "hot").summary for n in names}
 
 
@@ -61,7 +61,9 @@ def test_frontier_is_monotone_and_spans_the_band(hot_runs):
 
 
 def test_no_classic_strategy_beats_the_optimum_at_equal_charge(hot_runs):
-    """Hot scenario: every strategy's cost >= the frontier at its own final SOC (0.1 % tolerance)."""
+    """Hot scenario: every strategy's cost >= the frontier at its own final SOC (0.1 % tolerance), the hybrid with its
+    motor unused (``engine_only``, which ends with less charge) included."""
+    assert hot_runs["engine_only"]["soc_final"] < hot_runs["dp_thermal"]["soc_final"] - 0.005
     f = Frontier.from_settings(hot_runs["dp_thermal"]["strategy_settings"])
     for name, s in hot_runs.items():
         ref = f.cost_at(s["soc_final"])
@@ -79,15 +81,18 @@ def problem_for(speed, scenario_conditions: Conditions) -> DPProblem:
 
 
 def test_search_matches_an_exhaustive_search_on_a_short_cycle():
-    """Seven seconds, 7 splits each: every sequence against the search on the same splits (fine SOC bins: on so
-    short a run one default bin of charge is worth 0.3 % of the cost)."""
-    speed = np.array([0.0, 1.5, 3.0, 4.6, 6.0, 7.2, 8.0, 8.0])
+    """Seven seconds, pulling with 7 splits and braking with the shares {0, 1/3, 2/3, 1} of the available
+    regeneration, a hot motor: every sequence against the search on the same splits (fine SOC bins: on so short a
+    run one default bin of charge is worth 0.3 % of the cost)."""
+    speed = np.array([0.0, 1.5, 3.0, 4.6, 6.0, 4.4, 2.8, 1.5])
     p = problem_for(speed, Conditions(ambient_temp_c=40.0, initial_motor_temp_c=66.0))
     grid = SearchGrid(soc=1e-5, n_u=7)
     res = search(p, grid, (0.55, 0.75))
-    active = p.demand_positive()
+    kinds = p.stage_kinds()
+    np.testing.assert_array_equal(kinds, [1, 1, 1, 1, -1, -1, -1])
     u_grid = np.linspace(-1.0, 1.0, 7).astype(np.float32).astype(np.float64)
-    choices = [u_grid if a else np.zeros(1) for a in active]
+    choices = [stage_splits(k, u_grid) for k in kinds]
+    assert [c.size for c in choices] == [7] * 4 + [4] * 3
     seqs = np.array(list(itertools.product(*choices)))
     st = np.repeat(p.state0[None, :], len(seqs), axis=0)
     cost = np.zeros(len(seqs))

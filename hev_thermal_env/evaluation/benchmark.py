@@ -41,7 +41,7 @@ from .yardstick import REFERENCE, add_yardstick_columns, with_reference
 
 DEFAULT_CYCLES = ("hwfet", "beijing")
 DEFAULT_SCENARIOS = ("paper",)
-DEFAULT_STRATEGIES = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
+DEFAULT_STRATEGIES = ("conventional", "engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
 REFERENCE_ADDED_NOTE = f"{REFERENCE} was added to the strategies: it is the reference of both ratios."
 TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", SPLIT_INFO_KEY,
               "motor_torque_nm", "engine_torque_nm", "fuel_g", "missed_wheel_energy_j", "motor_cutoff",

@@ -1,8 +1,9 @@
 """The look shared by every figure: the pyplot door, the order and colours of the strategies, legends outside.
 
-Strategies go from the simplest to the optimum (:data:`STRATEGY_ORDER`; other names before DP), then the
-learned policies (``ppo``, ``ppo:PATH``, seed families passed as ``learned``) in warm colours with thicker
-lines. A strategy has the same colour in every figure; ``dp`` is labelled thermal-blind (:func:`short_label`).
+Strategies go from the simplest to the optimum (:data:`STRATEGY_ORDER`, led by ``conventional``, the reference
+vehicle; other names before DP), then the learned policies (``ppo``, ``ppo:PATH``, seed families passed as
+``learned``) in warm colours with thicker lines. A strategy has the same colour in every figure; ``dp`` is labelled
+thermal-blind (:func:`short_label`).
 """
 
 from __future__ import annotations
@@ -19,15 +20,15 @@ from .yardstick import display_name
 
 NON_INTERACTIVE_BACKENDS = ("agg", "pdf", "svg", "ps", "cairo")
 
-#: Classic strategies from the simplest to the optimum.
-STRATEGY_ORDER = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")
+#: Classic strategies from the simplest to the optimum (``conventional`` first: another vehicle, the reference row).
+STRATEGY_ORDER = ("conventional", "engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")
 #: Strategies whose names start with one of these are learned policies (``ppo``, ``ppo:PATH``).
 LEARNED_PREFIXES = ("ppo",)
 #: Strategies that are the optimum (the reference of the fuel ratio).
 OPTIMUM = ("dp", "dp_thermal")
 
-_CLASSIC_COLOURS = {"engine_only": "#8c564b", "rule": "#bcbd22", "ecms": "#1f77b4", "aecms": "#17becf",
-                    "ecms_thermal": "#9467bd", "dp": "#000000", "dp_thermal": "#7f7f7f"}
+_CLASSIC_COLOURS = {"conventional": "#393b79", "engine_only": "#8c564b", "rule": "#bcbd22", "ecms": "#1f77b4",
+                    "aecms": "#17becf", "ecms_thermal": "#9467bd", "dp": "#000000", "dp_thermal": "#7f7f7f"}
 _OTHER_COLOURS = ("#2ca02c", "#98df8a", "#aec7e8", "#c5b0d5", "#c49c94")
 _LEARNED_COLOURS = ("#d62728", "#ff7f0e", "#e377c2", "#8b0000", "#ff9896")
 LEARNED_BAND_COLOUR = "#fde0dd"

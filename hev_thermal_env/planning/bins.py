@@ -1,9 +1,9 @@
 """The thermal optimum's bins: which of a stage's candidate states survive (:mod:`.search`).
 
-A candidate's bin is floor(state / width) per key column (SOC, winding, housing and coolant temperature, heat index,
-cutoff flag), packed into one 64-bit key. In each occupied bin at most three states survive (:func:`keep_best_per_bin`);
-then, within each SOC bin, a state is dropped when a cheaper one lies in a cooler thermal bin
-(:func:`pareto_per_soc_bin`).
+A candidate's bin is floor(state / width) per key column (SOC, the motor's (stator/housing), winding and coolant
+temperature, heat index, the cutoff and winding-trip flags), packed into one 64-bit key. In each occupied bin at most
+three states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped when a cheaper one lies
+in a cooler thermal bin (:func:`pareto_per_soc_bin`).
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from hev_thermal_env.physics.jit import jit
 
 #: State columns the search bins on, in key order, and the bits each gets in the 64-bit key (63 in all): a
 #: column's bin index must lie within ±2^(bits-1), which :func:`.search.check_key_range` enforces (SOC: ±2^20 bins, so
-#: bins down to 10⁻⁶ of SOC; temperatures ±512 bins; heat index ±1,024 bins).
-KEY_COLUMNS = (C.SOC, C.TEMP_C, C.WINDING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF)
-KEY_BITS = (21, 10, 10, 10, 11, 1)
+#: bins down to 10⁻⁶ of SOC; temperatures and heat index ±512 bins).
+KEY_COLUMNS = (C.SOC, C.TEMP_C, C.WINDING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF, C.WINDING_TRIP)
+KEY_BITS = (21, 10, 10, 10, 10, 1, 1)
 _KEY_COLS = np.array(KEY_COLUMNS, dtype=np.int64)
 _BITS = np.array(KEY_BITS, dtype=np.int64)
 
@@ -71,10 +71,10 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bi
 
 @jit
 def hotness(states, b):
-    """One number for "cooler" within a bin: winding + housing + half the coolant temperature (K), plus 20 K per
-    unit heat index and 100 K when cut off (row ``b`` of ``states``)."""
+    """One number for "cooler" within a bin: motor (stator/housing) + winding + half the coolant temperature (K), plus
+    20 K per unit heat index and 100 K for each protection that has stopped the motor (row ``b`` of ``states``)."""
     return (states[b, C.TEMP_C] + states[b, C.WINDING_C] + 0.5 * states[b, C.COOLANT_C] + 20.0 * states[b, C.HEAT_X]
-            + 100.0 * states[b, C.CUTOFF])
+            + 100.0 * (states[b, C.CUTOFF] + states[b, C.WINDING_TRIP]))
 
 
 @jit
@@ -123,9 +123,9 @@ def pareto_per_soc_bin(soc_bin, q, order, keep):
     """Drop every state dominated within its SOC bin; returns how many survive (written to ``keep``).
 
     ``order`` sorts the rows by (SOC bin, adjusted cost). A row is dominated when a cheaper row of its SOC bin lies in a
-    cooler thermal bin: no hotter in any of ``q``'s columns (bin indices: winding, housing, coolant, heat index, cutoff)
-    and cooler in one; rows of the same bin do not dominate each other. Cooler is never worse in this physics (less
-    derate, lower copper loss, stronger magnets, no cutoff).
+    cooler thermal bin: no hotter in any of ``q``'s columns (bin indices: motor, winding, coolant, heat index, cutoff,
+    winding trip) and cooler in one; rows of the same bin do not dominate each other. Cooler is never worse in this
+    physics (less derate, lower copper loss, stronger magnets, no protection tripped).
     """
     n = order.shape[0]
     d_count = q.shape[1]

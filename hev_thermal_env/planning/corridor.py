@@ -2,9 +2,9 @@
 
 Each stage's SOC grid spans only the SOCs that are reachable from the start and from which the final-SOC band is still
 reachable (:func:`corridor`), so the grid's resolution goes where paths can be and the final-SOC constraint is exact
-instead of a smeared penalty wall. Forward, the SOC after u = +1 (most discharge) and u = −1 (most charge) from the
-start; backward, the SOC from which u = −1 / u = +1 just reaches the band's lower / upper edge (solved per stage by a
-fixed-point iteration on the physics step).
+instead of a smeared penalty wall. Forward, the SOC after the most discharge and the most charge the action allows
+(:func:`extreme_actions`) from the start; backward, the SOC from which the most charge / discharge just reaches the
+band's lower / upper edge (solved per stage by a fixed-point iteration on the physics step).
 """
 
 from __future__ import annotations
@@ -15,47 +15,53 @@ import numpy as np
 
 from hev_thermal_env.physics import core as C
 
-from .problem import DPInfeasibleError, DPProblem
+from .problem import BRAKING, TRACTION, DPInfeasibleError, DPProblem
+
+
+def extreme_actions(problem: DPProblem) -> np.ndarray:
+    """Per stage [n_stages, 2], the action of the most discharge and of the most charge: in traction u = +1 (the motor
+    asked for the whole demand) and u = −1 (the engine up to twice the demand or its full load); while braking u = 0
+    (no regeneration, the spinning motor's loss drawn from the battery) and u = 1 (all the available regeneration)."""
+    kind = problem.stage_kinds()
+    discharge = np.where(kind == TRACTION, 1.0, 0.0)
+    charge = np.where(kind == TRACTION, -1.0, np.where(kind == BRAKING, 1.0, 0.0))
+    return np.column_stack([discharge, charge])
 
 
 def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest and highest SOC reachable at each stage from the start: u = +1 and u = −1 throughout.
-
-    u = +1 asks the motor for the whole demand (the most discharge the action allows), u = −1 the most charge (the
-    engine up to twice the demand or its full load); regeneration is the same for both. The other state columns follow
-    ``held`` (the planning model).
-    """
+    """Lowest and highest SOC reachable at each stage from the start: the most discharge and the most charge
+    throughout (:func:`extreme_actions`). The other state columns follow ``held`` (the planning model)."""
     n = problem.n_stages
     st = np.repeat(problem.state0[None, :], 2, axis=0)
-    a = np.array([1.0, -1.0])
+    a = extreme_actions(problem)
     lo = np.empty(n + 1)
     hi = np.empty(n + 1)
     lo[0] = hi[0] = problem.state0[C.SOC]
     for i in range(n):
         st[:] = held[i]
         st[0, C.SOC], st[1, C.SOC] = lo[i], hi[i]
-        so, _ = problem.step(st, a, i)
+        so, _ = problem.step(st, a[i], i)
         lo[i + 1], hi[i + 1] = so[0, C.SOC], so[1, C.SOC]
     return lo, hi
 
 
 def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest / highest SOC at each stage from which u = −1 / u = +1 throughout still reaches the band (three
-    fixed-point iterations per stage)."""
+    """Lowest / highest SOC at each stage from which the most charge / the most discharge throughout
+    (:func:`extreme_actions`) still reaches the band (three fixed-point iterations per stage)."""
     n = problem.n_stages
     bat = problem.core.config.battery
     lo = np.empty(n + 1)
     hi = np.empty(n + 1)
     lo[n], hi[n] = band
     st = np.empty((2, C.N_STATE))
-    a = np.array([-1.0, 1.0])
+    a = extreme_actions(problem)[:, ::-1].copy()  # row 0 charges (towards the lower edge), row 1 discharges
     for i in range(n - 1, -1, -1):
         target = np.array([lo[i + 1], hi[i + 1]])
         guess = target.copy()
         for _ in range(3):
             st[:] = held[i]
             st[:, C.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
-            so, _ = problem.step(st, a, i)
+            so, _ = problem.step(st, a[i], i)
             guess = target - (so[:, C.SOC] - st[:, C.SOC])
         lo[i] = bat.soc_min if target[0] <= bat.soc_min + 1e-12 else min(max(guess[0], bat.soc_min), bat.soc_max)
         hi[i] = bat.soc_max if target[1] >= bat.soc_max - 1e-12 else min(max(guess[1], bat.soc_min), bat.soc_max)

@@ -14,6 +14,11 @@ import numpy as np
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.physics import core as C
 
+#: What the action governs at a stage (:meth:`DPProblem.stage_kinds`), by the sign of the shaft demand: the split of a
+#: positive demand (u ∈ [-1, 1]); while braking the share u > 0 of the available regeneration (u ≤ 0: friction alone,
+#: the same as u = 0); nothing at standstill or zero demand.
+TRACTION, BRAKING, IDLE = 1, -1, 0
+
 
 class DPInfeasibleError(ValueError):
     """No control sequence reaches the final-SOC band on this cycle from this start."""
@@ -22,6 +27,22 @@ class DPInfeasibleError(ValueError):
 def default_threads() -> int:
     """Threads for large batched physics calls (DP stages): the machine's cores, at most 8."""
     return max(1, min(os.cpu_count() or 1, 8))
+
+
+def split_grid(n: int) -> np.ndarray:
+    """``n`` splits evenly over [-1, 1], and u = 0 (the motor unused) if that grid misses it."""
+    u = np.linspace(-1.0, 1.0, int(n))
+    return u if np.any(u == 0.0) else np.sort(np.r_[u, 0.0])
+
+
+def stage_splits(kind: int, u: np.ndarray) -> np.ndarray:
+    """The splits of ``u`` worth trying at a stage of ``kind``: all in traction; while braking the shares in [0, 1]
+    (u < 0 brakes like u = 0, which is kept); u = 0 where the action has no effect."""
+    if kind == TRACTION:
+        return u
+    if kind == BRAKING:
+        return np.unique(np.r_[0.0, u[u > 0.0]])
+    return np.zeros(1)
 
 
 def argmin_small_action(cost: np.ndarray, actions: np.ndarray, tol_g: float = 1e-9) -> int:
@@ -80,10 +101,11 @@ class DPProblem:
         v0, v1, g = self.stage_inputs(i, states.shape[0])
         return self.core.step(states, actions, v0, v1, g, self.cond)
 
-    def demand_positive(self) -> np.ndarray:
-        """Whether the shaft demand of each stage is positive (else the action has no effect)."""
+    def stage_kinds(self) -> np.ndarray:
+        """Per stage :data:`TRACTION`, :data:`BRAKING` or :data:`IDLE`: the sign of its shaft demand, which the state
+        does not change (the gear follows the speed and the road load)."""
         n = self.n_stages
         k = self.k0
         _, out = self.core.step(np.repeat(self.state0[None, :], n, axis=0), 0.0, self.speed_mps[k:-1],
                                 self.speed_mps[k + 1:], self.grade[k:k + n], self.cond)
-        return out[:, C.SHAFT_DEMAND] > 0.0
+        return np.sign(out[:, C.SHAFT_DEMAND]).astype(np.int64)

@@ -2,8 +2,9 @@
 
 Backward recursion over the stages on a grid of SOC states, the thermal state held at its initial value: thermal-blind,
 so where heat binds (``hot``, ``summer``, long climbs) not an optimum (the yardstick is :mod:`.thermal_optimum`). Each
-stage is ONE batched call of the physics step (split over threads) for every grid state × every split u (once per grid
-state where the demand is not positive).
+stage is ONE batched call of the physics step (split over threads) for every grid state × every split the stage offers
+(:func:`~.problem.stage_splits`: the ``n_u`` splits in traction, their shares in [0, 1] while braking, one where the
+action has no effect).
 
 Cost (g of fuel equivalent, the env's reward, :func:`~hev_thermal_env.envs.reward.stage_cost_g`): fuel, missed wheel
 energy and battery energy at the reward's prices, so DP minimises the corrected fuel; ``price_soc_deviation`` adds the
@@ -14,7 +15,7 @@ grid points would diffuse back through the stages (the SOC moves far less than a
 ``n_soc`` points span exactly its corridor (:mod:`.corridor`), and beyond the grid's ends the cost-to-go continues with
 the slope :data:`WALL_G_PER_SOC`. An unreachable band raises :class:`~.problem.DPInfeasibleError`;
 ``on_infeasible="closest"`` plans for the nearest reachable one. At each real step :func:`choose` picks among a finer u
-grid from the actual state, by stage cost plus interpolated cost-to-go.
+grid (its shares while braking) from the actual state, by stage cost plus interpolated cost-to-go.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.jit import jit
 
 from .corridor import corridor
-from .problem import DPProblem, argmin_small_action, default_threads
+from .problem import IDLE, DPProblem, argmin_small_action, default_threads, split_grid, stage_splits
 
 #: Beyond the corridor's ends the cost-to-go continues with this slope (g per unit SOC).
 WALL_G_PER_SOC = 1e6
@@ -126,16 +127,17 @@ def _backward(problem: DPProblem, s: DPSettings, soc_lo: np.ndarray, soc_hi: np.
     """The cost-to-go [n_stages + 1, n_soc] on the corridor grids, and the vehicle-steps evaluated."""
     n_stages, n_soc = problem.n_stages, s.n_soc
     unit = np.linspace(0.0, 1.0, n_soc)
-    big, small = _Batch(problem, unit, np.linspace(-1.0, 1.0, s.n_u)), _Batch(problem, unit, np.zeros(1))
+    kinds = problem.stage_kinds()
+    u = split_grid(s.n_u)
+    batches = {k: _Batch(problem, unit, stage_splits(k, u)) for k in np.unique(kinds).tolist()}
     J = np.empty((n_stages + 1, n_soc))
     J[n_stages] = 0.0  # the last stage's grid lies inside the band
     if s.price_soc_deviation:  # the reward's band settlement adds up to a charge on the final SOC: paid there
         final_soc = soc_lo[-1] + unit * (soc_hi[-1] - soc_lo[-1])
         J[n_stages] = soc_band_charge_g(problem.reward_params, final_soc, problem.soc_target)
-    active = problem.demand_positive()
     n_evals = 0
     for i in range(n_stages - 1, -1, -1):
-        b = big if active[i] else small
+        b = batches[int(kinds[i])]
         b.x[:, C.SOC] = soc_lo[i] + b.frac * (soc_hi[i] - soc_lo[i])
         v0, v1, g = problem.stage_inputs(i, b.x.shape[0])
         problem.core.step(b.x, b.a, v0, v1, g, b.cond, state_out=b.so, out=b.out, threads=threads)
@@ -179,23 +181,18 @@ def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: boo
     ``free=False`` holds the thermal state at the start's (the planning model: the plan's own prediction, reported by
     the ``dp`` strategy); ``free=True`` lets the whole state evolve (as the environment would).
     """
-    u_exec = np.linspace(-1.0, 1.0, settings.n_u_exec)
+    u_exec = split_grid(settings.n_u_exec)
     n = plan.n_stages
     st = problem.state0.copy()
     states = np.empty((n + 1, C.N_STATE))
     outs = np.empty((n, C.N_OUT))
     us = np.empty(n)
     states[0] = st
-    m = len(u_exec)
-    idle = int(np.argmin(np.abs(u_exec)))  # the action has no effect: report u = 0
-    cond = np.repeat(problem.cond[None, :], m, axis=0)
-    so = np.empty((m, C.N_STATE))
-    out = np.empty((m, C.N_OUT))
+    kinds = problem.stage_kinds()
     for i in range(n):
-        x = np.repeat(st[None, :], m, axis=0)
-        v0, v1, g = problem.stage_inputs(i, m)
-        problem.core.step(x, u_exec, v0, v1, g, cond, state_out=so, out=out)
-        j = choose(plan, i, so, out, problem, settings, u_exec) if out[0, C.SHAFT_DEMAND] > 0.0 else idle
+        cand = stage_splits(int(kinds[i]), u_exec)
+        so, out = problem.step(np.repeat(st[None, :], cand.size, axis=0), cand, i)
+        j = 0 if kinds[i] == IDLE else choose(plan, i, so, out, problem, settings, cand)
         st = so[j].copy()
         if not free:  # the thermal state held at the start's
             soc = st[C.SOC]
@@ -203,5 +200,5 @@ def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: boo
             st[C.SOC] = soc
         states[i + 1] = st
         outs[i] = out[j]
-        us[i] = u_exec[j]
+        us[i] = cand[j]
     return {"state": states, "out": outs, "u": us}
