@@ -18,7 +18,7 @@ ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": T
 
 def test_demonstrations_are_the_teachers_own_run_on_fresh_training_cycles():
     obs, actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5)
-    assert obs.shape == (2 * 1300, 20) and obs.dtype == np.float32 and actions.shape == (2 * 1300,)
+    assert obs.shape == (2 * 1300, 21) and obs.dtype == np.float32 and actions.shape == (2 * 1300,)
     assert np.all(np.abs(actions) <= 1.0) and np.mean(actions == 1.0) > 0.05  # the teacher does stop the engine
     again, same = demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5)
     np.testing.assert_array_equal(obs, again)

@@ -313,8 +313,10 @@ def test_on_the_charge_sustaining_optimum_the_return_is_minus_the_corrected_fuel
     corrected_g = m["fuel_corrected_l_per_100km"] * paper_bus().engine.fuel_density_kg_per_l * dist_m / 100.0
     fuel_miss_soc = terms[:, :3].sum()
     assert fuel_miss_soc == pytest.approx(-corrected_g, rel=1e-9)
-    # DP planned what the reward charges: the band settlement, charged on the final SOC, is no free lunch
-    assert res["plan"].lookup(0, p.state0[None, :])[0] == pytest.approx(-terms.sum(), rel=3e-3)
+    # DP planned what the reward charges: the band settlement, charged on the final SOC, is no free lunch (the plan's
+    # grid of splits and braking shares is coarser than the execution's, which can only do better: 0.37 % on UDDS)
+    planned = res["plan"].lookup(0, p.state0[None, :])[0]
+    assert -terms.sum() <= planned * (1 + 1e-9) and planned == pytest.approx(-terms.sum(), rel=5e-3)
 
 
 def test_the_shipped_training_config_trains_on_the_env_default_reward():

@@ -80,7 +80,7 @@ def test_smoke_run_writes_the_zoo_layout(tiny_run):
     cfg = load_run_config(tiny_run)
     assert cfg["algo"] == "ppo" and cfg["seed"] == 3 and cfg["total_timesteps"] == 1024 and cfg["n_envs"] == 4
     assert cfg["env"]["cycles"] == ["random_bus", "bus_launch"] and cfg["env"]["scenario"] == "random_service"
-    assert cfg["env"]["preview_s"] == 10 and cfg["env"]["observation_size"] == 20
+    assert cfg["env"]["preview_s"] == 10 and cfg["env"]["observation_size"] == 21
     assert cfg["hyperparams"]["n_steps"] == 64 and cfg["hyperparams"]["policy_kwargs"]["net_arch"] == [16, 16]
     assert {"torch", "stable_baselines3", "gymnasium", "hev_thermal_env"} <= set(cfg["versions"])
     res = cfg["result"]
@@ -297,6 +297,6 @@ def test_evaluate_reports_a_model_trained_with_another_preview(tiny_run, tmp_pat
 def test_model_with_another_observation_size_is_rejected(tmp_path, capsys):
     out = tmp_path / "p4"
     assert train.main(train_args(out, 256, "--eval-cycles", hp=("env.preview_s=4",))) == 0
-    assert load_run_config(out)["env"]["observation_size"] == 17
+    assert load_run_config(out)["env"]["observation_size"] == 18
     line = _evaluate_ppo(f"ppo:{out}", capsys)
-    assert "expects 17 observation entries, the env gives 20" in line and "preview_s=4" in line
+    assert "expects 18 observation entries, the env gives 21" in line and "preview_s=4" in line
