@@ -2,7 +2,7 @@
 benchmark and ``evaluate.py run``). Panels, top to bottom: the cycle's speed (thick, light) and each strategy's;
 the cumulative missed wheel energy; SOC; motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the
 motor comes near them (a mark wherever a motor is cut off); the heat index; the split, one strip per strategy
-(colour = motor share u, grey where no traction torque is demanded). :func:`plot_benchmark` draws one per cycle and
+(colour = motor share u; green: the regeneration share while braking; grey where no torque is demanded). :func:`plot_benchmark` draws one per cycle and
 scenario (a seed family as its member nearest the IQM) and the fuel chart (:mod:`.fuel_chart`).
 """
 
@@ -122,32 +122,37 @@ def _temperature_panel(ax, traces, labels, styles) -> list:
 
 
 def _split_panel(fig, ax, traces, labels, styles) -> None:
-    """One strip per strategy: u in colour, grey where no traction torque is demanded."""
+    """One strip per strategy: u in colour while the shaft pulls, the regeneration share u (0-1) in green while it
+    brakes, grey where no torque is demanded."""
     from matplotlib.colors import ListedColormap
 
     t_all = [_time(traces[label]) for label in labels]
     t0, t1 = min(float(t[0]) for t in t_all), max(float(t[-1]) for t in t_all)
     n_cols = int(round(t1 - t0)) + 1
     grid = np.full((len(labels), n_cols), np.nan)
+    regen = np.full((len(labels), n_cols), np.nan)
     idle = np.zeros((len(labels), n_cols))
     for i, (label, t) in enumerate(zip(labels, t_all)):
         tr = traces[label]
         col = np.clip(np.round(t - t0).astype(int), 0, n_cols - 1)
-        grid[i, col] = _series(tr, SPLIT_INFO_KEY)
+        u = _series(tr, SPLIT_INFO_KEY)
+        grid[i, col] = u
         demand = _series(tr, "shaft_torque_demand_nm")
         if demand is not None:
-            no_traction = demand <= 0.0
-            grid[i, col[no_traction]] = np.nan
-            idle[i, col[no_traction]] = 1.0
+            braking, standing = demand < 0.0, demand == 0.0
+            grid[i, col[demand <= 0.0]] = np.nan
+            regen[i, col[braking]] = np.clip(u[braking], 0.0, 1.0)
+            idle[i, col[standing]] = 1.0
     extent = (t0 - 0.5, t1 + 0.5, len(labels) - 0.5, -0.5)
     ax.imshow(np.where(idle > 0, 1.0, np.nan), aspect="auto", extent=extent, interpolation="nearest",
               cmap=ListedColormap(["#e0e0e0"]), vmin=0, vmax=1)
+    ax.imshow(regen, aspect="auto", extent=extent, interpolation="nearest", cmap="Greens", vmin=-0.15, vmax=1.0)
     img = ax.imshow(grid, aspect="auto", extent=extent, interpolation="nearest", cmap="RdBu_r", vmin=-1.0, vmax=1.0)
     ax.set_yticks(range(len(labels)), [short_label(x) for x in labels], fontsize=8)
     for tick, label in zip(ax.get_yticklabels(), labels):
         tick.set_color(styles[label]["color"])
-    ax.set_title("torque split u per strategy (red: motor assists, blue: engine charges the battery, "
-                 "grey: braking or standing, u has no effect)", fontsize=10)
+    ax.set_title("torque split u (red: motor assists, blue: engine charges; braking: green = share of regeneration "
+                 "taken; grey: no torque)", fontsize=10)
     cbar = fig.colorbar(img, ax=ax, fraction=0.03, pad=0.01, ticks=[-1, 0, 1])
     cbar.ax.set_yticklabels(["-1 charge", "0", "+1 motor"], fontsize=7)
 
