@@ -94,6 +94,13 @@ def test_benchmark_parallel_equals_serial_byte_for_byte(tiny_cycles, tmp_path):
         assert a == (tmp_path / "again" / f).read_bytes(), f
 
 
+def _sigint_default() -> None:
+    """In the child before it starts: SIGINT back to its default. A suite started in the background by a shell
+    without job control runs with SIGINT ignored, a child inherits that, and Python then keeps it ignored (as a
+    user's ``cmd &`` would want); these tests are about a terminal's Ctrl-C."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize("jobs", ["2", "1"])
 def test_ctrl_c_in_the_benchmark_prints_one_line(tiny_cycles, tmp_path, jobs):
     """SIGINT while the runs are in progress (``--jobs 1``: in this process, its kernels compiling, the optimum
@@ -104,7 +111,7 @@ def test_ctrl_c_in_the_benchmark_prints_one_line(tiny_cycles, tmp_path, jobs):
         proc = subprocess.Popen([sys.executable, str(ROOT / "evaluate.py"), "benchmark", "--cycles", tiny_cycles[0],
                                  "--strategies", "dp_thermal", "rule", "--jobs", jobs, "--no-plots",
                                  "--out", str(tmp_path / "out")], cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
-                                stderr=err)
+                                stderr=err, preexec_fn=_sigint_default)
         try:
             deadline = time.monotonic() + 120
             while "running" not in err_path.read_text(errors="replace") and time.monotonic() < deadline:
@@ -167,7 +174,7 @@ def test_ctrl_c_inside_a_call_from_c_is_not_lost(tmp_path, where):
     script.write_text(CTRL_C_IN_A_CALLBACK)
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PYTHONPATH": str(ROOT)}
     r = subprocess.run([sys.executable, str(script), where], capture_output=True, text=True, cwd=tmp_path, env=env,
-                       timeout=120)
+                       timeout=120, preexec_fn=_sigint_default)
     assert (r.returncode, r.stderr) == (130, "interrupted\n")
 
 
