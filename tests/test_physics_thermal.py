@@ -215,7 +215,8 @@ def test_ram_air_and_fan_raise_the_radiator_heat_flow():
     hot = th.fan_on_temp_c + th.fan_band_k
     assert q_radiator(hot, 0.0, 1.0) > q_radiator(hot, 0.0, 0.0)  # fan; 0: a failed fan
     # a failed fan at standstill: the still-air UA through the ε-NTU of the open valve's flow
-    ua_still = th.radiator_ua_w_per_k * (th.still_air_speed_mps / th.radiator_ref_air_speed_mps) ** th.radiator_air_exponent
+    still_face = th.still_air_speed_mps / th.radiator_ref_air_speed_mps
+    ua_still = th.radiator_ua_w_per_k * still_face ** th.radiator_air_exponent
     g_still, _, _ = expected(hot, ua_still)
     assert q_radiator(hot, 0.0, 0.0) / (hot - 20.0) == pytest.approx(g_still, rel=0.05)
 

@@ -2,8 +2,9 @@
 benchmark and ``evaluate.py run``). Panels, top to bottom: the cycle's speed (thick, light) and each strategy's;
 the cumulative missed wheel energy; SOC; motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the
 motor comes near them (a mark wherever a motor is cut off); the heat index; the split, one strip per strategy
-(colour = motor share u; green: the regeneration share while braking; grey where no torque is demanded). :func:`plot_benchmark` draws one per cycle and
-scenario (a seed family as its member nearest the IQM) and the fuel chart (:mod:`.fuel_chart`).
+(colour = motor share u; green: the regeneration share while braking; grey where no torque is demanded).
+:func:`plot_benchmark` draws one per cycle and scenario (a seed family as its member nearest the IQM) and the fuel
+chart (:mod:`.fuel_chart`).
 """
 
 from __future__ import annotations
