@@ -2,7 +2,8 @@
 
 The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job and module:
 ``benchmark`` (strategies × cycles × scenarios or a named task, table + plots), ``run`` (one strategy on one cycle),
-``paper`` (the paper reproduction report) and ``performance`` (the paper's Table 3).
+``paper`` (the paper reproduction report), ``performance`` (the paper's Table 3), ``reference`` (a task's reference
+values), ``dataset`` (an offline dataset) and ``leaderboard`` (every method on every task).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from .parsing import HelpFormatter, OneLineErrorParser, examples
 
 #: The subcommands, each a module of this package with ``add_parser(subparsers)`` and ``main(args) -> int``,
 #: imported by :func:`build_parser` (so that a Ctrl-C while they load is reported in one line).
-SUBCOMMANDS = ("benchmark", "run", "paper", "performance")
+SUBCOMMANDS = ("benchmark", "run", "paper", "performance", "reference", "dataset", "leaderboard")
 
 EXAMPLES = (
     "python evaluate.py benchmark --out results                  # shipped PPO + classic strategies",
@@ -25,6 +26,7 @@ EXAMPLES = (
     "python evaluate.py run --cycle hwfet --strategy ecms --json r.json --trace r.csv --plot r.png",
     "python evaluate.py paper --out results/paper",
     "python evaluate.py performance --initial-motor-temp-c 50 --coolant off",
+    "python evaluate.py leaderboard --out docs/leaderboard.md",
 )
 
 

@@ -15,14 +15,17 @@ from pathlib import Path
 from typing import Any
 
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
+from hev_thermal_env.physics import paper_bus
 from hev_thermal_env.stats import CONFIDENCE
 
 from .families import OVERALL
 from .runner import jsonable
+from .score import ANCHOR, ILL_CONDITIONED, ILL_CONDITIONED_BELOW, add_score_columns, score_text, strategy_aggregates
 from .yardstick import REFERENCE, display_name
 
 COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "fuel_g", "fuel_l_per_100km",
-           "fuel_corrected_l_per_100km", "cost_g", "frontier_ratio", "frontier_ratio_ci_low", "frontier_ratio_ci_high",
+           "fuel_corrected_l_per_100km", "cost_g", "overheat_g", "frontier_ratio", "frontier_ratio_ci_low",
+           "frontier_ratio_ci_high", "score", "score_ci_low", "score_ci_high", "score_anchor_ratio", "score_note",
            "fixed_price_ratio", "fixed_price_ratio_ci_low", "fixed_price_ratio_ci_high",
            "fuel_vs_thermal_blind_dp_pct", "reference", "charge_sustaining", "net_energy_ratio",
            "soc_correction_l_per_100km", "miss_correction_l_per_100km", "missed_wheel_energy_kwh", "soc_initial",
@@ -30,18 +33,24 @@ COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "f
            "frontier_note")
 """Columns of ``results.csv`` and ``results.json``, in order."""
 
-MD_HEAD = ("cycle", "scenario", "strategy", "fuel L/100 km", "corrected L/100 km", "frontier ratio",
-           "fixed-price ratio", "vs dp (thermal-blind)", "J1711 charge-sustaining", "SOC start → end", "max motor °C",
-           "heat index max", "derated s", "cutoff s", "missed kWh")
+FUEL_DENSITY_G_PER_L = 1000.0 * paper_bus().engine.fuel_density_kg_per_l
+
+MD_HEAD = ("cycle", "scenario", "strategy", "fuel L/100 km", "corrected L/100 km", "frontier ratio", "score",
+           "overheat share of cost", "fixed-price ratio", "vs dp (thermal-blind)", "J1711 charge-sustaining",
+           "SOC start → end", "max motor °C", "heat index max", "derated s", "cutoff s", "missed kWh")
 
 EXPLANATION = (
     "*frontier ratio*: the run's cost (fuel + missed wheel energy at the miss price + overheat terms, no "
     "battery price; g) over the thermal optimum's cost at the same final SOC (its frontier, linearly "
-    "interpolated): 1 is the optimum. *fixed-price ratio*: corrected fuel (battery energy at the fixed "
-    f"price) over the {REFERENCE} run's. *vs dp (thermal-blind)*: corrected fuel as a percentage of `dp`'s, "
-    "whose plan holds the thermal state at its start (labelled thermal-blind everywhere). *J1711*: SAE J1711 "
-    "charge-sustaining test, |net battery energy| ≤ 1 % of the fuel energy; in brackets the signed ratio "
-    "(positive: the battery ends with less energy). See docs/metrics.md.")
+    "interpolated): 1 is the optimum. *score*: the normalised score, 100 · (r0 − r) / (r0 − 1) with r the frontier "
+    f"ratio and r0 {ANCHOR}'s on the same cycle and scenario: 0 = {ANCHOR}, 100 = the thermal optimum, never "
+    f"clipped; marked ill-conditioned (and left out of aggregates) where r0 − 1 < {ILL_CONDITIONED_BELOW}. "
+    "*overheat share of cost*: the overheat terms' share of the cost (the rest is fuel and missed wheel energy; "
+    "*corrected L/100 km* is the fuel at equal charge and service on its own). *fixed-price ratio*: corrected fuel "
+    f"(battery energy at the fixed price) over the {REFERENCE} run's. *vs dp (thermal-blind)*: corrected fuel as a "
+    "percentage of `dp`'s, whose plan holds the thermal state at its start (labelled thermal-blind everywhere). "
+    "*J1711*: SAE J1711 charge-sustaining test, |net battery energy| ≤ 1 % of the fuel energy; in brackets the signed "
+    "ratio (positive: the battery ends with less energy). See docs/metrics.md.")
 
 
 def _fmt(v: Any) -> str:
@@ -54,7 +63,11 @@ def _fmt(v: Any) -> str:
 
 def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[str] = ()) -> None:
     """Write the four files of ``rows`` (run rows, then family rows) into ``out``; ``notes``: extra lines for
-    ``results.md`` (e.g. that the reference was added)."""
+    ``results.md`` (e.g. that the reference was added). Fills each row's normalised score (:mod:`.score`) and
+    ``overheat_g`` first."""
+    add_score_columns(rows, _is_family_row)
+    for r in rows:
+        r["overheat_g"] = overheat_g(r)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(COLUMNS)
@@ -66,6 +79,25 @@ def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[st
         {"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
         for r in rows if not _is_family_row(r)]})
     atomic_write_text(out / "results.md", markdown(rows, notes))
+
+
+def overheat_g(r: dict) -> float | None:
+    """The overheat terms of a run's cost (g): ``cost_g`` less the fuel and the missed wheel energy at its price."""
+    need = ("cost_g", "fuel_g", "miss_correction_l_per_100km", "distance_km")
+    if _is_family_row(r) or any(r.get(k) is None for k in need):
+        return None
+    miss_g = r["miss_correction_l_per_100km"] * r["distance_km"] / 100.0 * FUEL_DENSITY_G_PER_L
+    return max(0.0, float(r["cost_g"]) - float(r["fuel_g"]) - miss_g)
+
+
+def _share_cell(r: dict) -> str:
+    heat = r.get("overheat_g")
+    return "-" if heat is None or not r.get("cost_g") else f"{100.0 * heat / r['cost_g']:.0f} %"
+
+
+def _score_cell(r: dict) -> str:
+    text = score_text(r.get("score"), r.get("score_ci_low"), r.get("score_ci_high"))
+    return f"{text} (ill-cond.)" if (r.get("score_note") or "").startswith(ILL_CONDITIONED) else text
 
 
 def _is_family_row(r: dict) -> bool:
@@ -92,8 +124,9 @@ def _j1711_cell(r: dict) -> str:
 def _run_line(r: dict) -> list[str]:
     pct = r.get("fuel_vs_thermal_blind_dp_pct")
     return [r["cycle"], r["scenario"], display_name(r["strategy"]), f"{r['fuel_l_per_100km']:.2f}",
-            f"{r['fuel_corrected_l_per_100km']:.2f}", ratio_text(r, "frontier_ratio"),
-            ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
+            f"{r['fuel_corrected_l_per_100km']:.2f}", ratio_text(r, "frontier_ratio"), _score_cell(r),
+            _share_cell(r), ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-",
+            _j1711_cell(r),
             f"{r['soc_initial']:.3f} → {r['soc_final']:.3f}", f"{r['max_motor_temp_c']:.1f}",
             f"{r['heat_index_max']:.2f}", f"{r['derated_s']:.0f}", f"{r['cutoff_s']:.0f}",
             f"{r['missed_wheel_energy_kwh']:.3f}"]
@@ -102,7 +135,7 @@ def _run_line(r: dict) -> list[str]:
 def _family_line(r: dict) -> list[str]:
     fuel = r.get("fuel_corrected_l_per_100km")
     return [r["cycle"], r["scenario"], f"**{r['strategy']}** (IQM of {r['seeds']} seeds)", "-",
-            f"{fuel:.2f}" if fuel is not None else "-", ratio_text(r, "frontier_ratio"),
+            f"{fuel:.2f}" if fuel is not None else "-", ratio_text(r, "frontier_ratio"), _score_cell(r), "-",
             ratio_text(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-"]
 
 
@@ -119,9 +152,11 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
     if overall:
         md += ["", f"Seed families over every cycle × scenario (IQM over seeds and cycles × scenarios, "
                    f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval):", ""]
-        md += _table(("family", "seeds", "runs", "frontier ratio", "fixed-price ratio", "J1711 charge-sustaining"),
-                     [[r["strategy"], str(r["seeds"]), str(r["runs"]), ratio_text(r, "frontier_ratio"),
+        md += _table(("family", "seeds", "runs", "frontier ratio", "score", "fixed-price ratio",
+                      "J1711 charge-sustaining"),
+                     [[r["strategy"], str(r["seeds"]), str(r["runs"]), ratio_text(r, "frontier_ratio"), _score_cell(r),
                        ratio_text(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
+    md += _score_summary(rows)
     md += ["", *_reference_lines(rows), "", EXPLANATION]
     if any(_is_family_row(r) for r in rows):
         md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "
@@ -138,6 +173,18 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
     if notes:
         md += ["", *notes]
     return "\n".join(md) + "\n"
+
+
+def _score_summary(rows: list[dict]) -> list[str]:
+    """The score of each strategy over every cycle × scenario, where there are several."""
+    aggs = strategy_aggregates(rows, _is_family_row)
+    if not aggs or max(a["episodes"] for a in aggs) < 2:
+        return []
+    lines = [[display_name(a["strategy"]), str(a["episodes"]), score_text(a["score"], a["score_ci_low"],
+                                                                          a["score_ci_high"]), str(a["excluded"])]
+             for a in aggs]
+    return ["", f"Normalised score over every cycle × scenario (IQM, {100 * CONFIDENCE:.0f} % stratified bootstrap "
+                "interval):", "", *_table(("strategy", "cycles × scenarios", "score", "left out"), lines)]
 
 
 def _reference_lines(rows: list[dict]) -> list[str]:

@@ -1,0 +1,55 @@
+"""``evaluate.py reference``: (re)compute a named task's reference values (the optimum's and ``engine_only``'s runs
+per episode, the safety budget) and store them where the score and the leaderboard read them."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from hev_thermal_env.evaluation.references import (
+    BUDGET_RULE,
+    REFERENCE_DIR,
+    StaleReferenceError,
+    compute_reference,
+    load_reference,
+    save_reference,
+)
+from hev_thermal_env.tasks import get_task, list_tasks
+
+from .parsing import HelpFormatter, examples
+
+EXAMPLES = (
+    "python evaluate.py reference --task hwfet               # recompute and store hwfet-v1's reference",
+    "python evaluate.py reference --task hwfet beijing --check   # say whether the stored ones are current",
+)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("reference", help="a task's reference values: r0, the optimum's cost, the safety budget",
+                       description="Run the thermal optimum and engine_only on every episode of a named task and "
+                                   "store their costs, final SOCs, safety costs and the optimum's frontier with the "
+                                   f"physics fingerprint and the task's digest; safety budget: {BUDGET_RULE}.",
+                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+    p.add_argument("--task", nargs="+", required=True, metavar="NAME", help=f"tasks ({', '.join(list_tasks())})")
+    p.add_argument("--dir", default=None, metavar="DIR", help=f"where references are kept (default: {REFERENCE_DIR})")
+    p.add_argument("--check", action="store_true", help="only check the stored references (exit 1 if one is stale)")
+
+
+def main(args: argparse.Namespace) -> int:
+    tasks = [get_task(t) for t in args.task]
+    directory = Path(args.dir) if args.dir else None
+    if args.check:
+        stale = 0
+        for task in tasks:
+            try:
+                ref = load_reference(task, directory)
+                print(f"{task.id}: current (budget {ref['safety_budget_s']:g} s, {len(ref['episodes'])} episodes)")
+            except (FileNotFoundError, StaleReferenceError) as exc:
+                stale += 1
+                print(f"{task.id}: {exc}")
+        return 1 if stale else 0
+    for task in tasks:
+        record = compute_reference(task, progress=print)
+        path = save_reference(record, directory)
+        print(f"{task.id}: safety budget {record['safety_budget_s']:g} s; wrote {path} ({record['wall_s']:.0f} s)")
+    return 0

@@ -1,0 +1,223 @@
+"""The leaderboard: every method on every task with references, scored alike, on one Markdown page with a profile plot.
+
+Its inputs are result files (:mod:`.submission`), whoever wrote them: :func:`ensure_results` writes those of this
+package's strategies (:data:`METHODS`: the classic strategies, the optimum and the shipped policy) into a directory
+and reuses them while they are current; an outside method adds its own file. :func:`score_result` scores a result
+against its task's reference (:mod:`.references`): the normalised score per episode (:mod:`.score`), aggregated by
+IQM with a 95 % stratified bootstrap interval (one stratum per episode, the seeds within), the frontier ratio, the
+episode safety cost against the task's budget and the fuel. :func:`write_leaderboard` writes the page and the
+performance profile (rliable's: the fraction of a method's runs, over every task, episode and seed, that score above
+τ, against τ). ``evaluate.py leaderboard`` is the command; docs/leaderboard.md is its page.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hev_thermal_env.io import atomic_write_json, atomic_write_text, save_png
+from hev_thermal_env.stats import CONFIDENCE, iqm
+from hev_thermal_env.tasks import get_task, list_tasks
+
+from .references import StaleReferenceError, episode_score, load_reference
+from .score import aggregate, score_text, usable
+from .styles import pyplot
+from .submission import ResultFormatError, load_result, result_of_strategy
+from .yardstick import REFERENCE, display_name
+
+METHODS = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
+"""The package's methods on the leaderboard, in its order (``ppo``: the shipped policy)."""
+PROFILE_FILE = "leaderboard_profile.png"
+TAU = np.linspace(-100.0, 110.0, 421)
+"""Scores at which the profile is drawn."""
+
+
+def label(method: str) -> str:
+    """A method's name on the page."""
+    names = {REFERENCE: f"{REFERENCE} (the optimum)", "ppo": "ppo (shipped policy)"}
+    return names.get(method, display_name(method))
+
+
+def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str] = METHODS,
+                   progress: Callable[[str], None] | None = None) -> list[Path]:
+    """``DIRECTORY/<task id>/<method>.json`` for every task and method: reused when it validates, else written
+    (:func:`~.submission.result_of_strategy`); returns the paths."""
+    paths = []
+    for name in tasks:
+        task = get_task(name)
+        for method in methods:
+            path = Path(directory) / task.id / f"{method}.json"
+            try:
+                load_result(path)
+            except (ResultFormatError, StaleReferenceError):
+                record = result_of_strategy(task, method)
+                atomic_write_json(path, record)
+                if progress is not None:
+                    progress(f"{task.id} {method}: {len(record['episodes'])} episodes, {record['wall_clock_s']:.1f} s")
+            paths.append(path)
+    return paths
+
+
+def result_files(paths: Sequence[str | Path]) -> list[Path]:
+    """The result files of ``paths``: files as given, directories searched for ``*.json`` (recursively, sorted)."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            out += sorted(q for q in p.rglob("*.json") if q.is_file())
+        elif p.is_file():
+            out.append(p)
+        else:
+            raise FileNotFoundError(f"{p}: no such result file or directory")
+    return out
+
+
+def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
+    """The leaderboard entry of one result on its task (module docstring)."""
+    refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
+    budget = float(reference["safety_budget_s"])
+    groups: dict[tuple[str, int], list[tuple[float | None, str | None]]] = {}
+    ratios, safety = [], []
+    for row in result["episodes"]:
+        key = (row["cycle"], int(row.get("env_seed", 0)))
+        ratio, score, note = episode_score(refs[key], row["cost_g"], row["soc_final"])
+        groups.setdefault(key, []).append((score, note))
+        ratios.append(ratio)
+        safety.append(float(row["safety_cost_s"]))
+    agg = aggregate(list(groups.values()))
+    fuel = [r.get("fuel_corrected_l_per_100km") for r in result["episodes"]]
+    cs = [r.get("charge_sustaining") for r in result["episodes"]]
+    return {"task": result["task"], "method": result["method"], "seeds": len(result["seeds"]),
+            "runs": len(result["episodes"]), **agg,
+            "scores": [s for g in groups.values() for s, note in g if usable(s, note)],
+            "frontier_ratio": iqm([r for r in ratios if r is not None]) if any(r is not None for r in ratios) else None,
+            "safety_cost_s": iqm(safety), "safety_cost_max_s": max(safety), "budget_s": budget,
+            "within_budget": sum(s <= budget for s in safety),
+            "fuel_corrected_l_per_100km": iqm([f for f in fuel if f is not None]) if any(f is not None for f in fuel)
+            else None, "fuel_kg": float(np.mean([r.get("fuel_g", np.nan) for r in result["episodes"]])) / 1000.0,
+            "charge_sustaining": None if any(c is None for c in cs) else sum(cs),
+            "wall_clock_s": result.get("wall_clock_s")}
+
+
+def score_files(paths: Sequence[str | Path], references_dir: Path | None = None) -> tuple[list[dict], list[str]]:
+    """Entries of every result file in ``paths`` (:func:`result_files`) and the tasks without a current reference
+    (their results left out, each named once with why)."""
+    entries, missing, refs = [], {}, {}
+    for path in result_files(paths):
+        result = load_result(path)
+        task = result["task"]
+        if task not in refs and task not in missing:
+            try:
+                refs[task] = load_reference(task, references_dir)
+            except (FileNotFoundError, StaleReferenceError) as exc:
+                missing[task] = str(exc)
+        if task in refs:
+            entries.append(score_result(result, refs[task]))
+    return entries, [f"{t}: {why}" for t, why in missing.items()]
+
+
+def _order(methods: Sequence[str]) -> list[str]:
+    known = [m for m in METHODS if m in methods]
+    return known + sorted(m for m in dict.fromkeys(methods) if m not in METHODS)
+
+
+def _task_table(entries: list[dict]) -> list[str]:
+    e0 = entries[0]
+    lines = [f"### {e0['task']}", "", f"Safety budget {e0['budget_s']:g} s per episode.", "",
+             "| method | score IQM [95 % CI] | frontier ratio | safety cost s (IQM; worst) | within budget | "
+             "corrected L/100 km | fuel kg | J1711 | runs |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    by_method = {e["method"]: e for e in entries}
+    for m in _order(list(by_method)):
+        e = by_method[m]
+        fuel = e["fuel_corrected_l_per_100km"]
+        cs = "-" if e["charge_sustaining"] is None else f"{e['charge_sustaining']}/{e['runs']}"
+        excl = f" ({e['excluded']} ill-cond.)" if e["excluded"] else ""
+        lines.append(f"| {label(m)} | {score_text(e['score'], e['score_ci_low'], e['score_ci_high'])}{excl} | "
+                     f"{_num(e['frontier_ratio'], 3)} | {e['safety_cost_s']:.0f}; {e['safety_cost_max_s']:.0f} | "
+                     f"{e['within_budget']}/{e['runs']} | {_num(fuel, 2)} | {_num(e['fuel_kg'], 2)} | {cs} | "
+                     f"{e['runs']} |")
+    return lines + [""]
+
+
+def _num(v: float | None, digits: int) -> str:
+    return "-" if v is None or not np.isfinite(v) else f"{v:.{digits}f}"
+
+
+def overall(entries: list[dict]) -> list[dict]:
+    """Per method, the score over every task it has a result on (one stratum per task and episode)."""
+    out = []
+    for m in _order([e["method"] for e in entries]):
+        mine = [e for e in entries if e["method"] == m]
+        groups = [[(s, None)] for e in mine for s in e["scores"]]
+        out.append({"method": m, "tasks": len(mine), **aggregate(groups)})
+    return out
+
+
+def markdown(entries: list[dict], missing: Sequence[str], fingerprint: str, profile: str | None) -> str:
+    """The leaderboard page."""
+    tasks = [t for t in list_tasks() if any(e["task"] == t for e in entries)]
+    tasks += sorted({e["task"] for e in entries} - set(tasks))
+    md = ["# Leaderboard", "", LEAD.format(fp=fingerprint, conf=100 * CONFIDENCE), "", "## Over every task", "",
+          "| method | tasks | score IQM [95 % CI] | runs |", "|---|---:|---:|---:|"]
+    md += [f"| {label(o['method'])} | {o['tasks']} | {score_text(o['score'], o['score_ci_low'], o['score_ci_high'])} "
+           f"| {o['n']} |" for o in overall(entries)]
+    if profile:
+        md += ["", "## Performance profile", "", f"![performance profile]({profile})", "", PROFILE_TEXT]
+    md += ["", "## Per task", ""]
+    for t in tasks:
+        md += _task_table([e for e in entries if e["task"] == t])
+    if missing:
+        md += ["## Tasks without references", "", *[f"* {m}" for m in missing], ""]
+    md += [COMMAND]
+    return "\n".join(md).rstrip() + "\n"
+
+
+LEAD = ("Every method on every task that has stored references, measured on physics fingerprint `{fp}`. *score*: the "
+        "normalised score, 0 = `engine_only` (the bus with its motor unused), 100 = the thermal optimum at equal "
+        "charge, per episode 100 · (r0 − r) / (r0 − 1) with r the frontier ratio; the interquartile mean over "
+        "episodes and seeds with its {conf:.0f} % stratified bootstrap interval ([Metrics](metrics.md#the-normalised-"
+        "score)). *safety cost*: the episode's seconds of lost motor capability (Σ `info[\"cost\"]`), against the "
+        "task's budget ([Tasks](tasks.md#safety-budgets)). *frontier ratio*: IQM of the runs' cost over the optimum's "
+        "at the same final SOC. *corrected L/100 km*: fuel at equal charge and service (IQM). *fuel kg*: raw fuel "
+        "per episode (mean). *J1711*: runs that are charge-sustaining.")
+PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; ill-conditioned episodes left out) "
+                "whose normalised score exceeds τ, as rliable draws it: a curve further right is better; where it "
+                "drops shows the spread of the method's scores across tasks.")
+COMMAND = ("Regenerate with `python evaluate.py leaderboard --out docs/leaderboard.md` (add `--results FILE` for a "
+           "method written elsewhere; the result format: [Tasks](tasks.md#results-of-outside-methods)).")
+
+
+def profile_figure(entries: list[dict]):
+    """The performance profile of every method (module docstring)."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(9.0, 5.2), layout="constrained")
+    for m in _order([e["method"] for e in entries]):
+        scores = np.array([s for e in entries if e["method"] == m for s in e["scores"]], dtype=float)
+        if scores.size:
+            ax.plot(TAU, [(scores > t).mean() for t in TAU], label=f"{label(m)} ({scores.size} runs)",
+                    lw=2.2 if m == REFERENCE else 1.6, ls="--" if m in ("engine_only", REFERENCE) else "-")
+    for x in (0.0, 100.0):
+        ax.axvline(x, color="0.6", lw=0.8, zorder=0)
+    ax.set_xlabel("normalised score τ (0 = engine_only, 100 = the thermal optimum)")
+    ax.set_ylabel("fraction of runs with score > τ")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title("Performance profile over every task with references")
+    ax.legend(loc="lower left", fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def write_leaderboard(entries: list[dict], missing: Sequence[str], out: Path, fingerprint: str,
+                      plot: bool = True) -> Path:
+    """Write the page ``out`` and, with ``plot``, :data:`PROFILE_FILE` beside it; returns the page's path."""
+    out = Path(out)
+    profile = None
+    if plot and entries:
+        fig = profile_figure(entries)
+        save_png(fig, out.parent / PROFILE_FILE)
+        pyplot().close(fig)
+        profile = PROFILE_FILE
+    atomic_write_text(out, markdown(entries, missing, fingerprint, profile))
+    return out

@@ -1,0 +1,160 @@
+"""The result format: one method's episodes on one task, written by this package or by any outside method.
+
+A result file is JSON (:data:`FORMAT`)::
+
+    {"format": "hev-thermal-result-v1", "task": "hwfet-v1", "physics_fingerprint": "4d016e1aad58ae32",
+     "method": "my-sac", "seeds": [0, 1, 2], "wall_clock_s": 5400.0,
+     "episodes": [{"seed": 0, "cycle": "hwfet", "env_seed": 0, "cost_g": 2345.6, "soc_final": 0.598,
+                   "safety_cost_s": 0.0, "fuel_g": 2301.2}, ...]}
+
+``seeds`` are the method's own seeds (training seeds of a learned method; ``[0]`` for a deterministic strategy);
+every seed has one row per episode of the task (``cycle``, ``env_seed``: :meth:`~hev_thermal_env.tasks.Task.resets`).
+A row's ``cost_g`` is the episode's yardstick cost and ``safety_cost_s`` its safety cost, both sums over the steps'
+infos (:class:`EpisodeTally` adds them up): ``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)``,
+``safety_cost_s = Σ cost``; ``soc_final`` is the last step's ``info["soc"]``. Optional: ``task_digest``, ``fuel_g``,
+``fuel_corrected_l_per_100km``, ``charge_sustaining``, ``description``. :func:`validate_result` checks a file and
+names the field and value of every problem; :func:`result_of_strategy` writes one for a strategy of this package.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.physics.fingerprint import physics_fingerprint
+from hev_thermal_env.tasks import Task, get_task
+
+from .references import check_current, episode_safety_cost_s
+from .runner import run_strategy
+
+FORMAT = "hev-thermal-result-v1"
+REQUIRED = ("format", "task", "physics_fingerprint", "method", "seeds", "episodes")
+ROW_NUMBERS = {"cost_g": (0.0, math.inf), "soc_final": (0.0, 1.0), "safety_cost_s": (0.0, math.inf)}
+OPTIONAL_NUMBERS = {"fuel_g": (0.0, math.inf), "fuel_corrected_l_per_100km": (-math.inf, math.inf)}
+
+
+class ResultFormatError(ValueError):
+    """A result file that does not follow :data:`FORMAT`; the message names the file, field and value."""
+
+
+class EpisodeTally:
+    """What a result row needs, added up step by step from the env's infos: ``add(info)`` after every step, then
+    :meth:`row`."""
+
+    def __init__(self) -> None:
+        self.cost_g = self.safety_cost_s = self.fuel_g = 0.0
+        self.soc_final: float | None = None
+
+    def add(self, info: dict[str, Any]) -> None:
+        self.cost_g -= float(info["reward_fuel"]) + float(info["reward_miss"]) + float(info["reward_overheat"])
+        self.safety_cost_s += float(info["cost"])
+        self.fuel_g += float(info["fuel_g"])
+        self.soc_final = float(info["soc"])
+
+    def row(self, seed: int, cycle: str, env_seed: int) -> dict[str, Any]:
+        return {"seed": int(seed), "cycle": cycle, "env_seed": int(env_seed), "cost_g": self.cost_g,
+                "soc_final": self.soc_final, "safety_cost_s": self.safety_cost_s, "fuel_g": self.fuel_g}
+
+
+def _number(value: Any, where: str, low: float, high: float) -> float:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or not low <= value <= high:
+        span = f"in [{low:g}, {high:g}]" if math.isfinite(high) else f"≥ {low:g}"
+        raise ResultFormatError(f"{where}: expected a finite number {span}, got {value!r}")
+    return float(value)
+
+
+def validate_result(data: Any, where: str = "result") -> dict[str, Any]:
+    """``data`` checked against :data:`FORMAT`, the task it names and the current physics; returns it. Raises
+    :class:`ResultFormatError` (or :class:`~.references.StaleReferenceError`) naming ``where``, the field and value."""
+    if not isinstance(data, dict):
+        raise ResultFormatError(f"{where}: expected a JSON object, got {type(data).__name__}")
+    missing = [k for k in REQUIRED if k not in data]
+    if missing:
+        raise ResultFormatError(f"{where}: missing field(s) {', '.join(missing)} (required: {', '.join(REQUIRED)})")
+    if data["format"] != FORMAT:
+        raise ResultFormatError(f"{where}: format {data['format']!r}, expected {FORMAT!r}")
+    try:
+        task = get_task(data["task"])
+    except ValueError as exc:
+        raise ResultFormatError(f"{where}: task: {exc}") from None
+    if task.id != data["task"]:
+        raise ResultFormatError(f"{where}: task {data['task']!r}: name the version ({task.id})")
+    if not isinstance(data["method"], str) or not data["method"].strip():
+        raise ResultFormatError(f"{where}: method: expected a non-empty name, got {data['method']!r}")
+    seeds = data["seeds"]
+    if (not isinstance(seeds, list) or not seeds or any(isinstance(s, bool) or not isinstance(s, int) for s in seeds)
+            or len(set(seeds)) != len(seeds)):
+        raise ResultFormatError(f"{where}: seeds: expected a non-empty list of distinct integers, got {seeds!r}")
+    if data.get("wall_clock_s") is not None:
+        _number(data["wall_clock_s"], f"{where}: wall_clock_s", 0.0, math.inf)
+    check_current(data, task, where)
+    _check_episodes(data["episodes"], task, seeds, where)
+    return data
+
+
+def _check_episodes(rows: Any, task: Task, seeds: list[int], where: str) -> None:
+    if not isinstance(rows, list):
+        raise ResultFormatError(f"{where}: episodes: expected a list of rows, got {type(rows).__name__}")
+    expected = {(s, c, e) for s in seeds for e, o in task.resets() for c in [o["cycle"]]}
+    seen = set()
+    for i, row in enumerate(rows):
+        at = f"{where}: episodes[{i}]"
+        if not isinstance(row, dict):
+            raise ResultFormatError(f"{at}: expected an object, got {row!r}")
+        key = (row.get("seed"), row.get("cycle"), row.get("env_seed", 0))
+        if key not in expected:
+            cycles = ", ".join(task.cycles[:3]) + ("..." if len(task.cycles) > 3 else "")
+            raise ResultFormatError(f"{at}: (seed, cycle, env_seed) = {key} is not an episode of {task.id} for seeds "
+                                    f"{seeds} (cycles {cycles}, env seeds {list(task.seeds)})")
+        if key in seen:
+            raise ResultFormatError(f"{at}: {key} appears twice")
+        seen.add(key)
+        for field, (low, high) in ROW_NUMBERS.items():
+            if field not in row:
+                raise ResultFormatError(f"{at}: missing {field}")
+            _number(row[field], f"{at}.{field}", low, high)
+        for field, (low, high) in OPTIONAL_NUMBERS.items():
+            if row.get(field) is not None:
+                _number(row[field], f"{at}.{field}", low, high)
+        if row.get("charge_sustaining") is not None and not isinstance(row["charge_sustaining"], bool):
+            raise ResultFormatError(f"{at}.charge_sustaining: expected true or false, got {row['charge_sustaining']!r}")
+    absent = sorted(expected - seen, key=str)
+    if absent:
+        raise ResultFormatError(f"{where}: {len(absent)} episode(s) missing, e.g. (seed, cycle, env_seed) = "
+                                f"{absent[0]}; every seed needs every episode of {task.id}")
+
+
+def load_result(path: str | Path) -> dict[str, Any]:
+    """Read and validate a result file (errors name the file)."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except OSError as exc:
+        raise ResultFormatError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    except ValueError as exc:
+        raise ResultFormatError(f"{path}: not JSON ({exc})") from None
+    return validate_result(data, str(path))
+
+
+def result_of_strategy(task: str | Task, strategy: str, method: str | None = None, **options: Any) -> dict[str, Any]:
+    """Run a strategy of this package (``get_strategy(strategy, **options)``) on every episode of ``task``; its
+    result record (seed 0)."""
+    task = get_task(task)
+    t0 = time.perf_counter()
+    rows = []
+    for env_seed, opts in task.resets():
+        res = run_strategy(get_strategy(strategy, **options), opts["cycle"], task.scenario, seed=env_seed)
+        s = res.summary
+        rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), "cost_g": s["cost_g"],
+                     "soc_final": s["soc_final"], "safety_cost_s": episode_safety_cost_s(res), "fuel_g": s["fuel_g"],
+                     "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
+                     "charge_sustaining": bool(s["charge_sustaining"])})
+    return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
+            physics_fingerprint(), "method": method or strategy, "seeds": [0],
+            "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
+

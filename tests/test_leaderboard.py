@@ -1,0 +1,132 @@
+"""The result format for outside methods (clear errors on bad files, the info tally equals the package's metrics) and
+the leaderboard command on tiny inputs (a synthetic reference, two real strategies, one outside result)."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.cli.evaluate import main as evaluate_main
+from hev_thermal_env.evaluation import references as R
+from hev_thermal_env.evaluation.leaderboard import PROFILE_FILE, score_result
+from hev_thermal_env.evaluation.submission import (
+    FORMAT,
+    EpisodeTally,
+    ResultFormatError,
+    load_result,
+    result_of_strategy,
+    validate_result,
+)
+from hev_thermal_env.physics.fingerprint import physics_fingerprint
+from hev_thermal_env.tasks import get_task, make_task
+
+
+@pytest.fixture(scope="module")
+def good() -> dict:
+    task = get_task("hwfet")
+    return {"format": FORMAT, "task": task.id, "physics_fingerprint": physics_fingerprint(), "method": "outside",
+            "seeds": [0, 1], "wall_clock_s": 12.0,
+            "episodes": [{"seed": s, "cycle": "hwfet", "env_seed": 0, "cost_g": 3000.0 - 100 * s, "soc_final": 0.6,
+                          "safety_cost_s": 3.0 * s} for s in (0, 1)]}
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d.pop("method"), "missing field.*method"),
+    (lambda d: d.update(format="v0"), "format 'v0', expected 'hev-thermal-result-v1'"),
+    (lambda d: d.update(task="nope-v1"), "task: unknown task 'nope-v1'"),
+    (lambda d: d.update(task="hwfet"), r"name the version \(hwfet-v1\)"),
+    (lambda d: d.update(seeds=[0, 0]), "seeds: expected a non-empty list of distinct integers"),
+    (lambda d: d["episodes"][1].update(cost_g="12"), r"episodes\[1\]\.cost_g: expected a finite number ≥ 0, got '12'"),
+    (lambda d: d["episodes"][0].update(soc_final=1.7), r"episodes\[0\]\.soc_final: .*in \[0, 1\], got 1.7"),
+    (lambda d: d["episodes"][0].pop("safety_cost_s"), r"episodes\[0\]: missing safety_cost_s"),
+    (lambda d: d["episodes"][0].update(cycle="udds"), r"episodes\[0\]: .*'udds'.* is not an episode of hwfet-v1"),
+    (lambda d: d["episodes"].pop(), r"1 episode\(s\) missing, e.g. .*\(1, 'hwfet', 0\)"),
+    (lambda d: d.update(physics_fingerprint="abc"), "physics fingerprint 'abc' .current"),
+])
+def test_bad_result_files_give_clear_errors(good, change, message, tmp_path):
+    data = copy.deepcopy(good)
+    change(data)
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=message) as info:
+        load_result(path)
+    assert str(path) in str(info.value)
+
+
+def test_unreadable_result_file(tmp_path):
+    path = tmp_path / "r.json"
+    path.write_text("{not json")
+    with pytest.raises(ResultFormatError, match=f"{path}: not JSON"):
+        load_result(path)
+    assert validate_result(copy.deepcopy(json.loads(json.dumps(good_dict()))))["method"] == "outside"
+
+
+def good_dict() -> dict:
+    return {"format": FORMAT, "task": "hwfet-v1", "physics_fingerprint": physics_fingerprint(), "method": "outside",
+            "seeds": [0], "episodes": [{"seed": 0, "cycle": "hwfet", "cost_g": 1.0, "soc_final": 0.6,
+                                        "safety_cost_s": 0.0}]}
+
+
+def test_info_tally_equals_the_runners_metrics():
+    """An outside method adds up the infos (EpisodeTally); the package's runner computes the cost from the physics'
+    outputs: the same episode gives the same row."""
+    task = get_task("udds-hot")
+    env = make_task(task)
+    strategy = get_strategy("rule")
+    (seed, options), = task.resets()
+    obs, info = env.reset(seed=seed, options=options)
+    strategy.reset(env)
+    tally, done = EpisodeTally(), False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(strategy.act(obs, info))
+        tally.add(info)
+        done = terminated or truncated
+    row = tally.row(0, options["cycle"], seed)
+    ref = result_of_strategy(task, "rule")["episodes"][0]
+    for key in ("cost_g", "soc_final", "safety_cost_s", "fuel_g"):
+        assert row[key] == pytest.approx(ref[key], rel=1e-9), key
+    assert row["safety_cost_s"] > 100.0  # the hot task derates the thermal-blind rule strategy
+
+
+def synthetic_reference(r0_cost: float) -> dict:
+    """A reference of hwfet-v1 with a flat frontier of 1000 g and an anchor at ``r0_cost``."""
+    task = get_task("hwfet")
+    ep = {"cycle": "hwfet", "seed": 0, "frontier": {"soc_final": [0.3, 0.9], "cost_g": [1000.0, 1000.0],
+                                                     "grid": "synthetic", "soc_min": 0.3},
+          "optimum": {"cost_g": 1000.0, "soc_final": 0.6, "frontier_ratio": 1.0, "safety_cost_s": 0.0},
+          "anchor": {"cost_g": r0_cost, "soc_final": 0.6, "frontier_ratio": r0_cost / 1000.0, "safety_cost_s": 0.0}}
+    return {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(),
+            "physics_fingerprint": physics_fingerprint(), "safety_budget_s": 10.0, "budget_rule": R.BUDGET_RULE,
+            "episodes": [ep]}
+
+
+def test_score_result_against_a_reference(good):
+    entry = score_result(good, synthetic_reference(4000.0))
+    # costs 3000 and 2900 against 1000 with r0 = 4: scores 100·(4−3)/3 and 100·(4−2.9)/3
+    assert sorted(entry["scores"]) == pytest.approx([100 / 3, 110 / 3])
+    assert entry["score"] == pytest.approx(np.mean([100 / 3, 110 / 3]))
+    assert entry["within_budget"] == 2 and entry["safety_cost_max_s"] == 3.0
+
+
+def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
+    refs = tmp_path / "refs"
+    refs.mkdir()
+    engine_only = result_of_strategy("hwfet", "engine_only")["episodes"][0]["cost_g"]
+    (refs / "hwfet-v1.json").write_text(json.dumps(synthetic_reference(engine_only)))
+    outside = tmp_path / "outside.json"
+    outside.write_text(json.dumps(good))
+    page = tmp_path / "board" / "leaderboard.md"
+    code = evaluate_main(["leaderboard", "--tasks", "hwfet", "--methods", "engine_only", "rule", "--references",
+                          str(refs), "--results-dir", str(tmp_path / "res"), "--results", str(outside),
+                          "--out", str(page)])
+    assert code == 0
+    md = page.read_text()
+    assert "### hwfet-v1" in md and "| engine_only | 0.0 |" in md and "| outside |" in md and "| rule |" in md
+    assert (page.parent / PROFILE_FILE).stat().st_size > 10_000
+    assert (tmp_path / "res" / "hwfet-v1" / "rule.json").is_file()
+    assert evaluate_main(["leaderboard", "--tasks", "beijing", "--references", str(refs), "--out", str(page)]) == 2
+    assert "no reference for beijing-v1" in capsys.readouterr().err

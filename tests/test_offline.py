@@ -1,0 +1,77 @@
+"""Offline datasets: written through Minari's DataCollector, loaded with ``minari.load_dataset``, replayed exactly; the
+card names the physics and the task; training routes never include a held-out cycle."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from hev_thermal_env import load_cycle
+from hev_thermal_env.evaluation import datasets as D
+from hev_thermal_env.physics.fingerprint import physics_fingerprint
+from hev_thermal_env.tasks import TEST_SEED_BASE, get_task, held_out_cycles
+
+minari = pytest.importorskip("minari")
+
+
+@pytest.fixture(scope="module")
+def short_routes(tmp_path_factory) -> list[str]:
+    """Two slices of UDDS (41 s and 61 s) as CSV cycles."""
+    folder = tmp_path_factory.mktemp("offline")
+    paths = []
+    for a, b in ((20, 61), (300, 361)):
+        path = folder / f"udds_{a}_{b}.csv"
+        v = load_cycle("udds").speed_mps[a:b]
+        path.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
+        paths.append(str(path))
+    return paths
+
+
+@pytest.mark.parametrize("source", ["rule", "random"])
+def test_round_trip_replays_observations_and_rewards_exactly(source, short_routes, tmp_path, monkeypatch):
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    info = D.write_dataset(source, routes=short_routes, scenario="hot", root=tmp_path,
+                           dataset_name=f"hev-thermal/test/{source}-v0")
+    assert info["episodes"] == 2 and info["steps"] == 40 + 60 and info["bytes"] > 0
+    data = minari.load_dataset(info["dataset_id"])
+    assert data.total_episodes == 2 and data.total_steps == 100
+    meta = data.storage.metadata
+    assert meta["hev_thermal_physics_fingerprint"] == physics_fingerprint()
+    assert meta["hev_thermal_routes"] == short_routes and meta["hev_thermal_source"] == source
+    episodes = list(data.iterate_episodes())
+    assert not np.allclose(episodes[0].actions[:5], 0.0) or source == "rule"
+    assert D.replay(data) == (0.0, 0.0)
+
+
+def test_task_dataset_card(tmp_path, monkeypatch):
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    info = D.write_dataset("engine_only", task="hwfet", root=tmp_path)
+    assert info["dataset_id"] == "hev-thermal/hwfet-v1/engine_only-v0"
+    data = minari.load_dataset(info["dataset_id"])
+    meta = data.storage.metadata
+    assert meta["hev_thermal_task"] == "hwfet-v1" and meta["hev_thermal_task_digest"] == get_task("hwfet").digest()
+    assert meta["algorithm_name"].endswith("engine_only") and meta["code_permalink"]
+    assert np.all(np.concatenate([e.actions for e in data.iterate_episodes()]) == 0.0)  # the motor unused
+
+
+def test_training_routes_are_not_held_out():
+    routes = D.training_routes(12)
+    assert len(set(routes)) == 12 and not {r.lower() for r in routes} & set(held_out_cycles())
+    assert all(int(r.split(":")[1]) < TEST_SEED_BASE for r in routes)
+    with pytest.raises(ValueError, match="held-out"):
+        D.write_dataset("rule", routes=[get_task("bus-generalisation").cycles[0]])
+    with pytest.raises(ValueError, match="not training families"):
+        D.training_routes(2, ("validation_bus",))
+
+
+@pytest.mark.full
+def test_dataset_loads_in_a_fresh_process(short_routes, tmp_path):
+    D.write_dataset("rule", routes=short_routes[:1], root=tmp_path, dataset_name="hev-thermal/test/fresh-v0")
+    code = ("import minari, hev_thermal_env; d = minari.load_dataset('hev-thermal/test/fresh-v0'); "
+            "env = d.recover_environment(); print(d.total_steps, env.spec.id)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300,
+                         env={**__import__("os").environ, "MINARI_DATASETS_PATH": str(tmp_path)})
+    assert out.stdout.split() == ["40", "HevThermal-v1"]

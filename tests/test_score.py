@@ -1,0 +1,137 @@
+"""The normalised score and the task references: 0 for engine_only, 100 for the optimum, nothing far above 100, the
+ill-conditioned flag, aggregation, stale references refused, the safety budget's rule, the score on results.md."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from hev_thermal_env import load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.evaluation import references as R
+from hev_thermal_env.evaluation.results_table import write_results
+from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.evaluation.score import (
+    ILL_CONDITIONED,
+    OPTIMUM_RATIO_TOLERANCE,
+    add_score_columns,
+    aggregate,
+    normalised_score,
+    score_tolerance,
+)
+from hev_thermal_env.evaluation.yardstick import add_yardstick_columns
+from hev_thermal_env.physics.fingerprint import physics_fingerprint
+from hev_thermal_env.tasks import Task, get_task
+
+CLASSIC = ("rule", "ecms", "aecms", "ecms_thermal", "dp")
+
+
+def test_score_formula_not_clipped():
+    assert normalised_score(1.30, 1.30) == (0.0, None)
+    assert normalised_score(1.0, 1.30) == (100.0, None)
+    assert normalised_score(1.15, 1.30)[0] == pytest.approx(50.0)
+    assert normalised_score(1.60, 1.30)[0] == pytest.approx(-100.0)  # worse than the motor unused: below 0
+    assert normalised_score(0.97, 1.30)[0] == pytest.approx(110.0)  # not clipped
+    assert normalised_score(None, 1.3)[0] is None and normalised_score(1.1, None)[0] is None
+
+
+def test_ill_conditioned_is_flagged_and_left_out():
+    score, note = normalised_score(1.005, 1.01)
+    assert score == pytest.approx(50.0) and note.startswith(ILL_CONDITIONED)
+    assert normalised_score(1.0, 0.999)[0] is None  # r0 below 1: no score at all
+    agg = aggregate([[(50.0, note)], [(80.0, None)], [(90.0, None)]])
+    assert agg["score"] == pytest.approx(85.0) and agg["excluded"] == 1 and agg["n"] == 2
+
+
+def test_family_rows_aggregate_their_members():
+    rows = [{"cycle": c, "scenario": "paper", "strategy": s, "family": f, "frontier_ratio": r}
+            for c, r0 in (("a", 1.2), ("b", 1.4)) for s, f, r in
+            (("engine_only", None, r0), ("ppo:1", "fam", 1.1), ("ppo:2", "fam", 1.0))]
+    fam = [{"cycle": c, "scenario": sc, "strategy": "fam", "family": "fam"}
+           for c, sc in (("a", "paper"), ("b", "paper"), ("all", "all"))]
+    rows += fam
+    add_score_columns(rows, lambda r: r["family"] == r["strategy"])
+    scores = {(r["cycle"], r["strategy"]): r["score"] for r in rows}
+    assert scores[("a", "ppo:1")] == pytest.approx(50.0) and scores[("b", "ppo:1")] == pytest.approx(75.0)
+    assert scores[("a", "fam")] == pytest.approx(75.0)  # IQM of 50 and 100
+    assert scores[("all", "fam")] == pytest.approx((75.0 + 100.0) / 2)  # IQM of 50, 75, 100, 100
+
+
+def test_budget_rule():
+    assert R.safety_budget_s([0.0, 0.0]) == R.BUDGET_FLOOR_S
+    assert R.safety_budget_s([100.0, 40.0]) == pytest.approx(100.0 * (1 + R.BUDGET_MARGIN))
+
+
+@pytest.fixture(scope="module")
+def tiny_task(tmp_path_factory) -> Task:
+    """200 s of Beijing in the hot scenario (the motor near its limits), as a task."""
+    path = tmp_path_factory.mktemp("score") / "beijing_200s.csv"
+    v = load_cycle("beijing").speed_mps[:201]
+    path.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
+    return Task("tiny", 1, "200 s of Beijing, hot", (str(path),), "hot")
+
+
+@pytest.fixture(scope="module")
+def tiny_reference(tiny_task):
+    return R.compute_reference(tiny_task)
+
+
+def test_optimum_scores_100_engine_only_0_and_no_strategy_beats_it(tiny_reference, tiny_task):
+    ep = tiny_reference["episodes"][0]
+    r0 = ep["anchor"]["frontier_ratio"]
+    assert r0 - 1.0 > 0.02  # the motor saves something here: the score is well conditioned
+    _, opt_score, note = R.episode_score(ep, ep["optimum"]["cost_g"], ep["optimum"]["soc_final"])
+    tol = score_tolerance(r0)
+    assert note is None and abs(opt_score - 100.0) <= tol
+    assert R.episode_score(ep, ep["anchor"]["cost_g"], ep["anchor"]["soc_final"])[1] == pytest.approx(0.0, abs=1e-9)
+    for name in CLASSIC:
+        s = run_strategy(get_strategy(name), tiny_task.cycles[0], "hot").summary
+        ratio, score, _ = R.episode_score(ep, s["cost_g"], s["soc_final"])
+        assert ratio >= 1.0 - OPTIMUM_RATIO_TOLERANCE, name
+        assert score <= 100.0 + tol, (name, score)
+
+
+def test_stale_reference_is_refused_naming_both(tiny_reference, tmp_path):
+    task = get_task("hwfet")
+    record = {**tiny_reference, "task": task.id, "task_digest": task.digest(), "physics_fingerprint": "0" * 16}
+    (tmp_path / "hwfet-v1.json").write_text(json.dumps(record))
+    with pytest.raises(R.StaleReferenceError, match=f"'{'0' * 16}'.*current '{physics_fingerprint()}'"):
+        R.load_reference("hwfet", tmp_path)
+    record.update(physics_fingerprint=physics_fingerprint(), task_digest="f" * 64)
+    (tmp_path / "hwfet-v1.json").write_text(json.dumps(record))
+    with pytest.raises(R.StaleReferenceError, match=r"task digest ffff.*current " + task.digest()[:16]):
+        R.load_reference("hwfet", tmp_path)
+    record.update(task_digest=task.digest())
+    (tmp_path / "hwfet-v1.json").write_text(json.dumps(record))
+    assert R.load_reference("hwfet", tmp_path)["task"] == "hwfet-v1"
+    with pytest.raises(FileNotFoundError, match="evaluate.py reference --task beijing-v1"):
+        R.load_reference("beijing", tmp_path)
+
+
+def test_stored_references_are_current():
+    """Every reference in the package belongs to the current physics and task definition (else recompute it)."""
+    stored = sorted(R.REFERENCE_DIR.glob("*.json"))
+    assert stored, "no stored reference"
+    for path in stored:
+        ref = R.load_reference(path.stem)
+        assert ref["safety_budget_s"] == R.safety_budget_s([e["optimum"]["safety_cost_s"] for e in ref["episodes"]])
+
+
+def test_results_table_carries_the_score(tmp_path):
+    rows = []
+    for strategy, cost, soc in (("engine_only", 130.0, 0.6), ("rule", 115.0, 0.6), ("dp_thermal", 100.0, 0.6)):
+        rows.append({"cycle": "c", "scenario": "paper", "strategy": strategy, "cost_g": cost, "soc_final": soc,
+                     "fuel_g": cost, "fuel_l_per_100km": 1.0, "fuel_corrected_l_per_100km": cost / 100,
+                     "miss_correction_l_per_100km": 0.0, "distance_km": 1.0, "soc_initial": 0.6,
+                     "max_motor_temp_c": 40.0, "heat_index_max": 0.0, "derated_s": 0, "cutoff_s": 0,
+                     "missed_wheel_energy_kwh": 0.0, "net_energy_ratio": 0.0, "charge_sustaining": True,
+                     "strategy_settings": {"frontier": {"soc_final": [0.5, 0.7], "cost_g": [100.0, 100.0]}}
+                     if strategy == "dp_thermal" else {}})
+    add_yardstick_columns(rows)
+    write_results(tmp_path, rows, wall_s=0.0)
+    data = json.loads((tmp_path / "results.json").read_text())
+    scores = {r["strategy"]: r["score"] for r in data["rows"]}
+    assert scores == {"engine_only": 0.0, "rule": pytest.approx(50.0), "dp_thermal": 100.0}
+    md = (tmp_path / "results.md").read_text()
+    assert "| score |" in md and "| 50.0 |" in md
