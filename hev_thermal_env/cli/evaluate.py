@@ -3,7 +3,8 @@
 The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job and module:
 ``benchmark`` (strategies × cycles × scenarios or a named task, table + plots), ``run`` (one strategy on one cycle),
 ``paper`` (the paper reproduction report), ``performance`` (the paper's Table 3), ``reference`` (a task's reference
-values), ``dataset`` (an offline dataset) and ``leaderboard`` (every method on every task).
+values), ``dataset`` (an offline dataset), ``bc`` (behaviour cloning on one) and ``leaderboard`` (every method on
+every task).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from .parsing import HelpFormatter, OneLineErrorParser, examples
 
 #: The subcommands, each a module of this package with ``add_parser(subparsers)`` and ``main(args) -> int``,
 #: imported by :func:`build_parser` (so that a Ctrl-C while they load is reported in one line).
-SUBCOMMANDS = ("benchmark", "run", "paper", "performance", "reference", "dataset", "leaderboard")
+SUBCOMMANDS = ("benchmark", "run", "paper", "performance", "reference", "dataset", "bc", "leaderboard")
 
 EXAMPLES = (
     "python evaluate.py benchmark --out results                  # shipped PPO + classic strategies",

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import Task, get_task
 
@@ -141,20 +142,22 @@ def load_result(path: str | Path) -> dict[str, Any]:
     return validate_result(data, str(path))
 
 
-def result_of_strategy(task: str | Task, strategy: str, method: str | None = None, **options: Any) -> dict[str, Any]:
-    """Run a strategy of this package (``get_strategy(strategy, **options)``) on every episode of ``task``; its
-    result record (seed 0)."""
+def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str | None = None,
+                       **options: Any) -> dict[str, Any]:
+    """Run a strategy (a name of this package's, built by ``get_strategy(strategy, **options)``, or a
+    :class:`~hev_thermal_env.agents.base.Strategy`) on every episode of ``task``; its result record (seed 0)."""
     task = get_task(task)
     t0 = time.perf_counter()
     rows = []
     for env_seed, opts in task.resets():
-        res = run_strategy(get_strategy(strategy, **options), opts["cycle"], task.scenario, seed=env_seed)
+        agent = get_strategy(strategy, **options) if isinstance(strategy, str) else strategy
+        res = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed)
         s = res.summary
         rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), "cost_g": s["cost_g"],
                      "soc_final": s["soc_final"], "safety_cost_s": episode_safety_cost_s(res), "fuel_g": s["fuel_g"],
                      "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
                      "charge_sustaining": bool(s["charge_sustaining"])})
     return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-            physics_fingerprint(), "method": method or strategy, "seeds": [0],
+            physics_fingerprint(), "method": method or str(getattr(strategy, "label", strategy)), "seeds": [0],
             "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
 
