@@ -43,7 +43,8 @@ def tiny_cycles(tmp_path_factory) -> list[str]:
 
 
 TEXT_OR_OPTIONAL = {"cycle", "scenario", "strategy", "family", "seeds", "reference", "frontier_note", "frontier_ratio",
-                    "charge_sustaining", *(c for c in COLUMNS if "_ci_" in c)}
+                    "charge_sustaining", "score", "score_anchor_ratio", "score_note",  # no engine_only: no score
+                    *(c for c in COLUMNS if "_ci_" in c)}
 
 
 def test_benchmark_writes_every_file_and_column(tiny_cycles, tmp_path):

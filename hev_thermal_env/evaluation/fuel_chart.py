@@ -2,9 +2,10 @@
 
 Rows go from the simplest strategy (top) to the optimum, the learned policies below a gap on a shaded band. The
 shared x axis is the frontier ratio (:mod:`.yardstick`; 1 = the optimum at the run's final SOC) and always holds 1;
-each dot carries its value. A seed family (:mod:`.families`) is one row: IQM (diamond), 95 % bootstrap interval
-(whiskers), each seed (small dots). A run without a ratio is marked "n/a"; without any frontier the chart shows the
-fixed-price ratio (corrected fuel over ``dp_thermal``'s).
+each dot carries its value and the normalised score (:mod:`.score`: 0 = ``engine_only``, 100 = the optimum). A seed
+family (:mod:`.families`) is one row: IQM (diamond), 95 % bootstrap interval (whiskers), each seed (small dots). A run
+without a ratio is marked "n/a"; without any frontier the chart shows the fixed-price ratio (corrected fuel over
+``dp_thermal``'s).
 """
 
 from __future__ import annotations
@@ -170,12 +171,20 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         lo, hi = ax.get_xlim()
         below = right < origin - 0.08 * (hi - lo) and name not in families
         right = max(right, origin)
-        ax.annotate(ratio_text(r, key), (left if below else right, y), xytext=(-7 if below else 7, 0),
+        ax.annotate(_value_label(r, key), (left if below else right, y), xytext=(-7 if below else 7, 0),
                     textcoords="offset points", va="center", ha="right" if below else "left", fontsize=8,
                     fontweight="bold" if is_learned(name, families) else "normal")
     ax.grid(axis="x", alpha=0.3)
     ax.tick_params(axis="y", length=0)
     ax.spines[["top", "right"]].set_visible(False)
+
+
+def _value_label(r: dict, key: str) -> str:
+    """The ratio's text; beside the frontier ratio, the normalised score (:mod:`.score`) where the row has one."""
+    text = ratio_text(r, key)
+    if key == "frontier_ratio" and r.get("score") is not None:
+        text += f"  · score {r['score']:.0f}" + (" (ill-cond.)" if r.get("score_note") else "")
+    return text
 
 
 def _family(ax, r: dict, seeds: list[dict], key: str, y: float, colour: str) -> tuple[float, float]:

@@ -178,7 +178,7 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
 def _score_summary(rows: list[dict]) -> list[str]:
     """The score of each strategy over every cycle × scenario, where there are several."""
     aggs = strategy_aggregates(rows, _is_family_row)
-    if not aggs or max(a["episodes"] for a in aggs) < 2:
+    if not aggs or max(a["episodes"] for a in aggs) < 2 or all(a["score"] is None for a in aggs):
         return []
     lines = [[display_name(a["strategy"]), str(a["episodes"]), score_text(a["score"], a["score_ci_low"],
                                                                           a["score_ci_high"]), str(a["excluded"])]
