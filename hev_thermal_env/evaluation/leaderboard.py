@@ -92,6 +92,7 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
     return {"task": result["task"], "method": result["method"], "seeds": len(result["seeds"]),
             "runs": len(result["episodes"]), **agg,
             "scores": [s for g in groups.values() for s, note in g if usable(s, note)],
+            "score_groups": [[s for s, note in g if usable(s, note)] for g in groups.values()],
             "frontier_ratio": iqm([r for r in ratios if r is not None]) if any(r is not None for r in ratios) else None,
             "safety_cost_s": iqm(safety), "safety_cost_max_s": max(safety), "budget_s": budget,
             "within_budget": sum(s <= budget for s in safety),
@@ -146,11 +147,11 @@ def _num(v: float | None, digits: int) -> str:
 
 
 def overall(entries: list[dict]) -> list[dict]:
-    """Per method, the score over every task it has a result on (one stratum per task and episode)."""
+    """Per method, the score over every task it has a result on (one stratum per task and episode, its seeds within)."""
     out = []
     for m in _order([e["method"] for e in entries]):
         mine = [e for e in entries if e["method"] == m]
-        groups = [[(s, None)] for e in mine for s in e["scores"]]
+        groups = [[(s, None) for s in g] for e in mine for g in e["score_groups"]]
         out.append({"method": m, "tasks": len(mine), **aggregate(groups)})
     return out
 
