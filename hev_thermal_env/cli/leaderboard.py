@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from hev_thermal_env.evaluation.leaderboard import METHODS, PROFILE_FILE, ensure_results, score_files, write_leaderboard
+from hev_thermal_env.evaluation.leaderboard import (
+    METHODS,
+    PROFILE_FILE,
+    ensure_results,
+    missing_text,
+    score_files,
+    write_leaderboard,
+)
 from hev_thermal_env.evaluation.references import StaleReferenceError, load_reference
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import get_task, list_tasks
@@ -49,7 +56,7 @@ def main(args: argparse.Namespace) -> int:
         except (FileNotFoundError, StaleReferenceError) as exc:
             if args.tasks:
                 raise
-            missing.append(f"{t}: {exc}")
+            missing.append(missing_text(t, exc))
     paths = ensure_results(Path(args.results_dir), ready, args.methods, progress=print)
     entries, more_missing = score_files([*paths, *args.results], refs)
     out = write_leaderboard(entries, [*missing, *more_missing], Path(args.out), physics_fingerprint(),

@@ -22,7 +22,7 @@ from hev_thermal_env.io import atomic_write_json, atomic_write_text, save_png
 from hev_thermal_env.stats import CONFIDENCE, iqm
 from hev_thermal_env.tasks import get_task, list_tasks
 
-from .references import StaleReferenceError, episode_score, load_reference
+from .references import REFERENCE_DIR, StaleReferenceError, episode_score, load_reference
 from .score import aggregate, score_text, usable
 from .styles import pyplot
 from .submission import ResultFormatError, load_result, result_of_strategy
@@ -113,10 +113,17 @@ def score_files(paths: Sequence[str | Path], references_dir: Path | None = None)
             try:
                 refs[task] = load_reference(task, references_dir)
             except (FileNotFoundError, StaleReferenceError) as exc:
-                missing[task] = str(exc)
+                missing[task] = missing_text(task, exc)
         if task in refs:
             entries.append(score_result(result, refs[task]))
-    return entries, [f"{t}: {why}" for t, why in missing.items()]
+    return entries, list(missing.values())
+
+
+def missing_text(task: str, exc: Exception) -> str:
+    """Why a task is not on the page, without this machine's paths."""
+    if isinstance(exc, FileNotFoundError):
+        return f"{task}: no stored reference (compute it with `python evaluate.py reference --task {task}`)"
+    return f"{task}: " + str(exc).replace(str(REFERENCE_DIR) + "/", "")
 
 
 def _order(methods: Sequence[str]) -> list[str]:
@@ -182,7 +189,8 @@ LEAD = ("Every method on every task that has stored references, measured on phys
         "score)). *safety cost*: the episode's seconds of lost motor capability (Σ `info[\"cost\"]`), against the "
         "task's budget ([Tasks](tasks.md#safety-budgets)). *frontier ratio*: IQM of the runs' cost over the optimum's "
         "at the same final SOC. *corrected L/100 km*: fuel at equal charge and service (IQM). *fuel kg*: raw fuel "
-        "per episode (mean). *J1711*: runs that are charge-sustaining.")
+        "per episode (mean). *J1711*: runs that are charge-sustaining. A deterministic strategy has one run per "
+        "episode: its score has no interval where a task has one episode.")
 PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; ill-conditioned episodes left out) "
                 "whose normalised score exceeds τ, as rliable draws it: a curve further right is better; where it "
                 "drops shows the spread of the method's scores across tasks.")
