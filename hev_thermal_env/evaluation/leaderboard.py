@@ -31,8 +31,8 @@ from .yardstick import REFERENCE, display_name
 METHODS = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
 """The package's methods on the leaderboard, in its order (``ppo``: the shipped policy)."""
 PROFILE_FILE = "leaderboard_profile.png"
-TAU = np.linspace(-100.0, 110.0, 421)
-"""Scores at which the profile is drawn."""
+ZOOM = (80.0, 101.0)
+"""The profile's second panel: the scores where the better strategies differ."""
 
 
 def label(method: str) -> str:
@@ -199,22 +199,32 @@ COMMAND = ("Regenerate with `python evaluate.py leaderboard --out docs/leaderboa
 
 
 def profile_figure(entries: list[dict]):
-    """The performance profile of every method (module docstring)."""
+    """The performance profile of every method (module docstring): over the whole range of scores (a symmetric-log
+    axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9.0, 5.2), layout="constrained")
-    for m in _order([e["method"] for e in entries]):
-        scores = np.array([s for e in entries if e["method"] == m for s in e["scores"]], dtype=float)
-        if scores.size:
-            ax.plot(TAU, [(scores > t).mean() for t in TAU], label=f"{label(m)} ({scores.size} runs)",
-                    lw=2.2 if m == REFERENCE else 1.6, ls="--" if m in ("engine_only", REFERENCE) else "-")
-    for x in (0.0, 100.0):
-        ax.axvline(x, color="0.6", lw=0.8, zorder=0)
-    ax.set_xlabel("normalised score τ (0 = engine_only, 100 = the thermal optimum)")
-    ax.set_ylabel("fraction of runs with score > τ")
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_title("Performance profile over every task with references")
-    ax.legend(loc="lower left", fontsize=8)
-    ax.grid(alpha=0.3)
+    fig, axes = plt.subplots(1, 2, figsize=(13.0, 5.4), layout="constrained", gridspec_kw={"width_ratios": [3, 2]})
+    scores = {m: np.sort([s for e in entries if e["method"] == m for s in e["scores"]])
+              for m in _order([e["method"] for e in entries])}
+    lowest = min([-100.0, *(float(v[0]) for v in scores.values() if v.size)])
+    for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
+        for m, v in scores.items():
+            if v.size:
+                x = np.r_[lo, v, hi]
+                y = np.r_[1.0, 1.0 - np.arange(1, v.size + 1) / v.size, 0.0]
+                ax.step(x, y, where="post", label=f"{label(m)} ({v.size} runs)", lw=2.2 if m == REFERENCE else 1.6,
+                        ls="--" if m in ("engine_only", REFERENCE) else "-")
+        for x in (0.0, 100.0):
+            ax.axvline(x, color="0.6", lw=0.8, zorder=0)
+        ax.set_xlim(lo, hi)
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+        ax.set_xlabel("normalised score τ (0 = engine_only, 100 = the thermal optimum)")
+    axes[0].set_xscale("symlog", linthresh=100.0)
+    axes[0].set_ylabel("fraction of runs with score > τ")
+    axes[0].set_title("every score (symmetric-log axis, linear within ±100)", fontsize=10)
+    axes[1].set_title(f"zoom: τ from {ZOOM[0]:g} to {ZOOM[1]:g}", fontsize=10)
+    axes[0].legend(loc="lower left", fontsize=8)
+    fig.suptitle("Performance profile over every task with references")
     return fig
 
 
