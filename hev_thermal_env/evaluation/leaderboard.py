@@ -91,6 +91,7 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
     cs = [r.get("charge_sustaining") for r in result["episodes"]]
     return {"task": result["task"], "method": result["method"], "seeds": len(result["seeds"]),
             "runs": len(result["episodes"]), **agg,
+            "anchor_ratios": [e["anchor"]["frontier_ratio"] for e in reference["episodes"]],
             "scores": [s for g in groups.values() for s, note in g if usable(s, note)],
             "score_groups": [[s for s, note in g if usable(s, note)] for g in groups.values()],
             "frontier_ratio": iqm([r for r in ratios if r is not None]) if any(r is not None for r in ratios) else None,
@@ -133,7 +134,11 @@ def _order(methods: Sequence[str]) -> list[str]:
 
 def _task_table(entries: list[dict]) -> list[str]:
     e0 = entries[0]
-    lines = [f"### {e0['task']}", "", f"Safety budget {e0['budget_s']:g} s per episode.", "",
+    r0 = [r for r in e0["anchor_ratios"] if r is not None]
+    r0_text = (f"`engine_only`'s frontier ratio r0 = {min(r0):.3f}" + (f" to {max(r0):.3f}" if len(r0) > 1 else "") +
+               f": the motor can save {100 * (1 - 1 / max(r0)):.1f} % of its cost at equal charge" +
+               (" at most" if len(r0) > 1 else "") + ". ") if r0 else ""
+    lines = [f"### {e0['task']}", "", f"{r0_text}Safety budget {e0['budget_s']:g} s per episode.", "",
              "| method | score IQM [95 % CI] | frontier ratio | safety cost s (IQM; worst) | within budget | "
              "corrected L/100 km | fuel kg | J1711 | runs |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     by_method = {e["method"]: e for e in entries}
