@@ -146,7 +146,7 @@ def _task_table(entries: list[dict]) -> list[str]:
         e = by_method[m]
         fuel = e["fuel_corrected_l_per_100km"]
         cs = "-" if e["charge_sustaining"] is None else f"{e['charge_sustaining']}/{e['runs']}"
-        excl = f" ({e['excluded']} ill-cond.)" if e["excluded"] else ""
+        excl = f" ({e['excluded']} left out)" if e["excluded"] else ""
         lines.append(f"| {label(m)} | {score_text(e['score'], e['score_ci_low'], e['score_ci_high'])}{excl} | "
                      f"{_num(e['frontier_ratio'], 3)} | {e['safety_cost_s']:.0f}; {e['safety_cost_max_s']:.0f} | "
                      f"{e['within_budget']}/{e['runs']} | {_num(fuel, 2)} | {_num(e['fuel_kg'], 2)} | {cs} | "
@@ -164,8 +164,12 @@ def overall(entries: list[dict]) -> list[dict]:
     for m in _order([e["method"] for e in entries]):
         mine = [e for e in entries if e["method"] == m]
         groups = [[(s, None) for s in g] for e in mine for g in e["score_groups"]]
-        out.append({"method": m, "tasks": len(mine), **aggregate(groups)})
+        out.append({"method": m, "tasks": len(mine), **aggregate(groups), "left_out": sum(e["excluded"] for e in mine)})
     return out
+
+
+def _runs_cell(o: dict) -> str:
+    return f"{o['n']} ({o['left_out']} left out)" if o["left_out"] else str(o["n"])
 
 
 def markdown(entries: list[dict], missing: Sequence[str], fingerprint: str, profile: str | None) -> str:
@@ -175,7 +179,7 @@ def markdown(entries: list[dict], missing: Sequence[str], fingerprint: str, prof
     md = ["# Leaderboard", "", LEAD.format(fp=fingerprint, conf=100 * CONFIDENCE), "", "## Over every task", "",
           "| method | tasks | score IQM [95 % CI] | runs |", "|---|---:|---:|---:|"]
     md += [f"| {label(o['method'])} | {o['tasks']} | {score_text(o['score'], o['score_ci_low'], o['score_ci_high'])} "
-           f"| {o['n']} |" for o in overall(entries)]
+           f"| {_runs_cell(o)} |" for o in overall(entries)]
     if profile:
         md += ["", "## Performance profile", "", f"![performance profile]({profile})", "", PROFILE_TEXT]
     md += ["", "## Per task", ""]
@@ -194,11 +198,12 @@ LEAD = ("Every method on every task that has stored references, measured on phys
         "score)). *safety cost*: the episode's seconds of lost motor capability (Σ `info[\"cost\"]`), against the "
         "task's budget ([Tasks](tasks.md#safety-budgets)). *frontier ratio*: IQM of the runs' cost over the optimum's "
         "at the same final SOC. *corrected L/100 km*: fuel at equal charge and service (IQM). *fuel kg*: raw fuel "
-        "per episode (mean). *J1711*: runs that are charge-sustaining. A deterministic strategy has one run per "
-        "episode: its score has no interval where a task has one episode.")
-PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; ill-conditioned episodes left out) "
-                "whose normalised score exceeds τ, as rliable draws it: a curve further right is better; where it "
-                "drops shows the spread of the method's scores across tasks.")
+        "per episode (mean). *J1711*: runs that are charge-sustaining. *left out*: runs without a score (a final SOC "
+        "off the optimum's frontier, so no frontier ratio, or an ill-conditioned episode). A deterministic strategy "
+        "has one run per episode: its score has no interval where a task has one episode.")
+PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
+                "below every τ) whose normalised score exceeds τ, as rliable draws it: a curve further right is "
+                "better; where it drops shows the spread of the method's scores across tasks.")
 COMMAND = ("Regenerate with `python evaluate.py leaderboard --out docs/leaderboard.md` (add `--results FILE` for a "
            "method written elsewhere; the result format: [Tasks](tasks.md#results-of-outside-methods)).")
 
@@ -208,15 +213,18 @@ def profile_figure(entries: list[dict]):
     axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ."""
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(13.0, 5.4), layout="constrained", gridspec_kw={"width_ratios": [3, 2]})
-    scores = {m: np.sort([s for e in entries if e["method"] == m for s in e["scores"]])
-              for m in _order([e["method"] for e in entries])}
+    methods = _order([e["method"] for e in entries])
+    scores = {m: np.sort([s for e in entries if e["method"] == m for s in e["scores"]]) for m in methods}
+    unscored = {m: sum(e["excluded"] for e in entries if e["method"] == m) for m in methods}
     lowest = min([-100.0, *(float(v[0]) for v in scores.values() if v.size)])
     for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
         for m, v in scores.items():
+            total = v.size + unscored[m]  # a run without a score lies below every τ
             if v.size:
                 x = np.r_[lo, v, hi]
-                y = np.r_[1.0, 1.0 - np.arange(1, v.size + 1) / v.size, 0.0]
-                ax.step(x, y, where="post", label=f"{label(m)} ({v.size} runs)", lw=2.2 if m == REFERENCE else 1.6,
+                y = np.r_[v.size, v.size - np.arange(1, v.size + 1), 0.0] / total
+                what = f"{total} runs" + (f", {unscored[m]} without a score" if unscored[m] else "")
+                ax.step(x, y, where="post", label=f"{label(m)} ({what})", lw=2.2 if m == REFERENCE else 1.6,
                         ls="--" if m in ("engine_only", REFERENCE) else "-")
         for x in (0.0, 100.0):
             ax.axvline(x, color="0.6", lw=0.8, zorder=0)
