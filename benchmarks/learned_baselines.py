@@ -41,6 +41,9 @@ sys.path.insert(0, str(ROOT))
 
 #: The methods, by ``train.py --algo`` name.
 METHODS = ("ppo", "sac", "tqc", "recurrent_ppo", "ppo_lagrangian")
+#: Each method's name in the benchmark's tables (its seed family; a family may not take a strategy's name, ``ppo``).
+FAMILY_NAMES = {"ppo": "PPO", "sac": "SAC", "tqc": "TQC", "recurrent_ppo": "RecurrentPPO",
+                "ppo_lagrangian": "PPO-Lagrangian"}
 #: The seeds of every method, fixed before any run.
 SEEDS = (0, 1, 2, 3, 4)
 #: The task whose training distribution every method trains on.
@@ -121,13 +124,14 @@ def evaluate_task(task_id: str, families: dict[str, list[str]], out: Path, jobs:
     from hev_thermal_env.tasks import get_task
 
     task = get_task(task_id)
-    fams = [Family(m, tuple(paths)) for m, paths in families.items()]
+    fams = [Family(FAMILY_NAMES[m], tuple(paths)) for m, paths in families.items()]
     t0 = time.perf_counter()
     rows = run_benchmark(out / task.id, cycles=list(task.cycles), strategies=["engine_only"],
                          scenarios=[task.scenario], jobs=jobs, plots=False, progress=False, families=fams)
     record: dict[str, Any] = {"cycles": list(task.cycles), "scenario": task.scenario, "methods": {},
                               "engine_only": [_row(r) for r in rows if r["strategy"] == "engine_only"],
                               "wall_s": round(time.perf_counter() - t0, 1)}
+    method_of = {name: m for m, name in FAMILY_NAMES.items()}
     for fam in fams:
         overall = next(r for r in rows if r.get("family") == fam.name and r["cycle"] == OVERALL)
         seeds = []
@@ -135,7 +139,7 @@ def evaluate_task(task_id: str, families: dict[str, list[str]], out: Path, jobs:
             runs = [r for r in rows if r["strategy"] == label]
             seeds.append({"policy": path, "episodes": [_row(r) for r in runs],
                           "safety_cost_s": episode_safety_costs(path, task.id)})
-        record["methods"][fam.name] = {
+        record["methods"][method_of[fam.name]] = {
             "frontier_ratio_iqm": overall["frontier_ratio"],
             "frontier_ratio_ci95": [overall["frontier_ratio_ci_low"], overall["frontier_ratio_ci_high"]],
             "charge_sustaining_runs": overall["charge_sustaining_runs"], "runs": overall["runs"], "seeds": seeds}

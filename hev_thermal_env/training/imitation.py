@@ -40,8 +40,9 @@ def check_init(init: dict[str, Any], algo: str) -> dict[str, Any]:
     if teacher is None:
         return out
     if algo not in IMITATING_ALGORITHMS:
-        raise ValueError(f"init.imitate={teacher!r}: imitation starts {' and '.join(IMITATING_ALGORITHMS)} runs only "
-                         f"(algo {algo}); set it to null")
+        algos = ", ".join(IMITATING_ALGORITHMS)
+        raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only ({algos}; algo {algo}); set it to "
+                         "null")
     classic = [s for s in list_strategies() if s not in ("ppo", "sac")]
     if not isinstance(teacher, str) or teacher not in classic or teacher.startswith("dp"):
         raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "
