@@ -5,6 +5,7 @@ within an episode and cleared between episodes; the hyperparameter files checked
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 from pathlib import Path
 
@@ -16,14 +17,17 @@ from stable_baselines3.common.vec_env import VecEnv
 import evaluate
 import train
 from hev_thermal_env import load_cycle
-from hev_thermal_env.agents import HYPERPARAMS_DIR
+from hev_thermal_env.agents import HYPERPARAMS_DIR, list_strategies
 from hev_thermal_env.agents.policy_files import ALGORITHMS, load_policy
 from hev_thermal_env.agents.ppo import PPOStrategy
+from hev_thermal_env.evaluation.families import parse_family
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.training import build_config
 from hev_thermal_env.training.config import load_run_config
 from hev_thermal_env.training.evaluator import PolicyEvaluator
 from hev_thermal_env.training.lagrangian import LagrangeMultiplier, LagrangianVecEnv, dual_ascent
+
+ROOT = Path(__file__).resolve().parents[1]
 
 # tiny runs of each method: 2 envs, 256 env-steps, no periodic evaluation
 COMMON = ["--timesteps", "256", "--n-envs", "2", "--seed", "0", "--no-progress", "--quiet", "--eval-cycles",
@@ -232,3 +236,35 @@ def test_every_algorithm_has_a_checked_hyperparameter_file_on_the_same_observati
     assert cfg["env"]["observation_names"] == ppo["env"]["observation_names"]
     assert cfg["env"]["cycles"] == ppo["env"]["cycles"] and cfg["env"]["scenario"] == ppo["env"]["scenario"]
     assert cfg["total_timesteps"] >= 100_000
+
+
+# --- benchmarks/learned_baselines.py --------------------------------------------------------------------
+
+def _script():
+    spec = importlib.util.spec_from_file_location("learned_baselines", ROOT / "benchmarks" / "learned_baselines.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_names():
+    script = _script()
+    assert set(script.METHODS) == set(ALGORITHMS) == set(script.SMOKE_ARGS) == set(script.FAMILY_NAMES)
+    assert script.SEEDS == (0, 1, 2, 3, 4)
+    for name in script.FAMILY_NAMES.values():  # a seed family may not take a strategy's name
+        assert parse_family(f"{name}={ROOT},{ROOT / 'agents'}", taken=list_strategies()).name == name
+
+
+@pytest.mark.full
+def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
+    """Two methods, two seeds, tiny budgets, on hwfet (solves hwfet's thermal optimum unless it is cached)."""
+    script = _script()
+    assert script.main(["--smoke", "--methods", "ppo", "recurrent_ppo", "--out", str(tmp_path)]) == 0
+    record = json.loads((tmp_path / "learned_baselines.json").read_text())
+    for method in ("ppo", "recurrent_ppo"):
+        seeds = record["methods"][method]["seeds"]
+        assert [s["seed"] for s in seeds] == [0, 1] and all(s["steps_per_s"] > 0 for s in seeds)
+        assert all(Path(s["policy"]).is_file() for s in seeds)
+        ev = record["evaluation"]["hwfet-v1"]["methods"][method]
+        assert ev["frontier_ratio_iqm"] >= 1.0 - 1e-6 and len(ev["seeds"]) == 2
+        assert all(len(s["safety_cost_s"]) == 1 and s["safety_cost_s"][0] >= 0 for s in ev["seeds"])
