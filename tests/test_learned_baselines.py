@@ -7,10 +7,12 @@ from __future__ import annotations
 import csv
 import importlib.util
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv
 
@@ -186,6 +188,25 @@ def test_lagrangian_run_records_its_multiplier(runs):
         assert after == pytest.approx(min(50.0, before + 0.01 * cost), abs=1e-5)
     saved = json.loads((run / "checkpoints" / "ckpt_256_steps_lagrangian.json").read_text())
     assert saved["lambda"] == pytest.approx(res["lambda"])
+
+
+def test_a_resumed_lagrangian_run_continues_its_multiplier(runs, tmp_path):
+    run = tmp_path / "resumed"
+    shutil.copytree(runs["ppo_lagrangian"], run)
+    with open(run / "lagrangian.csv", newline="") as fh:
+        before = list(csv.DictReader(fh))
+    cfg = yaml.safe_load((run / "config.yaml").read_text())
+    cfg["total_timesteps"], cfg["result"]["finished"] = 384, False
+    (run / "config.yaml").write_text(yaml.safe_dump(cfg))
+    (run / "model.zip").unlink()
+    assert train.main(["--resume", str(run), "--no-progress", "--quiet"]) == 0
+    with open(run / "lagrangian.csv", newline="") as fh:
+        after = list(csv.DictReader(fh))
+    assert after[:len(before)] == before and len(after) > len(before)
+    assert all(256 < int(r["timesteps"]) <= 384 for r in after[len(before):])
+    first_new = after[len(before)]
+    lam = min(50.0, float(before[-1]["lambda"]) + 0.01 * float(first_new["cost_s_per_h"]))
+    assert float(first_new["lambda"]) == pytest.approx(lam, abs=1e-5)
 
 
 def test_constraint_settings_are_checked():
