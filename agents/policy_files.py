@@ -4,7 +4,9 @@
 ``best_model.zip``; else the latest checkpoint) or a model zip. The observation statistics lie next to the zip:
 ``model.zip`` → ``vecnormalize.pkl``, ``best_model.zip`` → ``best_vecnormalize.pkl``, ``checkpoints/ckpt_N_steps.zip`` →
 ``ckpt_N_steps_vecnormalize.pkl``, any other ``NAME.zip`` → ``NAME_vecnormalize.pkl`` or ``vecnormalize.pkl``. The run's
-``config.yaml`` (beside the zip, or above ``checkpoints/``) gives the algorithm (PPO or SAC) and the observation layout.
+``config.yaml`` (beside the zip, or above ``checkpoints/``) gives the algorithm (:data:`ALGORITHMS`) and the observation
+layout. A recurrent policy (``recurrent_ppo``) carries its LSTM state from one :meth:`LoadedPolicy.act` to the next
+until :meth:`LoadedPolicy.reset_state` (an episode's start).
 A missing file raises ``FileNotFoundError``, an unreadable one ``ValueError``, each in one line.
 
 A model zip pickles its schedules by the import path of :class:`LinearSchedule` (``lin_3e-4`` in a hyperparameter file);
@@ -13,6 +15,7 @@ loading rebuilds them from the run's hyperparameters instead (:func:`custom_obje
 
 from __future__ import annotations
 
+import importlib
 import logging
 import pickle
 import re
@@ -23,22 +26,34 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import stable_baselines3 as sb3
 import yaml
 
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
-ALGORITHMS = {"ppo": sb3.PPO, "sac": sb3.SAC}
+#: The algorithms ``train.py`` trains, by name: SB3's PPO and SAC, sb3-contrib's TQC and RecurrentPPO (imported on
+#: first use), and ``ppo_lagrangian``, PPO on the reward less a multiple of the safety cost whose multiplier is learned
+#: (:mod:`hev_thermal_env.training.lagrangian`): its model is a PPO model.
+ALGORITHMS = {"ppo": "stable_baselines3:PPO", "sac": "stable_baselines3:SAC", "tqc": "sb3_contrib:TQC",
+              "recurrent_ppo": "sb3_contrib:RecurrentPPO", "ppo_lagrangian": "stable_baselines3:PPO"}
+#: The off-policy algorithms (a replay buffer, checkpointed with the model).
+OFF_POLICY = ("sac", "tqc")
+#: The algorithms whose policy keeps a state between steps.
+RECURRENT = ("recurrent_ppo",)
 CHECKPOINTS = "checkpoints"
 _CKPT_RE = re.compile(r"^ckpt_(\d+)_steps\.zip$")
 
 
 def algorithm_class(algo: str):
-    """The SB3 class of ``algo`` (``ppo`` or ``sac``)."""
+    """The SB3 class of ``algo`` (a key of :data:`ALGORITHMS`)."""
     name = str(algo).lower()
     if name not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {algo!r}; known algorithms: {', '.join(ALGORITHMS)}")
-    return ALGORITHMS[name]
+    module, cls = ALGORITHMS[name].split(":")
+    try:
+        return getattr(importlib.import_module(module), cls)
+    except ImportError:
+        raise ImportError(f"algorithm {name} needs the package {module.replace('_', '-')} "
+                          f"(pip install {module.replace('_', '-')})") from None
 
 
 #: Hyperparameters that may be schedules.
@@ -165,7 +180,7 @@ def load_obs_normalizer(path: Path):
 
 
 def load_sb3_model(path: Path, algo: str = "ppo", hyperparams: dict[str, Any] | None = None):
-    """An SB3 model (PPO or SAC) from a zip on the CPU; raises one-line errors.
+    """An SB3 model (any of :data:`ALGORITHMS`) from a zip on the CPU; raises one-line errors.
 
     ``hyperparams`` (the run's) rebuild the saved schedules (:func:`custom_objects`)."""
     cls = algorithm_class(algo)
@@ -184,7 +199,9 @@ class LoadedPolicy:
 
     ``stats`` is a ``VecNormalize`` whose statistics are only read, or None (raw observations). The one way a policy
     acts: the ``ppo`` strategy and the evaluation during training both call :meth:`act` (the latter on the live model
-    and training statistics).
+    and training statistics). A recurrent policy (``recurrent``) keeps the LSTM state of the batch it last acted on:
+    :meth:`reset_state` starts new episodes (the next :meth:`act` begins from a zero state, as in training); a batch
+    of another size also starts afresh.
     """
 
     def __init__(self, model, stats=None, config: dict[str, Any] | None = None, path: Path | None = None):
@@ -193,6 +210,8 @@ class LoadedPolicy:
         self.config = config
         self.path = path
         self.obs_dim = int(model.observation_space.shape[0])
+        self.recurrent = hasattr(model.policy, "lstm_actor")
+        self.state: tuple[np.ndarray, ...] | None = None
         if stats is not None and getattr(stats, "norm_obs", False):
             n = int(np.prod(stats.obs_rms.mean.shape))
             if n != self.obs_dim:
@@ -203,9 +222,21 @@ class LoadedPolicy:
         obs = np.asarray(obs, dtype=np.float32)
         return obs if self.stats is None else self.stats.normalize_obs(obs)
 
+    def reset_state(self) -> None:
+        """Forget the recurrent state: the next :meth:`act` starts new episodes (nothing to do for a feed-forward
+        policy)."""
+        self.state = None
+
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Deterministic motor shares u [n, 1] (clipped to [-1, 1]) for a batch of raw observations [n, dim]."""
-        actions, _ = self.model.policy.predict(self.normalize(obs), deterministic=True)
+        x = self.normalize(obs)
+        if not self.recurrent:
+            actions, _ = self.model.policy.predict(x, deterministic=True)
+            return np.asarray(actions, dtype=np.float32).reshape(-1, 1)
+        n = len(x)
+        fresh = self.state is None or self.state[0].shape[1] != n
+        actions, self.state = self.model.policy.predict(x, state=None if fresh else self.state,
+                                                        episode_start=np.full(n, fresh), deterministic=True)
         return np.asarray(actions, dtype=np.float32).reshape(-1, 1)
 
     @property

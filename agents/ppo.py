@@ -1,10 +1,12 @@
-"""``ppo``: a policy trained by ``train.py`` (Stable-Baselines3; PPO or SAC), behind the strategy protocol.
+"""``ppo``: a policy trained by ``train.py`` (any of its algorithms: PPO, SAC, TQC, RecurrentPPO, PPO-Lagrangian),
+behind the strategy protocol.
 
 ``get_strategy("ppo")`` loads the policy shipped in ``agents/policies/ppo_default/``; ``"ppo:PATH"`` or ``path=PATH`` a
 run directory or model zip of ``train.py`` (:func:`.policy_files.load_policy`, which says where each file is looked up
 and what it raises). It acts deterministically on observations normalised with the saved statistics
 (:meth:`.policy_files.LoadedPolicy.act`); an env whose observation differs from the one the model was trained on (e.g.
-another ``preview_s``) raises ``ValueError`` naming what differs.
+another ``preview_s``) raises ``ValueError`` naming what differs. A recurrent policy's state starts afresh at every
+:meth:`PPOStrategy.reset` (an episode's start) and is carried from step to step within the episode.
 """
 
 from __future__ import annotations
@@ -71,6 +73,7 @@ class PPOStrategy(Strategy):
 
     def reset(self, env: Any) -> None:
         super().reset(env)
+        self.policy.reset_state()
         problem = observation_mismatch(self.policy, env)
         if problem:
             raise ValueError(problem)

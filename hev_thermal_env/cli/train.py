@@ -1,4 +1,4 @@
-"""Train an SB3 agent (PPO or SAC) as the energy-management strategy of the hybrid bus.
+"""Train an SB3 agent (PPO, SAC, TQC, RecurrentPPO or PPO-Lagrangian) as the energy-management strategy of the bus.
 
 The program behind ``train.py`` and ``hev-train``, a thin layer over :mod:`hev_thermal_env.training`;
 ``--help`` shows the examples, the notes and every default (from the hyperparameter files).
@@ -51,6 +51,10 @@ end the best and final models are scored on eval.final_cycles (validation.csv).
 
 outputs in --out: model.zip, best_model.zip, vecnormalize.pkl, config.yaml, command.txt,
 checkpoints/, tb/ (TensorBoard), evaluations.csv, validation.csv, training_curve.png.
+
+algorithms: ppo, sac (Stable-Baselines3), tqc, recurrent_ppo (sb3-contrib) and ppo_lagrangian (PPO on
+the reward less lambda x the safety cost info["cost"], lambda raised by dual ascent while the
+episodes' safety cost per hour exceeds constraint.budget_s_per_h); each has its file and budget.
 
 Ctrl-C saves a checkpoint (exit status 130); --resume DIR continues.
 

@@ -4,7 +4,8 @@
 overrides (:mod:`.overrides`) and the command-line settings, and :func:`validate_config` checks all of
 it before anything is created (one-line ``ValueError`` s). Sections: ``algo``, ``seed``,
 ``total_timesteps``, ``n_envs``, ``env`` (the training env), ``normalize`` (``VecNormalize``), ``init``
-(:mod:`.imitation`), ``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``task`` (the id of the
+(:mod:`.imitation`), ``constraint`` (a constrained algorithm's safety-cost budget and multiplier, :mod:`.lagrangian`;
+None for the others), ``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``task`` (the id of the
 benchmark task the run trains for, :mod:`hev_thermal_env.tasks`, or None), ``command``, ``created``, ``versions``, and
 after training ``result``. No run trains or selects checkpoints on a held-out task's test cycles.
 """
@@ -37,6 +38,7 @@ from hev_thermal_env.tasks import get_task, held_out_cycles
 
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
 from .imitation import check_init
+from .lagrangian import check_constraint
 from .overrides import apply_overrides
 from .selection import DEFAULT_SCORER, get_scorer
 
@@ -101,13 +103,14 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
             raise ValueError(f"normalize={normalize!r}: expected true, false or a mapping")
         normalize = {**NORMALIZE_DEFAULTS, **(normalize if isinstance(normalize, dict) else {})}
     init = dict(hp.pop("init", None) or {})
+    constraint = hp.pop("constraint", None)
     total = whole_number("n_timesteps", hp.pop("n_timesteps", 1_000_000))
     envs = whole_number("n_envs", hp.pop("n_envs", 1))
     ckpt = whole_number("checkpoint_freq", hp.pop("checkpoint_freq", 500_000))
     hp.setdefault("policy", "MlpPolicy")
     config = {"algo": algo, "seed": whole_number("seed", seed), "total_timesteps": total, "n_envs": envs, "env": env,
-              "normalize": normalize, "init": init, "hyperparams": hp, "eval": ev, "checkpoint_freq": ckpt,
-              "task": task_id, "command": command,
+              "normalize": normalize, "init": init, "constraint": constraint, "hyperparams": hp, "eval": ev,
+              "checkpoint_freq": ckpt, "task": task_id, "command": command,
               "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"), "versions": versions()}
     validate_config(config)
     return config
@@ -131,6 +134,7 @@ def validate_config(config: dict[str, Any]) -> None:
     if init is not None and not isinstance(init, dict):
         raise ValueError(f"init={init!r}: expected a mapping (imitate, episodes, epochs, beyond_bound)")
     config["init"] = check_init(dict(init or {}), config["algo"])
+    config["constraint"] = check_constraint(config.get("constraint"), config["algo"], config.get("task"))
     ev = config["eval"]
     if config["normalize"] is not False:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
@@ -144,12 +148,17 @@ def validate_config(config: dict[str, Any]) -> None:
     _check_batch_sizes(config)
 
 
+#: The algorithms built on PPO's rollouts (``n_steps`` per env between updates).
+ON_POLICY = ("ppo", "ppo_lagrangian", "recurrent_ppo")
+
+
 def _check_batch_sizes(config: dict[str, Any]) -> None:
     """The rollout and minibatch sizes SB3 asserts on, as one-line errors before any work."""
     hp, n_envs = config["hyperparams"], config["n_envs"]
-    if config["algo"] == "ppo" and "n_steps" in hp and whole_number("n_steps", hp["n_steps"]) * n_envs < 2:
+    on_policy = config["algo"] in ON_POLICY
+    if on_policy and "n_steps" in hp and whole_number("n_steps", hp["n_steps"]) * n_envs < 2:
         raise ValueError(f"n_steps={hp['n_steps']} with n_envs={n_envs}: PPO needs n_steps × n_envs of at least 2")
-    least = 2 if config["algo"] == "ppo" else 1
+    least = 2 if on_policy else 1
     if "batch_size" in hp and whole_number("batch_size", hp["batch_size"]) < least:
         raise ValueError(f"batch_size must be at least {least}, got {hp['batch_size']}")
 

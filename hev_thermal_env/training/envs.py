@@ -1,6 +1,7 @@
 """The training environments: the native vector env of a run config through its SB3 adapter
 (:class:`~hev_thermal_env.wrappers.sb3.Sb3VecEnv`), timed (:class:`TimedVecEnv`: the env's share of
-training is reported), and its ``VecNormalize``."""
+training is reported), for a constrained algorithm with the safety cost priced in (:mod:`.lagrangian`), and its
+``VecNormalize``."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ from typing import Any
 from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNormalize
 
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
+
+from .lagrangian import LagrangianVecEnv, make_lagrangian
 
 
 def env_kwargs(env_cfg: dict[str, Any], *, for_eval: bool = False) -> dict[str, Any]:
@@ -45,10 +48,16 @@ class TimedVecEnv(VecEnvWrapper):
         return self._timed(self.venv.step_wait)
 
 
-def make_vec_env(config: dict[str, Any]) -> tuple[VecMonitor, TimedVecEnv]:
-    """The raw training VecEnv of the config (no normalisation), and the timer inside it."""
-    timed = TimedVecEnv(Sb3VecEnv(int(config["n_envs"]), info_keys=(), **env_kwargs(config["env"])))
-    return VecMonitor(timed), timed
+def make_vec_env(config: dict[str, Any]) -> tuple[VecMonitor | LagrangianVecEnv, TimedVecEnv]:
+    """The raw training VecEnv of the config (no normalisation), and the timer inside it. ``VecMonitor`` records the
+    env's own reward; a constrained run's :class:`~.lagrangian.LagrangianVecEnv` sits above it."""
+    constrained = config.get("constraint") is not None
+    sb3_env = Sb3VecEnv(int(config["n_envs"]), info_keys=("cost",) if constrained else (), **env_kwargs(config["env"]))
+    timed = TimedVecEnv(sb3_env)
+    monitored = VecMonitor(timed)
+    if constrained:
+        return make_lagrangian(monitored, config, float(sb3_env.venv.core.dt_s)), timed
+    return monitored, timed
 
 
 def wrap_normalize(venv, config: dict[str, Any], stats_path: Path | None = None):

@@ -34,17 +34,27 @@ class PolicyEvaluator:
         self.scenarios = list(scenarios)
         self.seed = int(seed)
 
-    def run(self, act: Callable[[np.ndarray], np.ndarray]) -> list[dict[str, Any]]:
-        """Drive every (cycle, scenario) with ``act(raw_obs [n, dim]) -> actions [n, 1]``; one result per run."""
-        return [r for scenario in self.scenarios for r in self.run_scenario(act, scenario)]
+    def run(self, act: Callable[[np.ndarray], np.ndarray],
+            reset: Callable[[], None] | None = None) -> list[dict[str, Any]]:
+        """Drive every (cycle, scenario) with ``act(raw_obs [n, dim]) -> actions [n, 1]``; one result per run.
 
-    def run_scenario(self, act: Callable[[np.ndarray], np.ndarray], scenario: str) -> list[dict[str, Any]]:
-        """Every cycle in ``scenario``, in one batched env."""
+        ``reset()`` is called before each scenario's episodes start (a recurrent policy forgets its state); by default
+        ``act``'s owner's ``reset_state`` when ``act`` is a method of an object that has one
+        (:class:`~hev_thermal_env.agents.policy_files.LoadedPolicy`)."""
+        if reset is None:
+            reset = getattr(getattr(act, "__self__", None), "reset_state", None)
+        return [r for scenario in self.scenarios for r in self.run_scenario(act, scenario, reset)]
+
+    def run_scenario(self, act: Callable[[np.ndarray], np.ndarray], scenario: str,
+                     reset: Callable[[], None] | None = None) -> list[dict[str, Any]]:
+        """Every cycle in ``scenario``, in one batched env, after ``reset()`` (if given)."""
         kwargs = env_kwargs({**self.env_cfg, "scenario": scenario}, for_eval=True)
         n = len(self.cycles)
         venv = HevThermalVectorEnv(n, **{**kwargs, "cycle": self.cycles})
         obs, _ = venv.reset(seed=self.seed, options=[{"cycle": c} for c in self.cycles])
         soc0 = venv.phys_state[:, C.SOC].copy()
+        if reset is not None:
+            reset()
         lengths = np.array([c.n_steps for c in self.cycles])
         horizon = int(lengths.max())
         traces, returns = {k: np.zeros((horizon, n)) for k in TRACE_KEYS}, np.zeros(n)

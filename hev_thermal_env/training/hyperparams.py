@@ -1,7 +1,7 @@
 """The algorithms' hyperparameter files (``agents/hyperparams/``), the SB3 constructor arguments built from
-them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argument of the ``PPO`` or
-``SAC`` constructor the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys (also inside
-``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
+them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argument of the algorithm's constructor
+(``PPO``, ``SAC``, ``TQC``, ``RecurrentPPO``) the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys
+(also inside ``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
 valid one.
 """
 
@@ -23,7 +23,8 @@ from hev_thermal_env.agents.policy_files import SCHEDULE_KEYS, algorithm_class, 
 from hev_thermal_env.io import read_yaml_mapping
 
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
-RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer")
+RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer",
+            "constraint")
 
 #: Constructor arguments the training sets itself.
 MANAGED_KEYS = ("self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model")

@@ -26,6 +26,8 @@ from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25}
+#: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
+IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 BATCH = 1024
 LEARNING_RATE = 1e-3
 
@@ -37,8 +39,10 @@ def check_init(init: dict[str, Any], algo: str) -> dict[str, Any]:
     teacher = out["imitate"]
     if teacher is None:
         return out
-    if algo != "ppo":
-        raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only (algo {algo}); set it to null")
+    if algo not in IMITATING_ALGORITHMS:
+        algos = ", ".join(IMITATING_ALGORITHMS)
+        raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only ({algos}; algo {algo}); set it to "
+                         "null")
     classic = [s for s in list_strategies() if s not in ("ppo", "sac")]
     if not isinstance(teacher, str) or teacher not in classic or teacher.startswith("dp"):
         raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "

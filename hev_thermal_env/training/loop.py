@@ -25,6 +25,7 @@ from stable_baselines3.common.utils import set_random_seed
 
 from hev_thermal_env.agents.policy_files import (
     CHECKPOINTS,
+    OFF_POLICY,
     LoadedPolicy,
     checkpoint_files,
     checkpoint_paths,
@@ -32,7 +33,7 @@ from hev_thermal_env.agents.policy_files import (
 )
 from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
 
-from .artifacts import read_evaluations, save_model_and_stats, write_evaluations
+from .artifacts import read_evaluations, save_model_and_stats, write_csv, write_evaluations
 from .callbacks import RunCallback, TrainingInterrupted, stop_on_signals
 from .config import load_run_config, save_run_config, validate_config
 from .curves import plot_training_curve
@@ -40,6 +41,7 @@ from .envs import env_kwargs, make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .imitation import imitate
+from .lagrangian import LagrangeMultiplier, LagrangianVecEnv, load_multiplier, save_multiplier
 from .selection import compute_references, get_scorer, is_better
 from .validation_report import final_validation
 
@@ -68,10 +70,18 @@ class TrainingRun:
             self.evaluator = PolicyEvaluator(config["env"], config["eval"]["cycles"], config["eval"]["scenarios"],
                                              seed=int(config["seed"]))
 
+    @property
+    def multiplier(self) -> LagrangeMultiplier | None:
+        """A constrained run's Lagrange multiplier (None otherwise)."""
+        raw = getattr(self, "raw", None)
+        return raw.multiplier if isinstance(raw, LagrangianVecEnv) else None
+
     def checkpoint(self, model) -> Path:
         n = int(model.num_timesteps)
         zip_path, stats_path, replay_path = checkpoint_paths(self.out, n)
-        if self.config["algo"] == "sac" and self.config["hyperparams"].get("save_replay_buffer", True):
+        if self.multiplier is not None:
+            save_multiplier(self.multiplier, zip_path)
+        if self.config["algo"] in OFF_POLICY and self.config["hyperparams"].get("save_replay_buffer", True):
             buf = io.BytesIO()
             model.save_replay_buffer(buf)
             atomic_write_bytes(replay_path, buf.getvalue())
@@ -148,7 +158,7 @@ class TrainingRun:
         model.set_random_seed(seed + int(model.num_timesteps))
         torch.manual_seed(seed + int(model.num_timesteps))
         replay = checkpoint_paths(self.out, resume_from[0])[2]
-        if cfg["algo"] == "sac" and replay.is_file():
+        if cfg["algo"] in OFF_POLICY and replay.is_file():
             model.load_replay_buffer(replay)
         return model
 
@@ -164,6 +174,10 @@ class TrainingRun:
         self.venv = wrap_normalize(self.raw, cfg, resume_from[2] if resume_from and normalized else None)
         self.model = self.make_model(self.venv, resume_from)
         self.resume_from = resume_from
+        if isinstance(self.raw, LagrangianVecEnv):
+            self.raw.timesteps = int(self.model.num_timesteps)
+            if resume_from is not None:
+                load_multiplier(self.raw.multiplier, resume_from[1])
         init = cfg.get("init") or {}
         if resume_from is None and init.get("imitate"):
             rec = imitate(self.model, self.venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]),
@@ -223,6 +237,12 @@ class TrainingRun:
         wall = sum(s["session_wall_s"] for s in sessions)
         res.update(finished=finished, timesteps_done=session["timesteps_done"], wall_s=round(wall, 2),
                    sessions=sessions, env_share=session["env_share"], steps_per_s=session["steps_per_s"])
+        m = self.multiplier
+        if m is not None:
+            res["lagrangian"] = {"lambda": round(m.lam, 6), "updates": len(m.history),
+                                 "last_cost_s_per_h": m.history[-1]["cost_s_per_h"] if m.history else None}
+            write_csv(self.out / "lagrangian.csv", m.HISTORY_COLUMNS,
+                      [[row[k] for k in m.HISTORY_COLUMNS] for row in m.history])
         if self.eval_rows:
             best = min(self.eval_rows, key=lambda r: r["score"])
             res["best_eval"] = {"timesteps": best["timesteps"], "mean_return_g": best["mean_return_g"],

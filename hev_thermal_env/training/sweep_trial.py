@@ -52,6 +52,8 @@ DEFAULT_SPACES: dict[str, dict[str, Any]] = {
     "sac": {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
             "tau": {"loguniform": [1.0e-3, 2.0e-2]}, "batch_size": {"choice": [128, 256, 512]}},
 }
+DEFAULT_SPACES.update(tqc=DEFAULT_SPACES["sac"], recurrent_ppo=DEFAULT_SPACES["ppo"],
+                      ppo_lagrangian=DEFAULT_SPACES["ppo"])
 
 
 # --- the search space ---------------------------------------------------------------------------------

@@ -1,0 +1,186 @@
+"""PPO-Lagrangian (``train.py --algo ppo_lagrangian``): PPO on the reward less λ times the safety cost, λ learned.
+
+The env's reward is unchanged; :class:`LagrangianVecEnv`, a VecEnv wrapper under ``VecNormalize``, hands PPO
+``reward − λ · info["cost"]`` (g − g/s · s: the safety cost, in seconds of lost motor capability per step, priced at λ
+grams of fuel per second). After every PPO rollout (``n_steps`` calls of ``step``) λ takes one step of dual ascent on
+the constraint "episode safety cost per hour driven ≤ budget" (:func:`dual_ascent`)::
+
+    λ ← clip(λ + lr · (J − d), 0, λ_max)
+
+with J the safety cost of the episodes that ended since the last update, summed and divided by their hours driven
+(``cost_s_per_h``), and d the budget (``constraint.budget_s_per_h``); no episode ended, no update. λ rises while the
+policy derates more than the budget allows and falls back towards 0 while it stays under it: the Lagrangian
+relaxation of the constrained problem max E[return] s.t. E[cost] ≤ d, solved by alternating policy and multiplier
+steps. The budget is a rate because training episodes differ in length (random starts, generated routes).
+
+The ``constraint`` section of the run config holds the settings (:data:`CONSTRAINT_DEFAULTS`); the multiplier's
+history is saved with each checkpoint and in ``lagrangian.csv`` of the run directory.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnvWrapper
+
+from hev_thermal_env.io import atomic_write_text
+
+from .hyperparams import check_known
+
+#: The ``constraint`` section's settings and defaults. ``budget_s_per_h``: the allowed episode safety cost per hour
+#: driven (36 s/h: one per cent of the time with the motor fully derated), or ``task`` for the budget stored with the
+#: training task's references (:func:`task_budget_s_per_h`); ``lambda_lr``: λ's step per update, in g/s of λ per s/h
+#: of excess; ``lambda_init``, ``lambda_max``: λ's start and ceiling (g of fuel per second of safety cost).
+CONSTRAINT_DEFAULTS: dict[str, Any] = {"budget_s_per_h": 36.0, "lambda_init": 0.0, "lambda_lr": 0.005,
+                                       "lambda_max": 50.0}
+#: The algorithms that take a ``constraint`` section.
+CONSTRAINED_ALGORITHMS = ("ppo_lagrangian",)
+
+
+def dual_ascent(lam: float, cost_s_per_h: float, budget_s_per_h: float, lr: float, lam_max: float) -> float:
+    """One step of dual ascent on λ: ``clip(λ + lr · (cost − budget), 0, lam_max)``."""
+    return float(min(lam_max, max(0.0, lam + lr * (cost_s_per_h - budget_s_per_h))))
+
+
+def task_budget_s_per_h(task_id: str | None) -> float | None:
+    """The safety budget of the task ``task_id`` as a rate (its episode budget over its hours driven), from the task's
+    stored references; None while the package stores no budget for it.
+
+    The per-task references (the optimum's episode safety cost and the budget fixed from it) are the benchmark's; this
+    is where a run with ``budget_s_per_h: task`` reads them. None today: no budget is stored in the package yet."""
+    return None
+
+
+def check_constraint(section: Any, algo: str, task_id: str | None) -> dict[str, Any] | None:
+    """The ``constraint`` section completed with its defaults (None for an unconstrained algorithm); one-line
+    ``ValueError`` on unknown keys, bad values, or a constraint given to an algorithm that does not use one."""
+    if algo not in CONSTRAINED_ALGORITHMS:
+        if section:
+            raise ValueError(f"constraint: algorithm {algo} is unconstrained; the constraint section belongs to "
+                             f"{', '.join(CONSTRAINED_ALGORITHMS)}")
+        return None
+    if section is not None and not isinstance(section, dict):
+        raise ValueError(f"constraint={section!r}: expected a mapping ({', '.join(CONSTRAINT_DEFAULTS)})")
+    check_known("constraint setting", section or {}, CONSTRAINT_DEFAULTS)
+    out = {**CONSTRAINT_DEFAULTS, **(section or {})}
+    if out["budget_s_per_h"] == "task":
+        budget = task_budget_s_per_h(task_id)
+        if budget is None:
+            raise ValueError(f"constraint.budget_s_per_h=task: no safety budget is stored for task {task_id}; give "
+                             "the budget in seconds of safety cost per hour driven")
+        out["budget_s_per_h"] = budget
+    for key in CONSTRAINT_DEFAULTS:
+        value = out[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+            raise ValueError(f"constraint.{key} must be a number of at least 0, got {value!r}")
+        out[key] = float(value)
+    if out["lambda_init"] > out["lambda_max"]:
+        raise ValueError(f"constraint.lambda_init={out['lambda_init']} is above lambda_max={out['lambda_max']}")
+    return out
+
+
+class LagrangeMultiplier:
+    """λ, the episodes that ended since its last update, and its history (rows of :data:`HISTORY_COLUMNS`)."""
+
+    HISTORY_COLUMNS = ("timesteps", "lambda", "cost_s_per_h", "budget_s_per_h", "episodes")
+
+    def __init__(self, budget_s_per_h: float, lambda_lr: float, lambda_init: float = 0.0, lambda_max: float = 50.0):
+        self.budget_s_per_h = float(budget_s_per_h)
+        self.lr = float(lambda_lr)
+        self.lam = float(lambda_init)
+        self.lam_max = float(lambda_max)
+        self.cost_s = 0.0
+        self.hours = 0.0
+        self.episodes = 0
+        self.history: list[dict[str, float]] = []
+
+    def record_episode(self, cost_s: float, duration_s: float) -> None:
+        """An episode ended with safety cost ``cost_s`` after ``duration_s`` seconds driven."""
+        self.cost_s += float(cost_s)
+        self.hours += float(duration_s) / 3600.0
+        self.episodes += 1
+
+    def update(self, timesteps: int) -> float | None:
+        """One dual-ascent step on the episodes recorded since the last one; returns their cost per hour (None: no
+        episode ended, λ unchanged)."""
+        if self.episodes == 0 or self.hours <= 0.0:
+            return None
+        rate = self.cost_s / self.hours
+        self.lam = dual_ascent(self.lam, rate, self.budget_s_per_h, self.lr, self.lam_max)
+        self.history.append({"timesteps": int(timesteps), "lambda": round(self.lam, 6),
+                             "cost_s_per_h": round(rate, 4), "budget_s_per_h": self.budget_s_per_h,
+                             "episodes": self.episodes})
+        self.cost_s, self.hours, self.episodes = 0.0, 0.0, 0
+        return rate
+
+    def state(self) -> dict[str, Any]:
+        return {"lambda": self.lam, "history": list(self.history)}
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        self.lam = float(state["lambda"])
+        self.history = list(state.get("history") or [])
+
+
+class LagrangianVecEnv(VecEnvWrapper):
+    """Rewards ``reward − λ · info["cost"]`` for PPO (module docstring); the wrapped env must copy ``cost`` into its
+    infos. ``update_every``: ``step`` calls between two updates of λ (PPO's ``n_steps``: once per rollout);
+    ``dt_s``: the env's step length (episode hours from step counts)."""
+
+    def __init__(self, venv, multiplier: LagrangeMultiplier, update_every: int, dt_s: float):
+        super().__init__(venv)
+        self.multiplier = multiplier
+        self.update_every = int(update_every)
+        self.dt_s = float(dt_s)
+        self.calls = 0
+        self.timesteps = 0
+        self.episode_cost = np.zeros(self.num_envs)
+        self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
+
+    def reset(self):
+        self.episode_cost[:] = 0.0
+        self.episode_steps[:] = 0
+        return self.venv.reset()
+
+    def step_wait(self):
+        obs, reward, dones, infos = self.venv.step_wait()
+        cost = np.fromiter((info["cost"] for info in infos), dtype=np.float64, count=self.num_envs)
+        shaped = (reward - self.multiplier.lam * cost).astype(np.float32)
+        self.episode_cost += cost
+        self.episode_steps += 1
+        for i in np.flatnonzero(dones):
+            self.multiplier.record_episode(self.episode_cost[i], self.episode_steps[i] * self.dt_s)
+            self.episode_cost[i], self.episode_steps[i] = 0.0, 0
+        self.calls += 1
+        self.timesteps += self.num_envs
+        if self.calls % self.update_every == 0:
+            self.multiplier.update(self.timesteps)
+        return obs, shaped, dones, infos
+
+
+def make_lagrangian(venv, config: dict[str, Any], dt_s: float) -> LagrangianVecEnv:
+    """The wrapper of a ``ppo_lagrangian`` run config over ``venv``."""
+    c = config["constraint"]
+    multiplier = LagrangeMultiplier(c["budget_s_per_h"], c["lambda_lr"], c["lambda_init"], c["lambda_max"])
+    return LagrangianVecEnv(venv, multiplier, int(config["hyperparams"].get("n_steps", 2048)), dt_s)
+
+
+def state_path(model_path: Path) -> Path:
+    """Where the multiplier is saved beside a checkpoint or model zip (``NAME_lagrangian.json``)."""
+    return Path(model_path).with_name(Path(model_path).stem + "_lagrangian.json")
+
+
+def save_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> None:
+    atomic_write_text(state_path(model_path), json.dumps(multiplier.state()))
+
+
+def load_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> bool:
+    """Restore λ saved beside ``model_path``; False when nothing was saved there."""
+    p = state_path(model_path)
+    if not p.is_file():
+        return False
+    multiplier.load_state(json.loads(p.read_text()))
+    return True

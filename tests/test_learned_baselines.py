@@ -1,0 +1,291 @@
+"""The learned baselines of ``train.py`` beyond PPO and SAC: TQC, RecurrentPPO and PPO-Lagrangian train, save, reload
+and drive ``evaluate.py``; the Lagrange multiplier's update rule on synthetic costs; a recurrent policy's state carried
+within an episode and cleared between episodes; the hyperparameter files checked."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from gymnasium import spaces
+from stable_baselines3.common.vec_env import VecEnv
+
+import evaluate
+import train
+from hev_thermal_env import load_cycle
+from hev_thermal_env.agents import HYPERPARAMS_DIR, list_strategies
+from hev_thermal_env.agents.policy_files import ALGORITHMS, load_policy
+from hev_thermal_env.agents.ppo import PPOStrategy
+from hev_thermal_env.evaluation.families import parse_family
+from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.training import build_config
+from hev_thermal_env.training.config import load_run_config
+from hev_thermal_env.training.evaluator import PolicyEvaluator
+from hev_thermal_env.training.lagrangian import LagrangeMultiplier, LagrangianVecEnv, dual_ascent
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# tiny runs of each method: 2 envs, 256 env-steps, no periodic evaluation
+COMMON = ["--timesteps", "256", "--n-envs", "2", "--seed", "0", "--no-progress", "--quiet", "--eval-cycles",
+          "--checkpoint-freq", "128"]
+TINY = {
+    "tqc": ["learning_starts=64", "buffer_size=500", "batch_size=16", "policy_kwargs.net_arch=[8,8]",
+            "policy_kwargs.n_quantiles=5"],
+    "recurrent_ppo": ["n_steps=32", "batch_size=32", "n_epochs=1", "policy_kwargs.net_arch=[8,8]",
+                      "policy_kwargs.lstm_hidden_size=8"],
+    "ppo_lagrangian": ["n_steps=32", "batch_size=32", "n_epochs=1", "policy_kwargs.net_arch=[8,8]",
+                       "init.imitate=null", "policy_kwargs.log_std_init=0.0", "constraint.budget_s_per_h=0",
+                       "constraint.lambda_lr=0.01"],
+}
+
+
+def short_cycle(path: Path, n: int = 120) -> str:
+    v = load_cycle("us06").speed_mps[30:30 + n]
+    path.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
+    return str(path)
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory) -> dict[str, Path]:
+    """One tiny run per method; PPO-Lagrangian on 120 s of US06 with a failing cooling loop, so that episodes end
+    with a safety cost and λ moves."""
+    d = tmp_path_factory.mktemp("baselines")
+    out = {}
+    for algo, hp in TINY.items():
+        extra = (["--cycles", short_cycle(d / "short.csv"), "--scenario", "hot"] if algo == "ppo_lagrangian"
+                 else ["--task", "bus-generalisation"])
+        out[algo] = d / algo
+        assert train.main(["--algo", algo, *extra, "--out", str(out[algo]), *COMMON, "--hp", *hp]) == 0, algo
+    return out
+
+
+@pytest.mark.parametrize("algo", list(TINY))
+def test_each_method_trains_reloads_and_drives_evaluate(runs, algo, tmp_path):
+    run = runs[algo]
+    cfg = load_run_config(run)
+    assert cfg["algo"] == algo and cfg["result"]["finished"] and cfg["result"]["timesteps_done"] == 256
+    policy = load_policy(run)
+    assert type(policy.model).__name__ == ALGORITHMS[algo].split(":")[1]
+    summary = tmp_path / "summary.json"
+    assert evaluate.main(["run", "--cycle", "us06", "--strategy", f"ppo:{run}", "--json", str(summary)]) == 0
+    data = json.loads(summary.read_text())
+    found = data.get("summary", data)
+    assert found["duration_s"] == load_cycle("us06").n_steps
+
+
+def test_the_generalisation_task_sets_the_training_distribution(runs):
+    cfg = load_run_config(runs["tqc"])
+    assert cfg["task"] == "bus-generalisation-v1" and cfg["env"]["scenario"] == "random_service"
+    assert cfg["env"]["cycles"][0] == "random_bus" and len(cfg["env"]["observation_names"]) == 21
+
+
+def test_tqc_checkpoints_its_replay_buffer(runs):
+    assert (runs["tqc"] / "checkpoints" / "ckpt_256_steps_replay_buffer.pkl").is_file()
+
+
+# --- PPO-Lagrangian ---------------------------------------------------------------------------------
+
+def test_dual_ascent_rises_over_the_budget_falls_under_it_and_stays_in_bounds():
+    m = LagrangeMultiplier(budget_s_per_h=36.0, lambda_lr=0.01, lambda_init=0.0, lambda_max=2.0)
+    lams = []
+    for _ in range(5):  # 72 s of safety cost per hour driven: twice the budget
+        m.record_episode(cost_s=36.0, duration_s=1800.0)
+        m.update(0)
+        lams.append(m.lam)
+    assert lams == pytest.approx([0.36, 0.72, 1.08, 1.44, 1.8])
+    m.record_episode(cost_s=0.0, duration_s=3600.0)  # no safety cost: 36 s/h under the budget
+    m.update(0)
+    assert m.lam == pytest.approx(1.44)
+    for _ in range(10):
+        m.record_episode(cost_s=0.0, duration_s=3600.0)
+        m.update(0)
+    assert m.lam == 0.0  # never negative
+    for _ in range(10):
+        m.record_episode(cost_s=3600.0, duration_s=3600.0)
+        m.update(0)
+    assert m.lam == 2.0  # capped
+    assert m.update(0) is None and m.lam == 2.0  # no episode since the last update: no step
+    assert dual_ascent(1.0, 10.0, 10.0, 5.0, 9.0) == 1.0  # at the budget λ stays
+
+
+def test_multiplier_pools_episodes_by_hours_driven():
+    m = LagrangeMultiplier(budget_s_per_h=0.0, lambda_lr=1.0)
+    m.record_episode(cost_s=10.0, duration_s=3600.0)
+    m.record_episode(cost_s=0.0, duration_s=1800.0)
+    assert m.update(100) == pytest.approx(10.0 / 1.5)
+    assert m.history[-1]["episodes"] == 2 and m.history[-1]["timesteps"] == 100
+
+
+class _CostEnv(VecEnv):
+    """Two envs; reward −1 and cost 0.5 every step, env 0's episodes end every 3 steps."""
+
+    def __init__(self):
+        box = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        super().__init__(2, box, box)
+        self.t = 0
+
+    def reset(self):
+        return np.zeros((2, 1), np.float32)
+
+    def step_async(self, actions):
+        pass
+
+    def step_wait(self):
+        self.t += 1
+        dones = np.array([self.t % 3 == 0, False])
+        return (np.zeros((2, 1), np.float32), np.full(2, -1.0, np.float32), dones,
+                [{"cost": 0.5}, {"cost": 0.5}])
+
+    def close(self):
+        pass
+
+    def get_attr(self, *a, **k):
+        return [None, None]
+
+    def set_attr(self, *a, **k):
+        pass
+
+    def env_method(self, *a, **k):
+        return []
+
+    def env_is_wrapped(self, *a, **k):
+        return [False, False]
+
+
+def test_wrapper_prices_the_cost_in_and_updates_once_per_rollout():
+    m = LagrangeMultiplier(budget_s_per_h=0.0, lambda_lr=0.001, lambda_init=2.0, lambda_max=100.0)
+    env = LagrangianVecEnv(_CostEnv(), m, update_every=3, dt_s=1.0)
+    env.reset()
+    _, r, _, _ = env.step(np.zeros((2, 1)))
+    np.testing.assert_allclose(r, [-1.0 - 2.0 * 0.5] * 2)
+    env.step(np.zeros((2, 1)))
+    assert m.lam == 2.0  # no update within a rollout
+    env.step(np.zeros((2, 1)))  # third call: env 0's episode (1.5 s of cost in 3 s) ends, then λ steps
+    assert m.history[-1]["cost_s_per_h"] == pytest.approx(1800.0)
+    assert m.lam == pytest.approx(2.0 + 0.001 * 1800.0)
+    _, r, _, _ = env.step(np.zeros((2, 1)))
+    np.testing.assert_allclose(r, [-1.0 - m.lam * 0.5] * 2)
+
+
+def test_lagrangian_run_records_its_multiplier(runs):
+    run = runs["ppo_lagrangian"]
+    res = load_run_config(run)["result"]["lagrangian"]
+    with open(run / "lagrangian.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert rows and res["updates"] == len(rows)
+    assert float(rows[-1]["lambda"]) == pytest.approx(res["lambda"])
+    # a budget of 0: λ rises exactly when episodes had a safety cost, and never falls
+    lams = [float(r["lambda"]) for r in rows]
+    costs = [float(r["cost_s_per_h"]) for r in rows]
+    assert max(costs) > 0.0 and lams[-1] > 0.0
+    for before, after, cost in zip([0.0, *lams], lams, costs):
+        assert after == pytest.approx(min(50.0, before + 0.01 * cost), abs=1e-5)
+    saved = json.loads((run / "checkpoints" / "ckpt_256_steps_lagrangian.json").read_text())
+    assert saved["lambda"] == pytest.approx(res["lambda"])
+
+
+def test_a_resumed_lagrangian_run_continues_its_multiplier(runs, tmp_path):
+    run = tmp_path / "resumed"
+    shutil.copytree(runs["ppo_lagrangian"], run)
+    with open(run / "lagrangian.csv", newline="") as fh:
+        before = list(csv.DictReader(fh))
+    cfg = yaml.safe_load((run / "config.yaml").read_text())
+    cfg["total_timesteps"], cfg["result"]["finished"] = 384, False
+    (run / "config.yaml").write_text(yaml.safe_dump(cfg))
+    (run / "model.zip").unlink()
+    assert train.main(["--resume", str(run), "--no-progress", "--quiet"]) == 0
+    with open(run / "lagrangian.csv", newline="") as fh:
+        after = list(csv.DictReader(fh))
+    assert after[:len(before)] == before and len(after) > len(before)
+    assert all(256 < int(r["timesteps"]) <= 384 for r in after[len(before):])
+    first_new = after[len(before)]
+    lam = min(50.0, float(before[-1]["lambda"]) + 0.01 * float(first_new["cost_s_per_h"]))
+    assert float(first_new["lambda"]) == pytest.approx(lam, abs=1e-5)
+
+
+def test_constraint_settings_are_checked():
+    with pytest.raises(ValueError, match="unconstrained"):
+        build_config("ppo", overrides={"constraint.budget_s_per_h": 1.0})
+    with pytest.raises(ValueError, match="lambda_lr"):
+        build_config("ppo_lagrangian", overrides={"constraint.lambda_lr": -1})
+    with pytest.raises(ValueError, match="no safety budget is stored"):
+        build_config("ppo_lagrangian", overrides={"constraint.budget_s_per_h": "task"})
+    with pytest.raises(ValueError, match="PPO runs only"):
+        build_config("tqc", overrides={"init.imitate": "ecms"})
+
+
+# --- the recurrent policy's state ---------------------------------------------------------------------
+
+def test_recurrent_policy_carries_its_state_and_a_reset_clears_it(runs):
+    policy = load_policy(runs["recurrent_ppo"])
+    assert policy.recurrent
+    obs = np.random.default_rng(0).normal(size=(5, policy.obs_dim)).astype(np.float32)
+    first = policy.act(obs[:1])
+    states = [policy.act(obs[i:i + 1]) for i in range(1, 5)]
+    again = policy.act(obs[:1])  # the same observation after four steps: another state, another action
+    assert not np.allclose(again, first)
+    policy.reset_state()
+    np.testing.assert_array_equal(policy.act(obs[:1]), first)
+    assert len(states) == 4
+
+
+def test_recurrent_strategy_and_training_evaluation_start_each_episode_afresh(runs):
+    strategy = PPOStrategy(runs["recurrent_ppo"])
+    a = run_strategy(strategy, "us06", "paper").summary
+    b = run_strategy(strategy, "us06", "paper").summary
+    assert a["fuel_corrected_l_per_100km"] == b["fuel_corrected_l_per_100km"]
+    cfg = load_run_config(runs["recurrent_ppo"])
+    policy = load_policy(runs["recurrent_ppo"])
+    first, second = PolicyEvaluator(cfg["env"], ["us06"], ["paper", "paper"]).run(policy.act)
+    assert first["return_g"] == second["return_g"]
+    assert first["fuel_corrected_l_per_100km"] == pytest.approx(a["fuel_corrected_l_per_100km"], rel=1e-9)
+
+
+# --- the hyperparameter files ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("algo", list(ALGORITHMS))
+def test_every_algorithm_has_a_checked_hyperparameter_file_on_the_same_observation(algo):
+    assert (HYPERPARAMS_DIR / f"{algo}.yaml").is_file()
+    cfg = build_config(algo, task="bus-generalisation")
+    ppo = build_config("ppo", task="bus-generalisation")
+    assert cfg["env"]["observation_names"] == ppo["env"]["observation_names"]
+    assert cfg["env"]["cycles"] == ppo["env"]["cycles"] and cfg["env"]["scenario"] == ppo["env"]["scenario"]
+    assert cfg["total_timesteps"] >= 100_000
+
+
+# --- benchmarks/learned_baselines.py --------------------------------------------------------------------
+
+def _script():
+    spec = importlib.util.spec_from_file_location("learned_baselines", ROOT / "benchmarks" / "learned_baselines.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_names():
+    script = _script()
+    assert set(script.METHODS) == set(ALGORITHMS) == set(script.SMOKE_ARGS) == set(script.FAMILY_NAMES)
+    assert script.SEEDS == (0, 1, 2, 3, 4)
+    for name in script.FAMILY_NAMES.values():  # a seed family may not take a strategy's name
+        assert parse_family(f"{name}={ROOT},{ROOT / 'agents'}", taken=list_strategies()).name == name
+
+
+@pytest.mark.full
+def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
+    """Two methods, two seeds, tiny budgets, on hwfet (solves hwfet's thermal optimum unless it is cached)."""
+    script = _script()
+    assert script.main(["--smoke", "--methods", "ppo", "recurrent_ppo", "--out", str(tmp_path)]) == 0
+    record = json.loads((tmp_path / "learned_baselines.json").read_text())
+    for method in ("ppo", "recurrent_ppo"):
+        seeds = record["methods"][method]["seeds"]
+        assert [s["seed"] for s in seeds] == [0, 1] and all(s["steps_per_s"] > 0 for s in seeds)
+        assert all(Path(s["policy"]).is_file() for s in seeds)
+        ev = record["evaluation"]["hwfet-v1"]["methods"][method]
+        assert ev["frontier_ratio_iqm"] >= 1.0 - 1e-6 and len(ev["seeds"]) == 2
+        assert all(len(s["safety_cost_s"]) == 1 and s["safety_cost_s"][0] >= 0 for s in ev["seeds"])
