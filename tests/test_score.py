@@ -135,3 +135,22 @@ def test_results_table_carries_the_score(tmp_path):
     assert scores == {"engine_only": 0.0, "rule": pytest.approx(50.0), "dp_thermal": 100.0}
     md = (tmp_path / "results.md").read_text()
     assert "| score |" in md and "| 50.0 |" in md
+
+
+@pytest.mark.full
+def test_no_strategy_above_100_on_the_stored_tasks():
+    """On every task with a stored reference, no classic strategy nor the shipped policy scores above 100 by more
+    than the optimum's tolerance, and engine_only scores 0."""
+    from hev_thermal_env.evaluation.submission import result_of_strategy
+
+    for path in sorted(R.REFERENCE_DIR.glob("*.json")):
+        ref = R.load_reference(path.stem)
+        episodes = {(e["cycle"], e["seed"]): e for e in ref["episodes"]}
+        for name in ("engine_only", *CLASSIC, "ppo"):
+            for row in result_of_strategy(path.stem, name)["episodes"]:
+                ep = episodes[(row["cycle"], row["env_seed"])]
+                _, score, _ = R.episode_score(ep, row["cost_g"], row["soc_final"])
+                if score is not None:
+                    assert score <= 100.0 + score_tolerance(ep["anchor"]["frontier_ratio"]), (path.stem, name, score)
+                if name == "engine_only":
+                    assert score == pytest.approx(0.0, abs=1e-9)
