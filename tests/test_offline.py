@@ -77,6 +77,7 @@ def test_dataset_loads_in_a_fresh_process(short_routes, tmp_path):
     assert out.stdout.split() == ["40", "HevThermal-v1"]
 
 
+@pytest.mark.full
 def test_behaviour_cloning_fits_a_dataset_and_drives(short_routes, tmp_path, monkeypatch):
     """BC on a tiny dataset of the rule strategy: the fit's error falls well below the actions' variance, and the
     cloned policy, saved and loaded, drives an episode within the action bounds."""
