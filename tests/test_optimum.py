@@ -107,6 +107,7 @@ def test_search_matches_an_exhaustive_search_on_a_short_cycle():
         assert found <= exact * 1.001, (s, exact, found)
 
 
+@pytest.mark.full
 def test_grid_doubling_changes_the_optimum_little(city200):
     """Every bin halved and the split grid doubled: the optimum's cost moves by <= 0.3 % (hot, where heat binds)."""
     short = cycle_from_arrays(city200.speed_mps[:101], name="beijing_100s")
