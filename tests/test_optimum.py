@@ -13,7 +13,7 @@ from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.planning.bins import pareto_per_soc_bin
+from hev_thermal_env.planning.bins import KEY_BITS, KEY_COLUMNS, keep_best_per_bin, pareto_per_soc_bin
 from hev_thermal_env.planning.problem import DPProblem, stage_splits
 from hev_thermal_env.planning.search import SearchGrid, frontier_points, search
 from hev_thermal_env.prices import Prices
@@ -147,6 +147,32 @@ def test_dominance_keeps_cooler_states_and_same_bin_pairs():
     assert sorted(keep[:k].tolist()) == [0, 2, 3, 4]
 
 
+def test_each_bin_keeps_its_heat_priced_state_and_nothing_more_where_heat_is_free():
+    """One bin of four candidates: the cheapest (at the battery price), the cheapest at the second price, the coolest
+    and the cheapest with heat priced survive; with heat free the heat-priced one is the cheapest and no fourth row
+    comes in."""
+    states = np.zeros((4, C.N_STATE))
+    states[:, C.SOC] = 0.65
+    states[:, C.TEMP_C] = [59.9, 58.1, 59.8, 59.5]  # one 2 K housing bin
+    states[:, C.WINDING_C] = 80.0
+    states[:, C.COOLANT_C] = 50.0
+    cost = np.array([100.0, 104.0, 99.0, 100.4])
+    batt_j = np.array([0.0, 0.0, 1.1, 0.0])  # row 2 used more charge: the cheapest only at the lower price
+    widths = np.array([1.5e-4, 2.0, 8.0, 4.0, 0.1, 1.0, 1.0])
+    key_cols, bits = np.array(KEY_COLUMNS, dtype=np.int64), np.array(KEY_BITS, dtype=np.int64)
+
+    def kept(heat_g: np.ndarray) -> list[int]:
+        out = np.empty(8, dtype=np.int64)
+        k = keep_best_per_bin(states, np.ones(4, dtype=np.bool_), cost, batt_j, 1.0, 0.8, heat_g, key_cols, widths,
+                              bits, 0, 1, 16, out)
+        return sorted(out[:k].tolist())
+
+    # no heat price: row 0 cheapest (100 against 100.1, 100.4, 104), row 2 at the price 0.8 (99.88), row 1 coolest
+    assert kept(np.zeros(4)) == [0, 1, 2]
+    # 2 g/K above 58 °C: row 3 (100.4 + 3.0) beats row 0 (103.8), row 2 (103.7) and row 1 (104.2)
+    assert kept(2.0 * (states[:, C.TEMP_C] - 58.0)) == [0, 1, 2, 3]
+
+
 @pytest.mark.parametrize("options, match", [
     ({"grid_scale": 0}, "grid_scale"), ({"n_u": 1}, "n_u"), ({"soc_bin": -1e-4}, "soc"),
     ({"on_infeasible": "maybe"}, "on_infeasible"), ({"frontier_halfwidth": 0.001}, "frontier_halfwidth"),
@@ -166,3 +192,41 @@ def test_a_solved_plan_is_reused_from_disk_and_drives_the_same_run(city200):
     assert "from_cache" not in fresh["strategy_settings"]
     assert again["cost_g"] == first["cost_g"] == fresh["cost_g"]
     assert again["soc_final"] == first["soc_final"]
+
+
+def test_heat_is_priced_where_it_costs_and_not_where_it_does_not(city200):
+    """The price of a kelvin (:mod:`~hev_thermal_env.planning.heat_value`) along the hybrid driven at u = 1: nothing
+    on a cool motor (paper: below the derate's 35 °C and far from the soft limit), a little on a hot one (the derate),
+    grams per kelvin of the housing above the overheat soft limit; the housing's price from a direct difference of
+    two replays from stage 100 (2 K apart) agrees."""
+    import dataclasses
+
+    from hev_thermal_env.planning.heat_value import DELTA_K, heat_prices
+    from hev_thermal_env.scenarios import get_scenario
+
+    hot = get_scenario("hot").conditions
+    cases = {"paper": get_scenario("paper").conditions, "hot": hot,
+             "above_soft_limit": dataclasses.replace(hot, initial_motor_temp_c=62.0)}
+    problems = {k: problem_for(city200.speed_mps, c) for k, c in cases.items()}
+    prices = {k: heat_prices(p, np.ones(p.n_stages)) for k, p in problems.items()}
+    assert prices["paper"].max() == 0.0
+    assert 0.01 < prices["hot"][100, 0] < 1.0
+    assert prices["above_soft_limit"][100, 0] > 1.0
+    assert all(np.all(m >= 0.0) and np.all(m[-1] == 0.0) for m in prices.values())
+    p = problems["above_soft_limit"]
+    st = p.state0[None, :].copy()
+    for i in range(100):
+        st, _ = p.step(st, 1.0, i)
+    lam = p.reward_params.prices.battery_g_per_j(p.lhv)
+    totals = []
+    for sign in (1.0, -1.0):
+        x = st.copy()
+        x[0, C.TEMP_C] += sign * DELTA_K
+        total = 0.0
+        for i in range(100, p.n_stages):
+            x, out = p.step(x, 1.0, i)
+            total += float(stage_cost_g(p.reward_params, out, x, p.soc_target, p.lhv, 1.0, battery=False,
+                                        overheat=True)[0]) + lam * float(out[0, C.BATT_CHEM])
+        totals.append(total)
+    direct = (totals[0] - totals[1]) / (2 * DELTA_K)
+    assert prices["above_soft_limit"][100, 0] == pytest.approx(direct, rel=1e-9)

@@ -2,7 +2,7 @@
 
 A candidate's bin is floor(state / width) per key column (SOC, the motor's (stator/housing), winding and coolant
 temperature, heat index, the cutoff and winding-trip flags), packed into one 64-bit key. In each occupied bin at most
-three states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped when a cheaper one lies
+four states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped when a cheaper one lies
 in a cooler thermal bin (:func:`pareto_per_soc_bin`).
 """
 
@@ -24,8 +24,8 @@ _BITS = np.array(KEY_BITS, dtype=np.int64)
 
 
 @jit
-def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap, table_key,
-               cheap, cool, second):
+def _fill_bins(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts, cap,
+               table_key, cheap, cool, second, priced):
     """One pass of :func:`keep_best_per_bin` with a table of ``cap`` slots over the rows whose first key column's bin
     is ``part`` modulo ``n_parts``; returns the number of bins, or -1 when the table would be more than half full (the
     caller retries with a larger one)."""
@@ -56,6 +56,7 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bi
                 cheap[h] = b
                 cool[h] = b
                 second[h] = b
+                priced[h] = b
                 break
             if k == key:
                 if cost[b] + price * batt_j[b] < cost[cheap[h]] + price * batt_j[cheap[h]]:
@@ -64,6 +65,9 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bi
                     cool[h] = b
                 if cost[b] + price2 * batt_j[b] < cost[second[h]] + price2 * batt_j[second[h]]:
                     second[h] = b
+                p = priced[h]
+                if cost[b] + price * batt_j[b] + heat_g[b] < cost[p] + price * batt_j[p] + heat_g[p]:
+                    priced[h] = b
                 break
             h = (h + 1) & mask
     return used
@@ -78,10 +82,11 @@ def hotness(states, b):
 
 
 @jit
-def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap_hint,
-                      out_idx):
-    """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2`` and the coolest
-    (:func:`hotness`); writes their indices to ``out_idx`` (a row once) and returns how many.
+def keep_best_per_bin(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts,
+                      cap_hint, out_idx):
+    """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2``, the coolest
+    (:func:`hotness`) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row: the temperatures at
+    the prices of :mod:`.heat_value`); writes their indices to ``out_idx`` (a row once) and returns how many.
 
     Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run on separate
     threads). The cost compared is ``cost + price · batt_j`` (g). One representative per bin drifts (the cheaper state
@@ -90,6 +95,11 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, wid
     representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 % below the frontier, three at 1.5·10⁻⁴ 0.06 %). An open-addressing
     hash table, sized from ``cap_hint`` (the expected number of bins) and grown when it fills, finds a row's bin in
     O(1).
+
+    Heat: two states of a bin can differ by most of its width in every temperature; near the overheat soft limit a
+    kelvin of the housing costs grams at every later step, and the cheapest state of a bin is often the hotter one
+    (Beijing in ``hot``: with the first three alone ``rule`` ended 1.7 % below the frontier). The heat-priced
+    representative keeps the cooler lineage where heat has a price; with no price (``heat_g`` 0) it is the cheapest.
     """
     cap = 1024
     while cap < 4 * cap_hint:
@@ -99,8 +109,9 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, wid
         cheap = np.empty(cap, dtype=np.int64)
         cool = np.empty(cap, dtype=np.int64)
         second = np.empty(cap, dtype=np.int64)
-        used = _fill_bins(states, inside, cost, batt_j, price, price2, key_cols, widths, bits, part, n_parts, cap,
-                          table_key, cheap, cool, second)
+        priced = np.empty(cap, dtype=np.int64)
+        used = _fill_bins(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts,
+                          cap, table_key, cheap, cool, second, priced)
         if used >= 0:
             break
         cap *= 4
@@ -114,6 +125,9 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, key_cols, wid
                 j += 1
             if second[h] != cheap[h] and second[h] != cool[h]:
                 out_idx[j] = second[h]
+                j += 1
+            if priced[h] != cheap[h] and priced[h] != cool[h] and priced[h] != second[h]:
+                out_idx[j] = priced[h]
                 j += 1
     return j
 
@@ -169,13 +183,13 @@ def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows:
 
 
 def survivors(so: np.ndarray, inside: np.ndarray, c: np.ndarray, e: np.ndarray, price: float, price2: float,
-              widths: np.ndarray, hint: int, threads: int) -> np.ndarray:
+              heat_g: np.ndarray, widths: np.ndarray, hint: int, threads: int) -> np.ndarray:
     """:func:`keep_best_per_bin` over all rows, the SOC bins split into ``threads`` parts run in parallel."""
     n_parts = threads if so.shape[0] >= MIN_THREAD_BATCH and threads > 1 else 1
 
     def run(part: int) -> np.ndarray:
         buf = np.empty(so.shape[0], dtype=np.int64)
-        k = keep_best_per_bin(so, inside, c, e, price, price2, _KEY_COLS, widths, _BITS, part, n_parts,
+        k = keep_best_per_bin(so, inside, c, e, price, price2, heat_g, _KEY_COLS, widths, _BITS, part, n_parts,
                               max(hint // n_parts, 1024), buf)
         return buf[:k]
 

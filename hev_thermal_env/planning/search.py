@@ -22,6 +22,7 @@ from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 
 from .bins import KEY_BITS, non_dominated, survivors
 from .corridor import backward_envelope
+from .heat_value import PRICED
 from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
 
 #: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
@@ -211,12 +212,14 @@ def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.nd
 
 
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
-           progress=None, u_center: np.ndarray | None = None,
-           tube: tuple[np.ndarray, np.ndarray] | None = None) -> SearchResult:
+           progress=None, u_center: np.ndarray | None = None, tube: tuple[np.ndarray, np.ndarray] | None = None,
+           heat_price: np.ndarray | None = None) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
     ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`). ``tube`` (SOC
     bounds per stage 0..n) also drops the states outside it (at a stage where none is inside, the tube is ignored).
+    ``heat_price`` (g/K of the temperatures :data:`~.heat_value.PRICED` after each stage, [n + 1, 3]) gives each bin
+    its heat-priced representative (:func:`~.bins.keep_best_per_bin`).
     ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
     t0 = time.perf_counter()
@@ -241,7 +244,12 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
         n_evals += so.shape[0]
         inside = _inside(so[:, C.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
-        keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, widths, states.shape[0], threads)
+        if heat_price is None or not np.any(heat_price[i + 1]):
+            heat_g = np.zeros(so.shape[0])
+        else:
+            heat_g = so[:, PRICED] @ heat_price[i + 1]
+        keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, heat_g, widths, states.shape[0],
+                         threads)
         if keep.size > 1:
             keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
         keep = np.sort(keep)

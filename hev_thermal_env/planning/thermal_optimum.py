@@ -1,11 +1,13 @@
 """The thermal optimum over a known cycle and its fuel-versus-final-SOC frontier (the ``dp_thermal`` planner).
 
 The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md); the SOC DP
-(:mod:`.soc_dp`) seeds the refining passes with its path. The plan is the cheapest path into the final-SOC band
-(default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the battery energy at the reward's
-price (as the SOC DP and the reward choose): an exact action sequence, so the env realises the planned cost (the report
-gives both). The report's ``frontier``, over the final states of the same passes, is the cost by final SOC within
-``frontier_halfwidth`` of the target: the benchmark divides each strategy's cost by it at the strategy's own final SOC.
+(:mod:`.soc_dp`) seeds the refining passes with its path, and the heat prices of the bins (:mod:`.heat_value`) are
+measured along its path for the first pass and along the first pass's for the others. The plan is the cheapest path
+into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
+battery energy at the reward's price (as the SOC DP and the reward choose): an exact action sequence, so the env
+realises the planned cost (the report gives both). The report's ``frontier``, over the final states of the same passes,
+is the cost by final SOC within ``frontier_halfwidth`` of the target: the benchmark divides each strategy's cost by it
+at the strategy's own final SOC.
 
 Every pass shows a bar of its stages on stderr, cleared when the pass ends; hidden off a terminal and in worker
 processes (a pool's parent shows its own progress).
@@ -25,6 +27,7 @@ from tqdm.auto import tqdm
 from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
 
+from .heat_value import heat_prices
 from .problem import DPInfeasibleError, DPProblem
 from .search import LOCAL_HALFWIDTH, N_LOCAL, REFINE_STRIDE, SearchGrid, SearchResult, frontier_points, search
 from .soc_dp import DPSettings, rollout, solve
@@ -166,12 +169,19 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
     target = float(problem.state0[C.SOC]) if s.soc_final is None else float(s.soc_final)
     window = (target - s.frontier_halfwidth, target + s.frontier_halfwidth)
     band = (target - s.soc_tol, target + s.soc_tol)
-    first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads)
+    dp_u, dp_soc = soc_dp_path(problem, target, s.soc_tol, s.threads)
+    t_heat = time.perf_counter()
+    heat_dp = heat_prices(problem, dp_u)
+    heat_s = time.perf_counter() - t_heat
+    first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads, heat_price=heat_dp)
     j_first = pick_final(first, problem, band, s.on_infeasible)
     first_pass = {"solve_s": first.solve_s, "cost_g": float(first.final_cost_g[j_first])}
-    dp_u, dp_soc = soc_dp_path(problem, target, s.soc_tol, s.threads)
     centers = [first.path(j_first), dp_u]
-    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc)  # they make the plan and the frontier
+    t_heat = time.perf_counter()
+    heat = heat_prices(problem, centers[0])
+    first_pass["heat_prices_s"] = heat_s + time.perf_counter() - t_heat
+    first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
+    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat)  # they make the plan and frontier
     searched = [first] + passes
     result, j = _pick(passes, problem, band, s.on_infeasible)
     u = result.path(j)
@@ -198,11 +208,11 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
 
 
 def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tuple[float, float],
-            band: tuple[float, float], centers: list[np.ndarray],
-            dp_soc: np.ndarray) -> tuple[list[SearchResult], SearchGrid]:
+            band: tuple[float, float], centers: list[np.ndarray], dp_soc: np.ndarray,
+            heat: np.ndarray) -> tuple[list[SearchResult], SearchGrid]:
     """The second pass around ``centers`` and, where :meth:`OptimumSettings.refined_grid` narrows the SOC bin, the
     third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid used."""
-    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers))
+    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers), heat_price=heat)
     j2 = pick_final(second, problem, band, s.on_infeasible)
     fine = s.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
     if not fine.soc < grid.soc:
@@ -210,7 +220,8 @@ def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tu
     u2 = second.path(j2)
     socs = [replay(problem, u2)["state"][:, C.SOC], dp_soc]
     tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
-    third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:]), tube=tube)
+    third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:]), tube=tube,
+                    heat_price=heat)
     return [second, third], fine
 
 
