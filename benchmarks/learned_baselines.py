@@ -10,7 +10,7 @@ is reused). The policy evaluated is each run's ``best_model.zip`` (selected on `
 task's cycles). Every seed family then drives every task (``--tasks``, default all) through the benchmark
 (:func:`hev_thermal_env.evaluation.benchmark.run_benchmark`: frontier ratio per run against the thermal optimum,
 IQM over seeds with its 95 % bootstrap interval), beside ``engine_only``; the episode safety cost (the sum of
-``info["cost"]``) of every policy on every task episode is measured by driving the task's env once more.
+``info["cost"]``) of every policy on every task episode is the run summary's ``safety_cost_s``.
 
 Writes ``OUT/learned_baselines.json``: per method its budget and per seed the process wall-clock, the training's
 steps/s and the saved policy's path; per task and method the frontier ratio IQM [95 % CI], each seed's ratios,
@@ -95,27 +95,6 @@ def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str
             "imitation_wall_s": (res.get("imitation") or {}).get("wall_s"), "lagrangian": res.get("lagrangian")}
 
 
-def episode_safety_costs(policy: str, task_id: str) -> list[float]:
-    """The episode safety cost (sum of ``info["cost"]``, s) of ``policy`` on each episode of the task."""
-    from hev_thermal_env.agents.ppo import PPOStrategy
-    from hev_thermal_env.tasks import get_task, make_task
-
-    task, strategy = get_task(task_id), PPOStrategy(policy)
-    env = make_task(task.id)
-    costs = []
-    for seed, options in task.resets():
-        obs, info = env.reset(seed=seed, options=options)
-        strategy.reset(env)
-        total, done = 0.0, False
-        while not done:
-            obs, _, terminated, truncated, info = env.step(strategy.act(obs, info))
-            total += float(info["cost"])
-            done = terminated or truncated
-        costs.append(round(total, 3))
-    env.close()
-    return costs
-
-
 def evaluate_task(task_id: str, families: dict[str, list[str]], out: Path, jobs: int) -> dict[str, Any]:
     """Every seed family (method -> policy paths) and ``engine_only`` on the task's episodes; the ratios and safety
     costs by method."""
@@ -138,7 +117,7 @@ def evaluate_task(task_id: str, families: dict[str, list[str]], out: Path, jobs:
         for path, label in zip(fam.paths, fam.members):
             runs = [r for r in rows if r["strategy"] == label]
             seeds.append({"policy": path, "episodes": [_row(r) for r in runs],
-                          "safety_cost_s": episode_safety_costs(path, task.id)})
+                          "safety_cost_s": [round(float(r["safety_cost_s"]), 3) for r in runs]})
         record["methods"][method_of[fam.name]] = {
             "frontier_ratio_iqm": overall["frontier_ratio"],
             "frontier_ratio_ci95": [overall["frontier_ratio_ci_low"], overall["frontier_ratio_ci_high"]],

@@ -21,7 +21,8 @@ J1711_TOLERANCE = 0.01
 def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: float, distance_m: float,
               dt_s: float = 1.0) -> dict[str, Any]:
     """The run's metrics from its traces (``fuel_g``, ``battery_chem_power_w``, ``missed_wheel_energy_j``, ``soc``,
-    ``motor_temp_c``, ``heat_index``, ``motor_cutoff``, ``trace_miss_mps``, ``engine_on``) at :class:`Prices`."""
+    ``motor_temp_c``, ``heat_index``, ``motor_cutoff``, ``trace_miss_mps``, ``engine_on``; ``cost``, the env's safety
+    cost per step, where the trace has it: ``safety_cost_s`` is its sum) at :class:`Prices`."""
     fuel_g = float(trace["fuel_g"].sum())
     dist_km = max(distance_m / 1000.0, 1e-9)
     dens = config.engine.fuel_density_kg_per_l
@@ -52,6 +53,7 @@ def summarize(trace: dict[str, np.ndarray], config: VehicleConfig, soc_initial: 
         "heat_index_max": float(trace["heat_index"].max()) if len(trace["soc"]) else 0.0,
         "derated_s": float((trace["heat_index"] > 0.0).sum() * dt_s),
         "cutoff_s": float((trace["motor_cutoff"] > 0.0).sum() * dt_s),
+        "safety_cost_s": float(trace["cost"].sum()) if "cost" in trace else 0.0,
         "trace_miss_max_mps": float(trace["trace_miss_mps"].max()) if len(trace["soc"]) else 0.0,
         "engine_on_s": float(trace["engine_on"].sum() * dt_s),
     }

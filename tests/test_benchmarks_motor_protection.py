@@ -39,3 +39,18 @@ def test_winding_trip_seconds_only_where_the_state_has_the_protection():
     assert mp.cell_row(summary, trace, {})["winding_trip_s"] is None
     trace["winding_trip"] = np.asarray([0.0, 1.0, 1.0, 0.0])
     assert mp.cell_row(summary, trace, {})["winding_trip_s"] == 2.0
+
+
+def test_optimum_against_engine_only_compares_equal_charge_not_raw_cost():
+    """engine_only ends with less charge (it regenerates nothing): a raw cost below the optimum's is no contradiction;
+    the verdict reads its frontier ratio (cost over the optimum's at its own final SOC)."""
+    def row(strategy, cost_g, ratio):
+        return {"scenario": mp.HOT, "cycle": "udds", "strategy": strategy, "cost_g": cost_g, "frontier_ratio": ratio}
+
+    cheaper_raw = [row(mp.OPTIMUM, 4969.0, 1.0), row(mp.ENGINE_ONLY, 4959.0, 1.024)]
+    got = mp.hot_table(cheaper_raw, ["udds"], [mp.OPTIMUM, mp.ENGINE_ONLY])["udds"]
+    assert got["optimum_le_engine_only_at_equal_charge"] is True
+    assert got["optimum_raw_cost_le_engine_only"] is False
+    below = [row(mp.OPTIMUM, 4969.0, 1.0), row(mp.ENGINE_ONLY, 4900.0, 0.995)]
+    assert mp.hot_table(below, ["udds"], [mp.OPTIMUM, mp.ENGINE_ONLY])["udds"][
+        "optimum_le_engine_only_at_equal_charge"] is False

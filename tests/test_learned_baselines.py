@@ -214,8 +214,19 @@ def test_constraint_settings_are_checked():
         build_config("ppo", overrides={"constraint.budget_s_per_h": 1.0})
     with pytest.raises(ValueError, match="lambda_lr"):
         build_config("ppo_lagrangian", overrides={"constraint.lambda_lr": -1})
-    with pytest.raises(ValueError, match="no safety budget is stored"):
+    with pytest.raises(ValueError, match="no current safety budget is stored for task None"):
         build_config("ppo_lagrangian", overrides={"constraint.budget_s_per_h": "task"})
+
+
+def test_the_task_budget_is_the_stored_episode_budget_per_hour_driven():
+    """``budget_s_per_h: task`` reads the task's stored reference: hwfet-v1's episode budget over HWFET's hours."""
+    from hev_thermal_env.evaluation.references import load_reference
+    from hev_thermal_env.training.lagrangian import task_budget_s_per_h
+
+    budget_s = load_reference("hwfet-v1")["safety_budget_s"]
+    assert budget_s >= 10.0
+    assert task_budget_s_per_h("hwfet-v1") == pytest.approx(budget_s / (765 / 3600.0), rel=1e-12)
+    assert task_budget_s_per_h(None) is None
     with pytest.raises(ValueError, match="PPO runs only"):
         build_config("tqc", overrides={"init.imitate": "ecms"})
 

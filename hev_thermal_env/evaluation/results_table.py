@@ -29,15 +29,16 @@ COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "f
            "fixed_price_ratio", "fixed_price_ratio_ci_low", "fixed_price_ratio_ci_high",
            "fuel_vs_thermal_blind_dp_pct", "reference", "charge_sustaining", "net_energy_ratio",
            "soc_correction_l_per_100km", "miss_correction_l_per_100km", "missed_wheel_energy_kwh", "soc_initial",
-           "soc_final", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps",
-           "frontier_note")
+           "soc_final", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s", "safety_cost_s",
+           "trace_miss_max_mps", "frontier_note")
 """Columns of ``results.csv`` and ``results.json``, in order."""
 
 FUEL_DENSITY_G_PER_L = 1000.0 * paper_bus().engine.fuel_density_kg_per_l
 
 MD_HEAD = ("cycle", "scenario", "strategy", "fuel L/100 km", "corrected L/100 km", "frontier ratio", "score",
            "overheat share of cost", "fixed-price ratio", "vs dp (thermal-blind)", "J1711 charge-sustaining",
-           "SOC start → end", "max motor °C", "heat index max", "derated s", "cutoff s", "missed kWh")
+           "SOC start → end", "max motor °C", "heat index max", "derated s", "cutoff s", "safety cost s",
+           "missed kWh")
 
 EXPLANATION = (
     "*frontier ratio*: the run's cost (fuel + missed wheel energy at the miss price + overheat terms, no "
@@ -50,7 +51,8 @@ EXPLANATION = (
     f"(battery energy at the fixed price) over the {REFERENCE} run's. *vs dp (thermal-blind)*: corrected fuel as a "
     "percentage of `dp`'s, whose plan holds the thermal state at its start (labelled thermal-blind everywhere). "
     "*J1711*: SAE J1711 charge-sustaining test, |net battery energy| ≤ 1 % of the fuel energy; in brackets the signed "
-    "ratio (positive: the battery ends with less energy). See docs/metrics.md.")
+    "ratio (positive: the battery ends with less energy). *safety cost s*: the episode's safety cost, Σ "
+    "`info[\"cost\"]`, the seconds of lost motor capability (docs/tasks.md). See docs/metrics.md.")
 
 
 def _fmt(v: Any) -> str:
@@ -129,6 +131,7 @@ def _run_line(r: dict) -> list[str]:
             _j1711_cell(r),
             f"{r['soc_initial']:.3f} → {r['soc_final']:.3f}", f"{r['max_motor_temp_c']:.1f}",
             f"{r['heat_index_max']:.2f}", f"{r['derated_s']:.0f}", f"{r['cutoff_s']:.0f}",
+            f"{r['safety_cost_s']:.0f}" if r.get("safety_cost_s") is not None else "-",
             f"{r['missed_wheel_energy_kwh']:.3f}"]
 
 
@@ -136,7 +139,7 @@ def _family_line(r: dict) -> list[str]:
     fuel = r.get("fuel_corrected_l_per_100km")
     return [r["cycle"], r["scenario"], f"**{r['strategy']}** (IQM of {r['seeds']} seeds)", "-",
             f"{fuel:.2f}" if fuel is not None else "-", ratio_text(r, "frontier_ratio"), _score_cell(r), "-",
-            ratio_text(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-"]
+            ratio_text(r, "fixed_price_ratio"), "-", _j1711_cell(r), "-", "-", "-", "-", "-", "-", "-"]
 
 
 def _table(head: Sequence[str], lines: list[list[str]]) -> list[str]:

@@ -27,8 +27,8 @@ SUMMARY_KEYS = (
     "cycle", "strategy", "scenario", "distance_km", "duration_s", "fuel_g", "fuel_l_per_100km",
     "fuel_corrected_l_per_100km", "soc_correction_l_per_100km", "miss_correction_l_per_100km", "cost_g",
     "battery_energy_kwh", "net_energy_ratio", "charge_sustaining", "missed_wheel_energy_kwh", "soc_initial",
-    "soc_final", "delta_soc", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s", "trace_miss_max_mps",
-    "engine_on_s", "wall_s", "plan_s", "thermal_aware", "seed", "conditions", "strategy_settings",
+    "soc_final", "delta_soc", "max_motor_temp_c", "heat_index_max", "derated_s", "cutoff_s", "safety_cost_s",
+    "trace_miss_max_mps", "engine_on_s", "wall_s", "plan_s", "thermal_aware", "seed", "conditions", "strategy_settings",
 )
 """Keys of :attr:`RunResult.summary`, in order."""
 

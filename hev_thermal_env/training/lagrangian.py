@@ -47,12 +47,20 @@ def dual_ascent(lam: float, cost_s_per_h: float, budget_s_per_h: float, lr: floa
 
 
 def task_budget_s_per_h(task_id: str | None) -> float | None:
-    """The safety budget of the task ``task_id`` as a rate (its episode budget over its hours driven), from the task's
-    stored references; None while the package stores no budget for it.
+    """The safety budget of the task ``task_id`` as a rate: its episode budget (stored with the task's references,
+    :mod:`hev_thermal_env.evaluation.references`) over the mean length of its episodes in hours; None without a task
+    or without a current stored reference (the caller's error says which)."""
+    if task_id is None:
+        return None
+    from hev_thermal_env.cycles import load_cycle
+    from hev_thermal_env.evaluation.references import StaleReferenceError, load_reference
 
-    The per-task references (the optimum's episode safety cost and the budget fixed from it) are the benchmark's; this
-    is where a run with ``budget_s_per_h: task`` reads them. None today: no budget is stored in the package yet."""
-    return None
+    try:
+        ref = load_reference(task_id)
+    except (FileNotFoundError, StaleReferenceError):
+        return None
+    hours = [load_cycle(e["cycle"]).n_steps / 3600.0 for e in ref["episodes"]]
+    return float(ref["safety_budget_s"]) / float(np.mean(hours))
 
 
 def check_constraint(section: Any, algo: str, task_id: str | None) -> dict[str, Any] | None:
@@ -70,8 +78,9 @@ def check_constraint(section: Any, algo: str, task_id: str | None) -> dict[str, 
     if out["budget_s_per_h"] == "task":
         budget = task_budget_s_per_h(task_id)
         if budget is None:
-            raise ValueError(f"constraint.budget_s_per_h=task: no safety budget is stored for task {task_id}; give "
-                             "the budget in seconds of safety cost per hour driven")
+            raise ValueError(f"constraint.budget_s_per_h=task: no current safety budget is stored for task {task_id} "
+                             "(train with --task, and see python evaluate.py reference --check); give the budget in "
+                             "seconds of safety cost per hour driven")
         out["budget_s_per_h"] = budget
     for key in CONSTRAINT_DEFAULTS:
         value = out[key]
