@@ -48,6 +48,9 @@ FAMILY_NAMES = {"ppo": "PPO", "sac": "SAC", "tqc": "TQC", "recurrent_ppo": "Recu
 SEEDS = (0, 1, 2, 3, 4)
 #: The task whose training distribution every method trains on.
 TRAINING_TASK = "bus-generalisation"
+#: Per method, ``train.py --hp`` settings of every run: the constrained method's budget is the training task's stored
+#: one (its episode safety budget per hour driven, :func:`hev_thermal_env.training.lagrangian.task_budget_s_per_h`).
+METHOD_HP = {"ppo_lagrangian": ["constraint.budget_s_per_h=task"]}
 #: ``--smoke``: seeds (a seed family needs two), tasks, and per method the ``train.py`` arguments of a tiny run.
 SMOKE_SEEDS = (0, 1)
 SMOKE_TASKS = ("hwfet",)
@@ -57,7 +60,7 @@ _SMOKE_PPO = ["n_steps=64", "batch_size=64", "n_epochs=1", "policy_kwargs.net_ar
 _SMOKE_OFF_POLICY = ["learning_starts=128", "buffer_size=1000", "batch_size=32", "policy_kwargs.net_arch=[16,16]"]
 SMOKE_ARGS = {
     "ppo": [*_SMOKE_COMMON, "--hp", *_SMOKE_PPO],
-    "ppo_lagrangian": [*_SMOKE_COMMON, "--hp", *_SMOKE_PPO],
+    "ppo_lagrangian": [*_SMOKE_COMMON, "--hp", *_SMOKE_PPO, *METHOD_HP["ppo_lagrangian"]],
     "sac": [*_SMOKE_COMMON, "--hp", *_SMOKE_OFF_POLICY],
     "tqc": [*_SMOKE_COMMON, "--hp", *_SMOKE_OFF_POLICY, "policy_kwargs.n_quantiles=5"],
     "recurrent_ppo": [*_SMOKE_COMMON, "--hp", "n_steps=64", "batch_size=64", "n_epochs=1",
@@ -171,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
         "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_at_start": os.getloadavg()},
         "methods": {}, "evaluation": {}}
     for method in args.methods:
-        extra = SMOKE_ARGS[method] if args.smoke else []
+        extra = SMOKE_ARGS[method] if args.smoke else (["--hp", *METHOD_HP[method]] if method in METHOD_HP else [])
         record["methods"][method] = {"train_args": extra, "seeds": [train_seed(method, s, runs, extra) for s in seeds]}
     if not args.train_only:
         families = {m: [s["policy"] for s in r["seeds"]] for m, r in record["methods"].items()}
