@@ -20,6 +20,7 @@ Writes ``benchmarks/results/optimum.json``:
 * ``speed``: ``dp_thermal`` on HWFET and on the 1,300 s Beijing cycle, ``dp`` on HWFET.
 
     python benchmarks/optimum.py [--quick] [--jobs 2] [--generated 20] [--parts cells convergence speed]
+    python benchmarks/optimum.py --parts cells --cells udds:hot beijing:paper --jobs 1 --out /tmp/o.json
 """
 
 from __future__ import annotations
@@ -148,6 +149,8 @@ def _args() -> argparse.Namespace:
                     help="generated bus cycles (validation_bus:0..N-1: long, congested, launch, hilly, mixed), paper")
     ap.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                     help="what to run; the parts left out are kept from the existing JSON (default: all)")
+    ap.add_argument("--cells", nargs="+", default=None, metavar="CYCLE:SCENARIO",
+                    help="only these cells, in this order (e.g. udds:hot beijing:paper); default: every cell")
     ap.add_argument("--out", default=None, help=f"JSON path (default {OUT.relative_to(OUT.parents[2])}; with --quick "
                     "optimum_quick.json next to it)")
     return ap.parse_args()
@@ -164,8 +167,11 @@ def _tasks(args: argparse.Namespace) -> tuple[list[tuple[str, str]], list[tuple[
                                                                 for i in range(args.generated)]
         conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
         conv += [("beijing", "hot", 2.0), ("hwfet", "hot", 2.0), ("us06", "paper", 2.0)]
+    if args.cells:
+        tasks = [tuple(c.split(":", 1)) for c in args.cells]
+    else:
+        tasks.sort(key=lambda t: -len(_cycle(t[0]).speed_mps))
     tasks = tasks if "cells" in args.parts else []
-    tasks.sort(key=lambda t: -len(_cycle(t[0]).speed_mps))
     return tasks, conv if "convergence" in args.parts else []
 
 
