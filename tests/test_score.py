@@ -156,3 +156,12 @@ def test_no_strategy_above_100_on_the_stored_tasks():
                     assert score <= 100.0 + score_tolerance(ep["anchor"]["frontier_ratio"]), (path.stem, name, score)
                 if name == "engine_only":
                     assert score == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_reference_frontier_reaches_the_anchors_final_charge():
+    """Without regeneration engine_only can end far below the start: the reference's optimum then keeps a frontier
+    reaching 0.01 below it (else r0 has no frontier to be read from); within the default's reach, the default."""
+    assert R.frontier_halfwidth_for(0.65, 0.60) is None  # 0.06 below: the default 0.08 reaches it
+    assert R.frontier_halfwidth_for(0.65, 0.58) is None  # exactly the default with the margin
+    assert R.frontier_halfwidth_for(0.65, 0.52) == pytest.approx(0.14)
+    assert R.frontier_halfwidth_for(0.65, 0.4905) == pytest.approx(0.17)  # rounded up to 0.01

@@ -18,6 +18,7 @@ whose fingerprint or digest is not the current one (:class:`StaleReferenceError`
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -39,6 +40,8 @@ BUDGET_MARGIN = 0.05
 """The safety budget is the optimum's largest episode safety cost times 1 + this ..."""
 BUDGET_FLOOR_S = 10.0
 """... and at least this many seconds (the optimum often loses no capability at all)."""
+ANCHOR_SOC_MARGIN = 0.01
+"""The optimum's frontier reaches this far below the anchor's final SOC (:func:`frontier_halfwidth_for`)."""
 BUDGET_RULE = (f"largest episode safety cost of {REFERENCE} × {1 + BUDGET_MARGIN:g}, at least {BUDGET_FLOOR_S:g} s "
                "(per episode)")
 
@@ -64,6 +67,21 @@ def episode_safety_cost_s(result: RunResult) -> float:
     return float(result.trace["cost"].sum()) if "cost" in result.trace else 0.0
 
 
+def frontier_halfwidth_for(soc_initial: float, anchor_soc_final: float) -> float | None:
+    """The optimum's ``frontier_halfwidth`` for an episode whose anchor ends at ``anchor_soc_final``: None (the
+    default, :class:`~hev_thermal_env.planning.thermal_optimum.OptimumSettings`) when the default frontier reaches
+    :data:`ANCHOR_SOC_MARGIN` below it, else the half-width that does, rounded up to 0.01. Without regeneration the
+    anchor can end far below the start on a long route (0.1-0.2 of SOC on generated bus routes), where no default
+    frontier gives it a ratio r0."""
+    from hev_thermal_env.planning.thermal_optimum import OptimumSettings
+
+    default = OptimumSettings().frontier_halfwidth
+    need = float(soc_initial) - float(anchor_soc_final) + ANCHOR_SOC_MARGIN
+    if need <= default + 1e-9:
+        return None
+    return math.ceil(need * 100.0 - 1e-9) / 100.0
+
+
 def compute_reference(task: str | Task, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run :data:`ANCHOR` and the optimum on every episode of ``task`` and return its reference record (JSON-ready);
     ``progress``: called with a line per finished episode."""
@@ -74,8 +92,10 @@ def compute_reference(task: str | Task, progress: Callable[[str], None] | None =
     episodes = []
     for seed, options in task.resets():
         t_ep = time.perf_counter()
-        opt = run_strategy(get_strategy(REFERENCE), options["cycle"], task.scenario, seed=seed)
         anchor = run_strategy(get_strategy(ANCHOR), options["cycle"], task.scenario, seed=seed)
+        width = frontier_halfwidth_for(anchor.summary["soc_initial"], anchor.summary["soc_final"])
+        wide = {} if width is None else {"frontier_halfwidth": width}
+        opt = run_strategy(get_strategy(REFERENCE, **wide), options["cycle"], task.scenario, seed=seed)
         episodes.append(_episode_record(options["cycle"], seed, opt, anchor, time.perf_counter() - t_ep))
         if progress is not None:
             progress(f"{task.id} {options['cycle']} seed {seed}: r0 {episodes[-1]['anchor']['frontier_ratio']}, "
