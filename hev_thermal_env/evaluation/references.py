@@ -62,11 +62,6 @@ def safety_budget_s(optimum_safety_costs_s: list[float]) -> float:
     return round(max(worst * (1.0 + BUDGET_MARGIN), BUDGET_FLOOR_S), 3)
 
 
-def episode_safety_cost_s(result: RunResult) -> float:
-    """A run's episode safety cost: the sum of its steps' ``info["cost"]`` (seconds of lost motor capability)."""
-    return float(result.trace["cost"].sum()) if "cost" in result.trace else 0.0
-
-
 def frontier_halfwidth_for(soc_initial: float, anchor_soc_final: float) -> float | None:
     """The optimum's ``frontier_halfwidth`` for an episode whose anchor ends at ``anchor_soc_final``: None (the
     default, :class:`~hev_thermal_env.planning.thermal_optimum.OptimumSettings`) when the default frontier reaches
@@ -116,7 +111,7 @@ def _episode_record(cycle: str, seed: int, opt: RunResult, anchor: RunResult, wa
         s = res.summary
         ratio, note = frontier_ratio(s["cost_g"], s["soc_final"], frontier)
         runs[name] = {"cost_g": s["cost_g"], "fuel_g": s["fuel_g"], "soc_final": s["soc_final"],
-                      "frontier_ratio": ratio, "frontier_note": note, "safety_cost_s": episode_safety_cost_s(res),
+                      "frontier_ratio": ratio, "frontier_note": note, "safety_cost_s": s["safety_cost_s"],
                       "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"]}
     return {"cycle": cycle, "seed": int(seed), "optimum": runs[REFERENCE], "anchor": runs[ANCHOR],
             "frontier": {"soc_final": frontier.soc_final.tolist(), "cost_g": frontier.cost_g.tolist(),

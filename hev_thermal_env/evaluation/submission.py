@@ -29,7 +29,7 @@ from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import Task, get_task
 
-from .references import check_current, episode_safety_cost_s
+from .references import check_current
 from .runner import run_strategy
 
 FORMAT = "hev-thermal-result-v1"
@@ -154,7 +154,7 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
         res = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed)
         s = res.summary
         rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), "cost_g": s["cost_g"],
-                     "soc_final": s["soc_final"], "safety_cost_s": episode_safety_cost_s(res), "fuel_g": s["fuel_g"],
+                     "soc_final": s["soc_final"], "safety_cost_s": s["safety_cost_s"], "fuel_g": s["fuel_g"],
                      "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
                      "charge_sustaining": bool(s["charge_sustaining"])})
     return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
