@@ -144,6 +144,7 @@ class StageBuffers:
             p = self.problem
             self.so, self.out = np.empty((n, C.N_STATE)), np.empty((n, C.N_OUT))
             self.c, self.e, self.a = np.empty(n), np.empty(n), np.empty(n)
+            self.no_heat = np.zeros(n)  # the heat cost of every row where heat has no price (read only)
             self.v0, self.v1, self.g = np.empty(n), np.empty(n), np.empty(n)
             self.cond = np.ascontiguousarray(np.broadcast_to(p.cond, (n, p.cond.size)))
             self.before = np.zeros((n, C.N_STATE))
@@ -245,7 +246,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         n_evals += so.shape[0]
         inside = _inside(so[:, C.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
         if heat_price is None or not np.any(heat_price[i + 1]):
-            heat_g = np.zeros(so.shape[0])
+            heat_g = buffers.no_heat[:so.shape[0]]
         else:
             heat_g = so[:, PRICED] @ heat_price[i + 1]
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, heat_g, widths, states.shape[0],
