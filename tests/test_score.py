@@ -165,3 +165,43 @@ def test_the_reference_frontier_reaches_the_anchors_final_charge():
     assert R.frontier_halfwidth_for(0.65, 0.58) is None  # exactly the default with the margin
     assert R.frontier_halfwidth_for(0.65, 0.52) == pytest.approx(0.14)
     assert R.frontier_halfwidth_for(0.65, 0.4905) == pytest.approx(0.17)  # rounded up to 0.01
+
+
+def test_reference_table_names_every_task_and_goes_between_the_markers(tmp_path, capsys):
+    from hev_thermal_env.cli.evaluate import main
+    from hev_thermal_env.tasks import list_tasks
+
+    table = R.references_table()
+    assert [line.split(" | ")[0][3:-1] for line in table.splitlines()[2:]] == [get_task(t).id for t in list_tasks()]
+    doc = tmp_path / "tasks.md"
+    doc.write_text(f"intro\n{R.TABLE_BEGIN}\nold table\n{R.TABLE_END}\nafter\n")
+    assert main(["reference", "--table", str(doc)]) == 0
+    assert doc.read_text() == f"intro\n{R.TABLE_BEGIN}\n{table}{R.TABLE_END}\nafter\n"
+    (tmp_path / "plain.md").write_text("no markers\n")
+    assert main(["reference", "--table", str(tmp_path / "plain.md")]) == 2
+    assert "plain.md: needs one line <!-- references:begin -->" in capsys.readouterr().err
+    assert main(["reference", "--task", "hwfet", "--check"]) == 0
+    assert "hwfet-v1: current" in capsys.readouterr().out
+    assert main(["reference", "--task", "hwfet", "--jobs", "0"]) == 2
+    assert "--jobs must be at least 1, got 0" in capsys.readouterr().err
+
+
+def test_the_tasks_page_shows_the_stored_references():
+    """docs/tasks.md's table is the stored references' (``evaluate.py reference --table docs/tasks.md`` writes it)."""
+    text = (R.REFERENCE_DIR.parents[2] / "docs" / "tasks.md").read_text()
+    assert text.split(R.TABLE_BEGIN + "\n")[1].split(R.TABLE_END)[0] == R.references_table()
+
+
+@pytest.mark.full
+def test_reference_in_two_processes_equals_the_serial_one(tmp_path, tiny_task):
+    """``jobs=2`` solves the episodes in two processes (longest first) and stores the same record, in task order."""
+    short = tmp_path / "beijing_120s.csv"
+    v = load_cycle("beijing").speed_mps[300:421]
+    short.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
+    task = Task("tiny2", 1, "120 s and 200 s of Beijing, hot", (str(short), tiny_task.cycles[0]), "hot")
+    timing = ("optimum_wall_s", "optimum_plan_s", "plan_from_cache")
+    records = [R.compute_reference(task, jobs=jobs) for jobs in (2, 1)]
+    episodes = [[{k: v for k, v in e.items() if k not in timing} for e in r["episodes"]] for r in records]
+    assert [e["cycle"] for e in episodes[0]] == list(task.cycles)
+    assert episodes[0] == episodes[1]
+    assert records[0]["jobs"] == 2 and all(e["optimum_plan_s"] > 0 for e in records[0]["episodes"])

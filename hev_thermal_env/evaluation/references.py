@@ -29,6 +29,7 @@ from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import Task, get_task
 
+from .executors import LocalExecutor
 from .runner import RunResult, run_strategy
 from .score import ANCHOR, normalised_score
 from .yardstick import REFERENCE, Frontier, frontier_ratio
@@ -77,28 +78,49 @@ def frontier_halfwidth_for(soc_initial: float, anchor_soc_final: float) -> float
     return math.ceil(need * 100.0 - 1e-9) / 100.0
 
 
-def compute_reference(task: str | Task, progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+def compute_reference(task: str | Task, progress: Callable[[str], None] | None = None,
+                      jobs: int = 1) -> dict[str, Any]:
     """Run :data:`ANCHOR` and the optimum on every episode of ``task`` and return its reference record (JSON-ready);
-    ``progress``: called with a line per finished episode."""
+    ``progress``: called with a line per finished episode; ``jobs``: episodes solved at once, each in its own process
+    with one thread (longest route first). The record does not depend on ``jobs``, except for its times."""
     task = get_task(task)
     if task.start_s != 0:
         raise ValueError(f"{task.id}: references are computed for episodes from second 0, not {task.start_s}")
     t0 = time.perf_counter()
-    episodes = []
-    for seed, options in task.resets():
-        t_ep = time.perf_counter()
-        anchor = run_strategy(get_strategy(ANCHOR), options["cycle"], task.scenario, seed=seed)
-        width = frontier_halfwidth_for(anchor.summary["soc_initial"], anchor.summary["soc_final"])
-        wide = {} if width is None else {"frontier_halfwidth": width}
-        opt = run_strategy(get_strategy(REFERENCE, **wide), options["cycle"], task.scenario, seed=seed)
-        episodes.append(_episode_record(options["cycle"], seed, opt, anchor, time.perf_counter() - t_ep))
-        if progress is not None:
-            progress(f"{task.id} {options['cycle']} seed {seed}: r0 {episodes[-1]['anchor']['frontier_ratio']}, "
-                     f"optimum {episodes[-1]['optimum']['cost_g']:.1f} g in {time.perf_counter() - t_ep:.0f} s")
+    cells = [(cycle_name, seed, task.scenario, 1 if jobs > 1 else None)
+             for seed, cycle_name in ((seed, options["cycle"]) for seed, options in task.resets())]
+    order = list(range(len(cells)))
+    if jobs > 1:
+        from hev_thermal_env.cycles import load_cycle
+
+        order.sort(key=lambda i: -load_cycle(cells[i][0]).n_steps)
+    episodes: list[dict[str, Any] | None] = [None] * len(cells)
+    with LocalExecutor(jobs) as runner:
+        for item in runner.map(reference_episode, cells, order, tick_s=1.0):
+            if item is None:
+                continue
+            i, episodes[i] = item
+            if progress is not None:
+                e = episodes[i]
+                progress(f"{task.id} {e['cycle']} seed {e['seed']}: r0 {e['anchor']['frontier_ratio']}, "
+                         f"optimum {e['optimum']['cost_g']:.1f} g in {e['optimum_wall_s']:.0f} s")
     budget = safety_budget_s([e["optimum"]["safety_cost_s"] for e in episodes])
     return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
             physics_fingerprint(), "safety_budget_s": budget, "budget_rule": BUDGET_RULE,
-            "wall_s": round(time.perf_counter() - t0, 1), "episodes": episodes}
+            "wall_s": round(time.perf_counter() - t0, 1), "jobs": int(jobs), "episodes": episodes}
+
+
+def reference_episode(cell: tuple[str, int, str, int | None]) -> dict[str, Any]:
+    """One episode's reference record: ``cell`` = (cycle, seed, scenario, the optimum's threads or None)."""
+    cycle, seed, scenario, threads = cell
+    t_ep = time.perf_counter()
+    anchor = run_strategy(get_strategy(ANCHOR), cycle, scenario, seed=seed)
+    width = frontier_halfwidth_for(anchor.summary["soc_initial"], anchor.summary["soc_final"])
+    options: dict[str, Any] = {} if width is None else {"frontier_halfwidth": width}
+    if threads is not None:
+        options["threads"] = threads
+    opt = run_strategy(get_strategy(REFERENCE, **options), cycle, scenario, seed=seed)
+    return _episode_record(cycle, seed, opt, anchor, time.perf_counter() - t_ep)
 
 
 def _episode_record(cycle: str, seed: int, opt: RunResult, anchor: RunResult, wall_s: float) -> dict[str, Any]:
@@ -113,9 +135,14 @@ def _episode_record(cycle: str, seed: int, opt: RunResult, anchor: RunResult, wa
         runs[name] = {"cost_g": s["cost_g"], "fuel_g": s["fuel_g"], "soc_final": s["soc_final"],
                       "frontier_ratio": ratio, "frontier_note": note, "safety_cost_s": s["safety_cost_s"],
                       "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"]}
+    plan_s = settings.get("plan_total_s")
     return {"cycle": cycle, "seed": int(seed), "optimum": runs[REFERENCE], "anchor": runs[ANCHOR],
             "frontier": {"soc_final": frontier.soc_final.tolist(), "cost_g": frontier.cost_g.tolist(),
                          "grid": frontier.grid, "soc_min": frontier.soc_min},
+            "frontier_halfwidth": settings.get("frontier_halfwidth"),
+            # the plan's own solve time, also when this run read it from disk (then optimum_wall_s is small)
+            "optimum_plan_s": None if plan_s is None else round(float(plan_s), 1),
+            "plan_from_cache": bool(settings.get("from_cache", False)),
             "optimum_wall_s": round(wall_s, 1)}
 
 
@@ -159,6 +186,47 @@ def check_current(record: dict[str, Any], task: Task, where: str) -> None:
     if problems:
         raise StaleReferenceError(f"{where}: measured with {' and '.join(problems)}; recompute it with: "
                                   f"python evaluate.py reference --task {task.id}")
+
+
+TABLE_BEGIN, TABLE_END = "<!-- references:begin -->", "<!-- references:end -->"
+"""The markers between which :func:`write_references_table` puts the table in a Markdown file."""
+
+
+def references_table(tasks: list[str] | None = None, directory: Path | None = None) -> str:
+    """A Markdown table of the stored references of ``tasks`` (default: every named task): episodes, the range of
+    r0 and of the optimum's cost and safety cost over the episodes, the safety budget."""
+    from hev_thermal_env.tasks import list_tasks
+
+    def span(xs: list[float], digits: int) -> str:
+        return " to ".join(dict.fromkeys(f"{x:,.{digits}f}" for x in (min(xs), max(xs))))
+
+    lines = ["| task | episodes | r0 (`engine_only`) | optimum's cost g | optimum's safety cost s | safety budget s |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for name in tasks or list_tasks():
+        task = get_task(name)
+        try:
+            ref = load_reference(task, directory)
+        except FileNotFoundError:
+            lines.append(f"| `{task.id}` | {len(task.resets())} | not yet computed | | | |")
+            continue
+        except StaleReferenceError:
+            lines.append(f"| `{task.id}` | {len(task.resets())} | stale: recompute | | | |")
+            continue
+        e = ref["episodes"]
+        r0 = [x["anchor"]["frontier_ratio"] for x in e if x["anchor"]["frontier_ratio"] is not None]
+        lines.append(f"| `{task.id}` | {len(e)} | {span(r0, 3) if r0 else 'none'} | "
+                     f"{span([x['optimum']['cost_g'] for x in e], 0)} | "
+                     f"{span([x['optimum']['safety_cost_s'] for x in e], 1)} | {ref['safety_budget_s']:g} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_references_table(path: Path, table: str) -> None:
+    """Put ``table`` between :data:`TABLE_BEGIN` and :data:`TABLE_END` in the Markdown file ``path``."""
+    text = Path(path).read_text()
+    if text.count(TABLE_BEGIN) != 1 or text.count(TABLE_END) != 1 or text.index(TABLE_BEGIN) > text.index(TABLE_END):
+        raise ValueError(f"{path}: needs one line {TABLE_BEGIN} and, after it, one line {TABLE_END}")
+    head, rest = text.split(TABLE_BEGIN)
+    Path(path).write_text(head + TABLE_BEGIN + "\n" + table + TABLE_END + rest.split(TABLE_END, 1)[1])
 
 
 def episode_score(episode: dict[str, Any], cost_g: float, soc_final: float
