@@ -130,3 +130,35 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
     assert (tmp_path / "res" / "hwfet-v1" / "rule.json").is_file()
     assert evaluate_main(["leaderboard", "--tasks", "beijing", "--references", str(refs), "--out", str(page)]) == 2
     assert "no reference for beijing-v1" in capsys.readouterr().err
+
+
+def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp_path, monkeypatch):
+    """The leaderboard's optimum row reuses the reference's plan: an episode whose reference was solved with a wider
+    frontier gets that width (its plan's key), the others and every other strategy their defaults."""
+    from hev_thermal_env.evaluation import submission
+
+    task = get_task("hwfet")
+    episode = {"cycle": "hwfet", "seed": 0, "frontier_halfwidth": 0.13}
+    (tmp_path / f"{task.id}.json").write_text(json.dumps(
+        {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
+         physics_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
+    monkeypatch.setattr(R, "REFERENCE_DIR", tmp_path)
+    asked = []
+
+    def spy(name, **options):
+        asked.append((name, options))
+        return get_strategy("engine_only")  # the run itself is not what is tested
+
+    monkeypatch.setattr(submission, "get_strategy", spy)
+    for name in ("dp_thermal", "rule"):
+        result_of_strategy(task, name)
+    result_of_strategy(task, "dp_thermal", frontier_halfwidth=0.2)  # options given: those, not the reference's
+    assert asked == [("dp_thermal", {"frontier_halfwidth": 0.13}), ("rule", {}),
+                     ("dp_thermal", {"frontier_halfwidth": 0.2})]
+    episode.pop("frontier_halfwidth")  # a reference that records none (solved with the default)
+    (tmp_path / f"{task.id}.json").write_text(json.dumps(
+        {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
+         physics_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
+    asked.clear()
+    result_of_strategy(task, "dp_thermal")
+    assert asked == [("dp_thermal", {})]
