@@ -186,8 +186,10 @@ def _score_summary(rows: list[dict]) -> list[str]:
     lines = [[display_name(a["strategy"]), str(a["episodes"]), score_text(a["score"], a["score_ci_low"],
                                                                           a["score_ci_high"]), str(a["excluded"])]
              for a in aggs]
-    return ["", f"Normalised score over every cycle × scenario (IQM, {100 * CONFIDENCE:.0f} % stratified bootstrap "
-                "interval):", "", *_table(("strategy", "cycles × scenarios", "score", "left out"), lines)]
+    return ["", "Normalised score over every cycle × scenario (IQM; with seeds to resample, its "
+                f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval in brackets; a deterministic strategy has one "
+                "run per cycle × scenario and no interval):", "",
+            *_table(("strategy", "cycles × scenarios", "score", "left out"), lines)]
 
 
 def _reference_lines(rows: list[dict]) -> list[str]:
