@@ -102,8 +102,10 @@ def compute_reference(task: str | Task, progress: Callable[[str], None] | None =
             i, episodes[i] = item
             if progress is not None:
                 e = episodes[i]
+                plan = "plan read from disk" if e["plan_from_cache"] else "plan solved"
                 progress(f"{task.id} {e['cycle']} seed {e['seed']}: r0 {e['anchor']['frontier_ratio']}, "
-                         f"optimum {e['optimum']['cost_g']:.1f} g in {e['optimum_wall_s']:.0f} s")
+                         f"optimum {e['optimum']['cost_g']:.1f} g in {e['optimum_wall_s']:.0f} s ({plan}; it took "
+                         f"{e['optimum_plan_s']} s to solve)")
     budget = safety_budget_s([e["optimum"]["safety_cost_s"] for e in episodes])
     return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
             physics_fingerprint(), "safety_budget_s": budget, "budget_rule": BUDGET_RULE,
