@@ -199,8 +199,8 @@ LEAD = ("Every method on every task that has stored references, measured on phys
         "task's budget ([Tasks](tasks.md#safety-budgets)). *frontier ratio*: IQM of the runs' cost over the optimum's "
         "at the same final SOC. *corrected L/100 km*: fuel at equal charge and service (IQM). *fuel kg*: raw fuel "
         "per episode (mean). *J1711*: runs that are charge-sustaining. *left out*: runs without a score (a final SOC "
-        "off the optimum's frontier, so no frontier ratio, or an ill-conditioned episode). A deterministic strategy "
-        "has one run per episode: its score has no interval where a task has one episode.")
+        "off the optimum's frontier, so no frontier ratio, or an ill-conditioned episode). The bootstrap resamples the "
+        "seeds within each episode: a deterministic strategy has one run per episode, so its score has no interval.")
 PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
                 "below every τ) whose normalised score exceeds τ, as rliable draws it: a curve further right is "
                 "better; where it drops shows the spread of the method's scores across tasks.")
