@@ -134,7 +134,8 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
 
 def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp_path, monkeypatch):
     """The leaderboard's optimum row reuses the reference's plan: an episode whose reference was solved with a wider
-    frontier gets that width (its plan's key), the others and every other strategy their defaults."""
+    frontier gets that width (its plan's key), the others and every other strategy their defaults; the width comes
+    from the references directory given (``evaluate.py leaderboard --references DIR``)."""
     from hev_thermal_env.evaluation import submission
 
     task = get_task("hwfet")
@@ -142,7 +143,6 @@ def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp
     (tmp_path / f"{task.id}.json").write_text(json.dumps(
         {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
          physics_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
-    monkeypatch.setattr(R, "REFERENCE_DIR", tmp_path)
     asked = []
 
     def spy(name, **options):
@@ -151,14 +151,15 @@ def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp
 
     monkeypatch.setattr(submission, "get_strategy", spy)
     for name in ("dp_thermal", "rule"):
-        result_of_strategy(task, name)
-    result_of_strategy(task, "dp_thermal", frontier_halfwidth=0.2)  # options given: those, not the reference's
+        result_of_strategy(task, name, references=tmp_path)
+    result_of_strategy(task, "dp_thermal", references=tmp_path, frontier_halfwidth=0.2)  # options given: those
     assert asked == [("dp_thermal", {"frontier_halfwidth": 0.13}), ("rule", {}),
                      ("dp_thermal", {"frontier_halfwidth": 0.2})]
     episode.pop("frontier_halfwidth")  # a reference that records none (solved with the default)
-    (tmp_path / f"{task.id}.json").write_text(json.dumps(
+    (tmp_path / "plain").mkdir()
+    (tmp_path / "plain" / f"{task.id}.json").write_text(json.dumps(
         {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
          physics_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
     asked.clear()
-    result_of_strategy(task, "dp_thermal")
+    result_of_strategy(task, "dp_thermal", references=tmp_path / "plain")
     assert asked == [("dp_thermal", {})]

@@ -57,7 +57,7 @@ def main(args: argparse.Namespace) -> int:
             if args.tasks:
                 raise
             missing.append(missing_text(t, exc))
-    paths = ensure_results(Path(args.results_dir), ready, args.methods, progress=print)
+    paths = ensure_results(Path(args.results_dir), ready, args.methods, progress=print, references=refs)
     entries, more_missing = score_files([*paths, *args.results], refs)
     out = write_leaderboard(entries, [*missing, *more_missing], Path(args.out), physics_fingerprint(),
                             plot=not args.no_plot)

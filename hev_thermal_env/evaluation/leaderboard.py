@@ -42,9 +42,10 @@ def label(method: str) -> str:
 
 
 def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str] = METHODS,
-                   progress: Callable[[str], None] | None = None) -> list[Path]:
+                   progress: Callable[[str], None] | None = None, references: Path | None = None) -> list[Path]:
     """``DIRECTORY/<task id>/<method>.json`` for every task and method: reused when it validates, else written
-    (:func:`~.submission.result_of_strategy`); returns the paths."""
+    (:func:`~.submission.result_of_strategy`; the optimum with the frontier widths of the references in
+    ``references``, default the package's); returns the paths."""
     paths = []
     for name in tasks:
         task = get_task(name)
@@ -53,7 +54,7 @@ def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str]
             try:
                 load_result(path)
             except (ResultFormatError, StaleReferenceError):
-                record = result_of_strategy(task, method)
+                record = result_of_strategy(task, method, references=references)
                 atomic_write_json(path, record)
                 if progress is not None:
                     progress(f"{task.id} {method}: {len(record['episodes'])} episodes, {record['wall_clock_s']:.1f} s")

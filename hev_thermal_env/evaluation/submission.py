@@ -143,27 +143,28 @@ def load_result(path: str | Path) -> dict[str, Any]:
     return validate_result(data, str(path))
 
 
-def _reference_widths(task: Task) -> dict[tuple[str, int], float]:
-    """(cycle, seed) -> the optimum's frontier half-width recorded in ``task``'s stored reference, where it has one."""
+def _reference_widths(task: Task, directory: Path | None = None) -> dict[tuple[str, int], float]:
+    """(cycle, seed) -> the optimum's frontier half-width recorded in ``task``'s stored reference (in ``directory``,
+    default the package's), where it has one."""
     try:
-        ref = load_reference(task)
+        ref = load_reference(task, directory)
     except (FileNotFoundError, StaleReferenceError):
         return {}
     return {(e["cycle"], int(e["seed"])): float(e["frontier_halfwidth"]) for e in ref["episodes"]
             if e.get("frontier_halfwidth") is not None}
 
 
-def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str | None = None,
-                       **options: Any) -> dict[str, Any]:
+def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str | None = None, *,
+                       references: Path | None = None, **options: Any) -> dict[str, Any]:
     """Run a strategy (a name of this package's, built by ``get_strategy(strategy, **options)``, or a
     :class:`~hev_thermal_env.agents.base.Strategy`) on every episode of ``task``; its result record (seed 0).
 
     The optimum (:data:`~.yardstick.REFERENCE`, without options) is asked for the frontier its episode's stored
-    reference was solved with (``frontier_halfwidth``, wider where the anchor ends far below the start), so it reuses
-    that plan and its run is the reference's."""
+    reference (in ``references``, default the package's) was solved with (``frontier_halfwidth``, wider where the
+    anchor ends far below the start), so it reuses that plan and its run is the reference's."""
     task = get_task(task)
     t0 = time.perf_counter()
-    widths = _reference_widths(task) if strategy == REFERENCE and not options else {}
+    widths = _reference_widths(task, references) if strategy == REFERENCE and not options else {}
     rows = []
     for env_seed, opts in task.resets():
         width = widths.get((opts["cycle"], int(env_seed)))
