@@ -25,9 +25,10 @@ from pathlib import Path
 from typing import Any
 
 from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
-from hev_thermal_env.tasks import Task, get_task
+from hev_thermal_env.tasks import Task, get_task, list_tasks
 
 from .executors import LocalExecutor
 from .runner import RunResult, run_strategy
@@ -82,17 +83,16 @@ def compute_reference(task: str | Task, progress: Callable[[str], None] | None =
                       jobs: int = 1) -> dict[str, Any]:
     """Run :data:`ANCHOR` and the optimum on every episode of ``task`` and return its reference record (JSON-ready);
     ``progress``: called with a line per finished episode; ``jobs``: episodes solved at once, each in its own process
-    with one thread (longest route first). The record does not depend on ``jobs``, except for its times."""
+    with one thread (longest route first). The record does not depend on ``jobs``, except for its times (and
+    ``jobs``)."""
     task = get_task(task)
     if task.start_s != 0:
         raise ValueError(f"{task.id}: references are computed for episodes from second 0, not {task.start_s}")
     t0 = time.perf_counter()
-    cells = [(cycle_name, seed, task.scenario, 1 if jobs > 1 else None)
-             for seed, cycle_name in ((seed, options["cycle"]) for seed, options in task.resets())]
+    threads = 1 if jobs > 1 else None
+    cells = [(options["cycle"], seed, task.scenario, threads) for seed, options in task.resets()]
     order = list(range(len(cells)))
     if jobs > 1:
-        from hev_thermal_env.cycles import load_cycle
-
         order.sort(key=lambda i: -load_cycle(cells[i][0]).n_steps)
     episodes: list[dict[str, Any] | None] = [None] * len(cells)
     with LocalExecutor(jobs) as runner:
@@ -197,8 +197,6 @@ TABLE_BEGIN, TABLE_END = "<!-- references:begin -->", "<!-- references:end -->"
 def references_table(tasks: list[str] | None = None, directory: Path | None = None) -> str:
     """A Markdown table of the stored references of ``tasks`` (default: every named task): episodes, the range of
     r0 and of the optimum's cost and safety cost over the episodes, the safety budget."""
-    from hev_thermal_env.tasks import list_tasks
-
     def span(xs: list[float], digits: int) -> str:
         return " to ".join(dict.fromkeys(f"{x:,.{digits}f}" for x in (min(xs), max(xs))))
 

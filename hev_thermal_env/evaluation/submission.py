@@ -168,8 +168,8 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
     rows = []
     for env_seed, opts in task.resets():
         width = widths.get((opts["cycle"], int(env_seed)))
-        agent = (get_strategy(strategy, **options, **({} if width is None else {"frontier_halfwidth": width}))
-                 if isinstance(strategy, str) else strategy)
+        kwargs = options if width is None else {**options, "frontier_halfwidth": width}
+        agent = get_strategy(strategy, **kwargs) if isinstance(strategy, str) else strategy
         res = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed)
         s = res.summary
         rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), "cost_g": s["cost_g"],
