@@ -5,7 +5,8 @@ Writes ``benchmarks/results/optimum.json``:
 
 * ``cells``: every built-in cycle × scenario (``paper``, ``hot``, ``summer``, ``hilly``,
   ``full_bus``) and generated bus cycles (``validation_bus:0..19``, 1,200-4,500 s, the learned
-  policies' validation set, so ``ppo_vs_dp.py`` reuses the solved plans; paper): each strategy's yardstick cost,
+  policies' validation set, so ``ppo_vs_dp.py`` reuses the solved plans; paper) and ``--fresh`` generated routes
+  no set uses (:func:`fresh_cycles`: the six families in turn, the five scenarios in turn): each strategy's yardstick cost,
   final SOC and frontier ratio (cost / the optimum's frontier at the strategy's final SOC); the
   optimum's planned, replayed and realised cost, solve time and states. A run ending below the
   lowest SOC searched gets ``frontier_ratio_at_least`` (cost / F at that SOC: F is monotone, so
@@ -17,16 +18,22 @@ Writes ``benchmarks/results/optimum.json``:
   change of the cost at the default's final SOC.
 * ``outside_checks``: the runs that ended below the frontier's lowest SOC with a lower bound < 1,
   against the optimum re-solved with a ±0.12 frontier.
-* ``speed``: ``dp_thermal`` on HWFET and on the 1,300 s Beijing cycle, ``dp`` on HWFET.
+* ``speed``: ``dp_thermal`` on HWFET, on the 1,300 s Beijing cycle and on ``validation_bus:4`` (4,440 s), ``dp`` on
+  HWFET: each solve in a fresh process with the default threads and no plan on disk, its peak memory; with
+  ``--before DIR`` the same solves of the planner in the source tree DIR (an earlier revision), one after the other.
 
-    python benchmarks/optimum.py [--quick] [--jobs 2] [--generated 20] [--parts cells convergence speed]
+    python benchmarks/optimum.py [--quick] [--jobs 2] [--generated 20] [--fresh 10] [--parts cells convergence speed]
     python benchmarks/optimum.py --parts cells --cells udds:hot beijing:paper --jobs 1 --out /tmp/o.json
+    python benchmarks/optimum.py --parts speed --before /path/to/earlier/checkout
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
+import sys
 import time
 import warnings
 from multiprocessing import Pool
@@ -37,6 +44,8 @@ from tqdm import tqdm
 from hev_thermal_env import cycle_from_arrays, load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import ImplausibleCycleWarning
+from hev_thermal_env.cycles.families import VALIDATION_SEED_BASE
+from hev_thermal_env.tasks import TEST_FAMILIES
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier, frontier_sample
 from hev_thermal_env.io import atomic_write_json
@@ -51,6 +60,36 @@ THREADS = 1
 PARTS = ("cells", "convergence", "speed", "outside")
 #: Frontier half-width of the re-solve for runs that ended below the default frontier's lowest SOC.
 WIDE = 0.12
+#: Seeds of the fresh routes: 2**21 above the first validation seed (the validation set has 30 seeds from there, the
+#: generalisation task's test routes 18 from 2**20 above it; training draws below it).
+FRESH_SEED_BASE = VALIDATION_SEED_BASE + 2**21
+#: The speed figures: (strategy, cycle), and issue targets for them (s).
+SPEED_SOLVES = (("dp_thermal", "hwfet"), ("dp_thermal", "beijing"), ("dp", "hwfet"), ("dp_thermal", "validation_bus:4"))
+SPEED_TARGETS_S = {"dp_thermal/hwfet": 10.0, "dp_thermal/beijing": 6.0, "dp_thermal/validation_bus:4": 60.0,
+                   "dp/hwfet": 0.3}
+#: One solve in a fresh process: plan time, peak memory, cost (printed as one JSON line).
+_ONE_SOLVE = """
+import json, resource, sys, time, warnings
+warnings.simplefilter("ignore")
+from hev_thermal_env import load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.evaluation.runner import run_strategy
+name, cycle = sys.argv[1:3]
+opts = {"plan_cache": False} if name == "dp_thermal" else {}
+s = run_strategy(get_strategy(name, **opts), load_cycle(cycle), "paper").summary
+d = s["strategy_settings"]
+print(json.dumps({"solve_s": d.get("solve_s"), "plan_s": s["plan_s"], "cost_g": s["cost_g"], "soc_final": s["soc_final"],
+                  "planned_cost_g": d.get("planned_cost_g"), "max_states": d.get("max_states"),
+                  "vehicle_steps": d.get("vehicle_steps_evaluated"),
+                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+"""
+
+
+def fresh_cycles(n: int) -> list[tuple[str, str]]:
+    """``n`` generated routes no set uses (seeds from :data:`FRESH_SEED_BASE`), the generalisation task's six
+    families in turn, each in the next of :data:`SCENARIOS`."""
+    return [(f"{TEST_FAMILIES[k % len(TEST_FAMILIES)]}:{FRESH_SEED_BASE + k}", SCENARIOS[k % len(SCENARIOS)])
+            for k in range(n)]
 
 
 def _cycle(name: str):
@@ -128,15 +167,33 @@ def outside(task: tuple[str, str, tuple[str, ...]]) -> dict:
             "optimum_cost_g": opt["cost_g"], "solve_s": opt["strategy_settings"]["solve_s"], "strategies": rows}
 
 
-def speed() -> dict:
-    """Solve times with the default threads (every core), nothing else running, no plan cache."""
-    warnings.simplefilter("ignore")
-    out = {}
-    for name, cycle in (("dp_thermal", "hwfet"), ("dp_thermal", "beijing"), ("dp", "hwfet")):
-        options = {"plan_cache": False} if name == "dp_thermal" else {}
-        s = run_strategy(get_strategy(name, **options), load_cycle(cycle), "paper").summary
-        out[f"{name}_{cycle}_solve_s"] = s["strategy_settings"]["solve_s"]
-    out["targets"] = {"dp_thermal_hwfet_solve_s": 60.0, "dp_thermal_beijing_solve_s": 90.0, "dp_hwfet_solve_s": 1.0}
+def one_solve(name: str, cycle: str, tree: str | None = None) -> dict:
+    """:data:`_ONE_SOLVE` in a fresh process (the source ``tree`` first on the path if given; default threads, no plan
+    on disk), paper conditions."""
+    env = dict(os.environ)
+    if tree is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(Path(tree).resolve()), env.get("PYTHONPATH", "")])
+    t0 = time.perf_counter()
+    run = subprocess.run([sys.executable, "-c", _ONE_SOLVE, name, cycle], env=env, capture_output=True, text=True,
+                         check=True, cwd=tree or None)
+    return {**json.loads(run.stdout.strip().splitlines()[-1]), "process_wall_s": time.perf_counter() - t0}
+
+
+def speed(before: str | None = None, solves=SPEED_SOLVES) -> dict:
+    """Solve times with the default threads (every core), no plan cache, one fresh process each, one after the
+    other; with ``before`` the same solves of the planner in that source tree (not the 4,440 s cycle: the earlier
+    solver takes too long there)."""
+    out: dict = {"after": {}, "before": {}, "before_tree": before, "targets_s": SPEED_TARGETS_S}
+    for name, cycle in solves:
+        key = f"{name}/{cycle}"
+        out["after"][key] = one_solve(name, cycle)
+        out["after"][key]["met"] = out["after"][key]["solve_s"] <= SPEED_TARGETS_S[key]
+        print(f"speed {key}: {out['after'][key]['solve_s']:.2f} s", flush=True)
+        if before is not None and cycle != "validation_bus:4":
+            old = out["before"][key] = one_solve(name, cycle, before)
+            new = out["after"][key]
+            new["speedup"] = old["solve_s"] / new["solve_s"]
+            print(f"speed {key} before: {old['solve_s']:.2f} s", flush=True)
     return out
 
 
@@ -147,6 +204,10 @@ def _args() -> argparse.Namespace:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--generated", type=int, default=20,
                     help="generated bus cycles (validation_bus:0..N-1: long, congested, launch, hilly, mixed), paper")
+    ap.add_argument("--fresh", type=int, default=10,
+                    help="generated routes no set uses (fresh_cycles: six families, five scenarios in turn)")
+    ap.add_argument("--before", default=None, metavar="DIR",
+                    help="speed: also time the planner of this source tree (an earlier checkout)")
     ap.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                     help="what to run; the parts left out are kept from the existing JSON (default: all)")
     ap.add_argument("--cells", nargs="+", default=None, metavar="CYCLE:SCENARIO",
@@ -165,6 +226,7 @@ def _tasks(args: argparse.Namespace) -> tuple[list[tuple[str, str]], list[tuple[
     else:
         tasks = [(c, s) for c in CYCLES for s in SCENARIOS] + [(f"validation_bus:{i}", "paper")
                                                                 for i in range(args.generated)]
+        tasks += fresh_cycles(args.fresh)
         conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
         conv += [("beijing", "hot", 2.0), ("hwfet", "hot", 2.0), ("us06", "paper", 2.0)]
     if args.cells:
@@ -236,7 +298,7 @@ def main() -> None:
             for w in tqdm(pool.imap_unordered(outside, todo), total=len(todo), desc="outside runs", unit="cell"):
                 wides.append(w)
                 write(partial=True, speed_figures=old.get("speed"))
-    speed_figures = old.get("speed") if "speed" not in args.parts else None if args.quick else speed()
+    speed_figures = old.get("speed") if "speed" not in args.parts else None if args.quick else speed(args.before)
     result = write(partial=False, speed_figures=speed_figures)
     print(json.dumps(result["summary"], indent=1))
     for c in result["cells"]:

@@ -49,9 +49,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trace", metavar="PATH.csv", help="write the per-second info fields as CSV here")
     p.add_argument("--plot", metavar="PATH.png", help="draw speed, SOC, motor temperature, heat index and split")
     p.add_argument("--dp-soc-points", type=int, metavar="N",
-                   help="dp: SOC grid points per stage (the strategy's default: 401)")
+                   help="dp: SOC grid points per stage (the strategy's default: 151)")
     p.add_argument("--dp-actions", type=int, metavar="M",
-                   help="dp/dp_thermal: splits u in the backward pass / the search (defaults: 41 / 31)")
+                   help="dp/dp_thermal: splits u in the backward pass / the search (defaults: 15 / 31)")
     p.add_argument("--dp-grid-scale", type=float, metavar="F",
                    help="dp_thermal: divide every bin of the search by F and multiply its splits (default: 1)")
     p.add_argument("--dp-on-infeasible", choices=["raise", "closest"], default=None,

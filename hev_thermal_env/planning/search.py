@@ -20,10 +20,13 @@ from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 
-from .bins import KEY_BITS, non_dominated, survivors
+from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors
 from .corridor import backward_envelope
 from .heat_value import PRICED
 from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
+
+#: Where each priced temperature (:data:`~.heat_value.PRICED`) sits in :meth:`SearchGrid.widths`.
+_PRICED_KEY = tuple(KEY_COLUMNS.index(col) for col in PRICED)
 
 #: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
 #: (:func:`~.bins.keep_best_per_bin`).
@@ -42,6 +45,11 @@ class SearchGrid:
     through the heat it passes to the housing and through its own trip, far above where the housing cuts the motor off;
     at 4 K its bins kept more lineages of the braking shares (the first 600 s of Beijing, paper: 1.3 times the
     vehicle-steps).
+
+    Where heat is cheap the temperature bins widen (:meth:`stage_widths`): a stage's bin of a priced temperature
+    (:data:`~.heat_value.PRICED`) spans ``heat_bin_g`` grams of heat at that stage's price, at least its width here and
+    at most ``heat_bin_max`` times it. On a cool motor (paper conditions) the thermal bins are then a few times wider,
+    and fewer states survive; where heat binds (``hot``: tens of g/K) they stay as they are.
     """
 
     soc: float = 1.5e-4
@@ -50,6 +58,8 @@ class SearchGrid:
     coolant_k: float = 4.0
     heat_index: float = 0.1
     n_u: int = 31
+    heat_bin_g: float = 1.0
+    heat_bin_max: float = 8.0
 
     def widths(self) -> np.ndarray:
         """The widths in the order of :data:`~.bins.KEY_COLUMNS` (the two protection flags: 1)."""
@@ -59,11 +69,25 @@ class SearchGrid:
         """Every bin ``factor`` times narrower, ``factor`` times as many split intervals (an even number: u = 0
         stays)."""
         return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor, self.coolant_k / factor,
-                          self.heat_index / factor, 2 * int(round((self.n_u - 1) * factor / 2)) + 1)
+                          self.heat_index / factor, 2 * int(round((self.n_u - 1) * factor / 2)) + 1,
+                          self.heat_bin_g / factor, self.heat_bin_max)
+
+    def stage_widths(self, heat_price: np.ndarray | None) -> np.ndarray:
+        """The bin widths of a stage whose temperatures :data:`~.heat_value.PRICED` cost ``heat_price`` g/K: each
+        priced temperature's bin holds ``heat_bin_g`` of heat, within [1, ``heat_bin_max``] times its width here
+        (no price: the widest)."""
+        w = self.widths()
+        if heat_price is None:
+            return w
+        for col, mu in zip(_PRICED_KEY, heat_price):
+            wide = self.heat_bin_g / mu if mu > 0.0 else np.inf
+            w[col] = min(max(wide, w[col]), self.heat_bin_max * w[col])
+        return w
 
     def describe(self) -> str:
         return (f"forward DP over exact states, bins ΔSOC {self.soc:g}, motor (stator/housing) {self.housing_k:g} K, "
-                f"winding {self.winding_k:g} K, coolant {self.coolant_k:g} K, heat index {self.heat_index:g}, "
+                f"winding {self.winding_k:g} K, coolant {self.coolant_k:g} K (each up to {self.heat_bin_max:g}× as "
+                f"wide where that holds at most {self.heat_bin_g:g} g of heat), heat index {self.heat_index:g}, "
                 f"{self.n_u} splits (their shares in [0, 1] while braking)")
 
 
@@ -142,7 +166,7 @@ class StageBuffers:
         if rows > self.rows:
             n = max(rows, int(self.rows * 1.5))
             p = self.problem
-            self.so, self.out = np.empty((n, C.N_STATE)), np.empty((n, C.N_OUT))
+            self.x, self.so, self.out = np.empty((n, C.N_STATE)), np.empty((n, C.N_STATE)), np.empty((n, C.N_OUT))
             self.c, self.e, self.a = np.empty(n), np.empty(n), np.empty(n)
             self.no_heat = np.zeros(n)  # the heat cost of every row where heat has no price (read only)
             self.v0, self.v1, self.g = np.empty(n), np.empty(n), np.empty(n)
@@ -174,11 +198,12 @@ def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, bat
         lo, hi = span
         r = slice(lo * m, hi * m)
         b.v0[r], b.v1[r], b.g[r] = v0, v1, g
-        problem.core.step(np.repeat(states[lo:hi], m, axis=0), a[r], b.v0[r], b.v1[r], b.g[r], b.cond[r],
-                          state_out=so[r], out=out[r])
-        c[r] = np.repeat(cost[lo:hi], m) + stage_cost_g(rp, out[r], so[r], b.target[r], lhv, dt, battery=False,
-                                                         overheat=True, state_before=b.before[r])
-        e[r] = np.repeat(batt_j[lo:hi], m) + out[r, C.BATT_CHEM] * dt
+        b.x[r].reshape(hi - lo, m, C.N_STATE)[:] = states[lo:hi, None, :]
+        problem.core.step(b.x[r], a[r], b.v0[r], b.v1[r], b.g[r], b.cond[r], state_out=so[r], out=out[r])
+        c[r] = stage_cost_g(rp, out[r], so[r], b.target[r], lhv, dt, battery=False, overheat=True,
+                            state_before=b.before[r])
+        c[r].reshape(hi - lo, m)[:] += cost[lo:hi, None]
+        e[r].reshape(hi - lo, m)[:] = batt_j[lo:hi, None] + (out[r, C.BATT_CHEM] * dt).reshape(hi - lo, m)
 
     parts = threads if p >= MIN_THREAD_BATCH and threads > 1 else 1
     if parts == 1:
@@ -234,7 +259,6 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     centers = None if u_center is None else np.atleast_2d(np.asarray(u_center, dtype=np.float64))
     kinds = problem.stage_kinds()
     batt_g_per_j = problem.reward_params.prices.battery_g_per_j(problem.lhv) * problem.reward_params.soc_energy_weight
-    widths = grid.widths()
     states, cost, batt_j = problem.state0[None, :].copy(), np.zeros(1), np.zeros(1)
     parents: list[np.ndarray] = []
     actions: list[np.ndarray] = []
@@ -249,6 +273,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
             heat_g = buffers.no_heat[:so.shape[0]]
         else:
             heat_g = so[:, PRICED] @ heat_price[i + 1]
+        widths = grid.stage_widths(None if heat_price is None else heat_price[i + 1])
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, heat_g, widths, states.shape[0],
                          threads)
         if keep.size > 1:

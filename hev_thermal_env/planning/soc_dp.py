@@ -66,8 +66,8 @@ def interp_soc(values, lo, step, n, soc, wall, result):
 class DPSettings:
     """Grid and pricing options of a DP solve (see the module docstring)."""
 
-    n_soc: int = 401
-    n_u: int = 41
+    n_soc: int = 151
+    n_u: int = 15
     n_u_exec: int = 101
     soc_final: float | None = None  # default: the initial SOC
     soc_tol: float = 0.005
