@@ -128,6 +128,25 @@ def test_a_much_finer_search_on_a_short_city_cycle_agrees(city200):
     assert (base["cost_g"] - at) / base["cost_g"] <= 0.001  # ...and the default is within 0.1 % of it
 
 
+def test_temperature_bins_widen_only_where_heat_is_cheap():
+    """A stage's housing, winding and coolant bins hold 1 g of heat at the stage's price, between their width and 8
+    times it; SOC, heat index and the flags keep theirs; a finer grid narrows both the bins and the grams."""
+    g = SearchGrid()
+    base = g.widths()
+    cols = [KEY_COLUMNS.index(c) for c in (C.TEMP_C, C.WINDING_C, C.COOLANT_C)]
+    others = [k for k in range(len(KEY_COLUMNS)) if k not in cols]
+    np.testing.assert_array_equal(g.stage_widths(None), base)
+    free = g.stage_widths(np.zeros(3))
+    np.testing.assert_allclose(free[cols], 8.0 * base[cols])
+    np.testing.assert_array_equal(free[others], base[others])
+    np.testing.assert_array_equal(g.stage_widths(np.array([50.0, 5.0, 20.0])), base)  # hot: heat binds
+    mixed = g.stage_widths(np.array([0.125, 0.01, 1.0]))  # 8 K of housing, 100 K of winding (capped), 1 K of coolant
+    np.testing.assert_allclose(mixed[cols], [8.0, 8.0 * base[cols[1]], base[cols[2]]])
+    assert mixed[cols[0]] * 0.125 == pytest.approx(g.heat_bin_g)
+    fine = g.scaled(2.0).stage_widths(np.array([0.125, 0.01, 1.0]))
+    np.testing.assert_allclose(fine[:5], mixed[:5] / 2.0)  # the two protection flags' bins stay 1
+
+
 def test_a_bin_too_narrow_for_the_key_is_refused():
     problem = problem_for(load_cycle("udds").speed_mps[:31], Conditions())
     with pytest.raises(ValueError, match="soc bin 1e-07 is too narrow"):
