@@ -24,6 +24,7 @@ Writes ``benchmarks/results/optimum.json``:
 
     python benchmarks/optimum.py [--quick] [--jobs 2] [--generated 20] [--fresh 10] [--parts cells convergence speed]
     python benchmarks/optimum.py --parts cells --cells udds:hot beijing:paper --jobs 1 --out /tmp/o.json
+    python benchmarks/optimum.py --parts convergence --convergence-cells us06:paper:2 udds_120s:hot:4
     python benchmarks/optimum.py --parts speed --before /path/to/earlier/checkout
 """
 
@@ -212,6 +213,8 @@ def _args() -> argparse.Namespace:
                     help="what to run; the parts left out are kept from the existing JSON (default: all)")
     ap.add_argument("--cells", nargs="+", default=None, metavar="CYCLE:SCENARIO",
                     help="only these cells, in this order (e.g. udds:hot beijing:paper); default: every cell")
+    ap.add_argument("--convergence-cells", nargs="+", default=None, metavar="CYCLE:SCENARIO:SCALE",
+                    help="only these convergence cells (e.g. us06:paper:2 udds_120s:hot:4); default: all of them")
     ap.add_argument("--out", default=None, help=f"JSON path (default {OUT.relative_to(OUT.parents[2])}; with --quick "
                     "optimum_quick.json next to it)")
     return ap.parse_args()
@@ -233,6 +236,8 @@ def _tasks(args: argparse.Namespace) -> tuple[list[tuple[str, str]], list[tuple[
         tasks = [tuple(c.split(":", 1)) for c in args.cells]
     else:
         tasks.sort(key=lambda t: -len(_cycle(t[0]).speed_mps))
+    if args.convergence_cells:
+        conv = [(c, s, float(k)) for c, s, k in (t.rsplit(":", 2) for t in args.convergence_cells)]
     tasks = tasks if "cells" in args.parts else []
     return tasks, conv if "convergence" in args.parts else []
 
