@@ -3,8 +3,8 @@
 
 Writes JSON (default ``benchmarks/results/dp_speed.json``) with, for every solve, the grid sizes,
 the solve time (backward pass including the SOC corridor), the vehicle-steps evaluated, and the
-run's corrected fuel and final SOC; plus the convergence check (doubling the SOC grid and the
-split grids, backward pass and execution) and the targets:
+run's corrected fuel and final SOC; plus the convergence check (the SOC grid and the split grids
+about five times finer, backward pass and execution) and the targets:
 
 * ``dp`` on HWFET at its default grid (151 SOC points × 15 splits): solve in ≤ 0.3 s, its corrected fuel within
   0.05 % of the earlier default grid's (401 × 41, solved in the same run);

@@ -72,17 +72,28 @@ SPEED_TARGETS_S = {"dp_thermal/hwfet": 10.0, "dp_thermal/beijing": 6.0, "dp_ther
 _ONE_SOLVE = """
 import json, resource, sys, time, warnings
 warnings.simplefilter("ignore")
-from hev_thermal_env import load_cycle
+import importlib.util, pathlib
+import hev_thermal_env
+root = pathlib.Path.cwd()
+if not (root / "hev_thermal_env" / "agents").exists():  # a plain checkout: its agents/ as hev_thermal_env.agents
+    spec = importlib.util.spec_from_file_location("hev_thermal_env.agents", root / "agents" / "__init__.py",
+                                                  submodule_search_locations=[str(root / "agents")])
+    sys.modules["hev_thermal_env.agents"] = hev_thermal_env.agents = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hev_thermal_env.agents)
+from hev_thermal_env import cycle_from_arrays, load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.evaluation.runner import run_strategy
 name, cycle = sys.argv[1:3]
 opts = {"plan_cache": False} if name == "dp_thermal" else {}
+if cycle == "warmup":  # compiles every kernel the solve needs (kept on disk), so no solve timed later pays for it
+    cycle = cycle_from_arrays(load_cycle("beijing").speed_mps[:31], name="warmup")
 s = run_strategy(get_strategy(name, **opts), load_cycle(cycle), "paper").summary
 d = s["strategy_settings"]
 print(json.dumps({"solve_s": d.get("solve_s"), "plan_s": s["plan_s"], "cost_g": s["cost_g"], "soc_final": s["soc_final"],
                   "planned_cost_g": d.get("planned_cost_g"), "max_states": d.get("max_states"),
                   "vehicle_steps": d.get("vehicle_steps_evaluated"),
-                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "package": hev_thermal_env.__file__, "strategies": sys.modules[type(get_strategy(name)).__module__].__file__}))
 """
 
 
@@ -169,15 +180,22 @@ def outside(task: tuple[str, str, tuple[str, ...]]) -> dict:
 
 
 def one_solve(name: str, cycle: str, tree: str | None = None) -> dict:
-    """:data:`_ONE_SOLVE` in a fresh process (the source ``tree`` first on the path if given; default threads, no plan
-    on disk), paper conditions."""
-    env = dict(os.environ)
-    if tree is not None:
-        env["PYTHONPATH"] = os.pathsep.join([str(Path(tree).resolve()), env.get("PYTHONPATH", "")])
+    """:data:`_ONE_SOLVE` in a fresh process run from the source ``tree`` (default: this checkout), which comes first
+    on the path; default threads, no plan on disk, paper conditions. Raises when the solve fails (with its stderr) or
+    when the package or the strategies were imported from elsewhere."""
+    root = Path(tree).resolve() if tree is not None else Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
     t0 = time.perf_counter()
     run = subprocess.run([sys.executable, "-c", _ONE_SOLVE, name, cycle], env=env, capture_output=True, text=True,
-                         check=True, cwd=tree or None)
-    return {**json.loads(run.stdout.strip().splitlines()[-1]), "process_wall_s": time.perf_counter() - t0}
+                         cwd=root)
+    if run.returncode != 0:
+        raise RuntimeError(f"{name} on {cycle} in {root} failed:\n{run.stderr[-3000:]}")
+    row = {**json.loads(run.stdout.strip().splitlines()[-1]), "process_wall_s": time.perf_counter() - t0}
+    for what in ("package", "strategies"):
+        if not Path(row[what]).resolve().is_relative_to(root):
+            raise RuntimeError(f"{name} on {cycle}: the {what} came from {row[what]}, not from {root} (an installed "
+                               f"copy shadows the tree: run from an environment without it)")
+    return row
 
 
 def speed(before: str | None = None, solves=SPEED_SOLVES) -> dict:
@@ -185,6 +203,9 @@ def speed(before: str | None = None, solves=SPEED_SOLVES) -> dict:
     other; with ``before`` the same solves of the planner in that source tree (not the 4,440 s cycle: the earlier
     solver takes too long there)."""
     out: dict = {"after": {}, "before": {}, "before_tree": before, "targets_s": SPEED_TARGETS_S}
+    for tree in (None, before) if before is not None else (None,):
+        for name in ("dp_thermal", "dp"):
+            one_solve(name, "warmup", tree)
     for name, cycle in solves:
         key = f"{name}/{cycle}"
         out["after"][key] = one_solve(name, cycle)
@@ -233,7 +254,7 @@ def _tasks(args: argparse.Namespace) -> tuple[list[tuple[str, str]], list[tuple[
         conv = [(c, s, 4.0) for c in ("udds_120s", "beijing_120s", "us06_120s") for s in ("paper", "hot")]
         conv += [("beijing", "hot", 2.0), ("hwfet", "hot", 2.0), ("us06", "paper", 2.0)]
     if args.cells:
-        tasks = [tuple(c.split(":", 1)) for c in args.cells]
+        tasks = [tuple(c.rsplit(":", 1)) for c in args.cells]
     else:
         tasks.sort(key=lambda t: -len(_cycle(t[0]).speed_mps))
     if args.convergence_cells:

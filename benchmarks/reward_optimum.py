@@ -128,7 +128,7 @@ def marginal_values(cycle: Cycle, band: float, grid: dict) -> dict:
 
 
 def study(quick: bool) -> dict:
-    grid = {"n_soc": 101, "n_u": 11, "n_u_exec": 21} if quick else {}
+    grid = {"n_soc": 101, "n_u": 11, "n_u_exec": 21} if quick else {"n_soc": 401, "n_u": 41}
     band = RewardParams().soc_band
     rows: dict = {}
     for cycle in cycles(quick):

@@ -80,14 +80,16 @@ def problem_for(speed, scenario_conditions: Conditions) -> DPProblem:
                      soc_target=scenario_conditions.initial_soc, name="short")
 
 
-def test_search_matches_an_exhaustive_search_on_a_short_cycle():
+@pytest.mark.parametrize("heat_free", [False, True], ids=["temperature bins as given", "widest temperature bins"])
+def test_search_matches_an_exhaustive_search_on_a_short_cycle(heat_free):
     """Seven seconds, pulling with 7 splits and braking with the shares {0, 1/3, 2/3, 1} of the available
     regeneration, a hot motor: every sequence against the search on the same splits (fine SOC bins: on so short a
-    run one default bin of charge is worth 0.3 % of the cost)."""
+    run one default bin of charge is worth 0.3 % of the cost). Also with heat priced at 0 everywhere, where every
+    temperature bin is at its widest (:meth:`SearchGrid.stage_widths`)."""
     speed = np.array([0.0, 1.5, 3.0, 4.6, 6.0, 4.4, 2.8, 1.5])
     p = problem_for(speed, Conditions(ambient_temp_c=40.0, initial_motor_temp_c=66.0))
     grid = SearchGrid(soc=1e-5, n_u=7)
-    res = search(p, grid, (0.55, 0.75))
+    res = search(p, grid, (0.55, 0.75), heat_price=np.zeros((p.n_stages + 1, 3)) if heat_free else None)
     kinds = p.stage_kinds()
     np.testing.assert_array_equal(kinds, [1, 1, 1, 1, -1, -1, -1])
     u_grid = np.linspace(-1.0, 1.0, 7).astype(np.float32).astype(np.float64)

@@ -11,8 +11,9 @@ below the frontier). So the bins compare cost + battery energy at the reward's p
 :data:`EVERY`-th stage, the path's remaining actions replayed from its state with one temperature raised and lowered
 by :data:`DELTA_K` (the other columns as they were); the difference of the rest of the path's cost (the search's cost
 plus the battery energy at the reward's price) over 2·ΔT, at least 0 (cooler is never worse in this physics), and
-linear between the sampled stages; 0 at the end. A price only ranks states within a bin: every kept path is still an
-exact action sequence with its exact cost.
+linear between the sampled stages; 0 at the end. A price ranks states within a bin and sets how wide the temperature
+bins are (:meth:`~.search.SearchGrid.stage_widths`); every kept path is still an exact action sequence with its exact
+cost.
 """
 
 from __future__ import annotations

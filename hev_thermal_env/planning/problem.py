@@ -100,6 +100,8 @@ class DPProblem:
         """The physics step of stage i for a small batch (planning helpers: the corridor, the heat prices, replays):
         the compiled kernel called directly, since the door's checks cost more than a few rows' step and the inputs
         here are the planner's own float64 arrays."""
+        if states.ndim != 2 or states.shape[1] != C.N_STATE:
+            raise ValueError(f"DPProblem.step: states must have shape (B, {C.N_STATE}), got {states.shape}")
         b = states.shape[0]
         k = self.k0 + i
         act = np.empty(b)

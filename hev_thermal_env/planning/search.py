@@ -48,8 +48,9 @@ class SearchGrid:
 
     Where heat is cheap the temperature bins widen (:meth:`stage_widths`): a stage's bin of a priced temperature
     (:data:`~.heat_value.PRICED`) spans ``heat_bin_g`` grams of heat at that stage's price, at least its width here and
-    at most ``heat_bin_max`` times it. On a cool motor (paper conditions) the thermal bins are then a few times wider,
-    and fewer states survive; where heat binds (``hot``: tens of g/K) they stay as they are.
+    at most ``heat_bin_max`` times it (a price of 0: that many times). On a cool motor (paper conditions: a kelvin of
+    the housing worth 0.01-0.14 g) the thermal bins are several times wider and fewer states survive; where heat binds
+    (``hot``: tens of g/K) they stay as they are.
     """
 
     soc: float = 1.5e-4
@@ -60,6 +61,11 @@ class SearchGrid:
     n_u: int = 31
     heat_bin_g: float = 1.0
     heat_bin_max: float = 8.0
+
+    def __post_init__(self) -> None:
+        if not (self.heat_bin_max >= 1.0 and self.heat_bin_g > 0.0):
+            raise ValueError(f"SearchGrid: need heat_bin_max >= 1 and heat_bin_g > 0 (a bin never narrower than its "
+                             f"width), got {self.heat_bin_max}, {self.heat_bin_g}")
 
     def widths(self) -> np.ndarray:
         """The widths in the order of :data:`~.bins.KEY_COLUMNS` (the two protection flags: 1)."""
@@ -75,11 +81,13 @@ class SearchGrid:
     def stage_widths(self, heat_price: np.ndarray | None) -> np.ndarray:
         """The bin widths of a stage whose temperatures :data:`~.heat_value.PRICED` cost ``heat_price`` g/K: each
         priced temperature's bin holds ``heat_bin_g`` of heat, within [1, ``heat_bin_max``] times its width here
-        (no price: the widest)."""
+        (a price of 0: the widest; no prices, or one that is not a finite number: the widths here)."""
         w = self.widths()
         if heat_price is None:
             return w
         for col, mu in zip(_PRICED_KEY, heat_price):
+            if not np.isfinite(mu):
+                continue
             wide = self.heat_bin_g / mu if mu > 0.0 else np.inf
             w[col] = min(max(wide, w[col]), self.heat_bin_max * w[col])
         return w
