@@ -31,7 +31,8 @@ class DPStrategy(Strategy):
     name = "dp"
     thermal_aware = False
 
-    def __init__(self, n_soc: int = 151, n_u: int = 15, n_u_exec: int = 101, soc_tol: float = 0.005,
+    def __init__(self, n_soc: int = DPSettings.n_soc, n_u: int = DPSettings.n_u, n_u_exec: int = DPSettings.n_u_exec,
+                 soc_tol: float = DPSettings.soc_tol,
                  soc_final: float | None = None, on_infeasible: str = "raise", price_soc_deviation: bool = False,
                  threads: int | None = None):
         if on_infeasible not in ("raise", "closest"):

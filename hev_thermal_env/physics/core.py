@@ -358,6 +358,10 @@ class PhysicsCore:
         cond[:, ACCESSORY_W] = conditions.accessory_power_w
         return cond
 
+    def step_unchecked(self, state, action, v0, v1, grade, cond, state_out, out) -> None:
+        """:meth:`step` on one thread without its checks: every array already float64, C-contiguous, of B rows."""
+        step_kernel(*self.params, state, action, v0, v1, grade, cond, self.dt_s, state_out, out)
+
     def step(self, state, action, speed_start_mps, speed_end_mps, grade, cond, *, state_out=None, out=None,
              threads: int = 1):
         """Advance a batch of B vehicles by one step; returns (new state [B, N_STATE], outputs [B, N_OUT]).
@@ -383,14 +387,13 @@ class PhysicsCore:
         out = np.empty((b, N_OUT)) if out is None else checked_out(out, (b, N_OUT), "out")
         n = max(1, int(threads))
         if n == 1 or b < MIN_THREAD_BATCH:
-            step_kernel(*self.params, state, action, v0, v1, grade, cond, self.dt_s, state_out, out)
+            self.step_unchecked(state, action, v0, v1, grade, cond, state_out, out)
             return state_out, out
         edges = np.linspace(0, b, n + 1).astype(int)
 
         def run(j: int) -> None:
             s = slice(edges[j], edges[j + 1])
-            step_kernel(*self.params, state[s], action[s], v0[s], v1[s], grade[s], cond[s], self.dt_s, state_out[s],
-                        out[s])
+            self.step_unchecked(state[s], action[s], v0[s], v1[s], grade[s], cond[s], state_out[s], out[s])
 
         list(thread_pool(n).map(run, range(n)))
         return state_out, out

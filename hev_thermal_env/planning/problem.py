@@ -97,27 +97,18 @@ class DPProblem:
         return (np.full(b, self.speed_mps[k]), np.full(b, self.speed_mps[k + 1]), np.full(b, self.grade[k]))
 
     def step(self, states: np.ndarray, actions: np.ndarray | float, i: int) -> tuple[np.ndarray, np.ndarray]:
-        """The physics step of stage i for a small batch (planning helpers: the corridor, the heat prices, replays):
-        the compiled kernel called directly, since the door's checks cost more than a few rows' step and the inputs
-        here are the planner's own float64 arrays."""
+        """The physics step of stage i for a small batch (planning helpers: the corridor, the heat prices, replays),
+        by :meth:`~hev_thermal_env.physics.core.PhysicsCore.step_unchecked`: the inputs are the planner's own float64
+        arrays, and the door's checks would cost more than a few rows' step."""
         if states.ndim != 2 or states.shape[1] != C.N_STATE:
             raise ValueError(f"DPProblem.step: states must have shape (B, {C.N_STATE}), got {states.shape}")
         b = states.shape[0]
-        k = self.k0 + i
         act = np.empty(b)
         act[:] = actions
-        v0, v1, g = np.full(b, self.speed_mps[k]), np.full(b, self.speed_mps[k + 1]), np.full(b, self.grade[k])
         so, out = np.empty((b, C.N_STATE)), np.empty((b, C.N_OUT))
-        C.step_kernel(*self.core.params, np.ascontiguousarray(states, dtype=np.float64), act, v0, v1, g,
-                      self._cond_rows(b), self.core.dt_s, so, out)
+        self.core.step_unchecked(np.ascontiguousarray(states, dtype=np.float64), act, *self.stage_inputs(i, b),
+                                 np.ascontiguousarray(np.broadcast_to(self.cond, (b, self.cond.size))), so, out)
         return so, out
-
-    def _cond_rows(self, b: int) -> np.ndarray:
-        """The conditions repeated over ``b`` rows (kept for the largest batch asked so far)."""
-        rows = getattr(self, "_cond_cache", None)
-        if rows is None or rows.shape[0] < b:
-            rows = self._cond_cache = np.ascontiguousarray(np.broadcast_to(self.cond, (max(b, 8), self.cond.size)))
-        return rows[:b]
 
     def stage_kinds(self) -> np.ndarray:
         """Per stage :data:`TRACTION`, :data:`BRAKING` or :data:`IDLE`: the sign of its shaft demand, which the state
