@@ -7,15 +7,17 @@ distribution (``train.py --task bus-generalisation``: a fresh route of every gen
 ``random_service`` conditions; never a test, validation or standard cycle), one ``train.py`` process per seed, the
 seeds fixed in advance (:data:`SEEDS`, no picking among extra seeds), into ``RUNS/METHOD/seed_S`` (a finished run
 is reused). The policy evaluated is each run's ``best_model.zip`` (selected on ``validation_bus:20..29``, never on a
-task's cycles). Every seed family then drives every task (``--tasks``, default all) through the benchmark
-(:func:`hev_thermal_env.evaluation.benchmark.run_benchmark`: frontier ratio per run against the thermal optimum,
-IQM over seeds with its 95 % bootstrap interval), beside ``engine_only``; the episode safety cost (the sum of
-``info["cost"]``) of every policy on every task episode is the run summary's ``safety_cost_s``.
+task's cycles). Every seed family then drives every episode of every task (``--tasks``, default all) and is scored
+against the task's stored reference, as the leaderboard scores any result (no optimum is solved here): the
+normalised score (0 = ``engine_only``, 100 = the thermal optimum) and the frontier ratio, IQM over episodes and seeds
+with the 95 % stratified bootstrap interval, and the episode safety cost (Σ ``info["cost"]``) against the task's
+budget.
 
 Writes ``OUT/learned_baselines.json``: per method its budget and per seed the process wall-clock, the training's
-steps/s and the saved policy's path; per task and method the frontier ratio IQM [95 % CI], each seed's ratios,
-ΔSOC, cut-off and derated seconds and episode safety cost. Normalised scores come from the leaderboard machinery
-where the package has it (:func:`normalised_scores`, the hook; until then the JSON says so and holds the ratios)::
+steps/s and the saved policy's path; per task and method the scores, ratios and safety costs, and every seed's
+episodes. ``OUT/learned_baselines.md`` is the table; ``OUT/learned_baselines/<task id>/<method>.json`` are result
+files (:mod:`hev_thermal_env.evaluation.submission`), which ``evaluate.py leaderboard --results`` places on the
+leaderboard with the training wall-clock per seed::
 
     python benchmarks/learned_baselines.py --methods ppo --runs runs/learned --out benchmarks/results   # one method
     python benchmarks/learned_baselines.py --runs runs/learned --out benchmarks/results    # all methods, the table
@@ -66,8 +68,8 @@ SMOKE_ARGS = {
     "recurrent_ppo": [*_SMOKE_COMMON, "--hp", "n_steps=64", "batch_size=64", "n_epochs=1",
                       "policy_kwargs.net_arch=[16,16]", "policy_kwargs.lstm_hidden_size=8"],
 }
-ROW_KEYS = ("frontier_ratio", "fixed_price_ratio", "delta_soc", "charge_sustaining", "cutoff_s", "derated_s",
-            "fuel_corrected_l_per_100km", "cost_g")
+ROW_KEYS = ("cycle", "env_seed", "cost_g", "soc_final", "safety_cost_s", "fuel_g", "fuel_corrected_l_per_100km",
+            "charge_sustaining")
 POLICY_FILE = "best_model.zip"
 
 
@@ -98,45 +100,76 @@ def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str
             "imitation_wall_s": (res.get("imitation") or {}).get("wall_s"), "lagrangian": res.get("lagrangian")}
 
 
-def evaluate_task(task_id: str, families: dict[str, list[str]], out: Path, jobs: int) -> dict[str, Any]:
-    """Every seed family (method -> policy paths) and ``engine_only`` on the task's episodes; the ratios and safety
-    costs by method."""
-    from hev_thermal_env.evaluation.benchmark import run_benchmark
-    from hev_thermal_env.evaluation.families import OVERALL, Family
+def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir: Path) -> dict[str, Any]:
+    """Every seed family (method -> its training record) on the task's episodes, scored against the task's stored
+    reference (no optimum is solved): writes ``RESULTS_DIR/<task id>/<family>.json`` (the leaderboard's result
+    format) and returns per method the normalised score and frontier ratio IQM [95 % CI], the safety cost against
+    the budget and every seed's episodes."""
+    from hev_thermal_env.evaluation.leaderboard import score_result
+    from hev_thermal_env.evaluation.references import episode_score, load_reference
+    from hev_thermal_env.evaluation.submission import result_of_seeds
+    from hev_thermal_env.io import atomic_write_json
+    from hev_thermal_env.stats import stratified_iqm_ci
     from hev_thermal_env.tasks import get_task
 
     task = get_task(task_id)
-    fams = [Family(FAMILY_NAMES[m], tuple(paths)) for m, paths in families.items()]
-    t0 = time.perf_counter()
-    rows = run_benchmark(out / task.id, cycles=list(task.cycles), strategies=["engine_only"],
-                         scenarios=[task.scenario], jobs=jobs, plots=False, progress=False, families=fams)
-    record: dict[str, Any] = {"cycles": list(task.cycles), "scenario": task.scenario, "methods": {},
-                              "engine_only": [_row(r) for r in rows if r["strategy"] == "engine_only"],
-                              "wall_s": round(time.perf_counter() - t0, 1)}
-    method_of = {name: m for m, name in FAMILY_NAMES.items()}
-    for fam in fams:
-        overall = next(r for r in rows if r.get("family") == fam.name and r["cycle"] == OVERALL)
-        seeds = []
-        for path, label in zip(fam.paths, fam.members):
-            runs = [r for r in rows if r["strategy"] == label]
-            seeds.append({"policy": path, "episodes": [_row(r) for r in runs],
-                          "safety_cost_s": [round(float(r["safety_cost_s"]), 3) for r in runs]})
-        record["methods"][method_of[fam.name]] = {
-            "frontier_ratio_iqm": overall["frontier_ratio"],
-            "frontier_ratio_ci95": [overall["frontier_ratio_ci_low"], overall["frontier_ratio_ci_high"]],
-            "charge_sustaining_runs": overall["charge_sustaining_runs"], "runs": overall["runs"], "seeds": seeds}
+    reference = load_reference(task)
+    refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
+    record: dict[str, Any] = {"cycles": list(task.cycles), "scenario": task.scenario,
+                              "safety_budget_s": reference["safety_budget_s"], "methods": {}}
+    for method, trained in methods.items():
+        t0 = time.perf_counter()
+        seeds = trained["seeds"]
+        training = {"wall_clock_s_per_seed": [s["train_wall_s"] or 0.0 for s in seeds],
+                    "timesteps": seeds[0]["timesteps"], "steps_per_s": _mean([s["steps_per_s"] for s in seeds])}
+        result = result_of_seeds(task, {s["seed"]: f"ppo:{s['policy']}" for s in seeds}, FAMILY_NAMES[method],
+                                 training=training)
+        atomic_write_json(results_dir / task.id / f"{FAMILY_NAMES[method]}.json", result)
+        entry = score_result(result, reference)
+        by_episode: dict[tuple[str, int], list[float]] = {}
+        episodes = []
+        for row in result["episodes"]:
+            ref = refs[(row["cycle"], row["env_seed"])]
+            ratio, score, note = episode_score(ref, row["cost_g"], row["soc_final"])
+            if ratio is not None:
+                by_episode.setdefault((row["cycle"], row["env_seed"]), []).append(ratio)
+            episodes.append({**{k: row.get(k) for k in ROW_KEYS}, "seed": row["seed"], "frontier_ratio": ratio,
+                             "score": score, "note": note,
+                             "delta_soc": round(row["soc_final"] - row["soc_initial"], 5)})
+        ratio_iqm, ratio_low, ratio_high = (stratified_iqm_ci(list(by_episode.values())) if by_episode
+                                            else (None, None, None))
+        record["methods"][method] = {
+            "score_iqm": entry["score"], "score_ci95": [entry["score_ci_low"], entry["score_ci_high"]],
+            "scored_runs": entry["n"], "runs_without_score": entry["excluded"],
+            "frontier_ratio_iqm": ratio_iqm, "frontier_ratio_ci95": [ratio_low, ratio_high],
+            "safety_cost_s_iqm": entry["safety_cost_s"], "safety_cost_s_max": entry["safety_cost_max_s"],
+            "within_budget": entry["within_budget"], "charge_sustaining_runs": entry["charge_sustaining"],
+            "runs": entry["runs"], "max_abs_delta_soc": max(abs(e["delta_soc"]) for e in episodes),
+            "episodes": episodes, "wall_s": round(time.perf_counter() - t0, 1)}
     return record
 
 
-def _row(r: dict[str, Any]) -> dict[str, Any]:
-    return {"cycle": r["cycle"], **{k: r.get(k) for k in ROW_KEYS}}
+def _mean(values: list[float | None]) -> float | None:
+    known = [float(v) for v in values if v is not None]
+    return round(sum(known) / len(known), 1) if known else None
 
 
-def normalised_scores(evaluation: dict[str, Any]) -> dict[str, Any] | None:
-    """The normalised score (0 = ``engine_only``, 100 = the thermal optimum) IQM [95 % CI] per task and method, from
-    the package's leaderboard machinery; None while the package has none (the JSON then holds the frontier ratios,
-    from which the score follows per episode as 100 · (r₀ − r) / (r₀ − 1), r₀ ``engine_only``'s ratio)."""
-    return None
+def table(record: dict[str, Any]) -> str:
+    """The Markdown table of every method on every task: normalised score IQM [95 % CI], frontier ratio IQM and the
+    episode safety cost (IQM; worst) against the task's budget."""
+    from hev_thermal_env.evaluation.score import score_text
+
+    lines = ["| task | method | score IQM [95 % CI] | frontier ratio IQM [95 % CI] | safety cost s (IQM; worst) | "
+             "budget s | max \\|ΔSOC\\| | runs |", "|---|---|---:|---:|---:|---:|---:|---:|"]
+    for task_id, ev in record["evaluation"].items():
+        for method, m in ev["methods"].items():
+            lo, hi = m["frontier_ratio_ci95"]
+            ratio = "-" if m["frontier_ratio_iqm"] is None else f"{m['frontier_ratio_iqm']:.4f} [{lo:.4f}, {hi:.4f}]"
+            left = f" ({m['runs_without_score']} without a score)" if m["runs_without_score"] else ""
+            lines.append(f"| {task_id} | {FAMILY_NAMES[method]} | {score_text(m['score_iqm'], *m['score_ci95'])} | "
+                         f"{ratio} | {m['safety_cost_s_iqm']:.1f}; {m['safety_cost_s_max']:.1f} | "
+                         f"{ev['safety_budget_s']:g} | {m['max_abs_delta_soc']:.3f} | {m['runs']}{left} |")
+    return "\n".join(lines) + "\n"
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -149,7 +182,6 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="where the runs go, RUNS/METHOD/seed_S")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results"), metavar="DIR",
                    help="where learned_baselines.json and the benchmark's files go")
-    p.add_argument("--jobs", type=int, default=1, help="benchmark worker processes (default 1)")
     p.add_argument("--train-only", action="store_true", help="train (or reuse) the runs; evaluate nothing")
     p.add_argument("--smoke", action="store_true",
                    help=f"tiny budgets ({' '.join(_SMOKE_COMMON[:2])} env-steps), seeds "
@@ -177,14 +209,9 @@ def main(argv: list[str] | None = None) -> int:
         extra = SMOKE_ARGS[method] if args.smoke else (["--hp", *METHOD_HP[method]] if method in METHOD_HP else [])
         record["methods"][method] = {"train_args": extra, "seeds": [train_seed(method, s, runs, extra) for s in seeds]}
     if not args.train_only:
-        families = {m: [s["policy"] for s in r["seeds"]] for m, r in record["methods"].items()}
         for task_id in task_ids:
             print(f"evaluating on {task_id}", flush=True)
-            record["evaluation"][task_id] = evaluate_task(task_id, families, out / "learned_baselines_eval", args.jobs)
-    record["normalised_scores"] = normalised_scores(record["evaluation"])
-    if record["normalised_scores"] is None:
-        record["normalised_scores_note"] = ("no leaderboard machinery in the package yet: frontier ratios only; "
-                                            "normalised_scores() is the hook")
+            record["evaluation"][task_id] = evaluate_task(task_id, record["methods"], out / "learned_baselines")
     record["machine"]["load_at_end"] = os.getloadavg()
     path = out / "learned_baselines.json"
     path.write_text(json.dumps(record, indent=1, default=str) + "\n")
@@ -194,8 +221,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{method}: steps/s per seed {rates}", flush=True)
     for task_id, ev in record["evaluation"].items():
         for method, m in ev["methods"].items():
-            lo, hi = m["frontier_ratio_ci95"]
-            print(f"{task_id} {method}: frontier ratio IQM {m['frontier_ratio_iqm']} [{lo}, {hi}]", flush=True)
+            print(f"{task_id} {method}: score IQM {m['score_iqm']} {m['score_ci95']}, frontier ratio IQM "
+                  f"{m['frontier_ratio_iqm']} {m['frontier_ratio_ci95']}, safety cost IQM {m['safety_cost_s_iqm']}",
+                  flush=True)
+    if record["evaluation"]:
+        (out / "learned_baselines.md").write_text(table(record))
+        print(f"wrote {out / 'learned_baselines.md'}", flush=True)
     return 0
 
 

@@ -46,10 +46,10 @@ from hev_thermal_env import cycle_from_arrays, load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import ImplausibleCycleWarning
 from hev_thermal_env.cycles.families import VALIDATION_SEED_BASE
-from hev_thermal_env.tasks import TEST_FAMILIES
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier, frontier_sample
 from hev_thermal_env.io import atomic_write_json
+from hev_thermal_env.tasks import TEST_FAMILIES
 
 OUT = Path(__file__).parent / "results" / "optimum.json"
 CYCLES = ("hwfet", "udds", "us06", "wltc_3b", "beijing")

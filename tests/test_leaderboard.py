@@ -18,6 +18,7 @@ from hev_thermal_env.evaluation.submission import (
     EpisodeTally,
     ResultFormatError,
     load_result,
+    result_of_seeds,
     result_of_strategy,
     validate_result,
 )
@@ -46,6 +47,11 @@ def good() -> dict:
     (lambda d: d["episodes"][0].update(cycle="udds"), r"episodes\[0\]: .*'udds'.* is not an episode of hwfet-v1"),
     (lambda d: d["episodes"].pop(), r"1 episode\(s\) missing, e.g. .*\(1, 'hwfet', 0\)"),
     (lambda d: d.update(physics_fingerprint="abc"), "physics fingerprint 'abc' .current"),
+    (lambda d: d.update(training=[1.0]), "training: expected an object"),
+    (lambda d: d.update(training={"wall_clock_s_per_seed": [60.0]}),
+     r"training\.wall_clock_s_per_seed: expected one number per seed \(2\)"),
+    (lambda d: d.update(training={"wall_clock_s_per_seed": [60.0, -1.0]}),
+     r"training\.wall_clock_s_per_seed\[1\]: expected a finite number ≥ 0, got -1.0"),
 ])
 def test_bad_result_files_give_clear_errors(good, change, message, tmp_path):
     data = copy.deepcopy(good)
@@ -118,7 +124,7 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
     engine_only = result_of_strategy("hwfet", "engine_only")["episodes"][0]["cost_g"]
     (refs / "hwfet-v1.json").write_text(json.dumps(synthetic_reference(engine_only)))
     outside = tmp_path / "outside.json"
-    outside.write_text(json.dumps(good))
+    outside.write_text(json.dumps({**good, "training": {"wall_clock_s_per_seed": [60.0, 120.0], "timesteps": 1000}}))
     page = tmp_path / "board" / "leaderboard.md"
     code = evaluate_main(["leaderboard", "--tasks", "hwfet", "--methods", "engine_only", "rule", "--references",
                           str(refs), "--results-dir", str(tmp_path / "res"), "--results", str(outside),
@@ -126,6 +132,8 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
     assert code == 0
     md = page.read_text()
     assert "### hwfet-v1" in md and "| engine_only | 0.0 |" in md and "| outside |" in md and "| rule |" in md
+    assert "| outside | 1 | 50.0 [48.7, 51.3] | 2 | 1.5 min |" in md  # training per seed: the mean of 60 and 120 s
+    assert "| rule | 1 | " in md and md.split("| rule | 1 | ")[1].split("\n")[0].endswith("| 1 | - |")
     assert (page.parent / PROFILE_FILE).stat().st_size > 10_000
     assert (tmp_path / "res" / "hwfet-v1" / "rule.json").is_file()
     assert evaluate_main(["leaderboard", "--tasks", "beijing", "--references", str(refs), "--out", str(page)]) == 2
@@ -163,3 +171,14 @@ def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp
     asked.clear()
     result_of_strategy(task, "dp_thermal", references=tmp_path / "plain")
     assert asked == [("dp_thermal", {})]
+
+
+def test_a_seed_family_result_has_every_seeds_episodes():
+    result = result_of_seeds("hwfet", {3: "engine_only", 7: "rule"}, "family",
+                             training={"wall_clock_s_per_seed": [1.0, 2.0]})
+    assert result["seeds"] == [3, 7] and [r["seed"] for r in result["episodes"]] == [3, 7]
+    assert result["training"]["wall_clock_s_per_seed"] == [1.0, 2.0]
+    alone = result_of_strategy("hwfet", "rule")["episodes"][0]
+    assert result["episodes"][1]["cost_g"] == alone["cost_g"] and alone["soc_initial"] == pytest.approx(0.65, abs=0.2)
+    with pytest.raises(ValueError, match="no seeds"):
+        result_of_seeds("hwfet", {}, "family")

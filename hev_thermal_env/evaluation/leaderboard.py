@@ -101,7 +101,9 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
             "fuel_corrected_l_per_100km": iqm([f for f in fuel if f is not None]) if any(f is not None for f in fuel)
             else None, "fuel_kg": float(np.mean([r.get("fuel_g", np.nan) for r in result["episodes"]])) / 1000.0,
             "charge_sustaining": None if any(c is None for c in cs) else sum(cs),
-            "wall_clock_s": result.get("wall_clock_s")}
+            "wall_clock_s": result.get("wall_clock_s"),
+            "training_wall_s": float(np.mean(result["training"]["wall_clock_s_per_seed"]))
+            if result.get("training") else None}
 
 
 def score_files(paths: Sequence[str | Path], references_dir: Path | None = None) -> tuple[list[dict], list[str]]:
@@ -165,8 +167,14 @@ def overall(entries: list[dict]) -> list[dict]:
     for m in _order([e["method"] for e in entries]):
         mine = [e for e in entries if e["method"] == m]
         groups = [[(s, None) for s in g] for e in mine for g in e["score_groups"]]
-        out.append({"method": m, "tasks": len(mine), **aggregate(groups), "left_out": sum(e["excluded"] for e in mine)})
+        walls = [e["training_wall_s"] for e in mine if e.get("training_wall_s") is not None]
+        out.append({"method": m, "tasks": len(mine), **aggregate(groups), "left_out": sum(e["excluded"] for e in mine),
+                    "training_wall_s": max(walls) if walls else None})
     return out
+
+
+def _minutes(wall_s: float | None) -> str:
+    return "-" if wall_s is None else f"{wall_s / 60.0:.1f} min"
 
 
 def _runs_cell(o: dict) -> str:
@@ -178,9 +186,9 @@ def markdown(entries: list[dict], missing: Sequence[str], fingerprint: str, prof
     tasks = [t for t in list_tasks() if any(e["task"] == t for e in entries)]
     tasks += sorted({e["task"] for e in entries} - set(tasks))
     md = ["# Leaderboard", "", LEAD.format(fp=fingerprint, conf=100 * CONFIDENCE), "", "## Over every task", "",
-          "| method | tasks | score IQM [95 % CI] | runs |", "|---|---:|---:|---:|"]
+          "| method | tasks | score IQM [95 % CI] | runs | training per seed |", "|---|---:|---:|---:|---:|"]
     md += [f"| {label(o['method'])} | {o['tasks']} | {score_text(o['score'], o['score_ci_low'], o['score_ci_high'])} "
-           f"| {_runs_cell(o)} |" for o in overall(entries)]
+           f"| {_runs_cell(o)} | {_minutes(o['training_wall_s'])} |" for o in overall(entries)]
     if profile:
         md += ["", "## Performance profile", "", f"![performance profile]({profile})", "", PROFILE_TEXT]
     md += ["", "## Per task", ""]
@@ -201,7 +209,9 @@ LEAD = ("Every method on every task that has stored references, measured on phys
         "at the same final SOC. *corrected L/100 km*: fuel at equal charge and service (IQM). *fuel kg*: raw fuel "
         "per episode (mean). *J1711*: runs that are charge-sustaining. *left out*: runs without a score (a final SOC "
         "off the optimum's frontier, so no frontier ratio, or an ill-conditioned episode). The bootstrap resamples the "
-        "seeds within each episode: a deterministic strategy has one run per episode, so its score has no interval.")
+        "seeds within each episode: a deterministic strategy has one run per episode, so its score has no interval. "
+        "*training per seed*: a learned method's mean wall-clock to train one seed (the result file's `training`); "
+        "`-` for a method that is not trained here.")
 PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
                 "below every τ) whose normalised score exceeds τ, as rliable draws it: a curve further right is "
                 "better; where it drops shows the spread of the method's scores across tasks.")

@@ -12,8 +12,12 @@ every seed has one row per episode of the task (``cycle``, ``env_seed``: :meth:`
 A row's ``cost_g`` is the episode's yardstick cost and ``safety_cost_s`` its safety cost, both sums over the steps'
 infos (:class:`EpisodeTally` adds them up): ``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)``,
 ``safety_cost_s = Σ cost``; ``soc_final`` is the last step's ``info["soc"]``. Optional: ``task_digest``, ``fuel_g``,
-``fuel_corrected_l_per_100km``, ``charge_sustaining``, ``description``. :func:`validate_result` checks a file and
-names the field and value of every problem; :func:`result_of_strategy` writes one for a strategy of this package.
+``soc_initial``,
+``fuel_corrected_l_per_100km``, ``charge_sustaining``, ``description``, ``training`` (a learned method's training
+compute: ``wall_clock_s_per_seed``, one number per seed, and optionally ``timesteps`` and ``steps_per_s``; the
+leaderboard shows the mean per seed). :func:`validate_result` checks a file and names the field and value of every
+problem; :func:`result_of_strategy` writes one for a strategy of this package, :func:`result_of_seeds` for a seed
+family of trained policies.
 """
 
 from __future__ import annotations
@@ -36,7 +40,8 @@ from .yardstick import REFERENCE
 FORMAT = "hev-thermal-result-v1"
 REQUIRED = ("format", "task", "physics_fingerprint", "method", "seeds", "episodes")
 ROW_NUMBERS = {"cost_g": (0.0, math.inf), "soc_final": (0.0, 1.0), "safety_cost_s": (0.0, math.inf)}
-OPTIONAL_NUMBERS = {"fuel_g": (0.0, math.inf), "fuel_corrected_l_per_100km": (-math.inf, math.inf)}
+OPTIONAL_NUMBERS = {"fuel_g": (0.0, math.inf), "fuel_corrected_l_per_100km": (-math.inf, math.inf),
+                    "soc_initial": (0.0, 1.0)}
 
 
 class ResultFormatError(ValueError):
@@ -96,7 +101,23 @@ def validate_result(data: Any, where: str = "result") -> dict[str, Any]:
         _number(data["wall_clock_s"], f"{where}: wall_clock_s", 0.0, math.inf)
     check_current(data, task, where)
     _check_episodes(data["episodes"], task, seeds, where)
+    if data.get("training") is not None:
+        _check_training(data["training"], seeds, f"{where}: training")
     return data
+
+
+def _check_training(training: Any, seeds: list[int], where: str) -> None:
+    if not isinstance(training, dict):
+        raise ResultFormatError(f"{where}: expected an object, got {training!r}")
+    walls = training.get("wall_clock_s_per_seed")
+    if not isinstance(walls, list) or len(walls) != len(seeds):
+        raise ResultFormatError(f"{where}.wall_clock_s_per_seed: expected one number per seed ({len(seeds)}), got "
+                                f"{walls!r}")
+    for i, w in enumerate(walls):
+        _number(w, f"{where}.wall_clock_s_per_seed[{i}]", 0.0, math.inf)
+    for field in ("timesteps", "steps_per_s"):
+        if training.get(field) is not None:
+            _number(training[field], f"{where}.{field}", 0.0, math.inf)
 
 
 def _check_episodes(rows: Any, task: Task, seeds: list[int], where: str) -> None:
@@ -173,10 +194,32 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
         res = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed)
         s = res.summary
         rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), "cost_g": s["cost_g"],
-                     "soc_final": s["soc_final"], "safety_cost_s": s["safety_cost_s"], "fuel_g": s["fuel_g"],
+                     "soc_initial": s["soc_initial"], "soc_final": s["soc_final"],
+                     "safety_cost_s": s["safety_cost_s"], "fuel_g": s["fuel_g"],
                      "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
                      "charge_sustaining": bool(s["charge_sustaining"])})
     return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
             physics_fingerprint(), "method": method or str(getattr(strategy, "label", strategy)), "seeds": [0],
             "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
 
+
+
+def result_of_seeds(task: str | Task, policies: dict[int, str], method: str, *,
+                    training: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The result record of a seed family: ``policies`` maps each training seed to a strategy name (``ppo:PATH`` for a
+    policy saved by ``train.py``, whatever its algorithm), each driven on every episode of ``task``
+    (:func:`result_of_strategy`); ``training``: the family's training compute (module docstring), or None."""
+    task = get_task(task)
+    if not policies:
+        raise ValueError(f"result_of_seeds: {method}: no seeds given")
+    t0 = time.perf_counter()
+    rows = []
+    for seed, name in policies.items():
+        one = result_of_strategy(task, name, method)
+        rows += [{**row, "seed": int(seed)} for row in one["episodes"]]
+    record = {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
+              physics_fingerprint(), "method": method, "seeds": [int(s) for s in policies],
+              "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
+    if training is not None:
+        record["training"] = training
+    return validate_result(record, f"{method} on {task.id}")
