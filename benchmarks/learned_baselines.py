@@ -38,6 +38,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
@@ -172,6 +174,55 @@ def table(record: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | None:
+    """One panel per method: the validation fuel ÷ ECMS (mean over the evaluation's runs) of every seed against the
+    env-steps, the median over seeds in bold, disqualified evaluations (|ΔSOC| > 0.02 on a run) crossed and each
+    seed's ``best_model.zip`` starred (``evaluations.csv`` of every run); None when no run has evaluations."""
+    from hev_thermal_env.evaluation.styles import pyplot
+    from hev_thermal_env.io import save_png
+    from hev_thermal_env.training.artifacts import read_evaluations
+
+    curves: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
+    for method, trained in methods.items():
+        for seed in trained["seeds"]:
+            rows = read_evaluations(Path(seed["run_dir"]) / "evaluations.csv")
+            steps = sorted({r["timesteps"] for r in rows})
+            if not steps:
+                continue
+            at = [[r for r in rows if r["timesteps"] == t] for t in steps]
+            curves.setdefault(method, []).append((
+                np.array(steps, dtype=float), np.array([np.mean([r["fuel_ratio"] for r in g]) for g in at]),
+                np.array([all(r["qualified"] for r in g) for g in at]), np.array([any(r["best"] for r in g)
+                                                                                  for g in at])))
+    if not curves:
+        return None
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(curves), figsize=(3.6 * len(curves) + 0.6, 4.2), sharey=True, squeeze=False,
+                             layout="constrained")
+    for ax, (method, runs) in zip(axes[0], curves.items()):
+        for k, (x, y, ok, best) in enumerate(runs):
+            line, = ax.plot(x, 100.0 * y, lw=0.9, alpha=0.7, label=f"seed {methods[method]['seeds'][k]['seed']}")
+            ax.plot(x[~ok], 100.0 * y[~ok], "x", color=line.get_color(), ms=5)
+            last_best = np.flatnonzero(best)
+            if last_best.size:
+                i = last_best[-1]
+                ax.plot(x[i], 100.0 * y[i], "*", color=line.get_color(), ms=10, mec="k", mew=0.5)
+        n = min(len(x) for x, *_ in runs)
+        median = np.median(np.stack([y[:n] for _, y, *_ in runs]), axis=0)
+        ax.plot(runs[0][0][:n], 100.0 * median, color="k", lw=2.0, label="median")
+        ax.axhline(100.0, color="0.5", lw=0.8, ls="--")
+        ax.set_title(FAMILY_NAMES.get(method, method), fontsize=10)
+        ax.set_xlabel("env-steps")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left")
+    axes[0][0].set_ylabel("validation fuel, % of ECMS's (mean of 20 runs)")
+    fig.suptitle("Learning curves on the selection runs (validation_bus:20..29 × paper, full_bus)\nx: an evaluation "
+                 "with |ΔSOC| > 0.02 on a run; *: best_model.zip", fontsize=9)
+    save_png(fig, path)
+    plt.close(fig)
+    return path
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__.split("::")[-1])
@@ -224,6 +275,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{task_id} {method}: score IQM {m['score_iqm']} {m['score_ci95']}, frontier ratio IQM "
                   f"{m['frontier_ratio_iqm']} {m['frontier_ratio_ci95']}, safety cost IQM {m['safety_cost_s_iqm']}",
                   flush=True)
+    curves = learning_curves(record["methods"], out / "learned_baselines_curves.png")
+    if curves is not None:
+        print(f"wrote {curves}", flush=True)
     if record["evaluation"]:
         (out / "learned_baselines.md").write_text(table(record))
         print(f"wrote {out / 'learned_baselines.md'}", flush=True)
