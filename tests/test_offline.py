@@ -92,3 +92,25 @@ def test_behaviour_cloning_fits_a_dataset_and_drives(short_routes, tmp_path, mon
 
     res = run_strategy(policy, short_routes[1], "hot")
     assert res.trace["u"].size == 60 and np.all(np.abs(res.trace["u"]) <= 1.0)
+
+
+@pytest.mark.full
+def test_bc_command_writes_a_seed_family_for_the_leaderboard(short_routes, tmp_path, monkeypatch):
+    """``evaluate.py bc`` on tiny inputs: two seeds fitted, one result file per task holding both seeds' episodes and
+    each fit's wall-clock, valid for the leaderboard; a repeated seed is refused."""
+    from hev_thermal_env.cli.evaluate import main as evaluate_main
+    from hev_thermal_env.evaluation.submission import load_result
+
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    D.write_dataset("rule", routes=short_routes, scenario="paper", root=tmp_path,
+                    dataset_name="hev-thermal/test/bccli-v0")
+    out = tmp_path / "res"
+    code = evaluate_main(["bc", "--dataset", "hev-thermal/test/bccli-v0", "--tasks", "hwfet", "--seeds", "0", "1",
+                          "--epochs", "2", "--results-dir", str(out), "--policy", str(tmp_path / "bc.pt")])
+    assert code == 0
+    result = load_result(out / "hwfet-v1" / "bc.json")
+    assert result["seeds"] == [0, 1] and [r["seed"] for r in result["episodes"]] == [0, 1]
+    assert len(result["training"]["wall_clock_s_per_seed"]) == 2
+    assert (tmp_path / "bc_seed0.pt").is_file() and (tmp_path / "bc_seed1.pt").is_file()
+    assert evaluate_main(["bc", "--dataset", "hev-thermal/test/bccli-v0", "--tasks", "hwfet", "--seeds", "1", "1",
+                          "--results-dir", str(out)]) == 2
