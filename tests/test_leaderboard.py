@@ -182,3 +182,21 @@ def test_a_seed_family_result_has_every_seeds_episodes():
     assert result["episodes"][1]["cost_g"] == alone["cost_g"] and alone["soc_initial"] == pytest.approx(0.65, abs=0.2)
     with pytest.raises(ValueError, match="no seeds"):
         result_of_seeds("hwfet", {}, "family")
+
+
+def test_the_optimums_row_is_its_stored_reference_run_without_a_solve(tmp_path, monkeypatch):
+    from hev_thermal_env.evaluation import leaderboard as L
+
+    refs = tmp_path / "refs"
+    refs.mkdir()
+    (refs / "hwfet-v1.json").write_text(json.dumps(synthetic_reference(4000.0)))
+
+    def no_solve(*args, **kwargs):
+        raise AssertionError("the optimum was solved")
+
+    monkeypatch.setattr(L, "result_of_strategy", no_solve)
+    [path] = L.ensure_results(tmp_path / "res", ["hwfet"], ["dp_thermal"], references=refs)
+    result = load_result(path)
+    assert result["method"] == "dp_thermal" and result["episodes"][0]["cost_g"] == 1000.0
+    entry = score_result(result, R.load_reference("hwfet", refs))
+    assert entry["score"] == pytest.approx(100.0) and entry["frontier_ratio"] == pytest.approx(1.0)

@@ -2,12 +2,13 @@
 
 Its inputs are result files (:mod:`.submission`), whoever wrote them: :func:`ensure_results` writes those of this
 package's strategies (:data:`METHODS`: the classic strategies, the optimum and the shipped policy) into a directory
-and reuses them while they are current; an outside method adds its own file. :func:`score_result` scores a result
-against its task's reference (:mod:`.references`): the normalised score per episode (:mod:`.score`), aggregated by
-IQM with a 95 % stratified bootstrap interval (one stratum per episode, the seeds within), the frontier ratio, the
-episode safety cost against the task's budget and the fuel. :func:`write_leaderboard` writes the page and the
-performance profile (rliable's: the fraction of a method's runs, over every task, episode and seed, that score above
-τ, against τ). ``evaluate.py leaderboard`` is the command; docs/leaderboard.md is its page.
+and reuses them while they are current (the optimum's is its stored reference run, so the page needs no solve); an
+outside method adds its own file. :func:`score_result` scores a result against its task's reference
+(:mod:`.references`): the normalised score per episode (:mod:`.score`), aggregated by IQM with a 95 % stratified
+bootstrap interval (one stratum per episode, the seeds within), the frontier ratio, the episode safety cost against
+the task's budget and the fuel. :func:`write_leaderboard` writes the page and the performance profile (rliable's: the
+fraction of a method's runs, over every task, episode and seed, that score above τ, against τ). ``evaluate.py
+leaderboard`` is the command; docs/leaderboard.md is its page.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from hev_thermal_env.tasks import get_task, list_tasks
 from .references import REFERENCE_DIR, StaleReferenceError, episode_score, load_reference
 from .score import aggregate, score_text, usable
 from .styles import pyplot
-from .submission import ResultFormatError, load_result, result_of_strategy
+from .submission import ResultFormatError, load_result, result_of_reference, result_of_strategy
 from .yardstick import REFERENCE, display_name
 
 METHODS = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
@@ -44,8 +45,9 @@ def label(method: str) -> str:
 def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str] = METHODS,
                    progress: Callable[[str], None] | None = None, references: Path | None = None) -> list[Path]:
     """``DIRECTORY/<task id>/<method>.json`` for every task and method: reused when it validates, else written
-    (:func:`~.submission.result_of_strategy`; the optimum with the frontier widths of the references in
-    ``references``, default the package's); returns the paths."""
+    (:func:`~.submission.result_of_strategy`; the optimum's from the task's stored reference in ``references``,
+    default the package's, :func:`~.submission.result_of_reference`: its row is the reference's own runs, no plan
+    solved); returns the paths."""
     paths = []
     for name in tasks:
         task = get_task(name)
@@ -54,7 +56,8 @@ def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str]
             try:
                 load_result(path)
             except (ResultFormatError, StaleReferenceError):
-                record = result_of_strategy(task, method, references=references)
+                record = (result_of_reference(task, references) if method == REFERENCE
+                          else result_of_strategy(task, method, references=references))
                 atomic_write_json(path, record)
                 if progress is not None:
                     progress(f"{task.id} {method}: {len(record['episodes'])} episodes, {record['wall_clock_s']:.1f} s")

@@ -17,7 +17,7 @@ infos (:class:`EpisodeTally` adds them up): ``cost_g = −Σ (reward_fuel + rewa
 compute: ``wall_clock_s_per_seed``, one number per seed, and optionally ``timesteps`` and ``steps_per_s``; the
 leaderboard shows the mean per seed). :func:`validate_result` checks a file and names the field and value of every
 problem; :func:`result_of_strategy` writes one for a strategy of this package, :func:`result_of_seeds` for a seed
-family of trained policies.
+family of trained policies, :func:`result_of_reference` the optimum's as its task's stored reference holds it.
 """
 
 from __future__ import annotations
@@ -223,3 +223,24 @@ def result_of_seeds(task: str | Task, policies: dict[int, str], method: str, *,
     if training is not None:
         record["training"] = training
     return validate_result(record, f"{method} on {task.id}")
+
+
+def result_of_reference(task: str | Task, references: Path | None = None) -> dict[str, Any]:
+    """The optimum's result record (:data:`~.yardstick.REFERENCE`) read from ``task``'s stored reference (in
+    ``references``, default the package's): its runs there, no plan solved. ``wall_clock_s`` is the plans' solve
+    time recorded in the reference."""
+    task = get_task(task)
+    ref = load_reference(task, references)
+    rows, plan_s = [], 0.0
+    for e in ref["episodes"]:
+        opt = e["optimum"]
+        row = {"seed": 0, "cycle": e["cycle"], "env_seed": int(e["seed"]), "cost_g": opt["cost_g"],
+               "soc_final": opt["soc_final"], "safety_cost_s": opt["safety_cost_s"], "fuel_g": opt.get("fuel_g"),
+               "fuel_corrected_l_per_100km": opt.get("fuel_corrected_l_per_100km")}
+        rows.append({k: v for k, v in row.items() if v is not None})
+        plan_s += float(e.get("optimum_plan_s") or 0.0)
+    return validate_result({"format": FORMAT, "task": task.id, "task_digest": task.digest(),
+                            "physics_fingerprint": physics_fingerprint(), "method": REFERENCE, "seeds": [0],
+                            "wall_clock_s": round(plan_s, 1), "episodes": rows,
+                            "description": "the optimum's runs as the task's stored reference holds them"},
+                           f"{REFERENCE} on {task.id} (stored reference)")
