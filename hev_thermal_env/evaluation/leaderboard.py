@@ -213,6 +213,7 @@ LEAD = ("Every method on every task that has stored references, measured on phys
         "per episode (mean). *J1711*: runs that are charge-sustaining. *left out*: runs without a score (a final SOC "
         "off the optimum's frontier, so no frontier ratio, or an ill-conditioned episode). The bootstrap resamples the "
         "seeds within each episode: a deterministic strategy has one run per episode, so its score has no interval. "
+        "The optimum's row is the run stored with each task's reference (no plan is solved for this page). "
         "*training per seed*: a learned method's mean wall-clock to train one seed (the result file's `training`); "
         "`-` for a method that is not trained here.")
 PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
