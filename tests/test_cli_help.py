@@ -58,7 +58,7 @@ def test_strategies_are_named_with_the_ppo_path_form():
 
 def test_train_help_shows_the_defaults_of_the_hyperparameter_files():
     flat = " ".join(help_text(parsers()["train.py"]).split())
-    for text in ("10000000 (ppo), 300000 (sac)", "32 (ppo), 4 (sac)", "bus_hilly bus_mixed bus_express (ppo)",
+    for text in ("3000000 (ppo), 300000 (sac)", "32 (ppo), 4 (sac)", "bus_hilly bus_mixed bus_express (ppo)",
                  "validation_bus:20..29 (ppo)", "500000 (ppo), 25000 (sac)", "(default: 0)", "(default: ppo)"):
         assert text in flat, text
     assert "(default from the file)" not in flat
