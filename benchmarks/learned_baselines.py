@@ -7,17 +7,20 @@ distribution (``train.py --task bus-generalisation``: a fresh route of every gen
 ``random_service`` conditions; never a test, validation or standard cycle), one ``train.py`` process per seed, the
 seeds fixed in advance (:data:`SEEDS`, no picking among extra seeds), into ``RUNS/METHOD/seed_S`` (a finished run
 is reused). The policy evaluated is each run's ``best_model.zip`` (selected on ``validation_bus:20..29``, never on a
-task's cycles). Every seed family then drives every episode of every task (``--tasks``, default all) and is scored
+task's cycles). Behaviour cloning (``bc``, :data:`BC`) fits seeds 0-4 to the thermal optimum's offline dataset on
+one route of every training family (``evaluate.py dataset --source optimum``, then ``evaluate.py bc``; the dataset is
+reused when there). Every seed family then drives every episode of every task (``--tasks``, default all) and is scored
 against the task's stored reference, as the leaderboard scores any result (no optimum is solved here): the
 normalised score (0 = ``engine_only``, 100 = the thermal optimum) and the frontier ratio, IQM over episodes and seeds
 with the 95 % stratified bootstrap interval, and the episode safety cost (Σ ``info["cost"]``) against the task's
 budget.
 
 Writes ``OUT/learned_baselines.json``: per method its budget and per seed the process wall-clock, the training's
-steps/s and the saved policy's path; per task and method the scores, ratios and safety costs, and every seed's
-episodes. ``OUT/learned_baselines.md`` is the table; ``OUT/learned_baselines/<task id>/<method>.json`` are result
-files (:mod:`hev_thermal_env.evaluation.submission`), which ``evaluate.py leaderboard --results`` places on the
-leaderboard with the training wall-clock per seed::
+steps/s and the saved policy's path (``bc``: the dataset's build time and each fit's); per task and method the
+scores, ratios and safety costs, and every seed's episodes. ``OUT/learned_baselines.md`` is the table;
+``OUT/learned_baselines/<task id>/<method>.json`` are result files (:mod:`hev_thermal_env.evaluation.submission`),
+which ``evaluate.py leaderboard --results`` places on the leaderboard with the training wall-clock per seed;
+``OUT/learned_baselines_curves.png`` the learning curves::
 
     python benchmarks/learned_baselines.py --methods ppo --runs runs/learned --out benchmarks/results   # one method
     python benchmarks/learned_baselines.py --runs runs/learned --out benchmarks/results    # all methods, the table
@@ -48,8 +51,21 @@ METHODS = ("ppo", "sac", "tqc", "recurrent_ppo", "ppo_lagrangian")
 #: Each method's name in the benchmark's tables (its seed family; a family may not take a strategy's name, ``ppo``).
 FAMILY_NAMES = {"ppo": "PPO", "sac": "SAC", "tqc": "TQC", "recurrent_ppo": "RecurrentPPO",
                 "ppo_lagrangian": "PPO-Lagrangian"}
+#: Behaviour cloning from the optimum's offline dataset (``evaluate.py dataset``, then ``evaluate.py bc --seeds``): one
+#: route of every training family of the generalisation task, in ``paper``, driven by the thermal optimum.
+BC = "bc"
+BC_NAME = "BC (optimum)"
+BC_DATASET = "hev-thermal/train-paper-7/optimum-v0"
+BC_DATASET_ARGS = ["--source", "optimum", "--routes", "7", "--families", "random_bus", "bus_long", "bus_congested",
+                   "bus_launch", "bus_hilly", "bus_mixed", "bus_express"]
+#: ``--smoke``: ECMS on one short-lived route instead of the optimum, two passes of the fit.
+SMOKE_BC_DATASET = "hev-thermal/train-paper-1/ecms-v0"
+SMOKE_BC_DATASET_ARGS = ["--source", "ecms", "--routes", "1", "--families", "bus_launch"]
+SMOKE_BC_ARGS = ["--epochs", "2"]
 #: The seeds of every method, fixed before any run.
 SEEDS = (0, 1, 2, 3, 4)
+#: Every method's name in the tables.
+NAMES = {**FAMILY_NAMES, BC: BC_NAME}
 #: The task whose training distribution every method trains on.
 TRAINING_TASK = "bus-generalisation"
 #: Per method, ``train.py --hp`` settings of every run: the constrained method's budget is the training task's stored
@@ -102,21 +118,20 @@ def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str
             "imitation_wall_s": (res.get("imitation") or {}).get("wall_s"), "lagrangian": res.get("lagrangian")}
 
 
-def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir: Path) -> dict[str, Any]:
+def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir: Path,
+                  bc: dict[str, Any] | None = None) -> dict[str, Any]:
     """Every seed family (method -> its training record) on the task's episodes, scored against the task's stored
     reference (no optimum is solved): writes ``RESULTS_DIR/<task id>/<family>.json`` (the leaderboard's result
     format) and returns per method the normalised score and frontier ratio IQM [95 % CI], the safety cost against
-    the budget and every seed's episodes."""
-    from hev_thermal_env.evaluation.leaderboard import score_result
-    from hev_thermal_env.evaluation.references import episode_score, load_reference
-    from hev_thermal_env.evaluation.submission import result_of_seeds
+    the budget and every seed's episodes. ``bc``: the behaviour-cloning family's record (its result files, written
+    by ``evaluate.py bc``), scored alike."""
+    from hev_thermal_env.evaluation.references import load_reference
+    from hev_thermal_env.evaluation.submission import load_result, result_of_seeds
     from hev_thermal_env.io import atomic_write_json
-    from hev_thermal_env.stats import stratified_iqm_ci
     from hev_thermal_env.tasks import get_task
 
     task = get_task(task_id)
     reference = load_reference(task)
-    refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     record: dict[str, Any] = {"cycles": list(task.cycles), "scenario": task.scenario,
                               "safety_budget_s": reference["safety_budget_s"], "methods": {}}
     for method, trained in methods.items():
@@ -127,28 +142,81 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
         result = result_of_seeds(task, {s["seed"]: f"ppo:{s['policy']}" for s in seeds}, FAMILY_NAMES[method],
                                  training=training)
         atomic_write_json(results_dir / task.id / f"{FAMILY_NAMES[method]}.json", result)
-        entry = score_result(result, reference)
-        by_episode: dict[tuple[str, int], list[float]] = {}
-        episodes = []
-        for row in result["episodes"]:
-            ref = refs[(row["cycle"], row["env_seed"])]
-            ratio, score, note = episode_score(ref, row["cost_g"], row["soc_final"])
-            if ratio is not None:
-                by_episode.setdefault((row["cycle"], row["env_seed"]), []).append(ratio)
-            episodes.append({**{k: row.get(k) for k in ROW_KEYS}, "seed": row["seed"], "frontier_ratio": ratio,
-                             "score": score, "note": note,
-                             "delta_soc": round(row["soc_final"] - row["soc_initial"], 5)})
-        ratio_iqm, ratio_low, ratio_high = (stratified_iqm_ci(list(by_episode.values())) if by_episode
-                                            else (None, None, None))
-        record["methods"][method] = {
-            "score_iqm": entry["score"], "score_ci95": [entry["score_ci_low"], entry["score_ci_high"]],
+        record["methods"][method] = {**score_family(result, reference), "wall_s": round(time.perf_counter() - t0, 1)}
+    if bc is not None:
+        result = load_result(Path(bc["results_dir"]) / task.id / "bc.json")
+        atomic_write_json(results_dir / task.id / "BC.json", result)
+        record["methods"][BC] = score_family(result, reference)
+    return record
+
+
+def score_family(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
+    """A family's result file scored against its task's reference: the leaderboard's entry (normalised score IQM
+    [95 % CI], safety cost), the frontier ratio IQM with its own interval and every run's episode."""
+    from hev_thermal_env.evaluation.leaderboard import score_result
+    from hev_thermal_env.evaluation.references import episode_score
+    from hev_thermal_env.stats import stratified_iqm_ci
+
+    refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
+    entry = score_result(result, reference)
+    by_episode: dict[tuple[str, int], list[float]] = {}
+    episodes = []
+    for row in result["episodes"]:
+        ref = refs[(row["cycle"], row["env_seed"])]
+        ratio, score, note = episode_score(ref, row["cost_g"], row["soc_final"])
+        if ratio is not None:
+            by_episode.setdefault((row["cycle"], row["env_seed"]), []).append(ratio)
+        delta = None if row.get("soc_initial") is None else round(row["soc_final"] - row["soc_initial"], 5)
+        episodes.append({**{k: row.get(k) for k in ROW_KEYS}, "seed": row["seed"], "frontier_ratio": ratio,
+                         "score": score, "note": note, "delta_soc": delta})
+    ratio_iqm, ratio_low, ratio_high = (stratified_iqm_ci(list(by_episode.values())) if by_episode
+                                        else (None, None, None))
+    deltas = [abs(e["delta_soc"]) for e in episodes if e["delta_soc"] is not None]
+    return {"score_iqm": entry["score"], "score_ci95": [entry["score_ci_low"], entry["score_ci_high"]],
             "scored_runs": entry["n"], "runs_without_score": entry["excluded"],
             "frontier_ratio_iqm": ratio_iqm, "frontier_ratio_ci95": [ratio_low, ratio_high],
             "safety_cost_s_iqm": entry["safety_cost_s"], "safety_cost_s_max": entry["safety_cost_max_s"],
             "within_budget": entry["within_budget"], "charge_sustaining_runs": entry["charge_sustaining"],
-            "runs": entry["runs"], "max_abs_delta_soc": max(abs(e["delta_soc"]) for e in episodes),
-            "episodes": episodes, "wall_s": round(time.perf_counter() - t0, 1)}
-    return record
+            "runs": entry["runs"], "max_abs_delta_soc": max(deltas) if deltas else None,
+            "training_wall_s_per_seed": (result.get("training") or {}).get("wall_clock_s_per_seed"),
+            "episodes": episodes}
+
+
+def train_bc(seeds: tuple[int, ...], runs: Path, task_ids: list[str], smoke: bool) -> dict[str, Any]:
+    """The behaviour-cloning family: the optimum's dataset on training routes (``RUNS/bc/datasets``, reused when
+    there), then ``evaluate.py bc`` with every seed, its result files in ``RUNS/bc/results``; what the JSON records."""
+    root, results = runs / "bc" / "datasets", runs / "bc" / "results"
+    dataset, args = (SMOKE_BC_DATASET, SMOKE_BC_DATASET_ARGS) if smoke else (BC_DATASET, BC_DATASET_ARGS)
+    env = {**os.environ, "MINARI_DATASETS_PATH": str(root.resolve())}
+    dataset_s = None
+    if not (root / dataset).is_dir():
+        cmd = [sys.executable, "evaluate.py", "dataset", *args, "--root", str(root), "--name", dataset]
+        print("$ " + " ".join(shlex.quote(c) for c in cmd), flush=True)
+        t0 = time.perf_counter()
+        subprocess.run(cmd, cwd=ROOT, check=True, env=env)
+        dataset_s = round(time.perf_counter() - t0, 1)
+    bc_s = None
+    if not all(_has_seeds(results / t / "bc.json", seeds) for t in task_ids):
+        cmd = [sys.executable, "evaluate.py", "bc", "--dataset", dataset, "--seeds", *map(str, seeds), "--tasks",
+               *task_ids, "--results-dir", str(results), "--method", BC_NAME, *(SMOKE_BC_ARGS if smoke else [])]
+        print("$ " + " ".join(shlex.quote(c) for c in cmd), flush=True)
+        t0 = time.perf_counter()
+        subprocess.run(cmd, cwd=ROOT, check=True, env=env)
+        bc_s = round(time.perf_counter() - t0, 1)
+    else:
+        print(f"bc: reusing {results}", flush=True)
+    return {"dataset": dataset, "dataset_args": args, "dataset_wall_s": dataset_s, "seeds": list(seeds),
+            "bc_wall_s": bc_s, "results_dir": str(results)}
+
+
+def _has_seeds(path: Path, seeds: tuple[int, ...]) -> bool:
+    """Whether ``path`` is a current result file of exactly ``seeds`` (a finished fit to reuse)."""
+    from hev_thermal_env.evaluation.submission import load_result
+
+    try:
+        return load_result(path)["seeds"] == list(seeds)
+    except (ValueError, OSError):
+        return False
 
 
 def _mean(values: list[float | None]) -> float | None:
@@ -168,9 +236,10 @@ def table(record: dict[str, Any]) -> str:
             lo, hi = m["frontier_ratio_ci95"]
             ratio = "-" if m["frontier_ratio_iqm"] is None else f"{m['frontier_ratio_iqm']:.4f} [{lo:.4f}, {hi:.4f}]"
             left = f" ({m['runs_without_score']} without a score)" if m["runs_without_score"] else ""
-            lines.append(f"| {task_id} | {FAMILY_NAMES[method]} | {score_text(m['score_iqm'], *m['score_ci95'])} | "
+            dsoc = "-" if m["max_abs_delta_soc"] is None else f"{m['max_abs_delta_soc']:.3f}"
+            lines.append(f"| {task_id} | {NAMES[method]} | {score_text(m['score_iqm'], *m['score_ci95'])} | "
                          f"{ratio} | {m['safety_cost_s_iqm']:.1f}; {m['safety_cost_s_max']:.1f} | "
-                         f"{ev['safety_budget_s']:g} | {m['max_abs_delta_soc']:.3f} | {m['runs']}{left} |")
+                         f"{ev['safety_budget_s']:g} | {dsoc} | {m['runs']}{left} |")
     return "\n".join(lines) + "\n"
 
 
@@ -226,8 +295,9 @@ def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | No
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__.split("::")[-1])
-    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS, metavar="ALGO",
-                   help=f"methods to train and evaluate (default: all: {', '.join(METHODS)})")
+    p.add_argument("--methods", nargs="+", default=[*METHODS, BC], choices=[*METHODS, BC], metavar="ALGO",
+                   help=f"methods to train and evaluate (default: all: {', '.join([*METHODS, BC])}; {BC}: behaviour "
+                        "cloning from the optimum's dataset on training routes)")
     p.add_argument("--tasks", nargs="+", default=None, metavar="TASK", help="tasks to evaluate on (default: all)")
     p.add_argument("--runs", default=str(ROOT / "runs" / "learned_baselines"), metavar="DIR",
                    help="where the runs go, RUNS/METHOD/seed_S")
@@ -256,13 +326,16 @@ def main(argv: list[str] | None = None) -> int:
         "policy_file": POLICY_FILE, "physics_fingerprint": physics_fingerprint(),
         "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_at_start": os.getloadavg()},
         "methods": {}, "evaluation": {}}
-    for method in args.methods:
+    for method in [m for m in args.methods if m != BC]:
         extra = SMOKE_ARGS[method] if args.smoke else (["--hp", *METHOD_HP[method]] if method in METHOD_HP else [])
         record["methods"][method] = {"train_args": extra, "seeds": [train_seed(method, s, runs, extra) for s in seeds]}
+    if BC in args.methods:
+        record["bc"] = train_bc(seeds, runs, task_ids, args.smoke)
     if not args.train_only:
         for task_id in task_ids:
             print(f"evaluating on {task_id}", flush=True)
-            record["evaluation"][task_id] = evaluate_task(task_id, record["methods"], out / "learned_baselines")
+            record["evaluation"][task_id] = evaluate_task(task_id, record["methods"], out / "learned_baselines",
+                                                          record.get("bc"))
     record["machine"]["load_at_end"] = os.getloadavg()
     path = out / "learned_baselines.json"
     path.write_text(json.dumps(record, indent=1, default=str) + "\n")

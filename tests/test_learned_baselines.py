@@ -290,9 +290,9 @@ def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_
 
 @pytest.mark.full
 def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
-    """Two methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved)."""
+    """Three methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved)."""
     script = _script()
-    assert script.main(["--smoke", "--methods", "ppo", "recurrent_ppo", "--out", str(tmp_path)]) == 0
+    assert script.main(["--smoke", "--methods", "ppo", "recurrent_ppo", "bc", "--out", str(tmp_path)]) == 0
     record = json.loads((tmp_path / "learned_baselines.json").read_text())
     for method in ("ppo", "recurrent_ppo"):
         seeds = record["methods"][method]["seeds"]
@@ -305,4 +305,28 @@ def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
         assert ev["safety_cost_s_iqm"] >= 0.0 and ev["max_abs_delta_soc"] >= 0.0
         result = load_result(tmp_path / "learned_baselines" / "hwfet-v1" / f"{script.FAMILY_NAMES[method]}.json")
         assert result["seeds"] == [0, 1] and len(result["training"]["wall_clock_s_per_seed"]) == 2
-    assert "| hwfet-v1 | RecurrentPPO |" in (tmp_path / "learned_baselines.md").read_text()
+    bc = record["evaluation"]["hwfet-v1"]["methods"]["bc"]  # behaviour cloning: two fits of a tiny dataset
+    assert bc["runs"] == 2 and len(bc["training_wall_s_per_seed"]) == 2 and record["bc"]["seeds"] == [0, 1]
+    assert load_result(tmp_path / "learned_baselines" / "hwfet-v1" / "BC.json")["seeds"] == [0, 1]
+    table = (tmp_path / "learned_baselines.md").read_text()
+    assert "| hwfet-v1 | RecurrentPPO |" in table and "| hwfet-v1 | BC (optimum) |" in table
+    assert not (tmp_path / "learned_baselines_curves.png").exists()  # the smoke runs evaluate nothing: no curves
+
+
+def test_learning_curves_of_two_seeds(tmp_path):
+    from hev_thermal_env.training.artifacts import EVAL_COLUMNS, write_evaluations
+
+    script = _script()
+    seeds = []
+    for seed in (0, 1):
+        run = tmp_path / f"seed_{seed}"
+        run.mkdir()
+        rows = [{**dict.fromkeys(EVAL_COLUMNS, 0.0), "timesteps": t, "cycle": "c", "scenario": "paper",
+                 "fuel_ratio": 1.02 - 0.001 * k - 0.002 * seed, "qualified": k > 0, "best": k == 2}
+                for k, t in enumerate((1000, 2000, 3000))]
+        write_evaluations(run / "evaluations.csv", rows)
+        seeds.append({"seed": seed, "run_dir": str(run)})
+    path = script.learning_curves({"ppo": {"seeds": seeds}}, tmp_path / "curves.png")
+    assert path.stat().st_size > 10_000
+    assert script.learning_curves({"ppo": {"seeds": [{"seed": 0, "run_dir": str(tmp_path / "none")}]}},
+                                  tmp_path / "none.png") is None
