@@ -60,7 +60,9 @@ def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str]
                           else result_of_strategy(task, method, references=references))
                 atomic_write_json(path, record)
                 if progress is not None:
-                    progress(f"{task.id} {method}: {len(record['episodes'])} episodes, {record['wall_clock_s']:.1f} s")
+                    how = ("from the stored reference" if method == REFERENCE
+                           else f"{record['wall_clock_s']:.1f} s")
+                    progress(f"{task.id} {method}: {len(record['episodes'])} episodes, {how}")
             paths.append(path)
     return paths
 
