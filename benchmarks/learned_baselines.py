@@ -94,12 +94,9 @@ POLICY_FILE = "best_model.zip"
 def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str, Any]:
     """Train ``method`` with ``seed`` into ``runs/METHOD/seed_S`` (a finished run there is reused); what the JSON
     records of it."""
-    from hev_thermal_env.training.config import load_run_config
-
     out = runs / method / f"seed_{seed}"
     process_wall = None
-    finished = (out / "config.yaml").is_file() and (load_run_config(out).get("result") or {}).get("finished")
-    if finished:
+    if _finished(out):
         print(f"{method} seed {seed}: reusing {out}", flush=True)
     else:
         if out.exists():
@@ -111,8 +108,21 @@ def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str
         t0 = time.perf_counter()
         subprocess.run(cmd, cwd=ROOT, check=True)
         process_wall = round(time.perf_counter() - t0, 1)
+    return {**seed_record(out, seed), "process_wall_s": process_wall}
+
+
+def _finished(out: Path) -> bool:
+    from hev_thermal_env.training.config import load_run_config
+
+    return (out / "config.yaml").is_file() and bool((load_run_config(out).get("result") or {}).get("finished"))
+
+
+def seed_record(out: Path, seed: int) -> dict[str, Any]:
+    """What the JSON records of the finished run in ``out``."""
+    from hev_thermal_env.training.config import load_run_config
+
     res = load_run_config(out).get("result") or {}
-    return {"seed": seed, "run_dir": str(out), "policy": str(out / POLICY_FILE), "process_wall_s": process_wall,
+    return {"seed": seed, "run_dir": str(out), "policy": str(out / POLICY_FILE),
             "train_wall_s": res.get("wall_s"), "timesteps": res.get("timesteps_done"),
             "steps_per_s": res.get("steps_per_s"), "env_share": res.get("env_share"),
             "imitation_wall_s": (res.get("imitation") or {}).get("wall_s"), "lagrangian": res.get("lagrangian")}
@@ -303,6 +313,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="where the runs go, RUNS/METHOD/seed_S")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results"), metavar="DIR",
                    help="where learned_baselines.json and the benchmark's files go")
+    p.add_argument("--also", nargs="+", default=[], metavar="NAME=DIR",
+                   help="also score a family of finished runs DIR/seed_S (the same seeds; never trained here) under "
+                        "NAME, e.g. a variant of a method's hyperparameters")
     p.add_argument("--train-only", action="store_true", help="train (or reuse) the runs; evaluate nothing")
     p.add_argument("--smoke", action="store_true",
                    help=f"tiny budgets ({' '.join(_SMOKE_COMMON[:2])} env-steps), seeds "
@@ -326,9 +339,22 @@ def main(argv: list[str] | None = None) -> int:
         "policy_file": POLICY_FILE, "physics_fingerprint": physics_fingerprint(),
         "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_at_start": os.getloadavg()},
         "methods": {}, "evaluation": {}}
+    also: dict[str, Any] = {}
+    for item in args.also:
+        name, sep, folder = item.partition("=")
+        if not sep or not name or not folder or name in NAMES or name in NAMES.values():
+            raise SystemExit(f"--also {item!r}: expected NAME=DIR with a new name (taken: {', '.join(NAMES.values())})")
+        dirs = [Path(folder) / f"seed_{s}" for s in seeds]
+        unfinished = [str(d) for d in dirs if not _finished(d)]
+        if unfinished:
+            raise SystemExit(f"--also {name}: no finished run in {', '.join(unfinished)}")
+        FAMILY_NAMES[name] = NAMES[name] = name
+        also[name] = {"train_args": f"finished runs in {folder}, not trained here",
+                      "seeds": [seed_record(d, s) for d, s in zip(dirs, seeds)]}
     for method in [m for m in args.methods if m != BC]:
         extra = SMOKE_ARGS[method] if args.smoke else (["--hp", *METHOD_HP[method]] if method in METHOD_HP else [])
         record["methods"][method] = {"train_args": extra, "seeds": [train_seed(method, s, runs, extra) for s in seeds]}
+    record["methods"].update(also)
     if BC in args.methods:
         record["bc"] = train_bc(seeds, runs, task_ids, args.smoke)
     if not args.train_only:

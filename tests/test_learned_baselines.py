@@ -330,3 +330,12 @@ def test_learning_curves_of_two_seeds(tmp_path):
     assert path.stat().st_size > 10_000
     assert script.learning_curves({"ppo": {"seeds": [{"seed": 0, "run_dir": str(tmp_path / "none")}]}},
                                   tmp_path / "none.png") is None
+
+
+def test_an_extra_family_must_be_finished_runs_under_a_new_name(tmp_path):
+    script = _script()
+    with pytest.raises(SystemExit, match="no finished run in"):
+        script.main(["--smoke", "--methods", "ppo", "--also", f"variant={tmp_path}", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match="expected NAME=DIR with a new name"):
+        script.main(["--smoke", "--methods", "ppo", "--also", f"PPO={tmp_path}", "--out", str(tmp_path)])
+    assert not (tmp_path / "runs").exists()  # refused before anything trained
