@@ -149,15 +149,30 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
         seeds = trained["seeds"]
         training = {"wall_clock_s_per_seed": [s["train_wall_s"] or 0.0 for s in seeds],
                     "timesteps": seeds[0]["timesteps"], "steps_per_s": _mean([s["steps_per_s"] for s in seeds])}
-        result = result_of_seeds(task, {s["seed"]: f"ppo:{s['policy']}" for s in seeds}, FAMILY_NAMES[method],
-                                 training=training)
-        atomic_write_json(results_dir / task.id / f"{FAMILY_NAMES[method]}.json", result)
+        path = results_dir / task.id / f"{FAMILY_NAMES[method]}.json"
+        policies = [s["policy"] for s in seeds]
+        result = _reusable(path, policies)
+        if result is None:
+            result = {**result_of_seeds(task, {s["seed"]: f"ppo:{s['policy']}" for s in seeds}, FAMILY_NAMES[method],
+                                        training=training), "policies": policies}
+            atomic_write_json(path, result)
         record["methods"][method] = {**score_family(result, reference), "wall_s": round(time.perf_counter() - t0, 1)}
     if bc is not None:
         result = load_result(Path(bc["results_dir"]) / task.id / "bc.json")
         atomic_write_json(results_dir / task.id / "BC.json", result)
         record["methods"][BC] = score_family(result, reference)
     return record
+
+
+def _reusable(path: Path, policies: list[str]) -> dict[str, Any] | None:
+    """The result file at ``path`` if it is current and was written for exactly these policy files, else None."""
+    from hev_thermal_env.evaluation.submission import load_result
+
+    try:
+        result = load_result(path)
+    except (ValueError, OSError):
+        return None
+    return result if result.get("policies") == policies else None
 
 
 def score_family(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
