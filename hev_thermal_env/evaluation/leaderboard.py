@@ -221,8 +221,10 @@ LEAD = ("Every method on every task that has stored references, measured on phys
 PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
                 "below every τ) whose normalised score exceeds τ, as rliable draws it: a curve further right is "
                 "better; where it drops shows the spread of the method's scores across tasks.")
-COMMAND = ("Regenerate with `python evaluate.py leaderboard --out docs/leaderboard.md` (add `--results FILE` for a "
-           "method written elsewhere; the result format: [Tasks](tasks.md#results-of-outside-methods)).")
+COMMAND = ("Regenerate with `python evaluate.py leaderboard --results benchmarks/results/learned_baselines --out "
+           "docs/leaderboard.md` (the learned baselines' seed families: `benchmarks/learned_baselines.py`, "
+           "[Training](training.md#the-learned-baselines); add `--results FILE` for a method written elsewhere; the "
+           "result format: [Tasks](tasks.md#results-of-outside-methods)).")
 
 
 def profile_figure(entries: list[dict]):
