@@ -236,6 +236,8 @@ def profile_figure(entries: list[dict]):
     scores = {m: np.sort([s for e in entries if e["method"] == m for s in e["scores"]]) for m in methods}
     unscored = {m: sum(e["excluded"] for e in entries if e["method"] == m) for m in methods}
     lowest = min([-100.0, *(float(v[0]) for v in scores.values() if v.size)])
+    palette = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20").colors  # one colour per method
+    colour = {m: palette[i % len(palette)] for i, m in enumerate(methods)}
     for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
         for m, v in scores.items():
             total = v.size + unscored[m]  # a run without a score lies below every τ
@@ -244,6 +246,7 @@ def profile_figure(entries: list[dict]):
                 y = np.r_[v.size, v.size - np.arange(1, v.size + 1), 0.0] / total
                 what = f"{total} runs" + (f", {unscored[m]} without a score" if unscored[m] else "")
                 ax.step(x, y, where="post", label=f"{label(m)} ({what})", lw=2.2 if m == REFERENCE else 1.6,
+                        color=colour[m],
                         ls="--" if m in ("engine_only", REFERENCE) else "-")
         for x in (0.0, 100.0):
             ax.axvline(x, color="0.6", lw=0.8, zorder=0)
