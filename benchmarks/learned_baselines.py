@@ -151,8 +151,8 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
                     "timesteps": seeds[0]["timesteps"], "steps_per_s": _mean([s["steps_per_s"] for s in seeds])}
         path = results_dir / task.id / f"{FAMILY_NAMES[method]}.json"
         policies = [s["policy"] for s in seeds]
-        result = _reusable(path, policies)
-        if result is None:
+        result = _current(path)
+        if result is None or result.get("policies") != policies:
             result = {**result_of_seeds(task, {s["seed"]: f"ppo:{s['policy']}" for s in seeds}, FAMILY_NAMES[method],
                                         training=training), "policies": policies}
             atomic_write_json(path, result)
@@ -164,36 +164,30 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
     return record
 
 
-def _reusable(path: Path, policies: list[str]) -> dict[str, Any] | None:
-    """The result file at ``path`` if it is current and was written for exactly these policy files, else None."""
+def _current(path: Path) -> dict[str, Any] | None:
+    """The result file at ``path`` if it is readable and current (a finished evaluation to reuse), else None."""
     from hev_thermal_env.evaluation.submission import load_result
 
     try:
-        result = load_result(path)
+        return load_result(path)
     except (ValueError, OSError):
         return None
-    return result if result.get("policies") == policies else None
 
 
 def score_family(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
     """A family's result file scored against its task's reference: the leaderboard's entry (normalised score IQM
     [95 % CI], safety cost), the frontier ratio IQM with its own interval and every run's episode."""
     from hev_thermal_env.evaluation.leaderboard import score_result
-    from hev_thermal_env.evaluation.references import episode_score
     from hev_thermal_env.stats import stratified_iqm_ci
 
-    refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     entry = score_result(result, reference)
     by_episode: dict[tuple[str, int], list[float]] = {}
     episodes = []
-    for row in result["episodes"]:
-        ref = refs[(row["cycle"], row["env_seed"])]
-        ratio, score, note = episode_score(ref, row["cost_g"], row["soc_final"])
-        if ratio is not None:
-            by_episode.setdefault((row["cycle"], row["env_seed"]), []).append(ratio)
+    for row, scored in zip(result["episodes"], entry["rows"]):
+        if scored["frontier_ratio"] is not None:
+            by_episode.setdefault((row["cycle"], row["env_seed"]), []).append(scored["frontier_ratio"])
         delta = None if row.get("soc_initial") is None else round(row["soc_final"] - row["soc_initial"], 5)
-        episodes.append({**{k: row.get(k) for k in ROW_KEYS}, "seed": row["seed"], "frontier_ratio": ratio,
-                         "score": score, "note": note, "delta_soc": delta})
+        episodes.append({**{k: row.get(k) for k in ROW_KEYS}, "seed": row["seed"], **scored, "delta_soc": delta})
     ratio_iqm, ratio_low, ratio_high = (stratified_iqm_ci(list(by_episode.values())) if by_episode
                                         else (None, None, None))
     deltas = [abs(e["delta_soc"]) for e in episodes if e["delta_soc"] is not None]
@@ -221,7 +215,7 @@ def train_bc(seeds: tuple[int, ...], runs: Path, task_ids: list[str], smoke: boo
         subprocess.run(cmd, cwd=ROOT, check=True, env=env)
         dataset_s = round(time.perf_counter() - t0, 1)
     bc_s = None
-    if not all(_has_seeds(results / t / "bc.json", seeds) for t in task_ids):
+    if not all((_current(results / t / "bc.json") or {}).get("seeds") == list(seeds) for t in task_ids):
         cmd = [sys.executable, "evaluate.py", "bc", "--dataset", dataset, "--seeds", *map(str, seeds), "--tasks",
                *task_ids, "--results-dir", str(results), "--method", BC_NAME, *(SMOKE_BC_ARGS if smoke else [])]
         print("$ " + " ".join(shlex.quote(c) for c in cmd), flush=True)
@@ -232,16 +226,6 @@ def train_bc(seeds: tuple[int, ...], runs: Path, task_ids: list[str], smoke: boo
         print(f"bc: reusing {results}", flush=True)
     return {"dataset": dataset, "dataset_args": args, "dataset_wall_s": dataset_s, "seeds": list(seeds),
             "bc_wall_s": bc_s, "results_dir": str(results)}
-
-
-def _has_seeds(path: Path, seeds: tuple[int, ...]) -> bool:
-    """Whether ``path`` is a current result file of exactly ``seeds`` (a finished fit to reuse)."""
-    from hev_thermal_env.evaluation.submission import load_result
-
-    try:
-        return load_result(path)["seeds"] == list(seeds)
-    except (ValueError, OSError):
-        return False
 
 
 def _mean(values: list[float | None]) -> float | None:

@@ -39,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def main(args: argparse.Namespace) -> int:
     import minari
 
-    from hev_thermal_env.evaluation.submission import result_of_strategy, validate_result
+    from hev_thermal_env.evaluation.submission import result_of_seeds
     from hev_thermal_env.training.bc import BCStrategy, save_bc, train_bc
 
     meta = minari.load_dataset(args.dataset).storage.metadata
@@ -63,13 +63,7 @@ def main(args: argparse.Namespace) -> int:
     training = {"wall_clock_s_per_seed": [float(r["wall_s"]) for _, _, r in fits], "fits": [r for _, _, r in fits]}
     for name in args.tasks:
         task = get_task(name)
-        rows, wall = [], 0.0
-        for seed, strategy, _ in fits:
-            one = result_of_strategy(task, strategy, method=args.method)
-            rows += [{**row, "seed": seed} for row in one["episodes"]]
-            wall += one["wall_clock_s"]
-        result = {**one, "seeds": list(args.seeds), "episodes": rows, "wall_clock_s": round(wall, 2),
-                  "training": training}
-        path = atomic_write_json(Path(args.results_dir) / task.id / "bc.json", validate_result(result, task.id))
-        print(f"{task.id}: {len(rows)} episodes in {wall:.1f} s -> {path}")
+        result = result_of_seeds(task, {seed: strategy for seed, strategy, _ in fits}, args.method, training=training)
+        path = atomic_write_json(Path(args.results_dir) / task.id / "bc.json", result)
+        print(f"{task.id}: {len(result['episodes'])} episodes in {result['wall_clock_s']:.1f} s -> {path}")
     return 0

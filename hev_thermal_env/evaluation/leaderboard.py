@@ -81,16 +81,18 @@ def result_files(paths: Sequence[str | Path]) -> list[Path]:
 
 
 def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
-    """The leaderboard entry of one result on its task (module docstring)."""
+    """The leaderboard entry of one result on its task (module docstring); ``rows``: each episode row's frontier
+    ratio, normalised score and note, in the result's order."""
     refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     budget = float(reference["safety_budget_s"])
     groups: dict[tuple[str, int], list[tuple[float | None, str | None]]] = {}
-    ratios, safety = [], []
+    ratios, safety, rows = [], [], []
     for row in result["episodes"]:
         key = (row["cycle"], int(row.get("env_seed", 0)))
         ratio, score, note = episode_score(refs[key], row["cost_g"], row["soc_final"])
         groups.setdefault(key, []).append((score, note))
         ratios.append(ratio)
+        rows.append({"frontier_ratio": ratio, "score": score, "note": note})
         safety.append(float(row["safety_cost_s"]))
     agg = aggregate(list(groups.values()))
     fuel = [r.get("fuel_corrected_l_per_100km") for r in result["episodes"]]
@@ -106,7 +108,7 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
             "fuel_corrected_l_per_100km": iqm([f for f in fuel if f is not None]) if any(f is not None for f in fuel)
             else None, "fuel_kg": float(np.mean([r.get("fuel_g", np.nan) for r in result["episodes"]])) / 1000.0,
             "charge_sustaining": None if any(c is None for c in cs) else sum(cs),
-            "wall_clock_s": result.get("wall_clock_s"),
+            "wall_clock_s": result.get("wall_clock_s"), "rows": rows,
             "training_wall_s": float(np.mean(result["training"]["wall_clock_s_per_seed"]))
             if result.get("training") else None}
 

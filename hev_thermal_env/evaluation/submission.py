@@ -12,12 +12,12 @@ every seed has one row per episode of the task (``cycle``, ``env_seed``: :meth:`
 A row's ``cost_g`` is the episode's yardstick cost and ``safety_cost_s`` its safety cost, both sums over the steps'
 infos (:class:`EpisodeTally` adds them up): ``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)``,
 ``safety_cost_s = Σ cost``; ``soc_final`` is the last step's ``info["soc"]``. Optional: ``task_digest``, ``fuel_g``,
-``soc_initial``,
-``fuel_corrected_l_per_100km``, ``charge_sustaining``, ``description``, ``training`` (a learned method's training
-compute: ``wall_clock_s_per_seed``, one number per seed, and optionally ``timesteps`` and ``steps_per_s``; the
-leaderboard shows the mean per seed). :func:`validate_result` checks a file and names the field and value of every
-problem; :func:`result_of_strategy` writes one for a strategy of this package, :func:`result_of_seeds` for a seed
-family of trained policies, :func:`result_of_reference` the optimum's as its task's stored reference holds it.
+``soc_initial``, ``fuel_corrected_l_per_100km``, ``charge_sustaining``, ``description``, ``training`` (a learned
+method's training compute: ``wall_clock_s_per_seed``, one number per seed, and optionally ``timesteps`` and
+``steps_per_s``; the leaderboard shows the mean per seed). :func:`validate_result` checks a file and names the field
+and value of every problem; :func:`result_of_strategy` writes one for a strategy of this package,
+:func:`result_of_seeds` for a seed family of trained policies, :func:`result_of_reference` the optimum's as its task's
+stored reference holds it.
 """
 
 from __future__ import annotations
@@ -204,10 +204,11 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
 
 
 
-def result_of_seeds(task: str | Task, policies: dict[int, str], method: str, *,
+def result_of_seeds(task: str | Task, policies: dict[int, str | Strategy], method: str, *,
                     training: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The result record of a seed family: ``policies`` maps each training seed to a strategy name (``ppo:PATH`` for a
-    policy saved by ``train.py``, whatever its algorithm), each driven on every episode of ``task``
+    """The result record of a seed family: ``policies`` maps each training seed to a strategy (a name, e.g.
+    ``ppo:PATH`` for a policy saved by ``train.py`` whatever its algorithm, or a
+    :class:`~hev_thermal_env.agents.base.Strategy`), each driven on every episode of ``task``
     (:func:`result_of_strategy`); ``training``: the family's training compute (module docstring), or None."""
     task = get_task(task)
     if not policies:
