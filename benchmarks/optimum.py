@@ -5,9 +5,9 @@ Writes ``benchmarks/results/optimum.json``:
 
 * ``cells``: every built-in cycle × scenario (``paper``, ``hot``, ``summer``, ``hilly``,
   ``full_bus``) and generated bus cycles (``validation_bus:0..19``, 1,200-4,500 s, the learned
-  policies' validation set, so ``ppo_vs_dp.py`` reuses the solved plans; paper) and ``--fresh`` generated routes
-  no set uses (:func:`fresh_cycles`: the six families in turn, the five scenarios in turn): each strategy's yardstick cost,
-  final SOC and frontier ratio (cost / the optimum's frontier at the strategy's final SOC); the
+  policies' validation set, so ``ppo_vs_dp.py`` reuses the solved plans; paper) and ``--fresh`` generated
+  routes no set uses (:func:`fresh_cycles`: the six families in turn, the five scenarios in turn): each strategy's
+  yardstick cost, final SOC and frontier ratio (cost / the optimum's frontier at the strategy's final SOC); the
   optimum's planned, replayed and realised cost, solve time and states. A run ending below the
   lowest SOC searched gets ``frontier_ratio_at_least`` (cost / F at that SOC: F is monotone, so
   this bounds its ratio from below); ``outside_and_undecided`` lists those whose bound is < 1. ``engine_only`` is the
@@ -89,11 +89,13 @@ if cycle == "warmup":  # compiles every kernel the solve needs (kept on disk), s
     cycle = cycle_from_arrays(load_cycle("beijing").speed_mps[:31], name="warmup")
 s = run_strategy(get_strategy(name, **opts), load_cycle(cycle), "paper").summary
 d = s["strategy_settings"]
-print(json.dumps({"solve_s": d.get("solve_s"), "plan_s": s["plan_s"], "cost_g": s["cost_g"], "soc_final": s["soc_final"],
+print(json.dumps({"solve_s": d.get("solve_s"), "plan_s": s["plan_s"], "cost_g": s["cost_g"],
+                  "soc_final": s["soc_final"],
                   "planned_cost_g": d.get("planned_cost_g"), "max_states": d.get("max_states"),
                   "vehicle_steps": d.get("vehicle_steps_evaluated"),
                   "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                  "package": hev_thermal_env.__file__, "strategies": sys.modules[type(get_strategy(name)).__module__].__file__}))
+                  "package": hev_thermal_env.__file__,
+                  "strategies": sys.modules[type(get_strategy(name)).__module__].__file__}))
 """
 
 

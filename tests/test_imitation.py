@@ -63,3 +63,41 @@ def test_init_settings_are_checked_in_one_line():
             build_config("ppo", overrides=bad)
     with pytest.raises(ValueError, match="PPO runs only"):
         build_config("sac", overrides={"init.imitate": "ecms"})
+
+
+@pytest.mark.parametrize("freeze", [True, False, ["motor_temp_c", "heat_x"]])
+def test_frozen_observation_statistics_stay_the_demonstrations(tmp_path, capsys, freeze):
+    """With ``init.freeze_obs_stats`` the saved statistics of the frozen entries are the demonstrations' after PPO has
+    run; the others move with the states PPO visits."""
+    import pickle
+
+    import train
+    from hev_thermal_env.envs.spaces import observation_names
+    from hev_thermal_env.training.imitation import FrozenRunningMeanStd
+
+    out = tmp_path / "run"
+    setting = "[" + ",".join(freeze) + "]" if isinstance(freeze, list) else str(freeze).lower()
+    hp = ["n_steps=64", "batch_size=128", "n_epochs=1", "policy_kwargs.net_arch=[16,16]", "init.episodes=1",
+          "init.epochs=1", f"init.freeze_obs_stats={setting}"]
+    code = train.main(["--algo", "ppo", "--cycles", "random_bus", "--scenario", "random_service", "--timesteps", "512",
+                       "--n-envs", "2", "--seed", "2", "--out", str(out), "--no-progress", "--quiet", "--eval-cycles",
+                       "--hp", *hp])
+    assert code == 0
+    with open(out / "vecnormalize.pkl", "rb") as fh:
+        rms = pickle.load(fh).obs_rms
+    assert isinstance(rms, FrozenRunningMeanStd) is (freeze is not False)
+    obs, _ = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=2)
+    demo_mean = obs.mean(axis=0, dtype=np.float64)
+    names = np.asarray(observation_names(10, 2))
+    varied = obs.var(axis=0, dtype=np.float64) > 1e-12
+    frozen = varied if freeze is True else np.isin(names, freeze or [])
+    if freeze is True:
+        assert not varied[list(names).index("heat_index")] and varied.sum() >= 15  # the teacher never derates
+    np.testing.assert_allclose(rms.mean[frozen], demo_mean[frozen], rtol=1e-12)
+    moved = ~np.isclose(rms.mean, demo_mean, rtol=1e-9)
+    assert not moved[frozen].any() and moved[~frozen].sum() >= (1 if freeze is True else 10)
+    capsys.readouterr()
+    assert train.main(["--algo", "ppo", "--timesteps", "64", "--out", str(tmp_path / "bad"), "--quiet",
+                       "--no-progress", "--eval-cycles", "--hp", "init.episodes=1",
+                       "init.freeze_obs_stats=[motor_temp]"]) != 0
+    assert "init.freeze_obs_stats: unknown observation(s) ['motor_temp']" in capsys.readouterr().err

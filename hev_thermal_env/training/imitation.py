@@ -4,8 +4,14 @@
 (:func:`demonstrations`), the ``VecNormalize`` observation statistics start from them, and the policy's
 mean action is fitted to the teacher's (MSE, Adam, ``init.epochs`` passes), at 1 + ``init.beyond_bound``
 where the teacher sits at the upper bound: actions are clipped, so the deterministic policy reaches the
-bound only if its mean lies beyond it. The value function is not pretrained; ``init.imitate: null``
-starts from scratch. Why (the engine-off bound a fresh policy never samples): docs/training.md.
+bound only if its mean lies beyond it. The value function is not pretrained; ``init.imitate: null`` starts from
+scratch. Why (the engine-off bound a fresh policy never samples): docs/training.md.
+
+With ``init.freeze_obs_stats`` (true: every entry the demonstrations vary; or a list of observation names) the
+statistics of those entries stay the demonstrations' for the whole run (the reward's scaling still adapts), so the
+fitted policy keeps the input it was fitted on. Otherwise they drift towards the states PPO visits, and the fitted
+behaviour moves with them: ``ecms_thermal``'s protection of a motor whose cooling fails is lost that way
+(docs/training.md, "The heat").
 """
 
 from __future__ import annotations
@@ -16,19 +22,25 @@ from typing import Any
 
 import numpy as np
 import torch
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from tqdm.auto import tqdm
 
 from hev_thermal_env.agents import get_strategy, list_strategies
 from hev_thermal_env.envs import HevThermalEnv
 
+from ..envs.spaces import observation_names
 from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
-INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25}
+INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25,
+                                 "freeze_obs_stats": False}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 BATCH = 1024
+#: An entry whose variance over the demonstrations is at most this the teacher never moves (``ecms_thermal`` never
+#: derates: the heat index is 0 throughout); ``init.freeze_obs_stats: true`` leaves its statistics to PPO's states.
+MIN_FROZEN_VAR = 1e-12
 LEARNING_RATE = 1e-3
 
 
@@ -54,7 +66,40 @@ def check_init(init: dict[str, Any], algo: str) -> dict[str, Any]:
     b = out["beyond_bound"]
     if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0.0 <= float(b) <= 1.0:
         raise ValueError(f"init.beyond_bound must be a number in [0, 1], got {b!r}")
+    f = out["freeze_obs_stats"]
+    if not isinstance(f, bool) and not (isinstance(f, list) and f and all(isinstance(n, str) for n in f)):
+        raise ValueError(f"init.freeze_obs_stats must be true, false or a list of observation names, got {f!r}")
     return out
+
+
+class FrozenRunningMeanStd(RunningMeanStd):
+    """Observation statistics of which the entries ``frozen`` (a boolean mask) no longer move
+    (``init.freeze_obs_stats``); the others are updated as usual."""
+
+    def __init__(self, rms: RunningMeanStd, frozen: np.ndarray):
+        super().__init__(shape=rms.mean.shape)
+        self.mean, self.var, self.count = rms.mean.copy(), rms.var.copy(), rms.count
+        self.frozen = np.asarray(frozen, dtype=bool)
+        self._mean0, self._var0 = self.mean[self.frozen].copy(), self.var[self.frozen].copy()
+
+    def update(self, arr: np.ndarray) -> None:
+        if self.frozen.all():
+            return
+        super().update(arr)
+        self.mean[self.frozen], self.var[self.frozen] = self._mean0, self._var0
+
+
+def frozen_mask(setting: bool | list[str], names: tuple[str, ...], var: np.ndarray) -> np.ndarray | None:
+    """The entries ``init.freeze_obs_stats`` freezes: every entry the demonstrations vary (true; ``var``: their
+    variances), none (false: None) or those named; a one-line error for an unknown name."""
+    if setting is False:
+        return None
+    if setting is True:
+        return np.asarray(var) > MIN_FROZEN_VAR
+    unknown = [n for n in setting if n not in names]
+    if unknown:
+        raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: {', '.join(names)}")
+    return np.isin(np.asarray(names), setting)
 
 
 def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed: int,
@@ -124,6 +169,11 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
         venv.obs_rms.mean = obs.mean(axis=0, dtype=np.float64)
         venv.obs_rms.var = obs.var(axis=0, dtype=np.float64)
         venv.obs_rms.count = float(len(obs))
+        mask = frozen_mask(init.get("freeze_obs_stats", False),
+                           observation_names(int(env_kwargs["preview_s"]), int(env_kwargs["preview_step_s"])),
+                           venv.obs_rms.var)
+        if mask is not None:
+            venv.obs_rms = FrozenRunningMeanStd(venv.obs_rms, mask)
         x = venv.normalize_obs(obs)
     high = float(np.asarray(model.action_space.high).reshape(-1)[0])
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
