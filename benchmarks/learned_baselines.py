@@ -243,7 +243,9 @@ def table(record: dict[str, Any]) -> str:
     for task_id, ev in record["evaluation"].items():
         for method, m in ev["methods"].items():
             lo, hi = m["frontier_ratio_ci95"]
-            ratio = "-" if m["frontier_ratio_iqm"] is None else f"{m['frontier_ratio_iqm']:.4f} [{lo:.4f}, {hi:.4f}]"
+            ratio = "-" if m["frontier_ratio_iqm"] is None else f"{m['frontier_ratio_iqm']:.4f}"
+            if m["frontier_ratio_iqm"] is not None and lo is not None:  # no interval from one scored episode
+                ratio += f" [{lo:.4f}, {hi:.4f}]"
             left = f" ({m['runs_without_score']} without a score)" if m["runs_without_score"] else ""
             dsoc = "-" if m["max_abs_delta_soc"] is None else f"{m['max_abs_delta_soc']:.3f}"
             lines.append(f"| {task_id} | {NAMES[method]} | {score_text(m['score_iqm'], *m['score_ci95'])} | "

@@ -313,6 +313,20 @@ def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
     assert not (tmp_path / "learned_baselines_curves.png").exists()  # the smoke runs evaluate nothing: no curves
 
 
+def test_the_table_shows_a_method_without_scores_or_interval():
+    """A family whose runs end off the optimum's frontier has no ratio; one with a single scored episode no interval."""
+    lb = _script()
+    m = {"frontier_ratio_iqm": None, "frontier_ratio_ci95": [None, None], "score_iqm": None, "score_ci95": [None, None],
+         "runs_without_score": 5, "max_abs_delta_soc": 0.03, "safety_cost_s_iqm": 876.9, "safety_cost_s_max": 900.0,
+         "runs": 5}
+    one = {**m, "frontier_ratio_iqm": 1.0991, "score_iqm": 59.1, "runs_without_score": 4}
+    record = {"evaluation": {"udds-hot-v1": {"safety_budget_s": 10.0, "methods": {"bc": m}},
+                             "hilly-v1": {"safety_budget_s": 29.962, "methods": {"bc": one}}}}
+    lines = lb.table(record).splitlines()
+    assert lines[2].startswith("| udds-hot-v1 | BC (optimum) | - | - | 876.9; 900.0 | 10 | 0.030 | 5 (5 without a")
+    assert "| 1.0991 | 876.9; 900.0 | 29.962 |" in lines[3]
+
+
 def test_learning_curves_of_two_seeds(tmp_path):
     from hev_thermal_env.training.artifacts import EVAL_COLUMNS, write_evaluations
 
