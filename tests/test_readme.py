@@ -108,14 +108,32 @@ def declared_outputs(command: str) -> list[str]:
     return [words[i + 1] for i, w in enumerate(words[:-1]) if w in ("--out", "--json", "--trace", "--plot", ">")]
 
 
+def not_copied(root: Path):
+    """The ``ignore`` of ``copy_checkout`` for a checkout at ``root``: ``__pycache__`` anywhere; at the top,
+    :data:`NOT_COPIED` and any virtual environment (a directory with ``pyvenv.cfg``: a ``.venv`` in the checkout is
+    gigabytes, and every block gets its own copy)."""
+    def ignore(d: str, names: list[str]) -> list[str]:
+        top = Path(d) == root
+        return [n for n in names if n == "__pycache__"
+                or (top and (n in NOT_COPIED or (Path(d) / n / "pyvenv.cfg").is_file()))]
+    return ignore
+
+
 def copy_checkout(dst: Path) -> Path:
     """A copy of the checkout without the package sources, as the working directory of a block."""
-    shutil.copytree(
-        ROOT,
-        dst,
-        ignore=lambda d, names: [n for n in names if n == "__pycache__" or (Path(d) == ROOT and n in NOT_COPIED)],
-    )
+    shutil.copytree(ROOT, dst, ignore=not_copied(ROOT))
     return dst
+
+
+def test_a_virtual_environment_in_the_checkout_is_not_copied(tmp_path):
+    for d in (".venv", "env2", "docs", "docs/__pycache__", "results"):
+        (tmp_path / d).mkdir()
+    (tmp_path / ".venv" / "pyvenv.cfg").write_text("home = /usr\n")
+    (tmp_path / "env2" / "pyvenv.cfg").write_text("home = /usr\n")
+    ignore = not_copied(tmp_path)
+    assert sorted(ignore(str(tmp_path), [".venv", "env2", "docs", "results", "README.md"])) == [".venv", "env2",
+                                                                                            "results"]
+    assert ignore(str(tmp_path / "docs"), ["__pycache__", "pyvenv.cfg"]) == ["__pycache__"]
 
 
 def user_env() -> dict[str, str]:
