@@ -104,11 +104,16 @@ def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str
         shown = out.relative_to(ROOT) if out.is_relative_to(ROOT) else out
         cmd = [sys.executable, "train.py", "--algo", method, "--task", TRAINING_TASK, "--seed", str(seed), "--out",
                str(shown), "--no-progress", *extra]
-        print("$ " + " ".join(shlex.quote(c) for c in cmd), flush=True)
-        t0 = time.perf_counter()
-        subprocess.run(cmd, cwd=ROOT, check=True)
-        process_wall = round(time.perf_counter() - t0, 1)
+        process_wall = run_command(cmd)
     return {**seed_record(out, seed), "process_wall_s": process_wall}
+
+
+def run_command(cmd: list[str], env: dict[str, str] | None = None) -> float:
+    """Run ``cmd`` in the checkout, shown first; its wall-clock in seconds."""
+    print("$ " + " ".join(shlex.quote(c) for c in cmd), flush=True)
+    t0 = time.perf_counter()
+    subprocess.run(cmd, cwd=ROOT, check=True, env=env)
+    return round(time.perf_counter() - t0, 1)
 
 
 def _finished(out: Path) -> bool:
@@ -209,19 +214,13 @@ def train_bc(seeds: tuple[int, ...], runs: Path, task_ids: list[str], smoke: boo
     env = {**os.environ, "MINARI_DATASETS_PATH": str(root.resolve())}
     dataset_s = None
     if not (root / dataset).is_dir():
-        cmd = [sys.executable, "evaluate.py", "dataset", *args, "--root", str(root), "--name", dataset]
-        print("$ " + " ".join(shlex.quote(c) for c in cmd), flush=True)
-        t0 = time.perf_counter()
-        subprocess.run(cmd, cwd=ROOT, check=True, env=env)
-        dataset_s = round(time.perf_counter() - t0, 1)
+        dataset_s = run_command([sys.executable, "evaluate.py", "dataset", *args, "--root", str(root), "--name",
+                                 dataset], env)
     bc_s = None
     if not all((_current(results / t / "bc.json") or {}).get("seeds") == list(seeds) for t in task_ids):
         cmd = [sys.executable, "evaluate.py", "bc", "--dataset", dataset, "--seeds", *map(str, seeds), "--tasks",
                *task_ids, "--results-dir", str(results), "--method", BC_NAME, *(SMOKE_BC_ARGS if smoke else [])]
-        print("$ " + " ".join(shlex.quote(c) for c in cmd), flush=True)
-        t0 = time.perf_counter()
-        subprocess.run(cmd, cwd=ROOT, check=True, env=env)
-        bc_s = round(time.perf_counter() - t0, 1)
+        bc_s = run_command(cmd, env)
     else:
         print(f"bc: reusing {results}", flush=True)
     return {"dataset": dataset, "dataset_args": args, "dataset_wall_s": dataset_s, "seeds": list(seeds),

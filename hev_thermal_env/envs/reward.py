@@ -96,12 +96,6 @@ class RewardParams(Params):
         w[W_HEAT_X_FROM] = self.heat_index_settlement_from
         return w
 
-    @property
-    def settles_heat(self) -> bool:
-        """Whether the heat settlement is on (a training shaping: the episode's return then differs from minus its
-        cost by the settlement of its final thermal state, :func:`heat_potential`)."""
-        return self.heat_settlement_weight > 0.0 or self.heat_index_settlement_weight > 0.0
-
 
 @jit
 def heat_potential(w, temp_c, heat_x):

@@ -133,7 +133,7 @@ def validate_config(config: dict[str, Any]) -> None:
     init = config.get("init")
     if init is not None and not isinstance(init, dict):
         raise ValueError(f"init={init!r}: expected a mapping (imitate, episodes, epochs, beyond_bound)")
-    config["init"] = check_init(dict(init or {}), config["algo"])
+    config["init"] = check_init(dict(init or {}), config["algo"], config["env"]["observation_names"])
     config["constraint"] = check_constraint(config.get("constraint"), config["algo"], config.get("task"))
     ev = config["eval"]
     if config["normalize"] is not False:

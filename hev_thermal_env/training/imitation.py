@@ -44,12 +44,24 @@ MIN_FROZEN_VAR = 1e-12
 LEARNING_RATE = 1e-3
 
 
-def check_init(init: dict[str, Any], algo: str) -> dict[str, Any]:
-    """The ``init`` section completed with its defaults; one-line errors for unknown keys and bad values."""
+def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[str] = ()) -> dict[str, Any]:
+    """The ``init`` section completed with its defaults; one-line errors for unknown keys and bad values. ``names``:
+    the env's observation names, which ``freeze_obs_stats`` may list."""
     check_known("init setting", init, INIT_DEFAULTS)
     out = {**INIT_DEFAULTS, **init}
     teacher = out["imitate"]
+    f = out["freeze_obs_stats"]
+    if not isinstance(f, bool) and not (isinstance(f, list) and f and all(isinstance(n, str) for n in f)):
+        raise ValueError(f"init.freeze_obs_stats must be true, false or a list of observation names, got {f!r}")
+    if isinstance(f, list) and names:
+        unknown = [n for n in f if n not in names]
+        if unknown:
+            raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: "
+                             f"{', '.join(names)}")
     if teacher is None:
+        if f is not False:
+            raise ValueError("init.freeze_obs_stats keeps the statistics of an imitation start; set init.imitate "
+                             "or leave it false")
         return out
     if algo not in IMITATING_ALGORITHMS:
         algos = ", ".join(IMITATING_ALGORITHMS)
@@ -66,9 +78,6 @@ def check_init(init: dict[str, Any], algo: str) -> dict[str, Any]:
     b = out["beyond_bound"]
     if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0.0 <= float(b) <= 1.0:
         raise ValueError(f"init.beyond_bound must be a number in [0, 1], got {b!r}")
-    f = out["freeze_obs_stats"]
-    if not isinstance(f, bool) and not (isinstance(f, list) and f and all(isinstance(n, str) for n in f)):
-        raise ValueError(f"init.freeze_obs_stats must be true, false or a list of observation names, got {f!r}")
     return out
 
 
@@ -90,15 +99,12 @@ class FrozenRunningMeanStd(RunningMeanStd):
 
 
 def frozen_mask(setting: bool | list[str], names: tuple[str, ...], var: np.ndarray) -> np.ndarray | None:
-    """The entries ``init.freeze_obs_stats`` freezes: every entry the demonstrations vary (true; ``var``: their
-    variances), none (false: None) or those named; a one-line error for an unknown name."""
+    """The entries ``init.freeze_obs_stats`` freezes (checked by :func:`check_init`): every entry the demonstrations
+    vary (true; ``var``: their variances), none (false: None) or those named."""
     if setting is False:
         return None
     if setting is True:
         return np.asarray(var) > MIN_FROZEN_VAR
-    unknown = [n for n in setting if n not in names]
-    if unknown:
-        raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: {', '.join(names)}")
     return np.isin(np.asarray(names), setting)
 
 
