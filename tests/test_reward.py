@@ -48,28 +48,19 @@ def _documented(rp: RewardParams, out, st, st0, target, dt):
     dev = ((st[:, C.SOC] - target) / rp.soc_deviation_scale) ** 2
     band = _hinge(rp, st[:, C.SOC], target) - _hinge(rp, st0[:, C.SOC], target)
     over = np.maximum(st[:, C.TEMP_C] - rp.overheat_soft_limit_c, 0.0)
-    heat = _heat_potential(rp, st) - _heat_potential(rp, st0)
     return {
         "reward_fuel": -rp.fuel_weight * out[:, C.FUEL_G],
         "reward_miss": -rp.miss_weight * miss_g,
         "reward_soc": -rp.soc_energy_weight * batt_g + band - rp.soc_deviation_weight * dev,
         "reward_overheat": -rp.overheat_temp_weight * over ** 2
         - rp.cutoff_weight * ((st[:, C.CUTOFF] + st[:, C.WINDING_TRIP]) > 0)  # either protection stops the motor
-        - rp.derate_weight * np.clip(st[:, C.HEAT_X], 0.0, 1.0) + heat,
+        - rp.derate_weight * np.clip(st[:, C.HEAT_X], 0.0, 1.0),
     }
-
-
-def _heat_potential(rp: RewardParams, st):
-    over = np.maximum(st[:, C.TEMP_C] - rp.heat_settlement_from_c, 0.0)
-    return (-rp.heat_settlement_weight * over ** 2
-            - rp.heat_index_settlement_weight * np.maximum(st[:, C.HEAT_X] - rp.heat_index_settlement_from, 0.0))
 
 
 @pytest.mark.parametrize("rp", [RewardParams(), OLD_DEFAULT,
                                 RewardParams(derate_weight=0.7, soc_deviation_weight=0.3, soc_deviation_scale=0.05,
-                                             miss_weight=2.0, soc_band=0.02, soc_band_weight=5000.0),
-                                RewardParams(heat_settlement_weight=5.0, heat_settlement_from_c=50.0,
-                                             heat_index_settlement_weight=300.0)])
+                                             miss_weight=2.0, soc_band=0.02, soc_band_weight=5000.0)])
 def test_reward_terms_follow_the_documented_formula(rp):
     out, st, st0 = _batch()
     terms, total = reward_terms(rp, out, st, 0.62, LHV, 1.0, state_before=st0)
@@ -204,31 +195,6 @@ def test_env_settles_the_band_step_by_step():
     excess = env.phys_state[0, C.SOC] - 0.65 - 0.01
     assert excess > 0.02
     assert settled == pytest.approx(-10000.0 * excess, rel=1e-9)
-
-
-def test_heat_settlement_adds_up_to_a_settlement_of_the_final_thermal_state():
-    """In the heat, the settled return differs from the default one by Ψ(end) − Ψ(start) of the thermal state alone,
-    computed here from the final temperature and heat-index integrator; the physics does not change."""
-    from hev_thermal_env.envs.hev_env import HevThermalEnv
-
-    shaped = RewardParams(heat_settlement_weight=5.0, heat_index_settlement_weight=300.0)
-    runs = []
-    for rp in (RewardParams(), shaped):
-        env = HevThermalEnv(cycle="udds", scenario="hot", reward=rp)
-        env.reset(seed=0)
-        start = env.phys_state.copy()
-        total, fuel = 0.0, 0.0
-        for _ in range(900):
-            _, r, _, _, info = env.step(np.array([0.6], dtype=np.float32))
-            total += r
-            fuel += info["fuel_g"]
-        runs.append((total, fuel, env.phys_state.copy(), start))
-    (plain, fuel0, end, start), (settled, fuel1, end1, _) = runs
-    assert fuel0 == fuel1 and np.array_equal(end, end1)
-    assert end[0, C.TEMP_C] > 60.0  # the settlement binds
-    expected = _heat_potential(shaped, end)[0] - _heat_potential(shaped, start)[0]
-    assert expected < -500.0
-    assert settled - plain == pytest.approx(expected, rel=1e-9)
 
 
 @pytest.mark.parametrize("recovery", [0.6, 0.0])

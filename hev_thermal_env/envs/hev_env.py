@@ -100,10 +100,7 @@ class HevThermalEnv(EnvParts, gym.Env):
                           − soc_deviation_weight · ((SOC − c) / soc_deviation_scale)²
         reward_overheat = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [stopped]
                           − derate_weight · PWM
-                          + Ψ(T after, x after) − Ψ(T before, x before)             (heat settlement, off)
         Φ(SOC, c)       = −soc_band_weight · max(|SOC − c| − soc_band, 0)
-        Ψ(T, x)         = −heat_settlement_weight · max(T − heat_settlement_from_c, 0)²
-                          − heat_index_settlement_weight · max(x − heat_index_settlement_from, 0)
 
     The prices (:class:`~hev_thermal_env.prices.Prices`) are those of the corrected fuel of
     :mod:`hev_thermal_env.metrics`: with the default weights an episode's fuel, miss and battery terms add up to minus
@@ -120,12 +117,6 @@ class HevThermalEnv(EnvParts, gym.Env):
     starts and ends inside the band returns exactly minus its corrected fuel and the overheat terms. A step's settlement
     stays within ≈10 g (a step moves the SOC by ≈0.001 at most); a larger pack needs a proportionally larger
     ``soc_band_weight``.
-
-    The heat settlement (weights 0 by default) is a shaping for learners with a short horizon: the price
-    ``ecms_thermal`` puts on the motor's thermal state (T the lumped motor temperature, x the heat-index integrator of
-    eq 9) charged as a potential difference, so heat is paid for the moment it is stored rather than minutes later at
-    the cutoff. Over an episode it adds up to Ψ(end) − Ψ(start): the physics, the other terms and the metrics do not
-    change, and the episode's return moves only by the price of the thermal state it ends in.
 
     The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on high ground it sits
     lower by the charge the remaining descent will return (:func:`~hev_thermal_env.envs.reward.band_center`)::

@@ -22,8 +22,7 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 
 # positions in the weight vector of reward_kernel
 (W_FUEL, W_MISS, W_SOC_ENERGY, W_SOC_BAND, W_SOC_BAND_WEIGHT, W_SOC_DEV, W_SOC_SCALE, W_TEMP, W_SOFT_LIMIT,
- W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, W_HEAT_TEMP, W_HEAT_FROM, W_HEAT_X, W_HEAT_X_FROM,
- N_WEIGHTS) = range(19)
+ W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, N_WEIGHTS) = range(15)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,14 +48,6 @@ class RewardParams(Params):
     overheat_temp_weight: float = spec(0.05, "per step per K² above the soft limit", min=0.0)
     cutoff_weight: float = spec(20.0, "per step with the motor cut off by its 70 °C protection", min=0.0)
     derate_weight: float = spec(0.0, "per step per unit heat index (PWM)", min=0.0)
-    heat_settlement_weight: float = spec(0.0, "heat settlement (a shaping, off by default): fuel-equivalent grams per "
-                                              "K² that the motor temperature lies above heat_settlement_from_c, "
-                                              "settled as the temperature moves (potential difference)", min=0.0)
-    heat_settlement_from_c: float = spec(55.0, "motor temperature above which the heat settlement counts")
-    heat_index_settlement_weight: float = spec(0.0, "heat settlement: grams per unit of the heat-index integrator "
-                                                    "(eq 9) above heat_index_settlement_from, settled as it moves",
-                                               min=0.0)
-    heat_index_settlement_from: float = spec(-0.05, "heat-index integrator value above which the settlement counts")
     prices: Prices = dataclasses.field(default_factory=Prices)
 
     @classmethod
@@ -90,19 +81,7 @@ class RewardParams(Params):
         w[W_BATT_PRICE] = self.prices.battery_g_per_j(lhv_j_per_g)
         w[W_MISS_PRICE] = self.prices.miss_g_per_j(lhv_j_per_g)
         w[W_DESCENT] = self.descent_recovery
-        w[W_HEAT_TEMP] = self.heat_settlement_weight if overheat else 0.0
-        w[W_HEAT_FROM] = self.heat_settlement_from_c
-        w[W_HEAT_X] = self.heat_index_settlement_weight if overheat else 0.0
-        w[W_HEAT_X_FROM] = self.heat_index_settlement_from
         return w
-
-
-@jit
-def heat_potential(w, temp_c, heat_x):
-    """Ψ(T, x) of the heat settlement: −w_T · max(T − T_from, 0)² − w_x · max(x − x_from, 0), the thermal state's
-    price of ``ecms_thermal`` as a potential (0 with the default weights)."""
-    over = max(temp_c - w[W_HEAT_FROM], 0.0)
-    return -w[W_HEAT_TEMP] * over * over - w[W_HEAT_X] * max(heat_x - w[W_HEAT_X_FROM], 0.0)
 
 
 @jit
@@ -161,9 +140,6 @@ def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
     pwm = min(max(st[b, C.HEAT_X], 0.0), 1.0)
     off = max(st[b, C.CUTOFF], st[b, C.WINDING_TRIP])  # either protection stops the motor
     heat = -w[W_TEMP] * over * over - w[W_CUTOFF] * off - w[W_DERATE] * pwm
-    if w[W_HEAT_TEMP] > 0.0 or w[W_HEAT_X] > 0.0:
-        heat += (heat_potential(w, st[b, C.TEMP_C], st[b, C.HEAT_X])
-                 - heat_potential(w, st0[b, C.TEMP_C], st0[b, C.HEAT_X]))
     return fuel, miss, soc, heat, ((fuel + miss) + soc) + heat
 
 
