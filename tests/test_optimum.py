@@ -13,9 +13,15 @@ from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.planning.bins import KEY_BITS, KEY_COLUMNS, keep_best_per_bin, pareto_per_soc_bin
+from hev_thermal_env.planning.bins import (
+    KEY_BITS,
+    KEY_COLUMNS,
+    dominated_by_fuller,
+    keep_best_per_bin,
+    pareto_per_soc_bin,
+)
 from hev_thermal_env.planning.problem import DPProblem, stage_splits
-from hev_thermal_env.planning.search import SearchGrid, frontier_points, search
+from hev_thermal_env.planning.search import SearchGrid, frontier_points, heat_stays_cheap, search
 from hev_thermal_env.prices import Prices
 
 
@@ -185,13 +191,51 @@ def test_each_bin_keeps_its_heat_priced_state_and_nothing_more_where_heat_is_fre
     def kept(heat_g: np.ndarray) -> list[int]:
         out = np.empty(8, dtype=np.int64)
         k = keep_best_per_bin(states, np.ones(4, dtype=np.bool_), cost, batt_j, 1.0, 0.8, heat_g, key_cols, widths,
-                              bits, 0, 1, 16, out)
+                              bits, 0, 1, 16, out, keep_cool)
         return sorted(out[:k].tolist())
 
+    keep_cool = True
     # no heat price: row 0 cheapest (100 against 100.1, 100.4, 104), row 2 at the price 0.8 (99.88), row 1 coolest
     assert kept(np.zeros(4)) == [0, 1, 2]
     # 2 g/K above 58 °C: row 3 (100.4 + 3.0) beats row 0 (103.8), row 2 (103.7) and row 1 (104.2)
     assert kept(2.0 * (states[:, C.TEMP_C] - 58.0)) == [0, 1, 2, 3]
+    keep_cool = False  # where heat cannot bind: the coolest (row 1) is not kept for itself
+    assert kept(np.zeros(4)) == [0, 2]
+
+
+def test_a_fuller_state_of_the_same_thermal_bins_that_costs_no_more_replaces_a_state():
+    # rows: SOC bin; thermal bins (housing, winding, coolant, heat index, cutoff, trip); value (cost + priced heat)
+    soc_bin = np.array([3, 3, 2, 2, 2, 1, 1], dtype=np.int64)
+    q = np.array([[5, 5, 5, 0, 0, 0],    # 0: fullest
+                  [6, 5, 5, 0, 0, 0],    # 1: fullest, another housing bin
+                  [5, 5, 5, 0, 0, 0],    # 2: emptier than 0, same bins, dearer: replaced
+                  [5, 5, 5, 0, 0, 0],    # 3: emptier than 0, same bins, cheaper: kept
+                  [6, 5, 5, 0, 0, 0],    # 4: emptier than 1, cheaper: kept
+                  [5, 5, 5, 1, 0, 0],    # 5: another heat-index bin: kept however dear
+                  [6, 5, 5, 0, 0, 0]], dtype=np.int64)  # 6: dearer than 1 and 4 but as dear as 4: replaced (a tie)
+    value = np.array([10.0, 20.0, 10.5, 9.0, 12.0, 99.0, 12.0])
+    order = np.argsort(-soc_bin, kind="stable")
+    out = np.zeros(7, dtype=np.bool_)
+    assert dominated_by_fuller(soc_bin, q, value, order, out) == 2
+    assert np.flatnonzero(out).tolist() == [2, 6]
+    same_bin = np.zeros(2, dtype=np.bool_)  # one SOC bin: its representatives never replace each other
+    assert dominated_by_fuller(np.array([4, 4]), q[:2] * 0, np.array([1.0, 2.0]), np.arange(2), same_bin) == 0
+
+
+def test_heat_stays_cheap_only_where_no_later_stage_prices_a_bin_above_a_gram():
+    g = SearchGrid()  # bins of 2 K (housing), 8 K (winding), 4 K (coolant): a gram at 0.5, 0.125, 0.25 g/K
+    n = 6
+    price = np.zeros((n + 1, 3))
+    price[:, 0] = 0.4  # 0.8 g in a housing bin: cheap
+    assert heat_stays_cheap(g, price, n).tolist() == [True] * n + [False]  # never at the last stage
+    price[3, 1] = 0.2  # 1.6 g in a winding bin after stage 3: not cheap up to there
+    assert heat_stays_cheap(g, price, n).tolist() == [False] * 4 + [True] * 2 + [False]
+    price[5, 2] = np.nan  # a price that is not a number: not cheap
+    assert not heat_stays_cheap(g, price, n).any()
+    assert not heat_stays_cheap(g, None, n).any()
+    for prices, cheap in (([0.45, 0.12, 0.24], True), ([0.55, 0.12, 0.24], False)):  # wider bins, more grams: same
+        for grid in (g, g.scaled(0.5)):
+            assert heat_stays_cheap(grid, np.tile(prices, (n + 1, 1)), n)[0] == cheap
 
 
 @pytest.mark.parametrize("options, match", [

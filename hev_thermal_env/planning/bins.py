@@ -3,7 +3,8 @@
 A candidate's bin is floor(state / width) per key column (SOC, the motor's (stator/housing), winding and coolant
 temperature, heat index, the cutoff and winding-trip flags), packed into one 64-bit key. In each occupied bin at most
 four states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped when a cheaper one lies
-in a cooler thermal bin (:func:`pareto_per_soc_bin`).
+in a cooler thermal bin (:func:`pareto_per_soc_bin`), and where heat cannot bind, when a fuller one of its thermal bins
+costs no more (:func:`dominated_by_fuller`).
 """
 
 from __future__ import annotations
@@ -83,10 +84,12 @@ def hotness(states, b):
 
 @jit
 def keep_best_per_bin(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts,
-                      cap_hint, out_idx):
+                      cap_hint, out_idx, keep_cool):
     """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2``, the coolest
-    (:func:`hotness`) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row: the temperatures at
-    the prices of :mod:`.heat_value`); writes their indices to ``out_idx`` (a row once) and returns how many.
+    (:func:`hotness`; only with ``keep_cool``: where heat cannot bind, :func:`~.search.heat_stays_cheap`, the
+    heat-priced one stands for it) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row: the
+    temperatures at the prices of :mod:`.heat_value`); writes their indices to ``out_idx`` (a row once) and returns
+    how many.
 
     Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run on separate
     threads). The cost compared is ``cost + price · batt_j`` (g). One representative per bin drifts (the cheaper state
@@ -120,7 +123,7 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, heat_g, key_c
         if table_key[h] != -1:
             out_idx[j] = cheap[h]
             j += 1
-            if cool[h] != cheap[h]:
+            if cool[h] != cheap[h] and keep_cool:
                 out_idx[j] = cool[h]
                 j += 1
             if second[h] != cheap[h] and second[h] != cool[h]:
@@ -173,6 +176,71 @@ def pareto_per_soc_bin(soc_bin, q, order, keep):
     return kept
 
 
+@jit
+def dominated_by_fuller(soc_bin, q, value, order, out):
+    """Mark (``out``) every row that a row of a higher SOC bin and the same thermal bins (``q``: motor, winding,
+    coolant, heat index, cutoff, winding trip) beats or ties on ``value``; returns how many are marked.
+
+    Used where heat cannot bind (:func:`~.search.heat_stays_cheap`), with ``value`` the cost-to-come plus the heat
+    at its price: a path from the fuller state that takes the same actions ends with more charge at the same fuel,
+    and the frontier prices a final state by the charge it ends with or more; within one thermal bin the heat a
+    state carries is worth at most about a gram, and the price counts it. A state no coarser rule removes: on Beijing
+    in ``paper`` 40-50 % of a stage's survivors have a fuller, cheaper state in their thermal bins (each one a lineage
+    the bins would expand at every later stage). Only with states of the same thermal bins: a hotter state priced
+    linearly is not a safe substitute where heat binds (in ``hot`` such a rule left the plan 3-5 % dearer).
+
+    ``order`` sorts the rows by SOC bin descending. Rows are grouped by SOC bin and a group is compared only with the
+    fuller groups before it, so the representatives of one bin (:func:`keep_best_per_bin`) all stay. The lowest value
+    of every thermal bin's fuller rows is kept in an open-addressing table keyed by the bins.
+    """
+    n = order.shape[0]
+    d_count = q.shape[1]
+    cap = 64
+    while cap < 4 * n:
+        cap *= 2
+    mask = cap - 1
+    table_key = np.full(cap, -1, dtype=np.int64)
+    table_min = np.empty(cap)
+    marked = 0
+    start = 0
+    while start < n:
+        stop = start
+        while stop < n and soc_bin[order[stop]] == soc_bin[order[start]]:
+            stop += 1
+        for phase in range(2):  # 0: look up the fuller groups' lowest values; 1: add this group's
+            for t in range(start, stop):
+                b = order[t]
+                key = 0
+                for d in range(d_count):
+                    key = key * 1031 + (q[b, d] + 515)
+                z = np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)
+                h = np.int64((z ^ (z >> np.uint64(29))) & np.uint64(mask))
+                while table_key[h] != -1 and table_key[h] != key:
+                    h = (h + 1) & mask
+                if phase == 0:
+                    out[b] = table_key[h] == key and table_min[h] <= value[b]
+                    if out[b]:
+                        marked += 1
+                elif table_key[h] == -1:
+                    table_key[h] = key
+                    table_min[h] = value[b]
+                elif value[b] < table_min[h]:
+                    table_min[h] = value[b]
+        start = stop
+    return marked
+
+
+def without_fuller_dominated(states: np.ndarray, value: np.ndarray, widths: np.ndarray,
+                             rows: np.ndarray) -> np.ndarray:
+    """``rows`` without the states that a fuller state of the same thermal bins beats on ``value`` (the cost-to-come
+    with the heat priced; :func:`dominated_by_fuller`)."""
+    bins = np.floor(states[:, list(KEY_COLUMNS)] / widths).astype(np.int64)
+    order = np.argsort(-bins[:, 0], kind="stable")
+    out = np.zeros(rows.size, dtype=np.bool_)
+    dominated_by_fuller(bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:]), np.ascontiguousarray(value), order, out)
+    return rows[~out]
+
+
 def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """``rows`` without the states dominated within their SOC bin (:func:`pareto_per_soc_bin`)."""
     bins = np.floor(states[:, list(KEY_COLUMNS)] / widths).astype(np.int64)
@@ -183,14 +251,14 @@ def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows:
 
 
 def survivors(so: np.ndarray, inside: np.ndarray, c: np.ndarray, e: np.ndarray, price: float, price2: float,
-              heat_g: np.ndarray, widths: np.ndarray, hint: int, threads: int) -> np.ndarray:
+              heat_g: np.ndarray, widths: np.ndarray, hint: int, threads: int, keep_cool: bool = True) -> np.ndarray:
     """:func:`keep_best_per_bin` over all rows, the SOC bins split into ``threads`` parts run in parallel."""
     n_parts = threads if so.shape[0] >= MIN_THREAD_BATCH and threads > 1 else 1
 
     def run(part: int) -> np.ndarray:
         buf = np.empty(so.shape[0], dtype=np.int64)
         k = keep_best_per_bin(so, inside, c, e, price, price2, heat_g, _KEY_COLS, widths, _BITS, part, n_parts,
-                              max(hint // n_parts, 1024), buf)
+                              max(hint // n_parts, 1024), buf, keep_cool)
         return buf[:k]
 
     if n_parts == 1:

@@ -20,7 +20,7 @@ from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 
-from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors
+from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors, without_fuller_dominated
 from .corridor import backward_envelope
 from .heat_value import PRICED
 from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
@@ -33,7 +33,7 @@ _PRICED_KEY = tuple(KEY_COLUMNS.index(col) for col in PRICED)
 SECOND_PRICE = 0.8
 #: A refining pass: every ``REFINE_STRIDE``-th split of the uniform grid, u = 0, and ``N_LOCAL`` splits within
 #: ± ``LOCAL_HALFWIDTH`` of each earlier path.
-REFINE_STRIDE, N_LOCAL, LOCAL_HALFWIDTH = 2, 21, 0.05
+REFINE_STRIDE, N_LOCAL, LOCAL_HALFWIDTH = 2, 11, 0.05
 
 
 @dataclass(frozen=True)
@@ -151,6 +151,23 @@ def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: flo
     return lo - margin, hi + margin
 
 
+def heat_stays_cheap(grid: SearchGrid, heat_price: np.ndarray | None, n: int) -> np.ndarray:
+    """Per stage 0..n: True where heat cannot bind from then to the end: a bin of each priced temperature at the grid's
+    own width holds at most ``heat_bin_g`` of heat at every later stage's price (``paper`` conditions: HWFET 0.3 g,
+    Beijing 0.07 g; ``hot``: about 100 g). There a bin needs no coolest representative and a fuller state of the same
+    bins that costs no more with its heat priced replaces a state (:func:`~.bins.dominated_by_fuller`). False at the
+    last stage (the final-SOC band needs its states) and everywhere without prices or with a price that is not a
+    finite number."""
+    out = np.zeros(n + 1, dtype=bool)
+    if heat_price is None:
+        return out
+    worth = np.max(heat_price * grid.widths()[list(_PRICED_KEY)], axis=1)  # g of heat in a bin, per stage
+    worth = np.where(np.isfinite(worth), worth, np.inf)
+    out[:] = np.maximum.accumulate(worth[::-1])[::-1] <= grid.heat_bin_g
+    out[n] = False
+    return out
+
+
 def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
     """Raise when a bin index could leave its key field (different states would then share a bin): SOC up to 1,
     temperatures up to ``temp_hi_c``, heat index up to 1."""
@@ -213,7 +230,7 @@ def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, bat
         c[r].reshape(hi - lo, m)[:] += cost[lo:hi, None]
         e[r].reshape(hi - lo, m)[:] = batt_j[lo:hi, None] + (out[r, C.BATT_CHEM] * dt).reshape(hi - lo, m)
 
-    parts = threads if p >= MIN_THREAD_BATCH and threads > 1 else 1
+    parts = threads if rows >= MIN_THREAD_BATCH and p >= threads > 1 else 1
     if parts == 1:
         run((0, p))
     else:
@@ -272,6 +289,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     actions: list[np.ndarray] = []
     n_evals, max_states = 0, 1
     buffers = StageBuffers(problem)
+    cheap_heat = heat_stays_cheap(grid, heat_price, n)
     for i in range(n):
         u = _stage_splits(u_grid, centers, i, int(kinds[i]))
         so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
@@ -283,9 +301,11 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
             heat_g = so[:, PRICED] @ heat_price[i + 1]
         widths = grid.stage_widths(None if heat_price is None else heat_price[i + 1])
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, heat_g, widths, states.shape[0],
-                         threads)
+                         threads, keep_cool=not cheap_heat[i + 1])
         if keep.size > 1:
             keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
+            if cheap_heat[i + 1] and keep.size > 1:
+                keep = without_fuller_dominated(so[keep], c[keep] + heat_g[keep], widths, keep)
         keep = np.sort(keep)
         states, cost, batt_j = so[keep], c[keep], e[keep]
         parents.append((keep // u.size).astype(np.int32))

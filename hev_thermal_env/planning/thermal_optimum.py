@@ -2,7 +2,9 @@
 
 The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md); the SOC DP
 (:mod:`.soc_dp`) seeds the refining passes with its path, and the heat prices of the bins (:mod:`.heat_value`) are
-measured along its path for the first pass and along the first pass's for the others. The plan is the cheapest path
+measured along its path for the first pass and along the first pass's for the others. Where heat stays cheap along
+the SOC DP's path over the whole cycle (:func:`~.search.heat_stays_cheap`), the coarse first pass is skipped: the
+refining passes centre on the SOC DP's path, priced along it. The plan is the cheapest path
 into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
 battery energy at the reward's price (as the SOC DP and the reward choose): an exact action sequence, so the env
 realises the planned cost (the report gives both). The report's ``frontier``, over the final states of the same passes,
@@ -29,7 +31,16 @@ from hev_thermal_env.physics import core as C
 
 from .heat_value import heat_prices
 from .problem import DPInfeasibleError, DPProblem
-from .search import LOCAL_HALFWIDTH, N_LOCAL, REFINE_STRIDE, SearchGrid, SearchResult, frontier_points, search
+from .search import (
+    LOCAL_HALFWIDTH,
+    N_LOCAL,
+    REFINE_STRIDE,
+    SearchGrid,
+    SearchResult,
+    frontier_points,
+    heat_stays_cheap,
+    search,
+)
 from .soc_dp import DPSettings, rollout, solve
 
 #: Cycles shorter than this (steps) get a proportionally narrower SOC bin (:meth:`OptimumSettings.grid_for`).
@@ -173,16 +184,24 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
     t_heat = time.perf_counter()
     heat_dp = heat_prices(problem, dp_u)
     heat_s = time.perf_counter() - t_heat
-    first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads, heat_price=heat_dp)
-    j_first = pick_final(first, problem, band, s.on_infeasible)
-    first_pass = {"solve_s": first.solve_s, "cost_g": float(first.final_cost_g[j_first])}
-    centers = [first.path(j_first), dp_u]
-    t_heat = time.perf_counter()
-    heat = heat_prices(problem, centers[0])
-    first_pass["heat_prices_s"] = heat_s + time.perf_counter() - t_heat
-    first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
+    if heat_stays_cheap(grid, heat_dp, problem.n_stages)[0]:  # the thermal-blind path is as good a centre
+        searched0: list[SearchResult] = []
+        centers, heat = [dp_u], heat_dp
+        first_pass: dict[str, Any] = {"skipped": "heat stays cheap along dp's path", "heat_prices_s": heat_s,
+                                      "heat_price_g_per_k_max": dict(zip(("motor", "winding", "coolant"),
+                                                                         heat.max(axis=0).tolist()))}
+    else:
+        first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads, heat_price=heat_dp)
+        searched0 = [first]
+        j_first = pick_final(first, problem, band, s.on_infeasible)
+        first_pass = {"solve_s": first.solve_s, "cost_g": float(first.final_cost_g[j_first])}
+        centers = [first.path(j_first), dp_u]
+        t_heat = time.perf_counter()
+        heat = heat_prices(problem, centers[0])
+        first_pass["heat_prices_s"] = heat_s + time.perf_counter() - t_heat
+        first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
     passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat)  # they make the plan and frontier
-    searched = [first] + passes
+    searched = searched0 + passes
     result, j = _pick(passes, problem, band, s.on_infeasible)
     u = result.path(j)
     run = replay(problem, u)
