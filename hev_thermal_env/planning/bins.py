@@ -25,6 +25,24 @@ _BITS = np.array(KEY_BITS, dtype=np.int64)
 
 
 @jit
+def _slot(key, mask):
+    """The first table slot of ``key``: the splitmix64 finaliser, so every key bit reaches the bits ``mask`` keeps."""
+    z = np.uint64(key)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return np.int64((z ^ (z >> np.uint64(31))) & np.uint64(mask))
+
+
+@jit
+def _group_stop(soc_bin, order, start):
+    """The end of the run of rows in ``order`` from ``start`` that share one SOC bin."""
+    stop = start
+    while stop < order.shape[0] and soc_bin[order[stop]] == soc_bin[order[start]]:
+        stop += 1
+    return stop
+
+
+@jit
 def _fill_bins(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts, cap,
                table_key, cheap, cool, second, priced):
     """One pass of :func:`keep_best_per_bin` with a table of ``cap`` slots over the rows whose first key column's bin
@@ -43,10 +61,7 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, heat_g, key_cols, wi
             q = int(np.floor(states[b, key_cols[d]] / widths[d])) + (1 << (bits[d] - 1))
             q = min(max(q, 0), (1 << bits[d]) - 1)
             key = (key << bits[d]) | q
-        z = np.uint64(key)  # splitmix64 finaliser: every key bit reaches the low bits the mask keeps
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        h = np.int64((z ^ (z >> np.uint64(31))) & np.uint64(mask))
+        h = _slot(key, mask)
         while True:
             k = table_key[h]
             if k == -1:
@@ -149,9 +164,7 @@ def pareto_per_soc_bin(soc_bin, q, order, keep):
     kept = 0
     start = 0
     while start < n:
-        stop = start
-        while stop < n and soc_bin[order[stop]] == soc_bin[order[start]]:
-            stop += 1
+        stop = _group_stop(soc_bin, order, start)
         first = kept
         for t in range(start, stop):
             b = order[t]
@@ -204,17 +217,14 @@ def dominated_by_fuller(soc_bin, q, value, order, out):
     marked = 0
     start = 0
     while start < n:
-        stop = start
-        while stop < n and soc_bin[order[stop]] == soc_bin[order[start]]:
-            stop += 1
+        stop = _group_stop(soc_bin, order, start)
         for phase in range(2):  # 0: look up the fuller groups' lowest values; 1: add this group's
             for t in range(start, stop):
                 b = order[t]
                 key = 0
                 for d in range(d_count):
                     key = key * 1031 + (q[b, d] + 515)
-                z = np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)
-                h = np.int64((z ^ (z >> np.uint64(29))) & np.uint64(mask))
+                h = _slot(key, mask)
                 while table_key[h] != -1 and table_key[h] != key:
                     h = (h + 1) & mask
                 if phase == 0:
@@ -230,24 +240,23 @@ def dominated_by_fuller(soc_bin, q, value, order, out):
     return marked
 
 
-def without_fuller_dominated(states: np.ndarray, value: np.ndarray, widths: np.ndarray,
-                             rows: np.ndarray) -> np.ndarray:
-    """``rows`` without the states that a fuller state of the same thermal bins beats on ``value`` (the cost-to-come
-    with the heat priced; :func:`dominated_by_fuller`)."""
-    bins = np.floor(states[:, list(KEY_COLUMNS)] / widths).astype(np.int64)
-    order = np.argsort(-bins[:, 0], kind="stable")
-    out = np.zeros(rows.size, dtype=np.bool_)
-    dominated_by_fuller(bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:]), np.ascontiguousarray(value), order, out)
-    return rows[~out]
-
-
-def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """``rows`` without the states dominated within their SOC bin (:func:`pareto_per_soc_bin`)."""
+def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows: np.ndarray,
+                  fuller_value: np.ndarray | None = None) -> np.ndarray:
+    """``rows`` without the states dominated within their SOC bin (:func:`pareto_per_soc_bin`, by ``adj``) and, with
+    ``fuller_value`` (per row), without those a fuller state of their thermal bins beats on it
+    (:func:`dominated_by_fuller`)."""
     bins = np.floor(states[:, list(KEY_COLUMNS)] / widths).astype(np.int64)
     order = np.lexsort((adj, bins[:, 0]))
     out = np.empty(rows.size, dtype=np.int64)
     k = pareto_per_soc_bin(bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:]), order, out)
-    return rows[out[:k]]
+    kept = out[:k]
+    if fuller_value is None or k < 2:
+        return rows[kept]
+    bins = bins[kept]
+    dropped = np.zeros(k, dtype=np.bool_)
+    dominated_by_fuller(bins[:, 0].copy(), np.ascontiguousarray(bins[:, 1:]),
+                        np.ascontiguousarray(fuller_value[kept]), np.argsort(-bins[:, 0], kind="stable"), dropped)
+    return rows[kept[~dropped]]
 
 
 def survivors(so: np.ndarray, inside: np.ndarray, c: np.ndarray, e: np.ndarray, price: float, price2: float,

@@ -20,7 +20,7 @@ from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 
-from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors, without_fuller_dominated
+from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors
 from .corridor import backward_envelope
 from .heat_value import PRICED
 from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
@@ -162,8 +162,7 @@ def heat_stays_cheap(grid: SearchGrid, heat_price: np.ndarray | None, n: int) ->
     if heat_price is None:
         return out
     worth = np.max(heat_price * grid.widths()[list(_PRICED_KEY)], axis=1)  # g of heat in a bin, per stage
-    worth = np.where(np.isfinite(worth), worth, np.inf)
-    out[:] = np.maximum.accumulate(worth[::-1])[::-1] <= grid.heat_bin_g
+    out[:] = np.maximum.accumulate(worth[::-1])[::-1] <= grid.heat_bin_g  # a NaN spreads to every earlier stage
     out[n] = False
     return out
 
@@ -303,9 +302,8 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, heat_g, widths, states.shape[0],
                          threads, keep_cool=not cheap_heat[i + 1])
         if keep.size > 1:
-            keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep)
-            if cheap_heat[i + 1] and keep.size > 1:
-                keep = without_fuller_dominated(so[keep], c[keep] + heat_g[keep], widths, keep)
+            keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep,
+                                 fuller_value=c[keep] + heat_g[keep] if cheap_heat[i + 1] else None)
         keep = np.sort(keep)
         states, cost, batt_j = so[keep], c[keep], e[keep]
         parents.append((keep // u.size).astype(np.int32))

@@ -187,9 +187,7 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
     if heat_stays_cheap(grid, heat_dp, problem.n_stages)[0]:  # the thermal-blind path is as good a centre
         searched0: list[SearchResult] = []
         centers, heat = [dp_u], heat_dp
-        first_pass: dict[str, Any] = {"skipped": "heat stays cheap along dp's path", "heat_prices_s": heat_s,
-                                      "heat_price_g_per_k_max": dict(zip(("motor", "winding", "coolant"),
-                                                                         heat.max(axis=0).tolist()))}
+        first_pass: dict[str, Any] = {"skipped": "heat stays cheap along dp's path", "heat_prices_s": heat_s}
     else:
         first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads, heat_price=heat_dp)
         searched0 = [first]
@@ -199,7 +197,7 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
         t_heat = time.perf_counter()
         heat = heat_prices(problem, centers[0])
         first_pass["heat_prices_s"] = heat_s + time.perf_counter() - t_heat
-        first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
+    first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
     passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat)  # they make the plan and frontier
     searched = searched0 + passes
     result, j = _pick(passes, problem, band, s.on_infeasible)
