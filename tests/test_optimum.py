@@ -127,13 +127,15 @@ def test_grid_doubling_changes_the_optimum_little(city200):
 
 @pytest.mark.full
 def test_a_much_finer_search_on_a_short_city_cycle_agrees(city200):
-    """grid_scale=4 on 100 s: bins narrow enough that a 17-bit SOC key field once merged every SOC into one bin."""
+    """grid_scale=4 on 100 s: bins narrow enough that a 17-bit SOC key field once merged every SOC into one bin.
+
+    The finer search does not contain the default's paths (its bins keep other representatives), so it may end a
+    hair dearer at the same final SOC (here 0.001 %); the two agree within 0.1 %."""
     short = cycle_from_arrays(load_cycle("udds").speed_mps[:101], name="udds_100s")
     base = run_strategy(get_strategy("dp_thermal"), short, "paper").summary
     fine = run_strategy(get_strategy("dp_thermal", grid_scale=4.0), short, "paper").summary
     at = Frontier.from_settings(fine["strategy_settings"]).cost_at(base["soc_final"])
-    assert at is not None and at <= base["cost_g"] * (1 + 1e-9)  # finer is never dearer at the same final SOC...
-    assert (base["cost_g"] - at) / base["cost_g"] <= 0.001  # ...and the default is within 0.1 % of it
+    assert at is not None and abs(base["cost_g"] - at) / base["cost_g"] <= 0.001
 
 
 def test_temperature_bins_widen_only_where_heat_is_cheap():
@@ -188,10 +190,10 @@ def test_each_bin_keeps_its_heat_priced_state_and_nothing_more_where_heat_is_fre
     widths = np.array([1.5e-4, 2.0, 8.0, 4.0, 0.1, 1.0, 1.0])
     key_cols, bits = np.array(KEY_COLUMNS, dtype=np.int64), np.array(KEY_BITS, dtype=np.int64)
 
-    def kept(heat_g: np.ndarray) -> list[int]:
+    def kept(heat_g: np.ndarray, price3: float = 0.0) -> list[int]:
         out = np.empty(8, dtype=np.int64)
-        k = keep_best_per_bin(states, np.ones(4, dtype=np.bool_), cost, batt_j, 1.0, 0.8, heat_g, key_cols, widths,
-                              bits, 0, 1, 16, out, keep_cool)
+        k = keep_best_per_bin(states, np.ones(4, dtype=np.bool_), cost, batt_j, 1.0, 0.8, price3, heat_g, key_cols,
+                              widths, bits, 0, 1, 16, out, keep_cool)
         return sorted(out[:k].tolist())
 
     keep_cool = True
@@ -200,6 +202,11 @@ def test_each_bin_keeps_its_heat_priced_state_and_nothing_more_where_heat_is_fre
     # 2 g/K above 58 °C: row 3 (100.4 + 3.0) beats row 0 (103.8), row 2 (103.7) and row 1 (104.2)
     assert kept(2.0 * (states[:, C.TEMP_C] - 58.0)) == [0, 1, 2, 3]
     keep_cool = False  # where heat cannot bind: the coolest (row 1) is not kept for itself
+    assert kept(np.zeros(4)) == [0, 2]
+    # a third battery price in its slot: at 1.2 row 0 is still the cheapest (100 against 100.32, 100.4, 104)
+    assert kept(np.zeros(4), price3=1.2) == [0, 2]
+    batt_j[3] = -0.36  # row 3 charged more: 100.04 at the price 1 (row 0 stays), 99.968 at 1.2 (below row 0)
+    assert kept(np.zeros(4), price3=1.2) == [0, 2, 3]
     assert kept(np.zeros(4)) == [0, 2]
 
 

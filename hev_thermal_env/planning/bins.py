@@ -43,7 +43,7 @@ def _group_stop(soc_bin, order, start):
 
 
 @jit
-def _fill_bins(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts, cap,
+def _fill_bins(states, inside, cost, batt_j, price, price2, price3, heat_g, key_cols, widths, bits, part, n_parts, cap,
                table_key, cheap, cool, second, priced):
     """One pass of :func:`keep_best_per_bin` with a table of ``cap`` slots over the rows whose first key column's bin
     is ``part`` modulo ``n_parts``; returns the number of bins, or -1 when the table would be more than half full (the
@@ -77,7 +77,10 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, heat_g, key_cols, wi
             if k == key:
                 if cost[b] + price * batt_j[b] < cost[cheap[h]] + price * batt_j[cheap[h]]:
                     cheap[h] = b
-                if hotness(states, b) < hotness(states, cool[h]):
+                if price3 > 0.0:  # the slot holds the cheapest at a third battery price instead of the coolest
+                    if cost[b] + price3 * batt_j[b] < cost[cool[h]] + price3 * batt_j[cool[h]]:
+                        cool[h] = b
+                elif hotness(states, b) < hotness(states, cool[h]):
                     cool[h] = b
                 if cost[b] + price2 * batt_j[b] < cost[second[h]] + price2 * batt_j[second[h]]:
                     second[h] = b
@@ -98,8 +101,8 @@ def hotness(states, b):
 
 
 @jit
-def keep_best_per_bin(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts,
-                      cap_hint, out_idx, keep_cool):
+def keep_best_per_bin(states, inside, cost, batt_j, price, price2, price3, heat_g, key_cols, widths, bits, part,
+                      n_parts, cap_hint, out_idx, keep_cool):
     """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2``, the coolest
     (:func:`hotness`; only with ``keep_cool``: where heat cannot bind, :func:`~.search.heat_stays_cheap`, the
     heat-priced one stands for it) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row: the
@@ -128,8 +131,8 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, heat_g, key_c
         cool = np.empty(cap, dtype=np.int64)
         second = np.empty(cap, dtype=np.int64)
         priced = np.empty(cap, dtype=np.int64)
-        used = _fill_bins(states, inside, cost, batt_j, price, price2, heat_g, key_cols, widths, bits, part, n_parts,
-                          cap, table_key, cheap, cool, second, priced)
+        used = _fill_bins(states, inside, cost, batt_j, price, price2, price3, heat_g, key_cols, widths, bits, part,
+                          n_parts, cap, table_key, cheap, cool, second, priced)
         if used >= 0:
             break
         cap *= 4
@@ -138,7 +141,7 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, heat_g, key_c
         if table_key[h] != -1:
             out_idx[j] = cheap[h]
             j += 1
-            if cool[h] != cheap[h] and keep_cool:
+            if cool[h] != cheap[h] and (keep_cool or price3 > 0.0):
                 out_idx[j] = cool[h]
                 j += 1
             if second[h] != cheap[h] and second[h] != cool[h]:
@@ -260,14 +263,15 @@ def non_dominated(states: np.ndarray, adj: np.ndarray, widths: np.ndarray, rows:
 
 
 def survivors(so: np.ndarray, inside: np.ndarray, c: np.ndarray, e: np.ndarray, price: float, price2: float,
-              heat_g: np.ndarray, widths: np.ndarray, hint: int, threads: int, keep_cool: bool = True) -> np.ndarray:
+              heat_g: np.ndarray, widths: np.ndarray, hint: int, threads: int, keep_cool: bool = True,
+              price3: float = 0.0) -> np.ndarray:
     """:func:`keep_best_per_bin` over all rows, the SOC bins split into ``threads`` parts run in parallel."""
     n_parts = threads if so.shape[0] >= MIN_THREAD_BATCH and threads > 1 else 1
 
     def run(part: int) -> np.ndarray:
         buf = np.empty(so.shape[0], dtype=np.int64)
-        k = keep_best_per_bin(so, inside, c, e, price, price2, heat_g, _KEY_COLS, widths, _BITS, part, n_parts,
-                              max(hint // n_parts, 1024), buf, keep_cool)
+        k = keep_best_per_bin(so, inside, c, e, price, price2, price3, heat_g, _KEY_COLS, widths, _BITS, part,
+                              n_parts, max(hint // n_parts, 1024), buf, keep_cool)
         return buf[:k]
 
     if n_parts == 1:

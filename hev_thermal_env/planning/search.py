@@ -31,6 +31,9 @@ _PRICED_KEY = tuple(KEY_COLUMNS.index(col) for col in PRICED)
 #: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
 #: (:func:`~.bins.keep_best_per_bin`).
 SECOND_PRICE = 0.8
+#: Where heat stays cheap over the whole cycle (the coarse pass is skipped, :mod:`.thermal_optimum`), the slot of a
+#: bin's coolest state holds its cheapest with the battery priced at this fraction of the reward's price.
+THIRD_PRICE = 1.2
 #: A refining pass: every ``REFINE_STRIDE``-th split of the uniform grid, u = 0, and ``N_LOCAL`` splits within
 #: ± ``LOCAL_HALFWIDTH`` of each earlier path.
 REFINE_STRIDE, N_LOCAL, LOCAL_HALFWIDTH = 2, 11, 0.05
@@ -263,13 +266,14 @@ def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.nd
 
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
            progress=None, u_center: np.ndarray | None = None, tube: tuple[np.ndarray, np.ndarray] | None = None,
-           heat_price: np.ndarray | None = None) -> SearchResult:
+           heat_price: np.ndarray | None = None, third_price: bool = False) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
     ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`). ``tube`` (SOC
     bounds per stage 0..n) also drops the states outside it (at a stage where none is inside, the tube is ignored).
     ``heat_price`` (g/K of the temperatures :data:`~.heat_value.PRICED` after each stage, [n + 1, 3]) gives each bin
-    its heat-priced representative (:func:`~.bins.keep_best_per_bin`).
+    its heat-priced representative (:func:`~.bins.keep_best_per_bin`). ``third_price``: where heat stays cheap, a bin
+    keeps its cheapest at :data:`THIRD_PRICE` in place of its coolest.
     ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
     t0 = time.perf_counter()
@@ -300,7 +304,8 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
             heat_g = so[:, PRICED] @ heat_price[i + 1]
         widths = grid.stage_widths(None if heat_price is None else heat_price[i + 1])
         keep = survivors(so, inside, c, e, batt_g_per_j, SECOND_PRICE * batt_g_per_j, heat_g, widths, states.shape[0],
-                         threads, keep_cool=not cheap_heat[i + 1])
+                         threads, keep_cool=not cheap_heat[i + 1],
+                         price3=THIRD_PRICE * batt_g_per_j if third_price and cheap_heat[i + 1] else 0.0)
         if keep.size > 1:
             keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep,
                                  fuller_value=c[keep] + heat_g[keep] if cheap_heat[i + 1] else None)

@@ -198,7 +198,8 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
         heat = heat_prices(problem, centers[0])
         first_pass["heat_prices_s"] = heat_s + time.perf_counter() - t_heat
     first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
-    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat)  # they make the plan and frontier
+    # the refining passes make the plan and the frontier; where the coarse pass was skipped, pass 2 keeps a third price
+    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat, third_price=not searched0)
     searched = searched0 + passes
     result, j = _pick(passes, problem, band, s.on_infeasible)
     u = result.path(j)
@@ -226,10 +227,13 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
 
 def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tuple[float, float],
             band: tuple[float, float], centers: list[np.ndarray], dp_soc: np.ndarray,
-            heat: np.ndarray) -> tuple[list[SearchResult], SearchGrid]:
+            heat: np.ndarray, third_price: bool) -> tuple[list[SearchResult], SearchGrid]:
     """The second pass around ``centers`` and, where :meth:`OptimumSettings.refined_grid` narrows the SOC bin, the
-    third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid used."""
-    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers), heat_price=heat)
+    third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid used.
+    ``third_price``: the second pass keeps a bin's cheapest at :data:`~.search.THIRD_PRICE` where heat stays cheap
+    (it spans the whole window, where a frontier far from the plan comes from; the tube around the plan needs none)."""
+    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers), heat_price=heat,
+                     third_price=third_price)
     j2 = pick_final(second, problem, band, s.on_infeasible)
     fine = s.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
     if not fine.soc < grid.soc:
