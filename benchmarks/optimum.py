@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -59,8 +60,9 @@ TOLERANCE = 1e-3
 #: Threads per optimum inside the worker pool (the pool itself fills the cores); the speed figures use the default.
 THREADS = 1
 PARTS = ("cells", "convergence", "speed", "outside")
-#: Frontier half-width of the re-solve for runs that ended below the default frontier's lowest SOC.
-WIDE = 0.12
+#: Frontier half-width of the re-solve for runs that ended below the default frontier's lowest SOC: at least WIDE,
+#: wider where a run ended further below the optimum's final SOC (by WIDE_MARGIN more than that run did).
+WIDE, WIDE_MARGIN = 0.12, 0.02
 #: Seeds of the fresh routes: 2**21 above the first validation seed (the validation set has 30 seeds from there, the
 #: generalisation task's test routes 18 from 2**20 above it; training draws below it).
 FRESH_SEED_BASE = VALIDATION_SEED_BASE + 2**21
@@ -168,16 +170,17 @@ def convergence(task: tuple[str, str, float]) -> dict:
             "fine_max_states": fine["strategy_settings"]["max_states"]}
 
 
-def outside(task: tuple[str, str, tuple[str, ...]]) -> dict:
-    """The optimum re-solved with a wider frontier (± ``WIDE``) for runs that ended below the default one's lowest
-    SOC: their frontier ratio there."""
-    cycle, scenario, names = task
+def outside(task: tuple[str, str, tuple[str, ...], float]) -> dict:
+    """The optimum re-solved with a wider frontier (± the task's half-width, :func:`_outside_tasks`) for runs that
+    ended below the default one's lowest SOC: their frontier ratio there."""
+    cycle, scenario, names, halfwidth = task
     warnings.simplefilter("ignore")
     cyc = _cycle(cycle)
-    opt = run_strategy(get_strategy("dp_thermal", threads=THREADS, frontier_halfwidth=WIDE), cyc, scenario).summary
+    opt = run_strategy(get_strategy("dp_thermal", threads=THREADS, frontier_halfwidth=halfwidth), cyc,
+                       scenario).summary
     frontier = Frontier.from_settings(opt["strategy_settings"])
     rows = _rows(cyc, scenario, names, frontier)
-    return {"cycle": cycle, "scenario": scenario, "frontier_halfwidth": WIDE, "soc_min": frontier.soc_min,
+    return {"cycle": cycle, "scenario": scenario, "frontier_halfwidth": halfwidth, "soc_min": frontier.soc_min,
             "optimum_cost_g": opt["cost_g"], "solve_s": opt["strategy_settings"]["solve_s"], "strategies": rows}
 
 
@@ -287,13 +290,18 @@ def _result(cells: list[dict], convs: list[dict], wides: list[dict], speed_figur
     }
 
 
-def _outside_tasks(cells: list[dict]) -> list[tuple[str, str, tuple[str, ...]]]:
-    """The cells whose runs ended below the frontier's lowest SOC with a lower bound < 1, and those runs."""
+def _outside_tasks(cells: list[dict]) -> list[tuple[str, str, tuple[str, ...], float]]:
+    """The cells whose runs ended below the frontier's lowest SOC with a lower bound < 1, those runs, and the frontier
+    half-width that reaches them (at least :data:`WIDE`)."""
     todo: dict[tuple[str, str], list[str]] = {}
+    width: dict[tuple[str, str], float] = {}
     for c in cells:
         for n in c["outside_and_undecided"]:
-            todo.setdefault((c["cycle"], c["scenario"]), []).append(n)
-    return [(k[0], k[1], tuple(v)) for k, v in todo.items()]
+            k = (c["cycle"], c["scenario"])
+            todo.setdefault(k, []).append(n)
+            below = c["optimum"]["soc_final"] - c["strategies"][n]["soc_final"] + WIDE_MARGIN
+            width[k] = max(width.get(k, WIDE), math.ceil(below * 100.0) / 100.0)
+    return [(k[0], k[1], tuple(v), width[k]) for k, v in todo.items()]
 
 
 def main() -> None:
