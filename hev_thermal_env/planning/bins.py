@@ -107,7 +107,8 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, price3, heat_
     (:func:`hotness`; only with ``keep_cool``: where heat cannot bind, :func:`~.search.heat_stays_cheap`, the
     heat-priced one stands for it) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row: the
     temperatures at the prices of :mod:`.heat_value`); writes their indices to ``out_idx`` (a row once) and returns
-    how many.
+    how many. With ``price3`` > 0 the coolest's slot holds the cheapest at battery price ``price3`` instead (kept
+    whatever ``keep_cool``).
 
     Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run on separate
     threads). The cost compared is ``cost + price · batt_j`` (g). One representative per bin drifts (the cheaper state
