@@ -130,12 +130,13 @@ def test_a_much_finer_search_on_a_short_city_cycle_agrees(city200):
     """grid_scale=4 on 100 s: bins narrow enough that a 17-bit SOC key field once merged every SOC into one bin.
 
     The finer search does not contain the default's paths (its bins keep other representatives), so it may end a
-    hair dearer at the same final SOC (here 0.001 %); the two agree within 0.1 %."""
+    hair dearer at the same final SOC (here 0.001 %), never by more than 0.01 %; the default is within 0.1 % of it."""
     short = cycle_from_arrays(load_cycle("udds").speed_mps[:101], name="udds_100s")
     base = run_strategy(get_strategy("dp_thermal"), short, "paper").summary
     fine = run_strategy(get_strategy("dp_thermal", grid_scale=4.0), short, "paper").summary
     at = Frontier.from_settings(fine["strategy_settings"]).cost_at(base["soc_final"])
-    assert at is not None and abs(base["cost_g"] - at) / base["cost_g"] <= 0.001
+    assert at is not None and at <= base["cost_g"] * (1 + 1e-4)  # finer is at most a hair dearer...
+    assert (base["cost_g"] - at) / base["cost_g"] <= 0.001  # ...and the default within 0.1 % of it
 
 
 def test_temperature_bins_widen_only_where_heat_is_cheap():

@@ -22,6 +22,7 @@ KEY_COLUMNS = (C.SOC, C.TEMP_C, C.WINDING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF, C.
 KEY_BITS = (21, 10, 10, 10, 10, 1, 1)
 _KEY_COLS = np.array(KEY_COLUMNS, dtype=np.int64)
 _BITS = np.array(KEY_BITS, dtype=np.int64)
+_THERMAL_BITS = _BITS[1:].copy()  # the key fields after SOC's: the thermal bins
 
 
 @jit
@@ -31,6 +32,14 @@ def _slot(key, mask):
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
     return np.int64((z ^ (z >> np.uint64(31))) & np.uint64(mask))
+
+
+@jit
+def _push(key, q, bits):
+    """``key`` with the bin index ``q`` appended in a field of ``bits`` bits (offset to non-negative, clamped to the
+    field; :func:`.search.check_key_range` keeps the grid's indices inside it)."""
+    q = min(max(q + (1 << (bits - 1)), 0), (1 << bits) - 1)
+    return (key << bits) | q
 
 
 @jit
@@ -58,9 +67,7 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, price3, heat_g, key_
             continue
         key = 0
         for d in range(key_cols.shape[0]):
-            q = int(np.floor(states[b, key_cols[d]] / widths[d])) + (1 << (bits[d] - 1))
-            q = min(max(q, 0), (1 << bits[d]) - 1)
-            key = (key << bits[d]) | q
+            key = _push(key, int(np.floor(states[b, key_cols[d]] / widths[d])), bits[d])
         h = _slot(key, mask)
         while True:
             k = table_key[h]
@@ -227,7 +234,7 @@ def dominated_by_fuller(soc_bin, q, value, order, out):
                 b = order[t]
                 key = 0
                 for d in range(d_count):
-                    key = key * 1031 + (q[b, d] + 515)
+                    key = _push(key, q[b, d], _THERMAL_BITS[d])
                 h = _slot(key, mask)
                 while table_key[h] != -1 and table_key[h] != key:
                     h = (h + 1) & mask

@@ -207,7 +207,7 @@ class StageBuffers:
 
     def __init__(self, problem: DPProblem):
         self.problem, self.rows = problem, 0
-        self.scratch: list[_Scratch] = []
+        self.scratch: dict[int, _Scratch] = {}
 
     def get(self, rows: int) -> StageBuffers:
         if rows > self.rows:
@@ -219,11 +219,10 @@ class StageBuffers:
 
     def block(self, part: int, rows: int) -> _Scratch:
         """Thread ``part``'s scratch of at least ``rows`` rows."""
-        while len(self.scratch) <= part:
-            self.scratch.append(_Scratch(self.problem, 0))
-        if self.scratch[part].x.shape[0] < rows:
-            self.scratch[part] = _Scratch(self.problem, rows)
-        return self.scratch[part]
+        sc = self.scratch.get(part)
+        if sc is None or sc.x.shape[0] < rows:
+            sc = self.scratch[part] = _Scratch(self.problem, rows)
+        return sc
 
 
 def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, batt_j: np.ndarray, u: np.ndarray,
@@ -246,10 +245,10 @@ def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, bat
 
     def run(part: int) -> None:
         sc = buf.block(part, per_block * m)
+        sc.v0[:], sc.v1[:], sc.g[:] = v0, v1, g  # the stage's speeds and grade: the same for every row
         for lo in range(part * per_block, p, parts * per_block):
             hi = min(lo + per_block, p)
             n, r = (hi - lo) * m, slice(lo * m, hi * m)
-            sc.v0[:n], sc.v1[:n], sc.g[:n] = v0, v1, g
             sc.x[:n].reshape(hi - lo, m, C.N_STATE)[:] = states[lo:hi, None, :]
             out = sc.out[:n]
             problem.core.step(sc.x[:n], a[r], sc.v0[:n], sc.v1[:n], sc.g[:n], sc.cond[:n], state_out=so[r], out=out)
