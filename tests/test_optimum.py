@@ -13,6 +13,7 @@ from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
 from hev_thermal_env.physics import core as C
+from hev_thermal_env.planning import stage
 from hev_thermal_env.planning.bins import (
     KEY_BITS,
     KEY_COLUMNS,
@@ -84,6 +85,54 @@ def problem_for(speed, scenario_conditions: Conditions) -> DPProblem:
                      state0=core.initial_state(scenario_conditions, 1)[0],
                      cond=core.conditions_array(scenario_conditions, 1)[0], reward_params=RewardParams(),
                      soc_target=scenario_conditions.initial_soc, name="short")
+
+
+@pytest.mark.parametrize("threads, block_rows", [(1, 4096), (2, 4096), (2, 100)])
+def test_a_stage_stepped_in_blocks_on_threads_is_the_env_step_and_cost(monkeypatch, threads, block_rows):
+    """:func:`~hev_thermal_env.planning.stage.expand` (one compiled call per thread, blocks dealt in turn) gives, bit
+    for bit, the core's step and the reward's stage cost of every state × split, added to the parent's cost-to-come,
+    and the parent's battery energy plus the step's: on a hot motor with varied states, in traction and braking."""
+    monkeypatch.setattr(stage, "BLOCK_ROWS", block_rows)
+    speed = np.array([4.0, 5.5, 7.0, 5.0, 3.0])
+    p = problem_for(speed, Conditions(ambient_temp_c=40.0, initial_motor_temp_c=62.0))
+    rng = np.random.default_rng(3)
+    states = np.repeat(p.state0[None, :], 300, axis=0)
+    states[:, C.SOC] += rng.uniform(-0.05, 0.05, 300)
+    for col, lo, hi in ((C.TEMP_C, -10.0, 15.0), (C.WINDING_C, 0.0, 60.0), (C.COOLANT_C, -5.0, 10.0)):
+        states[:, col] += rng.uniform(lo, hi, 300)
+    states[:, C.HEAT_X] = rng.uniform(-0.3, 0.6, 300)
+    states[::7, C.CUTOFF] = 1.0
+    cost, batt_j = rng.uniform(0.0, 50.0, 300), rng.uniform(-1e5, 1e5, 300)
+    u = np.linspace(-1.0, 1.0, 31)
+    for i in (1, 3):  # traction, braking
+        so, c, e, a = stage.expand(p, i, states, cost, batt_j, u, threads, stage.StageBuffers(p))
+        rep = np.repeat(states, u.size, axis=0)
+        ref_so, out = p.step(rep, np.tile(u, 300), i)
+        ref_c = stage_cost_g(p.reward_params, out, ref_so, p.soc_target, p.lhv, 1.0, battery=False, overheat=True)
+        np.testing.assert_array_equal(a, np.tile(u, 300))
+        np.testing.assert_array_equal(so, ref_so)
+        np.testing.assert_array_equal(c, ref_c + np.repeat(cost, u.size))
+        np.testing.assert_array_equal(e, np.repeat(batt_j, u.size) + out[:, C.BATT_CHEM] * 1.0)
+    assert np.any(out[:, C.MOTOR_TORQUE] < 0.0) and np.any(ref_c != ref_c[0])
+
+
+def test_the_search_runs_with_one_blas_thread():
+    """The stage's heat at its price is numpy's one matrix product in the search; OpenBLAS's idle threads spin after
+    it on the cores the stage's threads step on (HWFET with two threads took longer than with one), so the search
+    holds BLAS to one thread while it runs and gives it back after."""
+    from threadpoolctl import threadpool_info
+
+    def blas_threads() -> list[int]:
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    before = blas_threads()
+    assert before, "numpy's BLAS is not visible to threadpoolctl"
+    seen = []
+    p = problem_for(np.array([0.0, 2.0, 4.0, 3.0, 1.0]), Conditions())
+    search(p, SearchGrid(n_u=7), (0.6, 0.7), heat_price=np.full((p.n_stages + 1, 3), 0.01),
+           progress=lambda *_: seen.append(blas_threads()))
+    assert seen and all(t and max(t) == 1 for t in seen)
+    assert max(blas_threads()) == max(before)
 
 
 @pytest.mark.parametrize("heat_free", [False, True], ids=["temperature bins as given", "widest temperature bins"])

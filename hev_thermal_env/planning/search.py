@@ -15,15 +15,15 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
-from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 
 from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors
 from .corridor import backward_envelope
 from .heat_value import PRICED
 from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
+from .stage import StageBuffers, expand
 
 #: Where each priced temperature (:data:`~.heat_value.PRICED`) sits in :meth:`SearchGrid.widths`.
 _PRICED_KEY = tuple(KEY_COLUMNS.index(col) for col in PRICED)
@@ -181,89 +181,6 @@ def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
                              f"{2 ** (bits - 1) - 1} bins up to {top:g}); use a wider bin or a smaller grid_scale")
 
 
-#: Rows one thread steps and prices at a time: its inputs, the physics outputs (38 columns) and the cost's
-#: temporaries live in scratch arrays of that many rows, reused block after block, so they stay in the core's cache;
-#: only the next states, costs, battery energies and splits (about 90 B a row) go to memory. Threads take the blocks
-#: in turn (block k to thread k mod threads), so a run of costly rows is shared.
-BLOCK_ROWS = 4096
-
-
-class _Scratch:
-    """One thread's block of physics inputs and outputs; the inputs that are the same for every row (conditions, the
-    state before the step as far as the cost reads it) are filled once."""
-
-    def __init__(self, problem: DPProblem, n: int):
-        self.x, self.out = np.empty((n, C.N_STATE)), np.empty((n, C.N_OUT))
-        self.v0, self.v1, self.g = np.empty(n), np.empty(n), np.empty(n)
-        self.cond = np.ascontiguousarray(np.broadcast_to(problem.cond, (n, problem.cond.size)))
-        self.before = np.zeros((n, C.N_STATE))
-        self.before[:, C.SOC] = problem.soc_target  # what stage_cost_g assumes without state_before
-        self.target = np.full(n, float(problem.soc_target))
-
-
-class StageBuffers:
-    """Arrays of a stage's candidates, kept from stage to stage (grown when a stage has more rows): allocating
-    and zero-filling hundreds of MB every stage costs as much as the physics; and each thread's scratch block."""
-
-    def __init__(self, problem: DPProblem):
-        self.problem, self.rows = problem, 0
-        self.scratch: dict[int, _Scratch] = {}
-
-    def get(self, rows: int) -> StageBuffers:
-        if rows > self.rows:
-            n = max(rows, int(self.rows * 1.5))
-            self.so, self.c, self.e, self.a = np.empty((n, C.N_STATE)), np.empty(n), np.empty(n), np.empty(n)
-            self.no_heat = np.zeros(n)  # the heat cost of every row where heat has no price (read only)
-            self.rows = n
-        return self
-
-    def block(self, part: int, rows: int) -> _Scratch:
-        """Thread ``part``'s scratch of at least ``rows`` rows."""
-        sc = self.scratch.get(part)
-        if sc is None or sc.x.shape[0] < rows:
-            sc = self.scratch[part] = _Scratch(self.problem, rows)
-        return sc
-
-
-def expand(problem: DPProblem, i: int, states: np.ndarray, cost: np.ndarray, batt_j: np.ndarray, u: np.ndarray,
-            threads: int, buf: StageBuffers) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Every state × every split of stage ``i``: next states, cost-to-come, battery energy and the splits (views of
-    ``buf``, valid until the next stage).
-
-    Row r is state r // m with split u[r % m]. Blocks of states (:data:`BLOCK_ROWS`) run on separate threads in turn,
-    each doing its physics step and its cost (both compiled kernels release the GIL).
-    """
-    p, m = states.shape[0], u.size
-    rows = p * m
-    b = buf.get(rows)
-    so, c, e, a = b.so[:rows], b.c[:rows], b.e[:rows], b.a[:rows]
-    a.reshape(p, m)[:] = u
-    v0, v1, g = (float(x[0]) for x in problem.stage_inputs(i, 1))
-    rp, lhv, dt = problem.reward_params, problem.lhv, problem.core.dt_s
-    per_block = max(1, BLOCK_ROWS // m)  # states per block
-    parts = threads if rows >= MIN_THREAD_BATCH and p >= threads > 1 else 1
-
-    def run(part: int) -> None:
-        sc = buf.block(part, per_block * m)
-        sc.v0[:], sc.v1[:], sc.g[:] = v0, v1, g  # the stage's speeds and grade: the same for every row
-        for lo in range(part * per_block, p, parts * per_block):
-            hi = min(lo + per_block, p)
-            n, r = (hi - lo) * m, slice(lo * m, hi * m)
-            sc.x[:n].reshape(hi - lo, m, C.N_STATE)[:] = states[lo:hi, None, :]
-            out = sc.out[:n]
-            problem.core.step(sc.x[:n], a[r], sc.v0[:n], sc.v1[:n], sc.g[:n], sc.cond[:n], state_out=so[r], out=out)
-            c[r] = stage_cost_g(rp, out, so[r], sc.target[:n], lhv, dt, battery=False, overheat=True,
-                                state_before=sc.before[:n])
-            c[r].reshape(hi - lo, m)[:] += cost[lo:hi, None]
-            e[r].reshape(hi - lo, m)[:] = batt_j[lo:hi, None] + (out[:, C.BATT_CHEM] * dt).reshape(hi - lo, m)
-
-    if parts == 1:
-        run(0)
-    else:
-        list(thread_pool(parts).map(run, range(parts)))
-    return so, c, e, a
-
-
 def _stage_splits(u_grid: np.ndarray, centers: np.ndarray | None, i: int, kind: int) -> np.ndarray:
     """The splits of stage ``i`` (of ``kind``, :func:`~.problem.stage_splits`): the uniform grid's, or a refining
     pass's around each of ``centers`` (float32 values: a path's splits are stored as float32 and replayed exactly)."""
@@ -287,6 +204,9 @@ def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.nd
     return inside
 
 
+# numpy's one matrix product here (a stage's heat at its price) goes to OpenBLAS, whose threads then spin for a while
+# after each call on the core the stage's own threads need: with them, two threads stepped HWFET slower than one
+@threadpool_limits.wrap(limits=1, user_api="blas")
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
            progress=None, u_center: np.ndarray | None = None, tube: tuple[np.ndarray, np.ndarray] | None = None,
            heat_price: np.ndarray | None = None, third_price: bool = False) -> SearchResult:
