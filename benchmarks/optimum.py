@@ -329,6 +329,7 @@ def main() -> None:
 
     def write(partial: bool, speed_figures: dict | None = None) -> dict:
         result = _result(cells, convs, wides, speed_figures, partial, time.perf_counter() - t0)
+        result.update({k: v for k, v in old.items() if k not in result})  # what other checks added to the file
         atomic_write_json(out, result)
         return result
 
