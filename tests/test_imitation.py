@@ -30,6 +30,33 @@ def test_demonstrations_are_the_teachers_own_run_on_fresh_training_cycles():
     np.testing.assert_array_equal(obs[0], first)
 
 
+def test_noisy_demonstrations_drive_off_the_teachers_path_and_keep_its_labels(monkeypatch):
+    """``init.noise``: the env is driven by the teacher's action plus noise, each state is labelled with the teacher's
+    own action there (what the teacher returned, within the bounds, not what drove the env), reproducibly."""
+    import hev_thermal_env.training.imitation as imitation
+
+    said: list[float] = []
+    real = imitation.get_strategy
+
+    def recording(name):
+        strategy = real(name)
+        act = strategy.act
+        strategy.act = lambda obs, info: said.append(float(np.asarray(act(obs, info)).reshape(-1)[0])) or said[-1]
+        return strategy
+
+    monkeypatch.setattr(imitation, "get_strategy", recording)
+    clean, clean_actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=3)
+    said.clear()
+    obs, actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=3, noise=0.3)
+    np.testing.assert_array_equal(actions, np.asarray(said, dtype=np.float32))
+    assert np.all(np.abs(actions) <= 1.0)
+    np.testing.assert_array_equal(obs[0], clean[0])  # the same episode, from the same reset
+    assert np.mean(np.any(obs != clean, axis=1)) > 0.5  # and off the teacher's own path from then on
+    again, same = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=3, noise=0.3)
+    np.testing.assert_array_equal(obs, again)
+    np.testing.assert_array_equal(actions, same)
+
+
 @pytest.mark.full
 def test_fit_brings_the_policy_mean_to_the_teacher_and_beyond_the_bound_where_it_stops_the_engine():
     from stable_baselines3 import PPO
@@ -59,6 +86,7 @@ def test_init_settings_are_checked_in_one_line():
     for bad, match in (({"init.imitate": "dp_thermal"}, "step-by-step classic"), ({"init.imitate": "ppo"}, "classic"),
                        ({"init.episodes": 0}, "init.episodes"), ({"init.epochs": 1.5}, "init.epochs"),
                        ({"init.beyond_bound": 2}, "beyond_bound"), ({"init.teacher": "ecms"}, "unknown init"),
+                       ({"init.noise": 1.5}, "init.noise"), ({"init.noise": True}, "init.noise"),
                        ({"init.freeze_obs_stats": "yes"}, "true, false or a list"),
                        ({"init.freeze_obs_stats": ["motor_temp"]}, r"unknown observation\(s\) \['motor_temp'\]"),
                        ({"init.imitate": None, "init.freeze_obs_stats": True}, "set init.imitate")):

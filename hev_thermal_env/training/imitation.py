@@ -33,7 +33,7 @@ from ..envs.spaces import observation_names
 from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
-INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25,
+INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25, "noise": 0.0,
                                  "freeze_obs_stats": False}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
@@ -78,6 +78,9 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     b = out["beyond_bound"]
     if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0.0 <= float(b) <= 1.0:
         raise ValueError(f"init.beyond_bound must be a number in [0, 1], got {b!r}")
+    z = out["noise"]
+    if isinstance(z, bool) or not isinstance(z, (int, float)) or not 0.0 <= float(z) <= 1.0:
+        raise ValueError(f"init.noise must be a number in [0, 1] (the spread of the driven action), got {z!r}")
     return out
 
 
@@ -109,14 +112,18 @@ def frozen_mask(setting: bool | list[str], names: tuple[str, ...], var: np.ndarr
 
 
 def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed: int,
-                   progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   progress: Callable[[int], None] | None = None, noise: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env.
 
     Episode ``i`` is reset with seed ``seed · 1,000,003 + i`` (a fresh cycle of a training family and
-    fresh conditions of the training scenario) and driven from its first second.
+    fresh conditions of the training scenario) and driven from its first second. With ``noise`` > 0 the env is driven
+    by the teacher's action plus a normal draw of that spread (clipped by the env, drawn from ``seed``), and each
+    state is labelled with the teacher's own action there: the demonstrations then visit the states a policy that
+    explores (PPO: ``log_std_init`` −1, a spread of 0.37) or errs reaches, and show the teacher's way back.
     """
     env = HevThermalEnv(**{**env_kwargs, "random_start": False})
     strategy = get_strategy(teacher)
+    rng = np.random.default_rng([int(seed), 7])
     obs_rows: list[np.ndarray] = []
     actions: list[float] = []
     try:
@@ -128,6 +135,8 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed
                 a = np.asarray(strategy.act(obs, info), dtype=np.float64).reshape(1)
                 obs_rows.append(np.array(obs, dtype=np.float32))
                 actions.append(float(a[0]))
+                if noise > 0.0:
+                    a = a + noise * rng.standard_normal(1)
                 obs, _, terminated, truncated, info = env.step(a)
                 done = terminated or truncated
             if progress is not None:
@@ -168,7 +177,8 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config."""
     t0 = time.perf_counter()
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
-        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update)
+        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update,
+                                      noise=float(init.get("noise", 0.0)))
     demo_s = time.perf_counter() - t0
     x = obs
     if isinstance(venv, VecNormalize) and venv.norm_obs:
@@ -184,7 +194,8 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     high = float(np.asarray(model.action_space.high).reshape(-1)[0])
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed)
-    return {"teacher": init["imitate"], "episodes": init["episodes"], "steps": int(len(actions)),
+    return {"teacher": init["imitate"], "episodes": init["episodes"], "noise": float(init.get("noise", 0.0)),
+            "steps": int(len(actions)),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,
