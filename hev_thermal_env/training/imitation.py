@@ -11,7 +11,9 @@ With ``init.freeze_obs_stats`` (true: every entry the demonstrations vary; or a 
 statistics of those entries stay the demonstrations' for the whole run (the reward's scaling still adapts), so the
 fitted policy keeps the input it was fitted on. Otherwise they drift towards the states PPO visits, and the fitted
 behaviour moves with them: ``ecms_thermal``'s protection of a motor whose cooling fails is lost that way
-(docs/training.md, "The heat").
+(docs/training.md, "The heat"). With ``init.noise`` > 0 the demonstrations are driven off the teacher's path by that
+much noise on its action and labelled with the teacher's own (:func:`demonstrations`): at PPO's own spread the
+protection survives PPO, at a cost in fuel elsewhere (same section).
 """
 
 from __future__ import annotations
