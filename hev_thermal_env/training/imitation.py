@@ -178,9 +178,9 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
             progress: bool = True) -> dict[str, Any]:
     """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config."""
     t0 = time.perf_counter()
+    noise = float(init.get("noise", 0.0))
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
-        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update,
-                                      noise=float(init.get("noise", 0.0)))
+        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update, noise=noise)
     demo_s = time.perf_counter() - t0
     x = obs
     if isinstance(venv, VecNormalize) and venv.norm_obs:
@@ -196,8 +196,7 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     high = float(np.asarray(model.action_space.high).reshape(-1)[0])
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed)
-    return {"teacher": init["imitate"], "episodes": init["episodes"], "noise": float(init.get("noise", 0.0)),
-            "steps": int(len(actions)),
+    return {"teacher": init["imitate"], "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,
