@@ -89,7 +89,10 @@ def test_init_settings_are_checked_in_one_line():
                        ({"init.noise": 1.5}, "init.noise"), ({"init.noise": True}, "init.noise"),
                        ({"init.freeze_obs_stats": "yes"}, "true, false or a list"),
                        ({"init.freeze_obs_stats": ["motor_temp"]}, r"unknown observation\(s\) \['motor_temp'\]"),
-                       ({"init.imitate": None, "init.freeze_obs_stats": True}, "set init.imitate")):
+                       ({"init.imitate": None, "init.freeze_obs_stats": True}, "set init.imitate"),
+                       ({"init.refit_batches": -1}, "init.refit_batches"), ({"init.refit_lr": 0}, "init.refit_lr"),
+                       ({"init.refit_lr": "fast"}, "init.refit_lr"), ({"init.dagger_every": 1.5}, "dagger_every"),
+                       ({"init.dagger_every": 1000}, "set init.refit_batches")):
         with pytest.raises(ValueError, match=match):
             build_config("ppo", overrides=bad)
     with pytest.raises(ValueError, match="PPO runs only"):
@@ -129,3 +132,110 @@ def test_frozen_observation_statistics_stay_the_demonstrations(tmp_path, freeze)
     np.testing.assert_allclose(rms.mean[frozen], demo_mean[frozen], rtol=1e-12)
     moved = ~np.isclose(rms.mean, demo_mean, rtol=1e-9)
     assert not moved[frozen].any() and moved[~frozen].sum() >= (1 if freeze is True else 10)
+
+
+def _refit_setup(batches=8, dagger_every=0):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from hev_thermal_env.training.imitation import DemonstrationRefit
+
+    venv = VecNormalize(DummyVecEnv([lambda: HevThermalEnv(**env_kwargs(ENV))]), norm_reward=False)
+    obs, actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=4)
+    venv.obs_rms.mean, venv.obs_rms.var = obs.mean(0).astype(np.float64), obs.var(0).astype(np.float64)
+    model = PPO("MlpPolicy", venv, seed=0, device="cpu", n_steps=64, policy_kwargs={"net_arch": [32, 32]})
+    fit_policy_mean(model.policy, venv.normalize_obs(obs), actions, epochs=150, beyond_bound=0.25, high=1.0, seed=0)
+    init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "refit_batches": batches, "dagger_every": dagger_every,
+            "dagger_episodes": 1}
+    refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs(ENV), high=1.0, seed=4)
+    refit.init_callback(model)
+    return venv, model, refit, obs, actions
+
+
+def _mse(model, x, actions):
+    import torch
+
+    with torch.no_grad():
+        mean = model.policy.get_distribution(torch.as_tensor(x)).distribution.mean[:, 0].numpy()
+    return float(np.mean((mean - np.where(actions >= 1.0, 1.25, actions)) ** 2))
+
+
+def test_refit_follows_the_statistics_as_they_drift():
+    """``init.refit_batches``: a drift of the observation statistics moves the fitted policy off the teacher (what
+    loses ``ecms_thermal``'s protection, docs/training.md); refitting the demonstrations under the drifted statistics
+    brings it back, and without the drift the refit keeps the fit where it was."""
+    venv, model, refit, obs, actions = _refit_setup()
+    fitted = _mse(model, venv.normalize_obs(obs), actions)
+    for _ in range(5):
+        refit.on_rollout_end()
+    kept = _mse(model, venv.normalize_obs(obs), actions)
+    assert kept < 1.2 * fitted
+    venv.obs_rms.mean = venv.obs_rms.mean + 1.5 * np.sqrt(venv.obs_rms.var)  # every input seen 1.5 spreads lower
+    venv.obs_rms.var = venv.obs_rms.var * 4.0
+    drifted = _mse(model, venv.normalize_obs(obs), actions)
+    assert drifted > 2.0 * fitted
+    for _ in range(15):
+        refit.on_rollout_end()
+    refitted = _mse(model, venv.normalize_obs(obs), actions)
+    assert refitted < 0.5 * drifted and len(refit.mse) == 20
+    summary = refit.summary()
+    assert summary["refits"] == 20 and summary["dagger_rounds"] == 0 and summary["demonstration_steps"] == len(obs)
+
+
+def test_dagger_adds_the_students_states_labelled_by_the_teacher(monkeypatch):
+    """``init.dagger_every``: once that many env-steps are done the policy drives fresh episodes and the teacher's
+    actions on the states it visits join the demonstrations; the states are the student's, not the teacher's path."""
+    import hev_thermal_env.training.imitation as imitation
+
+    venv, model, refit, obs, actions = _refit_setup(batches=1, dagger_every=100)
+    driven: list[np.ndarray] = []
+    real = imitation.demonstrations
+
+    def recording(*args, drive=None, **kw):
+        return real(*args, drive=lambda o: driven.append(drive(o)) or driven[-1], **kw)
+
+    monkeypatch.setattr(imitation, "demonstrations", recording)
+    model.num_timesteps = 50
+    refit.on_rollout_end()
+    assert refit.rounds == 0 and len(refit.obs) == len(obs)
+    model.num_timesteps = 100
+    refit.on_rollout_end()
+    assert refit.rounds == 1 and len(refit.obs) == len(obs) + len(driven) and len(driven) > 1000
+    new_obs, new_actions = refit.obs[len(obs):], refit.actions[len(obs):]
+    teacher_obs, teacher_actions = real(env_kwargs(ENV), "ecms_thermal", 1, seed=4 + 1_000)
+    np.testing.assert_array_equal(new_obs[0], teacher_obs[0])  # the same fresh episode, from the same reset
+    assert np.mean(np.any(new_obs[:len(teacher_obs)] != teacher_obs[:len(new_obs)], axis=1)) > 0.5  # student's path
+    student = np.asarray(driven).reshape(-1)
+    assert np.mean(np.abs(student[:len(new_actions)] - new_actions[:len(student)]) > 1e-3) > 0.2  # labels: teacher's
+    assert np.all(np.abs(new_actions) <= 1.0)
+
+
+def test_a_run_with_refit_and_dagger_records_them_and_a_resumed_run_drives_its_demonstrations_again(tmp_path):
+    """``train.py`` with ``init.refit_batches`` and ``init.dagger_every`` on a tiny budget: the run records the refits
+    and DAgger rounds; a resumed run gets its first demonstrations again (the same states and labels) and continues
+    DAgger from the next round."""
+    import yaml
+
+    import train
+    from hev_thermal_env.training.imitation import resumed_refit
+
+    out = tmp_path / "run"
+    hp = ["n_steps=64", "batch_size=128", "n_epochs=1", "policy_kwargs.net_arch=[16,16]", "init.episodes=1",
+          "init.epochs=1", "init.refit_batches=2", "init.dagger_every=256", "init.dagger_episodes=1"]
+    code = train.main(["--algo", "ppo", "--cycles", "random_bus", "--scenario", "random_service", "--timesteps", "512",
+                       "--n-envs", "2", "--seed", "2", "--out", str(out), "--no-progress", "--quiet", "--eval-cycles",
+                       "--hp", *hp])
+    assert code == 0
+    refit = yaml.safe_load((out / "config.yaml").read_text())["result"]["imitation"]["refit"]
+    assert refit["refits"] == 4 and refit["dagger_rounds"] == 2 and refit["batches_per_rollout"] == 2
+    assert refit["demonstration_steps"] == 3 * 1300
+
+    _, model, _, obs, actions = _refit_setup()
+    model.num_timesteps = 700
+    init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "episodes": 1, "refit_batches": 2, "dagger_every": 256}
+    again = resumed_refit(model.get_env(), model, env_kwargs(ENV), init, seed=4)
+    np.testing.assert_array_equal(again.obs, obs)
+    np.testing.assert_array_equal(again.actions, actions)
+    assert again.rounds == 2
+    assert resumed_refit(model.get_env(), model, env_kwargs(ENV), {**init, "refit_batches": 0}, seed=4) is None
+

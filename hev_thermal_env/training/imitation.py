@@ -13,7 +13,10 @@ fitted policy keeps the input it was fitted on. Otherwise they drift towards the
 behaviour moves with them: ``ecms_thermal``'s protection of a motor whose cooling fails is lost that way
 (docs/training.md, "The heat"). With ``init.noise`` > 0 the demonstrations are driven off the teacher's path by that
 much noise on its action and labelled with the teacher's own (:func:`demonstrations`): at PPO's own spread the
-protection survives PPO, at a cost in fuel elsewhere (same section).
+protection survives PPO, at a cost in fuel elsewhere (same section). With ``init.refit_batches`` > 0 the fit goes on
+during PPO (:class:`DemonstrationRefit`): after every rollout a few batches of the demonstrations are fitted again under
+the statistics of that moment, so the fitted behaviour follows the statistics as they drift; with
+``init.dagger_every`` the states the policy itself visits join them, labelled by the teacher (DAgger).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from tqdm.auto import tqdm
@@ -36,7 +40,8 @@ from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25, "noise": 0.0,
-                                 "freeze_obs_stats": False}
+                                 "freeze_obs_stats": False, "refit_batches": 0, "refit_lr": 1e-4,
+                                 "dagger_every": 0, "dagger_episodes": 20}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 BATCH = 1024
@@ -80,6 +85,19 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     b = out["beyond_bound"]
     if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0.0 <= float(b) <= 1.0:
         raise ValueError(f"init.beyond_bound must be a number in [0, 1], got {b!r}")
+    n = out["refit_batches"]
+    if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+        raise ValueError(f"init.refit_batches must be a whole number of at least 0, got {n!r}")
+    for key in ("dagger_every", "dagger_episodes"):
+        value = out[key]
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ValueError(f"init.{key} must be a whole number of at least 0, got {value!r}")
+    if out["dagger_every"] and not n:
+        raise ValueError("init.dagger_every adds the student's states to the refitted demonstrations; set "
+                         "init.refit_batches > 0 or leave it 0")
+    r = out["refit_lr"]
+    if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < float(r) <= 1.0:
+        raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
     z = out["noise"]
     if isinstance(z, bool) or not isinstance(z, (int, float)) or not 0.0 <= float(z) <= 1.0:
         raise ValueError(f"init.noise must be a number in [0, 1] (the spread of the driven action), got {z!r}")
@@ -114,14 +132,16 @@ def frozen_mask(setting: bool | list[str], names: tuple[str, ...], var: np.ndarr
 
 
 def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed: int,
-                   progress: Callable[[int], None] | None = None, noise: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                   progress: Callable[[int], None] | None = None, noise: float = 0.0,
+                   drive: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env.
 
     Episode ``i`` is reset with seed ``seed · 1,000,003 + i`` (a fresh cycle of a training family and
     fresh conditions of the training scenario) and driven from its first second. With ``noise`` > 0 the env is driven
     by the teacher's action plus a normal draw of that spread (clipped by the env, drawn from ``seed``), and each
     state is labelled with the teacher's own action there: the demonstrations then visit the states a policy that
-    explores (PPO: ``log_std_init`` −1, a spread of 0.37) or errs reaches, and show the teacher's way back.
+    explores (PPO: ``log_std_init`` −1, a spread of 0.37) or errs reaches, and show the teacher's way back. With
+    ``drive`` (raw observation → action) another policy drives and the teacher only labels (DAgger).
     """
     env = HevThermalEnv(**{**env_kwargs, "random_start": False})
     strategy = get_strategy(teacher)
@@ -137,7 +157,9 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed
                 a = np.asarray(strategy.act(obs, info), dtype=np.float64).reshape(1)
                 obs_rows.append(np.array(obs, dtype=np.float32))
                 actions.append(float(a[0]))
-                if noise > 0.0:
+                if drive is not None:
+                    a = np.asarray(drive(obs), dtype=np.float64).reshape(1)
+                elif noise > 0.0:
                     a = a + noise * rng.standard_normal(1)
                 obs, _, terminated, truncated, info = env.step(a)
                 done = terminated or truncated
@@ -174,8 +196,90 @@ def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs
     return history
 
 
+class DemonstrationRefit(BaseCallback):
+    """``init.refit_batches`` > 0: after every rollout, that many batches of the demonstrations are fitted again
+    (MSE of the policy's mean to the teacher's action, Adam at ``init.refit_lr``), normalised with the statistics of
+    that moment. The fit then follows the statistics as they drift towards PPO's states, and PPO's gradient moves the
+    policy away from the teacher only where it gains. With ``init.dagger_every`` (env-steps) the deterministic policy
+    drives ``init.dagger_episodes`` fresh training episodes that often, and the teacher's actions on the states it
+    visits join the demonstrations (DAgger)."""
+
+    def __init__(self, venv: Any, obs: np.ndarray, actions: np.ndarray, *, init: dict[str, Any], env_kwargs: dict,
+                 high: float, seed: int):
+        super().__init__()
+        self.venv, self.obs, self.actions, self.high = venv, obs, actions, float(high)
+        self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
+        self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), init["imitate"], env_kwargs
+        self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
+        self.seed, self.rounds = int(seed), 0
+        self.rng = np.random.default_rng([int(seed), 11])
+        self.opt: torch.optim.Optimizer | None = None
+        self.mse: list[float] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _normalize(self, obs: np.ndarray) -> np.ndarray:
+        if isinstance(self.venv, VecNormalize) and self.venv.norm_obs:
+            obs = self.venv.normalize_obs(obs)
+        return np.asarray(obs, dtype=np.float32)
+
+    def _student(self, obs: np.ndarray) -> np.ndarray:
+        with torch.no_grad():
+            x = torch.as_tensor(self._normalize(np.asarray(obs, dtype=np.float32)[None]))
+            mean = self.model.policy.get_distribution(x).distribution.mean.numpy()[0]
+        return np.clip(mean, -self.high, self.high)
+
+    def _dagger(self) -> None:
+        self.rounds += 1
+        obs, actions = demonstrations(self.env_kwargs, self.teacher, self.dagger_episodes,
+                                      self.seed + 1_000 * self.rounds, drive=self._student)
+        self.obs = np.concatenate([self.obs, obs])
+        self.actions = np.concatenate([self.actions, actions])
+
+    def _on_rollout_end(self) -> None:
+        if self.dagger_every and self.model.num_timesteps >= self.dagger_every * (self.rounds + 1):
+            self._dagger()
+        policy = self.model.policy
+        if self.opt is None:
+            self.opt = torch.optim.Adam(policy.parameters(), lr=self.lr)
+        target = np.where(self.actions >= self.high, self.high + self.beyond_bound, self.actions).astype(np.float32)
+        total = 0.0
+        for _ in range(self.batches):
+            idx = self.rng.integers(0, len(self.obs), BATCH)
+            mean = policy.get_distribution(torch.as_tensor(self._normalize(self.obs[idx]))).distribution.mean[:, 0]
+            loss = torch.mean((mean - torch.as_tensor(target[idx])) ** 2)
+            self.opt.zero_grad()
+            loss.backward()
+            self.opt.step()
+            total += float(loss.detach())
+        self.mse.append(total / max(self.batches, 1))
+
+    def summary(self) -> dict[str, Any]:
+        """What the run records (``result.imitation.refit``)."""
+        return {"batches_per_rollout": self.batches, "lr": self.lr, "refits": len(self.mse),
+                "mse_last": round(self.mse[-1], 5) if self.mse else None, "dagger_rounds": self.rounds,
+                "demonstration_steps": int(len(self.actions))}
+
+
+def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[str, Any],
+                  seed: int) -> DemonstrationRefit | None:
+    """The refit of a resumed run: its first demonstrations driven again (the same episodes and actions), DAgger
+    continuing from the next round; the student's states of earlier rounds and the refit's optimiser state are not
+    kept in a checkpoint."""
+    if int(init.get("refit_batches", 0)) <= 0 or not init.get("imitate"):
+        return None
+    obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed,
+                                  noise=float(init.get("noise", 0.0)))
+    high = float(np.asarray(model.action_space.high).reshape(-1)[0])
+    refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=high, seed=seed)
+    if refit.dagger_every:
+        refit.rounds = int(model.num_timesteps) // refit.dagger_every
+    return refit
+
+
 def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, *,
-            progress: bool = True) -> dict[str, Any]:
+            progress: bool = True) -> tuple[dict[str, Any], DemonstrationRefit | None]:
     """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config."""
     t0 = time.perf_counter()
     noise = float(init.get("noise", 0.0))
@@ -196,8 +300,11 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     high = float(np.asarray(model.action_space.high).reshape(-1)[0])
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed)
+    refit = None
+    if int(init.get("refit_batches", 0)) > 0:
+        refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=high, seed=seed)
     return {"teacher": init["imitate"], "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,
-            "demonstration_s": round(demo_s, 1), "wall_s": round(time.perf_counter() - t0, 1)}
+            "demonstration_s": round(demo_s, 1), "wall_s": round(time.perf_counter() - t0, 1)}, refit

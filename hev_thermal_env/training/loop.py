@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from stable_baselines3.common.callbacks import CallbackList
 from stable_baselines3.common.utils import set_random_seed
 
 from hev_thermal_env.agents.policy_files import (
@@ -40,7 +41,7 @@ from .curves import plot_training_curve
 from .envs import env_kwargs, make_vec_env, wrap_normalize
 from .evaluator import PolicyEvaluator
 from .hyperparams import algorithm_class, algorithm_kwargs
-from .imitation import imitate
+from .imitation import imitate, resumed_refit
 from .lagrangian import LagrangeMultiplier, LagrangianVecEnv, load_multiplier, save_multiplier
 from .selection import compute_references, get_scorer, is_better
 from .validation_report import final_validation
@@ -174,17 +175,20 @@ class TrainingRun:
         self.venv = wrap_normalize(self.raw, cfg, resume_from[2] if resume_from and normalized else None)
         self.model = self.make_model(self.venv, resume_from)
         self.resume_from = resume_from
+        self.refit = None
         if isinstance(self.raw, LagrangianVecEnv):
             self.raw.timesteps = int(self.model.num_timesteps)
             if resume_from is not None:
                 load_multiplier(self.raw.multiplier, resume_from[1])
         init = cfg.get("init") or {}
         if resume_from is None and init.get("imitate"):
-            rec = imitate(self.model, self.venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]),
-                          progress=self.progress)
+            rec, self.refit = imitate(self.model, self.venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]),
+                                      progress=self.progress)
             cfg.setdefault("result", {})["imitation"] = rec
             self.log(f"imitation of {rec['teacher']}: {rec['steps']} steps of {rec['episodes']} episodes, policy "
                      f"mean fitted (MSE {rec['mse_first']} -> {rec['mse_last']}) in {rec['wall_s']} s")
+        elif resume_from is not None:
+            self.refit = resumed_refit(self.venv, self.model, env_kwargs(cfg["env"]), init, int(cfg["seed"]))
 
     def execute(self) -> dict[str, Any]:
         """Learn up to the total, then save the final model and its evaluation; returns the ``result`` section."""
@@ -194,12 +198,15 @@ class TrainingRun:
         done_before = int(model.num_timesteps)
         remaining = int(cfg["total_timesteps"]) - done_before
         callback = RunCallback(self)
+        callbacks = callback if self.refit is None else CallbackList([callback, self.refit])
         t0 = time.perf_counter()
         if remaining > 0:
             with stop_on_signals(callback):
-                model.learn(remaining, callback=callback, reset_num_timesteps=self.resume_from is None,
+                model.learn(remaining, callback=callbacks, reset_num_timesteps=self.resume_from is None,
                             tb_log_name=cfg["algo"].upper(), progress_bar=self.progress)
         result = self.session_summary(model, done_before, time.perf_counter() - t0, self.timed.seconds)
+        if self.refit is not None:
+            self.config.setdefault("result", {}).setdefault("imitation", {})["refit"] = self.refit.summary()
         if callback.stop_signal is not None:
             path = self.checkpoint(model)
             self.record_session(result, finished=False)
