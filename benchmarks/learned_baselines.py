@@ -7,7 +7,8 @@ distribution (``train.py --task bus-generalisation``: a fresh route of every gen
 ``random_service`` conditions; never a test, validation or standard cycle), one ``train.py`` process per seed, the
 seeds fixed in advance (:data:`SEEDS`, no picking among extra seeds), into ``RUNS/METHOD/seed_S`` (a finished run
 is reused). The policy evaluated is each run's ``best_model.zip`` (selected on ``validation_bus:20..29``, never on a
-task's cycles). Behaviour cloning (``bc``, :data:`BC`) fits seeds 0-4 to the thermal optimum's offline dataset on
+task's cycles); ``--also NAME=DIR`` scores a family of finished runs ``DIR/seed_S`` beside them (``--also-final``: their
+final ``model.zip``). Behaviour cloning (``bc``, :data:`BC`) fits seeds 0-4 to the thermal optimum's offline dataset on
 one route of every training family (``evaluate.py dataset --source optimum``, then ``evaluate.py bc``; the dataset is
 reused when there). Every seed family then drives every episode of every task (``--tasks``, default all) and is scored
 against the task's stored reference, as the leaderboard scores any result (no optimum is solved here): the
@@ -30,6 +31,7 @@ which ``evaluate.py leaderboard --results`` places on the leaderboard with the t
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import platform
@@ -122,12 +124,12 @@ def _finished(out: Path) -> bool:
     return (out / "config.yaml").is_file() and bool((load_run_config(out).get("result") or {}).get("finished"))
 
 
-def seed_record(out: Path, seed: int) -> dict[str, Any]:
-    """What the JSON records of the finished run in ``out``."""
+def seed_record(out: Path, seed: int, policy_file: str = POLICY_FILE) -> dict[str, Any]:
+    """What the JSON records of the finished run in ``out`` (its policy: ``policy_file``)."""
     from hev_thermal_env.training.config import load_run_config
 
     res = load_run_config(out).get("result") or {}
-    return {"seed": seed, "run_dir": str(out), "policy": str(out / POLICY_FILE),
+    return {"seed": seed, "run_dir": str(out), "policy": str(out / policy_file),
             "train_wall_s": res.get("wall_s"), "timesteps": res.get("timesteps_done"),
             "steps_per_s": res.get("steps_per_s"), "env_share": res.get("env_share"),
             "imitation_wall_s": (res.get("imitation") or {}).get("wall_s"), "lagrangian": res.get("lagrangian")}
@@ -156,10 +158,11 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
                     "timesteps": seeds[0]["timesteps"], "steps_per_s": _mean([s["steps_per_s"] for s in seeds])}
         path = results_dir / task.id / f"{FAMILY_NAMES[method]}.json"
         policies = [s["policy"] for s in seeds]
+        digests = [_digest(p) for p in policies]
         result = _current(path)
-        if result is None or result.get("policies") != policies:
+        if result is None or result.get("policies") != policies or result.get("policy_digests") != digests:
             result = {**result_of_seeds(task, {s["seed"]: f"ppo:{s['policy']}" for s in seeds}, FAMILY_NAMES[method],
-                                        training=training), "policies": policies}
+                                        training=training), "policies": policies, "policy_digests": digests}
             atomic_write_json(path, result)
         record["methods"][method] = {**score_family(result, reference), "wall_s": round(time.perf_counter() - t0, 1)}
     if bc is not None:
@@ -167,6 +170,12 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
         atomic_write_json(results_dir / task.id / "BC.json", result)
         record["methods"][BC] = score_family(result, reference)
     return record
+
+
+def _digest(policy: str) -> str | None:
+    """A digest of a saved policy's model zip (a retrained policy at the same path is evaluated again)."""
+    path = Path(policy) if Path(policy).is_absolute() else ROOT / policy
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.is_file() else None
 
 
 def _current(path: Path) -> dict[str, Any] | None:
@@ -276,8 +285,8 @@ def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | No
     if not curves:
         return None
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(curves), figsize=(3.6 * len(curves) + 0.6, 4.2), sharey=True, squeeze=False,
-                             layout="constrained")
+    fig, axes = plt.subplots(1, len(curves), figsize=(max(3.6 * len(curves) + 0.6, 6.4), 4.2), sharey=True,
+                             squeeze=False, layout="constrained")
     for ax, (method, runs) in zip(axes[0], curves.items()):
         for k, (x, y, ok, best) in enumerate(runs):
             line, = ax.plot(x, 100.0 * y, lw=0.9, alpha=0.7, label=f"seed {methods[method]['seeds'][k]['seed']}")
@@ -293,7 +302,7 @@ def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | No
         ax.set_title(FAMILY_NAMES.get(method, method), fontsize=10)
         ax.set_xlabel("env-steps")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=7, loc="lower right")
     axes[0][0].set_ylabel("validation fuel, % of ECMS's (mean of 20 runs)")
     fig.suptitle("Learning curves on the selection runs (validation_bus:20..29 × paper, full_bus)\nx: an evaluation "
                  "with |ΔSOC| > 0.02 on a run; *: best_model.zip", fontsize=9)
@@ -316,6 +325,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--also", nargs="+", default=[], metavar="NAME=DIR",
                    help="also score a family of finished runs DIR/seed_S (the same seeds; never trained here) under "
                         "NAME, e.g. a variant of a method's hyperparameters")
+    p.add_argument("--also-final", action="store_true",
+                   help=f"score the --also families' final model.zip instead of their {POLICY_FILE}")
     p.add_argument("--train-only", action="store_true", help="train (or reuse) the runs; evaluate nothing")
     p.add_argument("--smoke", action="store_true",
                    help=f"tiny budgets ({' '.join(_SMOKE_COMMON[:2])} env-steps), seeds "
@@ -349,8 +360,9 @@ def main(argv: list[str] | None = None) -> int:
         if unfinished:
             raise SystemExit(f"--also {name}: no finished run in {', '.join(unfinished)}")
         FAMILY_NAMES[name] = NAMES[name] = name
-        also[name] = {"train_args": f"finished runs in {folder}, not trained here",
-                      "seeds": [seed_record(d, s) for d, s in zip(dirs, seeds)]}
+        policy_file = "model.zip" if args.also_final else POLICY_FILE
+        also[name] = {"train_args": f"finished runs in {folder}, not trained here ({policy_file})",
+                      "seeds": [seed_record(d, s, policy_file) for d, s in zip(dirs, seeds)]}
     for method in [m for m in args.methods if m != BC]:
         extra = SMOKE_ARGS[method] if args.smoke else (["--hp", *METHOD_HP[method]] if method in METHOD_HP else [])
         record["methods"][method] = {"train_args": extra, "seeds": [train_seed(method, s, runs, extra) for s in seeds]}

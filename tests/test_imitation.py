@@ -92,7 +92,7 @@ def test_init_settings_are_checked_in_one_line():
                        ({"init.imitate": None, "init.freeze_obs_stats": True}, "set init.imitate"),
                        ({"init.refit_batches": -1}, "init.refit_batches"), ({"init.refit_lr": 0}, "init.refit_lr"),
                        ({"init.refit_lr": "fast"}, "init.refit_lr"), ({"init.dagger_every": 1.5}, "dagger_every"),
-                       ({"init.dagger_every": 1000}, "set init.refit_batches")):
+                       ({"init.dagger_every": 1000, "init.refit_batches": 0}, "set init.refit_batches")):
         with pytest.raises(ValueError, match=match):
             build_config("ppo", overrides=bad)
     with pytest.raises(ValueError, match="PPO runs only"):

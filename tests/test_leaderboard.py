@@ -200,3 +200,37 @@ def test_the_optimums_row_is_its_stored_reference_run_without_a_solve(tmp_path, 
     assert result["method"] == "dp_thermal" and result["episodes"][0]["cost_g"] == 1000.0
     entry = score_result(result, R.load_reference("hwfet", refs))
     assert entry["score"] == pytest.approx(100.0) and entry["frontier_ratio"] == pytest.approx(1.0)
+
+
+def test_the_shipped_policys_stored_result_is_redone_once_the_policy_changes(tmp_path, monkeypatch):
+    """The ``ppo`` row is reused while the shipped policy's files are the same and driven again once they change (a
+    retrained policy): its result records their digest."""
+    from hev_thermal_env.evaluation import leaderboard as L
+
+    refs = tmp_path / "refs"
+    refs.mkdir()
+    (refs / "hwfet-v1.json").write_text(json.dumps(synthetic_reference(4000.0)))
+    runs: list[str] = []
+
+    def fake_run(task, method, references=None):
+        runs.append(method)
+        return L.result_of_reference(task, references) | {"method": method}
+
+    monkeypatch.setattr(L, "result_of_strategy", fake_run)
+    digest = {"value": "aaaa"}
+    monkeypatch.setattr(L, "shipped_policy_digest", lambda: digest["value"])
+    [path] = L.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
+    assert runs == ["ppo"] and load_result(path)["policy_digest"] == "aaaa"
+    L.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
+    assert runs == ["ppo"]  # the same policy: reused
+    digest["value"] = "bbbb"
+    L.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
+    assert runs == ["ppo", "ppo"] and load_result(path)["policy_digest"] == "bbbb"
+
+
+def test_the_shipped_policys_digest_covers_its_model_and_statistics():
+    from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR
+    from hev_thermal_env.evaluation.leaderboard import shipped_policy_digest
+
+    assert (DEFAULT_POLICY_DIR / "model.zip").is_file() and (DEFAULT_POLICY_DIR / "vecnormalize.pkl").is_file()
+    assert len(shipped_policy_digest()) == 16 and shipped_policy_digest() == shipped_policy_digest()

@@ -353,3 +353,15 @@ def test_an_extra_family_must_be_finished_runs_under_a_new_name(tmp_path):
     with pytest.raises(SystemExit, match="expected NAME=DIR with a new name"):
         script.main(["--smoke", "--methods", "ppo", "--also", f"PPO={tmp_path}", "--out", str(tmp_path)])
     assert not (tmp_path / "runs").exists()  # refused before anything trained
+
+
+def test_an_extra_family_is_scored_with_its_best_or_its_final_model(runs):
+    """``--also``: a family's policy is each run's ``best_model.zip``; ``--also-final`` its final ``model.zip``."""
+    script = _script()
+    run = runs["tqc"]
+    best, final = script.seed_record(run, 0), script.seed_record(run, 0, "model.zip")
+    assert best["policy"] == str(run / "best_model.zip") and final["policy"] == str(run / "model.zip")
+    assert {k: v for k, v in best.items() if k != "policy"} == {k: v for k, v in final.items() if k != "policy"}
+    assert (run / "model.zip").is_file() and (run / "best_model.zip").is_file()
+    assert script.parse_args(["--also", "x=y", "--also-final"]).also_final
+    assert not script.parse_args(["--also", "x=y"]).also_final

@@ -50,15 +50,16 @@ class FakeModel:
         return None
 
 
-def run_selection(tmp_path, monkeypatch, evaluations) -> tuple[list[int], object]:
-    """Feed ``evaluations`` (one per 1000 env-steps) through ``TrainingRun.evaluate``; returns the steps saved as
-    ``best_model.zip`` and the run."""
+def run_selection(tmp_path, monkeypatch, evaluations, selection="fuel_vs_ecms") -> tuple[list[int], object]:
+    """Feed ``evaluations`` (one per 1000 env-steps) through ``TrainingRun.evaluate`` with ``eval.selection``
+    ``selection``; returns the steps saved as ``best_model.zip`` and the run."""
     saved: list[int] = []
     model = FakeModel()
     monkeypatch.setattr(loop, "LoadedPolicy", lambda model, stats: type("P", (), {"act": None})())
     monkeypatch.setattr(loop, "save_model_and_stats", lambda m, stats, path, spath: saved.append(m.num_timesteps))
     config = build_config("ppo", cycles=["random_bus"], eval_cycles=list(CYCLES), eval_scenarios=["paper"])
     config["result"] = {"selection_reference": dict(REFERENCE)}
+    config["eval"]["selection"] = selection
     run = loop.TrainingRun(config, tmp_path, verbose=0)
     run.evaluator = FakeEvaluator(evaluations)
     for k in range(len(evaluations)):
@@ -95,6 +96,17 @@ def test_when_no_checkpoint_holds_the_soc_the_least_violating_wins(tmp_path, mon
     assert saved == [1000, 3000]
 
 
+def test_the_final_selection_keeps_every_latest_evaluation_and_still_scores_it(tmp_path, monkeypatch):
+    """``eval.selection: final``: ``best_model.zip`` is the latest evaluation whatever its fuel or charge, so the
+    final model; the fuel ÷ ECMS and the SOC check are still written for every evaluation."""
+    evaluations = [results(-100.0, 1.02), results(-60.0, 1.10, dsoc=SOC_LIMIT + 0.005), results(-90.0, 1.07)]
+    saved, _ = run_selection(tmp_path, monkeypatch, evaluations, selection="final")
+    assert saved == [1000, 2000, 3000]
+    rows = read_evaluations(tmp_path / "evaluations.csv")
+    assert selected_step(rows) == 3000 and [r["qualified"] for r in rows[::2]] == [True, False, True]
+    assert rows[2]["fuel_ratio"] == pytest.approx(1.10)
+
+
 def test_resumed_run_keeps_the_best_score_of_its_evaluations(tmp_path, monkeypatch):
     run_selection(tmp_path, monkeypatch, [results(-100.0, 1.05), results(-100.0, 1.01)])
     config = build_config("ppo", cycles=["random_bus"], eval_cycles=list(CYCLES), eval_scenarios=["paper"])
@@ -129,7 +141,7 @@ def test_ecms_reference_is_the_corrected_fuel_of_ecms():
 
 
 def test_unknown_scorers_fail():
-    with pytest.raises(ValueError, match="registered scorers: fuel_vs_ecms, fuel_vs_rule"):
+    with pytest.raises(ValueError, match="registered scorers: fuel_vs_ecms, fuel_vs_rule, final"):
         get_scorer("fastest")
     with pytest.raises(ValueError, match="unknown eval.selection"):
         build_config("ppo", overrides={"eval.selection": "mean_return"})
@@ -144,7 +156,8 @@ def test_config_rejects_random_scenarios_and_scoring_on_training_cycles():
         build_config("ppo", cycles=["hwfet"], eval_cycles=["hwfet"])
     cfg = build_config("ppo")
     assert "hwfet" not in cfg["env"]["cycles"] and "beijing" not in cfg["env"]["cycles"]
-    assert cfg["eval"]["selection"] == "fuel_vs_ecms" and cfg["env"]["scenario"] == "random_service"
+    # ppo.yaml keeps the final model
+    assert cfg["eval"]["selection"] == "final" and cfg["env"]["scenario"] == "random_service"
 
 
 # --- training_curve.png -----------------------------------------------------------------------------

@@ -2,17 +2,18 @@
 
 Its inputs are result files (:mod:`.submission`), whoever wrote them: :func:`ensure_results` writes those of this
 package's strategies (:data:`METHODS`: the classic strategies, the optimum and the shipped policy) into a directory
-and reuses them while they are current (the optimum's is its stored reference run, so the page needs no solve); an
-outside method adds its own file. :func:`score_result` scores a result against its task's reference
-(:mod:`.references`): the normalised score per episode (:mod:`.score`), aggregated by IQM with a 95 % stratified
-bootstrap interval (one stratum per episode, the seeds within), the frontier ratio, the episode safety cost against
-the task's budget and the fuel. :func:`write_leaderboard` writes the page and the performance profile (rliable's: the
-fraction of a method's runs, over every task, episode and seed, that score above τ, against τ). ``evaluate.py
-leaderboard`` is the command; docs/leaderboard.md is its page.
+and reuses them while they are current (the shipped policy's while its files are the same; the optimum's is its
+stored reference run, so the page needs no solve); an outside method adds its own file. :func:`score_result` scores a
+result against its task's reference (:mod:`.references`): the normalised score per episode (:mod:`.score`),
+aggregated by IQM with a 95 % stratified bootstrap interval (one stratum per episode, the seeds within), the frontier
+ratio, the episode safety cost against the task's budget and the fuel. :func:`write_leaderboard` writes the page and
+the performance profile (rliable's: the fraction of a method's runs, over every task, episode and seed, that score
+above τ, against τ). ``evaluate.py leaderboard`` is the command; docs/leaderboard.md is its page.
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -42,6 +43,16 @@ def label(method: str) -> str:
     return names.get(method, display_name(method))
 
 
+def shipped_policy_digest() -> str:
+    """A digest of the shipped policy's files (``ppo``): its stored result is stale once the policy is retrained."""
+    from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR
+
+    h = hashlib.sha256()
+    for name in ("model.zip", "vecnormalize.pkl"):
+        h.update((DEFAULT_POLICY_DIR / name).read_bytes())
+    return h.hexdigest()[:16]
+
+
 def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str] = METHODS,
                    progress: Callable[[str], None] | None = None, references: Path | None = None) -> list[Path]:
     """``DIRECTORY/<task id>/<method>.json`` for every task and method: reused when it validates, else written
@@ -53,11 +64,17 @@ def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str]
         task = get_task(name)
         for method in methods:
             path = Path(directory) / task.id / f"{method}.json"
+            digest = shipped_policy_digest() if method == "ppo" else None
             try:
-                load_result(path)
+                stored = load_result(path)
+                stale = digest is not None and stored.get("policy_digest") != digest
             except (ResultFormatError, StaleReferenceError):
+                stale = True
+            if stale:
                 record = (result_of_reference(task, references) if method == REFERENCE
                           else result_of_strategy(task, method, references=references))
+                if digest is not None:
+                    record["policy_digest"] = digest
                 atomic_write_json(path, record)
                 if progress is not None:
                     how = ("from the stored reference" if method == REFERENCE

@@ -105,7 +105,7 @@ class TrainingRun:
         self.eval_seconds += time.perf_counter() - t
         mean_return = float(np.mean([r["return_g"] for r in results]))
         score = self.scorer.score(results, self.references())
-        best = is_better(score.value, self.best_score)
+        best = is_better(score.value, self.best_score, self.scorer.keep_latest)
         n = int(model.num_timesteps)
         wall = self.wall_before + time.perf_counter() - self.session_start
         for r, ratio in zip(results, score.ratios):

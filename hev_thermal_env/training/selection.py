@@ -4,7 +4,8 @@ An evaluation is one result per validation cycle × scenario (:mod:`.evaluator`)
 ``eval.selection`` names the scorer, one of :data:`SCORERS`: ``fuel_vs_ecms`` (the default) or
 ``fuel_vs_rule``, the mean corrected fuel relative to that strategy on the same runs plus
 :data:`VIOLATION_PENALTY` per run whose ``|ΔSOC|`` exceeds :data:`SOC_LIMIT` (:func:`fuel_ratio_score`),
-so a checkpoint that holds the SOC everywhere always beats one that does not. See docs/training.md.
+so a checkpoint that holds the SOC everywhere always beats one that does not; or ``final``, which scores as
+``fuel_vs_ecms`` but keeps the latest evaluation, so ``best_model.zip`` is the final model. See docs/training.md.
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ class Scorer:
     reference: Callable[[str, str], float]
     short: str = "score"
     reference_name: str = ""
+    keep_latest: bool = False
 
 
 def run_key(cycle: str, scenario: str) -> str:
@@ -89,6 +91,8 @@ def _fuel_scorer(strategy: str) -> Scorer:
 SCORERS: dict[str, Scorer] = {
     "fuel_vs_ecms": _fuel_scorer("ecms"),
     "fuel_vs_rule": _fuel_scorer("rule"),
+    "final": dataclasses.replace(_fuel_scorer("ecms"), name="final", keep_latest=True,
+                                 label="the latest evaluation, so the final model (fuel ÷ ECMS reported)"),
 }
 
 
@@ -111,6 +115,7 @@ def compute_references(scorer: Scorer, cycles: Sequence[str], scenarios: Sequenc
     return out
 
 
-def is_better(score: float, best: float | None) -> bool:
-    """Whether a checkpoint scoring ``score`` replaces the best so far (``best`` None: none yet)."""
-    return bool(np.isfinite(score)) and (best is None or score < best)
+def is_better(score: float, best: float | None, keep_latest: bool = False) -> bool:
+    """Whether a checkpoint scoring ``score`` replaces the best so far (``best`` None: none yet); with
+    ``keep_latest`` (the ``final`` selection) every new checkpoint does."""
+    return keep_latest or (bool(np.isfinite(score)) and (best is None or score < best))
