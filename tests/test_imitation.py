@@ -92,6 +92,7 @@ def test_init_settings_are_checked_in_one_line():
                        ({"init.imitate": None, "init.freeze_obs_stats": True}, "set init.imitate"),
                        ({"init.refit_batches": -1}, "init.refit_batches"), ({"init.refit_lr": 0}, "init.refit_lr"),
                        ({"init.refit_lr": "fast"}, "init.refit_lr"), ({"init.dagger_every": 1.5}, "dagger_every"),
+                       ({"init.refit_decay": "yes"}, "init.refit_decay"),
                        ({"init.dagger_every": 1000, "init.refit_batches": 0}, "set init.refit_batches")):
         with pytest.raises(ValueError, match=match):
             build_config("ppo", overrides=bad)
@@ -239,3 +240,18 @@ def test_a_run_with_refit_and_dagger_records_them_and_a_resumed_run_drives_its_d
     assert again.rounds == 2
     assert resumed_refit(model.get_env(), model, env_kwargs(ENV), {**init, "refit_batches": 0}, seed=4) is None
 
+
+
+def test_the_refit_rate_follows_the_ppo_schedule_when_asked():
+    """``init.refit_decay``: the refit's learning rate decays with PPO's (``learning_rate: lin_...``), so late in a
+    run the refit no more than PPO moves the policy; without it the rate stays ``init.refit_lr``."""
+    _, model, refit, _, _ = _refit_setup(batches=1)
+    model.lr_schedule = lambda progress: 3e-5 * progress
+    model._current_progress_remaining = 0.5
+    refit.on_rollout_end()
+    assert refit.opt.param_groups[0]["lr"] == pytest.approx(1e-4)
+    refit.decay = True
+    for progress, expected in ((1.0, 1e-4), (0.5, 5e-5), (0.0, 0.0)):
+        model._current_progress_remaining = progress
+        refit.on_rollout_end()
+        assert refit.opt.param_groups[0]["lr"] == pytest.approx(expected)

@@ -40,7 +40,7 @@ from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25, "noise": 0.0,
-                                 "freeze_obs_stats": False, "refit_batches": 0, "refit_lr": 1e-4,
+                                 "freeze_obs_stats": False, "refit_batches": 0, "refit_lr": 1e-4, "refit_decay": False,
                                  "dagger_every": 0, "dagger_episodes": 20}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
@@ -95,6 +95,8 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     if out["dagger_every"] and not n:
         raise ValueError("init.dagger_every adds the student's states to the refitted demonstrations; set "
                          "init.refit_batches > 0 or leave it 0")
+    if not isinstance(out["refit_decay"], bool):
+        raise ValueError(f"init.refit_decay must be true or false, got {out['refit_decay']!r}")
     r = out["refit_lr"]
     if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < float(r) <= 1.0:
         raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
@@ -200,7 +202,8 @@ class DemonstrationRefit(BaseCallback):
     """``init.refit_batches`` > 0: after every rollout, that many batches of the demonstrations are fitted again
     (MSE of the policy's mean to the teacher's action, Adam at ``init.refit_lr``), normalised with the statistics of
     that moment. The fit then follows the statistics as they drift towards PPO's states, and PPO's gradient moves the
-    policy away from the teacher only where it gains. With ``init.dagger_every`` (env-steps) the deterministic policy
+    policy away from the teacher only where it gains; with ``init.refit_decay`` the refit's rate decays with PPO's
+    learning-rate schedule. With ``init.dagger_every`` (env-steps) the deterministic policy
     drives ``init.dagger_episodes`` fresh training episodes that often, and the teacher's actions on the states it
     visits join the demonstrations (DAgger)."""
 
@@ -209,6 +212,7 @@ class DemonstrationRefit(BaseCallback):
         super().__init__()
         self.venv, self.obs, self.actions, self.high = venv, obs, actions, float(high)
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
+        self.decay = bool(init["refit_decay"])
         self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), init["imitate"], env_kwargs
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
         self.seed, self.rounds = int(seed), 0
@@ -243,6 +247,10 @@ class DemonstrationRefit(BaseCallback):
         policy = self.model.policy
         if self.opt is None:
             self.opt = torch.optim.Adam(policy.parameters(), lr=self.lr)
+        if self.decay:  # the refit's rate follows PPO's schedule: late in the run neither moves the policy much
+            schedule = self.model.lr_schedule
+            for group in self.opt.param_groups:
+                group["lr"] = self.lr * schedule(self.model._current_progress_remaining) / schedule(1.0)
         target = np.where(self.actions >= self.high, self.high + self.beyond_bound, self.actions).astype(np.float32)
         total = 0.0
         for _ in range(self.batches):
