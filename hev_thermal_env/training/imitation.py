@@ -172,10 +172,15 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed
     return np.stack(obs_rows), np.asarray(actions, dtype=np.float32)
 
 
+def fit_targets(actions: np.ndarray, high: float, beyond_bound: float) -> np.ndarray:
+    """The teacher's actions as fitted: ``high + beyond_bound`` where the teacher sits at the upper bound (float32)."""
+    return np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
+
+
 def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs: int, beyond_bound: float,
                     high: float, seed: int) -> list[float]:
     """Fit ``policy``'s mean action to ``actions`` on (already normalised) ``obs``; the MSE of every pass."""
-    target = np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
+    target = fit_targets(actions, high, beyond_bound)
     x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
     y = torch.as_tensor(target)
     gen = torch.Generator().manual_seed(int(seed))
@@ -214,6 +219,7 @@ class DemonstrationRefit(BaseCallback):
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
         self.decay = bool(init["refit_decay"])
         self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), init["imitate"], env_kwargs
+        self.target = fit_targets(actions, self.high, self.beyond_bound)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
         self.seed, self.rounds = int(seed), 0
         self.rng = np.random.default_rng([int(seed), 11])
@@ -240,6 +246,7 @@ class DemonstrationRefit(BaseCallback):
                                       self.seed + 1_000 * self.rounds, drive=self._student)
         self.obs = np.concatenate([self.obs, obs])
         self.actions = np.concatenate([self.actions, actions])
+        self.target = fit_targets(self.actions, self.high, self.beyond_bound)
 
     def _on_rollout_end(self) -> None:
         if self.dagger_every and self.model.num_timesteps >= self.dagger_every * (self.rounds + 1):
@@ -251,12 +258,11 @@ class DemonstrationRefit(BaseCallback):
             schedule = self.model.lr_schedule
             for group in self.opt.param_groups:
                 group["lr"] = self.lr * schedule(self.model._current_progress_remaining) / schedule(1.0)
-        target = np.where(self.actions >= self.high, self.high + self.beyond_bound, self.actions).astype(np.float32)
         total = 0.0
         for _ in range(self.batches):
             idx = self.rng.integers(0, len(self.obs), BATCH)
             mean = policy.get_distribution(torch.as_tensor(self._normalize(self.obs[idx]))).distribution.mean[:, 0]
-            loss = torch.mean((mean - torch.as_tensor(target[idx])) ** 2)
+            loss = torch.mean((mean - torch.as_tensor(self.target[idx])) ** 2)
             self.opt.zero_grad()
             loss.backward()
             self.opt.step()
@@ -288,7 +294,8 @@ def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[
 
 def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, *,
             progress: bool = True) -> tuple[dict[str, Any], DemonstrationRefit | None]:
-    """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config."""
+    """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config and
+    the :class:`DemonstrationRefit` to run during PPO (None without ``init.refit_batches``)."""
     t0 = time.perf_counter()
     noise = float(init.get("noise", 0.0))
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
