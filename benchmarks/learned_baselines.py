@@ -31,7 +31,6 @@ which ``evaluate.py leaderboard --results`` places on the leaderboard with the t
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import platform
@@ -174,8 +173,10 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
 
 def _digest(policy: str) -> str | None:
     """A digest of a saved policy's model zip (a retrained policy at the same path is evaluated again)."""
+    from hev_thermal_env.io import files_digest
+
     path = Path(policy) if Path(policy).is_absolute() else ROOT / policy
-    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.is_file() else None
+    return files_digest(path) if path.is_file() else None
 
 
 def _current(path: Path) -> dict[str, Any] | None:

@@ -6,10 +6,12 @@
 * :func:`atomic_write_bytes` (and ``_text``, ``_json``, ``_yaml``, :func:`save_png`): ``path`` is either the old
   file or the complete new one, with the permissions a plain ``open`` gives. A symbolic link is followed; a path
   that is not a regular file (``/dev/stdout``, a FIFO) is written to as a stream, never replaced.
+* :func:`files_digest`: a short digest of files' bytes, to tell when a stored result made from them is stale.
 """
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import os
@@ -80,6 +82,15 @@ def check_output_path(path: str | Path) -> Path:
     except OSError as exc:
         raise PermissionError(f"{p}: not writable ({_reason(exc)})") from None
     return p
+
+
+def files_digest(*paths: str | Path) -> str:
+    """A short digest (16 hex digits of SHA-256) of the files' bytes, in order: a stored result made from them is
+    stale once it changes."""
+    h = hashlib.sha256()
+    for p in paths:
+        h.update(Path(p).read_bytes())
+    return h.hexdigest()[:16]
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:

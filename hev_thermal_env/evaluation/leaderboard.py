@@ -13,14 +13,13 @@ above τ, against τ). ``evaluate.py leaderboard`` is the command; docs/leaderbo
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.io import atomic_write_json, atomic_write_text, save_png
+from hev_thermal_env.io import atomic_write_json, atomic_write_text, files_digest, save_png
 from hev_thermal_env.stats import CONFIDENCE, iqm
 from hev_thermal_env.tasks import get_task, list_tasks
 
@@ -47,10 +46,7 @@ def shipped_policy_digest() -> str:
     """A digest of the shipped policy's files (``ppo``): its stored result is stale once the policy is retrained."""
     from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR
 
-    h = hashlib.sha256()
-    for name in ("model.zip", "vecnormalize.pkl"):
-        h.update((DEFAULT_POLICY_DIR / name).read_bytes())
-    return h.hexdigest()[:16]
+    return files_digest(DEFAULT_POLICY_DIR / "model.zip", DEFAULT_POLICY_DIR / "vecnormalize.pkl")
 
 
 def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str] = METHODS,

@@ -33,6 +33,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 from tqdm.auto import tqdm
 
 from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.agents.policy_files import LoadedPolicy
 from hev_thermal_env.envs import HevThermalEnv
 
 from ..envs.spaces import observation_names
@@ -226,19 +227,18 @@ class DemonstrationRefit(BaseCallback):
         self.opt: torch.optim.Optimizer | None = None
         self.mse: list[float] = []
 
+    def _init_callback(self) -> None:
+        # the live model and statistics, normalised and acting as every policy does (the student of DAgger)
+        self.policy = LoadedPolicy(self.model, self.venv if isinstance(self.venv, VecNormalize) else None)
+
     def _on_step(self) -> bool:
         return True
 
     def _normalize(self, obs: np.ndarray) -> np.ndarray:
-        if isinstance(self.venv, VecNormalize) and self.venv.norm_obs:
-            obs = self.venv.normalize_obs(obs)
-        return np.asarray(obs, dtype=np.float32)
+        return np.asarray(self.policy.normalize(obs), dtype=np.float32)
 
     def _student(self, obs: np.ndarray) -> np.ndarray:
-        with torch.no_grad():
-            x = torch.as_tensor(self._normalize(np.asarray(obs, dtype=np.float32)[None]))
-            mean = self.model.policy.get_distribution(x).distribution.mean.numpy()[0]
-        return np.clip(mean, -self.high, self.high)
+        return self.policy.act(np.asarray(obs)[None])[0]
 
     def _dagger(self) -> None:
         self.rounds += 1
@@ -276,6 +276,18 @@ class DemonstrationRefit(BaseCallback):
                 "demonstration_steps": int(len(self.actions))}
 
 
+def _action_high(model: Any) -> float:
+    return float(np.asarray(model.action_space.high).reshape(-1)[0])
+
+
+def _refit(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, obs: np.ndarray,
+           actions: np.ndarray) -> DemonstrationRefit | None:
+    """The run's refit of ``obs``, ``actions``, or None without ``init.refit_batches``."""
+    if int(init.get("refit_batches", 0)) <= 0:
+        return None
+    return DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=_action_high(model), seed=seed)
+
+
 def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[str, Any],
                   seed: int) -> DemonstrationRefit | None:
     """The refit of a resumed run: its first demonstrations driven again (the same episodes and actions), DAgger
@@ -285,8 +297,7 @@ def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[
         return None
     obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed,
                                   noise=float(init.get("noise", 0.0)))
-    high = float(np.asarray(model.action_space.high).reshape(-1)[0])
-    refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=high, seed=seed)
+    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
     if refit.dagger_every:
         refit.rounds = int(model.num_timesteps) // refit.dagger_every
     return refit
@@ -312,12 +323,10 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
         if mask is not None:
             venv.obs_rms = FrozenRunningMeanStd(venv.obs_rms, mask)
         x = venv.normalize_obs(obs)
-    high = float(np.asarray(model.action_space.high).reshape(-1)[0])
+    high = _action_high(model)
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed)
-    refit = None
-    if int(init.get("refit_batches", 0)) > 0:
-        refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=high, seed=seed)
+    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
     return {"teacher": init["imitate"], "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
