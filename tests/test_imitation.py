@@ -16,6 +16,17 @@ ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": T
        "preview_step_s": 2, "thermal": True, "reward": {}}
 
 
+def test_the_teachers_options_reach_its_demonstrations():
+    """``init.teacher_options`` build the teacher: the shipped file's ``x_price: margin`` (with ``k_soc``) lets
+    ``ecms_thermal`` derate a cool motor where the fixed price never does, and gives other actions from the same
+    episodes."""
+    assert build_config("ppo")["init"]["teacher_options"] == {"x_price": "margin", "k_soc": 1.5}
+    runs = {p: demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5, teacher_options={"x_price": p})
+            for p in ("fixed", "margin")}
+    np.testing.assert_array_equal(runs["fixed"][0], demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5)[0])
+    assert not np.array_equal(runs["fixed"][1], runs["margin"][1])
+
+
 def test_demonstrations_are_the_teachers_own_run_on_fresh_training_cycles():
     obs, actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5)
     assert obs.shape == (2 * 1300, 21) and obs.dtype == np.float32 and actions.shape == (2 * 1300,)
@@ -93,7 +104,10 @@ def test_init_settings_are_checked_in_one_line():
                        ({"init.refit_batches": -1}, "init.refit_batches"), ({"init.refit_lr": 0}, "init.refit_lr"),
                        ({"init.refit_lr": "fast"}, "init.refit_lr"), ({"init.dagger_every": 1.5}, "dagger_every"),
                        ({"init.refit_decay": "yes"}, "init.refit_decay"),
-                       ({"init.dagger_every": 1000, "init.refit_batches": 0}, "set init.refit_batches")):
+                       ({"init.dagger_every": 1000, "init.refit_batches": 0}, "set init.refit_batches"),
+                       ({"init.teacher_options": "margin"}, "init.teacher_options must be a mapping"),
+                       ({"init.teacher_options.x_price": "cheap"}, r"init.teacher_options: .*x_price 'cheap'"),
+                       ({"init.teacher_options.w_heat": 1.0}, "init.teacher_options: .*w_heat")):
         with pytest.raises(ValueError, match=match):
             build_config("ppo", overrides=bad)
     with pytest.raises(ValueError, match="PPO runs only"):
@@ -123,7 +137,8 @@ def test_frozen_observation_statistics_stay_the_demonstrations(tmp_path, freeze)
     with open(out / "vecnormalize.pkl", "rb") as fh:
         rms = pickle.load(fh).obs_rms
     assert isinstance(rms, FrozenRunningMeanStd) is (freeze is not False)
-    obs, _ = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=2)
+    options = build_config("ppo")["init"]["teacher_options"]
+    obs, _ = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=2, teacher_options=options)
     demo_mean = obs.mean(axis=0, dtype=np.float64)
     names = np.asarray(observation_names(10, 2))
     varied = obs.var(axis=0, dtype=np.float64) > 1e-12

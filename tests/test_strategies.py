@@ -303,3 +303,25 @@ def test_evaluate_run_bad_input(args, listed, capsys):
     assert err.startswith("error:") and "\n" not in err and "Traceback" not in err
     for name in listed:
         assert name in err
+
+
+def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff():
+    """``x_price="margin"``: w_x within the cutoff's hysteresis band (10 K), w_x·10/(T_cut − T) below it; on a hilly
+    road in the paper's conditions (a cool motor) it derates for fuel where the fixed price holds back, and on a
+    failing cooling loop it still keeps the motor from the cutoff."""
+    env = HevThermalEnv(cycle=cycle_from_arrays(np.full(20, 10.0), name="cruise"))
+    env.reset(seed=0)
+    agent, fixed = get_strategy("ecms_thermal", x_price="margin", w_x=300.0), get_strategy("ecms_thermal")
+    agent.reset(env)
+    fixed.reset(env)
+    for temp_c, price in ((20.0, 60.0), (50.0, 150.0), (60.0, 300.0), (69.0, 300.0), (75.0, 300.0)):
+        env.phys_state[0, C.TEMP_C] = temp_c
+        assert agent.heat_index_price() == pytest.approx(price) and fixed.heat_index_price() == 300.0
+    with pytest.raises(ValueError, match="x_price 'cheap' is not one of"):
+        get_strategy("ecms_thermal", x_price="cheap")
+    runs = {p: run_strategy(get_strategy("ecms_thermal", x_price=p), "udds", "hilly").summary
+            for p in ("fixed", "margin")}
+    assert runs["margin"]["fuel_corrected_l_per_100km"] < 0.99 * runs["fixed"]["fuel_corrected_l_per_100km"]
+    assert runs["margin"]["safety_cost_s"] > runs["fixed"]["safety_cost_s"] and runs["margin"]["cutoff_s"] == 0
+    hot = run_strategy(get_strategy("ecms_thermal", x_price="margin"), "udds", "hot").summary
+    assert hot["cutoff_s"] == 0 and hot["safety_cost_s"] < 1.0

@@ -40,14 +40,15 @@ from ..envs.spaces import observation_names
 from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
-INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "episodes": 60, "epochs": 30, "beyond_bound": 0.25, "noise": 0.0,
-                                 "freeze_obs_stats": False, "refit_batches": 0, "refit_lr": 1e-4, "refit_decay": False,
-                                 "dagger_every": 0, "dagger_episodes": 20}
+INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "teacher_options": {}, "episodes": 60, "epochs": 30,
+                                 "beyond_bound": 0.25, "noise": 0.0, "freeze_obs_stats": False, "refit_batches": 0,
+                                 "refit_lr": 1e-4, "refit_decay": False, "dagger_every": 0, "dagger_episodes": 20}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 BATCH = 1024
-#: An entry whose variance over the demonstrations is at most this the teacher never moves (``ecms_thermal`` never
-#: derates: the heat index is 0 throughout); ``init.freeze_obs_stats: true`` leaves its statistics to PPO's states.
+#: An entry whose variance over the demonstrations is at most this the teacher never moves (``ecms_thermal`` with its
+#: fixed heat-index price never derates: the heat index is 0 throughout); ``init.freeze_obs_stats: true`` leaves its
+#: statistics to PPO's states.
 MIN_FROZEN_VAR = 1e-12
 LEARNING_RATE = 1e-3
 
@@ -79,6 +80,13 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     if not isinstance(teacher, str) or teacher not in classic or teacher.startswith("dp"):
         raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "
                          f"{', '.join(s for s in classic if not s.startswith('dp'))}")
+    options = out["teacher_options"]
+    if not isinstance(options, dict):
+        raise ValueError(f"init.teacher_options must be a mapping of {teacher}'s options, got {options!r}")
+    try:
+        get_strategy(teacher, **options)
+    except ValueError as e:
+        raise ValueError(f"init.teacher_options: {e}") from None
     for key, least in (("episodes", 1), ("epochs", 0)):
         value = out[key]
         if isinstance(value, bool) or not isinstance(value, int) or value < least:
@@ -136,7 +144,8 @@ def frozen_mask(setting: bool | list[str], names: tuple[str, ...], var: np.ndarr
 
 def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed: int,
                    progress: Callable[[int], None] | None = None, noise: float = 0.0,
-                   drive: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   drive: Callable[[np.ndarray], np.ndarray] | None = None,
+                   teacher_options: dict[str, Any] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env.
 
     Episode ``i`` is reset with seed ``seed · 1,000,003 + i`` (a fresh cycle of a training family and
@@ -145,9 +154,10 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed
     state is labelled with the teacher's own action there: the demonstrations then visit the states a policy that
     explores (PPO: ``log_std_init`` −1, a spread of 0.37) or errs reaches, and show the teacher's way back. With
     ``drive`` (raw observation → action) another policy drives and the teacher only labels (DAgger).
+    ``teacher_options``: the teacher's options (``init.teacher_options``).
     """
     env = HevThermalEnv(**{**env_kwargs, "random_start": False})
-    strategy = get_strategy(teacher)
+    strategy = get_strategy(teacher, **(teacher_options or {}))
     rng = np.random.default_rng([int(seed), 7])
     obs_rows: list[np.ndarray] = []
     actions: list[float] = []
@@ -220,6 +230,7 @@ class DemonstrationRefit(BaseCallback):
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
         self.decay = bool(init["refit_decay"])
         self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), init["imitate"], env_kwargs
+        self.teacher_options = dict(init.get("teacher_options") or {})
         self.target = fit_targets(actions, self.high, self.beyond_bound)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
         self.seed, self.rounds = int(seed), 0
@@ -243,7 +254,8 @@ class DemonstrationRefit(BaseCallback):
     def _dagger(self) -> None:
         self.rounds += 1
         obs, actions = demonstrations(self.env_kwargs, self.teacher, self.dagger_episodes,
-                                      self.seed + 1_000 * self.rounds, drive=self._student)
+                                      self.seed + 1_000 * self.rounds, drive=self._student,
+                                      teacher_options=self.teacher_options)
         self.obs = np.concatenate([self.obs, obs])
         self.actions = np.concatenate([self.actions, actions])
         self.target = fit_targets(self.actions, self.high, self.beyond_bound)
@@ -296,7 +308,7 @@ def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[
     if int(init.get("refit_batches", 0)) <= 0 or not init.get("imitate"):
         return None
     obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed,
-                                  noise=float(init.get("noise", 0.0)))
+                                  noise=float(init.get("noise", 0.0)), teacher_options=init.get("teacher_options"))
     refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
     if refit.dagger_every:
         refit.rounds = int(model.num_timesteps) // refit.dagger_every
@@ -310,7 +322,8 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     t0 = time.perf_counter()
     noise = float(init.get("noise", 0.0))
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
-        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update, noise=noise)
+        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update, noise=noise,
+                                      teacher_options=init.get("teacher_options"))
     demo_s = time.perf_counter() - t0
     x = obs
     if isinstance(venv, VecNormalize) and venv.norm_obs:
@@ -327,7 +340,8 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed)
     refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
-    return {"teacher": init["imitate"], "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
+    return {"teacher": init["imitate"], "teacher_options": dict(init.get("teacher_options") or {}),
+            "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,
