@@ -234,3 +234,20 @@ def test_the_shipped_policys_digest_covers_its_model_and_statistics():
 
     assert (DEFAULT_POLICY_DIR / "model.zip").is_file() and (DEFAULT_POLICY_DIR / "vecnormalize.pkl").is_file()
     assert len(shipped_policy_digest()) == 16 and shipped_policy_digest() == shipped_policy_digest()
+
+
+def test_profile_tells_every_method_apart_past_the_palette():
+    """25 methods: the palette has 20 colours, so the line styles change past it and no two curves look alike; the
+    legend sits beside the axes, not over the curves."""
+    from hev_thermal_env.evaluation.leaderboard import profile_figure
+    from hev_thermal_env.evaluation.plots import pyplot
+
+    entries = [{"method": f"method {i:02d}", "scores": [90.0 + i / 10, 95.0], "excluded": 0} for i in range(25)]
+    fig = profile_figure(entries)
+    try:
+        lines = [ln for ln in fig.axes[1].get_lines() if ln.get_label().startswith("method")]
+        looks = {(tuple(ln.get_color()), ln.get_linestyle()) for ln in lines}
+        assert len(lines) == 25 and len(looks) == 25
+        assert len(fig.legends) == 1 and fig.axes[0].get_legend() is None
+    finally:
+        pyplot().close(fig)

@@ -242,17 +242,24 @@ COMMAND = ("Regenerate with `python evaluate.py leaderboard --results benchmarks
            "result format: [Tasks](tasks.md#results-of-outside-methods)).")
 
 
+#: Line styles of the profile's curves, in turn once the palette's colours are used up.
+STYLES = ("-", ":", "-.")
+
+
 def profile_figure(entries: list[dict]):
     """The performance profile of every method (module docstring): over the whole range of scores (a symmetric-log
     axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(13.0, 5.4), layout="constrained", gridspec_kw={"width_ratios": [3, 2]})
+    fig, axes = plt.subplots(1, 2, figsize=(16.0, 5.8), layout="constrained", gridspec_kw={"width_ratios": [3, 2]})
     methods = _order([e["method"] for e in entries])
     scores = {m: np.sort([s for e in entries if e["method"] == m for s in e["scores"]]) for m in methods}
     unscored = {m: sum(e["excluded"] for e in entries if e["method"] == m) for m in methods}
     lowest = min([-100.0, *(float(v[0]) for v in scores.values() if v.size)])
-    palette = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20").colors  # one colour per method
+    palette = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20").colors
+    # one (colour, line style) pair per method: past the palette's length the styles change, so no two curves agree
     colour = {m: palette[i % len(palette)] for i, m in enumerate(methods)}
+    style = {m: ("--" if m in ("engine_only", REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)])
+             for i, m in enumerate(methods)}
     for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
         for m, v in scores.items():
             total = v.size + unscored[m]  # a run without a score lies below every τ
@@ -261,8 +268,7 @@ def profile_figure(entries: list[dict]):
                 y = np.r_[v.size, v.size - np.arange(1, v.size + 1), 0.0] / total
                 what = f"{total} runs" + (f", {unscored[m]} without a score" if unscored[m] else "")
                 ax.step(x, y, where="post", label=f"{label(m)} ({what})", lw=2.2 if m == REFERENCE else 1.6,
-                        color=colour[m],
-                        ls="--" if m in ("engine_only", REFERENCE) else "-")
+                        color=colour[m], ls=style[m])
         for x in (0.0, 100.0):
             ax.axvline(x, color="0.6", lw=0.8, zorder=0)
         ax.set_xlim(lo, hi)
@@ -273,7 +279,7 @@ def profile_figure(entries: list[dict]):
     axes[0].set_ylabel("fraction of runs with score > τ")
     axes[0].set_title("every score (symmetric-log axis, linear within ±100)", fontsize=10)
     axes[1].set_title(f"zoom: τ from {ZOOM[0]:g} to {ZOOM[1]:g}", fontsize=10)
-    axes[0].legend(loc="lower left", fontsize=8)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside right upper", fontsize=8)
     fig.suptitle("Performance profile over every task with references")
     return fig
 
