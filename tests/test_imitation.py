@@ -110,6 +110,11 @@ def test_init_settings_are_checked_in_one_line():
                        ({"init.teacher_options.w_heat": 1.0}, "init.teacher_options: .*w_heat")):
         with pytest.raises(ValueError, match=match):
             build_config("ppo", overrides=bad)
+    # another teacher than the file's: its options go with null (the file's are ecms_thermal's)
+    with pytest.raises(ValueError, match=r"unknown option.*'x_price'.*init.teacher_options=null"):
+        build_config("ppo", overrides={"init.imitate": "ecms"})
+    assert build_config("ppo", overrides={"init.imitate": "ecms", "init.teacher_options": None})["init"][
+        "teacher_options"] == {}
     with pytest.raises(ValueError, match="PPO runs only"):
         build_config("sac", overrides={"init.imitate": "ecms"})
     frozen = build_config("ppo", overrides={"init.freeze_obs_stats": ["motor_temp_c", "heat_x"]})

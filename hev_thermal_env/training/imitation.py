@@ -80,13 +80,14 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     if not isinstance(teacher, str) or teacher not in classic or teacher.startswith("dp"):
         raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "
                          f"{', '.join(s for s in classic if not s.startswith('dp'))}")
-    options = out["teacher_options"]
+    options = out["teacher_options"] = {} if out["teacher_options"] is None else out["teacher_options"]
     if not isinstance(options, dict):
-        raise ValueError(f"init.teacher_options must be a mapping of {teacher}'s options, got {options!r}")
+        raise ValueError(f"init.teacher_options must be a mapping of {teacher}'s options (or null), got {options!r}")
     try:
         get_strategy(teacher, **options)
     except ValueError as e:
-        raise ValueError(f"init.teacher_options: {e}") from None
+        raise ValueError(f"init.teacher_options: {e} (another teacher: set init.teacher_options=null for its "
+                         "defaults)") from None
     for key, least in (("episodes", 1), ("epochs", 0)):
         value = out[key]
         if isinstance(value, bool) or not isinstance(value, int) or value < least:
