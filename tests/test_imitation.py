@@ -10,7 +10,7 @@ import pytest
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.training.config import build_config
 from hev_thermal_env.training.envs import env_kwargs
-from hev_thermal_env.training.imitation import INIT_DEFAULTS, check_init, demonstrations, fit_policy_mean
+from hev_thermal_env.training.imitation import INIT_DEFAULTS, check_init, demonstrations, fit_policy_mean, teacher_of
 
 ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": True, "preview_s": 10,
        "preview_step_s": 2, "thermal": True, "reward": {}}
@@ -21,8 +21,9 @@ def test_the_teachers_options_reach_its_demonstrations():
     ``ecms_thermal`` derate a cool motor where the fixed price never does, and gives other actions from the same
     episodes."""
     assert build_config("ppo")["init"]["teacher_options"] == {"x_price": "margin", "k_soc": 1.5}
-    runs = {p: demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5, teacher_options={"x_price": p})
-            for p in ("fixed", "margin")}
+    teachers = {p: teacher_of({"imitate": "ecms_thermal", "teacher_options": {"x_price": p}})
+                for p in ("fixed", "margin")}
+    runs = {p: demonstrations(env_kwargs(ENV), t, 2, seed=5) for p, t in teachers.items()}
     np.testing.assert_array_equal(runs["fixed"][0], demonstrations(env_kwargs(ENV), "ecms_thermal", 2, seed=5)[0])
     assert not np.array_equal(runs["fixed"][1], runs["margin"][1])
 
@@ -142,8 +143,7 @@ def test_frozen_observation_statistics_stay_the_demonstrations(tmp_path, freeze)
     with open(out / "vecnormalize.pkl", "rb") as fh:
         rms = pickle.load(fh).obs_rms
     assert isinstance(rms, FrozenRunningMeanStd) is (freeze is not False)
-    options = build_config("ppo")["init"]["teacher_options"]
-    obs, _ = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=2, teacher_options=options)
+    obs, _ = demonstrations(env_kwargs(ENV), teacher_of(build_config("ppo")["init"]), 1, seed=2)
     demo_mean = obs.mean(axis=0, dtype=np.float64)
     names = np.asarray(observation_names(10, 2))
     varied = obs.var(axis=0, dtype=np.float64) > 1e-12

@@ -33,6 +33,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 from tqdm.auto import tqdm
 
 from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.agents.policy_files import LoadedPolicy
 from hev_thermal_env.envs import HevThermalEnv
 
@@ -84,7 +85,7 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     if not isinstance(options, dict):
         raise ValueError(f"init.teacher_options must be a mapping of {teacher}'s options (or null), got {options!r}")
     try:
-        get_strategy(teacher, **options)
+        teacher_of(out)
     except ValueError as e:
         raise ValueError(f"init.teacher_options: {e} (another teacher: set init.teacher_options=null for its "
                          "defaults)") from None
@@ -143,10 +144,14 @@ def frozen_mask(setting: bool | list[str], names: tuple[str, ...], var: np.ndarr
     return np.isin(np.asarray(names), setting)
 
 
-def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed: int,
+def teacher_of(init: dict[str, Any]) -> Strategy:
+    """The teacher ``init`` names (``init.imitate``), built with its options (``init.teacher_options``)."""
+    return get_strategy(init["imitate"], **(init.get("teacher_options") or {}))
+
+
+def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes: int, seed: int,
                    progress: Callable[[int], None] | None = None, noise: float = 0.0,
-                   drive: Callable[[np.ndarray], np.ndarray] | None = None,
-                   teacher_options: dict[str, Any] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   drive: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env.
 
     Episode ``i`` is reset with seed ``seed · 1,000,003 + i`` (a fresh cycle of a training family and
@@ -154,11 +159,11 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str, episodes: int, seed
     by the teacher's action plus a normal draw of that spread (clipped by the env, drawn from ``seed``), and each
     state is labelled with the teacher's own action there: the demonstrations then visit the states a policy that
     explores (PPO: ``log_std_init`` −1, a spread of 0.37) or errs reaches, and show the teacher's way back. With
-    ``drive`` (raw observation → action) another policy drives and the teacher only labels (DAgger).
-    ``teacher_options``: the teacher's options (``init.teacher_options``).
+    ``drive`` (raw observation → action) another policy drives and the teacher only labels (DAgger). ``teacher``: a
+    strategy's name (its defaults) or a strategy (:func:`teacher_of`).
     """
     env = HevThermalEnv(**{**env_kwargs, "random_start": False})
-    strategy = get_strategy(teacher, **(teacher_options or {}))
+    strategy = get_strategy(teacher) if isinstance(teacher, str) else teacher
     rng = np.random.default_rng([int(seed), 7])
     obs_rows: list[np.ndarray] = []
     actions: list[float] = []
@@ -230,8 +235,7 @@ class DemonstrationRefit(BaseCallback):
         self.venv, self.obs, self.actions, self.high = venv, obs, actions, float(high)
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
         self.decay = bool(init["refit_decay"])
-        self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), init["imitate"], env_kwargs
-        self.teacher_options = dict(init.get("teacher_options") or {})
+        self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), teacher_of(init), env_kwargs
         self.target = fit_targets(actions, self.high, self.beyond_bound)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
         self.seed, self.rounds = int(seed), 0
@@ -255,8 +259,7 @@ class DemonstrationRefit(BaseCallback):
     def _dagger(self) -> None:
         self.rounds += 1
         obs, actions = demonstrations(self.env_kwargs, self.teacher, self.dagger_episodes,
-                                      self.seed + 1_000 * self.rounds, drive=self._student,
-                                      teacher_options=self.teacher_options)
+                                      self.seed + 1_000 * self.rounds, drive=self._student)
         self.obs = np.concatenate([self.obs, obs])
         self.actions = np.concatenate([self.actions, actions])
         self.target = fit_targets(self.actions, self.high, self.beyond_bound)
@@ -308,8 +311,8 @@ def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[
     kept in a checkpoint."""
     if int(init.get("refit_batches", 0)) <= 0 or not init.get("imitate"):
         return None
-    obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed,
-                                  noise=float(init.get("noise", 0.0)), teacher_options=init.get("teacher_options"))
+    obs, actions = demonstrations(env_kwargs, teacher_of(init), init["episodes"], seed,
+                                  noise=float(init.get("noise", 0.0)))
     refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
     if refit.dagger_every:
         refit.rounds = int(model.num_timesteps) // refit.dagger_every
@@ -323,8 +326,7 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     t0 = time.perf_counter()
     noise = float(init.get("noise", 0.0))
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
-        obs, actions = demonstrations(env_kwargs, init["imitate"], init["episodes"], seed, bar.update, noise=noise,
-                                      teacher_options=init.get("teacher_options"))
+        obs, actions = demonstrations(env_kwargs, teacher_of(init), init["episodes"], seed, bar.update, noise=noise)
     demo_s = time.perf_counter() - t0
     x = obs
     if isinstance(venv, VecNormalize) and venv.norm_obs:
