@@ -186,6 +186,24 @@ def test_hp_overrides_yaml_dict_and_dotted_keys():
         "net_arch": [32], "activation_fn": "tanh"}
 
 
+def test_repeated_hp_flags_all_apply():
+    """``--hp a=1 --hp b=2`` keeps both: a later flag adds to the earlier ones, never silently replaces them."""
+    from hev_thermal_env.cli.train import build_parser
+    args = build_parser().parse_args(["--hp", "gamma=0.99", "n_epochs=3", "--hp", "policy_kwargs.net_arch=[256,256]"])
+    assert parse_overrides(args.hp) == {"gamma": 0.99, "n_epochs": 3, "policy_kwargs.net_arch": [256, 256]}
+
+
+def test_env_soc_offset_reaches_the_training_env_but_never_the_evaluation():
+    from hev_thermal_env.training import build_config
+    from hev_thermal_env.training.envs import env_kwargs
+
+    cfg = build_config("ppo", overrides={"env.soc_offset": 0.03})
+    assert env_kwargs(cfg["env"])["soc_offset"] == 0.03 and env_kwargs(cfg["env"], for_eval=True)["soc_offset"] == 0
+    assert env_kwargs(build_config("ppo")["env"])["soc_offset"] == 0.0
+    with pytest.raises(ValueError, match=r"env.soc_offset: expected a number in \[0, 0.2\] \(SOC\), got 0.5"):
+        build_config("ppo", overrides={"env.soc_offset": 0.5})
+
+
 # --- interruption and resume ------------------------------------------------------------------------
 
 @pytest.mark.full

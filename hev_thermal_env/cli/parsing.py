@@ -103,8 +103,9 @@ def add_run_options(p: argparse.ArgumentParser) -> dict[str, dict[str, Any]]:
                    help=f"total env-steps; {per_algo(d, 'timesteps')}")
     p.add_argument("--n-envs", type=int, default=None, metavar="N",
                    help=f"parallel environments; {per_algo(d, 'n_envs')}")
-    p.add_argument("--hp", nargs="+", default=None, metavar="KEY=VALUE",
-                   help="hyperparameter overrides: YAML values, dotted keys reach inside mappings")
+    p.add_argument("--hp", nargs="+", action="extend", default=None, metavar="KEY=VALUE",
+                   help="hyperparameter overrides: YAML values, dotted keys reach inside mappings; --hp may be "
+                        "repeated")
     p.add_argument("--hyperparams", default=None, metavar="FILE",
                    help="hyperparameter YAML file (default: agents/hyperparams/<algo>.yaml)")
     p.add_argument("--eval-cycles", nargs="*", default=None, metavar="CYCLE",
