@@ -211,7 +211,8 @@ def score_family(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
             "frontier_ratio_iqm": ratio_iqm, "frontier_ratio_ci95": [ratio_low, ratio_high],
             "safety_cost_s_iqm": entry["safety_cost_s"], "safety_cost_s_max": entry["safety_cost_max_s"],
             "within_budget": entry["within_budget"], "charge_sustaining_runs": entry["charge_sustaining"],
-            "runs": entry["runs"], "max_abs_delta_soc": max(deltas) if deltas else None,
+            "runs": entry["runs"], "max_abs_delta_soc": max(deltas) if deltas else None, **{k: entry[k] for k in (
+                "beyond_soc_bound", "above_optimum_safety")},
             "training_wall_s_per_seed": (result.get("training") or {}).get("wall_clock_s_per_seed"),
             "episodes": episodes}
 
@@ -243,12 +244,13 @@ def _mean(values: list[float | None]) -> float | None:
 
 
 def table(record: dict[str, Any]) -> str:
-    """The Markdown table of every method on every task: normalised score IQM [95 % CI], frontier ratio IQM and the
-    episode safety cost (IQM; worst) against the task's budget."""
+    """Every method on every task: score and frontier ratio IQM, safety cost (IQM; worst; budget; runs above the
+    optimum's + 5 %), the largest |ΔSOC| (runs beyond 0.02)."""
     from hev_thermal_env.evaluation.score import score_text
 
     lines = ["| task | method | score IQM [95 % CI] | frontier ratio IQM [95 % CI] | safety cost s (IQM; worst) | "
-             "budget s | max \\|ΔSOC\\| | runs |", "|---|---|---:|---:|---:|---:|---:|---:|"]
+             "budget s | runs above the optimum's safety + 5 % | max \\|ΔSOC\\| (runs > 0.02) | runs |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for task_id, ev in record["evaluation"].items():
         for method, m in ev["methods"].items():
             lo, hi = m["frontier_ratio_ci95"]
@@ -256,10 +258,10 @@ def table(record: dict[str, Any]) -> str:
             if m["frontier_ratio_iqm"] is not None and lo is not None:  # no interval from one scored episode
                 ratio += f" [{lo:.4f}, {hi:.4f}]"
             left = f" ({m['runs_without_score']} without a score)" if m["runs_without_score"] else ""
-            dsoc = "-" if m["max_abs_delta_soc"] is None else f"{m['max_abs_delta_soc']:.3f}"
+            dsoc = "-" if m["max_abs_delta_soc"] is None else f"{m['max_abs_delta_soc']:.3f} ({m['beyond_soc_bound']})"
             lines.append(f"| {task_id} | {NAMES[method]} | {score_text(m['score_iqm'], *m['score_ci95'])} | "
                          f"{ratio} | {m['safety_cost_s_iqm']:.1f}; {m['safety_cost_s_max']:.1f} | "
-                         f"{ev['safety_budget_s']:g} | {dsoc} | {m['runs']}{left} |")
+                         f"{ev['safety_budget_s']:g} | {m['above_optimum_safety']} | {dsoc} | {m['runs']}{left} |")
     return "\n".join(lines) + "\n"
 
 
@@ -376,8 +378,7 @@ def main(argv: list[str] | None = None) -> int:
             record["evaluation"][task_id] = evaluate_task(task_id, record["methods"], out / "learned_baselines",
                                                           record.get("bc"))
     record["machine"]["load_at_end"] = os.getloadavg()
-    path = out / "learned_baselines.json"
-    path.write_text(json.dumps(record, indent=1, default=str) + "\n")
+    (path := out / "learned_baselines.json").write_text(json.dumps(record, indent=1, default=str) + "\n")
     print(f"wrote {path}", flush=True)
     for method, r in record["methods"].items():
         rates = [s["steps_per_s"] for s in r["seeds"]]
@@ -387,8 +388,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{task_id} {method}: score IQM {m['score_iqm']} {m['score_ci95']}, frontier ratio IQM "
                   f"{m['frontier_ratio_iqm']} {m['frontier_ratio_ci95']}, safety cost IQM {m['safety_cost_s_iqm']}",
                   flush=True)
-    curves = learning_curves(record["methods"], out / "learned_baselines_curves.png")
-    if curves is not None:
+    if (curves := learning_curves(record["methods"], out / "learned_baselines_curves.png")) is not None:
         print(f"wrote {curves}", flush=True)
     if record["evaluation"]:
         (out / "learned_baselines.md").write_text(table(record))

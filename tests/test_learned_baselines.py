@@ -303,6 +303,7 @@ def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
         if ev["scored_runs"]:  # an untrained policy scores far below the optimum, and never above it
             assert ev["score_iqm"] <= 100.0 + 1e-6 and ev["frontier_ratio_iqm"] >= 1.0 - 1e-6
         assert ev["safety_cost_s_iqm"] >= 0.0 and ev["max_abs_delta_soc"] >= 0.0
+        assert 0 <= ev["above_optimum_safety"] <= 2 and 0 <= ev["beyond_soc_bound"] <= 2
         result = load_result(tmp_path / "learned_baselines" / "hwfet-v1" / f"{script.FAMILY_NAMES[method]}.json")
         assert result["seeds"] == [0, 1] and len(result["training"]["wall_clock_s_per_seed"]) == 2
     bc = record["evaluation"]["hwfet-v1"]["methods"]["bc"]  # behaviour cloning: two fits of a tiny dataset
@@ -318,12 +319,13 @@ def test_the_table_shows_a_method_without_scores_or_interval():
     lb = _script()
     m = {"frontier_ratio_iqm": None, "frontier_ratio_ci95": [None, None], "score_iqm": None, "score_ci95": [None, None],
          "runs_without_score": 5, "max_abs_delta_soc": 0.03, "safety_cost_s_iqm": 876.9, "safety_cost_s_max": 900.0,
-         "runs": 5}
+         "runs": 5, "beyond_soc_bound": 2, "above_optimum_safety": 5}
     one = {**m, "frontier_ratio_iqm": 1.0991, "score_iqm": 59.1, "runs_without_score": 4}
     record = {"evaluation": {"udds-hot-v1": {"safety_budget_s": 10.0, "methods": {"bc": m}},
                              "hilly-v1": {"safety_budget_s": 29.962, "methods": {"bc": one}}}}
     lines = lb.table(record).splitlines()
-    assert lines[2].startswith("| udds-hot-v1 | BC (optimum) | - | - | 876.9; 900.0 | 10 | 0.030 | 5 (5 without a")
+    assert lines[2].startswith("| udds-hot-v1 | BC (optimum) | - | - | 876.9; 900.0 | 10 | 5 | 0.030 (2) | 5 (5 "
+                               "without a")
     assert "| 1.0991 | 876.9; 900.0 | 29.962 |" in lines[3]
 
 

@@ -31,6 +31,11 @@ from .yardstick import REFERENCE, display_name
 
 METHODS = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
 """The package's methods on the leaderboard, in its order (``ppo``: the shipped policy)."""
+SOC_BOUND = 0.02
+"""|ΔSOC| beyond which a run counts as not holding its charge (``beyond_soc_bound``)."""
+SAFETY_MARGIN = 1.05
+"""A run whose safety cost exceeds this times the optimum's on its episode, where the optimum's is not zero, counts in
+``above_optimum_safety``: it derated its motor more than the optimum needed."""
 PROFILE_FILE = "leaderboard_profile.png"
 ZOOM = (80.0, 101.0)
 """The profile's second panel: the scores where the better strategies differ."""
@@ -95,11 +100,14 @@ def result_files(paths: Sequence[str | Path]) -> list[Path]:
 
 def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
     """The leaderboard entry of one result on its task (module docstring); ``rows``: each episode row's frontier
-    ratio, normalised score and note, in the result's order."""
+    ratio, normalised score and note, in the result's order; ``above_optimum_safety``: the runs that derate their motor
+    more than the optimum on their episode (:data:`SAFETY_MARGIN`), ``beyond_soc_bound``: the runs whose |ΔSOC|
+    exceeds :data:`SOC_BOUND`."""
     refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     budget = float(reference["safety_budget_s"])
     groups: dict[tuple[str, int], list[tuple[float | None, str | None]]] = {}
     ratios, safety, rows = [], [], []
+    above = beyond_soc = 0
     for row in result["episodes"]:
         key = (row["cycle"], int(row.get("env_seed", 0)))
         ratio, score, note = episode_score(refs[key], row["cost_g"], row["soc_final"])
@@ -107,6 +115,10 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
         ratios.append(ratio)
         rows.append({"frontier_ratio": ratio, "score": score, "note": note})
         safety.append(float(row["safety_cost_s"]))
+        optimum_s = float(refs[key]["optimum"]["safety_cost_s"])
+        above += optimum_s > 0.0 and float(row["safety_cost_s"]) > SAFETY_MARGIN * optimum_s
+        if row.get("soc_initial") is not None:
+            beyond_soc += abs(float(row["soc_final"]) - float(row["soc_initial"])) > SOC_BOUND
     agg = aggregate(list(groups.values()))
     fuel = [r.get("fuel_corrected_l_per_100km") for r in result["episodes"]]
     cs = [r.get("charge_sustaining") for r in result["episodes"]]
@@ -117,7 +129,8 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
             "score_groups": [[s for s, note in g if usable(s, note)] for g in groups.values()],
             "frontier_ratio": iqm([r for r in ratios if r is not None]) if any(r is not None for r in ratios) else None,
             "safety_cost_s": iqm(safety), "safety_cost_max_s": max(safety), "budget_s": budget,
-            "within_budget": sum(s <= budget for s in safety),
+            "within_budget": sum(s <= budget for s in safety), "above_optimum_safety": int(above),
+            "beyond_soc_bound": int(beyond_soc),
             "fuel_corrected_l_per_100km": iqm([f for f in fuel if f is not None]) if any(f is not None for f in fuel)
             else None, "fuel_kg": float(np.mean([r.get("fuel_g", np.nan) for r in result["episodes"]])) / 1000.0,
             "charge_sustaining": None if any(c is None for c in cs) else sum(cs),
