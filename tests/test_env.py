@@ -365,6 +365,36 @@ def test_random_start_and_truncation():
     assert not any(r[2] for r in results)
 
 
+def test_soc_offset_starts_off_the_target_and_the_band_holds_to_the_target():
+    """``soc_offset``: the episode starts within that much SOC of its target (the scenario's draw, which the episode
+    without an offset starts on) and the observation's deviation is the start's distance from it; 0 changes nothing;
+    the vector env lives through the same episodes."""
+    from hev_thermal_env.envs import HevThermalVectorEnv
+
+    kw = {"cycle": "random_bus", "scenario": "random_service"}
+    names = observation_names(10, 2)
+    i_soc, i_dev = names.index("soc"), names.index("soc_deviation")
+    offsets = []
+    for seed in range(12):
+        plain, off = make(**kw), make(**kw, soc_offset=0.05)
+        o0, _ = plain.reset(seed=seed)
+        o1, info = off.reset(seed=seed)
+        target = float(o0[i_soc])  # the same draws: the plain episode starts on the target
+        assert off.unwrapped.soc_target == pytest.approx(target) and info["soc"] == pytest.approx(float(o1[i_soc]),
+                                                                                                    abs=1e-6)
+        offsets.append(float(o1[i_soc]) - target)
+        assert float(o1[i_dev]) == pytest.approx(offsets[-1], abs=1e-6)
+        assert np.array_equal(o0, make(**kw, soc_offset=0.0).reset(seed=seed)[0])
+    assert max(map(abs, offsets)) <= 0.05 + 1e-6 and min(offsets) < -0.01 and max(offsets) > 0.01
+    vec = HevThermalVectorEnv(3, **kw, soc_offset=0.05)
+    obs, _ = vec.reset(seed=[4, 5, 6])
+    for row, seed in enumerate((4, 5, 6)):
+        assert np.array_equal(obs[row], make(**kw, soc_offset=0.05).reset(seed=seed)[0])
+    for bad in (-0.01, 0.3, True, "0.1"):
+        with pytest.raises(ValueError, match="soc_offset"):
+            make(soc_offset=bad)
+
+
 # --- rendering -------------------------------------------------------------------------------------
 
 def test_render_rgb_array():

@@ -125,7 +125,7 @@ class EpisodeRows:
             gear[i, n - 1:] = tab.gear[-1]
             self.state[i] = self.core.initial_state(ep.conditions, 1)[0]
             self.cond[i] = self.core.conditions_array(ep.conditions, 1)[0]
-            self.soc_target[i] = ep.conditions.initial_soc
+            self.soc_target[i] = ep.conditions.initial_soc if ep.soc_target is None else ep.soc_target
             descent[i, :n] = descent_soc(tab.climb_m, gl.mass_kg + ep.conditions.payload_kg, gl.gravity_mps2,
                                          j_per_soc)
             descent[i, n:] = 0.0
@@ -181,12 +181,14 @@ class EnvParts:
 
     def _build(self, n_rows: int, cycle: Any, scenario: Any, config: VehicleConfig | None, conditions: Any, reward: Any,
                preview_s: int, preview_step_s: int, thermal: bool | None, random_start: bool,
-               info_keys: Any) -> tuple[spaces.Box, spaces.Box]:
+               info_keys: Any, soc_offset: float = 0.0) -> tuple[spaces.Box, spaces.Box]:
         """Build the parts from the env's arguments; returns one env's observation and action spaces."""
         self.info_keys = S.check_info_keys(info_keys)
         self.config = resolve_config(config, thermal)
         self.core = C.PhysicsCore(self.config)
-        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start)
+        battery = self.config.battery
+        self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start, soc_offset,
+                                      (battery.soc_min, battery.soc_max))
         offsets = S.preview_offsets(preview_s, preview_step_s)
         self.preview_s, self.preview_step_s = int(preview_s), int(preview_step_s)
         self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)

@@ -16,6 +16,8 @@ from ..physics import core as C
 from ..physics.config import COOLANT_MODES, Conditions
 from ..scenarios import Scenario, get_scenario
 
+MAX_SOC_OFFSET = 0.2
+"""The largest ``soc_offset`` an env takes (SOC)."""
 RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
 """Keys accepted in ``reset(options=...)``."""
 
@@ -63,19 +65,31 @@ class Episode:
     cycle: Cycle
     conditions: Conditions
     start_s: int
+    soc_target: float | None = None
+    """The SOC the episode's reward and observation hold to; None: the conditions' initial SOC."""
 
 
 class EpisodeSampler:
-    """Draws episodes from a generator, in a fixed order (conditions, cycle, random bus seed, start offset),
-    for the single and the vector env: a vector sub-env seeded like a single env lives through the same episodes."""
+    """Draws episodes from a generator, in a fixed order (conditions, cycle, random bus seed, start offset, then the
+    SOC offset if ``soc_offset`` > 0), for the single and the vector env: a vector sub-env seeded like a single env
+    lives through the same episodes.
 
-    def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool):
+    ``soc_offset`` > 0: the episode starts a uniform draw of up to that much SOC above or below its target, the
+    conditions' initial SOC (kept inside the battery's ``soc_window``), so training sees the charge away from its
+    target and the way back; 0 (default): every episode starts on its target."""
+
+    def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool,
+                 soc_offset: float = 0.0, soc_window: tuple[float, float] = (0.0, 1.0)):
         self.scenario = get_scenario(scenario)
         self.cycles = CycleChoice(cycle, self.scenario)
         if conditions is not None and not isinstance(conditions, Conditions):
             raise TypeError(f"conditions: expected Conditions or None, got {type(conditions).__name__}")
         self.conditions = conditions
         self.random_start = bool(random_start)
+        if isinstance(soc_offset, bool) or not isinstance(soc_offset, (int, float, np.number)) \
+                or not 0.0 <= float(soc_offset) <= MAX_SOC_OFFSET:
+            raise ValueError(f"soc_offset: expected a number in [0, {MAX_SOC_OFFSET}] (SOC), got {soc_offset!r}")
+        self.soc_offset, self.soc_window = float(soc_offset), (float(soc_window[0]), float(soc_window[1]))
 
     def sample(self, rng: np.random.Generator, options: dict[str, Any] | None) -> Episode:
         options = {} if options is None else options
@@ -107,7 +121,11 @@ class EpisodeSampler:
             start = int(rng.integers(cycle.n_steps))
         else:
             start = 0
-        return Episode(cycle, cond, start)
+        if self.soc_offset == 0.0:
+            return Episode(cycle, cond, start)
+        target = float(cond.initial_soc)
+        soc = float(np.clip(target + rng.uniform(-self.soc_offset, self.soc_offset), *self.soc_window))
+        return Episode(cycle, cond.replace(initial_soc=soc), start, soc_target=target)
 
 
 class CycleTables:

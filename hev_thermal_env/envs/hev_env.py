@@ -204,6 +204,9 @@ class HevThermalEnv(EnvParts, gym.Env):
       ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the
       baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
+    * ``soc_offset``: start each episode up to this much SOC (uniform, at most 0.2) above or below its SOC target, the
+      scenario's initial SOC, which the reward's band and the observation's deviation keep (training: the charge away
+      from its target and the way back); 0 (default): on the target.
     * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence of names from
       :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean path for gymnasium's vector wrappers
       (``gymnasium.make_vec(..., vectorization_mode="sync", info_keys=())`` merges no infos per step) and trainers that
@@ -237,13 +240,13 @@ class HevThermalEnv(EnvParts, gym.Env):
     def __init__(self, cycle: Any = "hwfet", scenario: str | Scenario = "paper", config: VehicleConfig | None = None,
                  conditions: Conditions | None = None, reward: RewardParams | dict | None = None, preview_s: int = 10,
                  preview_step_s: int = 2, render_mode: str | None = None, thermal: bool | None = None,
-                 random_start: bool = False, info_keys: str | Sequence[str] = "all"):
+                 random_start: bool = False, info_keys: str | Sequence[str] = "all", soc_offset: float = 0.0):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
         self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
                                                                 preview_s, preview_step_s, thermal, random_start,
-                                                                info_keys)
+                                                                info_keys, soc_offset)
         self._cost_step_s = S.cost_step_s(self.config, self.core.dt_s)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None

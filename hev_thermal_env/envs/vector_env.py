@@ -60,7 +60,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
                  reward: RewardParams | dict | None = None, preview_s: int = 10, preview_step_s: int = 2,
                  thermal: bool | None = None, random_start: bool = False, max_episode_steps: int | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, render_mode: str | None = None,
-                 info_keys: str | Sequence[str] = "all"):
+                 info_keys: str | Sequence[str] = "all", soc_offset: float = 0.0):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if render_mode is not None:
@@ -74,7 +74,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.single_observation_space, self.single_action_space = self._build(
             self.num_envs, cycle, scenario, config, conditions, reward, preview_s, preview_step_s, thermal,
-            random_start, info_keys)
+            random_start, info_keys, soc_offset)
         self._cost_step_s = cost_step_s(self.config, self.core.dt_s)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)

@@ -29,6 +29,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 import hev_thermal_env
 from hev_thermal_env.cycles import expand_cycle_names, load_cycle
 from hev_thermal_env.cycles.names import is_family
+from hev_thermal_env.envs.episodes import MAX_SOC_OFFSET
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.envs.spaces import observation_names
 from hev_thermal_env.io import atomic_write_yaml, read_yaml_mapping
@@ -46,7 +47,7 @@ from .selection import DEFAULT_SCORER, get_scorer
 #: cycles, random service conditions, random starts, a 10 s preview.
 ENV_DEFAULTS = {"cycles": ["random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed",
                            "bus_express"], "scenario": "random_service", "random_start": True, "preview_s": 10,
-                "preview_step_s": 2, "thermal": True, "reward": {}}
+                "preview_step_s": 2, "thermal": True, "reward": {}, "soc_offset": 0.0}
 #: The ``eval`` section's settings (the periodic evaluation) and their defaults. The checkpoints are scored on the
 #: last ten validation cycles (one of each rotating family, then five express routes), which
 #: ``benchmarks/ppo_vs_dp.py`` leaves out of its validation cells.
@@ -195,6 +196,9 @@ def _validate_env(env: dict[str, Any]) -> None:
     env["cycles"] = [str(c) for c in cycles]
     get_scenario(env["scenario"])
     RewardParams.from_dict(dict(env.get("reward") or {}), where="env.reward")
+    off = env["soc_offset"]
+    if isinstance(off, bool) or not isinstance(off, (int, float)) or not 0.0 <= off <= MAX_SOC_OFFSET:
+        raise ValueError(f"env.soc_offset: expected a number in [0, {MAX_SOC_OFFSET}] (SOC), got {off!r}")
     names = observation_names(whole_number("env.preview_s", env["preview_s"]),
                               whole_number("env.preview_step_s", env["preview_step_s"]))
     env["observation_size"] = len(names)

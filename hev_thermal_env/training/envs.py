@@ -21,7 +21,8 @@ def env_kwargs(env_cfg: dict[str, Any], *, for_eval: bool = False) -> dict[str, 
     return {"cycle": list(env_cfg["cycles"]), "scenario": env_cfg["scenario"],
             "random_start": False if for_eval else bool(env_cfg.get("random_start", True)),
             "preview_s": int(env_cfg["preview_s"]), "preview_step_s": int(env_cfg["preview_step_s"]),
-            "thermal": bool(env_cfg.get("thermal", True)), "reward": dict(env_cfg.get("reward") or {})}
+            "thermal": bool(env_cfg.get("thermal", True)), "reward": dict(env_cfg.get("reward") or {}),
+            "soc_offset": 0.0 if for_eval else float(env_cfg.get("soc_offset", 0.0))}
 
 
 class TimedVecEnv(VecEnvWrapper):
