@@ -13,8 +13,8 @@ one route of every training family (``evaluate.py dataset --source optimum``, th
 reused when there). Every seed family then drives every episode of every task (``--tasks``, default all) and is scored
 against the task's stored reference, as the leaderboard scores any result (no optimum is solved here): the
 normalised score (0 = ``engine_only``, 100 = the thermal optimum) and the frontier ratio, IQM over episodes and seeds
-with the 95 % stratified bootstrap interval, and the episode safety cost (Σ ``info["cost"]``) against the task's
-budget.
+with the 95 % stratified bootstrap interval, the episode safety cost (Σ ``info["cost"]``) against the task's
+budget and the optimum's (+5 %), and the runs beyond |ΔSOC| 0.02.
 
 Writes ``OUT/learned_baselines.json``: per method its budget and per seed the process wall-clock, the training's
 steps/s and the saved policy's path (``bc``: the dataset's build time and each fit's); per task and method the
