@@ -24,15 +24,13 @@ from hev_thermal_env.stats import CONFIDENCE, iqm
 from hev_thermal_env.tasks import get_task, list_tasks
 
 from .references import REFERENCE_DIR, StaleReferenceError, episode_score, load_reference
-from .score import aggregate, score_text, usable
+from .score import SOC_BOUND, aggregate, score_text, usable
 from .styles import pyplot
 from .submission import ResultFormatError, load_result, result_of_reference, result_of_strategy
 from .yardstick import REFERENCE, display_name
 
 METHODS = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
 """The package's methods on the leaderboard, in its order (``ppo``: the shipped policy)."""
-SOC_BOUND = 0.02
-"""|ΔSOC| beyond which a run counts as not holding its charge (``beyond_soc_bound``)."""
 SAFETY_MARGIN = 1.05
 """A run whose safety cost exceeds this times the optimum's on its episode, where the optimum's is not zero, counts in
 ``above_optimum_safety``: it derated its motor more than the optimum needed."""

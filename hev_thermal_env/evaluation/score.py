@@ -29,6 +29,9 @@ ILL_CONDITIONED_BELOW = 0.02
 ILL_CONDITIONED = "ill-conditioned"
 OPTIMUM_RATIO_TOLERANCE = 1e-3
 """The optimum's stated tolerance: no run's frontier ratio lies below 1 − this (the grid's resolution)."""
+SOC_BOUND = 0.02
+"""|ΔSOC| beyond which a run does not hold its charge: a checkpoint with such a validation run is not selected
+(:mod:`hev_thermal_env.training.selection`), and a score counts such runs (``beyond_soc_bound``)."""
 SCORE_COLUMNS = ("score", "score_ci_low", "score_ci_high", "score_anchor_ratio", "score_note")
 """Columns the score adds to a benchmark row."""
 

@@ -18,9 +18,10 @@ import numpy as np
 
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.evaluation.score import SOC_BOUND
 
 #: Largest |ΔSOC| over a validation cycle a selectable checkpoint may have.
-SOC_LIMIT = 0.02
+SOC_LIMIT = SOC_BOUND
 #: Added to the score for every evaluation run beyond :data:`SOC_LIMIT` (a fuel ratio is about 1).
 VIOLATION_PENALTY = 1000.0
 #: The scorer of a run whose hyperparameters name none.
