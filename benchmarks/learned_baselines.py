@@ -249,7 +249,7 @@ def table(record: dict[str, Any]) -> str:
     from hev_thermal_env.evaluation.score import score_text
 
     lines = ["| task | method | score IQM [95 % CI] | frontier ratio IQM [95 % CI] | safety cost s (IQM; worst) | "
-             "budget s | runs above the optimum's safety + 5 % | max \\|ΔSOC\\| (runs > 0.02) | runs |",
+             "budget s | above the optimum's safety + 5 % (where it derates) | max \\|ΔSOC\\| (runs > 0.02) | runs |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for task_id, ev in record["evaluation"].items():
         for method, m in ev["methods"].items():

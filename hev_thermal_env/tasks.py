@@ -51,7 +51,7 @@ TEST_SIZE = 18
 #: The training families of ``train.py`` (``env.cycles`` of the hyperparameter files): a fresh route per episode.
 TRAINING_FAMILIES = ("random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed", "bus_express")
 #: The env's arguments that a task fixes (:func:`make_task` refuses them).
-TASK_ARGS = ("cycle", "scenario", "conditions", "config", "thermal", "random_start")
+TASK_ARGS = ("cycle", "scenario", "conditions", "config", "thermal", "random_start", "soc_offset")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -390,6 +390,10 @@ def test_soc_offset_starts_off_the_target_and_the_band_holds_to_the_target():
     obs, _ = vec.reset(seed=[4, 5, 6])
     for row, seed in enumerate((4, 5, 6)):
         assert np.array_equal(obs[row], make(**kw, soc_offset=0.05).reset(seed=seed)[0])
+    asked = make(**kw, soc_offset=0.05)
+    obs, _ = asked.reset(seed=3, options={"initial_soc": 0.6})  # a start asked for is never shifted
+    assert float(obs[i_soc]) == pytest.approx(0.6, abs=1e-6) and asked.unwrapped.soc_target == 0.6
+    assert float(obs[i_dev]) == pytest.approx(0.0, abs=1e-6)
     for bad in (-0.01, 0.3, True, "0.1"):
         with pytest.raises(ValueError, match="soc_offset"):
             make(soc_offset=bad)

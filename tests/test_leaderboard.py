@@ -120,12 +120,12 @@ def test_score_result_against_a_reference(good):
 
 def test_score_result_counts_runs_beyond_the_charge_bound_and_above_the_optimums_safety(good):
     """Safety is judged against the optimum's own on the episode (+5 %) where it derates at all, and a run's charge by
-    its own start: 3 s against the optimum's 2 s is above it, 2.1 s is within 5 %; ΔSOC 0.021 is beyond 0.02."""
+    its own start: 3 s against the optimum's 2 s is above it, 2.09 s is within 5 %; ΔSOC 0.021 is beyond 0.02."""
     ref = synthetic_reference(4000.0)
     assert score_result(good, ref)["above_optimum_safety"] == 0  # the optimum does not derate here: nothing to match
     ref["episodes"][0]["optimum"]["safety_cost_s"] = 2.0
     rows = good["episodes"]
-    rows[0].update(safety_cost_s=2.1, soc_initial=0.6, soc_final=0.579)
+    rows[0].update(safety_cost_s=2.09, soc_initial=0.6, soc_final=0.579)
     rows[1].update(safety_cost_s=3.0, soc_initial=0.6, soc_final=0.619)
     entry = score_result(good, ref)
     assert entry["above_optimum_safety"] == 1 and entry["beyond_soc_bound"] == 1

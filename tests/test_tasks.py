@@ -60,6 +60,8 @@ def test_the_registry_names_each_task_once_with_its_version():
         get_task("hwfet-v9")
     with pytest.raises(ValueError, match="cycle, scenario belong"):
         make_task("hwfet", cycle="udds", scenario="hot")
+    with pytest.raises(ValueError, match="soc_offset belong"):  # a start off the reference's start is another episode
+        make_task("hwfet", soc_offset=0.05)
     assert set(TASK_ARGS) >= set(get_task("hwfet").env_kwargs())
 
 

@@ -75,8 +75,10 @@ class EpisodeSampler:
     lives through the same episodes.
 
     ``soc_offset`` > 0: the episode starts a uniform draw of up to that much SOC above or below its target, the
-    conditions' initial SOC (kept inside the battery's ``soc_window``), so training sees the charge away from its
-    target and the way back; 0 (default): every episode starts on its target."""
+    conditions' initial SOC, clipped to the battery's ``soc_window``; the reward's band and the observation still refer
+    to the unshifted target, so training sees the charge away from its target and the way back. A reset's
+    ``initial_soc`` option is the episode's start and target, never shifted. 0 (default): every episode starts on
+    its target."""
 
     def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool,
                  soc_offset: float = 0.0, soc_window: tuple[float, float] = (0.0, 1.0)):
@@ -123,8 +125,11 @@ class EpisodeSampler:
             start = 0
         if self.soc_offset == 0.0:
             return Episode(cycle, cond, start)
+        offset = rng.uniform(-self.soc_offset, self.soc_offset)  # drawn in any case: the stream stays the same
+        if "initial_soc" in options:  # a start asked for is the start, and the target
+            return Episode(cycle, cond, start)
         target = float(cond.initial_soc)
-        soc = float(np.clip(target + rng.uniform(-self.soc_offset, self.soc_offset), *self.soc_window))
+        soc = float(np.clip(target + offset, *self.soc_window))
         return Episode(cycle, cond.replace(initial_soc=soc), start, soc_target=target)
 
 

@@ -204,9 +204,10 @@ class HevThermalEnv(EnvParts, gym.Env):
       ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the
       baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
-    * ``soc_offset``: start each episode up to this much SOC (uniform, at most 0.2) above or below its SOC target, the
-      scenario's initial SOC, which the reward's band and the observation's deviation keep (training: the charge away
-      from its target and the way back); 0 (default): on the target.
+    * ``soc_offset``: start each episode up to this much SOC (uniform, at most 0.2, clipped to the battery's window)
+      above or below its SOC target, the scenario's initial SOC; the reward's band and the observation still refer to
+      the unshifted target (training: the charge away from its target and the way back). A reset's ``initial_soc``
+      option is never shifted. 0 (default): on the target.
     * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence of names from
       :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean path for gymnasium's vector wrappers
       (``gymnasium.make_vec(..., vectorization_mode="sync", info_keys=())`` merges no infos per step) and trainers that
@@ -264,7 +265,7 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     @property
     def soc_target(self) -> float:
-        """SOC target of the reward's deviation term: the episode's initial SOC."""
+        """SOC target of the reward's deviation term: the episode's initial SOC before any ``soc_offset``."""
         return float(self._rows.soc_target[0])
 
     @property

@@ -99,8 +99,8 @@ def result_files(paths: Sequence[str | Path]) -> list[Path]:
 def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
     """The leaderboard entry of one result on its task (module docstring); ``rows``: each episode row's frontier
     ratio, normalised score and note, in the result's order; ``above_optimum_safety``: the runs that derate their motor
-    more than the optimum on their episode (:data:`SAFETY_MARGIN`), ``beyond_soc_bound``: the runs whose |ΔSOC|
-    exceeds :data:`SOC_BOUND`."""
+    more than the optimum on their episode where it derates at all (:data:`SAFETY_MARGIN`), ``beyond_soc_bound``: the
+    runs whose |ΔSOC| exceeds :data:`SOC_BOUND` (None if a row lacks its ``soc_initial``)."""
     refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     budget = float(reference["safety_budget_s"])
     groups: dict[tuple[str, int], list[tuple[float | None, str | None]]] = {}
@@ -115,8 +115,10 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
         safety.append(float(row["safety_cost_s"]))
         optimum_s = float(refs[key]["optimum"]["safety_cost_s"])
         above += optimum_s > 0.0 and float(row["safety_cost_s"]) > SAFETY_MARGIN * optimum_s
-        if row.get("soc_initial") is not None:
+        if beyond_soc is not None and row.get("soc_initial") is not None:
             beyond_soc += abs(float(row["soc_final"]) - float(row["soc_initial"])) > SOC_BOUND
+        else:  # a row without its start: the count is unknown
+            beyond_soc = None
     agg = aggregate(list(groups.values()))
     fuel = [r.get("fuel_corrected_l_per_100km") for r in result["episodes"]]
     cs = [r.get("charge_sustaining") for r in result["episodes"]]
@@ -128,7 +130,7 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
             "frontier_ratio": iqm([r for r in ratios if r is not None]) if any(r is not None for r in ratios) else None,
             "safety_cost_s": iqm(safety), "safety_cost_max_s": max(safety), "budget_s": budget,
             "within_budget": sum(s <= budget for s in safety), "above_optimum_safety": int(above),
-            "beyond_soc_bound": int(beyond_soc),
+            "beyond_soc_bound": beyond_soc,
             "fuel_corrected_l_per_100km": iqm([f for f in fuel if f is not None]) if any(f is not None for f in fuel)
             else None, "fuel_kg": float(np.mean([r.get("fuel_g", np.nan) for r in result["episodes"]])) / 1000.0,
             "charge_sustaining": None if any(c is None for c in cs) else sum(cs),

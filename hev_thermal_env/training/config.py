@@ -196,7 +196,7 @@ def _validate_env(env: dict[str, Any]) -> None:
     env["cycles"] = [str(c) for c in cycles]
     get_scenario(env["scenario"])
     RewardParams.from_dict(dict(env.get("reward") or {}), where="env.reward")
-    off = env["soc_offset"]
+    off = env.setdefault("soc_offset", 0.0)  # a run saved before the key existed started on its target
     if isinstance(off, bool) or not isinstance(off, (int, float)) or not 0.0 <= off <= MAX_SOC_OFFSET:
         raise ValueError(f"env.soc_offset: expected a number in [0, {MAX_SOC_OFFSET}] (SOC), got {off!r}")
     names = observation_names(whole_number("env.preview_s", env["preview_s"]),
