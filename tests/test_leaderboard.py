@@ -146,6 +146,8 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
     md = page.read_text()
     assert "### hwfet-v1" in md and "| engine_only | 0.0 |" in md and "| outside |" in md and "| rule |" in md
     assert "| outside | 1 | 50.0 [48.7, 51.3] | 2 | 1.5 min |" in md  # training per seed: the mean of 60 and 120 s
+    row = next(line for line in md.splitlines() if line.startswith("| outside | 50.0"))
+    assert "| 2/2 | 0/2 |" in row  # both within the 10 s budget; the optimum does not derate, so none above it
     assert "| rule | 1 | " in md and md.split("| rule | 1 | ")[1].split("\n")[0].endswith("| 1 | - |")
     assert (page.parent / PROFILE_FILE).stat().st_size > 10_000
     assert (tmp_path / "res" / "hwfet-v1" / "rule.json").is_file()

@@ -176,7 +176,8 @@ def _task_table(entries: list[dict]) -> list[str]:
                (" at most" if len(r0) > 1 else "") + ". ") if r0 else ""
     lines = [f"### {e0['task']}", "", f"{r0_text}Safety budget {e0['budget_s']:g} s per episode.", "",
              "| method | score IQM [95 % CI] | frontier ratio | safety cost s (IQM; worst) | within budget | "
-             "corrected L/100 km | fuel kg | J1711 | runs |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "above the optimum's | corrected L/100 km | fuel kg | J1711 | runs |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     by_method = {e["method"]: e for e in entries}
     for m in _order(list(by_method)):
         e = by_method[m]
@@ -185,7 +186,8 @@ def _task_table(entries: list[dict]) -> list[str]:
         excl = f" ({e['excluded']} left out)" if e["excluded"] else ""
         lines.append(f"| {label(m)} | {score_text(e['score'], e['score_ci_low'], e['score_ci_high'])}{excl} | "
                      f"{_num(e['frontier_ratio'], 3)} | {e['safety_cost_s']:.0f}; {e['safety_cost_max_s']:.0f} | "
-                     f"{e['within_budget']}/{e['runs']} | {_num(fuel, 2)} | {_num(e['fuel_kg'], 2)} | {cs} | "
+                     f"{e['within_budget']}/{e['runs']} | {e['above_optimum_safety']}/{e['runs']} | {_num(fuel, 2)} | "
+                     f"{_num(e['fuel_kg'], 2)} | {cs} | "
                      f"{e['runs']} |")
     return lines + [""]
 
@@ -233,19 +235,21 @@ def markdown(entries: list[dict], missing: Sequence[str], fingerprint: str, prof
     return "\n".join(md).rstrip() + "\n"
 
 
-LEAD = ("Every method on every task that has stored references, measured on physics fingerprint `{fp}`. *score*: the "
-        "normalised score, 0 = `engine_only` (the bus with its motor unused), 100 = the thermal optimum at equal "
-        "charge, per episode 100 · (r0 − r) / (r0 − 1) with r the frontier ratio; the interquartile mean over "
-        "episodes and seeds with its {conf:.0f} % stratified bootstrap interval ([Metrics](metrics.md#the-normalised-"
-        "score)). *safety cost*: the episode's seconds of lost motor capability (Σ `info[\"cost\"]`), against the "
-        "task's budget ([Tasks](tasks.md#safety-budgets)). *frontier ratio*: IQM of the runs' cost over the optimum's "
-        "at the same final SOC. *corrected L/100 km*: fuel at equal charge and service (IQM). *fuel kg*: raw fuel "
-        "per episode (mean). *J1711*: runs that are charge-sustaining. *left out*: runs without a score (a final SOC "
-        "off the optimum's frontier, so no frontier ratio, or an ill-conditioned episode). The bootstrap resamples the "
-        "seeds within each episode: a deterministic strategy has one run per episode, so its score has no interval. "
-        "The optimum's row is the run stored with each task's reference (no plan is solved for this page). "
-        "*training per seed*: a learned method's mean wall-clock to train one seed (the result file's `training`); "
-        "`-` for a method that is not trained here.")
+LEAD = ("Every method on every task that has stored references, measured on physics fingerprint `{fp}`. *score*: "
+        "the normalised score, 0 = `engine_only` (the bus with its motor unused), 100 = the thermal optimum at "
+        "equal charge, per episode 100 · (r0 − r) / (r0 − 1) with r the frontier ratio; the interquartile mean "
+        "over episodes and seeds with its {conf:.0f} % stratified bootstrap interval "
+        "([Metrics](metrics.md#the-normalised-score)). *safety cost*: the episode's seconds of lost motor "
+        "capability (Σ `info[\"cost\"]`), against the task's budget ([Tasks](tasks.md#safety-budgets)). *above the "
+        "optimum's*: runs whose safety cost exceeds the optimum's on the same episode by more than 5 %, where the "
+        "optimum derates at all. *frontier ratio*: IQM of the runs' cost over the optimum's at the same final "
+        "SOC. *corrected L/100 km*: fuel at equal charge and service (IQM). *fuel kg*: raw fuel per episode "
+        "(mean). *J1711*: runs that are charge-sustaining. *left out*: runs without a score (a final SOC off the "
+        "optimum's frontier, so no frontier ratio, or an ill-conditioned episode). The bootstrap resamples the "
+        "seeds within each episode: a deterministic strategy has one run per episode, so its score has no "
+        "interval. The optimum's row is the run stored with each task's reference (no plan is solved for this "
+        "page). *training per seed*: a learned method's mean wall-clock to train one seed (the result file's "
+        "`training`); `-` for a method that is not trained here.")
 PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
                 "below every τ) whose normalised score exceeds τ, as rliable draws it: a curve further right is "
                 "better; where it drops shows the spread of the method's scores across tasks.")
