@@ -42,8 +42,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
@@ -246,10 +244,12 @@ def _mean(values: list[float | None]) -> float | None:
 def table(record: dict[str, Any]) -> str:
     """Every method on every task: score and frontier ratio IQM, safety cost (IQM; worst; budget; runs above the
     optimum's + 5 %), the largest |ΔSOC| (runs beyond 0.02)."""
-    from hev_thermal_env.evaluation.score import score_text
+    from hev_thermal_env.evaluation.leaderboard import SAFETY_MARGIN
+    from hev_thermal_env.evaluation.score import SOC_BOUND, score_text
 
     lines = ["| task | method | score IQM [95 % CI] | frontier ratio IQM [95 % CI] | safety cost s (IQM; worst) | "
-             "budget s | above the optimum's safety + 5 % (where it derates) | max \\|ΔSOC\\| (runs > 0.02) | runs |",
+             f"budget s | above the optimum's safety + {100 * (SAFETY_MARGIN - 1):.0f} % (where it derates) | "
+             f"max \\|ΔSOC\\| (runs > {SOC_BOUND:g}) | runs |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for task_id, ev in record["evaluation"].items():
         for method, m in ev["methods"].items():
@@ -266,52 +266,12 @@ def table(record: dict[str, Any]) -> str:
 
 
 def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | None:
-    """One panel per method: the validation fuel ÷ ECMS (mean over the evaluation's runs) of every seed against the
-    env-steps, the median over seeds in bold, disqualified evaluations (|ΔSOC| > 0.02 on a run) crossed and each
-    seed's ``best_model.zip`` starred (``evaluations.csv`` of every run); None when no run has evaluations."""
-    from hev_thermal_env.evaluation.styles import pyplot
-    from hev_thermal_env.io import save_png
-    from hev_thermal_env.training.artifacts import read_evaluations
+    """Every method's seed family side by side (:func:`hev_thermal_env.training.curves.family_curves`), each panel
+    under the method's name in the tables; None when no run has evaluations."""
+    from hev_thermal_env.training.curves import family_curves
 
-    curves: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
-    for method, trained in methods.items():
-        for seed in trained["seeds"]:
-            rows = read_evaluations(Path(seed["run_dir"]) / "evaluations.csv")
-            steps = sorted({r["timesteps"] for r in rows})
-            if not steps:
-                continue
-            at = [[r for r in rows if r["timesteps"] == t] for t in steps]
-            curves.setdefault(method, []).append((
-                np.array(steps, dtype=float), np.array([np.mean([r["fuel_ratio"] for r in g]) for g in at]),
-                np.array([all(r["qualified"] for r in g) for g in at]), np.array([any(r["best"] for r in g)
-                                                                                  for g in at])))
-    if not curves:
-        return None
-    plt = pyplot()
-    fig, axes = plt.subplots(1, len(curves), figsize=(max(3.6 * len(curves) + 0.6, 6.4), 4.2), sharey=True,
-                             squeeze=False, layout="constrained")
-    for ax, (method, runs) in zip(axes[0], curves.items()):
-        for k, (x, y, ok, best) in enumerate(runs):
-            line, = ax.plot(x, 100.0 * y, lw=0.9, alpha=0.7, label=f"seed {methods[method]['seeds'][k]['seed']}")
-            ax.plot(x[~ok], 100.0 * y[~ok], "x", color=line.get_color(), ms=5)
-            last_best = np.flatnonzero(best)
-            if last_best.size:
-                i = last_best[-1]
-                ax.plot(x[i], 100.0 * y[i], "*", color=line.get_color(), ms=10, mec="k", mew=0.5)
-        n = min(len(x) for x, *_ in runs)
-        median = np.median(np.stack([y[:n] for _, y, *_ in runs]), axis=0)
-        ax.plot(runs[0][0][:n], 100.0 * median, color="k", lw=2.0, label="median")
-        ax.axhline(100.0, color="0.5", lw=0.8, ls="--")
-        ax.set_title(FAMILY_NAMES.get(method, method), fontsize=10)
-        ax.set_xlabel("env-steps")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="lower right")
-    axes[0][0].set_ylabel("validation fuel, % of ECMS's (mean of 20 runs)")
-    fig.suptitle("Learning curves on the selection runs (validation_bus:20..29 × paper, full_bus)\nx: an evaluation "
-                 "with |ΔSOC| > 0.02 on a run; *: best_model.zip", fontsize=9)
-    save_png(fig, path)
-    plt.close(fig)
-    return path
+    return family_curves({FAMILY_NAMES.get(m, m): [(s["seed"], s["run_dir"]) for s in t["seeds"]]
+                          for m, t in methods.items()}, path)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
