@@ -8,13 +8,13 @@ from __future__ import annotations
 import pytest
 
 import hev_thermal_env.training.loop as loop
+from hev_thermal_env.evaluation.score import SOC_BOUND
 from hev_thermal_env.evaluation.styles import close
 from hev_thermal_env.training.artifacts import read_evaluations
 from hev_thermal_env.training.config import build_config, save_run_config
 from hev_thermal_env.training.curves import read_training_returns, selected_step, training_curve_figure
 from hev_thermal_env.training.selection import (
     SCORERS,
-    SOC_LIMIT,
     Score,
     Scorer,
     compute_references,
@@ -82,7 +82,7 @@ def test_best_model_is_the_best_fuel_not_the_best_return(tmp_path, monkeypatch):
 
 
 def test_a_checkpoint_that_drifts_the_soc_is_not_chosen(tmp_path, monkeypatch):
-    evaluations = [results(-100.0, 1.05), results(-60.0, 0.90, dsoc=SOC_LIMIT + 0.005), results(-90.0, 1.07)]
+    evaluations = [results(-100.0, 1.05), results(-60.0, 0.90, dsoc=SOC_BOUND + 0.005), results(-90.0, 1.07)]
     saved, _ = run_selection(tmp_path, monkeypatch, evaluations)
     assert saved == [1000]  # the cheapest (0.90) drifted the SOC on one cycle
     rows = read_evaluations(tmp_path / "evaluations.csv")
@@ -99,7 +99,7 @@ def test_when_no_checkpoint_holds_the_soc_the_least_violating_wins(tmp_path, mon
 def test_the_final_selection_keeps_every_latest_evaluation_and_still_scores_it(tmp_path, monkeypatch):
     """``eval.selection: final``: ``best_model.zip`` is the latest evaluation whatever its fuel or charge, so the
     final model; the fuel ÷ ECMS and the SOC check are still written for every evaluation."""
-    evaluations = [results(-100.0, 1.02), results(-60.0, 1.10, dsoc=SOC_LIMIT + 0.005), results(-90.0, 1.07)]
+    evaluations = [results(-100.0, 1.02), results(-60.0, 1.10, dsoc=SOC_BOUND + 0.005), results(-90.0, 1.07)]
     saved, _ = run_selection(tmp_path, monkeypatch, evaluations, selection="final")
     assert saved == [1000, 2000, 3000]
     rows = read_evaluations(tmp_path / "evaluations.csv")
@@ -167,7 +167,7 @@ def test_training_curve_stars_the_selected_evaluation_on_the_fuel_panel(tmp_path
     from stable_baselines3.common.logger import configure
 
     evaluations = [results(-100.0, 1.05), results(-50.0, 1.10), results(-80.0, 1.02),
-                   results(-90.0, 0.95, dsoc=SOC_LIMIT + 0.005)]
+                   results(-90.0, 0.95, dsoc=SOC_BOUND + 0.005)]
     _, run = run_selection(tmp_path, monkeypatch, evaluations)
     save_run_config(tmp_path, run.config)
     logger = configure(str(tmp_path / "tb" / "PPO_1"), ["tensorboard"])

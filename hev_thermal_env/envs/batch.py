@@ -125,7 +125,7 @@ class EpisodeRows:
             gear[i, n - 1:] = tab.gear[-1]
             self.state[i] = self.core.initial_state(ep.conditions, 1)[0]
             self.cond[i] = self.core.conditions_array(ep.conditions, 1)[0]
-            self.soc_target[i] = ep.conditions.initial_soc if ep.soc_target is None else ep.soc_target
+            self.soc_target[i] = ep.soc_target
             descent[i, :n] = descent_soc(tab.climb_m, gl.mass_kg + ep.conditions.payload_kg, gl.gravity_mps2,
                                          j_per_soc)
             descent[i, n:] = 0.0

@@ -18,6 +18,16 @@ from ..scenarios import Scenario, get_scenario
 
 MAX_SOC_OFFSET = 0.2
 """The largest ``soc_offset`` an env takes (SOC)."""
+
+
+def check_soc_offset(value: Any, where: str = "soc_offset") -> float:
+    """``value`` as a ``soc_offset`` (a number in [0, :data:`MAX_SOC_OFFSET`]), or a one-line error naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) \
+            or not 0.0 <= float(value) <= MAX_SOC_OFFSET:
+        raise ValueError(f"{where}: expected a number in [0, {MAX_SOC_OFFSET}] (SOC), got {value!r}")
+    return float(value)
+
+
 RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
 """Keys accepted in ``reset(options=...)``."""
 
@@ -65,8 +75,8 @@ class Episode:
     cycle: Cycle
     conditions: Conditions
     start_s: int
-    soc_target: float | None = None
-    """The SOC the episode's reward and observation hold to; None: the conditions' initial SOC."""
+    soc_target: float
+    """The SOC the episode's reward and observation hold to: the conditions' initial SOC before any offset."""
 
 
 class EpisodeSampler:
@@ -88,10 +98,7 @@ class EpisodeSampler:
             raise TypeError(f"conditions: expected Conditions or None, got {type(conditions).__name__}")
         self.conditions = conditions
         self.random_start = bool(random_start)
-        if isinstance(soc_offset, bool) or not isinstance(soc_offset, (int, float, np.number)) \
-                or not 0.0 <= float(soc_offset) <= MAX_SOC_OFFSET:
-            raise ValueError(f"soc_offset: expected a number in [0, {MAX_SOC_OFFSET}] (SOC), got {soc_offset!r}")
-        self.soc_offset, self.soc_window = float(soc_offset), (float(soc_window[0]), float(soc_window[1]))
+        self.soc_offset, self.soc_window = check_soc_offset(soc_offset), (float(soc_window[0]), float(soc_window[1]))
 
     def sample(self, rng: np.random.Generator, options: dict[str, Any] | None) -> Episode:
         options = {} if options is None else options
@@ -123,14 +130,12 @@ class EpisodeSampler:
             start = int(rng.integers(cycle.n_steps))
         else:
             start = 0
-        if self.soc_offset == 0.0:
-            return Episode(cycle, cond, start)
-        offset = rng.uniform(-self.soc_offset, self.soc_offset)  # drawn in any case: the stream stays the same
-        if "initial_soc" in options:  # a start asked for is the start, and the target
-            return Episode(cycle, cond, start)
         target = float(cond.initial_soc)
-        soc = float(np.clip(target + offset, *self.soc_window))
-        return Episode(cycle, cond.replace(initial_soc=soc), start, soc_target=target)
+        if self.soc_offset > 0.0:
+            offset = rng.uniform(-self.soc_offset, self.soc_offset)  # drawn in any case: the stream stays the same
+            if "initial_soc" not in options:  # a start asked for is the start, and the target
+                cond = cond.replace(initial_soc=float(np.clip(target + offset, *self.soc_window)))
+        return Episode(cycle, cond, start, target)
 
 
 class CycleTables:

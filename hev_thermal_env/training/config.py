@@ -29,7 +29,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 import hev_thermal_env
 from hev_thermal_env.cycles import expand_cycle_names, load_cycle
 from hev_thermal_env.cycles.names import is_family
-from hev_thermal_env.envs.episodes import MAX_SOC_OFFSET
+from hev_thermal_env.envs.episodes import check_soc_offset
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.envs.spaces import observation_names
 from hev_thermal_env.io import atomic_write_yaml, read_yaml_mapping
@@ -196,9 +196,8 @@ def _validate_env(env: dict[str, Any]) -> None:
     env["cycles"] = [str(c) for c in cycles]
     get_scenario(env["scenario"])
     RewardParams.from_dict(dict(env.get("reward") or {}), where="env.reward")
-    off = env.setdefault("soc_offset", 0.0)  # a run saved before the key existed started on its target
-    if isinstance(off, bool) or not isinstance(off, (int, float)) or not 0.0 <= off <= MAX_SOC_OFFSET:
-        raise ValueError(f"env.soc_offset: expected a number in [0, {MAX_SOC_OFFSET}] (SOC), got {off!r}")
+    # a run saved before the key existed started on its target
+    check_soc_offset(env.setdefault("soc_offset", 0.0), "env.soc_offset")
     names = observation_names(whole_number("env.preview_s", env["preview_s"]),
                               whole_number("env.preview_step_s", env["preview_step_s"]))
     env["observation_size"] = len(names)

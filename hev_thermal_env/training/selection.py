@@ -3,7 +3,7 @@
 An evaluation is one result per validation cycle × scenario (:mod:`.evaluator`); the config's
 ``eval.selection`` names the scorer, one of :data:`SCORERS`: ``fuel_vs_ecms`` (the default) or
 ``fuel_vs_rule``, the mean corrected fuel relative to that strategy on the same runs plus
-:data:`VIOLATION_PENALTY` per run whose ``|ΔSOC|`` exceeds :data:`SOC_LIMIT` (:func:`fuel_ratio_score`),
+:data:`VIOLATION_PENALTY` per run whose ``|ΔSOC|`` exceeds :data:`SOC_BOUND` (:func:`fuel_ratio_score`),
 so a checkpoint that holds the SOC everywhere always beats one that does not; or ``final``, which scores as
 ``fuel_vs_ecms`` but keeps the latest evaluation, so ``best_model.zip`` is the final model. See docs/training.md.
 """
@@ -20,9 +20,7 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.score import SOC_BOUND
 
-#: Largest |ΔSOC| over a validation cycle a selectable checkpoint may have.
-SOC_LIMIT = SOC_BOUND
-#: Added to the score for every evaluation run beyond :data:`SOC_LIMIT` (a fuel ratio is about 1).
+#: Added to the score for every evaluation run beyond :data:`SOC_BOUND` (a fuel ratio is about 1).
 VIOLATION_PENALTY = 1000.0
 #: The scorer of a run whose hyperparameters name none.
 DEFAULT_SCORER = "fuel_vs_ecms"
@@ -64,7 +62,7 @@ def run_key(cycle: str, scenario: str) -> str:
 
 
 def fuel_ratio_score(results: Sequence[dict[str, Any]], reference: dict[str, float]) -> Score:
-    """Mean fuel ratio to the reference plus :data:`VIOLATION_PENALTY` per run with |ΔSOC| > :data:`SOC_LIMIT`."""
+    """Mean fuel ratio to the reference plus :data:`VIOLATION_PENALTY` per run with |ΔSOC| > :data:`SOC_BOUND`."""
     if not results:
         raise ValueError("no evaluation results to score")
     ratios = []
@@ -73,7 +71,7 @@ def fuel_ratio_score(results: Sequence[dict[str, Any]], reference: dict[str, flo
         if key not in reference:
             raise KeyError(f"no reference fuel for {key!r}; known: {sorted(reference)}")
         ratios.append(float(r["fuel_corrected_l_per_100km"]) / float(reference[key]))
-    violations = int(sum(abs(float(r["delta_soc"])) > SOC_LIMIT for r in results))
+    violations = int(sum(abs(float(r["delta_soc"])) > SOC_BOUND for r in results))
     value = float(np.mean(ratios)) + VIOLATION_PENALTY * violations
     return Score(value, violations == 0, tuple(ratios), violations)
 
@@ -83,7 +81,7 @@ def _fuel_scorer(strategy: str) -> Scorer:
         return float(run_strategy(get_strategy(strategy), cycle, scenario).summary["fuel_corrected_l_per_100km"])
 
     return Scorer(f"fuel_vs_{strategy}",
-                  f"lowest mean corrected fuel ÷ {strategy.upper()} on the validation runs (|ΔSOC| > {SOC_LIMIT:g} "
+                  f"lowest mean corrected fuel ÷ {strategy.upper()} on the validation runs (|ΔSOC| > {SOC_BOUND:g} "
                   f"on any run disqualifies)",
                   fuel_ratio_score, reference, short=f"fuel ÷ {strategy.upper()}", reference_name=strategy.upper())
 
