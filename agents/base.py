@@ -5,7 +5,9 @@ A strategy is driven through ``HevThermal-v1``::
     strategy.reset(env)            # once per episode, after env.reset(); may plan (DP)
     action = strategy.act(obs, info)   # every step; returns np.ndarray of shape (1,)
 
-``vehicle_config(config)`` lets a strategy change the vehicle it drives (``conventional`` drives the conventional bus,
+``env_options()`` gives the env arguments a strategy drives with that leave the episode, the physics and the score as
+they are (a trained policy's observation settings); ``vehicle_config(config)`` lets a strategy change the vehicle it
+drives (``conventional`` drives the conventional bus,
 and says so with ``other_vehicle``: its rows are not compared with the hybrid's optimum); ``thermal_aware`` says whether
 it respects the thermal model.
 """
@@ -28,6 +30,10 @@ class Strategy:
 
     def vehicle_config(self, config: VehicleConfig) -> VehicleConfig:
         return config
+
+    def env_options(self) -> dict[str, Any]:
+        """Keyword arguments of ``HevThermalEnv`` this strategy is driven with; none by default."""
+        return {}
 
     def reset(self, env: Any) -> None:
         """Called after ``env.reset()``; ``env.unwrapped`` exposes the physics (see the env's docs)."""

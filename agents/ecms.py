@@ -24,7 +24,8 @@ reward and the corrected-fuel metric do.
   costs its lost seconds of peak torque; the same overload in a hot one is also heat on the way to the cutoff. No new
   parameter (the band is the motor's). On the 30 validation routes it spares 0.2-0.4 % of corrected fuel in the
   ``paper``, ``full_bus``, ``summer`` and ``hilly`` conditions for 0.3-3 s of derating per route, and drives ``hot`` as
-  the fixed price does.
+  the fixed price does. ``margin_floor`` (0 by default) keeps the price of a cool motor at that share of w_x at least:
+  w_x · max(floor, min(1, ΔT_h / (T_cut − T))).
 
 While braking, fuel does not depend on the share and the battery term falls with it as long as s_eff > 0: ECMS and
 A-ECMS regenerate all that is available unless the SOC is so far above the target that s_eff ≤ 0.
@@ -153,11 +154,17 @@ class ThermalECMS(ECMS):
 
     def __init__(self, s: float = 2.9, k_soc: float = 1.0, penalty: str = "linear", n_u: int = 41,
                  soc_target: float | None = None, w_x: float = 300.0, x_thr: float = -0.05, w_temp: float = 5.0,
-                 temp_soft_c: float = 55.0, w_cutoff: float = 1000.0, x_price: str = "fixed"):
+                 temp_soft_c: float = 55.0, w_cutoff: float = 1000.0, x_price: str = "fixed",
+                 margin_floor: float = 0.0):
         super().__init__(s=s, k_soc=k_soc, penalty=penalty, n_u=n_u, soc_target=soc_target)
         if x_price not in X_PRICES:
             raise ValueError(f"{self.name}: x_price {x_price!r} is not one of {list(X_PRICES)}")
+        if not 0.0 <= float(margin_floor) <= 1.0:
+            raise ValueError(f"{self.name}: margin_floor must lie in [0, 1] (a share of w_x), got {margin_floor!r}")
+        if x_price != "margin" and margin_floor != 0.0:
+            raise ValueError(f"{self.name}: margin_floor applies to x_price='margin', not {x_price!r}")
         self.x_price = x_price
+        self.margin_floor = float(margin_floor)
         self.w_x = float(w_x)
         self.x_thr = float(x_thr)
         self.w_temp = float(w_temp)
@@ -170,11 +177,12 @@ class ThermalECMS(ECMS):
         self.cutoff_c, self.band_k = th.cutoff_temp_c, th.cutoff_temp_c - th.cutoff_release_temp_c
 
     def heat_index_price(self) -> float:
-        """w_x, or with ``x_price="margin"`` w_x · min(1, ΔT_h / (T_cut − T)) at the present temperature."""
+        """w_x, or with ``x_price="margin"`` w_x · max(margin_floor, min(1, ΔT_h / (T_cut − T))) at the present
+        temperature."""
         if self.x_price == "fixed":
             return self.w_x
         margin_k = self.cutoff_c - float(self.env.phys_state[0, C.TEMP_C])
-        return self.w_x * min(1.0, self.band_k / max(margin_k, 1e-9))
+        return self.w_x * max(self.margin_floor, min(1.0, self.band_k / max(margin_k, 1e-9)))
 
     def candidate_costs(self, state_after: np.ndarray, out: np.ndarray, soc: float) -> np.ndarray:
         """ECMS's cost plus the price of the next thermal state (heat index, temperature, cutoff)."""
@@ -185,4 +193,5 @@ class ThermalECMS(ECMS):
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "w_x_g": self.w_x, "x_thr": self.x_thr, "w_temp_g_per_k2": self.w_temp,
-                "temp_soft_c": self.temp_soft_c, "w_cutoff_g": self.w_cutoff, "x_price": self.x_price}
+                "temp_soft_c": self.temp_soft_c, "w_cutoff_g": self.w_cutoff, "x_price": self.x_price,
+                "margin_floor": self.margin_floor}

@@ -5,8 +5,12 @@ behind the strategy protocol.
 run directory or model zip of ``train.py`` (:func:`.policy_files.load_policy`, which says where each file is looked up
 and what it raises). It acts deterministically on observations normalised with the saved statistics
 (:meth:`.policy_files.LoadedPolicy.act`); an env whose observation differs from the one the model was trained on (e.g.
-another ``preview_s``) raises ``ValueError`` naming what differs. A recurrent policy's state starts afresh at every
-:meth:`PPOStrategy.reset` (an episode's start) and is carried from step to step within the episode.
+another ``preview_s``, or another ``descent_recovery``, which moves the band's center in the ``soc_target`` entry)
+raises ``ValueError`` naming what differs. :meth:`PPOStrategy.env_options` gives the env the policy's
+``descent_recovery``, so :func:`~hev_thermal_env.evaluation.runner.run_strategy`, the tasks and the datasets drive every
+policy with the center it was trained on (the episodes and their score do not depend on it). A recurrent policy's
+state starts afresh at every :meth:`PPOStrategy.reset` (an episode's start) and is carried from step to step within the
+episode.
 """
 
 from __future__ import annotations
@@ -16,11 +20,20 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.envs.reward import RewardParams
+
 from .base import Strategy
 from .policy_files import LoadedPolicy, load_policy
 
 DEFAULT_POLICY_DIR = Path(__file__).resolve().parent / "policies" / "ppo_default"
 """The shipped default policy (``get_strategy("ppo")``)."""
+
+
+def trained_descent_recovery(policy: LoadedPolicy) -> float:
+    """The band center's ``descent_recovery`` the policy was trained with: its run config's
+    ``env.reward.descent_recovery``, else the env's default."""
+    reward = policy.env_settings.get("reward") or {}
+    return float(reward.get("descent_recovery", RewardParams().descent_recovery))
 
 
 def observation_mismatch(policy: LoadedPolicy, env: Any) -> str | None:
@@ -36,6 +49,10 @@ def observation_mismatch(policy: LoadedPolicy, env: Any) -> str | None:
     if None not in saved_preview and tuple(int(x) for x in saved_preview) != env_preview:
         differences.append(f"trained with preview_s={saved_preview[0]}, preview_step_s={saved_preview[1]}; the env "
                            f"has preview_s={env_preview[0]}, preview_step_s={env_preview[1]}")
+    trained, here = trained_descent_recovery(policy), float(e.reward_params.descent_recovery)
+    if trained != here:
+        differences.append(f"the band's center (soc_target) was trained with descent_recovery={trained}; the env has "
+                           f"{here} (reward={{'descent_recovery': {trained}}})")
     names = settings.get("observation_names")
     env_names = getattr(e, "obs_names", None)
     if not differences and names and env_names and list(names) != list(env_names):
@@ -70,6 +87,13 @@ class PPOStrategy(Strategy):
         strategy = cls(path=label, **options)
         strategy.label = f"ppo:{label}"
         return strategy
+
+    def env_options(self) -> dict[str, Any]:
+        """The band's center as in training: ``reward={"descent_recovery": ...}`` when the run config sets it."""
+        reward = self.policy.env_settings.get("reward") or {}
+        if "descent_recovery" not in reward:
+            return {}
+        return {"reward": {"descent_recovery": float(reward["descent_recovery"])}}
 
     def reset(self, env: Any) -> None:
         super().reset(env)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hev_thermal_env.envs import HevThermalEnv
-from hev_thermal_env.training.config import build_config
+from hev_thermal_env.training.config import build_config, load_run_config
 from hev_thermal_env.training.envs import env_kwargs
 from hev_thermal_env.training.imitation import INIT_DEFAULTS, check_init, demonstrations, fit_policy_mean, teacher_of
 
@@ -20,7 +20,7 @@ def test_the_teachers_options_reach_its_demonstrations():
     """``init.teacher_options`` build the teacher: the shipped file's ``x_price: margin`` (with ``k_soc``) lets
     ``ecms_thermal`` derate a cool motor where the fixed price never does, and gives other actions from the same
     episodes."""
-    assert build_config("ppo")["init"]["teacher_options"] == {"x_price": "margin", "k_soc": 1.5}
+    assert build_config("ppo")["init"]["teacher_options"] == {"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5}
     teachers = {p: teacher_of({"imitate": "ecms_thermal", "teacher_options": {"x_price": p}})
                 for p in ("fixed", "margin")}
     runs = {p: demonstrations(env_kwargs(ENV), t, 2, seed=5) for p, t in teachers.items()}
@@ -143,7 +143,8 @@ def test_frozen_observation_statistics_stay_the_demonstrations(tmp_path, freeze)
     with open(out / "vecnormalize.pkl", "rb") as fh:
         rms = pickle.load(fh).obs_rms
     assert isinstance(rms, FrozenRunningMeanStd) is (freeze is not False)
-    obs, _ = demonstrations(env_kwargs(ENV), teacher_of(build_config("ppo")["init"]), 1, seed=2)
+    run_env = load_run_config(out)["env"]  # ppo.yaml's env section with the test's cycles: the run's demonstrations
+    obs, _ = demonstrations(env_kwargs(run_env), teacher_of(build_config("ppo")["init"]), 1, seed=2)
     demo_mean = obs.mean(axis=0, dtype=np.float64)
     names = np.asarray(observation_names(10, 2))
     varied = obs.var(axis=0, dtype=np.float64) > 1e-12

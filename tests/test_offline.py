@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import load_cycle
+from hev_thermal_env.agents import get_strategy
+from hev_thermal_env.agents.ppo import trained_descent_recovery
 from hev_thermal_env.evaluation import datasets as D
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import TEST_SEED_BASE, get_task, held_out_cycles
@@ -43,6 +45,19 @@ def test_round_trip_replays_observations_and_rewards_exactly(source, short_route
     assert meta["hev_thermal_routes"] == short_routes and meta["hev_thermal_source"] == source
     episodes = list(data.iterate_episodes())
     assert not np.allclose(episodes[0].actions[:5], 0.0) or source == "rule"
+    assert D.replay(data) == (0.0, 0.0)
+
+
+def test_a_policy_dataset_records_the_env_it_drove(short_routes, tmp_path, monkeypatch):
+    # the shipped policy is driven with its own observation settings (PPOStrategy.env_options); the dataset's env
+    # carries them, so the replay is exact on a graded route, where the band's center depends on them
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    info = D.write_dataset("ppo", routes=short_routes, scenario="hilly", root=tmp_path,
+                           dataset_name="hev-thermal/test/ppo-v0")
+    data = minari.load_dataset(info["dataset_id"])
+    env = data.recover_environment()
+    assert env.unwrapped.reward_params.descent_recovery == trained_descent_recovery(get_strategy("ppo").policy)
+    env.close()
     assert D.replay(data) == (0.0, 0.0)
 
 

@@ -317,6 +317,17 @@ def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff
     for temp_c, price in ((20.0, 60.0), (50.0, 150.0), (60.0, 300.0), (69.0, 300.0), (75.0, 300.0)):
         env.phys_state[0, C.TEMP_C] = temp_c
         assert agent.heat_index_price() == pytest.approx(price) and fixed.heat_index_price() == 300.0
+    # margin_floor: the price in a cool motor never below that share of w_x; the hot price unchanged
+    floored = get_strategy("ecms_thermal", x_price="margin", w_x=300.0, margin_floor=0.5)
+    floored.reset(env)
+    for temp_c, price in ((20.0, 150.0), (40.0, 150.0), (50.0, 150.0), (55.0, 200.0), (60.0, 300.0), (75.0, 300.0)):
+        env.phys_state[0, C.TEMP_C] = temp_c
+        assert floored.heat_index_price() == pytest.approx(price)
+    for bad in (-0.1, 1.5):
+        with pytest.raises(ValueError, match="margin_floor must lie in \\[0, 1\\]"):
+            get_strategy("ecms_thermal", x_price="margin", margin_floor=bad)
+    with pytest.raises(ValueError, match="margin_floor applies to x_price='margin'"):
+        get_strategy("ecms_thermal", margin_floor=0.5)
     with pytest.raises(ValueError, match="x_price 'cheap' is not one of"):
         get_strategy("ecms_thermal", x_price="cheap")
     runs = {p: run_strategy(get_strategy("ecms_thermal", x_price=p), "udds", "hilly").summary

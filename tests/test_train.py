@@ -24,6 +24,7 @@ from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.agents.policy_files import load_policy
 from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy
+from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.training.config import load_run_config, validate_config
 from hev_thermal_env.training.evaluator import PolicyEvaluator
@@ -197,9 +198,10 @@ def test_env_soc_offset_reaches_the_training_env_but_never_the_evaluation():
     from hev_thermal_env.training import build_config
     from hev_thermal_env.training.envs import env_kwargs
 
-    cfg = build_config("ppo", overrides={"env.soc_offset": 0.03})
-    assert env_kwargs(cfg["env"])["soc_offset"] == 0.03 and env_kwargs(cfg["env"], for_eval=True)["soc_offset"] == 0
-    assert env_kwargs(build_config("ppo")["env"])["soc_offset"] == 0.0
+    cfg = build_config("ppo", overrides={"env.soc_offset": 0.05})
+    assert env_kwargs(cfg["env"])["soc_offset"] == 0.05 and env_kwargs(cfg["env"], for_eval=True)["soc_offset"] == 0
+    assert env_kwargs(build_config("ppo")["env"])["soc_offset"] == 0.03  # ppo.yaml's
+    assert env_kwargs(build_config("sac")["env"])["soc_offset"] == 0.0  # the env's default
     with pytest.raises(ValueError, match=r"env.soc_offset: expected a number in \[0, 0.2\] \(SOC\), got 0.5"):
         build_config("ppo", overrides={"env.soc_offset": 0.5})
     older = build_config("ppo")  # a run saved before the key existed still validates (a resume), on its target
@@ -315,6 +317,34 @@ def test_evaluate_reports_a_model_trained_with_another_preview(tiny_run, tmp_pat
     (other / "config.yaml").write_text(yaml.safe_dump(cfg))
     line = _evaluate_ppo(f"ppo:{other}", capsys)
     assert "preview_s=20" in line and "preview_s=10" in line
+
+
+def test_a_policy_is_driven_with_the_band_center_it_was_trained_on(tiny_run, tmp_path):
+    # ppo.yaml trains with env.reward.descent_recovery 0.15, not the env's default 0.6
+    assert load_run_config(tiny_run)["env"]["reward"] == {"descent_recovery": 0.15}
+    strategy = get_strategy(f"ppo:{tiny_run}")
+    assert strategy.env_options() == {"reward": {"descent_recovery": 0.15}}
+    env = HevThermalEnv(cycle="udds", scenario="hilly")  # the default center is not the one it learned
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"descent_recovery=0\.15; the env has 0\.6"):
+        strategy.reset(env)
+    env = HevThermalEnv(cycle="udds", scenario="hilly", **strategy.env_options())
+    env.reset(seed=0)
+    strategy.reset(env)
+    # run_strategy builds the env with the strategy's options, so the run goes through
+    res = run_strategy(strategy, tiny_cycle_csv(tmp_path / "short.csv"), "hilly")
+    assert res.summary["duration_s"] == pytest.approx(90.0)
+    # a run config without the key was trained on the env's default: nothing to pass, the default env fits
+    other = tmp_path / "default_center"
+    shutil.copytree(tiny_run, other)
+    cfg = yaml.safe_load((other / "config.yaml").read_text())
+    del cfg["env"]["reward"]
+    (other / "config.yaml").write_text(yaml.safe_dump(cfg))
+    strategy = get_strategy(f"ppo:{other}")
+    assert strategy.env_options() == {}
+    env = HevThermalEnv(cycle="udds", scenario="hilly")
+    env.reset(seed=0)
+    strategy.reset(env)
 
 
 def test_model_with_another_observation_size_is_rejected(tmp_path, capsys):

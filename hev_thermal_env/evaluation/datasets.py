@@ -67,15 +67,15 @@ def training_routes(n: int, families: tuple[str, ...] | None = None) -> list[str
 
 
 def _act_fn(source: str, seed: int):
-    """(reset(env), act(obs, info)) of a source."""
+    """(reset(env), act(obs, info), the env arguments it drives with) of a source."""
     if source not in SOURCES:
         raise ValueError(f"unknown dataset source {source!r}; sources: {', '.join(SOURCES)}")
     if SOURCES[source] is None:
         space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
         space.seed(int(seed))
-        return (lambda env: None), (lambda obs, info: space.sample())
+        return (lambda env: None), (lambda obs, info: space.sample()), {}
     strategy = get_strategy(SOURCES[source])
-    return strategy.reset, strategy.act
+    return strategy.reset, strategy.act, strategy.env_options()
 
 
 def write_dataset(source: str, *, task: str | None = None, routes: list[str] | None = None, scenario: str = "paper",
@@ -101,8 +101,8 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
         meta = {"hev_thermal_task": None, "hev_thermal_routes": list(routes), "hev_thermal_scenario": scenario}
     name = dataset_name or dataset_id(source, task, scenario)
     t0 = time.perf_counter()
-    env = minari.DataCollector(gym.make(ENV_ID, **env_kwargs), record_infos=True, data_format="arrow")
-    reset, act = _act_fn(source, seed)
+    reset, act, options = _act_fn(source, seed)
+    env = minari.DataCollector(gym.make(ENV_ID, **env_kwargs, **options), record_infos=True, data_format="arrow")
     steps = 0
     for env_seed, options in resets:
         obs, info = env.reset(seed=int(env_seed), options=options)

@@ -92,7 +92,7 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()
     vehicle = strategy.vehicle_config(config if config is not None else paper_bus())  # the strategy's vehicle
-    env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions)
+    env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions, **strategy.env_options())
     try:
         obs, info = env.reset(seed=seed)
         e = env.unwrapped
