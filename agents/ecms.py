@@ -161,7 +161,7 @@ class ThermalECMS(ECMS):
             raise ValueError(f"{self.name}: x_price {x_price!r} is not one of {list(X_PRICES)}")
         if not 0.0 <= float(margin_floor) <= 1.0:
             raise ValueError(f"{self.name}: margin_floor must lie in [0, 1] (a share of w_x), got {margin_floor!r}")
-        if x_price != "margin" and margin_floor != 0.0:
+        if x_price != "margin" and float(margin_floor) != 0.0:
             raise ValueError(f"{self.name}: margin_floor applies to x_price='margin', not {x_price!r}")
         self.x_price = x_price
         self.margin_floor = float(margin_floor)

@@ -7,10 +7,11 @@ and what it raises). It acts deterministically on observations normalised with t
 (:meth:`.policy_files.LoadedPolicy.act`); an env whose observation differs from the one the model was trained on (e.g.
 another ``preview_s``, or another ``descent_recovery``, which moves the band's center in the ``soc_target`` entry)
 raises ``ValueError`` naming what differs. :meth:`PPOStrategy.env_options` gives the env the policy's
-``descent_recovery``, so :func:`~hev_thermal_env.evaluation.runner.run_strategy`, the tasks and the datasets drive every
-policy with the center it was trained on (the episodes and their score do not depend on it). A recurrent policy's
-state starts afresh at every :meth:`PPOStrategy.reset` (an episode's start) and is carried from step to step within the
-episode.
+``descent_recovery``, so :func:`~hev_thermal_env.evaluation.runner.run_strategy` (every task's, benchmark's and
+leaderboard's runs) and the datasets drive every policy with the center it was trained on; with
+:func:`~hev_thermal_env.tasks.make_task` pass ``**strategy.env_options()`` (the episodes and their score do not depend
+on it). A recurrent policy's state starts afresh at every :meth:`PPOStrategy.reset` (an episode's start) and is carried
+from step to step within the episode.
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ def observation_mismatch(policy: LoadedPolicy, env: Any) -> str | None:
     trained, here = trained_descent_recovery(policy), float(e.reward_params.descent_recovery)
     if trained != here:
         differences.append(f"the band's center (soc_target) was trained with descent_recovery={trained}; the env has "
-                           f"{here} (reward={{'descent_recovery': {trained}}})")
+                           f"{here}; build the env with reward={{'descent_recovery': {trained}}} "
+                           "(PPOStrategy.env_options())")
     names = settings.get("observation_names")
     env_names = getattr(e, "obs_names", None)
     if not differences and names and env_names and list(names) != list(env_names):

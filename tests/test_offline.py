@@ -56,9 +56,15 @@ def test_a_policy_dataset_records_the_env_it_drove(short_routes, tmp_path, monke
                            dataset_name="hev-thermal/test/ppo-v0")
     data = minari.load_dataset(info["dataset_id"])
     env = data.recover_environment()
-    assert env.unwrapped.reward_params.descent_recovery == trained_descent_recovery(get_strategy("ppo").policy)
+    shipped = get_strategy("ppo")
+    assert env.unwrapped.reward_params.descent_recovery == trained_descent_recovery(shipped.policy)
     env.close()
     assert D.replay(data) == (0.0, 0.0)
+    # a policy cloned from it is driven in the env its observations came from
+    from hev_thermal_env.training.bc import BCStrategy, train_bc
+
+    record, _ = train_bc(info["dataset_id"], epochs=1)
+    assert BCStrategy(record).env_options() == shipped.env_options()
 
 
 def test_task_dataset_card(tmp_path, monkeypatch):
@@ -103,6 +109,7 @@ def test_behaviour_cloning_fits_a_dataset_and_drives(short_routes, tmp_path, mon
     record, report = train_bc("hev-thermal/test/bc-v0", epochs=150, seed=0)
     assert report["pairs"] == 100 and report["mse_last"] < 0.25 * report["action_variance"]
     policy = BCStrategy(load_bc(save_bc(record, tmp_path / "bc.pt")))
+    assert policy.env_options() == {}  # the rule's dataset was written in the env's own settings
     from hev_thermal_env.evaluation.runner import run_strategy
 
     res = run_strategy(policy, short_routes[1], "hot")

@@ -101,8 +101,9 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
         meta = {"hev_thermal_task": None, "hev_thermal_routes": list(routes), "hev_thermal_scenario": scenario}
     name = dataset_name or dataset_id(source, task, scenario)
     t0 = time.perf_counter()
-    reset, act, options = _act_fn(source, seed)
-    env = minari.DataCollector(gym.make(ENV_ID, **env_kwargs, **options), record_infos=True, data_format="arrow")
+    reset, act, source_options = _act_fn(source, seed)
+    env = minari.DataCollector(gym.make(ENV_ID, **env_kwargs, **source_options), record_infos=True,
+                               data_format="arrow")
     steps = 0
     for env_seed, options in resets:
         obs, info = env.reset(seed=int(env_seed), options=options)

@@ -69,8 +69,18 @@ def fit_bc(obs: np.ndarray, actions: np.ndarray, *, hidden: tuple[int, ...] = HI
     return {"state_dict": net.state_dict(), "hidden": list(hidden), "obs_mean": mean, "obs_std": std}, history
 
 
+def dataset_env_options(dataset: Any) -> dict[str, Any]:
+    """The env arguments of ``dataset``'s env that shape its observations beyond the task: the band's center
+    (``reward={"descent_recovery": ...}``) when the env was built with one (a ``ppo`` source's, whose policy is driven
+    with its own); else none."""
+    spec = dataset.env_spec
+    reward = ((spec.kwargs if spec is not None else {}) or {}).get("reward") or {}
+    return {"reward": {"descent_recovery": float(reward["descent_recovery"])}} if "descent_recovery" in reward else {}
+
+
 class BCStrategy(Strategy):
-    """Drives with a behaviour-cloned MLP (a record of :func:`fit_bc` or :func:`load_bc`)."""
+    """Drives with a behaviour-cloned MLP (a record of :func:`fit_bc` or :func:`load_bc`), in an env built with the
+    options of the dataset it was fitted on (:func:`dataset_env_options`)."""
 
     name = "bc"
 
@@ -82,6 +92,9 @@ class BCStrategy(Strategy):
         self.net.eval()
         self.mean = np.asarray(record["obs_mean"], dtype=np.float32)
         self.std = np.asarray(record["obs_std"], dtype=np.float32)
+
+    def env_options(self) -> dict[str, Any]:
+        return dict(self.record.get("env_options") or {})
 
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
         x = torch.as_tensor(((np.asarray(obs, dtype=np.float32) - self.mean) / self.std)[None])
@@ -113,7 +126,8 @@ def train_bc(dataset_id: str, *, epochs: int = EPOCHS, seed: int = 0) -> tuple[d
     obs, actions = dataset_pairs(dataset)
     record, history = fit_bc(obs, actions, epochs=epochs, seed=seed)
     meta = dataset.storage.metadata
-    record.update(dataset=dataset_id, physics_fingerprint=meta.get("hev_thermal_physics_fingerprint"), seed=seed)
+    record.update(dataset=dataset_id, physics_fingerprint=meta.get("hev_thermal_physics_fingerprint"), seed=seed,
+                  env_options=dataset_env_options(dataset))
     report = {"dataset": dataset_id, "pairs": int(len(actions)), "epochs": int(epochs), "seed": int(seed),
               "mse_first": round(history[0], 5), "mse_last": round(history[-1], 5),
               "action_variance": round(float(np.var(actions)), 5), "wall_s": round(time.perf_counter() - t0, 1)}
