@@ -1,0 +1,166 @@
+#!/usr/bin/env python
+"""The heat rule of PPO's selection: candidates (policies of ``train.py`` and ``ecms_thermal`` variants) on the
+selection routes against the thermal optimum, and in the heat against ``ecms_thermal``. It chose the default PPO
+family's band center, SOC offset and teacher's price floor (docs/training.md, "The band's center and a cool motor's
+price").
+
+On ``validation_bus:20..29`` in ``paper`` and ``validation_bus:20..24`` in ``summer`` and ``hilly`` (the training's
+selection routes; never a test route nor one that ``ppo_vs_dp.py`` judges on), per candidate: the frontier ratio
+(mean, worst), the runs whose safety cost exceeds the optimum's + 5 % where it derates, the runs beyond |ΔSOC| 0.02
+and the safety cost beside the optimum's. On ``validation_bus:20..29`` in ``summer`` and ``hilly``: the corrected fuel
+relative to ``ecms_thermal``'s (the leaderboard's, fixed price) and the safety cost. The optimum's references are
+solved once into ``--references`` (a local cache, like a run directory) and reused while current::
+
+    PYTHONPATH=. python benchmarks/selection_heat.py --jobs 2 --out benchmarks/results/selection_heat.json \\
+        --policy "default=runs/learned/ppo_center_floor/seed_0" \\
+        --teacher 'floor 0.5={"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5}'
+
+Solving the references takes about 12 minutes with 2 jobs; a candidate about a minute. A policy is driven with the
+band center it was trained with (``PPOStrategy.env_options``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+ROUTES = tuple(f"validation_bus:{i}" for i in range(20, 30))
+HEAT_ROUTES = ROUTES[:5]
+PROXY_SCENARIOS = ("summer", "hilly")
+
+
+def selection_tasks(routes: tuple[str, ...] = ROUTES, heat_routes: tuple[str, ...] = HEAT_ROUTES) -> list[Any]:
+    """The selection routes as tasks (not registered: nothing else scores on them)."""
+    from hev_thermal_env.tasks import Task
+
+    return [Task("selection-paper", 1, "the selection routes, the paper's conditions", routes, "paper"),
+            Task("selection-summer", 1, "the selection routes, summer", heat_routes, "summer"),
+            Task("selection-hilly", 1, "the selection routes, hills", heat_routes, "hilly")]
+
+
+def ensure_reference(task: Any, directory: Path, jobs: int) -> dict[str, Any]:
+    """The task's reference from ``directory``, solved and saved there first unless current."""
+    from hev_thermal_env.evaluation.references import compute_reference, load_reference, save_reference
+
+    try:
+        return load_reference(task, directory)
+    except (FileNotFoundError, ValueError):
+        print(f"solving the optimum on {task.id} ({len(task.cycles)} routes, {jobs} at a time)", flush=True)
+        save_reference(compute_reference(task, progress=lambda line: print(line, flush=True), jobs=jobs), directory)
+        return load_reference(task, directory)
+
+
+def strategy_of(candidate: tuple[str, str, Any]) -> Any:
+    from hev_thermal_env.agents import get_strategy
+
+    kind, _, what = candidate
+    return get_strategy(f"ppo:{what}") if kind == "policy" else get_strategy("ecms_thermal", **what)
+
+
+def against_optimum(candidate: tuple[str, str, Any], task: Any, reference: dict[str, Any]) -> dict[str, Any]:
+    """The candidate on ``task``'s episodes, scored as the leaderboard scores (``score_result``)."""
+    from hev_thermal_env.evaluation.leaderboard import score_result
+    from hev_thermal_env.evaluation.submission import result_of_strategy
+
+    result = result_of_strategy(task, strategy_of(candidate), candidate[1])
+    scored = score_result(result, reference)
+    ratios = [row["frontier_ratio"] for row in scored["rows"] if row["frontier_ratio"] is not None]
+    return {"frontier_ratio_mean": float(np.mean(ratios)) if ratios else None,
+            "frontier_ratio_worst": float(np.max(ratios)) if ratios else None,
+            "above_optimum_safety": scored["above_optimum_safety"], "beyond_soc_bound": scored["beyond_soc_bound"],
+            "safety_cost_s": float(sum(e["safety_cost_s"] for e in result["episodes"])),
+            "optimum_safety_cost_s": float(sum(e["optimum"]["safety_cost_s"] for e in reference["episodes"]))}
+
+
+def against_ecms_thermal(candidate: tuple[str, str, Any], routes: tuple[str, ...], scenario: str,
+                         baseline: dict[str, dict[str, float]]) -> dict[str, Any]:
+    """The candidate's corrected fuel over ``ecms_thermal``'s per route (mean, worst) and both safety costs."""
+    from hev_thermal_env.agents import get_strategy
+    from hev_thermal_env.evaluation.runner import run_strategy
+
+    ratios, safety = [], 0.0
+    for route in routes:
+        if route not in baseline:
+            s = run_strategy(get_strategy("ecms_thermal"), route, scenario).summary
+            baseline[route] = {"fuel": s["fuel_corrected_l_per_100km"], "safety": s["safety_cost_s"]}
+        s = run_strategy(strategy_of(candidate), route, scenario).summary
+        ratios.append(s["fuel_corrected_l_per_100km"] / baseline[route]["fuel"])
+        safety += s["safety_cost_s"]
+    return {"fuel_vs_ecms_thermal_mean": float(np.mean(ratios)), "fuel_vs_ecms_thermal_worst": float(np.max(ratios)),
+            "safety_cost_s": safety, "ecms_thermal_safety_cost_s": float(sum(baseline[r]["safety"] for r in routes))}
+
+
+def parse_candidates(policies: list[str], teachers: list[str]) -> list[tuple[str, str, Any]]:
+    out = []
+    for item in policies:
+        name, sep, path = item.partition("=")
+        if not sep or not name or not path:
+            raise SystemExit(f"--policy {item!r}: expected NAME=RUN_DIR_OR_ZIP")
+        out.append(("policy", name, path))
+    for item in teachers:
+        name, sep, text = item.partition("=")
+        try:
+            options = json.loads(text) if sep and name else None
+        except ValueError as exc:
+            raise SystemExit(f"--teacher {item!r}: the options are not JSON ({exc})") from None
+        if not isinstance(options, dict):
+            raise SystemExit(f"--teacher {item!r}: expected NAME=JSON object of ecms_thermal's options")
+        out.append(("teacher", name, options))
+    if not out:
+        raise SystemExit("give at least one --policy or --teacher")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--policy", action="append", default=[], metavar="NAME=PATH", help="a policy of train.py")
+    p.add_argument("--teacher", action="append", default=[], metavar="NAME=JSON", help="ecms_thermal's options")
+    p.add_argument("--routes", nargs="+", default=list(ROUTES), metavar="CYCLE", help="the paper and proxy routes")
+    p.add_argument("--heat-routes", nargs="+", default=list(HEAT_ROUTES), metavar="CYCLE",
+                   help="the summer and hilly routes scored against the optimum")
+    p.add_argument("--references", default=str(ROOT / "runs" / "selection_references"), metavar="DIR")
+    p.add_argument("--jobs", type=int, default=1, metavar="N", help="routes solved at once")
+    p.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "selection_heat.json"), metavar="FILE")
+    args = p.parse_args(argv)
+    if args.jobs < 1:
+        raise SystemExit(f"--jobs must be at least 1, got {args.jobs}")
+    candidates = parse_candidates(args.policy, args.teacher)
+    from hev_thermal_env.physics.fingerprint import physics_fingerprint
+
+    t0 = time.perf_counter()
+    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes))
+    references = {t.id: ensure_reference(t, Path(args.references), args.jobs) for t in tasks}
+    record: dict[str, Any] = {
+        "physics_fingerprint": physics_fingerprint(), "routes": args.routes, "heat_routes": args.heat_routes,
+        "references": {k: {"wall_s": r["wall_s"], "jobs": r["jobs"]} for k, r in references.items()},
+        "candidates": {}}
+    baselines: dict[str, dict[str, dict[str, float]]] = {s: {} for s in PROXY_SCENARIOS}
+    for cand in candidates:
+        t1 = time.perf_counter()
+        row = {"kind": cand[0], "what": cand[2]}
+        row.update({t.id: against_optimum(cand, t, references[t.id]) for t in tasks})
+        row.update({f"{s} vs ecms_thermal": against_ecms_thermal(cand, tuple(args.routes), s, baselines[s])
+                    for s in PROXY_SCENARIOS})
+        row["wall_s"] = round(time.perf_counter() - t1, 1)
+        record["candidates"][cand[1]] = row
+        above = sum(row[t.id]["above_optimum_safety"] for t in tasks)
+        print(f"{cand[1]}: runs above the optimum + 5 % {above}, paper ratio "
+              f"{row[tasks[0].id]['frontier_ratio_mean']:.4f}, summer fuel / ecms_thermal "
+              f"{row['summer vs ecms_thermal']['fuel_vs_ecms_thermal_mean']:.4f}", flush=True)
+    record["wall_s"] = round(time.perf_counter() - t0, 1)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+    print(f"wrote {args.out}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,46 @@
+"""The heat rule of PPO's selection (benchmarks/selection_heat.py) end to end on one short selection route."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+_SPEC = importlib.util.spec_from_file_location("selection_heat", ROOT / "benchmarks/selection_heat.py")
+sh = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(sh)  # a script beside the benchmark, not a package module
+
+
+@pytest.mark.full
+def test_candidates_are_scored_against_the_optimum_and_ecms_thermal(tmp_path, capsys):
+    """``ecms_thermal`` as the leaderboard runs it is its own yardstick in the heat (fuel ratio 1, the same safety
+    cost); no candidate beats the optimum; the references are solved once and then reused."""
+    out, refs = tmp_path / "selection.json", tmp_path / "refs"
+    args = ["--routes", "validation_bus:21", "--heat-routes", "validation_bus:21", "--references", str(refs),
+            "--teacher", "leaderboard's={}", "--teacher", 'floor={"x_price": "margin", "margin_floor": 0.5}',
+            "--out", str(out)]
+    assert sh.main(args) == 0
+    assert "solving the optimum on selection-paper-v1" in capsys.readouterr().out
+    record = json.loads(out.read_text())
+    assert set(record["candidates"]) == {"leaderboard's", "floor"}
+    for row in record["candidates"].values():
+        for task in ("selection-paper-v1", "selection-summer-v1", "selection-hilly-v1"):
+            cell = row[task]
+            assert cell["frontier_ratio_mean"] >= 0.999 and cell["frontier_ratio_worst"] >= cell["frontier_ratio_mean"]
+            assert cell["beyond_soc_bound"] == 0 and cell["above_optimum_safety"] in (0, 1)
+    same = record["candidates"]["leaderboard's"]
+    for scenario in ("summer", "hilly"):
+        cell = same[f"{scenario} vs ecms_thermal"]
+        assert cell["fuel_vs_ecms_thermal_mean"] == 1.0 and cell["safety_cost_s"] == cell["ecms_thermal_safety_cost_s"]
+    assert sh.main(args) == 0  # the second run reads the references
+    assert "solving" not in capsys.readouterr().out
+
+
+def test_bad_candidates_are_named():
+    with pytest.raises(SystemExit, match=r"--teacher 'x=\{bad': the options are not JSON"):
+        sh.parse_candidates([], ["x={bad"])
+    with pytest.raises(SystemExit, match="--policy 'nopath': expected NAME=RUN_DIR_OR_ZIP"):
+        sh.parse_candidates(["nopath"], [])
+    with pytest.raises(SystemExit, match="at least one"):
+        sh.parse_candidates([], [])
