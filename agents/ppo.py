@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.envs.reward import RewardParams
+from hev_thermal_env.envs.reward import OBSERVED_REWARD_FIELDS, RewardParams, observation_options
 
 from .base import Strategy
 from .policy_files import LoadedPolicy, load_policy
@@ -30,11 +30,9 @@ DEFAULT_POLICY_DIR = Path(__file__).resolve().parent / "policies" / "ppo_default
 """The shipped default policy (``get_strategy("ppo")``)."""
 
 
-def trained_descent_recovery(policy: LoadedPolicy) -> float:
-    """The band center's ``descent_recovery`` the policy was trained with: its run config's
-    ``env.reward.descent_recovery``, else the env's default."""
-    reward = policy.env_settings.get("reward") or {}
-    return float(reward.get("descent_recovery", RewardParams().descent_recovery))
+def trained_reward(policy: LoadedPolicy) -> RewardParams:
+    """The reward the policy was trained on: its run config's ``env.reward`` over the env's defaults."""
+    return RewardParams.of(dict(policy.env_settings.get("reward") or {}))
 
 
 def observation_mismatch(policy: LoadedPolicy, env: Any) -> str | None:
@@ -50,11 +48,12 @@ def observation_mismatch(policy: LoadedPolicy, env: Any) -> str | None:
     if None not in saved_preview and tuple(int(x) for x in saved_preview) != env_preview:
         differences.append(f"trained with preview_s={saved_preview[0]}, preview_step_s={saved_preview[1]}; the env "
                            f"has preview_s={env_preview[0]}, preview_step_s={env_preview[1]}")
-    trained, here = trained_descent_recovery(policy), float(e.reward_params.descent_recovery)
-    if trained != here:
-        differences.append(f"the band's center (soc_target) was trained with descent_recovery={trained}; the env has "
-                           f"{here}; build the env with reward={{'descent_recovery': {trained}}} "
-                           "(PPOStrategy.env_options())")
+    trained_reward_params = trained_reward(policy)
+    for name in OBSERVED_REWARD_FIELDS:
+        trained, here = getattr(trained_reward_params, name), getattr(e.reward_params, name)
+        if trained != here:
+            differences.append(f"the observation was trained with {name}={trained}; the env has {here}; build the "
+                               f"env with reward={{'{name}': {trained}}} (PPOStrategy.env_options())")
     names = settings.get("observation_names")
     env_names = getattr(e, "obs_names", None)
     if not differences and names and env_names and list(names) != list(env_names):
@@ -91,11 +90,9 @@ class PPOStrategy(Strategy):
         return strategy
 
     def env_options(self) -> dict[str, Any]:
-        """The band's center as in training: ``reward={"descent_recovery": ...}`` when the run config sets it."""
-        reward = self.policy.env_settings.get("reward") or {}
-        if "descent_recovery" not in reward:
-            return {}
-        return {"reward": {"descent_recovery": float(reward["descent_recovery"])}}
+        """The observation's reward arguments as in training (:func:`~hev_thermal_env.envs.reward.observation_options`
+        of the run config's ``env.reward``)."""
+        return observation_options(self.policy.env_settings.get("reward"))
 
     def reset(self, env: Any) -> None:
         super().reset(env)

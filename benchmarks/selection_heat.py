@@ -37,12 +37,19 @@ PROXY_SCENARIOS = ("summer", "hilly")
 
 
 def selection_tasks(routes: tuple[str, ...] = ROUTES, heat_routes: tuple[str, ...] = HEAT_ROUTES) -> list[Any]:
-    """The selection routes as tasks (not registered: nothing else scores on them)."""
+    """The selection routes as tasks scored against the optimum (not registered: nothing else scores on them)."""
     from hev_thermal_env.tasks import Task
 
     return [Task("selection-paper", 1, "the selection routes, the paper's conditions", routes, "paper"),
             Task("selection-summer", 1, "the selection routes, summer", heat_routes, "summer"),
             Task("selection-hilly", 1, "the selection routes, hills", heat_routes, "hilly")]
+
+
+def proxy_tasks(routes: tuple[str, ...] = ROUTES) -> list[Any]:
+    """The selection routes in the heat, scored against ``ecms_thermal`` (no reference needed)."""
+    from hev_thermal_env.tasks import Task
+
+    return [Task(f"selection-{s}-all", 1, f"the selection routes, {s}", routes, s) for s in PROXY_SCENARIOS]
 
 
 def ensure_reference(task: Any, directory: Path, jobs: int) -> dict[str, Any]:
@@ -64,12 +71,10 @@ def strategy_of(candidate: tuple[str, str, Any]) -> Any:
     return get_strategy(f"ppo:{what}") if kind == "policy" else get_strategy("ecms_thermal", **what)
 
 
-def against_optimum(candidate: tuple[str, str, Any], task: Any, reference: dict[str, Any]) -> dict[str, Any]:
-    """The candidate on ``task``'s episodes, scored as the leaderboard scores (``score_result``)."""
+def against_optimum(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
+    """A candidate's result record on a task, scored as the leaderboard scores (``score_result``)."""
     from hev_thermal_env.evaluation.leaderboard import score_result
-    from hev_thermal_env.evaluation.submission import result_of_strategy
 
-    result = result_of_strategy(task, strategy_of(candidate), candidate[1])
     scored = score_result(result, reference)
     ratios = [row["frontier_ratio"] for row in scored["rows"] if row["frontier_ratio"] is not None]
     return {"frontier_ratio_mean": float(np.mean(ratios)) if ratios else None,
@@ -79,22 +84,14 @@ def against_optimum(candidate: tuple[str, str, Any], task: Any, reference: dict[
             "optimum_safety_cost_s": float(sum(e["optimum"]["safety_cost_s"] for e in reference["episodes"]))}
 
 
-def against_ecms_thermal(candidate: tuple[str, str, Any], routes: tuple[str, ...], scenario: str,
-                         baseline: dict[str, dict[str, float]]) -> dict[str, Any]:
-    """The candidate's corrected fuel over ``ecms_thermal``'s per route (mean, worst) and both safety costs."""
-    from hev_thermal_env.agents import get_strategy
-    from hev_thermal_env.evaluation.runner import run_strategy
-
-    ratios, safety = [], 0.0
-    for route in routes:
-        if route not in baseline:
-            s = run_strategy(get_strategy("ecms_thermal"), route, scenario).summary
-            baseline[route] = {"fuel": s["fuel_corrected_l_per_100km"], "safety": s["safety_cost_s"]}
-        s = run_strategy(strategy_of(candidate), route, scenario).summary
-        ratios.append(s["fuel_corrected_l_per_100km"] / baseline[route]["fuel"])
-        safety += s["safety_cost_s"]
+def against_ecms_thermal(result: dict[str, Any], baseline: dict[str, Any]) -> dict[str, Any]:
+    """A candidate's result record over ``ecms_thermal``'s on the same episodes: corrected fuel per episode (mean,
+    worst) and both safety costs."""
+    ratios = [row["fuel_corrected_l_per_100km"] / base["fuel_corrected_l_per_100km"]
+              for row, base in zip(result["episodes"], baseline["episodes"], strict=True)]
     return {"fuel_vs_ecms_thermal_mean": float(np.mean(ratios)), "fuel_vs_ecms_thermal_worst": float(np.max(ratios)),
-            "safety_cost_s": safety, "ecms_thermal_safety_cost_s": float(sum(baseline[r]["safety"] for r in routes))}
+            "safety_cost_s": float(sum(e["safety_cost_s"] for e in result["episodes"])),
+            "ecms_thermal_safety_cost_s": float(sum(e["safety_cost_s"] for e in baseline["episodes"]))}
 
 
 def parse_candidates(policies: list[str], teachers: list[str]) -> list[tuple[str, str, Any]]:
@@ -133,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.jobs < 1:
         raise SystemExit(f"--jobs must be at least 1, got {args.jobs}")
     candidates = parse_candidates(args.policy, args.teacher)
+    from hev_thermal_env.evaluation.submission import result_of_strategy
     from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
     t0 = time.perf_counter()
@@ -142,13 +140,15 @@ def main(argv: list[str] | None = None) -> int:
         "physics_fingerprint": physics_fingerprint(), "routes": args.routes, "heat_routes": args.heat_routes,
         "references": {k: {"wall_s": r["wall_s"], "jobs": r["jobs"]} for k, r in references.items()},
         "candidates": {}}
-    baselines: dict[str, dict[str, dict[str, float]]] = {s: {} for s in PROXY_SCENARIOS}
+    proxies = proxy_tasks(tuple(args.routes))
+    baselines = {t.scenario: result_of_strategy(t, "ecms_thermal") for t in proxies}
     for cand in candidates:
         t1 = time.perf_counter()
+        strategy = strategy_of(cand)
         row = {"kind": cand[0], "what": cand[2]}
-        row.update({t.id: against_optimum(cand, t, references[t.id]) for t in tasks})
-        row.update({f"{s} vs ecms_thermal": against_ecms_thermal(cand, tuple(args.routes), s, baselines[s])
-                    for s in PROXY_SCENARIOS})
+        row.update({t.id: against_optimum(result_of_strategy(t, strategy, cand[1]), references[t.id]) for t in tasks})
+        row.update({f"{t.scenario} vs ecms_thermal": against_ecms_thermal(result_of_strategy(t, strategy, cand[1]),
+                                                                          baselines[t.scenario]) for t in proxies})
         row["wall_s"] = round(time.perf_counter() - t1, 1)
         record["candidates"][cand[1]] = row
         above = sum(row[t.id]["above_optimum_safety"] for t in tasks)

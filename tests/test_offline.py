@@ -11,7 +11,7 @@ import pytest
 
 from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.agents.ppo import trained_descent_recovery
+from hev_thermal_env.agents.ppo import trained_reward
 from hev_thermal_env.evaluation import datasets as D
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import TEST_SEED_BASE, get_task, held_out_cycles
@@ -57,7 +57,7 @@ def test_a_policy_dataset_records_the_env_it_drove(short_routes, tmp_path, monke
     data = minari.load_dataset(info["dataset_id"])
     env = data.recover_environment()
     shipped = get_strategy("ppo")
-    assert env.unwrapped.reward_params.descent_recovery == trained_descent_recovery(shipped.policy)
+    assert env.unwrapped.reward_params.descent_recovery == trained_reward(shipped.policy).descent_recovery
     env.close()
     assert D.replay(data) == (0.0, 0.0)
     # a policy cloned from it is driven in the env its observations came from

@@ -84,6 +84,18 @@ class RewardParams(Params):
         return w
 
 
+OBSERVED_REWARD_FIELDS = ("descent_recovery",)
+"""The reward's arguments the observation carries: ``descent_recovery`` places the band's center, which is the
+``soc_target`` entry. A trained policy is driven with the values it learned them at."""
+
+
+def observation_options(reward: dict | None) -> dict:
+    """The env arguments among ``reward`` (an env's ``reward`` mapping, e.g. a run config's ``env.reward``) that shape
+    the observation: ``{"reward": {...}}`` with the fields of :data:`OBSERVED_REWARD_FIELDS` it sets, else ``{}``."""
+    observed = {k: float(v) for k, v in (reward or {}).items() if k in OBSERVED_REWARD_FIELDS}
+    return {"reward": observed} if observed else {}
+
+
 @jit
 def soc_band_potential(w, soc, soc_target):
     """Φ(SOC) of the band settlement: −soc_band_weight · max(|SOC − SOC_target| − soc_band, 0)."""

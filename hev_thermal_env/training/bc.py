@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from hev_thermal_env.agents.base import Strategy
+from hev_thermal_env.envs.reward import observation_options
 
 HIDDEN = (128, 128)
 EPOCHS = 60
@@ -70,12 +71,10 @@ def fit_bc(obs: np.ndarray, actions: np.ndarray, *, hidden: tuple[int, ...] = HI
 
 
 def dataset_env_options(dataset: Any) -> dict[str, Any]:
-    """The env arguments of ``dataset``'s env that shape its observations beyond the task: the band's center
-    (``reward={"descent_recovery": ...}``) when the env was built with one (a ``ppo`` source's, whose policy is driven
-    with its own); else none."""
+    """The env arguments of ``dataset``'s env that shape its observations beyond the task
+    (:func:`~hev_thermal_env.envs.reward.observation_options`: a ``ppo`` source's env carries its policy's)."""
     spec = dataset.env_spec
-    reward = ((spec.kwargs if spec is not None else {}) or {}).get("reward") or {}
-    return {"reward": {"descent_recovery": float(reward["descent_recovery"])}} if "descent_recovery" in reward else {}
+    return observation_options(((spec.kwargs if spec is not None else None) or {}).get("reward"))
 
 
 class BCStrategy(Strategy):
