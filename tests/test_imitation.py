@@ -10,7 +10,14 @@ import pytest
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.training.config import build_config, load_run_config
 from hev_thermal_env.training.envs import env_kwargs
-from hev_thermal_env.training.imitation import INIT_DEFAULTS, check_init, demonstrations, fit_policy_mean, teacher_of
+from hev_thermal_env.training.imitation import (
+    INIT_DEFAULTS,
+    check_init,
+    demonstrations,
+    fit_policy_mean,
+    fit_weights,
+    teacher_of,
+)
 
 ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": True, "preview_s": 10,
        "preview_step_s": 2, "thermal": True, "reward": {}}
@@ -105,6 +112,8 @@ def test_init_settings_are_checked_in_one_line():
                        ({"init.refit_batches": -1}, "init.refit_batches"), ({"init.refit_lr": 0}, "init.refit_lr"),
                        ({"init.refit_lr": "fast"}, "init.refit_lr"), ({"init.dagger_every": 1.5}, "dagger_every"),
                        ({"init.refit_decay": "yes"}, "init.refit_decay"),
+                       ({"init.heat_weight": -1}, "init.heat_weight"), ({"init.heat_weight": True}, "heat_weight"),
+                       ({"init.heat_weight_above_x": -0.5}, "heat_weight_above_x"),
                        ({"init.dagger_every": 1000, "init.refit_batches": 0}, "set init.refit_batches"),
                        ({"init.teacher_options": "margin"}, "init.teacher_options must be a mapping"),
                        ({"init.teacher_options.x_price": "cheap"}, r"init.teacher_options: .*x_price 'cheap'"),
@@ -120,6 +129,36 @@ def test_init_settings_are_checked_in_one_line():
         build_config("sac", overrides={"init.imitate": "ecms"})
     frozen = build_config("ppo", overrides={"init.freeze_obs_stats": ["motor_temp_c", "heat_x"]})
     assert frozen["init"]["freeze_obs_stats"] == ["motor_temp_c", "heat_x"]
+
+
+def test_heat_weight_fits_the_approach_to_derating_closer():
+    """``init.heat_weight``: states whose heat-index integrator lies above ecms_thermal's threshold count more in the
+    fit. On demonstrations where they are 5 % and the teacher acts otherwise there, a fit with the weight brings a small
+    network closer to the teacher on them than the plain fit, at a smaller cost elsewhere; weight 0 is the plain
+    fit (no weights at all, so a run without it is unchanged)."""
+    from stable_baselines3 import PPO
+
+    rng = np.random.default_rng(3)
+    n = 6000
+    obs = rng.normal(size=(n, 21)).astype(np.float32)
+    near = rng.random(n) < 0.05
+    obs[:, 9] = np.where(near, rng.uniform(-0.049, 0.2, n), rng.uniform(-0.3, -0.05, n))  # x: above -0.05, or not
+    actions = np.where(near, -0.5, 0.4 * np.tanh(obs[:, 0])).astype(np.float32)  # the teacher spares a hot motor
+    x = ((obs - obs.mean(0)) / obs.std(0)).astype(np.float32)
+    assert fit_weights(obs, 0.0) is None
+    weights = fit_weights(obs, 20.0)
+    assert np.array_equal(weights > 1.0, near) and set(np.unique(weights)) == {1.0, 21.0}
+    assert np.array_equal(fit_weights(obs, 20.0, 0.0) > 1.0, obs[:, 9] > 0.0)
+    env = HevThermalEnv(**env_kwargs(ENV))
+    errors = {}
+    for w in (None, weights):
+        model = PPO("MlpPolicy", env, seed=0, device="cpu", policy_kwargs={"net_arch": [16]})
+        fit_policy_mean(model.policy, x, actions, epochs=10, beyond_bound=0.25, high=1.0, seed=0, weights=w)
+        err = (model.predict(x, deterministic=True)[0][:, 0] - actions) ** 2
+        errors["plain" if w is None else "weighted"] = (err[near].mean(), err[~near].mean())
+    (near_plain, far_plain), (near_weighted, far_weighted) = errors["plain"], errors["weighted"]
+    assert near_weighted < 0.5 * near_plain
+    assert far_weighted - far_plain < near_plain - near_weighted
 
 
 @pytest.mark.parametrize("freeze", [True, False, ["motor_temp_c", "heat_x"]])

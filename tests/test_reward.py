@@ -54,13 +54,14 @@ def _documented(rp: RewardParams, out, st, st0, target, dt):
         "reward_soc": -rp.soc_energy_weight * batt_g + band - rp.soc_deviation_weight * dev,
         "reward_overheat": -rp.overheat_temp_weight * over ** 2
         - rp.cutoff_weight * ((st[:, C.CUTOFF] + st[:, C.WINDING_TRIP]) > 0)  # either protection stops the motor
-        - rp.derate_weight * np.clip(st[:, C.HEAT_X], 0.0, 1.0),
+        - rp.derate_weight * (np.clip(st[:, C.HEAT_X], rp.derate_from_x, 1.0) - rp.derate_from_x),
     }
 
 
 @pytest.mark.parametrize("rp", [RewardParams(), OLD_DEFAULT,
                                 RewardParams(derate_weight=0.7, soc_deviation_weight=0.3, soc_deviation_scale=0.05,
-                                             miss_weight=2.0, soc_band=0.02, soc_band_weight=5000.0)])
+                                             miss_weight=2.0, soc_band=0.02, soc_band_weight=5000.0),
+                                RewardParams(derate_weight=300.0, derate_from_x=-0.05)])
 def test_reward_terms_follow_the_documented_formula(rp):
     out, st, st0 = _batch()
     terms, total = reward_terms(rp, out, st, 0.62, LHV, 1.0, state_before=st0)

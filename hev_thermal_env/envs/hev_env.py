@@ -99,7 +99,7 @@ class HevThermalEnv(EnvParts, gym.Env):
                           + Φ(SOC after the step, c after) − Φ(SOC before, c before)        (band settlement)
                           − soc_deviation_weight · ((SOC − c) / soc_deviation_scale)²
         reward_overheat = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [stopped]
-                          − derate_weight · PWM
+                          − derate_weight · clip(x − derate_from_x, 0, 1 − derate_from_x)
         Φ(SOC, c)       = −soc_band_weight · max(|SOC − c| − soc_band, 0)
 
     The prices (:class:`~hev_thermal_env.prices.Prices`) are those of the corrected fuel of

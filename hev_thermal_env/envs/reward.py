@@ -22,7 +22,7 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 
 # positions in the weight vector of reward_kernel
 (W_FUEL, W_MISS, W_SOC_ENERGY, W_SOC_BAND, W_SOC_BAND_WEIGHT, W_SOC_DEV, W_SOC_SCALE, W_TEMP, W_SOFT_LIMIT,
- W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, N_WEIGHTS) = range(15)
+ W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, W_DERATE_FROM, N_WEIGHTS) = range(16)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,7 +47,11 @@ class RewardParams(Params):
     overheat_soft_limit_c: float = spec(60.0, "motor temperature above which overheating is penalised")
     overheat_temp_weight: float = spec(0.05, "per step per K² above the soft limit", min=0.0)
     cutoff_weight: float = spec(20.0, "per step with the motor cut off by its 70 °C protection", min=0.0)
-    derate_weight: float = spec(0.0, "per step per unit heat index (PWM)", min=0.0)
+    derate_weight: float = spec(0.0, "per step per unit of the heat-index integrator x above derate_from_x (by "
+                                     "default the heat index PWM itself: the safety cost's price)", min=0.0)
+    derate_from_x: float = spec(0.0, "heat-index integrator x (eq 9) from which derate_weight applies: 0 prices the "
+                                     "heat index PWM = clip(x, 0, 1); below 0 also the approach to derating, as "
+                                     "ecms_thermal's x_thr (its overload reserve is 0.3 at most)", min=-0.3, max=0.0)
     prices: Prices = dataclasses.field(default_factory=Prices)
 
     @classmethod
@@ -81,6 +85,7 @@ class RewardParams(Params):
         w[W_BATT_PRICE] = self.prices.battery_g_per_j(lhv_j_per_g)
         w[W_MISS_PRICE] = self.prices.miss_g_per_j(lhv_j_per_g)
         w[W_DESCENT] = self.descent_recovery
+        w[W_DERATE_FROM] = self.derate_from_x
         return w
 
 
@@ -149,9 +154,9 @@ def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
             - soc_band_potential(w, st0[b, C.SOC], target_before))
     soc = -w[W_SOC_ENERGY] * (out[b, C.BATT_CHEM] * dt_s * w[W_BATT_PRICE]) + band - w[W_SOC_DEV] * (e * e)
     over = max(st[b, C.TEMP_C] - w[W_SOFT_LIMIT], 0.0)
-    pwm = min(max(st[b, C.HEAT_X], 0.0), 1.0)
+    derate = min(max(st[b, C.HEAT_X] - w[W_DERATE_FROM], 0.0), 1.0 - w[W_DERATE_FROM])  # PWM when it is 0
     off = max(st[b, C.CUTOFF], st[b, C.WINDING_TRIP])  # either protection stops the motor
-    heat = -w[W_TEMP] * over * over - w[W_CUTOFF] * off - w[W_DERATE] * pwm
+    heat = -w[W_TEMP] * over * over - w[W_CUTOFF] * off - w[W_DERATE] * derate
     return fuel, miss, soc, heat, ((fuel + miss) + soc) + heat
 
 

@@ -43,7 +43,8 @@ from .hyperparams import check_known
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "teacher_options": {}, "episodes": 60, "epochs": 30,
                                  "beyond_bound": 0.25, "noise": 0.0, "freeze_obs_stats": False, "refit_batches": 0,
-                                 "refit_lr": 1e-4, "refit_decay": False, "dagger_every": 0, "dagger_episodes": 20}
+                                 "refit_lr": 1e-4, "refit_decay": False, "dagger_every": 0, "dagger_episodes": 20,
+                                 "heat_weight": 0.0, "heat_weight_above_x": -0.05}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 BATCH = 1024
@@ -111,6 +112,13 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     r = out["refit_lr"]
     if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < float(r) <= 1.0:
         raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
+    h = out["heat_weight"]
+    if isinstance(h, bool) or not isinstance(h, (int, float)) or not 0.0 <= float(h) <= 1000.0:
+        raise ValueError(f"init.heat_weight must be a number in [0, 1000] (the extra weight of a state near "
+                         f"derating), got {h!r}")
+    hx = out["heat_weight_above_x"]
+    if isinstance(hx, bool) or not isinstance(hx, (int, float)) or not -0.3 <= float(hx) <= 1.0:
+        raise ValueError(f"init.heat_weight_above_x must be a heat-index integrator value in [-0.3, 1], got {hx!r}")
     z = out["noise"]
     if isinstance(z, bool) or not isinstance(z, (int, float)) or not 0.0 <= float(z) <= 1.0:
         raise ValueError(f"init.noise must be a number in [0, 1] (the spread of the driven action), got {z!r}")
@@ -189,14 +197,38 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes
     return np.stack(obs_rows), np.asarray(actions, dtype=np.float32)
 
 
+def near_derating(obs: np.ndarray, above_x: float = -0.05) -> np.ndarray:
+    """Which demonstration states (raw observations ``obs``) lie near derating: the heat-index integrator x
+    (observation ``heat_x``) above ``above_x`` (−0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
+    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")] > above_x
+
+
+def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float = -0.05) -> np.ndarray | None:
+    """Each demonstration state's weight in the fit (float32): ``1 + heat_weight`` near derating
+    (:func:`near_derating`), else 1; None (an unweighted fit) when ``heat_weight`` is 0 (``init.heat_weight``,
+    ``init.heat_weight_above_x``: a plain fit errs most on these few states, docs/training.md)."""
+    if float(heat_weight) == 0.0:
+        return None
+    return np.where(near_derating(obs, above_x), 1.0 + float(heat_weight), 1.0).astype(np.float32)
+
+
+def fit_loss(mean: torch.Tensor, target: torch.Tensor, weight: np.ndarray | None) -> torch.Tensor:
+    """The fit's loss: the MSE, or with weights Σ w (mean − target)² / Σ w."""
+    if weight is None:
+        return torch.mean((mean - target) ** 2)
+    w = torch.as_tensor(weight)
+    return torch.sum(w * (mean - target) ** 2) / torch.sum(w)
+
+
 def fit_targets(actions: np.ndarray, high: float, beyond_bound: float) -> np.ndarray:
     """The teacher's actions as fitted: ``high + beyond_bound`` where the teacher sits at the upper bound (float32)."""
     return np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
 
 
 def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs: int, beyond_bound: float,
-                    high: float, seed: int) -> list[float]:
-    """Fit ``policy``'s mean action to ``actions`` on (already normalised) ``obs``; the MSE of every pass."""
+                    high: float, seed: int, weights: np.ndarray | None = None) -> list[float]:
+    """Fit ``policy``'s mean action to ``actions`` on (already normalised) ``obs``, each state by its weight in
+    ``weights`` (:func:`fit_weights`; None: all 1); the loss of every pass."""
     target = fit_targets(actions, high, beyond_bound)
     x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
     y = torch.as_tensor(target)
@@ -210,7 +242,7 @@ def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs
         for i in range(0, len(x), BATCH):
             idx = perm[i:i + BATCH]
             mean = policy.get_distribution(x[idx]).distribution.mean[:, 0]
-            loss = torch.mean((mean - y[idx]) ** 2)
+            loss = fit_loss(mean, y[idx], None if weights is None else weights[idx.numpy()])
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -236,7 +268,9 @@ class DemonstrationRefit(BaseCallback):
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
         self.decay = bool(init["refit_decay"])
         self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), teacher_of(init), env_kwargs
+        self.heat_weight = (float(init.get("heat_weight", 0.0)), float(init.get("heat_weight_above_x", -0.05)))
         self.target = fit_targets(actions, self.high, self.beyond_bound)
+        self.weight = fit_weights(obs, *self.heat_weight)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
         self.seed, self.rounds = int(seed), 0
         self.rng = np.random.default_rng([int(seed), 11])
@@ -263,6 +297,7 @@ class DemonstrationRefit(BaseCallback):
         self.obs = np.concatenate([self.obs, obs])
         self.actions = np.concatenate([self.actions, actions])
         self.target = fit_targets(self.actions, self.high, self.beyond_bound)
+        self.weight = fit_weights(self.obs, *self.heat_weight)
 
     def _on_rollout_end(self) -> None:
         if self.dagger_every and self.model.num_timesteps >= self.dagger_every * (self.rounds + 1):
@@ -278,7 +313,7 @@ class DemonstrationRefit(BaseCallback):
         for _ in range(self.batches):
             idx = self.rng.integers(0, len(self.obs), BATCH)
             mean = policy.get_distribution(torch.as_tensor(self._normalize(self.obs[idx]))).distribution.mean[:, 0]
-            loss = torch.mean((mean - torch.as_tensor(self.target[idx])) ** 2)
+            loss = fit_loss(mean, torch.as_tensor(self.target[idx]), None if self.weight is None else self.weight[idx])
             self.opt.zero_grad()
             loss.backward()
             self.opt.step()
@@ -341,10 +376,14 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
         x = venv.normalize_obs(obs)
     high = _action_high(model)
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
-                              beyond_bound=float(init["beyond_bound"]), high=high, seed=seed)
+                              beyond_bound=float(init["beyond_bound"]), high=high, seed=seed,
+                              weights=fit_weights(obs, float(init.get("heat_weight", 0.0)),
+                                                  float(init.get("heat_weight_above_x", -0.05))))
     refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
     return {"teacher": init["imitate"], "teacher_options": dict(init.get("teacher_options") or {}),
             "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
+            "near_derating_share": round(float(np.mean(near_derating(obs, float(init.get("heat_weight_above_x",
+                                                                                        -0.05))))), 4),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,

@@ -186,7 +186,8 @@ class TrainingRun:
                                       progress=self.progress)
             cfg.setdefault("result", {})["imitation"] = rec
             self.log(f"imitation of {rec['teacher']}: {rec['steps']} steps of {rec['episodes']} episodes, policy "
-                     f"mean fitted (MSE {rec['mse_first']} -> {rec['mse_last']}) in {rec['wall_s']} s")
+                     f"mean fitted ({'weighted ' if init.get('heat_weight') else ''}MSE {rec['mse_first']} -> "
+                     f"{rec['mse_last']}) in {rec['wall_s']} s")
         elif resume_from is not None:
             self.refit = resumed_refit(self.venv, self.model, env_kwargs(cfg["env"]), init, int(cfg["seed"]))
 
