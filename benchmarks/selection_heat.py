@@ -2,7 +2,9 @@
 """The heat rule of PPO's selection: candidates (policies of ``train.py`` and ``ecms_thermal`` variants) on the
 selection routes against the thermal optimum, and in the heat against ``ecms_thermal``. It chose the default PPO
 family's band center, SOC offset and teacher's price floor (docs/training.md, "The band's center and a cool motor's
-price").
+price"; ``benchmarks/results/selection_heat.json``) and its weight on the demonstrations where the motor derates
+(docs/training.md, "Fitting the teacher where the motor derates"; ``benchmarks/results/selection_derating.json``, with
+``--hilly-routes`` the ten routes).
 
 On ``validation_bus:20..29`` in ``paper`` and ``validation_bus:20..24`` in ``summer`` and ``hilly`` (the training's
 selection routes; never a test route nor one that ``ppo_vs_dp.py`` judges on), per candidate: the frontier ratio
@@ -15,7 +17,8 @@ solved once into ``--references`` (a local cache, like a run directory) and reus
         --policy "default=runs/learned/ppo_center_floor/seed_0" \\
         --teacher 'floor 0.5={"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5}'
 
-Solving the references takes about 12 minutes with 2 jobs; a candidate about a minute. A policy is driven with the
+Solving the references takes about 12 minutes with 2 jobs (the hilly motorway routes 25..29 with ``--hilly-routes``
+another 4 to 19 minutes each); a candidate about a minute. A policy is driven with the
 band center it was trained with (``PPOStrategy.env_options``).
 """
 
@@ -36,13 +39,15 @@ HEAT_ROUTES = ROUTES[:5]
 PROXY_SCENARIOS = ("summer", "hilly")
 
 
-def selection_tasks(routes: tuple[str, ...] = ROUTES, heat_routes: tuple[str, ...] = HEAT_ROUTES) -> list[Any]:
-    """The selection routes as tasks scored against the optimum (not registered: nothing else scores on them)."""
+def selection_tasks(routes: tuple[str, ...] = ROUTES, heat_routes: tuple[str, ...] = HEAT_ROUTES,
+                    hilly_routes: tuple[str, ...] | None = None) -> list[Any]:
+    """The selection routes as tasks scored against the optimum (not registered: nothing else scores on them);
+    ``hilly_routes``: the hilly task's, if not ``heat_routes``."""
     from hev_thermal_env.tasks import Task
 
     return [Task("selection-paper", 1, "the selection routes, the paper's conditions", routes, "paper"),
             Task("selection-summer", 1, "the selection routes, summer", heat_routes, "summer"),
-            Task("selection-hilly", 1, "the selection routes, hills", heat_routes, "hilly")]
+            Task("selection-hilly", 1, "the selection routes, hills", hilly_routes or heat_routes, "hilly")]
 
 
 def proxy_tasks(routes: tuple[str, ...] = ROUTES) -> list[Any]:
@@ -122,7 +127,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--teacher", action="append", default=[], metavar="NAME=JSON", help="ecms_thermal's options")
     p.add_argument("--routes", nargs="+", default=list(ROUTES), metavar="CYCLE", help="the paper and proxy routes")
     p.add_argument("--heat-routes", nargs="+", default=list(HEAT_ROUTES), metavar="CYCLE",
-                   help="the summer and hilly routes scored against the optimum")
+                   help="the summer (and, without --hilly-routes, hilly) routes scored against the optimum")
+    p.add_argument("--hilly-routes", nargs="+", default=None, metavar="CYCLE",
+                   help="the hilly routes scored against the optimum (default: --heat-routes)")
     p.add_argument("--references", default=str(ROOT / "runs" / "selection_references"), metavar="DIR")
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="routes solved at once")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "selection_heat.json"), metavar="FILE")
@@ -134,10 +141,12 @@ def main(argv: list[str] | None = None) -> int:
     from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
     t0 = time.perf_counter()
-    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes))
+    hilly = tuple(args.hilly_routes) if args.hilly_routes else None
+    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes), hilly)
     references = {t.id: ensure_reference(t, Path(args.references), args.jobs) for t in tasks}
     record: dict[str, Any] = {
         "physics_fingerprint": physics_fingerprint(), "routes": args.routes, "heat_routes": args.heat_routes,
+        "hilly_routes": list(hilly or args.heat_routes),
         "references": {k: {"wall_s": r["wall_s"], "jobs": r["jobs"]} for k, r in references.items()},
         "candidates": {}}
     proxies = proxy_tasks(tuple(args.routes))

@@ -44,3 +44,13 @@ def test_bad_candidates_are_named():
         sh.parse_candidates(["nopath"], [])
     with pytest.raises(SystemExit, match="at least one"):
         sh.parse_candidates([], [])
+
+
+def test_the_hilly_routes_may_be_more_than_the_summer_ones():
+    """``--hilly-routes``: the hilly task scores its own routes (the motorway ones, where the policy derates most),
+    the summer task keeps ``--heat-routes``."""
+    paper, summer, hilly = sh.selection_tasks(("validation_bus:20", "validation_bus:25"), ("validation_bus:20",),
+                                              ("validation_bus:20", "validation_bus:25"))
+    assert paper.scenario == "paper" and summer.cycles == ("validation_bus:20",)
+    assert hilly.scenario == "hilly" and hilly.cycles == ("validation_bus:20", "validation_bus:25")
+    assert sh.selection_tasks(("validation_bus:20",), ("validation_bus:21",))[2].cycles == ("validation_bus:21",)

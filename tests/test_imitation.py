@@ -145,8 +145,8 @@ def test_heat_weight_fits_the_approach_to_derating_closer():
     obs[:, 9] = np.where(near, rng.uniform(-0.049, 0.2, n), rng.uniform(-0.3, -0.05, n))  # x: above -0.05, or not
     actions = np.where(near, -0.5, 0.4 * np.tanh(obs[:, 0])).astype(np.float32)  # the teacher spares a hot motor
     x = ((obs - obs.mean(0)) / obs.std(0)).astype(np.float32)
-    assert fit_weights(obs, 0.0) is None
-    weights = fit_weights(obs, 20.0)
+    assert fit_weights(obs, 0.0, -0.05) is None
+    weights = fit_weights(obs, 20.0, -0.05)
     assert np.array_equal(weights > 1.0, near) and set(np.unique(weights)) == {1.0, 21.0}
     assert np.array_equal(fit_weights(obs, 20.0, 0.0) > 1.0, obs[:, 9] > 0.0)
     env = HevThermalEnv(**env_kwargs(ENV))

@@ -94,9 +94,7 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
         value = out[key]
         if isinstance(value, bool) or not isinstance(value, int) or value < least:
             raise ValueError(f"init.{key} must be a whole number of at least {least}, got {value!r}")
-    b = out["beyond_bound"]
-    if isinstance(b, bool) or not isinstance(b, (int, float)) or not 0.0 <= float(b) <= 1.0:
-        raise ValueError(f"init.beyond_bound must be a number in [0, 1], got {b!r}")
+    _check_number(out, "beyond_bound", 0.0, 1.0)
     n = out["refit_batches"]
     if isinstance(n, bool) or not isinstance(n, int) or n < 0:
         raise ValueError(f"init.refit_batches must be a whole number of at least 0, got {n!r}")
@@ -112,17 +110,19 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     r = out["refit_lr"]
     if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < float(r) <= 1.0:
         raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
-    h = out["heat_weight"]
-    if isinstance(h, bool) or not isinstance(h, (int, float)) or not 0.0 <= float(h) <= 1000.0:
-        raise ValueError(f"init.heat_weight must be a number in [0, 1000] (the extra weight of a state near "
-                         f"derating), got {h!r}")
-    hx = out["heat_weight_above_x"]
-    if isinstance(hx, bool) or not isinstance(hx, (int, float)) or not -0.3 <= float(hx) <= 1.0:
-        raise ValueError(f"init.heat_weight_above_x must be a heat-index integrator value in [-0.3, 1], got {hx!r}")
+    _check_number(out, "heat_weight", 0.0, 1000.0, " (the extra weight of a state near derating)")
+    _check_number(out, "heat_weight_above_x", -0.3, 1.0, " (a heat-index integrator value)")
     z = out["noise"]
     if isinstance(z, bool) or not isinstance(z, (int, float)) or not 0.0 <= float(z) <= 1.0:
         raise ValueError(f"init.noise must be a number in [0, 1] (the spread of the driven action), got {z!r}")
     return out
+
+
+def _check_number(init: dict[str, Any], key: str, lo: float, hi: float, what: str = "") -> None:
+    """``init[key]`` must be a number in [lo, hi]; else a one-line error naming it."""
+    value = init[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= float(value) <= hi:
+        raise ValueError(f"init.{key} must be a number in [{lo:g}, {hi:g}]{what}, got {value!r}")
 
 
 class FrozenRunningMeanStd(RunningMeanStd):
@@ -197,13 +197,19 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes
     return np.stack(obs_rows), np.asarray(actions, dtype=np.float32)
 
 
-def near_derating(obs: np.ndarray, above_x: float = -0.05) -> np.ndarray:
+def heat_weighting(init: dict[str, Any]) -> tuple[float, float]:
+    """``init.heat_weight`` and ``init.heat_weight_above_x`` (their defaults where the section has none)."""
+    return (float(init.get("heat_weight", INIT_DEFAULTS["heat_weight"])),
+            float(init.get("heat_weight_above_x", INIT_DEFAULTS["heat_weight_above_x"])))
+
+
+def near_derating(obs: np.ndarray, above_x: float) -> np.ndarray:
     """Which demonstration states (raw observations ``obs``) lie near derating: the heat-index integrator x
     (observation ``heat_x``) above ``above_x`` (−0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
     return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")] > above_x
 
 
-def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float = -0.05) -> np.ndarray | None:
+def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float) -> np.ndarray | None:
     """Each demonstration state's weight in the fit (float32): ``1 + heat_weight`` near derating
     (:func:`near_derating`), else 1; None (an unweighted fit) when ``heat_weight`` is 0 (``init.heat_weight``,
     ``init.heat_weight_above_x``: a plain fit errs most on these few states, docs/training.md)."""
@@ -268,7 +274,7 @@ class DemonstrationRefit(BaseCallback):
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
         self.decay = bool(init["refit_decay"])
         self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), teacher_of(init), env_kwargs
-        self.heat_weight = (float(init.get("heat_weight", 0.0)), float(init.get("heat_weight_above_x", -0.05)))
+        self.heat_weight = heat_weighting(init)
         self.target = fit_targets(actions, self.high, self.beyond_bound)
         self.weight = fit_weights(obs, *self.heat_weight)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
@@ -377,13 +383,11 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     high = _action_high(model)
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed,
-                              weights=fit_weights(obs, float(init.get("heat_weight", 0.0)),
-                                                  float(init.get("heat_weight_above_x", -0.05))))
+                              weights=fit_weights(obs, *heat_weighting(init)))
     refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
     return {"teacher": init["imitate"], "teacher_options": dict(init.get("teacher_options") or {}),
             "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
-            "near_derating_share": round(float(np.mean(near_derating(obs, float(init.get("heat_weight_above_x",
-                                                                                        -0.05))))), 4),
+            "near_derating_share": round(float(np.mean(near_derating(obs, heat_weighting(init)[1]))), 4),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,
