@@ -129,7 +129,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--heat-routes", nargs="+", default=list(HEAT_ROUTES), metavar="CYCLE",
                    help="the summer (and, without --hilly-routes, hilly) routes scored against the optimum")
     p.add_argument("--hilly-routes", nargs="+", default=None, metavar="CYCLE",
-                   help="the hilly routes scored against the optimum (default: --heat-routes)")
+                   help="the hilly routes scored against the optimum (default: --heat-routes); keep their "
+                        "references in a --references directory of their own: the task keeps its name, so the "
+                        "cached hilly reference of other routes is solved again")
     p.add_argument("--references", default=str(ROOT / "runs" / "selection_references"), metavar="DIR")
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="routes solved at once")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "selection_heat.json"), metavar="FILE")

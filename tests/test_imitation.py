@@ -195,7 +195,7 @@ def test_frozen_observation_statistics_stay_the_demonstrations(tmp_path, freeze)
     assert not moved[frozen].any() and moved[~frozen].sum() >= (1 if freeze is True else 10)
 
 
-def _refit_setup(batches=8, dagger_every=0):
+def _refit_setup(batches=8, dagger_every=0, **init_settings):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
@@ -207,7 +207,7 @@ def _refit_setup(batches=8, dagger_every=0):
     model = PPO("MlpPolicy", venv, seed=0, device="cpu", n_steps=64, policy_kwargs={"net_arch": [32, 32]})
     fit_policy_mean(model.policy, venv.normalize_obs(obs), actions, epochs=150, beyond_bound=0.25, high=1.0, seed=0)
     init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "refit_batches": batches, "dagger_every": dagger_every,
-            "dagger_episodes": 1}
+            "dagger_episodes": 1, **init_settings}
     refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs(ENV), high=1.0, seed=4)
     refit.init_callback(model)
     return venv, model, refit, obs, actions
@@ -269,6 +269,26 @@ def test_dagger_adds_the_students_states_labelled_by_the_teacher(monkeypatch):
     student = np.asarray(driven).reshape(-1)
     assert np.mean(np.abs(student[:len(new_actions)] - new_actions[:len(student)]) > 1e-3) > 0.2  # labels: teacher's
     assert np.all(np.abs(new_actions) <= 1.0)
+    assert refit.weight is None  # no heat weight: the plain fit, before and after a round
+
+
+def test_the_refit_weights_every_demonstration_state_also_after_a_dagger_round(monkeypatch):
+    """``init.heat_weight`` reaches the refit: its weights follow the demonstrations, also when a DAgger round adds the
+    student's states (built from their own heat-index integrator), and the loss uses them."""
+    import hev_thermal_env.training.imitation as imitation
+
+    venv, model, refit, obs, actions = _refit_setup(batches=1, dagger_every=100, heat_weight=20.0,
+                                                    heat_weight_above_x=-0.2)
+    np.testing.assert_array_equal(refit.weight > 1.0, obs[:, 9] > -0.2)
+    student_obs = obs[:300].copy()
+    student_obs[:, 9] = np.linspace(-0.3, 0.3, 300)  # half of the student's states near derating
+    monkeypatch.setattr(imitation, "demonstrations", lambda *a, **k: (student_obs, actions[:300]))
+    model.num_timesteps = 100
+    refit.on_rollout_end()
+    assert refit.rounds == 1 and len(refit.weight) == len(refit.obs) == len(obs) + 300
+    np.testing.assert_array_equal(refit.weight[len(obs):] > 1.0, student_obs[:, 9] > -0.2)
+    assert set(np.unique(refit.weight)) <= {1.0, 21.0}
+    assert imitation.heat_weighting({"heat_weight": 20}) == (20.0, 0.0)  # the threshold's default: derating
 
 
 def test_a_run_with_refit_and_dagger_records_them_and_a_resumed_run_drives_its_demonstrations_again(tmp_path):

@@ -44,7 +44,7 @@ from .hyperparams import check_known
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "teacher_options": {}, "episodes": 60, "epochs": 30,
                                  "beyond_bound": 0.25, "noise": 0.0, "freeze_obs_stats": False, "refit_batches": 0,
                                  "refit_lr": 1e-4, "refit_decay": False, "dagger_every": 0, "dagger_episodes": 20,
-                                 "heat_weight": 0.0, "heat_weight_above_x": -0.05}
+                                 "heat_weight": 0.0, "heat_weight_above_x": 0.0}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 BATCH = 1024
@@ -112,9 +112,7 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
         raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
     _check_number(out, "heat_weight", 0.0, 1000.0, " (the extra weight of a state near derating)")
     _check_number(out, "heat_weight_above_x", -0.3, 1.0, " (a heat-index integrator value)")
-    z = out["noise"]
-    if isinstance(z, bool) or not isinstance(z, (int, float)) or not 0.0 <= float(z) <= 1.0:
-        raise ValueError(f"init.noise must be a number in [0, 1] (the spread of the driven action), got {z!r}")
+    _check_number(out, "noise", 0.0, 1.0, " (the spread of the driven action)")
     return out
 
 
@@ -205,7 +203,8 @@ def heat_weighting(init: dict[str, Any]) -> tuple[float, float]:
 
 def near_derating(obs: np.ndarray, above_x: float) -> np.ndarray:
     """Which demonstration states (raw observations ``obs``) lie near derating: the heat-index integrator x
-    (observation ``heat_x``) above ``above_x`` (−0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
+    (observation ``heat_x``) above ``above_x`` (0: the motor derates; −0.05: where ``ecms_thermal``'s heat price
+    starts, its ``x_thr``)."""
     return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")] > above_x
 
 
@@ -219,10 +218,11 @@ def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float) -> np.ndarr
 
 
 def fit_loss(mean: torch.Tensor, target: torch.Tensor, weight: np.ndarray | None) -> torch.Tensor:
-    """The fit's loss: the MSE, or with weights Σ w (mean − target)² / Σ w."""
+    """The fit's loss on a batch: the MSE, or with weights Σ w (mean − target)² / Σ w. The run records it as
+    ``mse_first``/``mse_last`` (the mean over a pass's batches), a weighted MSE where ``init.heat_weight`` > 0."""
     if weight is None:
         return torch.mean((mean - target) ** 2)
-    w = torch.as_tensor(weight)
+    w = torch.as_tensor(weight, device=mean.device)
     return torch.sum(w * (mean - target) ** 2) / torch.sum(w)
 
 
@@ -235,6 +235,8 @@ def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs
                     high: float, seed: int, weights: np.ndarray | None = None) -> list[float]:
     """Fit ``policy``'s mean action to ``actions`` on (already normalised) ``obs``, each state by its weight in
     ``weights`` (:func:`fit_weights`; None: all 1); the loss of every pass."""
+    if weights is not None and len(weights) != len(actions):
+        raise ValueError(f"fit_policy_mean: {len(weights)} weights for {len(actions)} demonstration steps")
     target = fit_targets(actions, high, beyond_bound)
     x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
     y = torch.as_tensor(target)
@@ -381,13 +383,14 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
             venv.obs_rms = FrozenRunningMeanStd(venv.obs_rms, mask)
         x = venv.normalize_obs(obs)
     high = _action_high(model)
+    heat_weight, above_x = heat_weighting(init)
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed,
-                              weights=fit_weights(obs, *heat_weighting(init)))
+                              weights=fit_weights(obs, heat_weight, above_x))
     refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
     return {"teacher": init["imitate"], "teacher_options": dict(init.get("teacher_options") or {}),
             "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
-            "near_derating_share": round(float(np.mean(near_derating(obs, heat_weighting(init)[1]))), 4),
+            "near_derating_share": round(float(np.mean(near_derating(obs, above_x))), 4),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,
