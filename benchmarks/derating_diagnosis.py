@@ -51,9 +51,9 @@ def where_it_derates(strategy: Any, cycle: str, scenario: str) -> dict[str, Any]
 
 def fit_errors(act: Any, obs: np.ndarray, actions: np.ndarray) -> list[dict[str, Any]]:
     """Per band of x: its share of the states, the mean squared error to the teacher, both mean actions."""
-    from hev_thermal_env.envs.spaces import observation_names
+    from hev_thermal_env.training.imitation import heat_x
 
-    x = obs[:, observation_names(0, 1).index("heat_x")]
+    x = heat_x(obs)
     student = np.asarray(act(obs)).reshape(-1)
     rows = []
     for lo, hi in BANDS:
@@ -87,6 +87,7 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"--teacher-options is not JSON ({exc})") from None
 
     from hev_thermal_env.agents import get_strategy
+    from hev_thermal_env.io import atomic_write_json
     from hev_thermal_env.training.envs import env_kwargs
     from hev_thermal_env.training.imitation import demonstrations
 
@@ -108,8 +109,7 @@ def main(argv: list[str] | None = None) -> int:
                                     "fit": fit_errors(strategy.policy.act, *demos)}
         print(name, record["policies"][name]["route"], flush=True)
     record["wall_s"] = round(time.perf_counter() - t0, 1)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+    atomic_write_json(args.out, record)
     print(f"wrote {args.out}", flush=True)
     return 0
 

@@ -140,6 +140,7 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"--jobs must be at least 1, got {args.jobs}")
     candidates = parse_candidates(args.policy, args.teacher)
     from hev_thermal_env.evaluation.submission import result_of_strategy
+    from hev_thermal_env.io import atomic_write_json
     from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
     t0 = time.perf_counter()
@@ -167,8 +168,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{row[tasks[0].id]['frontier_ratio_mean']:.4f}, summer fuel / ecms_thermal "
               f"{row['summer vs ecms_thermal']['fuel_vs_ecms_thermal_mean']:.4f}", flush=True)
     record["wall_s"] = round(time.perf_counter() - t0, 1)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(record, indent=1) + "\n")
+    atomic_write_json(args.out, record)
     print(f"wrote {args.out}", flush=True)
     return 0
 

@@ -201,17 +201,20 @@ def heat_weighting(init: dict[str, Any]) -> tuple[float, float]:
             float(init.get("heat_weight_above_x", INIT_DEFAULTS["heat_weight_above_x"])))
 
 
+def heat_x(obs: np.ndarray) -> np.ndarray:
+    """The heat-index integrator x (observation ``heat_x``) of raw observations ``obs`` [N, dim]."""
+    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")]
+
+
 def near_derating(obs: np.ndarray, above_x: float) -> np.ndarray:
-    """Which demonstration states (raw observations ``obs``) lie near derating: the heat-index integrator x
-    (observation ``heat_x``) above ``above_x`` (0: the motor derates; −0.05: where ``ecms_thermal``'s heat price
-    starts, its ``x_thr``)."""
-    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")] > above_x
+    """Which states (raw observations) lie near derating: :func:`heat_x` above ``above_x`` (0: the motor derates;
+    −0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
+    return heat_x(obs) > above_x
 
 
 def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float) -> np.ndarray | None:
-    """Each demonstration state's weight in the fit (float32): ``1 + heat_weight`` near derating
-    (:func:`near_derating`), else 1; None (an unweighted fit) when ``heat_weight`` is 0 (``init.heat_weight``,
-    ``init.heat_weight_above_x``: a plain fit errs most on these few states, docs/training.md)."""
+    """Each state's weight in the fit (float32): ``1 + heat_weight`` near derating (:func:`near_derating`), else 1;
+    None (an unweighted fit) when ``heat_weight`` is 0. A plain fit errs most on those few states (docs/training.md)."""
     if float(heat_weight) == 0.0:
         return None
     return np.where(near_derating(obs, above_x), 1.0 + float(heat_weight), 1.0).astype(np.float32)
