@@ -81,6 +81,9 @@ class ECMS(Strategy):
         self.u_grid = np.linspace(-1.0, 1.0, int(n_u))
         self.soc_target_option = soc_target
         self.soc_target = soc_target
+        #: The last step's cost of every candidate above the cheapest (g, over ``u_grid``; zeros while standing): what
+        #: a student's action costs by the strategy's own measure (``init.cost_weight``, docs/training.md).
+        self.cost_curve_g: np.ndarray | None = None
 
     def reset(self, env: Any) -> None:
         super().reset(env)
@@ -103,8 +106,10 @@ class ECMS(Strategy):
         st, out = env.peek(self.u_grid)
         self._observe(soc)
         if out[0, C.SHAFT_DEMAND] == 0.0:
+            self.cost_curve_g = np.zeros(len(self.u_grid))
             return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
         cost = self.candidate_costs(st, out, soc)
+        self.cost_curve_g = cost - cost.min()
         return np.array([self.u_grid[argmin_small_action(cost, self.u_grid)]], dtype=np.float32)
 
     def _observe(self, soc: float) -> None:

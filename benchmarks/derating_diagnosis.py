@@ -51,7 +51,7 @@ def where_it_derates(strategy: Any, cycle: str, scenario: str) -> dict[str, Any]
 
 def fit_errors(act: Any, obs: np.ndarray, actions: np.ndarray) -> list[dict[str, Any]]:
     """Per band of x: its share of the states, the mean squared error to the teacher, both mean actions."""
-    from hev_thermal_env.training.imitation import heat_x
+    from hev_thermal_env.training.fit import heat_x
 
     x = heat_x(obs)
     student = np.asarray(act(obs)).reshape(-1)

@@ -10,12 +10,11 @@ import pytest
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.training.config import build_config, load_run_config
 from hev_thermal_env.training.envs import env_kwargs
+from hev_thermal_env.training.fit import fit_policy_mean, fit_weights
 from hev_thermal_env.training.imitation import (
     INIT_DEFAULTS,
     check_init,
     demonstrations,
-    fit_policy_mean,
-    fit_weights,
     teacher_of,
 )
 

@@ -16,7 +16,9 @@ much noise on its action and labelled with the teacher's own (:func:`demonstrati
 protection survives PPO, at a cost in fuel elsewhere (same section). With ``init.refit_batches`` > 0 the fit goes on
 during PPO (:class:`DemonstrationRefit`): after every rollout a few batches of the demonstrations are fitted again under
 the statistics of that moment, so the fitted behaviour follows the statistics as they drift; with
-``init.dagger_every`` the states the policy itself visits join them, labelled by the teacher (DAgger).
+``init.dagger_every`` the states the policy itself visits join them, labelled by the teacher (DAgger). What the fit
+minimises (the squared error, weighted near derating with ``init.heat_weight``, plus with ``init.cost_weight`` the
+teacher's own cost of the student's action): :mod:`.fit`.
 """
 
 from __future__ import annotations
@@ -38,21 +40,20 @@ from hev_thermal_env.agents.policy_files import LoadedPolicy
 from hev_thermal_env.envs import HevThermalEnv
 
 from ..envs.spaces import observation_names
+from .fit import BATCH, fit_loss, fit_policy_mean, fit_targets, fit_weights, mean_cost_excess_g, near_derating
 from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
 INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "teacher_options": {}, "episodes": 60, "epochs": 30,
                                  "beyond_bound": 0.25, "noise": 0.0, "freeze_obs_stats": False, "refit_batches": 0,
                                  "refit_lr": 1e-4, "refit_decay": False, "dagger_every": 0, "dagger_episodes": 20,
-                                 "heat_weight": 0.0, "heat_weight_above_x": 0.0}
+                                 "heat_weight": 0.0, "heat_weight_above_x": 0.0, "cost_weight": 0.0}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
-BATCH = 1024
 #: An entry whose variance over the demonstrations is at most this the teacher never moves (``ecms_thermal`` with its
 #: fixed heat-index price never derates: the heat index is 0 throughout); ``init.freeze_obs_stats: true`` leaves its
 #: statistics to PPO's states.
 MIN_FROZEN_VAR = 1e-12
-LEARNING_RATE = 1e-3
 
 
 def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[str] = ()) -> dict[str, Any]:
@@ -112,6 +113,7 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
         raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
     _check_number(out, "heat_weight", 0.0, 1000.0, " (the extra weight of a state near derating)")
     _check_number(out, "heat_weight_above_x", -0.3, 1.0, " (a heat-index integrator value)")
+    _check_number(out, "cost_weight", 0.0, 1000.0, " (1/g: the weight of the teacher's cost of the student's action)")
     _check_number(out, "noise", 0.0, 1.0, " (the spread of the driven action)")
     return out
 
@@ -157,8 +159,10 @@ def teacher_of(init: dict[str, Any]) -> Strategy:
 
 def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes: int, seed: int,
                    progress: Callable[[int], None] | None = None, noise: float = 0.0,
-                   drive: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env.
+                   drive: Callable[[np.ndarray], np.ndarray] | None = None, costs: list | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env; with a list
+    ``costs``, each step's cost curve of the teacher (its ``cost_curve_g``, :mod:`.fit`) is appended to it.
 
     Episode ``i`` is reset with seed ``seed · 1,000,003 + i`` (a fresh cycle of a training family and
     fresh conditions of the training scenario) and driven from its first second. With ``noise`` > 0 the env is driven
@@ -181,6 +185,8 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes
             while not done:
                 a = np.asarray(strategy.act(obs, info), dtype=np.float64).reshape(1)
                 obs_rows.append(np.array(obs, dtype=np.float32))
+                if costs is not None:
+                    costs.append(teacher_cost_curve(strategy))
                 actions.append(float(a[0]))
                 if drive is not None:
                     a = np.asarray(drive(obs), dtype=np.float64).reshape(1)
@@ -195,72 +201,19 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes
     return np.stack(obs_rows), np.asarray(actions, dtype=np.float32)
 
 
+def teacher_cost_curve(strategy: Strategy) -> np.ndarray:
+    """The teacher's cost of every candidate above the cheapest at its last step (float32; ``init.cost_weight``)."""
+    curve = getattr(strategy, "cost_curve_g", None)
+    if curve is None:
+        raise ValueError(f"init.cost_weight: the teacher {strategy.name!r} does not price its candidate actions; "
+                         "use ecms, aecms or ecms_thermal, or set init.cost_weight to 0")
+    return np.asarray(curve, dtype=np.float32)
+
+
 def heat_weighting(init: dict[str, Any]) -> tuple[float, float]:
     """``init.heat_weight`` and ``init.heat_weight_above_x`` (their defaults where the section has none)."""
     return (float(init.get("heat_weight", INIT_DEFAULTS["heat_weight"])),
             float(init.get("heat_weight_above_x", INIT_DEFAULTS["heat_weight_above_x"])))
-
-
-def heat_x(obs: np.ndarray) -> np.ndarray:
-    """The heat-index integrator x (observation ``heat_x``) of raw observations ``obs`` [N, dim]."""
-    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")]
-
-
-def near_derating(obs: np.ndarray, above_x: float) -> np.ndarray:
-    """Which states (raw observations) lie near derating: :func:`heat_x` above ``above_x`` (0: the motor derates;
-    −0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
-    return heat_x(obs) > above_x
-
-
-def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float) -> np.ndarray | None:
-    """Each state's weight in the fit (float32): ``1 + heat_weight`` near derating (:func:`near_derating`), else 1;
-    None (an unweighted fit) when ``heat_weight`` is 0. A plain fit errs most on those few states (docs/training.md)."""
-    if float(heat_weight) == 0.0:
-        return None
-    return np.where(near_derating(obs, above_x), 1.0 + float(heat_weight), 1.0).astype(np.float32)
-
-
-def fit_loss(mean: torch.Tensor, target: torch.Tensor, weight: np.ndarray | None) -> torch.Tensor:
-    """The fit's loss on a batch: the MSE, or with weights Σ w (mean − target)² / Σ w. The run records it as
-    ``mse_first``/``mse_last`` (the mean over a pass's batches), a weighted MSE where ``init.heat_weight`` > 0."""
-    if weight is None:
-        return torch.mean((mean - target) ** 2)
-    w = torch.as_tensor(weight, device=mean.device)
-    return torch.sum(w * (mean - target) ** 2) / torch.sum(w)
-
-
-def fit_targets(actions: np.ndarray, high: float, beyond_bound: float) -> np.ndarray:
-    """The teacher's actions as fitted: ``high + beyond_bound`` where the teacher sits at the upper bound (float32)."""
-    return np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
-
-
-def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs: int, beyond_bound: float,
-                    high: float, seed: int, weights: np.ndarray | None = None) -> list[float]:
-    """Fit ``policy``'s mean action to ``actions`` on (already normalised) ``obs``, each state by its weight in
-    ``weights`` (:func:`fit_weights`; None: all 1); the loss of every pass."""
-    if weights is not None and len(weights) != len(actions):
-        raise ValueError(f"fit_policy_mean: {len(weights)} weights for {len(actions)} demonstration steps")
-    target = fit_targets(actions, high, beyond_bound)
-    x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
-    y = torch.as_tensor(target)
-    gen = torch.Generator().manual_seed(int(seed))
-    opt = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
-    policy.set_training_mode(True)
-    history = []
-    for _ in range(epochs):
-        perm = torch.randperm(len(x), generator=gen)
-        total = 0.0
-        for i in range(0, len(x), BATCH):
-            idx = perm[i:i + BATCH]
-            mean = policy.get_distribution(x[idx]).distribution.mean[:, 0]
-            loss = fit_loss(mean, y[idx], None if weights is None else weights[idx.numpy()])
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            total += float(loss.detach()) * len(idx)
-        history.append(total / len(x))
-    policy.set_training_mode(False)
-    return history
 
 
 class DemonstrationRefit(BaseCallback):
@@ -273,9 +226,10 @@ class DemonstrationRefit(BaseCallback):
     visits join the demonstrations (DAgger)."""
 
     def __init__(self, venv: Any, obs: np.ndarray, actions: np.ndarray, *, init: dict[str, Any], env_kwargs: dict,
-                 high: float, seed: int):
+                 high: float, seed: int, curves: np.ndarray | None = None):
         super().__init__()
         self.venv, self.obs, self.actions, self.high = venv, obs, actions, float(high)
+        self.cost_weight, self.curves = float(init.get("cost_weight", 0.0)), curves
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
         self.decay = bool(init["refit_decay"])
         self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), teacher_of(init), env_kwargs
@@ -303,8 +257,11 @@ class DemonstrationRefit(BaseCallback):
 
     def _dagger(self) -> None:
         self.rounds += 1
+        costs = [] if self.curves is not None else None
         obs, actions = demonstrations(self.env_kwargs, self.teacher, self.dagger_episodes,
-                                      self.seed + 1_000 * self.rounds, drive=self._student)
+                                      self.seed + 1_000 * self.rounds, drive=self._student, costs=costs)
+        if costs is not None:
+            self.curves = np.concatenate([self.curves, np.stack(costs)])
         self.obs = np.concatenate([self.obs, obs])
         self.actions = np.concatenate([self.actions, actions])
         self.target = fit_targets(self.actions, self.high, self.beyond_bound)
@@ -324,7 +281,8 @@ class DemonstrationRefit(BaseCallback):
         for _ in range(self.batches):
             idx = self.rng.integers(0, len(self.obs), BATCH)
             mean = policy.get_distribution(torch.as_tensor(self._normalize(self.obs[idx]))).distribution.mean[:, 0]
-            loss = fit_loss(mean, torch.as_tensor(self.target[idx]), None if self.weight is None else self.weight[idx])
+            loss = fit_loss(mean, torch.as_tensor(self.target[idx]), None if self.weight is None else self.weight[idx],
+                            None if self.curves is None else self.curves[idx], self.cost_weight)
             self.opt.zero_grad()
             loss.backward()
             self.opt.step()
@@ -343,11 +301,23 @@ def _action_high(model: Any) -> float:
 
 
 def _refit(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, obs: np.ndarray,
-           actions: np.ndarray) -> DemonstrationRefit | None:
-    """The run's refit of ``obs``, ``actions``, or None without ``init.refit_batches``."""
+           actions: np.ndarray, curves: np.ndarray | None) -> DemonstrationRefit | None:
+    """The run's refit of ``obs``, ``actions`` (and the teacher's cost ``curves``), or None without
+    ``init.refit_batches``."""
     if int(init.get("refit_batches", 0)) <= 0:
         return None
-    return DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=_action_high(model), seed=seed)
+    return DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=_action_high(model), seed=seed,
+                              curves=curves)
+
+
+def _demonstrations(env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
+                    progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """The run's first demonstrations (``init.episodes`` of the teacher, ``init.noise``) and, with
+    ``init.cost_weight`` > 0, the teacher's cost curves [N, n] (else None)."""
+    costs = [] if float(init.get("cost_weight", 0.0)) > 0.0 else None
+    obs, actions = demonstrations(env_kwargs, teacher_of(init), init["episodes"], seed, progress,
+                                  noise=float(init.get("noise", 0.0)), costs=costs)
+    return obs, actions, None if costs is None else np.stack(costs)
 
 
 def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[str, Any],
@@ -357,9 +327,8 @@ def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[
     kept in a checkpoint."""
     if int(init.get("refit_batches", 0)) <= 0 or not init.get("imitate"):
         return None
-    obs, actions = demonstrations(env_kwargs, teacher_of(init), init["episodes"], seed,
-                                  noise=float(init.get("noise", 0.0)))
-    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
+    obs, actions, curves = _demonstrations(env_kwargs, init, seed)
+    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions, curves)
     if refit.dagger_every:
         refit.rounds = int(model.num_timesteps) // refit.dagger_every
     return refit
@@ -372,7 +341,7 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     t0 = time.perf_counter()
     noise = float(init.get("noise", 0.0))
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
-        obs, actions = demonstrations(env_kwargs, teacher_of(init), init["episodes"], seed, bar.update, noise=noise)
+        obs, actions, curves = _demonstrations(env_kwargs, init, seed, bar.update)
     demo_s = time.perf_counter() - t0
     x = obs
     if isinstance(venv, VecNormalize) and venv.norm_obs:
@@ -389,12 +358,14 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     heat_weight, above_x = heat_weighting(init)
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed,
-                              weights=fit_weights(obs, heat_weight, above_x))
-    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions)
+                              weights=fit_weights(obs, heat_weight, above_x), curves=curves,
+                              cost_weight=float(init.get("cost_weight", 0.0)))
+    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions, curves)
     return {"teacher": init["imitate"], "teacher_options": dict(init.get("teacher_options") or {}),
             "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
             "near_derating_share": round(float(np.mean(near_derating(obs, above_x))), 4),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,
             "mse_last": round(history[-1], 5) if history else None,
+            "cost_excess_g_per_step": None if curves is None else round(mean_cost_excess_g(model.policy, x, curves), 5),
             "demonstration_s": round(demo_s, 1), "wall_s": round(time.perf_counter() - t0, 1)}, refit

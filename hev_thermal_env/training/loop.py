@@ -185,9 +185,13 @@ class TrainingRun:
             rec, self.refit = imitate(self.model, self.venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]),
                                       progress=self.progress)
             cfg.setdefault("result", {})["imitation"] = rec
+            loss = ("weighted " if init.get("heat_weight") else "") + "MSE"
+            if init.get("cost_weight"):
+                loss += f" + {init['cost_weight']:g} x the teacher's cost"
+            excess = rec.get("cost_excess_g_per_step")
             self.log(f"imitation of {rec['teacher']}: {rec['steps']} steps of {rec['episodes']} episodes, policy "
-                     f"mean fitted ({'weighted ' if init.get('heat_weight') else ''}MSE {rec['mse_first']} -> "
-                     f"{rec['mse_last']}) in {rec['wall_s']} s")
+                     f"mean fitted ({loss} {rec['mse_first']} -> {rec['mse_last']}) in {rec['wall_s']} s"
+                     + ("" if excess is None else f"; {excess} g per step dearer than the teacher by its cost"))
         elif resume_from is not None:
             self.refit = resumed_refit(self.venv, self.model, env_kwargs(cfg["env"]), init, int(cfg["seed"]))
 

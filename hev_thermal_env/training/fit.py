@@ -1,0 +1,126 @@
+"""What the imitation's fit minimises (:mod:`.imitation`): the policy's mean action against the teacher's.
+
+* The squared error to the teacher's action (:func:`fit_targets`: at 1 + ``init.beyond_bound`` where the teacher sits
+  at the upper bound), each state counted by its weight (:func:`fit_weights`: ``1 + init.heat_weight`` where the motor
+  derates, else 1).
+* With ``init.cost_weight`` > 0, also what the policy's action costs by the teacher's own measure
+  (:func:`cost_excess_g`): a classic teacher that picks the cheapest of a grid of candidate actions (``ecms``,
+  ``aecms``, ``ecms_thermal``) records each step's cost of every candidate above the cheapest (g), and the student's
+  action is charged that curve, interpolated. A squared error counts every state alike; the teacher's cost curve says
+  where an error is dear (the motor at its limit, a demand the bus can only just meet) and where it is free (a flat
+  curve). The term is in grams per step, ``init.cost_weight`` in 1/g.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from ..envs.spaces import observation_names
+
+#: The fit's batch size (the initial fit and the refit).
+BATCH = 1024
+#: The initial fit's Adam learning rate.
+LEARNING_RATE = 1e-3
+
+
+def heat_x(obs: np.ndarray) -> np.ndarray:
+    """The heat-index integrator x (observation ``heat_x``) of raw observations ``obs`` [N, dim]."""
+    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")]
+
+
+def near_derating(obs: np.ndarray, above_x: float) -> np.ndarray:
+    """Which states (raw observations) lie near derating: :func:`heat_x` above ``above_x`` (0: the motor derates;
+    −0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
+    return heat_x(obs) > above_x
+
+
+def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float) -> np.ndarray | None:
+    """Each state's weight in the fit (float32): ``1 + heat_weight`` near derating (:func:`near_derating`), else 1;
+    None (an unweighted fit) when ``heat_weight`` is 0. A plain fit errs most on those few states (docs/training.md)."""
+    if float(heat_weight) == 0.0:
+        return None
+    return np.where(near_derating(obs, above_x), 1.0 + float(heat_weight), 1.0).astype(np.float32)
+
+
+def cost_excess_g(mean: torch.Tensor, curves: torch.Tensor) -> torch.Tensor:
+    """What each action of ``mean`` [B] costs above the teacher's cheapest candidate (g): ``curves`` [B, n] is the
+    teacher's cost of n candidates evenly spaced on [-1, 1] above their cheapest, read at the action (clipped to the
+    bounds, as the env clips it) by linear interpolation, so the charge has a gradient between the candidates."""
+    n = curves.shape[1]
+    pos = (torch.clamp(mean, -1.0, 1.0) + 1.0) * (0.5 * (n - 1))
+    i0 = torch.clamp(torch.floor(pos.detach()), 0, n - 2).long()
+    frac = pos - i0.to(pos.dtype)
+    lo = torch.gather(curves, 1, i0[:, None])[:, 0]
+    hi = torch.gather(curves, 1, (i0 + 1)[:, None])[:, 0]
+    return lo + frac * (hi - lo)
+
+
+def fit_loss(mean: torch.Tensor, target: torch.Tensor, weight: np.ndarray | None,
+             curves: np.ndarray | None = None, cost_weight: float = 0.0) -> torch.Tensor:
+    """The fit's loss on a batch: the MSE, or with weights Σ w (mean − target)² / Σ w; with ``cost_weight`` > 0 plus
+    ``cost_weight`` · the mean :func:`cost_excess_g` of the batch's ``curves``. The run records it as
+    ``mse_first``/``mse_last`` (the mean over a pass's batches)."""
+    if weight is None:
+        loss = torch.mean((mean - target) ** 2)
+    else:
+        w = torch.as_tensor(weight, device=mean.device)
+        loss = torch.sum(w * (mean - target) ** 2) / torch.sum(w)
+    if cost_weight > 0.0:
+        if curves is None:
+            raise ValueError("fit_loss: cost_weight > 0 needs the teacher's cost curves")
+        loss = loss + float(cost_weight) * torch.mean(cost_excess_g(mean, torch.as_tensor(curves)))
+    return loss
+
+
+def fit_targets(actions: np.ndarray, high: float, beyond_bound: float) -> np.ndarray:
+    """The teacher's actions as fitted: ``high + beyond_bound`` where the teacher sits at the upper bound (float32)."""
+    return np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
+
+
+def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs: int, beyond_bound: float,
+                    high: float, seed: int, weights: np.ndarray | None = None, curves: np.ndarray | None = None,
+                    cost_weight: float = 0.0) -> list[float]:
+    """Fit ``policy``'s mean action to ``actions`` on (already normalised) ``obs``, each state by its weight in
+    ``weights`` (:func:`fit_weights`; None: all 1), with ``cost_weight`` > 0 also charged the teacher's cost
+    ``curves`` [N, n] (:func:`cost_excess_g`); the loss of every pass."""
+    for name, rows in (("weights", weights), ("cost curves", curves)):
+        if rows is not None and len(rows) != len(actions):
+            raise ValueError(f"fit_policy_mean: {len(rows)} {name} for {len(actions)} demonstration steps")
+    target = fit_targets(actions, high, beyond_bound)
+    x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
+    y = torch.as_tensor(target)
+    gen = torch.Generator().manual_seed(int(seed))
+    opt = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
+    policy.set_training_mode(True)
+    history = []
+    for _ in range(epochs):
+        perm = torch.randperm(len(x), generator=gen)
+        total = 0.0
+        for i in range(0, len(x), BATCH):
+            idx = perm[i:i + BATCH]
+            rows = idx.numpy()
+            mean = policy.get_distribution(x[idx]).distribution.mean[:, 0]
+            loss = fit_loss(mean, y[idx], None if weights is None else weights[rows],
+                            None if curves is None else curves[rows], cost_weight)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += float(loss.detach()) * len(idx)
+        history.append(total / len(x))
+    policy.set_training_mode(False)
+    return history
+
+
+def mean_cost_excess_g(policy: Any, obs: np.ndarray, curves: np.ndarray) -> float:
+    """The mean :func:`cost_excess_g` (g per step) of ``policy``'s mean action on (already normalised) ``obs``: how
+    much dearer than its teacher, by the teacher's own measure, the fitted policy acts on the demonstrations."""
+    total = 0.0
+    with torch.no_grad():
+        for i in range(0, len(obs), BATCH):
+            x = torch.as_tensor(np.ascontiguousarray(obs[i:i + BATCH], dtype=np.float32))
+            mean = policy.get_distribution(x).distribution.mean[:, 0]
+            total += float(cost_excess_g(mean, torch.as_tensor(curves[i:i + BATCH])).sum())
+    return total / max(len(obs), 1)
