@@ -1,5 +1,5 @@
-"""``init.cost_weight``: the imitation also charges the student's action the teacher's own cost of it. The teacher's cost
-curve is what it minimised, the charge reads it between candidates, and a fit that pays it acts cheaper by the
+"""``init.cost_weight``: the imitation also charges the student's action the teacher's own cost of it. The teacher's
+cost curve is what it minimised, the charge reads it between candidates, and a fit that pays it acts cheaper by the
 teacher's measure than one that only matches the action."""
 
 from __future__ import annotations
@@ -87,6 +87,9 @@ def test_the_cost_weight_is_checked_and_needs_a_teacher_that_prices_its_candidat
     assert check_init(base, "ppo")["cost_weight"] == INIT_DEFAULTS["cost_weight"] == 0.0
     with pytest.raises(ValueError, match="init.cost_weight must be a number in"):
         check_init({**base, "cost_weight": -1}, "ppo")
+    with pytest.raises(ValueError, match="'rule' does not price its candidate actions"):
+        check_init({"imitate": "rule", "cost_weight": 1.0}, "ppo")  # before any work
+    assert check_init({"imitate": "rule"}, "ppo")["cost_weight"] == 0.0
     costs: list[np.ndarray] = []
     with pytest.raises(ValueError, match="'rule' does not price its candidate actions"):
         demonstrations(env_kwargs(ENV), get_strategy("rule"), 1, seed=4, costs=costs)

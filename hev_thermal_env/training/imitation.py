@@ -87,7 +87,7 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     if not isinstance(options, dict):
         raise ValueError(f"init.teacher_options must be a mapping of {teacher}'s options (or null), got {options!r}")
     try:
-        teacher_of(out)
+        teacher = teacher_of(out)
     except ValueError as e:
         raise ValueError(f"init.teacher_options: {e} (another teacher: set init.teacher_options=null for its "
                          "defaults)") from None
@@ -111,11 +111,19 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
     r = out["refit_lr"]
     if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < float(r) <= 1.0:
         raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
-    _check_number(out, "heat_weight", 0.0, 1000.0, " (the extra weight of a state near derating)")
-    _check_number(out, "heat_weight_above_x", -0.3, 1.0, " (a heat-index integrator value)")
-    _check_number(out, "cost_weight", 0.0, 1000.0, " (1/g: the weight of the teacher's cost of the student's action)")
+    _check_fit(out, teacher)
     _check_number(out, "noise", 0.0, 1.0, " (the spread of the driven action)")
     return out
+
+
+def _check_fit(init: dict[str, Any], teacher: Strategy) -> None:
+    """The fit's weights (:mod:`.fit`); ``init.cost_weight`` needs a teacher that prices its candidates."""
+    _check_number(init, "heat_weight", 0.0, 1000.0, " (the extra weight of a state near derating)")
+    _check_number(init, "heat_weight_above_x", -0.3, 1.0, " (a heat-index integrator value)")
+    _check_number(init, "cost_weight", 0.0, 1000.0, " (1/g: the weight of the teacher's cost of the student's action)")
+    if init["cost_weight"] and not hasattr(teacher, "cost_curve_g"):
+        raise ValueError(f"init.cost_weight: the teacher {teacher.name!r} does not price its candidate actions; use "
+                         "ecms, aecms or ecms_thermal, or set init.cost_weight to 0")
 
 
 def _check_number(init: dict[str, Any], key: str, lo: float, hi: float, what: str = "") -> None:
@@ -217,13 +225,13 @@ def heat_weighting(init: dict[str, Any]) -> tuple[float, float]:
 
 
 class DemonstrationRefit(BaseCallback):
-    """``init.refit_batches`` > 0: after every rollout, that many batches of the demonstrations are fitted again
-    (MSE of the policy's mean to the teacher's action, Adam at ``init.refit_lr``), normalised with the statistics of
-    that moment. The fit then follows the statistics as they drift towards PPO's states, and PPO's gradient moves the
-    policy away from the teacher only where it gains; with ``init.refit_decay`` the refit's rate decays with PPO's
-    learning-rate schedule. With ``init.dagger_every`` (env-steps) the deterministic policy
-    drives ``init.dagger_episodes`` fresh training episodes that often, and the teacher's actions on the states it
-    visits join the demonstrations (DAgger)."""
+    """``init.refit_batches`` > 0: after every rollout, that many batches of the demonstrations are fitted again (the
+    policy's mean to the teacher's action by the imitation's loss, :mod:`.fit`; Adam at ``init.refit_lr``),
+    normalised with the statistics of that moment. The fit then follows the statistics as they drift towards PPO's
+    states, and PPO's gradient moves the policy away from the teacher only where it gains; with ``init.refit_decay``
+    the refit's rate decays with PPO's learning-rate schedule. With ``init.dagger_every`` (env-steps) the
+    deterministic policy drives ``init.dagger_episodes`` fresh training episodes that often, and the teacher's
+    actions on the states it visits join the demonstrations (DAgger)."""
 
     def __init__(self, venv: Any, obs: np.ndarray, actions: np.ndarray, *, init: dict[str, Any], env_kwargs: dict,
                  high: float, seed: int, curves: np.ndarray | None = None):
