@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import multiprocessing
+import os
 import signal
 import socket
 import threading
@@ -70,27 +71,58 @@ def sigint_ignored() -> Iterator[None]:
 
 class LocalExecutor:
     """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes. The workers ignore Ctrl-C, so only this
-    process reports it (``KeyboardInterrupt``); leaving on an exception stops the workers, not waiting for them."""
+    process reports it (``KeyboardInterrupt``); leaving on an exception stops the workers, not waiting for them. A
+    SIGTERM (``kill``, a job scheduler's time limit) stops them too before this process ends as SIGTERM ends it."""
 
     def __init__(self, jobs: int = 1):
         self.jobs = self.slots = max(1, int(jobs))
         self.pool: ProcessPoolExecutor | None = None
         self.others: set = set()
+        self.sigterm: Any = None
 
     def __enter__(self) -> LocalExecutor:
         if self.jobs > 1:
             self.others = set(multiprocessing.active_children())  # child processes that are not the workers
             # spawn, not fork: a forked child would inherit the parent's thread pools (DP) mid-lock
             self.pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=multiprocessing.get_context("spawn"))
+            self._catch_sigterm()
         return self
 
     def __exit__(self, exc_type, *exc) -> None:
         if self.pool is not None:
             self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
             if exc_type is not None:  # interrupted or failed: stop the cells in progress rather than wait for them
-                for worker in set(multiprocessing.active_children()) - self.others:
-                    worker.terminate()
+                self._stop_workers()
             self.pool = None
+        if self.sigterm is not None:
+            signal.signal(signal.SIGTERM, self.sigterm)
+            self.sigterm = None
+
+    def _stop_workers(self) -> None:
+        for worker in set(multiprocessing.active_children()) - self.others:
+            worker.terminate()
+
+    def _catch_sigterm(self) -> None:
+        """Until :meth:`__exit__`, a SIGTERM first stops the workers (spawned processes outlive a parent killed
+        without its cleanup), then does what it did before (by default: ends this process). Only in the main thread,
+        and not where SIGTERM is ignored."""
+        if threading.current_thread() is not threading.main_thread():
+            return
+        previous = signal.getsignal(signal.SIGTERM)
+        if previous is signal.SIG_IGN or previous is None:
+            return
+
+        def on_sigterm(signum: int, frame: Any) -> None:
+            self._stop_workers()
+            signal.signal(signal.SIGTERM, previous)
+            self.sigterm = None
+            if callable(previous):
+                previous(signum, frame)
+            else:
+                os.kill(os.getpid(), signal.SIGTERM)
+
+        self.sigterm = previous
+        signal.signal(signal.SIGTERM, on_sigterm)
 
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int],
             tick_s: float | None = None) -> Iterator[tuple[int, Any] | None]:
