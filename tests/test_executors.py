@@ -76,3 +76,33 @@ def test_the_executor_gives_back_the_sigterm_handler_it_found():
     assert signal.getsignal(signal.SIGTERM) is before
     with LocalExecutor(1):
         assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_sigterm_handler_of_the_program_still_runs_and_is_kept():
+    """Where the program has its own SIGTERM handler, the executor stops its workers and then hands the signal on;
+    the program's handler stays in place after the block."""
+    import threading
+
+    from hev_thermal_env.evaluation.executors import LocalExecutor
+
+    seen: list[int] = []
+    before = signal.signal(signal.SIGTERM, lambda signum, frame: seen.append(signum))
+    try:
+        mine = signal.getsignal(signal.SIGTERM)
+        with LocalExecutor(2):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.1)
+            assert seen == [signal.SIGTERM]
+            assert signal.getsignal(signal.SIGTERM) is mine
+        assert signal.getsignal(signal.SIGTERM) is mine
+
+        def in_a_thread():
+            with LocalExecutor(2):
+                seen.append(signal.getsignal(signal.SIGTERM) is mine)
+
+        thread = threading.Thread(target=in_a_thread)
+        thread.start()
+        thread.join()
+        assert seen[-1] is True  # outside the main thread nothing is installed
+    finally:
+        signal.signal(signal.SIGTERM, before)

@@ -306,9 +306,12 @@ def test_a_run_with_refit_and_dagger_records_them_and_a_resumed_run_drives_its_d
                        "--n-envs", "2", "--seed", "2", "--out", str(out), "--no-progress", "--quiet", "--eval-cycles",
                        "--hp", *hp])
     assert code == 0
-    refit = yaml.safe_load((out / "config.yaml").read_text())["result"]["imitation"]["refit"]
+    imitation = yaml.safe_load((out / "config.yaml").read_text())["result"]["imitation"]
+    refit = imitation["refit"]
     assert refit["refits"] == 4 and refit["dagger_rounds"] == 2 and refit["batches_per_rollout"] == 2
     assert refit["demonstration_steps"] == 3 * 1300
+    # the default charges the teacher's own cost: the fitted policy's excess by it is recorded, and is small
+    assert 0.0 < imitation["cost_excess_g_per_step"] < 1.0
 
     _, model, _, obs, actions = _refit_setup()
     model.num_timesteps = 700

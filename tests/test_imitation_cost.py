@@ -120,3 +120,22 @@ def test_the_refit_charges_the_curves_and_a_dagger_round_adds_the_teachers_curve
     for _ in range(10):
         refit.on_rollout_end()
     assert mean_cost_excess_g(model.policy, x, refit.curves[:len(obs)]) < 0.8 * before
+
+
+def test_a_resumed_run_gets_the_teachers_curves_of_its_first_demonstrations_again():
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from hev_thermal_env.training.imitation import resumed_refit
+
+    costs: list[np.ndarray] = []
+    obs, actions = demonstrations(env_kwargs(ENV), "ecms_thermal", 1, seed=4, costs=costs)
+    venv = VecNormalize(DummyVecEnv([lambda: HevThermalEnv(**env_kwargs(ENV))]), norm_reward=False)
+    model = PPO("MlpPolicy", venv, seed=0, device="cpu", n_steps=64, policy_kwargs={"net_arch": [16, 16]})
+    init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "episodes": 1, "refit_batches": 2, "cost_weight": 1.0}
+    again = resumed_refit(venv, model, env_kwargs(ENV), init, seed=4)
+    np.testing.assert_array_equal(again.obs, obs)
+    np.testing.assert_array_equal(again.curves, np.stack(costs))
+    assert again.cost_weight == 1.0
+    plain = resumed_refit(venv, model, env_kwargs(ENV), {**init, "cost_weight": 0.0}, seed=4)
+    assert plain.curves is None and plain.cost_weight == 0.0

@@ -2,10 +2,10 @@
 
 :func:`imitate`: the teacher (``init.imitate``) drives ``init.episodes`` episodes of the training env
 (:func:`demonstrations`), the ``VecNormalize`` observation statistics start from them, and the policy's
-mean action is fitted to the teacher's (MSE, Adam, ``init.epochs`` passes), at 1 + ``init.beyond_bound``
-where the teacher sits at the upper bound: actions are clipped, so the deterministic policy reaches the
-bound only if its mean lies beyond it. The value function is not pretrained; ``init.imitate: null`` starts from
-scratch. Why (the engine-off bound a fresh policy never samples): docs/training.md.
+mean action is fitted to the teacher's (the loss of :mod:`.fit`, Adam, ``init.epochs`` passes), at
+1 + ``init.beyond_bound`` where the teacher sits at the upper bound: actions are clipped, so the deterministic
+policy reaches the bound only if its mean lies beyond it. The value function is not pretrained; ``init.imitate:
+null`` starts from scratch. Why (the engine-off bound a fresh policy never samples): docs/training.md.
 
 With ``init.freeze_obs_stats`` (true: every entry the demonstrations vary; or a list of observation names) the
 statistics of those entries stay the demonstrations' for the whole run (the reward's scaling still adapts), so the
