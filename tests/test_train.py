@@ -151,6 +151,14 @@ def test_sac_trains_checkpoints_its_replay_buffer_and_plays(tmp_path):
     strategy = get_strategy(f"ppo:{out}")
     assert strategy.describe()["algo"] == "sac"
     assert run_strategy(strategy, "us06", "paper").summary["duration_s"] == load_cycle("us06").n_steps
+    # exported as the shipped policy is (the sweep's best trial too): without the actor's and critic's optimizer
+    # state, a smaller file that drives the same
+    from hev_thermal_env.training import export_policy
+
+    exported = export_policy(out / "model.zip", tmp_path / "exported")
+    assert (exported / "model.zip").stat().st_size < (out / "model.zip").stat().st_size
+    again = run_strategy(get_strategy(f"ppo:{exported}"), "us06", "paper").trace["motor_share"]
+    np.testing.assert_array_equal(again, run_strategy(strategy, "us06", "paper").trace["motor_share"])
 
 
 def test_eval_cycles_none_trains_without_evaluation(tmp_path):

@@ -16,6 +16,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import torch
+
 from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
 
 EVAL_COLUMNS = ("timesteps", "wall_s", "cycle", "scenario", "return_g", "fuel_corrected_l_per_100km", "delta_soc",
@@ -24,18 +26,22 @@ _FLAGS = ("qualified", "best")
 
 
 def model_bytes(model, exclude_optimizer_state: bool = False) -> bytes:
-    """The SB3 zip of ``model`` as bytes (optionally with a fresh optimizer state: a smaller file)."""
+    """The SB3 zip of ``model`` as bytes (optionally with fresh optimizer states: a smaller file). The optimizers are
+    those of the policy's networks: the policy's own (PPO, RecurrentPPO) or its actor's and critic's (SAC, TQC)."""
     buf = io.BytesIO()
-    if exclude_optimizer_state:
-        policy = model.policy
-        saved = policy.optimizer
-        policy.optimizer = type(saved)(policy.parameters(), **saved.defaults)
-        try:
-            model.save(buf)
-        finally:
-            policy.optimizer = saved
-    else:
+    if not exclude_optimizer_state:
         model.save(buf)
+        return buf.getvalue()
+    owners = [m for m in model.policy.modules() if isinstance(getattr(m, "optimizer", None), torch.optim.Optimizer)]
+    saved = [m.optimizer for m in owners]
+    for owner, optimizer in zip(owners, saved):
+        params = [p for group in optimizer.param_groups for p in group["params"]]
+        owner.optimizer = type(optimizer)(params, **optimizer.defaults)
+    try:
+        model.save(buf)
+    finally:
+        for owner, optimizer in zip(owners, saved):
+            owner.optimizer = optimizer
     return buf.getvalue()
 
 
