@@ -390,3 +390,16 @@ def test_sweep_end_to_end_interrupted_and_resumed(ray_runtime, tiny_cycles, tmp_
     res = run_strategy(strategy, cycle, "paper")
     assert res.summary["duration_s"] == cycle.n_steps and np.all(np.abs(res.trace["u"]) <= 1.0)
     assert "Best trial of a sweep" in (out / "best_policy" / "README.md").read_text()
+
+
+def test_configurations_are_numbered_in_the_order_their_trials_were_created():
+    """A restored Tune experiment lists its trials in another order than the live one: the report numbers the
+    configurations by creation (the number that starts a trial's experiment tag), so a resumed sweep keeps c0, c1..."""
+    from types import SimpleNamespace
+
+    from hev_thermal_env.training.sweep_report import creation_order
+
+    listed = [SimpleNamespace(trial_id=i, experiment_tag=tag) for i, tag in
+              [("e", "1_batch_size=512"), ("a", "4_x=1"), ("b", "10_x=2"), ("c", "3_x=3"), ("d", "2_x=4"),
+               ("f", "")]]
+    assert [t.trial_id for t in creation_order(listed)] == ["e", "d", "c", "a", "b", "f"]

@@ -72,13 +72,25 @@ class SweepReport:
     exported: Path | None = None
 
 
+def creation_order(trials: list[Any]) -> list[Any]:
+    """Tune's trials in the order they were created (the number that starts each ``experiment_tag``): a restored
+    experiment lists them in another order, and the configurations are numbered by first appearance. A trial without
+    that number keeps its place after the numbered ones."""
+    def number(trial: Any) -> float:
+        head = str(getattr(trial, "experiment_tag", "") or "").split("_", 1)[0]
+        return int(head) if head.isdigit() else float("inf")
+
+    return sorted(trials, key=number)
+
+
 def collect_trials(analysis, settings: dict[str, Any]) -> list[TrialRecord]:
-    """One record per trial of a Tune ``ExperimentAnalysis`` (configurations numbered by first appearance)."""
+    """One record per trial of a Tune ``ExperimentAnalysis`` (configurations numbered by first appearance, the trials
+    in the order they were created: :func:`creation_order`)."""
     keys = tunable_keys(settings["space"])
     total = int(probe_config(settings)["total_timesteps"])
     ids: dict[str, str] = {}
     records = []
-    for t in analysis.trials:
+    for t in creation_order(analysis.trials):
         hp = {k: v for k, v in trial_overrides(settings["space"], t.config).items() if k in keys}
         config_id = ids.setdefault(repr(sorted(hp.items())), f"c{len(ids)}")
         df = analysis.trial_dataframes.get(t.trial_id)
@@ -194,7 +206,8 @@ def plot_sweep(trials: list[TrialRecord], configs: list[ConfigSummary], best: Tr
         ax_seeds.plot([c.iqm, c.iqm], [y - 0.3, y + 0.3], color=colour, lw=3)
         if c.ci_low is not None:
             ax_seeds.plot([c.ci_low, c.ci_high], [y, y], color=colour, lw=1.2)
-    ax_seeds.set_yticks(range(len(shown)), [f"{c.config_id} ({len(c.scores)} seeds)" for c in shown])
+    seeds = [f"{len(c.scores)} seed{'' if len(c.scores) == 1 else 's'}" for c in shown]
+    ax_seeds.set_yticks(range(len(shown)), [f"{c.config_id} ({n})" for c, n in zip(shown, seeds)])
     ax_seeds.set_ylim(len(shown) - 0.4, -0.6)
     ax_seeds.xaxis.set_major_locator(MaxNLocator(4))
     ax_seeds.set_xlabel(f"last {METRIC} (g)")
