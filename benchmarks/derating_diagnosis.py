@@ -3,7 +3,7 @@
 where the motor derates").
 
 Two measurements per policy (``--policy NAME=RUN_DIR_OR_ZIP``, a ``train.py`` run) and for the teacher
-(``ecms_thermal`` with ``--teacher-options``):
+(``ecms_thermal`` with the options the policies were fitted to, or ``--teacher-options``: ``policy_teacher.py``):
 
 * on one selection route and scenario (``--cycle``, ``--scenario``; default ``validation_bus:25`` in ``hilly``, the
   motorway route where the previous default derated most): the safety cost (s of lost motor capability), the motor's
@@ -22,7 +22,6 @@ Writes JSON (default ``benchmarks/results/derating_diagnosis.json``); 11 s for f
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -30,8 +29,10 @@ from typing import Any
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import policy_teacher  # noqa: E402 - the benchmark's own folder
+
 ROOT = Path(__file__).resolve().parents[1]
-TEACHER = {"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5}
 BANDS = ((-1.0, -0.2), (-0.2, -0.1), (-0.1, -0.05), (-0.05, 0.0), (0.0, 1.0))
 
 
@@ -68,23 +69,17 @@ def fit_errors(act: Any, obs: np.ndarray, actions: np.ndarray) -> list[dict[str,
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--policy", action="append", default=[], metavar="NAME=PATH", help="a policy of train.py")
-    p.add_argument("--teacher-options", default=json.dumps(TEACHER), metavar="JSON", help="ecms_thermal's options")
+    policy_teacher.add_arguments(p)
     p.add_argument("--cycle", default="validation_bus:25")
     p.add_argument("--scenario", default="hilly")
     p.add_argument("--episodes", type=int, default=40, help="teacher episodes for the fit errors")
     p.add_argument("--seed", type=int, default=12345, help="seed of the teacher episodes")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "derating_diagnosis.json"), metavar="FILE")
     args = p.parse_args(argv)
-    policies = [item.partition("=")[::2] for item in args.policy]
-    if not policies or any(not name or not path for name, path in policies):
-        raise SystemExit("give at least one --policy NAME=RUN_DIR_OR_ZIP")
+    policies = policy_teacher.named_policies(args)
     if args.episodes < 1:
         raise SystemExit(f"--episodes must be at least 1, got {args.episodes}")
-    try:
-        options = json.loads(args.teacher_options)
-    except ValueError as exc:
-        raise SystemExit(f"--teacher-options is not JSON ({exc})") from None
+    given = policy_teacher.given_options(args)
 
     from hev_thermal_env.agents import get_strategy
     from hev_thermal_env.io import atomic_write_json
@@ -92,14 +87,16 @@ def main(argv: list[str] | None = None) -> int:
     from hev_thermal_env.training.imitation import demonstrations
 
     t0 = time.perf_counter()
-    teacher = get_strategy("ecms_thermal", **options)
+    strategies = {name: get_strategy(f"ppo:{path}") for name, path in policies}
+    options = policy_teacher.teacher_options(given, strategies)
+    teacher = get_strategy(policy_teacher.TEACHER, **options)
     record: dict[str, Any] = {"cycle": args.cycle, "scenario": args.scenario, "teacher_options": options,
                               "episodes": args.episodes, "seed": args.seed,
                               "teacher": {"route": where_it_derates(teacher, args.cycle, args.scenario)},
                               "policies": {}}
     demos, env = None, None
     for name, path in policies:
-        strategy = get_strategy(f"ppo:{path}")
+        strategy = strategies[name]
         if env is None:  # the first policy's training env; every other policy must have trained on the same
             env = env_kwargs(strategy.policy.config["env"])
             demos = demonstrations(env, teacher, args.episodes, args.seed)

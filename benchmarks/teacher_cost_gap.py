@@ -2,13 +2,13 @@
 """How much a policy loses to its teacher, by the teacher's own measure (docs/training.md, "Charging the teacher's own
 cost").
 
-Each policy (``--policy NAME=RUN_DIR_OR_ZIP``, a ``train.py`` run) and its teacher (``ecms_thermal`` with
-``--teacher-options``) drive each ``--run CYCLE/SCENARIO`` (default: ``hwfet`` and ``beijing`` in ``paper``, ``udds``
-in ``summer``, ``validation_bus:21`` in ``paper``). Per run: the episode's fuel, its reward's miss and SOC terms, the
-missed wheel energy, the safety cost and the final SOC. While a policy drives, the teacher also prices every state it
-visits (its ``cost_curve_g``): the excess of the policy's action over the teacher's cheapest candidate there, summed
-over the run (g), in traction and braking apart. That sum is the gap a fit to the teacher's actions leaves; the
-teacher's own is 0 by construction.
+Each policy (``--policy NAME=RUN_DIR_OR_ZIP``, a ``train.py`` run) and its teacher (``ecms_thermal`` with the options
+the policies were fitted to, or ``--teacher-options``: ``policy_teacher.py``) drive each ``--run CYCLE/SCENARIO``
+(default: ``hwfet`` and ``beijing`` in ``paper``, ``udds`` in ``summer``, ``validation_bus:21`` in ``paper``). Per
+run: the episode's fuel, its reward's miss and SOC terms, the missed wheel energy, the safety cost and the final SOC.
+While a policy drives, the teacher also prices every state it visits (its ``cost_curve_g``): the excess of the
+policy's action over the teacher's cheapest candidate there, summed over the run (g), in traction and braking apart.
+That sum is the gap a fit to the teacher's actions leaves; the teacher's own is 0 by construction.
 
 Writes JSON (default ``benchmarks/results/teacher_cost_gap.json``); about 5 s for two policies::
 
@@ -20,7 +20,6 @@ Writes JSON (default ``benchmarks/results/teacher_cost_gap.json``); about 5 s fo
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -29,8 +28,9 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-TEACHER = {"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5}
+sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
+import policy_teacher  # noqa: E402 - the benchmark's own folder
+
 RUNS = ("hwfet/paper", "beijing/paper", "udds/summer", "validation_bus:21/paper")
 TOTALS = ("fuel_g", "reward_miss", "reward_soc", "missed_wheel_energy_j", "cost")
 
@@ -71,32 +71,31 @@ def drive(strategy: Any, teacher: Any, cycle: str, scenario: str) -> dict[str, A
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--policy", action="append", default=[], metavar="NAME=PATH", help="a policy of train.py")
-    p.add_argument("--teacher-options", default=json.dumps(TEACHER), metavar="JSON", help="ecms_thermal's options")
+    policy_teacher.add_arguments(p)
     p.add_argument("--run", action="append", default=None, metavar="CYCLE/SCENARIO", help="repeatable")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "teacher_cost_gap.json"), metavar="FILE")
     args = p.parse_args(argv)
-    policies = [item.partition("=")[::2] for item in args.policy]
-    if not policies or any(not name or not path for name, path in policies):
-        raise SystemExit("give at least one --policy NAME=RUN_DIR_OR_ZIP")
+    policies = policy_teacher.named_policies(args)
     runs = [r.rpartition("/")[::2] for r in (args.run or RUNS)]
     if any(not cycle or not scenario for cycle, scenario in runs):
         raise SystemExit(f"--run must be CYCLE/SCENARIO, got {args.run}")
-    try:
-        options = json.loads(args.teacher_options)
-    except ValueError as exc:
-        raise SystemExit(f"--teacher-options is not JSON ({exc})") from None
+    given = policy_teacher.given_options(args)
 
     from hev_thermal_env.agents import get_strategy
     from hev_thermal_env.io import atomic_write_json
 
     t0 = time.perf_counter()
+    strategies = {name: get_strategy(f"ppo:{path}") for name, path in policies}
+    options = policy_teacher.teacher_options(given, strategies)
+
+    def teacher() -> Any:
+        return get_strategy(policy_teacher.TEACHER, **options)
+
     record: dict[str, Any] = {"teacher_options": options, "runs": {}}
     for cycle, scenario in runs:
         rows: dict[str, Any] = {}
-        for name, path in [("teacher", None), *policies]:
-            strategy = get_strategy("ecms_thermal", **options) if path is None else get_strategy(f"ppo:{path}")
-            rows[name] = drive(strategy, get_strategy("ecms_thermal", **options), cycle, scenario)
+        for name, strategy in [("teacher", teacher()), *strategies.items()]:
+            rows[name] = drive(strategy, teacher(), cycle, scenario)
             print(f"{cycle}/{scenario} {name}: {rows[name]}", flush=True)
         record["runs"][f"{cycle}/{scenario}"] = rows
     record["policies"] = dict(policies)

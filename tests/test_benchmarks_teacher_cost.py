@@ -34,3 +34,20 @@ def test_bad_arguments_are_named():
         gap.main(["--policy", "a=b", "--run", "hwfet"])
     with pytest.raises(SystemExit, match="--teacher-options is not JSON"):
         gap.main(["--policy", "a=b", "--teacher-options", "{bad"])
+
+
+def test_the_teacher_is_the_one_the_policies_were_fitted_to_unless_given():
+    from types import SimpleNamespace
+
+    def fitted(init):
+        return SimpleNamespace(policy=SimpleNamespace(config={"init": init}))
+
+    options = {"x_price": "margin", "k_soc": 1.5}
+    one = fitted({"imitate": "ecms_thermal", "teacher_options": options})
+    other = fitted({"imitate": "ecms_thermal", "teacher_options": {"x_price": "fixed"}})
+    assert gap.policy_teacher.teacher_options(None, {"a": one, "b": one}) == options
+    assert gap.policy_teacher.teacher_options({"w_x": 1.0}, {"a": one, "b": other}) == {"w_x": 1.0}
+    with pytest.raises(SystemExit, match="fitted to different teachers"):
+        gap.policy_teacher.teacher_options(None, {"a": one, "b": other})
+    with pytest.raises(SystemExit, match="not fitted to ecms_thermal; give --teacher-options"):
+        gap.policy_teacher.teacher_options(None, {"sac": fitted({"imitate": None})})
