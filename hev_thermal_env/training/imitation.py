@@ -122,8 +122,12 @@ def _check_fit(init: dict[str, Any], teacher: Strategy) -> None:
     _check_number(init, "heat_weight_above_x", -0.3, 1.0, " (a heat-index integrator value)")
     _check_number(init, "cost_weight", 0.0, 1000.0, " (1/g: the weight of the teacher's cost of the student's action)")
     if init["cost_weight"] and not hasattr(teacher, "cost_curve_g"):
-        raise ValueError(f"init.cost_weight: the teacher {teacher.name!r} does not price its candidate actions; use "
-                         "ecms, aecms or ecms_thermal, or set init.cost_weight to 0")
+        raise _unpriced(teacher)
+
+
+def _unpriced(teacher: Strategy) -> ValueError:
+    return ValueError(f"init.cost_weight: the teacher {teacher.name!r} does not price its candidate actions; use "
+                      "ecms, aecms or ecms_thermal, or set init.cost_weight to 0")
 
 
 def _check_number(init: dict[str, Any], key: str, lo: float, hi: float, what: str = "") -> None:
@@ -213,8 +217,7 @@ def teacher_cost_curve(strategy: Strategy) -> np.ndarray:
     """The teacher's cost of every candidate above the cheapest at its last step (float32; ``init.cost_weight``)."""
     curve = getattr(strategy, "cost_curve_g", None)
     if curve is None:
-        raise ValueError(f"init.cost_weight: the teacher {strategy.name!r} does not price its candidate actions; "
-                         "use ecms, aecms or ecms_thermal, or set init.cost_weight to 0")
+        raise _unpriced(strategy)
     return np.asarray(curve, dtype=np.float32)
 
 
