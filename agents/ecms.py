@@ -25,7 +25,11 @@ reward and the corrected-fuel metric do.
   parameter (the band is the motor's). On the 30 validation routes it spares 0.2-0.4 % of corrected fuel in the
   ``paper``, ``full_bus``, ``summer`` and ``hilly`` conditions for 0.3-3 s of derating per route, and drives ``hot`` as
   the fixed price does. ``margin_floor`` (0 by default) keeps the price of a cool motor at that share of w_x at least:
-  w_x · max(floor, min(1, ΔT_h / (T_cut − T))).
+  w_x · max(floor, min(1, ΔT_h / (T_cut − T))). While the bus brakes (negative shaft demand), ``braking_x_thr`` and
+  ``braking_floor`` (by default x_thr and margin_floor) take their place, with ``braking_below_c`` only while the motor
+  is cooler than that: with ``braking_x_thr=0`` only regeneration that derates is priced, not its approach, which
+  otherwise gives up regeneration that never derates; in a hot motor the approach is worth pricing, for the heat
+  stays (docs/training.md, "Regeneration priced where it derates").
 
 While braking, fuel does not depend on the share and the battery term falls with it as long as s_eff > 0: ECMS and
 A-ECMS regenerate all that is available unless the SOC is so far above the target that s_eff ≤ 0.
@@ -39,6 +43,7 @@ against the priced miss, and ECMS ends charge-sustaining (ΔSOC ≈ −0.001).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -160,18 +165,30 @@ class ThermalECMS(ECMS):
     def __init__(self, s: float = 2.9, k_soc: float = 1.0, penalty: str = "linear", n_u: int = 41,
                  soc_target: float | None = None, w_x: float = 300.0, x_thr: float = -0.05, w_temp: float = 5.0,
                  temp_soft_c: float = 55.0, w_cutoff: float = 1000.0, x_price: str = "fixed",
-                 margin_floor: float = 0.0):
+                 margin_floor: float = 0.0, braking_floor: float | None = None, braking_x_thr: float | None = None,
+                 braking_below_c: float | None = None):
         super().__init__(s=s, k_soc=k_soc, penalty=penalty, n_u=n_u, soc_target=soc_target)
         if x_price not in X_PRICES:
             raise ValueError(f"{self.name}: x_price {x_price!r} is not one of {list(X_PRICES)}")
-        if not 0.0 <= float(margin_floor) <= 1.0:
-            raise ValueError(f"{self.name}: margin_floor must lie in [0, 1] (a share of w_x), got {margin_floor!r}")
-        if x_price != "margin" and float(margin_floor) != 0.0:
-            raise ValueError(f"{self.name}: margin_floor applies to x_price='margin', not {x_price!r}")
+        for key, floor in (("margin_floor", margin_floor), ("braking_floor", braking_floor)):
+            if floor is None:
+                continue
+            if not 0.0 <= float(floor) <= 1.0:
+                raise ValueError(f"{self.name}: {key} must lie in [0, 1] (a share of w_x), got {floor!r}")
+            if x_price != "margin" and float(floor) != 0.0:
+                raise ValueError(f"{self.name}: {key} applies to x_price='margin', not {x_price!r}")
         self.x_price = x_price
         self.margin_floor = float(margin_floor)
+        self.braking_floor = self.margin_floor if braking_floor is None else float(braking_floor)
         self.w_x = float(w_x)
         self.x_thr = float(x_thr)
+        if braking_x_thr is not None and not -0.3 <= float(braking_x_thr) <= 0.0:
+            raise ValueError(f"{self.name}: braking_x_thr must lie in [-0.3, 0] (the heat-index integrator x), got "
+                             f"{braking_x_thr!r}")
+        self.braking_x_thr = self.x_thr if braking_x_thr is None else float(braking_x_thr)
+        if braking_below_c is not None and not math.isfinite(float(braking_below_c)):
+            raise ValueError(f"{self.name}: braking_below_c must be a finite temperature (°C), got {braking_below_c!r}")
+        self.braking_below_c = None if braking_below_c is None else float(braking_below_c)
         self.w_temp = float(w_temp)
         self.temp_soft_c = float(temp_soft_c)
         self.w_cutoff = float(w_cutoff)
@@ -181,22 +198,27 @@ class ThermalECMS(ECMS):
         th = self.env.config.thermal
         self.cutoff_c, self.band_k = th.cutoff_temp_c, th.cutoff_temp_c - th.cutoff_release_temp_c
 
-    def heat_index_price(self) -> float:
-        """w_x, or with ``x_price="margin"`` w_x · max(margin_floor, min(1, ΔT_h / (T_cut − T))) at the present
-        temperature."""
+    def heat_index_price(self, braking: bool = False) -> float:
+        """w_x, or with ``x_price="margin"`` w_x · max(floor, min(1, ΔT_h / (T_cut − T))) at the present
+        temperature; the floor is ``braking_floor`` while the bus brakes, else ``margin_floor``."""
         if self.x_price == "fixed":
             return self.w_x
         margin_k = self.cutoff_c - float(self.env.phys_state[0, C.TEMP_C])
-        return self.w_x * max(self.margin_floor, min(1.0, self.band_k / max(margin_k, 1e-9)))
+        floor = self.braking_floor if braking else self.margin_floor
+        return self.w_x * max(floor, min(1.0, self.band_k / max(margin_k, 1e-9)))
 
     def candidate_costs(self, state_after: np.ndarray, out: np.ndarray, soc: float) -> np.ndarray:
         """ECMS's cost plus the price of the next thermal state (heat index, temperature, cutoff)."""
         over = np.maximum(state_after[:, C.TEMP_C] - self.temp_soft_c, 0.0)
-        heat = (self.heat_index_price() * np.maximum(state_after[:, C.HEAT_X] - self.x_thr, 0.0)
+        braking = bool(out[0, C.SHAFT_DEMAND] < 0.0) and (
+            self.braking_below_c is None or float(self.env.phys_state[0, C.TEMP_C]) < self.braking_below_c)
+        x_thr = self.braking_x_thr if braking else self.x_thr
+        heat = (self.heat_index_price(braking) * np.maximum(state_after[:, C.HEAT_X] - x_thr, 0.0)
                 + self.w_temp * over * over + self.w_cutoff * state_after[:, C.CUTOFF])
         return super().candidate_costs(state_after, out, soc) + heat
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "w_x_g": self.w_x, "x_thr": self.x_thr, "w_temp_g_per_k2": self.w_temp,
                 "temp_soft_c": self.temp_soft_c, "w_cutoff_g": self.w_cutoff, "x_price": self.x_price,
-                "margin_floor": self.margin_floor}
+                "margin_floor": self.margin_floor, "braking_floor": self.braking_floor,
+                "braking_x_thr": self.braking_x_thr, "braking_below_c": self.braking_below_c}

@@ -4,14 +4,18 @@ selection routes against the thermal optimum, and in the heat against ``ecms_the
 family's band center, SOC offset and teacher's price floor (docs/training.md, "The band's center and a cool motor's
 price"; ``benchmarks/results/selection_heat.json``) and its weight on the demonstrations where the motor derates
 (docs/training.md, "Fitting the teacher where the motor derates"; ``benchmarks/results/selection_derating.json``, with
-``--hilly-routes`` the ten routes).
+``--hilly-routes`` the ten routes) and the teacher's price of regeneration (docs/training.md, "Regeneration priced
+where it derates"; ``benchmarks/results/selection_braking.json``, with ``--express-routes`` and ``--proxies``).
 
 On ``validation_bus:20..29`` in ``paper`` and ``validation_bus:20..24`` in ``summer`` and ``hilly`` (the training's
-selection routes; never a test route nor one that ``ppo_vs_dp.py`` judges on), per candidate: the frontier ratio
+selection routes; never a test route nor one that ``ppo_vs_dp.py`` judges on), and with ``--express-routes`` further
+routes in ``paper`` (seeds between the validation set's and the test routes'), per candidate: the frontier ratio
 (mean, worst), the runs whose safety cost exceeds the optimum's + 5 % where it derates, the runs beyond |ΔSOC| 0.02
-and the safety cost beside the optimum's. On ``validation_bus:20..29`` in ``summer`` and ``hilly``: the corrected fuel
-relative to ``ecms_thermal``'s (the leaderboard's, fixed price) and the safety cost. The optimum's references are
-solved once into ``--references`` (a local cache, like a run directory) and reused while current::
+and the safety cost beside the optimum's. On ``validation_bus:20..29`` in ``summer`` and ``hilly`` (``--proxies``,
+e.g. also ``hot``): the corrected fuel and the reward's cost relative to ``ecms_thermal``'s (the leaderboard's, fixed
+price; in ``hot`` the cost, which prices the motor's heat, is the one the task scores) and the safety cost. The
+optimum's references are solved once into ``--references`` (a local cache, like a run directory) and reused while
+current::
 
     PYTHONPATH=. python benchmarks/selection_heat.py --jobs 2 --out benchmarks/results/selection_heat.json \\
         --policy "default=runs/learned/ppo_center_floor/seed_0" \\
@@ -40,21 +44,25 @@ PROXY_SCENARIOS = ("summer", "hilly")
 
 
 def selection_tasks(routes: tuple[str, ...] = ROUTES, heat_routes: tuple[str, ...] = HEAT_ROUTES,
-                    hilly_routes: tuple[str, ...] | None = None) -> list[Any]:
+                    hilly_routes: tuple[str, ...] | None = None, express_routes: tuple[str, ...] = ()) -> list[Any]:
     """The selection routes as tasks scored against the optimum (not registered: nothing else scores on them);
-    ``hilly_routes``: the hilly task's, if not ``heat_routes``."""
+    ``hilly_routes``: the hilly task's, if not ``heat_routes``; ``express_routes``: further routes in ``paper``."""
     from hev_thermal_env.tasks import Task
 
-    return [Task("selection-paper", 1, "the selection routes, the paper's conditions", routes, "paper"),
-            Task("selection-summer", 1, "the selection routes, summer", heat_routes, "summer"),
-            Task("selection-hilly", 1, "the selection routes, hills", hilly_routes or heat_routes, "hilly")]
+    tasks = [Task("selection-paper", 1, "the selection routes, the paper's conditions", routes, "paper"),
+             Task("selection-summer", 1, "the selection routes, summer", heat_routes, "summer"),
+             Task("selection-hilly", 1, "the selection routes, hills", hilly_routes or heat_routes, "hilly")]
+    if express_routes:
+        tasks.append(Task("selection-express", 1, "further selection routes, the paper's conditions", express_routes,
+                          "paper"))
+    return tasks
 
 
-def proxy_tasks(routes: tuple[str, ...] = ROUTES) -> list[Any]:
+def proxy_tasks(routes: tuple[str, ...] = ROUTES, scenarios: tuple[str, ...] = PROXY_SCENARIOS) -> list[Any]:
     """The selection routes in the heat, scored against ``ecms_thermal`` (no reference needed)."""
     from hev_thermal_env.tasks import Task
 
-    return [Task(f"selection-{s}-all", 1, f"the selection routes, {s}", routes, s) for s in PROXY_SCENARIOS]
+    return [Task(f"selection-{s}-all", 1, f"the selection routes, {s}", routes, s) for s in scenarios]
 
 
 def ensure_reference(task: Any, directory: Path, jobs: int) -> dict[str, Any]:
@@ -90,11 +98,14 @@ def against_optimum(result: dict[str, Any], reference: dict[str, Any]) -> dict[s
 
 
 def against_ecms_thermal(result: dict[str, Any], baseline: dict[str, Any]) -> dict[str, Any]:
-    """A candidate's result record over ``ecms_thermal``'s on the same episodes: corrected fuel per episode (mean,
-    worst) and both safety costs."""
-    ratios = [row["fuel_corrected_l_per_100km"] / base["fuel_corrected_l_per_100km"]
-              for row, base in zip(result["episodes"], baseline["episodes"], strict=True)]
+    """A candidate's result record over ``ecms_thermal``'s on the same episodes: corrected fuel and the reward's cost
+    (what the tasks score: with the overheat and cutoff prices, which corrected fuel leaves out) per episode (mean,
+    worst), and both safety costs."""
+    pairs = list(zip(result["episodes"], baseline["episodes"], strict=True))
+    ratios = [row["fuel_corrected_l_per_100km"] / base["fuel_corrected_l_per_100km"] for row, base in pairs]
+    costs = [row["cost_g"] / base["cost_g"] for row, base in pairs]
     return {"fuel_vs_ecms_thermal_mean": float(np.mean(ratios)), "fuel_vs_ecms_thermal_worst": float(np.max(ratios)),
+            "cost_vs_ecms_thermal_mean": float(np.mean(costs)), "cost_vs_ecms_thermal_worst": float(np.max(costs)),
             "safety_cost_s": float(sum(e["safety_cost_s"] for e in result["episodes"])),
             "ecms_thermal_safety_cost_s": float(sum(e["safety_cost_s"] for e in baseline["episodes"]))}
 
@@ -132,6 +143,11 @@ def main(argv: list[str] | None = None) -> int:
                    help="the hilly routes scored against the optimum (default: --heat-routes); keep their "
                         "references in a --references directory of their own: the task keeps its name, so the "
                         "cached hilly reference of other routes is solved again")
+    p.add_argument("--express-routes", nargs="+", default=[], metavar="CYCLE",
+                   help="further routes in paper scored against the optimum (e.g. bus_express:2147483756; seeds "
+                        "between the validation set's and the test routes', which no training run draws)")
+    p.add_argument("--proxies", nargs="+", default=list(PROXY_SCENARIOS), metavar="SCENARIO",
+                   help="the scenarios in which the routes are scored against ecms_thermal")
     p.add_argument("--references", default=str(ROOT / "runs" / "selection_references"), metavar="DIR")
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="routes solved at once")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "selection_heat.json"), metavar="FILE")
@@ -145,14 +161,15 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.perf_counter()
     hilly = tuple(args.hilly_routes) if args.hilly_routes else None
-    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes), hilly)
+    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes), hilly, tuple(args.express_routes))
     references = {t.id: ensure_reference(t, Path(args.references), args.jobs) for t in tasks}
     record: dict[str, Any] = {
         "physics_fingerprint": physics_fingerprint(), "routes": args.routes, "heat_routes": args.heat_routes,
-        "hilly_routes": list(hilly or args.heat_routes),
+        "hilly_routes": list(hilly or args.heat_routes), "express_routes": args.express_routes,
+        "proxies": args.proxies,
         "references": {k: {"wall_s": r["wall_s"], "jobs": r["jobs"]} for k, r in references.items()},
         "candidates": {}}
-    proxies = proxy_tasks(tuple(args.routes))
+    proxies = proxy_tasks(tuple(args.routes), tuple(args.proxies))
     baselines = {t.scenario: result_of_strategy(t, "ecms_thermal") for t in proxies}
     for cand in candidates:
         t1 = time.perf_counter()
@@ -164,9 +181,11 @@ def main(argv: list[str] | None = None) -> int:
         row["wall_s"] = round(time.perf_counter() - t1, 1)
         record["candidates"][cand[1]] = row
         above = sum(row[t.id]["above_optimum_safety"] for t in tasks)
+        heat = ", ".join(f"{t.scenario} fuel / ecms_thermal "
+                         f"{row[f'{t.scenario} vs ecms_thermal']['fuel_vs_ecms_thermal_mean']:.4f} (cost "
+                         f"{row[f'{t.scenario} vs ecms_thermal']['cost_vs_ecms_thermal_mean']:.4f})" for t in proxies)
         print(f"{cand[1]}: runs above the optimum + 5 % {above}, paper ratio "
-              f"{row[tasks[0].id]['frontier_ratio_mean']:.4f}, summer fuel / ecms_thermal "
-              f"{row['summer vs ecms_thermal']['fuel_vs_ecms_thermal_mean']:.4f}", flush=True)
+              f"{row[tasks[0].id]['frontier_ratio_mean']:.4f}, {heat}", flush=True)
     record["wall_s"] = round(time.perf_counter() - t0, 1)
     atomic_write_json(args.out, record)
     print(f"wrote {args.out}", flush=True)

@@ -33,6 +33,7 @@ def test_candidates_are_scored_against_the_optimum_and_ecms_thermal(tmp_path, ca
     for scenario in ("summer", "hilly"):
         cell = same[f"{scenario} vs ecms_thermal"]
         assert cell["fuel_vs_ecms_thermal_mean"] == 1.0 and cell["safety_cost_s"] == cell["ecms_thermal_safety_cost_s"]
+        assert cell["cost_vs_ecms_thermal_mean"] == 1.0 == cell["cost_vs_ecms_thermal_worst"]
     assert sh.main(args) == 0  # the second run reads the references
     assert "solving" not in capsys.readouterr().out
 
@@ -54,3 +55,15 @@ def test_the_hilly_routes_may_be_more_than_the_summer_ones():
     assert paper.scenario == "paper" and summer.cycles == ("validation_bus:20",)
     assert hilly.scenario == "hilly" and hilly.cycles == ("validation_bus:20", "validation_bus:25")
     assert sh.selection_tasks(("validation_bus:20",), ("validation_bus:21",))[2].cycles == ("validation_bus:21",)
+
+
+def test_further_routes_and_proxy_scenarios():
+    """``--express-routes`` adds a fourth task in ``paper`` scored against the optimum; ``--proxies`` chooses the
+    scenarios scored against ``ecms_thermal``."""
+    tasks = sh.selection_tasks(("validation_bus:20",), ("validation_bus:20",), None, ("bus_express:2147483756",))
+    assert [t.id for t in tasks][-1] == "selection-express-v1"
+    assert tasks[-1].scenario == "paper" and tasks[-1].cycles == ("bus_express:2147483756",)
+    assert len(sh.selection_tasks(("validation_bus:20",), ("validation_bus:20",))) == 3
+    assert [t.scenario for t in sh.proxy_tasks(("validation_bus:20",), ("summer", "hilly", "hot"))] == [
+        "summer", "hilly", "hot"]
+    assert [t.scenario for t in sh.proxy_tasks(("validation_bus:20",))] == list(sh.PROXY_SCENARIOS)

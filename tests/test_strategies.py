@@ -323,9 +323,22 @@ def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff
     for temp_c, price in ((20.0, 150.0), (40.0, 150.0), (50.0, 150.0), (55.0, 200.0), (60.0, 300.0), (75.0, 300.0)):
         env.phys_state[0, C.TEMP_C] = temp_c
         assert floored.heat_index_price() == pytest.approx(price)
+    # braking_floor: while the bus brakes, that floor instead (default: margin_floor's)
+    assert floored.braking_floor == 0.5
+    braked = get_strategy("ecms_thermal", x_price="margin", w_x=300.0, margin_floor=0.5, braking_floor=1.0)
+    braked.reset(env)
+    for temp_c, traction, braking in ((20.0, 150.0, 300.0), (55.0, 200.0, 300.0), (75.0, 300.0, 300.0)):
+        env.phys_state[0, C.TEMP_C] = temp_c
+        assert braked.heat_index_price() == pytest.approx(traction)
+        assert braked.heat_index_price(braking=True) == pytest.approx(braking)
+        assert floored.heat_index_price(braking=True) == floored.heat_index_price()
     for bad in (-0.1, 1.5):
         with pytest.raises(ValueError, match="margin_floor must lie in \\[0, 1\\]"):
             get_strategy("ecms_thermal", x_price="margin", margin_floor=bad)
+        with pytest.raises(ValueError, match="braking_floor must lie in \\[0, 1\\]"):
+            get_strategy("ecms_thermal", x_price="margin", braking_floor=bad)
+    with pytest.raises(ValueError, match="braking_floor applies to x_price='margin'"):
+        get_strategy("ecms_thermal", braking_floor=1.0)
     with pytest.raises(ValueError, match="margin_floor applies to x_price='margin'"):
         get_strategy("ecms_thermal", margin_floor=0.5)
     with pytest.raises(ValueError, match="x_price 'cheap' is not one of"):
@@ -336,3 +349,70 @@ def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff
     assert runs["margin"]["safety_cost_s"] > runs["fixed"]["safety_cost_s"] and runs["margin"]["cutoff_s"] == 0
     hot = run_strategy(get_strategy("ecms_thermal", x_price="margin"), "udds", "hot").summary
     assert hot["cutoff_s"] == 0 and hot["safety_cost_s"] < 1.0
+
+
+def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
+    """``braking_x_thr``: while the bus brakes the heat index is priced from that x on (0: only the regeneration that
+    derates), in traction from ``x_thr``; the price's floor is ``braking_floor`` while braking. The costs are compared
+    candidate by candidate against a teacher without the braking options, on the same peeked step."""
+    speeds = np.concatenate([np.full(5, 20.0), np.linspace(20.0, 0.0, 11)])
+    env = HevThermalEnv(cycle=cycle_from_arrays(speeds, name="stop"))
+    env.reset(seed=0)
+    plain = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5)
+    braked = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5, braking_floor=1.0, braking_x_thr=0.0)
+    for agent in (plain, braked):
+        agent.reset(env)
+    seen = {"traction": 0, "braking": 0}
+    for _ in range(len(speeds) - 1):
+        env.phys_state[0, C.HEAT_X] = -0.02  # a candidate at peak torque pushes x' past 0, a gentle one stays below
+        st, out = env.peek(plain.u_grid)
+        soc = float(env.phys_state[0, C.SOC])
+        x_new = st[:, C.HEAT_X]
+        if out[0, C.SHAFT_DEMAND] == 0.0:
+            break
+        gap = braked.candidate_costs(st, out, soc) - plain.candidate_costs(st, out, soc)
+        if out[0, C.SHAFT_DEMAND] > 0.0:
+            assert np.array_equal(gap, np.zeros_like(gap))
+            seen["traction"] += 1
+        else:
+            price_plain, price_braked = plain.heat_index_price(braking=True), braked.heat_index_price(braking=True)
+            expected = price_braked * np.maximum(x_new, 0.0) - price_plain * np.maximum(x_new + 0.05, 0.0)
+            np.testing.assert_allclose(gap, expected, atol=1e-9)
+            assert np.any(np.abs(gap) > 1e-6)  # the two prices differ on this step
+            assert price_braked == pytest.approx(300.0) and price_plain < price_braked
+            seen["braking"] += 1
+        env.step(np.array([1.0], dtype=np.float32))
+    assert seen["traction"] > 0 and seen["braking"] > 0
+    with pytest.raises(ValueError, match="braking_x_thr must lie in \\[-0.3, 0\\]"):
+        get_strategy("ecms_thermal", x_price="margin", braking_x_thr=0.1)
+    with pytest.raises(ValueError, match="braking_below_c must be a finite temperature"):
+        get_strategy("ecms_thermal", braking_below_c=float("nan"))
+    assert get_strategy("ecms_thermal", x_thr=-0.5).braking_x_thr == -0.5  # the default follows x_thr, unchecked
+
+
+def test_ecms_thermal_braking_options_only_below_a_temperature():
+    """``braking_below_c``: the braking threshold and floor hold only while the motor is cooler than that; a hotter
+    motor's regeneration is priced as in traction (its approach to derating too)."""
+    speeds = np.concatenate([np.full(3, 20.0), np.linspace(20.0, 0.0, 9)])
+    env = HevThermalEnv(cycle=cycle_from_arrays(speeds, name="stop"))
+    env.reset(seed=0)
+    opts = {"x_price": "margin", "margin_floor": 0.5}
+    plain = get_strategy("ecms_thermal", **opts)
+    always = get_strategy("ecms_thermal", **opts, braking_floor=1.0, braking_x_thr=0.0)
+    cool = get_strategy("ecms_thermal", **opts, braking_floor=1.0, braking_x_thr=0.0, braking_below_c=50.0)
+    for agent in (plain, always, cool):
+        agent.reset(env)
+    assert cool.describe()["braking_below_c"] == 50.0 and always.describe()["braking_below_c"] is None
+    braked = 0
+    for _ in range(len(speeds) - 1):
+        st, out = env.peek(plain.u_grid)
+        if out[0, C.SHAFT_DEMAND] < 0.0:
+            soc = float(env.phys_state[0, C.SOC])
+            for temp_c, like in ((40.0, always), (55.0, plain)):
+                env.phys_state[0, C.TEMP_C] = temp_c
+                env.phys_state[0, C.HEAT_X] = -0.02
+                st, out = env.peek(plain.u_grid)
+                np.testing.assert_array_equal(cool.candidate_costs(st, out, soc), like.candidate_costs(st, out, soc))
+            braked += 1
+        env.step(np.array([1.0], dtype=np.float32))
+    assert braked > 0
