@@ -266,3 +266,29 @@ def test_profile_tells_every_method_apart_past_the_palette():
         assert len(fig.legends) == 1 and fig.axes[0].get_legend() is None
     finally:
         pyplot().close(fig)
+
+
+def test_profile_draws_the_variants_of_a_family_apart():
+    """"FAMILY (variant)" beside a method FAMILY is a variant: the top panels show the families and the other
+    methods, a panel per family below shows the family in black with its variants; a name in brackets whose family is
+    not on the page ("BC (optimum)") stays on top."""
+    from hev_thermal_env.evaluation.leaderboard import family_of, profile_figure
+    from hev_thermal_env.evaluation.plots import pyplot
+
+    names = ["PPO", "PPO (no refit)", "PPO (fixed price)", "SAC", "SAC (old)", "BC (optimum)", "ecms"]
+    entries = [{"method": m, "scores": [20.0 + 10 * i, 95.0 - i], "excluded": 0} for i, m in enumerate(names)]
+    assert family_of("PPO (no refit)", names) == "PPO" and family_of("BC (optimum)", names) is None
+    assert family_of("PPO", names) is None
+    fig = profile_figure(entries)
+    try:
+        def shown(ax):
+            return {ln.get_label().rsplit(" (", 1)[0] for ln in ax.get_lines() if "runs)" in ln.get_label()}
+
+        top, ppo, sac = fig.axes[0], fig.axes[2], fig.axes[3]
+        assert shown(top) == {"PPO", "SAC", "BC (optimum)", "ecms"} == shown(fig.axes[1])
+        assert shown(ppo) == {"PPO", "PPO (no refit)", "PPO (fixed price)"} and shown(sac) == {"SAC", "SAC (old)"}
+        family = [ln for ln in ppo.get_lines() if ln.get_label().startswith("PPO (2 runs)")]
+        assert len(family) == 1 and family[0].get_color() == "black"
+        assert sac.get_xlim()[0] < 80.0  # SAC scores lower: its panel starts below the zoom
+    finally:
+        pyplot().close(fig)

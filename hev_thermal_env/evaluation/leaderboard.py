@@ -252,7 +252,8 @@ LEAD = ("Every method on every task that has stored references, measured on phys
         "`training`); `-` for a method that is not trained here.")
 PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
                 "below every τ) whose normalised score exceeds τ, as rliable draws it: a curve further right is "
-                "better; where it drops shows the spread of the method's scores across tasks.")
+                "better; where it drops shows the spread of the method's scores across tasks. The variants of a "
+                "family (\"PPO (no refit)\" of PPO) are drawn below, each family in black beside its variants.")
 COMMAND = ("Regenerate with `python evaluate.py leaderboard --results benchmarks/results/learned_baselines --out "
            "docs/leaderboard.md` (the learned baselines' seed families: `benchmarks/learned_baselines.py`, "
            "[Training](training.md#the-learned-baselines); add `--results FILE` for a method written elsewhere; the "
@@ -263,42 +264,84 @@ COMMAND = ("Regenerate with `python evaluate.py leaderboard --results benchmarks
 STYLES = ("-", ":", "-.")
 
 
+def family_of(method: str, methods: Sequence[str]) -> str | None:
+    """The family a variant belongs to (``"PPO (no refit)"`` → ``"PPO"``) when that family is on the page, else
+    None: the method is drawn with the others."""
+    base = method.split(" (", 1)[0]
+    return base if base != method and base in methods else None
+
+
+def _profile_lines(ax, scores: dict[str, np.ndarray], unscored: dict[str, int], lo: float, hi: float,
+                   look: dict[str, dict[str, Any]]) -> None:
+    for m, v in scores.items():
+        total = v.size + unscored[m]  # a run without a score lies below every τ
+        if v.size:
+            x = np.r_[lo, v, hi]
+            y = np.r_[v.size, v.size - np.arange(1, v.size + 1), 0.0] / total
+            what = f"{total} runs" + (f", {unscored[m]} without a score" if unscored[m] else "")
+            ax.step(x, y, where="post", label=f"{label(m)} ({what})", **look[m])
+    for x in (0.0, 100.0):
+        ax.axvline(x, color="0.6", lw=0.8, zorder=0)
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.set_xlabel("normalised score τ (0 = engine_only, 100 = the thermal optimum)")
+
+
+def _looks(methods: Sequence[str], plt: Any) -> dict[str, dict[str, Any]]:
+    """One (colour, line style) pair per method: past the palette's length the styles change, so no two curves
+    agree."""
+    palette = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20").colors
+    return {m: {"color": palette[i % len(palette)], "lw": 2.2 if m == REFERENCE else 1.6,
+                "ls": "--" if m in ("engine_only", REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)]}
+            for i, m in enumerate(methods)}
+
+
 def profile_figure(entries: list[dict]):
-    """The performance profile of every method (module docstring): over the whole range of scores (a symmetric-log
-    axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ."""
+    """The performance profile (module docstring): every method but the variants of a family over the whole range of
+    scores (a symmetric-log axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ;
+    below it, when the page has variants (:func:`family_of`), each family in black beside its variants, zoomed."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(16.0, 5.8), layout="constrained", gridspec_kw={"width_ratios": [3, 2]})
     methods = _order([e["method"] for e in entries])
     scores = {m: np.sort([s for e in entries if e["method"] == m for s in e["scores"]]) for m in methods}
     unscored = {m: sum(e["excluded"] for e in entries if e["method"] == m) for m in methods}
-    lowest = min([-100.0, *(float(v[0]) for v in scores.values() if v.size)])
-    palette = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20").colors
-    # one (colour, line style) pair per method: past the palette's length the styles change, so no two curves agree
-    colour = {m: palette[i % len(palette)] for i, m in enumerate(methods)}
-    style = {m: ("--" if m in ("engine_only", REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)])
-             for i, m in enumerate(methods)}
+    variants = [m for m in methods if family_of(m, methods)]
+    main = [m for m in methods if m not in variants]
+    fig = plt.figure(figsize=(16.0, 5.8 if not variants else 11.0), layout="constrained")
+    top, bottom = fig.subfigures(2, 1, height_ratios=[1.0, 0.9]) if variants else (fig, None)
+    axes = top.subplots(1, 2, gridspec_kw={"width_ratios": [3, 2]})
+    lowest = min([-100.0, *(float(scores[m][0]) for m in main if scores[m].size)])
     for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
-        for m, v in scores.items():
-            total = v.size + unscored[m]  # a run without a score lies below every τ
-            if v.size:
-                x = np.r_[lo, v, hi]
-                y = np.r_[v.size, v.size - np.arange(1, v.size + 1), 0.0] / total
-                what = f"{total} runs" + (f", {unscored[m]} without a score" if unscored[m] else "")
-                ax.step(x, y, where="post", label=f"{label(m)} ({what})", lw=2.2 if m == REFERENCE else 1.6,
-                        color=colour[m], ls=style[m])
-        for x in (0.0, 100.0):
-            ax.axvline(x, color="0.6", lw=0.8, zorder=0)
-        ax.set_xlim(lo, hi)
-        ax.set_ylim(-0.02, 1.02)
-        ax.grid(alpha=0.3)
-        ax.set_xlabel("normalised score τ (0 = engine_only, 100 = the thermal optimum)")
+        _profile_lines(ax, {m: scores[m] for m in main}, unscored, lo, hi, _looks(main, plt))
     axes[0].set_xscale("symlog", linthresh=100.0)
     axes[0].set_ylabel("fraction of runs with score > τ")
     axes[0].set_title("every score (symmetric-log axis, linear within ±100)", fontsize=10)
     axes[1].set_title(f"zoom: τ from {ZOOM[0]:g} to {ZOOM[1]:g}", fontsize=10)
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside right upper", fontsize=8)
+    top.legend(*axes[0].get_legend_handles_labels(), loc="outside right upper", fontsize=8)
+    if bottom is not None:
+        _variant_panels(bottom, methods, variants, scores, unscored, plt)
     fig.suptitle("Performance profile over every task with references")
     return fig
+
+
+def _variant_panels(sub: Any, methods: list[str], variants: list[str], scores: dict[str, np.ndarray],
+                    unscored: dict[str, int], plt: Any) -> None:
+    """One panel per family: the family in black and its variants, from :data:`ZOOM`'s start or, for a family
+    scoring lower, from the 5th percentile of its runs' scores (to the nearest 10 below)."""
+    families = list(dict.fromkeys(family_of(m, methods) for m in variants))
+    members = {f: [f, *(m for m in variants if family_of(m, methods) == f)] for f in families}
+    look = {**_looks(variants, plt), **{f: {"color": "black", "lw": 2.4, "ls": "-"} for f in families}}
+    axes = sub.subplots(1, len(families), squeeze=False,
+                        gridspec_kw={"width_ratios": [len(members[f]) ** 0.5 for f in families]})[0]
+    handles: dict[str, Any] = {}
+    for ax, f in zip(axes, families):
+        every = np.concatenate([scores[m] for m in members[f]])
+        lo = min(ZOOM[0], 10.0 * np.floor(np.percentile(every, 5) / 10.0)) if every.size else ZOOM[0]
+        _profile_lines(ax, {m: scores[m] for m in members[f]}, unscored, lo, ZOOM[1], look)
+        ax.set_title(f"{label(f)} (black) and its variants", fontsize=10)
+        handles.update(zip(*reversed(ax.get_legend_handles_labels())))
+    axes[0].set_ylabel("fraction of runs with score > τ")
+    sub.legend(list(handles.values()), list(handles), loc="outside right upper", fontsize=8)
 
 
 def write_leaderboard(entries: list[dict], missing: Sequence[str], out: Path, fingerprint: str,
