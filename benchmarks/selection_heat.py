@@ -59,7 +59,8 @@ def selection_tasks(routes: tuple[str, ...] = ROUTES, heat_routes: tuple[str, ..
 
 
 def proxy_tasks(routes: tuple[str, ...] = ROUTES, scenarios: tuple[str, ...] = PROXY_SCENARIOS) -> list[Any]:
-    """The selection routes in the heat, scored against ``ecms_thermal`` (no reference needed)."""
+    """The selection routes in ``scenarios`` (the heat and the hills by default), scored against ``ecms_thermal`` (no
+    reference needed)."""
     from hev_thermal_env.tasks import Task
 
     return [Task(f"selection-{s}-all", 1, f"the selection routes, {s}", routes, s) for s in scenarios]

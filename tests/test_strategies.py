@@ -360,29 +360,36 @@ def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
     env.reset(seed=0)
     plain = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5)
     braked = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5, braking_floor=1.0, braking_x_thr=0.0)
-    for agent in (plain, braked):
+    thr_only = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5, braking_x_thr=0.0)
+    for agent in (plain, braked, thr_only):
         agent.reset(env)
-    seen = {"traction": 0, "braking": 0}
+    seen = {"traction": 0, "braking": 0, "derating": 0}
     for _ in range(len(speeds) - 1):
-        env.phys_state[0, C.HEAT_X] = -0.02  # a candidate at peak torque pushes x' past 0, a gentle one stays below
-        st, out = env.peek(plain.u_grid)
-        soc = float(env.phys_state[0, C.SOC])
-        x_new = st[:, C.HEAT_X]
-        if out[0, C.SHAFT_DEMAND] == 0.0:
+        if env.peek(plain.u_grid)[1][0, C.SHAFT_DEMAND] == 0.0:
             break
-        gap = braked.candidate_costs(st, out, soc) - plain.candidate_costs(st, out, soc)
-        if out[0, C.SHAFT_DEMAND] > 0.0:
-            assert np.array_equal(gap, np.zeros_like(gap))
-            seen["traction"] += 1
-        else:
+        # below 0 every candidate stays short of derating; above it the regenerating ones derate
+        for x0 in (-0.02, 0.02):
+            env.phys_state[0, C.HEAT_X] = x0
+            st, out = env.peek(plain.u_grid)
+            soc = float(env.phys_state[0, C.SOC])
+            x_new = st[:, C.HEAT_X]
+            gap = braked.candidate_costs(st, out, soc) - plain.candidate_costs(st, out, soc)
+            if out[0, C.SHAFT_DEMAND] > 0.0:
+                assert np.array_equal(gap, np.zeros_like(gap))
+                seen["traction"] += 1
+                continue
             price_plain, price_braked = plain.heat_index_price(braking=True), braked.heat_index_price(braking=True)
             expected = price_braked * np.maximum(x_new, 0.0) - price_plain * np.maximum(x_new + 0.05, 0.0)
             np.testing.assert_allclose(gap, expected, atol=1e-9)
             assert np.any(np.abs(gap) > 1e-6)  # the two prices differ on this step
-            assert price_braked == pytest.approx(300.0) and price_plain < price_braked
+            assert price_braked == pytest.approx(300.0) and price_plain == pytest.approx(150.0)
+            # the floor alone: the whole w_x against half of it, on the candidates that derate
+            floor_gap = braked.candidate_costs(st, out, soc) - thr_only.candidate_costs(st, out, soc)
+            np.testing.assert_allclose(floor_gap, 150.0 * np.maximum(x_new, 0.0), atol=1e-9)
             seen["braking"] += 1
+            seen["derating"] += int(np.any(x_new > 0.0))
         env.step(np.array([1.0], dtype=np.float32))
-    assert seen["traction"] > 0 and seen["braking"] > 0
+    assert seen["traction"] > 0 and seen["braking"] > 0 and seen["derating"] > 0
     with pytest.raises(ValueError, match="braking_x_thr must lie in \\[-0.3, 0\\]"):
         get_strategy("ecms_thermal", x_price="margin", braking_x_thr=0.1)
     with pytest.raises(ValueError, match="braking_below_c must be a finite temperature"):

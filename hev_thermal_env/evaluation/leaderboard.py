@@ -327,7 +327,7 @@ def profile_figure(entries: list[dict]):
 def _variant_panels(sub: Any, methods: list[str], variants: list[str], scores: dict[str, np.ndarray],
                     unscored: dict[str, int], plt: Any) -> None:
     """One panel per family: the family in black and its variants, from :data:`ZOOM`'s start or, for a family
-    scoring lower, from the 5th percentile of its runs' scores (to the nearest 10 below)."""
+    scoring lower, from the 5th percentile of its runs' scores (to the nearest 10 below, at most down to -100)."""
     families = list(dict.fromkeys(family_of(m, methods) for m in variants))
     members = {f: [f, *(m for m in variants if family_of(m, methods) == f)] for f in families}
     look = {**_looks(variants, plt), **{f: {"color": "black", "lw": 2.4, "ls": "-"} for f in families}}
@@ -336,7 +336,7 @@ def _variant_panels(sub: Any, methods: list[str], variants: list[str], scores: d
     handles: dict[str, Any] = {}
     for ax, f in zip(axes, families):
         every = np.concatenate([scores[m] for m in members[f]])
-        lo = min(ZOOM[0], 10.0 * np.floor(np.percentile(every, 5) / 10.0)) if every.size else ZOOM[0]
+        lo = min(ZOOM[0], max(-100.0, 10.0 * np.floor(np.percentile(every, 5) / 10.0))) if every.size else ZOOM[0]
         _profile_lines(ax, {m: scores[m] for m in members[f]}, unscored, lo, ZOOM[1], look)
         ax.set_title(f"{label(f)} (black) and its variants", fontsize=10)
         handles.update(zip(*reversed(ax.get_legend_handles_labels())))
