@@ -351,20 +351,27 @@ def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff
     assert hot["cutoff_s"] == 0 and hot["safety_cost_s"] < 1.0
 
 
+def _stop(cruise_s: int, stop_s: int) -> tuple[HevThermalEnv, int]:
+    """An env reset on a cruise at 72 km/h for ``cruise_s`` seconds, then a stop over ``stop_s`` samples; the number
+    of steps it drives."""
+    speeds = np.concatenate([np.full(cruise_s, 20.0), np.linspace(20.0, 0.0, stop_s)])
+    env = HevThermalEnv(cycle=cycle_from_arrays(speeds, name="stop"))
+    env.reset(seed=0)
+    return env, len(speeds) - 1
+
+
 def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
     """``braking_x_thr``: while the bus brakes the heat index is priced from that x on (0: only the regeneration that
     derates), in traction from ``x_thr``; the price's floor is ``braking_floor`` while braking. The costs are compared
     candidate by candidate against a teacher without the braking options, on the same peeked step."""
-    speeds = np.concatenate([np.full(5, 20.0), np.linspace(20.0, 0.0, 11)])
-    env = HevThermalEnv(cycle=cycle_from_arrays(speeds, name="stop"))
-    env.reset(seed=0)
+    env, steps = _stop(cruise_s=5, stop_s=11)
     plain = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5)
     braked = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5, braking_floor=1.0, braking_x_thr=0.0)
     thr_only = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5, braking_x_thr=0.0)
     for agent in (plain, braked, thr_only):
         agent.reset(env)
     seen = {"traction": 0, "braking": 0, "derating": 0}
-    for _ in range(len(speeds) - 1):
+    for _ in range(steps):
         if env.peek(plain.u_grid)[1][0, C.SHAFT_DEMAND] == 0.0:
             break
         # below 0 every candidate stays short of derating; above it the regenerating ones derate
@@ -400,9 +407,7 @@ def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
 def test_ecms_thermal_braking_options_only_below_a_temperature():
     """``braking_below_c``: the braking threshold and floor hold only while the motor is cooler than that; a hotter
     motor's regeneration is priced as in traction (its approach to derating too)."""
-    speeds = np.concatenate([np.full(3, 20.0), np.linspace(20.0, 0.0, 9)])
-    env = HevThermalEnv(cycle=cycle_from_arrays(speeds, name="stop"))
-    env.reset(seed=0)
+    env, steps = _stop(cruise_s=3, stop_s=9)
     opts = {"x_price": "margin", "margin_floor": 0.5}
     plain = get_strategy("ecms_thermal", **opts)
     always = get_strategy("ecms_thermal", **opts, braking_floor=1.0, braking_x_thr=0.0)
@@ -411,7 +416,7 @@ def test_ecms_thermal_braking_options_only_below_a_temperature():
         agent.reset(env)
     assert cool.describe()["braking_below_c"] == 50.0 and always.describe()["braking_below_c"] is None
     braked = 0
-    for _ in range(len(speeds) - 1):
+    for _ in range(steps):
         st, out = env.peek(plain.u_grid)
         if out[0, C.SHAFT_DEMAND] < 0.0:
             soc = float(env.phys_state[0, C.SOC])

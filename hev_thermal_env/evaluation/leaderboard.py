@@ -311,8 +311,9 @@ def profile_figure(entries: list[dict]):
     top, bottom = fig.subfigures(2, 1, height_ratios=[1.0, 0.9]) if variants else (fig, None)
     axes = top.subplots(1, 2, gridspec_kw={"width_ratios": [3, 2]})
     lowest = min([-100.0, *(float(scores[m][0]) for m in main if scores[m].size)])
+    look = _looks(main, plt)
     for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
-        _profile_lines(ax, {m: scores[m] for m in main}, unscored, lo, hi, _looks(main, plt))
+        _profile_lines(ax, {m: scores[m] for m in main}, unscored, lo, hi, look)
     axes[0].set_xscale("symlog", linthresh=100.0)
     axes[0].set_ylabel("fraction of runs with score > τ")
     axes[0].set_title("every score (symmetric-log axis, linear within ±100)", fontsize=10)
