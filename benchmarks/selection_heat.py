@@ -5,15 +5,20 @@ family's band center, SOC offset and teacher's price floor (docs/training.md, "T
 price"; ``benchmarks/results/selection_heat.json``) and its weight on the demonstrations where the motor derates
 (docs/training.md, "Fitting the teacher where the motor derates"; ``benchmarks/results/selection_derating.json``, with
 ``--hilly-routes`` the ten routes) and the teacher's price of regeneration (docs/training.md, "Regeneration priced
-where it derates"; ``benchmarks/results/selection_braking.json``, with ``--express-routes`` and ``--proxies``).
+where it derates"; ``benchmarks/results/selection_braking.json``, with ``--express-routes`` and ``--proxies``). With
+fresh routes in ``paper`` and ``hot`` (``--hot-routes``, no summer or hilly task) it judged two whole families by the
+issue's own criteria (docs/training.md, "Two families judged on fresh routes";
+``benchmarks/results/selection_families.json``).
 
 On ``validation_bus:20..29`` in ``paper`` and ``validation_bus:20..24`` in ``summer`` and ``hilly`` (the training's
 selection routes; never a test route nor one that ``ppo_vs_dp.py`` judges on), and with ``--express-routes`` further
-routes in ``paper`` (seeds between the validation set's and the test routes'), per candidate: the frontier ratio
+routes in ``paper`` (seeds between the validation set's and the test routes') and with ``--hot-routes`` routes in
+``hot``, per candidate: the frontier ratio
 (mean, worst), the runs whose safety cost exceeds the optimum's + 5 % where it derates, the runs beyond |ΔSOC| 0.02
 and the safety cost beside the optimum's. On ``validation_bus:20..29`` in ``summer`` and ``hilly`` (``--proxies``,
 e.g. also ``hot``): the corrected fuel and the reward's cost relative to ``ecms_thermal``'s (the leaderboard's, fixed
-price; in ``hot`` the cost, which prices the motor's heat, is the one the task scores) and the safety cost. The
+price; in ``hot`` the cost, which prices the motor's heat, is the one the task scores), the runs whose cost is more
+than 1 % above ``ecms_thermal``'s and the safety cost. The
 optimum's references are solved once into ``--references`` (a local cache, like a run directory) and reused while
 current::
 
@@ -44,18 +49,20 @@ PROXY_SCENARIOS = ("summer", "hilly")
 
 
 def selection_tasks(routes: tuple[str, ...] = ROUTES, heat_routes: tuple[str, ...] = HEAT_ROUTES,
-                    hilly_routes: tuple[str, ...] | None = None, express_routes: tuple[str, ...] = ()) -> list[Any]:
+                    hilly_routes: tuple[str, ...] | None = None, express_routes: tuple[str, ...] = (),
+                    hot_routes: tuple[str, ...] = ()) -> list[Any]:
     """The selection routes as tasks scored against the optimum (not registered: nothing else scores on them);
-    ``hilly_routes``: the hilly task's, if not ``heat_routes``; ``express_routes``: further routes in ``paper``."""
+    ``hilly_routes``: the hilly task's, if not ``heat_routes``; ``express_routes``: further routes in ``paper``;
+    ``hot_routes``: routes in ``hot``. A scenario without routes has no task."""
     from hev_thermal_env.tasks import Task
 
-    tasks = [Task("selection-paper", 1, "the selection routes, the paper's conditions", routes, "paper"),
-             Task("selection-summer", 1, "the selection routes, summer", heat_routes, "summer"),
-             Task("selection-hilly", 1, "the selection routes, hills", hilly_routes or heat_routes, "hilly")]
-    if express_routes:
-        tasks.append(Task("selection-express", 1, "further selection routes, the paper's conditions", express_routes,
-                          "paper"))
-    return tasks
+    hilly = heat_routes if hilly_routes is None else hilly_routes
+    wanted = [("selection-paper", "the selection routes, the paper's conditions", routes, "paper"),
+              ("selection-summer", "the selection routes, summer", heat_routes, "summer"),
+              ("selection-hilly", "the selection routes, hills", hilly, "hilly"),
+              ("selection-express", "further selection routes, the paper's conditions", express_routes, "paper"),
+              ("selection-hot", "the selection routes, a hot day", hot_routes, "hot")]
+    return [Task(name, 1, text, tuple(cycles), scenario) for name, text, cycles, scenario in wanted if cycles]
 
 
 def proxy_tasks(routes: tuple[str, ...] = ROUTES, scenarios: tuple[str, ...] = PROXY_SCENARIOS) -> list[Any]:
@@ -107,6 +114,7 @@ def against_ecms_thermal(result: dict[str, Any], baseline: dict[str, Any]) -> di
     costs = [row["cost_g"] / base["cost_g"] for row, base in pairs]
     return {"fuel_vs_ecms_thermal_mean": float(np.mean(ratios)), "fuel_vs_ecms_thermal_worst": float(np.max(ratios)),
             "cost_vs_ecms_thermal_mean": float(np.mean(costs)), "cost_vs_ecms_thermal_worst": float(np.max(costs)),
+            "cost_above_ecms_thermal_1pct": sum(c > 1.01 for c in costs),
             "safety_cost_s": float(sum(e["safety_cost_s"] for e in result["episodes"])),
             "ecms_thermal_safety_cost_s": float(sum(e["safety_cost_s"] for e in baseline["episodes"]))}
 
@@ -138,15 +146,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--policy", action="append", default=[], metavar="NAME=PATH", help="a policy of train.py")
     p.add_argument("--teacher", action="append", default=[], metavar="NAME=JSON", help="ecms_thermal's options")
     p.add_argument("--routes", nargs="+", default=list(ROUTES), metavar="CYCLE", help="the paper and proxy routes")
-    p.add_argument("--heat-routes", nargs="+", default=list(HEAT_ROUTES), metavar="CYCLE",
-                   help="the summer (and, without --hilly-routes, hilly) routes scored against the optimum")
-    p.add_argument("--hilly-routes", nargs="+", default=None, metavar="CYCLE",
-                   help="the hilly routes scored against the optimum (default: --heat-routes); keep their "
-                        "references in a --references directory of their own: the task keeps its name, so the "
-                        "cached hilly reference of other routes is solved again")
+    p.add_argument("--heat-routes", nargs="*", default=list(HEAT_ROUTES), metavar="CYCLE",
+                   help="the summer (and, without --hilly-routes, hilly) routes scored against the optimum (none: "
+                        "no summer task)")
+    p.add_argument("--hilly-routes", nargs="*", default=None, metavar="CYCLE",
+                   help="the hilly routes scored against the optimum (default: --heat-routes; none: no hilly task); "
+                        "keep their references in a --references directory of their own: the task keeps its name, "
+                        "so the cached hilly reference of other routes is solved again")
     p.add_argument("--express-routes", nargs="+", default=[], metavar="CYCLE",
                    help="further routes in paper scored against the optimum (e.g. bus_express:2147483756; seeds "
                         "between the validation set's and the test routes', which no training run draws)")
+    p.add_argument("--hot-routes", nargs="+", default=[], metavar="CYCLE",
+                   help="routes in hot scored against the optimum")
     p.add_argument("--proxies", nargs="+", default=list(PROXY_SCENARIOS), metavar="SCENARIO",
                    help="the scenarios in which the routes are scored against ecms_thermal")
     p.add_argument("--references", default=str(ROOT / "runs" / "selection_references"), metavar="DIR")
@@ -161,12 +172,14 @@ def main(argv: list[str] | None = None) -> int:
     from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
     t0 = time.perf_counter()
-    hilly = tuple(args.hilly_routes) if args.hilly_routes else None
-    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes), hilly, tuple(args.express_routes))
+    hilly = None if args.hilly_routes is None else tuple(args.hilly_routes)
+    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes), hilly, tuple(args.express_routes),
+                            tuple(args.hot_routes))
     references = {t.id: ensure_reference(t, Path(args.references), args.jobs) for t in tasks}
     record: dict[str, Any] = {
         "physics_fingerprint": physics_fingerprint(), "routes": args.routes, "heat_routes": args.heat_routes,
-        "hilly_routes": list(hilly or args.heat_routes), "express_routes": args.express_routes,
+        "hilly_routes": list(args.heat_routes if hilly is None else hilly), "express_routes": args.express_routes,
+        "hot_routes": args.hot_routes,
         "proxies": args.proxies,
         "references": {k: {"wall_s": r["wall_s"], "jobs": r["jobs"]} for k, r in references.items()},
         "candidates": {}}

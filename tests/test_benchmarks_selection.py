@@ -34,6 +34,7 @@ def test_candidates_are_scored_against_the_optimum_and_ecms_thermal(tmp_path, ca
         cell = same[f"{scenario} vs ecms_thermal"]
         assert cell["fuel_vs_ecms_thermal_mean"] == 1.0 and cell["safety_cost_s"] == cell["ecms_thermal_safety_cost_s"]
         assert cell["cost_vs_ecms_thermal_mean"] == 1.0 == cell["cost_vs_ecms_thermal_worst"]
+        assert cell["cost_above_ecms_thermal_1pct"] == 0
     assert sh.main(args) == 0  # the second run reads the references
     assert "solving" not in capsys.readouterr().out
 
@@ -67,3 +68,22 @@ def test_further_routes_and_proxy_scenarios():
     assert [t.scenario for t in sh.proxy_tasks(("validation_bus:20",), ("summer", "hilly", "hot"))] == [
         "summer", "hilly", "hot"]
     assert [t.scenario for t in sh.proxy_tasks(("validation_bus:20",))] == list(sh.PROXY_SCENARIOS)
+
+
+def test_hot_routes_and_scenarios_without_routes():
+    """``--hot-routes`` adds a task in ``hot`` scored against the optimum; a scenario given no routes has no task (the
+    optimum is not solved there)."""
+    tasks = sh.selection_tasks(("bus_long:2147483848",), (), (), (), ("bus_long:2147483848", "bus_express:2147483853"))
+    assert [(t.id, t.scenario) for t in tasks] == [("selection-paper-v1", "paper"), ("selection-hot-v1", "hot")]
+    assert tasks[1].cycles == ("bus_long:2147483848", "bus_express:2147483853")
+    assert [t.scenario for t in sh.selection_tasks(("validation_bus:20",), (), None)] == ["paper"]
+    assert [t.scenario for t in sh.selection_tasks(("validation_bus:20",), ("validation_bus:21",), ())] == [
+        "paper", "summer"]
+
+
+def test_one_run_above_ecms_thermal_by_more_than_a_percent_is_counted():
+    rows = [{"fuel_corrected_l_per_100km": 30.0, "cost_g": c, "safety_cost_s": 0.0} for c in (100.0, 101.0, 103.0)]
+    base = [{"fuel_corrected_l_per_100km": 30.0, "cost_g": 100.0, "safety_cost_s": 0.0}] * 3
+    cell = sh.against_ecms_thermal({"episodes": rows}, {"episodes": base})
+    assert cell["cost_above_ecms_thermal_1pct"] == 1 and cell["cost_vs_ecms_thermal_worst"] == pytest.approx(1.03)
+    assert cell["cost_vs_ecms_thermal_mean"] == pytest.approx(1.0133, abs=1e-4)

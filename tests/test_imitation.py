@@ -26,7 +26,9 @@ def test_the_teachers_options_reach_its_demonstrations():
     """``init.teacher_options`` build the teacher: the shipped file's ``x_price: margin`` (with ``k_soc``) lets
     ``ecms_thermal`` derate a cool motor where the fixed price never does, and gives other actions from the same
     episodes."""
-    assert build_config("ppo")["init"]["teacher_options"] == {"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5}
+    assert build_config("ppo")["init"]["teacher_options"] == {"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5,
+                                                              "braking_x_thr": 0.0, "braking_floor": 1.0,
+                                                              "braking_below_c": 50.0}
     teachers = {p: teacher_of({"imitate": "ecms_thermal", "teacher_options": {"x_price": p}})
                 for p in ("fixed", "margin")}
     runs = {p: demonstrations(env_kwargs(ENV), t, 2, seed=5) for p, t in teachers.items()}
