@@ -140,7 +140,7 @@ def parse_candidates(policies: list[str], teachers: list[str]) -> list[tuple[str
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--policy", action="append", default=[], metavar="NAME=PATH", help="a policy of train.py")
@@ -163,7 +163,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--references", default=str(ROOT / "runs" / "selection_references"), metavar="DIR")
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="routes solved at once")
     p.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "selection_heat.json"), metavar="FILE")
-    args = p.parse_args(argv)
+    return p
+
+
+def tasks_of(args: argparse.Namespace) -> list[Any]:
+    """The tasks scored against the optimum that the command line asks for."""
+    hilly = None if args.hilly_routes is None else tuple(args.hilly_routes)
+    return selection_tasks(tuple(args.routes), tuple(args.heat_routes), hilly, tuple(args.express_routes),
+                           tuple(args.hot_routes))
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
     if args.jobs < 1:
         raise SystemExit(f"--jobs must be at least 1, got {args.jobs}")
     candidates = parse_candidates(args.policy, args.teacher)
@@ -172,13 +183,12 @@ def main(argv: list[str] | None = None) -> int:
     from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
     t0 = time.perf_counter()
-    hilly = None if args.hilly_routes is None else tuple(args.hilly_routes)
-    tasks = selection_tasks(tuple(args.routes), tuple(args.heat_routes), hilly, tuple(args.express_routes),
-                            tuple(args.hot_routes))
+    tasks = tasks_of(args)
     references = {t.id: ensure_reference(t, Path(args.references), args.jobs) for t in tasks}
     record: dict[str, Any] = {
         "physics_fingerprint": physics_fingerprint(), "routes": args.routes, "heat_routes": args.heat_routes,
-        "hilly_routes": list(args.heat_routes if hilly is None else hilly), "express_routes": args.express_routes,
+        "hilly_routes": list(args.heat_routes if args.hilly_routes is None else args.hilly_routes),
+        "express_routes": args.express_routes,
         "hot_routes": args.hot_routes,
         "proxies": args.proxies,
         "references": {k: {"wall_s": r["wall_s"], "jobs": r["jobs"]} for k, r in references.items()},

@@ -82,8 +82,21 @@ def test_hot_routes_and_scenarios_without_routes():
 
 
 def test_one_run_above_ecms_thermal_by_more_than_a_percent_is_counted():
-    rows = [{"fuel_corrected_l_per_100km": 30.0, "cost_g": c, "safety_cost_s": 0.0} for c in (100.0, 101.0, 103.0)]
+    rows = [{"fuel_corrected_l_per_100km": 30.0, "cost_g": c, "safety_cost_s": 0.0} for c in (100.0, 100.5, 103.0)]
     base = [{"fuel_corrected_l_per_100km": 30.0, "cost_g": 100.0, "safety_cost_s": 0.0}] * 3
     cell = sh.against_ecms_thermal({"episodes": rows}, {"episodes": base})
     assert cell["cost_above_ecms_thermal_1pct"] == 1 and cell["cost_vs_ecms_thermal_worst"] == pytest.approx(1.03)
-    assert cell["cost_vs_ecms_thermal_mean"] == pytest.approx(1.0133, abs=1e-4)
+    assert cell["cost_vs_ecms_thermal_mean"] == pytest.approx(1.0117, abs=1e-4)
+
+
+def test_the_command_line_leaves_out_a_scenario_given_no_routes():
+    """``--heat-routes`` and ``--hilly-routes`` given no routes: no summer and no hilly task; ``--hot-routes``: a task
+    in ``hot``; without the options the summer and hilly tasks score the default heat routes."""
+    args = sh.build_parser().parse_args(["--routes", "bus_long:2147483848", "--heat-routes", "--hilly-routes",
+                                         "--hot-routes", "bus_long:2147483848", "--policy", "a=b"])
+    assert args.heat_routes == [] and args.hilly_routes == [] and args.hot_routes == ["bus_long:2147483848"]
+    assert [(t.id, t.cycles) for t in sh.tasks_of(args)] == [("selection-paper-v1", ("bus_long:2147483848",)),
+                                                             ("selection-hot-v1", ("bus_long:2147483848",))]
+    plain = sh.tasks_of(sh.build_parser().parse_args(["--policy", "a=b"]))
+    assert [t.scenario for t in plain] == ["paper", "summer", "hilly"]
+    assert plain[2].cycles == plain[1].cycles == sh.HEAT_ROUTES
