@@ -93,13 +93,15 @@ def strategy_of(candidate: tuple[str, str, Any]) -> Any:
 
 
 def against_optimum(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
-    """A candidate's result record on a task, scored as the leaderboard scores (``score_result``)."""
+    """A candidate's result record on a task, scored as the leaderboard scores (``score_result``); the frontier ratio
+    of every route too, in the task's order (None off the frontier)."""
     from hev_thermal_env.evaluation.leaderboard import score_result
 
     scored = score_result(result, reference)
     ratios = [row["frontier_ratio"] for row in scored["rows"] if row["frontier_ratio"] is not None]
     return {"frontier_ratio_mean": float(np.mean(ratios)) if ratios else None,
             "frontier_ratio_worst": float(np.max(ratios)) if ratios else None,
+            "frontier_ratios": [row["frontier_ratio"] for row in scored["rows"]],
             "above_optimum_safety": scored["above_optimum_safety"], "beyond_soc_bound": scored["beyond_soc_bound"],
             "safety_cost_s": float(sum(e["safety_cost_s"] for e in result["episodes"])),
             "optimum_safety_cost_s": float(sum(e["optimum"]["safety_cost_s"] for e in reference["episodes"]))}

@@ -29,6 +29,7 @@ def test_candidates_are_scored_against_the_optimum_and_ecms_thermal(tmp_path, ca
             cell = row[task]
             assert cell["frontier_ratio_mean"] >= 0.999 and cell["frontier_ratio_worst"] >= cell["frontier_ratio_mean"]
             assert cell["beyond_soc_bound"] == 0 and cell["above_optimum_safety"] in (0, 1)
+            assert cell["frontier_ratios"] == [cell["frontier_ratio_mean"]]  # one route
     same = record["candidates"]["leaderboard's"]
     for scenario in ("summer", "hilly"):
         cell = same[f"{scenario} vs ecms_thermal"]
