@@ -8,7 +8,8 @@ price"; ``benchmarks/results/selection_heat.json``) and its weight on the demons
 where it derates"; ``benchmarks/results/selection_braking.json``, with ``--express-routes`` and ``--proxies``). With
 fresh routes in ``paper`` and ``hot`` (``--hot-routes``, no summer or hilly task) it judged two whole families by the
 issue's own criteria (docs/training.md, "Two families judged on fresh routes";
-``benchmarks/results/selection_families.json``).
+``benchmarks/results/selection_families.json``; the same routes in ``summer`` against the optimum:
+``selection_families_summer.json``).
 
 On ``validation_bus:20..29`` in ``paper`` and ``validation_bus:20..24`` in ``summer`` and ``hilly`` (the training's
 selection routes; never a test route nor one that ``ppo_vs_dp.py`` judges on), and with ``--express-routes`` further
