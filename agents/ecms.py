@@ -198,22 +198,28 @@ class ThermalECMS(ECMS):
         th = self.env.config.thermal
         self.cutoff_c, self.band_k = th.cutoff_temp_c, th.cutoff_temp_c - th.cutoff_release_temp_c
 
-    def heat_index_price(self, braking: bool = False) -> float:
-        """w_x, or with ``x_price="margin"`` w_x · max(floor, min(1, ΔT_h / (T_cut − T))) at the present
-        temperature; the floor is ``braking_floor`` while the bus brakes, else ``margin_floor``."""
+    def heat_index_terms(self, braking: bool = False) -> tuple[float, float]:
+        """The heat index's price and the x it is priced from, at the present temperature: w_x, or with
+        ``x_price="margin"`` w_x · max(floor, min(1, ΔT_h / (T_cut − T))), from ``x_thr`` with the floor
+        ``margin_floor``; while the bus brakes (``braking``), and with ``braking_below_c`` only in a motor cooler than
+        that, from ``braking_x_thr`` with the floor ``braking_floor``."""
+        temp_c = float(self.env.phys_state[0, C.TEMP_C])
+        own = braking and (self.braking_below_c is None or temp_c < self.braking_below_c)
+        x_thr = self.braking_x_thr if own else self.x_thr
         if self.x_price == "fixed":
-            return self.w_x
-        margin_k = self.cutoff_c - float(self.env.phys_state[0, C.TEMP_C])
-        floor = self.braking_floor if braking else self.margin_floor
-        return self.w_x * max(floor, min(1.0, self.band_k / max(margin_k, 1e-9)))
+            return self.w_x, x_thr
+        floor = self.braking_floor if own else self.margin_floor
+        return self.w_x * max(floor, min(1.0, self.band_k / max(self.cutoff_c - temp_c, 1e-9))), x_thr
+
+    def heat_index_price(self, braking: bool = False) -> float:
+        """The heat index's price (:meth:`heat_index_terms`)."""
+        return self.heat_index_terms(braking)[0]
 
     def candidate_costs(self, state_after: np.ndarray, out: np.ndarray, soc: float) -> np.ndarray:
         """ECMS's cost plus the price of the next thermal state (heat index, temperature, cutoff)."""
         over = np.maximum(state_after[:, C.TEMP_C] - self.temp_soft_c, 0.0)
-        braking = bool(out[0, C.SHAFT_DEMAND] < 0.0) and (
-            self.braking_below_c is None or float(self.env.phys_state[0, C.TEMP_C]) < self.braking_below_c)
-        x_thr = self.braking_x_thr if braking else self.x_thr
-        heat = (self.heat_index_price(braking) * np.maximum(state_after[:, C.HEAT_X] - x_thr, 0.0)
+        price, x_thr = self.heat_index_terms(bool(out[0, C.SHAFT_DEMAND] < 0.0))
+        heat = (price * np.maximum(state_after[:, C.HEAT_X] - x_thr, 0.0)
                 + self.w_temp * over * over + self.w_cutoff * state_after[:, C.CUTOFF])
         return super().candidate_costs(state_after, out, soc) + heat
 

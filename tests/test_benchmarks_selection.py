@@ -101,3 +101,17 @@ def test_the_command_line_leaves_out_a_scenario_given_no_routes():
     plain = sh.tasks_of(sh.build_parser().parse_args(["--policy", "a=b"]))
     assert [t.scenario for t in plain] == ["paper", "summer", "hilly"]
     assert plain[2].cycles == plain[1].cycles == sh.HEAT_ROUTES
+
+
+def test_a_candidate_drives_each_set_of_episodes_once(monkeypatch):
+    """A task scored against the optimum and a proxy on the same routes and scenario share the candidate's runs."""
+    from hev_thermal_env.evaluation import submission
+
+    calls = []
+    monkeypatch.setattr(submission, "result_of_strategy",
+                        lambda task, strategy, name: calls.append(task.id) or {"task": task.id})
+    drive = sh.driver(object(), "candidate")
+    hot = sh.selection_tasks(("validation_bus:20",), (), (), (), ("validation_bus:20",))[1]
+    proxy_hot, proxy_summer = sh.proxy_tasks(("validation_bus:20",), ("hot", "summer"))
+    assert drive(hot) is drive(proxy_hot) and drive(proxy_summer)["task"] == "selection-summer-all-v1"
+    assert calls == ["selection-hot-v1", "selection-summer-all-v1"]

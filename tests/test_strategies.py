@@ -425,6 +425,7 @@ def test_ecms_thermal_braking_options_only_below_a_temperature():
                 env.phys_state[0, C.HEAT_X] = -0.02
                 st, out = env.peek(plain.u_grid)
                 np.testing.assert_array_equal(cool.candidate_costs(st, out, soc), like.candidate_costs(st, out, soc))
+                assert cool.heat_index_terms(braking=True) == like.heat_index_terms(braking=True)
             braked += 1
         env.step(np.array([1.0], dtype=np.float32))
     assert braked > 0

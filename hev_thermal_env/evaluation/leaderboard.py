@@ -329,8 +329,11 @@ def _variant_panels(sub: Any, methods: list[str], variants: list[str], scores: d
                     unscored: dict[str, int], plt: Any) -> None:
     """One panel per family: the family in black and its variants, from :data:`ZOOM`'s start or, for a family
     scoring lower, from the 5th percentile of its runs' scores (to the nearest 10 below, at most down to -100)."""
-    families = list(dict.fromkeys(family_of(m, methods) for m in variants))
-    members = {f: [f, *(m for m in variants if family_of(m, methods) == f)] for f in families}
+    members: dict[str, list[str]] = {}
+    for m in variants:
+        family = family_of(m, methods)
+        members.setdefault(family, [family]).append(m)
+    families = list(members)
     look = {**_looks(variants, plt), **{f: {"color": "black", "lw": 2.4, "ls": "-"} for f in families}}
     axes = sub.subplots(1, len(families), squeeze=False,
                         gridspec_kw={"width_ratios": [len(members[f]) ** 0.5 for f in families]})[0]
