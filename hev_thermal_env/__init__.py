@@ -1,10 +1,11 @@
 """hev-thermal-env: a Gymnasium environment and energy-management benchmark for a parallel hybrid city bus whose
 permanent-magnet traction motor heats up, derates and cuts out.
 
-``import hev_thermal_env`` registers ``HevThermal-v1`` (in a fresh worker process that has not imported the package,
-``gymnasium.make("hev_thermal_env:HevThermal-v1")`` imports it) and loads the vehicle and the envs (``.physics``,
-``.cycles``, ``.envs``). Imported on demand: ``.wrappers`` (the SB3 ``VecEnv`` adapter), ``.planning`` (SOC DP, the
-thermal optimum), ``.agents`` (the strategies behind one protocol, the shipped policy and the training hyperparameters;
+``import hev_thermal_env`` registers ``HevThermal-v2`` and ``HevThermal-v1`` (in a fresh worker process that has not
+imported the package, ``gymnasium.make("hev_thermal_env:HevThermal-v2")`` imports it) and loads the vehicle and the
+envs (``.physics``, ``.cycles``, ``.envs``). Imported on demand: ``.wrappers`` (the SB3 ``VecEnv`` adapter),
+``.planning`` (SOC DP, the thermal optimum), ``.agents`` (the strategies behind one protocol, the shipped policy and
+the training hyperparameters;
 the source tree's top-level ``agents/``), ``.evaluation`` (runs, the benchmark, plots), ``.training`` (SB3 training;
 imports torch) and ``.cli`` (``evaluate.py``/``train.py``, ``hev-evaluate``, ``hev-train``).
 """
@@ -18,9 +19,11 @@ from .simulate import SimResult, simulate
 
 __version__ = "0.1.0"
 
-if "HevThermal-v1" not in registry:
-    register(id="HevThermal-v1", entry_point="hev_thermal_env.envs.hev_env:HevThermalEnv",
-             vector_entry_point="hev_thermal_env.envs.vector_env:HevThermalVectorEnv")
+for _version in (1, 2):  # one MDP class; the physics version sets the vehicle's and the reward's defaults
+    if f"HevThermal-v{_version}" not in registry:
+        register(id=f"HevThermal-v{_version}", entry_point="hev_thermal_env.envs.hev_env:HevThermalEnv",
+                 vector_entry_point="hev_thermal_env.envs.vector_env:HevThermalVectorEnv",
+                 kwargs={"physics": _version})
 
 __all__ = [
     "Conditions", "ConfigError", "Cycle", "HevThermalEnv", "HevThermalVectorEnv", "PhysicsCore", "SimResult",

@@ -4,9 +4,12 @@ A scenario is a small record of deltas (:data:`SCENARIOS`), not a code path; a r
 :meth:`Scenario.prepare_cycle` on the cycle before building the episode (the conditions alone do not carry the
 road). What the values do:
 
-* ``hot`` (a failing cooling loop: jacket and radiator at 3 %): a thermal-blind aggressive split derates and reaches
-  the 70 °C cutoff on HWFET and on ``beijing``; the engine alone (u = 0) does not, so a thermally aware strategy can
-  avoid it at a price in fuel.
+* ``hot`` (a failing cooling loop: the pump's flow at 3 %, so the jacket's conductance falls to 10 % of intact and the
+  radiator's to 16-50 %): a thermal-blind aggressive split derates and reaches the 70 °C cutoff on HWFET and on
+  ``beijing``. At city and motorway motor speeds the spinning loss alone then holds the housing above the 60 °C
+  release (docs/thermal_model.md, *The rated condition*), so once cut off the motor does not come back, whatever the
+  action: physics v1's thermal tasks keep it as it was; physics v2's tasks are chosen where an action can protect the
+  motor (docs/tasks.md).
 * ``summer`` (parked in the sun, cooling intact): above the 35 °C thermostat the valve is open from the start, the
   coolant runs warm enough for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets
   lose torque, so every overload derates at once.
@@ -84,7 +87,7 @@ class Scenario:
 
 SCENARIOS: dict[str, Scenario] = {
     "paper": Scenario("paper", "the paper's assumptions: 20 °C, coolant on", Conditions()),
-    "hot": Scenario("hot", "hot ambient (40 °C), hot start (50 °C), cooling degraded to 3 %",
+    "hot": Scenario("hot", "hot ambient (40 °C), hot start (50 °C), pump flow at 3 % (a failing loop)",
                     Conditions(ambient_temp_c=40.0, initial_motor_temp_c=50.0, coolant="degraded",
                                coolant_degraded_factor=0.03, coolant_temp_c=45.0)),
     "summer": Scenario("summer", "summer day: 38 °C ambient, motor and coolant start at 38 °C, cooling intact",

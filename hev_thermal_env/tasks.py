@@ -38,9 +38,12 @@ import numpy as np
 
 from .cycles import load_cycle
 from .cycles.families import VALIDATION_SEED_BASE
+from .physics.config import LATEST_PHYSICS, paper_bus
+from .physics.fingerprint import physics_fingerprint
 from .scenarios import get_scenario
 
-ENV_ID = "HevThermal-v1"
+ENV_ID = "HevThermal-v2"
+"""The newest env id; a task's own is :attr:`Task.env_id` (its physics version)."""
 #: Families of the generalisation task's test routes, in turn (those of the validation set).
 TEST_FAMILIES = ("bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed", "bus_express")
 #: Test route ``k`` has seed ``TEST_SEED_BASE + k``: above every training seed and 2**20 above the first validation
@@ -62,7 +65,9 @@ class Task:
     ``scenario``: their conditions (:mod:`hev_thermal_env.scenarios`); ``seeds``: the env's reset seeds (a fixed
     scenario starting at a fixed second draws nothing, so one seed, 0); ``start_s``: every episode starts at this second
     of its cycle and runs to the cycle's end (truncation). ``train_cycles`` / ``train_scenario``: what a learned method
-    trains on for the task (``train.py --task``); the task's own cycles unless they are held out.
+    trains on for the task (``train.py --task``); the task's own cycles unless they are held out. ``physics``: the
+    physics version its episodes are driven on (:attr:`env_id`); it is not part of :meth:`digest` (results carry the
+    physics fingerprint beside the task id).
     """
 
     name: str
@@ -74,6 +79,18 @@ class Task:
     start_s: int = 0
     train_cycles: tuple[str, ...] | None = None
     train_scenario: str | None = None
+    physics: int = LATEST_PHYSICS
+
+    @property
+    def env_id(self) -> str:
+        """The env the task's episodes are driven in: ``HevThermal-v{physics}``."""
+        return f"HevThermal-v{self.physics}"
+
+    def fingerprint(self) -> str:
+        """The physics fingerprint of the task's vehicle
+        (:func:`~hev_thermal_env.physics.fingerprint.physics_fingerprint` of ``paper_bus(physics=self.physics)``): what
+        its references and results are checked against."""
+        return physics_fingerprint(paper_bus(physics=self.physics))
 
     @property
     def id(self) -> str:
@@ -112,7 +129,7 @@ class Task:
         """SHA-256 of what the task's episodes are: the record, every cycle's samples as the scenario drives them
         (speed and grade) and the scenario's conditions and draws."""
         h = hashlib.sha256()
-        record = {k: v for k, v in self.to_dict().items() if k != "description"}
+        record = {k: v for k, v in self.to_dict().items() if k not in ("description", "physics")}
         scen = get_scenario(self.scenario)
         record["scenario_record"] = {"conditions": scen.conditions.to_dict(), "randomized": scen.randomized,
                                      "grade_profile": scen.grade_profile, "payload_kg_range": scen.payload_kg_range}
@@ -132,18 +149,22 @@ def generalisation_cycles() -> tuple[str, ...]:
 
 _TASKS = (
     Task("hwfet", 1, "EPA highway cycle, the paper's conditions: sustained load, trace misses above 89 km/h",
-         ("hwfet",), "paper"),
-    Task("beijing", 1, "the synthetic Beijing-like city-bus cycle, the paper's conditions", ("beijing",), "paper"),
+         ("hwfet",), "paper", physics=1),
+    Task("beijing", 1, "the synthetic Beijing-like city-bus cycle, the paper's conditions", ("beijing",), "paper",
+         physics=1),
     Task("udds-hot", 1, "EPA urban cycle with a failing cooling loop (hot): the thermal constraint binds",
-         ("udds",), "hot"),
-    Task("hilly", 1, "UDDS over rolling hills (grades up to ±7 %, no net climb)", ("udds",), "hilly"),
-    Task("full-bus", 1, "UDDS with 4.5 t of passengers (19.5 t in all)", ("udds",), "full_bus"),
+         ("udds",), "hot", physics=1),
+    Task("hilly", 1, "UDDS over rolling hills (grades up to ±7 %, no net climb)", ("udds",), "hilly", physics=1),
+    Task("full-bus", 1, "UDDS with 4.5 t of passengers (19.5 t in all)", ("udds",), "full_bus", physics=1),
     Task("summer", 1, "UDDS on a summer day (38 °C, cooling intact): every overload derates at once",
-         ("udds",), "summer"),
+         ("udds",), "summer", physics=1),
     Task("bus-generalisation", 1, f"{TEST_SIZE} held-out generated bus routes ({TEST_SIZE // len(TEST_FAMILIES)} of "
          "each of six families, seeds never used by training or validation), the paper's conditions; trained on fresh "
          "routes of the families", generalisation_cycles(), "paper", train_cycles=TRAINING_FAMILIES,
-         train_scenario="random_service"),
+         train_scenario="random_service", physics=1),
+    Task("hwfet", 2, "EPA highway cycle, the paper's conditions: sustained load, trace misses above 89 km/h",
+         ("hwfet",), "paper"),
+    Task("beijing", 2, "the synthetic Beijing-like city-bus cycle, the paper's conditions", ("beijing",), "paper"),
 )
 TASKS: dict[str, Task] = {t.id: t for t in _TASKS}
 """The tasks by id."""
@@ -176,9 +197,9 @@ def make_task(name: str | Task, num_envs: int | None = None, **env_kwargs: Any) 
     fixed = sorted(set(env_kwargs) & set(TASK_ARGS))
     if fixed:
         raise ValueError(f"make_task({task.id!r}): {', '.join(fixed)} belong(s) to the task; make the env with "
-                         f"gymnasium.make({ENV_ID!r}, ...) for other settings")
+                         f"gymnasium.make({task.env_id!r}, ...) for other settings")
     kwargs = {**task.env_kwargs(), **env_kwargs}
-    return gym.make(ENV_ID, **kwargs) if num_envs is None else gym.make_vec(ENV_ID, num_envs, **kwargs)
+    return gym.make(task.env_id, **kwargs) if num_envs is None else gym.make_vec(task.env_id, num_envs, **kwargs)
 
 
 def held_out_cycles() -> dict[str, str]:

@@ -243,7 +243,7 @@ def test_the_scripts_fail_in_one_line(script, argv, needle, tmp_path):
 # --- the catalogue: the Python API -----------------------------------------------------------------------
 
 def _env(**kwargs) -> gym.Env:
-    return gym.make("HevThermal-v1", **kwargs)
+    return gym.make("HevThermal-v2", **kwargs)
 
 
 def _reset(**options):

@@ -47,16 +47,17 @@ def test_light_driver_reproduces_the_environment_run(cycle):
 def test_the_fitted_parameters_and_their_bounds_are_the_protocols():
     rows = proto.parameters()
     fitted = proto.fitted_parameters()
-    assert [p.name for p in fitted] == [n for n, r in rows.items() if r["status"] == "fitted"] == [
-        "jacket_ua_w_per_k", "radiator_ua_w_per_k", "t_gain_cold"]
+    assert [p.name for p in fitted] == [n for n, r in rows.items() if r["status"] == "fitted"] == ["t_gain_cold"]
     for p in fitted:
         r = rows[p.name]
         assert (p.lo, p.hi, p.start) == (r["min"], r["max"], r["value"])
         assert p.from_unit(0.0) == pytest.approx(p.lo, rel=1e-12) and p.from_unit(1.0) == pytest.approx(p.hi, rel=1e-12)
         assert p.from_unit(-0.5) == pytest.approx(p.lo) and p.from_unit(1.5) == pytest.approx(p.hi)  # clipped
         assert p.to_unit(p.from_unit(0.37)) == pytest.approx(0.37)
-    assert [p.log for p in fitted] == [True, True, False]
-    assert fitted[0].from_unit(0.5) == pytest.approx(math.sqrt(50.0 * 1282.0))  # log scale: the geometric mean
+    assert [p.log for p in fitted] == [False]
+    assert fitted[0].from_unit(0.5) == pytest.approx(0.2)  # linear scale: the range's midpoint
+    rating = {n: r["value"] for n, r in rows.items() if n in ("jacket_ua_w_per_k", "radiator_ua_w_per_k")}
+    assert rating == {"jacket_ua_w_per_k": 1281.9, "radiator_ua_w_per_k": 138.0}  # set by the rating, not fitted
 
 
 def _derived(row: dict, rows: dict) -> float:
@@ -95,7 +96,7 @@ def test_no_bound_in_the_code_is_wider_than_the_physical_range():
 
 
 def test_a_value_outside_the_protocol_is_reported_naming_the_row(tmp_path):
-    text = proto.PROTOCOL_YAML.read_text().replace("value: 250.0, min: 50.0", "value: 25.0, min: 50.0")
+    text = proto.PROTOCOL_YAML.read_text().replace("value: 1281.9, min: 50.0", "value: 25.0, min: 50.0")
     bad = tmp_path / "ranges.yaml"
     bad.write_text(text)
     with pytest.raises(ValueError, match=r"jacket_ua_w_per_k.*value 25.0 is outside"):
@@ -188,7 +189,7 @@ def test_the_starts_are_the_documented_one_and_eight_sobol_points():
     assert [s[0] for s in starts] == ["documented"] + [f"sobol {i}" for i in range(1, 9)]
     np.testing.assert_allclose(starts[0][1], [p.to_unit(p.start) for p in params])
     np.testing.assert_array_equal(np.array([s[1] for s in starts[1:]]),
-                                  qmc.Sobol(d=3, scramble=True, seed=23).random(8))
+                                  qmc.Sobol(d=1, scramble=True, seed=23).random(8))
 
 
 # --- the fit log, the command, the page -------------------------------------------------------------------
@@ -234,7 +235,7 @@ def test_with_values_sets_the_protocols_names_on_their_records():
     cfg = proto.with_values(paper_bus(), {"jacket_ua_w_per_k": 400.0, "motor_mass_kg": 90.0,
                                           "coulombic_efficiency": 0.96})
     assert (cfg.thermal.jacket_ua_w_per_k, cfg.thermal.mass_kg, cfg.battery.coulombic_efficiency) == (400, 90, 0.96)
-    assert dataclasses.replace(cfg.thermal, jacket_ua_w_per_k=250.0, mass_kg=100.0) == paper_bus().thermal
+    assert dataclasses.replace(cfg.thermal, jacket_ua_w_per_k=1281.9, mass_kg=100.0) == paper_bus().thermal
     with pytest.raises(ValueError, match="condition"):
         proto.with_values(paper_bus(), {"accessory_power_w": 0.0})
     assert isinstance(cfg, VehicleConfig) and proto.value_in_code("accessory_power_w") == Conditions().accessory_power_w

@@ -48,7 +48,7 @@ def test_codes_and_their_lookups():
 
 
 def test_an_all_zero_observation_is_inside_the_space():
-    for space in (gym.make("HevThermal-v1").observation_space,
+    for space in (gym.make("HevThermal-v2").observation_space,
                   hev_thermal_env.HevThermalVectorEnv(2).single_observation_space):
         assert np.zeros(space.shape, np.float32) in space
         assert space.low[hev_thermal_env.envs.HevThermalEnv(cycle="hwfet").obs_names.index("gear")] == 0.0
@@ -64,32 +64,32 @@ def test_the_envs_are_reachable_from_the_package():
 
 def test_module_id_form_makes_the_env_in_a_fresh_process():
     """A worker that never imported the package (RLlib's remote runners): the bare id is unknown there,
-    ``hev_thermal_env:HevThermal-v1`` imports the package and makes the env; ``gym.spec`` takes no such form, the
+    ``hev_thermal_env:HevThermal-v2`` imports the package and makes the env; ``gym.spec`` takes no such form, the
     bare id after the import."""
     code = (
         "import sys, gymnasium as gym\n"
         "assert 'hev_thermal_env' not in sys.modules\n"
         "try:\n"
-        "    gym.make('HevThermal-v1')\n"
+        "    gym.make('HevThermal-v2')\n"
         "except gym.error.NameNotFound:\n"
         "    print('bare id: NameNotFound')\n"
-        "env = gym.make('hev_thermal_env:HevThermal-v1', cycle='udds')\n"
+        "env = gym.make('hev_thermal_env:HevThermal-v2', cycle='udds')\n"
         "obs, info = env.reset(seed=0)\n"
         "print(obs.shape, env.spec.id, sorted(info)[:2])\n"
-        "envs = gym.make_vec('hev_thermal_env:HevThermal-v1', 3)\n"
+        "envs = gym.make_vec('hev_thermal_env:HevThermal-v2', 3)\n"
         "print(type(envs).__name__, envs.reset(seed=0)[0].shape)\n"
         "try:\n"
-        "    gym.spec('hev_thermal_env:HevThermal-v1')\n"
+        "    gym.spec('hev_thermal_env:HevThermal-v2')\n"
         "except gym.error.NameNotFound:\n"
-        "    print('spec of module:Id: NameNotFound;', 'spec of the bare id:', gym.spec('HevThermal-v1').id)\n"
+        "    print('spec of module:Id: NameNotFound;', 'spec of the bare id:', gym.spec('HevThermal-v2').id)\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=300,
                        env={**_clean_env(), "PYTHONPATH": str(ROOT)})
     assert r.returncode == 0, r.stderr
     assert r.stdout.splitlines() == ["bare id: NameNotFound",
-                                     "(21,) HevThermal-v1 ['ambient_temp_c', 'battery_chem_power_w']",
+                                     "(21,) HevThermal-v2 ['ambient_temp_c', 'battery_chem_power_w']",
                                      "HevThermalVectorEnv (3, 21)",
-                                     "spec of module:Id: NameNotFound; spec of the bare id: HevThermal-v1"]
+                                     "spec of module:Id: NameNotFound; spec of the bare id: HevThermal-v2"]
 
 
 def _clean_env() -> dict:
@@ -101,18 +101,18 @@ def _clean_env() -> dict:
 # --- the lean info path -----------------------------------------------------------------------------------
 
 def test_info_keys_choose_the_keys_of_every_info():
-    lean = gym.make("HevThermal-v1", info_keys=())
+    lean = gym.make("HevThermal-v2", info_keys=())
     assert lean.reset(seed=0)[1] == {} and lean.step(np.zeros(1, np.float32))[4] == {}
-    some = gym.make("HevThermal-v1", info_keys=("fuel_g", "cycle_id"))
+    some = gym.make("HevThermal-v2", info_keys=("fuel_g", "cycle_id"))
     assert some.reset(seed=0)[1] == {"fuel_g": 0.0, "cycle_id": 0}
     assert tuple(some.step(np.zeros(1, np.float32))[4]) == ("fuel_g", "cycle_id")
-    full = gym.make("HevThermal-v1")
+    full = gym.make("HevThermal-v2")
     full.reset(seed=0)
     assert full.step(np.zeros(1, np.float32))[4]["fuel_g"] == lean_fuel(some)
     with pytest.raises(ValueError, match=r"info_keys: unknown key\(s\) \['action'\]"):
-        gym.make("HevThermal-v1", info_keys=("action",))
+        gym.make("HevThermal-v2", info_keys=("action",))
     with pytest.raises(ValueError, match="info_keys: 'all' or a sequence"):
-        gym.make("HevThermal-v1", info_keys="some")
+        gym.make("HevThermal-v2", info_keys="some")
 
 
 def lean_fuel(env: gym.Env) -> float:
@@ -122,8 +122,8 @@ def lean_fuel(env: gym.Env) -> float:
 
 def test_sync_vector_env_on_the_lean_path_matches_the_native_vector_env():
     acts = np.random.default_rng(0).uniform(-1, 1, (900, 3, 1)).astype(np.float32)
-    sync = gym.make_vec("HevThermal-v1", 3, vectorization_mode="sync", info_keys=(), cycle="udds")
-    native = gym.make_vec("HevThermal-v1", 3, info_keys=(), cycle="udds")
+    sync = gym.make_vec("HevThermal-v2", 3, vectorization_mode="sync", info_keys=(), cycle="udds")
+    native = gym.make_vec("HevThermal-v2", 3, info_keys=(), cycle="udds")
     assert type(sync).__name__ == "SyncVectorEnv" and type(native).__name__ == "HevThermalVectorEnv"
     o1, i1 = sync.reset(seed=5)
     o2, i2 = native.reset(seed=5)
@@ -146,13 +146,13 @@ def _torchrl_quiet():
 
 def test_torchrl_single_env(short_cycle):
     _torchrl_quiet()
-    env = torchrl_gym.GymWrapper(gym.make("HevThermal-v1", cycle=short_cycle))
+    env = torchrl_gym.GymWrapper(gym.make("HevThermal-v2", cycle=short_cycle))
     check_env_specs(env)
     td = env.rollout(100, break_when_any_done=False)  # torchrl resets at each of the two episode ends
     assert td.shape == (100,) and td["next", "truncated"].sum().item() == 2
-    check_env_specs(torchrl_gym.GymEnv("HevThermal-v1", cycle=short_cycle))
+    check_env_specs(torchrl_gym.GymEnv("HevThermal-v2", cycle=short_cycle))
     # infos as tensors through a batch of one (the single env's infos: tests/test_info_contract.py)
-    one = torchrl_gym.GymWrapper(gym.make_vec("HevThermal-v1", 1, autoreset_mode=SAME_STEP, cycle=short_cycle))
+    one = torchrl_gym.GymWrapper(gym.make_vec("HevThermal-v2", 1, autoreset_mode=SAME_STEP, cycle=short_cycle))
     check_env_specs(one)
     td = one.rollout(50, break_when_any_done=False)
     assert {"fuel_g", "motor_share", "cycle_id", "coolant_code"} <= set(td["next"].keys())
@@ -165,10 +165,10 @@ def test_torchrl_batched_env(short_cycle, mode, info_keys):
     reads every info key of the batch into fixed specs."""
     _torchrl_quiet()
     if mode == "sync":
-        venv = gym.make_vec("HevThermal-v1", 3, vectorization_mode="sync", vector_kwargs={"autoreset_mode": SAME_STEP},
+        venv = gym.make_vec("HevThermal-v2", 3, vectorization_mode="sync", vector_kwargs={"autoreset_mode": SAME_STEP},
                             cycle=short_cycle, scenario="random", info_keys=info_keys)
     else:
-        venv = gym.make_vec("HevThermal-v1", 3, autoreset_mode=SAME_STEP, cycle=short_cycle, scenario="random",
+        venv = gym.make_vec("HevThermal-v2", 3, autoreset_mode=SAME_STEP, cycle=short_cycle, scenario="random",
                             info_keys=info_keys)
     env = torchrl_gym.GymWrapper(venv)
     check_env_specs(env)
@@ -194,12 +194,12 @@ def test_sb3_contrib_recurrent_ppo_and_tqc_train(short_cycle):
     import sb3_contrib
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    venv = DummyVecEnv([lambda: gym.make("HevThermal-v1", cycle=short_cycle) for _ in range(2)])
+    venv = DummyVecEnv([lambda: gym.make("HevThermal-v2", cycle=short_cycle) for _ in range(2)])
     rppo = sb3_contrib.RecurrentPPO("MlpLstmPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0,
                                     policy_kwargs={"lstm_hidden_size": 16, "net_arch": [16]}, device="cpu")
     rppo.learn(256)
     assert rppo.num_timesteps == 256
-    tqc = sb3_contrib.TQC("MlpPolicy", gym.make("HevThermal-v1", cycle=short_cycle), learning_starts=100,
+    tqc = sb3_contrib.TQC("MlpPolicy", gym.make("HevThermal-v2", cycle=short_cycle), learning_starts=100,
                           batch_size=32, buffer_size=1000, seed=0, device="cpu",
                           policy_kwargs={"net_arch": [32, 32], "n_critics": 2})
     tqc.learn(300)

@@ -1,4 +1,4 @@
-"""HevThermal-v1: API checks, seeding, actions, the physics it wraps, observations, options, rendering."""
+"""HevThermal-v2: API checks, seeding, actions, the physics it wraps, observations, options, rendering."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ DESIGN_INFO_KEYS = (
 
 def make(**kwargs) -> gym.Env:
     kwargs.setdefault("cycle", "hwfet")
-    return gym.make("HevThermal-v1", **kwargs)
+    return gym.make("HevThermal-v2", **kwargs)
 
 
 def rollout(env: gym.Env, seed: int, n: int, action_seed: int = 0, options=None):
@@ -434,7 +434,7 @@ def test_direct_construction_matches_make():
 
 
 def test_the_previous_version_fails_with_one_line_naming_the_current_id():
-    with pytest.raises(gym.error.DeprecatedEnv, match="HevThermal-v1"):
+    with pytest.raises(gym.error.DeprecatedEnv, match="HevThermal-v2"):
         gym.make("HevThermal-v0")
 
 
@@ -444,7 +444,7 @@ def test_braking_share_governs_regeneration_and_the_winding_is_observed():
     names = hev_thermal_env.envs.spaces.observation_names(10, 2)
     regen, friction = {}, {}
     for u in (1.0, 0.0, -1.0):
-        env = gym.make("HevThermal-v1", cycle="udds")
+        env = gym.make("HevThermal-v2", cycle="udds")
         env.reset(seed=0)
         torque, brake = [], []
         for _ in range(300):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
-import hev_thermal_env  # noqa: F401  (registers HevThermal-v1)
+import hev_thermal_env  # noqa: F401  (registers HevThermal-v2)
 from hev_thermal_env import load_cycle
 from hev_thermal_env.envs import (
     EPISODE_INFO_KEYS,
@@ -45,7 +45,7 @@ def _types_ok(info: dict) -> list[tuple[str, str]]:
 def test_reset_and_steps_give_the_same_keys_in_the_same_order_as_numpy_scalars():
     assert "action" not in INFO_KEYS and "action_clipped" not in INFO_KEYS  # torchrl's reserved entries
     assert set(EPISODE_INFO_KEYS) <= set(STATE_INFO_KEYS) <= set(INFO_KEYS) and set(INFO_DTYPES) == set(INFO_KEYS)
-    env = gym.make("HevThermal-v1", **RANDOM_KW)
+    env = gym.make("HevThermal-v2", **RANDOM_KW)
     rng = np.random.default_rng(0)
     for seed in (1, 2, 3):
         _, info = env.reset(seed=seed)
@@ -58,7 +58,7 @@ def test_reset_and_steps_give_the_same_keys_in_the_same_order_as_numpy_scalars()
 
 
 def test_a_reset_reports_the_starting_state_and_zero_for_the_quantities_of_a_step():
-    env = gym.make("HevThermal-v1", cycle="udds", scenario="hot")
+    env = gym.make("HevThermal-v2", cycle="udds", scenario="hot")
     _, info = env.reset(seed=0, options={"start_s": 100, "initial_soc": 0.61})
     e = env.unwrapped
     cond = e.conditions
@@ -75,7 +75,7 @@ def test_a_reset_reports_the_starting_state_and_zero_for_the_quantities_of_a_ste
 
 def test_info_keys_keep_their_order_at_resets_and_steps():
     keys = ("cost", "fuel_g", "cycle_id", "engine_on")
-    env = gym.make("HevThermal-v1", info_keys=keys)
+    env = gym.make("HevThermal-v2", info_keys=keys)
     _, info = env.reset(seed=0)
     assert tuple(info) == keys and not _types_ok(info)
     info = env.step(np.ones(1, np.float32))[4]
@@ -104,7 +104,7 @@ def test_the_vector_envs_info_arrays_keep_one_dtype_through_resets(mode):
 def test_gymnasiums_sync_vector_env_keeps_the_numeric_dtypes_and_the_native_values():
     """gymnasium batches numpy numbers into arrays of their dtype but ``np.bool_`` values into object arrays (it
     batches Python bools and ``np.number`` only); their values are the native vector env's."""
-    sync = gym.make_vec("HevThermal-v1", 2, vectorization_mode="sync", cycle="udds")
+    sync = gym.make_vec("HevThermal-v2", 2, vectorization_mode="sync", cycle="udds")
     native = HevThermalVectorEnv(2, cycle="udds")
     pairs = [(sync.reset(seed=0)[1], native.reset(seed=0)[1])]
     for _ in range(60):
@@ -127,7 +127,7 @@ def test_torchrls_default_info_reader_on_the_single_env(short_cycle):
 
     warnings.filterwarnings("ignore", category=UserWarning)
     warnings.filterwarnings("ignore", category=DeprecationWarning)
-    env = GymWrapper(gym.make("HevThermal-v1", cycle=short_cycle)).auto_register_info_dict()
+    env = GymWrapper(gym.make("HevThermal-v2", cycle=short_cycle)).auto_register_info_dict()
     check_env_specs(env)
     td = env.rollout(100, break_when_any_done=False)  # two episode ends, each followed by a reset
     nxt = td["next"]
@@ -135,7 +135,7 @@ def test_torchrls_default_info_reader_on_the_single_env(short_cycle):
     assert {"cost", "fuel_g", "gear", "engine_on", "cycle_id"} <= set(nxt.keys())
     assert nxt["cost"].dtype == torch.float64 and nxt["gear"].dtype == torch.int64
     assert nxt["engine_on"].dtype == torch.bool and nxt["fuel_g"].min().item() >= 0.0
-    plain = GymWrapper(gym.make("HevThermal-v1", cycle=short_cycle))
+    plain = GymWrapper(gym.make("HevThermal-v2", cycle=short_cycle))
     plain.set_info_dict_reader(default_info_dict_reader())
     assert plain.rollout(50, break_when_any_done=False)["next", "motor_share"].shape == (50,)
 
@@ -143,7 +143,7 @@ def test_torchrls_default_info_reader_on_the_single_env(short_cycle):
 def test_minaris_data_collector_records_the_infos(short_cycle, tmp_path, monkeypatch):
     minari = pytest.importorskip("minari")
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    env = minari.DataCollector(gym.make("HevThermal-v1", cycle=short_cycle), record_infos=True, data_format="arrow")
+    env = minari.DataCollector(gym.make("HevThermal-v2", cycle=short_cycle), record_infos=True, data_format="arrow")
     env.reset(seed=0)
     for _ in range(45):  # across the end of the 40-step episode
         if env.step(env.action_space.sample())[3]:
@@ -157,7 +157,7 @@ def test_minaris_data_collector_records_the_infos(short_cycle, tmp_path, monkeyp
 # --- the safety cost -----------------------------------------------------------------------------------------------
 
 def _drive(u: float, scenario: str, **kw) -> dict[str, np.ndarray]:
-    env = gym.make("HevThermal-v1", cycle="hwfet", scenario=scenario, **kw)
+    env = gym.make("HevThermal-v2", cycle="hwfet", scenario=scenario, **kw)
     _, info = env.reset(seed=0)
     assert info["cost"] == 0.0
     rows, trunc = [], False

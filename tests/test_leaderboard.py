@@ -22,14 +22,17 @@ from hev_thermal_env.evaluation.submission import (
     result_of_strategy,
     validate_result,
 )
-from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import get_task, make_task
+
+
+def hwfet_fingerprint() -> str:
+    return get_task("hwfet").fingerprint()
 
 
 @pytest.fixture(scope="module")
 def good() -> dict:
     task = get_task("hwfet")
-    return {"format": FORMAT, "task": task.id, "physics_fingerprint": physics_fingerprint(), "method": "outside",
+    return {"format": FORMAT, "task": task.id, "physics_fingerprint": hwfet_fingerprint(), "method": "outside",
             "seeds": [0, 1], "wall_clock_s": 12.0,
             "episodes": [{"seed": s, "cycle": "hwfet", "env_seed": 0, "cost_g": 3000.0 - 100 * s, "soc_final": 0.6,
                           "safety_cost_s": 3.0 * s} for s in (0, 1)]}
@@ -39,12 +42,12 @@ def good() -> dict:
     (lambda d: d.pop("method"), "missing field.*method"),
     (lambda d: d.update(format="v0"), "format 'v0', expected 'hev-thermal-result-v1'"),
     (lambda d: d.update(task="nope-v1"), "task: unknown task 'nope-v1'"),
-    (lambda d: d.update(task="hwfet"), r"name the version \(hwfet-v1\)"),
+    (lambda d: d.update(task="hwfet"), r"name the version \(hwfet-v2\)"),
     (lambda d: d.update(seeds=[0, 0]), "seeds: expected a non-empty list of distinct integers"),
     (lambda d: d["episodes"][1].update(cost_g="12"), r"episodes\[1\]\.cost_g: expected a finite number ≥ 0, got '12'"),
     (lambda d: d["episodes"][0].update(soc_final=1.7), r"episodes\[0\]\.soc_final: .*in \[0, 1\], got 1.7"),
     (lambda d: d["episodes"][0].pop("safety_cost_s"), r"episodes\[0\]: missing safety_cost_s"),
-    (lambda d: d["episodes"][0].update(cycle="udds"), r"episodes\[0\]: .*'udds'.* is not an episode of hwfet-v1"),
+    (lambda d: d["episodes"][0].update(cycle="udds"), r"episodes\[0\]: .*'udds'.* is not an episode of hwfet-v2"),
     (lambda d: d["episodes"].pop(), r"1 episode\(s\) missing, e.g. .*\(1, 'hwfet', 0\)"),
     (lambda d: d.update(physics_fingerprint="abc"), "physics fingerprint 'abc' .current"),
     (lambda d: d.update(training=[1.0]), "training: expected an object"),
@@ -72,7 +75,7 @@ def test_unreadable_result_file(tmp_path):
 
 
 def good_dict() -> dict:
-    return {"format": FORMAT, "task": "hwfet-v1", "physics_fingerprint": physics_fingerprint(), "method": "outside",
+    return {"format": FORMAT, "task": "hwfet-v2", "physics_fingerprint": hwfet_fingerprint(), "method": "outside",
             "seeds": [0], "episodes": [{"seed": 0, "cycle": "hwfet", "cost_g": 1.0, "soc_final": 0.6,
                                         "safety_cost_s": 0.0}]}
 
@@ -99,14 +102,14 @@ def test_info_tally_equals_the_runners_metrics():
 
 
 def synthetic_reference(r0_cost: float) -> dict:
-    """A reference of hwfet-v1 with a flat frontier of 1000 g and an anchor at ``r0_cost``."""
+    """A reference of hwfet-v2 with a flat frontier of 1000 g and an anchor at ``r0_cost``."""
     task = get_task("hwfet")
     ep = {"cycle": "hwfet", "seed": 0, "frontier": {"soc_final": [0.3, 0.9], "cost_g": [1000.0, 1000.0],
                                                      "grid": "synthetic", "soc_min": 0.3},
           "optimum": {"cost_g": 1000.0, "soc_final": 0.6, "frontier_ratio": 1.0, "safety_cost_s": 0.0},
           "anchor": {"cost_g": r0_cost, "soc_final": 0.6, "frontier_ratio": r0_cost / 1000.0, "safety_cost_s": 0.0}}
     return {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(),
-            "physics_fingerprint": physics_fingerprint(), "safety_budget_s": 10.0, "budget_rule": R.BUDGET_RULE,
+            "physics_fingerprint": hwfet_fingerprint(), "safety_budget_s": 10.0, "budget_rule": R.BUDGET_RULE,
             "episodes": [ep]}
 
 
@@ -135,7 +138,7 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
     refs = tmp_path / "refs"
     refs.mkdir()
     engine_only = result_of_strategy("hwfet", "engine_only")["episodes"][0]["cost_g"]
-    (refs / "hwfet-v1.json").write_text(json.dumps(synthetic_reference(engine_only)))
+    (refs / "hwfet-v2.json").write_text(json.dumps(synthetic_reference(engine_only)))
     outside = tmp_path / "outside.json"
     outside.write_text(json.dumps({**good, "training": {"wall_clock_s_per_seed": [60.0, 120.0], "timesteps": 1000}}))
     page = tmp_path / "board" / "leaderboard.md"
@@ -144,15 +147,15 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
                           "--out", str(page)])
     assert code == 0
     md = page.read_text()
-    assert "### hwfet-v1" in md and "| engine_only | 0.0 |" in md and "| outside |" in md and "| rule |" in md
+    assert "### hwfet-v2" in md and "| engine_only | 0.0 |" in md and "| outside |" in md and "| rule |" in md
     assert "| outside | 1 | 50.0 [48.7, 51.3] | 2 | 1.5 min |" in md  # training per seed: the mean of 60 and 120 s
     row = next(line for line in md.splitlines() if line.startswith("| outside | 50.0"))
     assert "| 2/2 | 0/2 |" in row  # both within the 10 s budget; the optimum does not derate, so none above it
     assert "| rule | 1 | " in md and md.split("| rule | 1 | ")[1].split("\n")[0].endswith("| 1 | - |")
     assert (page.parent / PROFILE_FILE).stat().st_size > 10_000
-    assert (tmp_path / "res" / "hwfet-v1" / "rule.json").is_file()
+    assert (tmp_path / "res" / "hwfet-v2" / "rule.json").is_file()
     assert evaluate_main(["leaderboard", "--tasks", "beijing", "--references", str(refs), "--out", str(page)]) == 2
-    assert "no reference for beijing-v1" in capsys.readouterr().err
+    assert "no reference for beijing-v2" in capsys.readouterr().err
 
 
 def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp_path, monkeypatch):
@@ -165,7 +168,7 @@ def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp
     episode = {"cycle": "hwfet", "seed": 0, "frontier_halfwidth": 0.13}
     (tmp_path / f"{task.id}.json").write_text(json.dumps(
         {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-         physics_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
+         hwfet_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
     asked = []
 
     def spy(name, **options):
@@ -182,7 +185,7 @@ def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp
     (tmp_path / "plain").mkdir()
     (tmp_path / "plain" / f"{task.id}.json").write_text(json.dumps(
         {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-         physics_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
+         hwfet_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
     asked.clear()
     result_of_strategy(task, "dp_thermal", references=tmp_path / "plain")
     assert asked == [("dp_thermal", {})]
@@ -204,7 +207,7 @@ def test_the_optimums_row_is_its_stored_reference_run_without_a_solve(tmp_path, 
 
     refs = tmp_path / "refs"
     refs.mkdir()
-    (refs / "hwfet-v1.json").write_text(json.dumps(synthetic_reference(4000.0)))
+    (refs / "hwfet-v2.json").write_text(json.dumps(synthetic_reference(4000.0)))
 
     def no_solve(*args, **kwargs):
         raise AssertionError("the optimum was solved")
@@ -224,7 +227,7 @@ def test_the_shipped_policys_stored_result_is_redone_once_the_policy_changes(tmp
 
     refs = tmp_path / "refs"
     refs.mkdir()
-    (refs / "hwfet-v1.json").write_text(json.dumps(synthetic_reference(4000.0)))
+    (refs / "hwfet-v2.json").write_text(json.dumps(synthetic_reference(4000.0)))
     runs: list[str] = []
 
     def fake_run(task, method, references=None):

@@ -70,10 +70,10 @@ def test_a_policy_dataset_records_the_env_it_drove(short_routes, tmp_path, monke
 def test_task_dataset_card(tmp_path, monkeypatch):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
     info = D.write_dataset("engine_only", task="hwfet", root=tmp_path)
-    assert info["dataset_id"] == "hev-thermal/hwfet-v1/engine_only-v0"
+    assert info["dataset_id"] == "hev-thermal/hwfet-v2/engine_only-v0"
     data = minari.load_dataset(info["dataset_id"])
     meta = data.storage.metadata
-    assert meta["hev_thermal_task"] == "hwfet-v1" and meta["hev_thermal_task_digest"] == get_task("hwfet").digest()
+    assert meta["hev_thermal_task"] == "hwfet-v2" and meta["hev_thermal_task_digest"] == get_task("hwfet").digest()
     assert meta["algorithm_name"].endswith("engine_only") and meta["code_permalink"]
     assert np.all(np.concatenate([e.actions for e in data.iterate_episodes()]) == 0.0)  # the motor unused
 
@@ -95,7 +95,7 @@ def test_dataset_loads_in_a_fresh_process(short_routes, tmp_path):
             "env = d.recover_environment(); print(d.total_steps, env.spec.id)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300,
                          env={**__import__("os").environ, "MINARI_DATASETS_PATH": str(tmp_path)})
-    assert out.stdout.split() == ["40", "HevThermal-v1"]
+    assert out.stdout.split() == ["40", "HevThermal-v2"]
 
 
 @pytest.mark.full
@@ -130,7 +130,7 @@ def test_bc_command_writes_a_seed_family_for_the_leaderboard(short_routes, tmp_p
     code = evaluate_main(["bc", "--dataset", "hev-thermal/test/bccli-v0", "--tasks", "hwfet", "--seeds", "0", "1",
                           "--epochs", "2", "--results-dir", str(out), "--policy", str(tmp_path / "bc.pt")])
     assert code == 0
-    result = load_result(out / "hwfet-v1" / "bc.json")
+    result = load_result(out / "hwfet-v2" / "bc.json")
     assert result["seeds"] == [0, 1] and [r["seed"] for r in result["episodes"]] == [0, 1]
     assert len(result["training"]["wall_clock_s_per_seed"]) == 2
     assert (tmp_path / "bc_seed0.pt").is_file() and (tmp_path / "bc_seed1.pt").is_file()

@@ -78,13 +78,14 @@ def test_no_classic_strategy_beats_the_optimum_at_equal_charge(hot_runs):
         assert s["cost_g"] >= ref * (1 - 1e-3), (name, s["cost_g"], ref)
 
 
-def problem_for(speed, scenario_conditions: Conditions) -> DPProblem:
-    core = PhysicsCore(paper_bus())
+def problem_for(speed, scenario_conditions: Conditions, physics: int = 2) -> DPProblem:
+    core = PhysicsCore(paper_bus(physics=physics))
     speed = np.asarray(speed, dtype=np.float64)
     return DPProblem(core=core, speed_mps=speed, grade=np.zeros_like(speed), k0=0,
                      state0=core.initial_state(scenario_conditions, 1)[0],
-                     cond=core.conditions_array(scenario_conditions, 1)[0], reward_params=RewardParams(),
-                     soc_target=scenario_conditions.initial_soc, name="short")
+                     cond=core.conditions_array(scenario_conditions, 1)[0],
+                     reward_params=RewardParams.for_physics(physics), soc_target=scenario_conditions.initial_soc,
+                     name="short")
 
 
 @pytest.mark.parametrize("threads, block_rows", [(1, 4096), (2, 4096), (2, 100)])
@@ -317,10 +318,10 @@ def test_a_solved_plan_is_reused_from_disk_and_drives_the_same_run(city200):
 
 
 def test_heat_is_priced_where_it_costs_and_not_where_it_does_not(city200):
-    """The price of a kelvin (:mod:`~hev_thermal_env.planning.heat_value`) along the hybrid driven at u = 1: nothing
-    on a cool motor (paper: below the derate's 35 °C and far from the soft limit), a little on a hot one (the derate),
-    grams per kelvin of the housing above the overheat soft limit; the housing's price from a direct difference of
-    two replays from stage 100 (2 K apart) agrees."""
+    """The price of a kelvin (:mod:`~hev_thermal_env.planning.heat_value`) along the hybrid driven at u = 1, with
+    physics v1's prices (a soft limit at 60 °C): nothing on a cool motor (paper: below the derate's 35 °C and far
+    from the soft limit), a little on a hot one (the derate), grams per kelvin of the housing above the overheat soft
+    limit; the housing's price from a direct difference of two replays from stage 100 (2 K apart) agrees."""
     import dataclasses
 
     from hev_thermal_env.planning.heat_value import DELTA_K, heat_prices
@@ -329,7 +330,7 @@ def test_heat_is_priced_where_it_costs_and_not_where_it_does_not(city200):
     hot = get_scenario("hot").conditions
     cases = {"paper": get_scenario("paper").conditions, "hot": hot,
              "above_soft_limit": dataclasses.replace(hot, initial_motor_temp_c=62.0)}
-    problems = {k: problem_for(city200.speed_mps, c) for k, c in cases.items()}
+    problems = {k: problem_for(city200.speed_mps, c, physics=1) for k, c in cases.items()}
     prices = {k: heat_prices(p, np.ones(p.n_stages)) for k, p in problems.items()}
     assert prices["paper"].max() == 0.0
     assert 0.01 < prices["hot"][100, 0] < 1.0

@@ -224,7 +224,7 @@ def test_training_curve_without_logged_episodes(tmp_path):
 def test_render_frame_title_and_legend_inside_the_frame():
     import gymnasium as gym
 
-    env = gym.make("HevThermal-v1", cycle="beijing", scenario="hot", render_mode="rgb_array")
+    env = gym.make("HevThermal-v2", cycle="beijing", scenario="hot", render_mode="rgb_array")
     env.reset(seed=0)
     for _ in range(30):
         env.step(np.array([0.5], np.float32))

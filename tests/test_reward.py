@@ -29,6 +29,7 @@ def _batch(n=400, seed=1, target=0.62):
     out = rng.normal(size=(n, C.N_OUT)) * 3000.0
     st = rng.normal(size=(n, C.N_STATE))
     st[:, C.TEMP_C] = rng.uniform(20.0, 80.0, n)
+    st[:, C.WINDING_C] = rng.uniform(20.0, 200.0, n)
     st[:, C.CUTOFF] = rng.integers(0, 2, n)
     st[:, C.WINDING_TRIP] = rng.integers(0, 2, n)
     st0 = rng.normal(size=(n, C.N_STATE))
@@ -54,11 +55,14 @@ def _documented(rp: RewardParams, out, st, st0, target, dt):
         "reward_soc": -rp.soc_energy_weight * batt_g + band - rp.soc_deviation_weight * dev,
         "reward_overheat": -rp.overheat_temp_weight * over ** 2
         - rp.cutoff_weight * ((st[:, C.CUTOFF] + st[:, C.WINDING_TRIP]) > 0)  # either protection stops the motor
-        - rp.derate_weight * (np.clip(st[:, C.HEAT_X], rp.derate_from_x, 1.0) - rp.derate_from_x),
+        - rp.derate_weight * (np.clip(st[:, C.HEAT_X], rp.derate_from_x, 1.0) - rp.derate_from_x)
+        # the insulation's life: 20,000 h at its class temperature, halving every 10 K (Montsinger)
+        - rp.motor_life_cost_g * dt / (rp.insulation_life_h * 3600.0
+                                       * 2.0 ** ((rp.insulation_class_temp_c - st[:, C.WINDING_C]) / 10.0)),
     }
 
 
-@pytest.mark.parametrize("rp", [RewardParams(), OLD_DEFAULT,
+@pytest.mark.parametrize("rp", [RewardParams(), RewardParams.for_physics(1), OLD_DEFAULT,
                                 RewardParams(derate_weight=0.7, soc_deviation_weight=0.3, soc_deviation_scale=0.05,
                                              miss_weight=2.0, soc_band=0.02, soc_band_weight=5000.0),
                                 RewardParams(derate_weight=300.0, derate_from_x=-0.05)])
@@ -81,9 +85,10 @@ def test_default_soc_terms_are_a_dead_zone_band_settlement():
     st = np.zeros((7, C.N_STATE))
     st0[:, C.SOC], st[:, C.SOC] = soc_before, soc_after
     out = np.zeros((7, C.N_OUT))  # no fuel, no battery energy: only the settlement is left
-    _, total = reward_terms(rp, out, st, 0.65, LHV, state_before=st0)
+    terms, _ = reward_terms(rp, out, st, 0.65, LHV, state_before=st0)
     # inside; inside; leaves upwards by 0.01; further out by 0.01; leaves downwards; further down; back inside
-    np.testing.assert_allclose(total, [0.0, 0.0, -100.0, -100.0, -100.0, -100.0, 100.0], atol=1e-9)
+    np.testing.assert_allclose(terms[:, REWARD_TERMS.index("reward_soc")], [0.0, 0.0, -100.0, -100.0, -100.0, -100.0,
+                                                                           100.0], atol=1e-9)
 
 
 def test_band_settlement_adds_up_to_a_terminal_settlement_of_the_final_soc():
@@ -170,7 +175,7 @@ def test_env_info_reward_terms_sum_to_the_reward():
 
     import hev_thermal_env  # noqa: F401
 
-    env = gym.make("HevThermal-v1", cycle="beijing", reward={"derate_weight": 0.1})
+    env = gym.make("HevThermal-v2", cycle="beijing", reward={"derate_weight": 0.1})
     env.reset(seed=0)
     for _ in range(50):
         _, r, _, _, info = env.step(np.array([0.5], dtype=np.float32))

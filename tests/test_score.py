@@ -21,7 +21,6 @@ from hev_thermal_env.evaluation.score import (
     score_tolerance,
 )
 from hev_thermal_env.evaluation.yardstick import add_yardstick_columns
-from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import Task, get_task
 
 CLASSIC = ("rule", "ecms", "aecms", "ecms_thermal", "dp")
@@ -95,17 +94,17 @@ def test_optimum_scores_100_engine_only_0_and_no_strategy_beats_it(tiny_referenc
 def test_stale_reference_is_refused_naming_both(tiny_reference, tmp_path):
     task = get_task("hwfet")
     record = {**tiny_reference, "task": task.id, "task_digest": task.digest(), "physics_fingerprint": "0" * 16}
-    (tmp_path / "hwfet-v1.json").write_text(json.dumps(record))
-    with pytest.raises(R.StaleReferenceError, match=f"'{'0' * 16}'.*current '{physics_fingerprint()}'"):
+    (tmp_path / f"{task.id}.json").write_text(json.dumps(record))
+    with pytest.raises(R.StaleReferenceError, match=f"'{'0' * 16}'.*current '{task.fingerprint()}'"):
         R.load_reference("hwfet", tmp_path)
-    record.update(physics_fingerprint=physics_fingerprint(), task_digest="f" * 64)
-    (tmp_path / "hwfet-v1.json").write_text(json.dumps(record))
+    record.update(physics_fingerprint=task.fingerprint(), task_digest="f" * 64)
+    (tmp_path / f"{task.id}.json").write_text(json.dumps(record))
     with pytest.raises(R.StaleReferenceError, match=r"task digest ffff.*current " + task.digest()[:16]):
         R.load_reference("hwfet", tmp_path)
     record.update(task_digest=task.digest())
-    (tmp_path / "hwfet-v1.json").write_text(json.dumps(record))
-    assert R.load_reference("hwfet", tmp_path)["task"] == "hwfet-v1"
-    with pytest.raises(FileNotFoundError, match="evaluate.py reference --task beijing-v1"):
+    (tmp_path / f"{task.id}.json").write_text(json.dumps(record))
+    assert R.load_reference("hwfet", tmp_path)["task"] == task.id
+    with pytest.raises(FileNotFoundError, match=f"evaluate.py reference --task {get_task('beijing').id}"):
         R.load_reference("beijing", tmp_path)
 
 

@@ -43,6 +43,8 @@ DIGESTS = {
     "full-bus-v1": "e3e6cda05442",
     "summer-v1": "8c20d4c731e5",
     "bus-generalisation-v1": "8990109ebd3d",
+    "hwfet-v2": "e17bb4398281",
+    "beijing-v2": "ad7012630465",
 }
 _FAMILY_SEED = re.compile(r"^([a-z_]+):(\d+)$")
 
@@ -52,12 +54,15 @@ _FAMILY_SEED = re.compile(r"^([a-z_]+):(\d+)$")
 def test_the_registry_names_each_task_once_with_its_version():
     assert list_tasks() == list(DIGESTS)
     for tid, task in TASKS.items():
-        assert tid == task.id == f"{task.name}-v{task.version}" and get_task(task.name) is task
+        newest = max(t.version for t in TASKS.values() if t.name == task.name)
+        assert tid == task.id == f"{task.name}-v{task.version}"
+        assert (get_task(task.name) is task) == (task.version == newest)
         assert get_task(tid.upper()) is task
+        assert task.env_id == f"HevThermal-v{task.physics}" and make_task(tid).spec.id == task.env_id
         assert task.n_episodes == len(task.resets()) >= 1 and task.start_s == 0
         assert json.loads(json.dumps(task.to_dict()))["id"] == tid
-    with pytest.raises(ValueError, match=r"unknown task 'hwfet-v9'; tasks: hwfet-v1, beijing-v1"):
-        get_task("hwfet-v9")
+    with pytest.raises(ValueError, match=r"unknown task 'hwfet-v8'; tasks: hwfet-v1, beijing-v1"):
+        get_task("hwfet-v8")
     with pytest.raises(ValueError, match="cycle, scenario belong"):
         make_task("hwfet", cycle="udds", scenario="hot")
     with pytest.raises(ValueError, match="soc_offset belong"):  # a start off the reference's start is another episode
@@ -66,9 +71,17 @@ def test_the_registry_names_each_task_once_with_its_version():
 
 
 def test_a_name_alone_is_its_newest_version(monkeypatch):
-    newer = Task("hwfet", 2, "a later definition", ("hwfet",), "hot")
+    newer = Task("hwfet", 9, "a later definition", ("hwfet",), "hot")
     monkeypatch.setitem(TASKS, newer.id, newer)
     assert get_task("hwfet") is newer and get_task("hwfet-v1") is TASKS["hwfet-v1"]
+
+
+def test_the_physics_is_not_the_episodes():
+    """hwfet-v1 and hwfet-v2 drive the same episodes on two physics versions: the digest hashes the episodes (after
+    the record's own id), the fingerprint the physics."""
+    v1, v2 = get_task("hwfet-v1"), get_task("hwfet-v2")
+    assert (v1.cycles, v1.scenario, v1.seeds) == (v2.cycles, v2.scenario, v2.seeds)
+    assert v1.fingerprint() != v2.fingerprint()
 
 
 @pytest.mark.parametrize("tid", list(DIGESTS))

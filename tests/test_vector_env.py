@@ -10,7 +10,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-import hev_thermal_env  # noqa: F401  (registers HevThermal-v1)
+import hev_thermal_env  # noqa: F401  (registers HevThermal-v2)
 from hev_thermal_env.envs import INFO_KEYS, HevThermalVectorEnv
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.physics import core as C
@@ -25,7 +25,7 @@ def actions_for(n_envs: int, n_steps: int, seed: int = 0) -> np.ndarray:
 
 
 def single_envs(n: int, max_steps: int, **kw) -> list[gym.Env]:
-    return [gym.make("HevThermal-v1", max_episode_steps=max_steps, **kw) for _ in range(n)]
+    return [gym.make("HevThermal-v2", max_episode_steps=max_steps, **kw) for _ in range(n)]
 
 
 def test_spaces_and_metadata():
@@ -34,7 +34,7 @@ def test_spaces_and_metadata():
     assert envs.single_action_space == gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
     assert envs.action_space.shape == (3, 1)
     assert envs.observation_space.shape == (3, 21) and envs.observation_space.dtype == np.float32
-    assert envs.single_observation_space == gym.make("HevThermal-v1").observation_space
+    assert envs.single_observation_space == gym.make("HevThermal-v2").observation_space
     assert HevThermalVectorEnv(2, autoreset_mode="SameStep").metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
 
 
@@ -209,7 +209,7 @@ def test_sb3_adapter_matches_dummy_vec_env():
     n, max_steps = 3, 15
     kw = dict(RANDOM_KW, max_episode_steps=max_steps)
     ours = Sb3VecEnv(n, **kw)
-    ref = DummyVecEnv([lambda: gym.make("HevThermal-v1", **kw) for _ in range(n)])
+    ref = DummyVecEnv([lambda: gym.make("HevThermal-v2", **kw) for _ in range(n)])
     ours.seed(21)
     ref.seed(21)
     np.testing.assert_array_equal(ours.reset(), ref.reset())
@@ -278,7 +278,7 @@ def test_sb3_ppo_learns_on_the_batched_core():
 @pytest.mark.parametrize("mode", ["sync", "async"])
 def test_gymnasium_make_vec(mode):
     n = 2
-    envs = gym.make_vec("HevThermal-v1", num_envs=n, vectorization_mode=mode, cycle="us06", scenario="random")
+    envs = gym.make_vec("HevThermal-v2", num_envs=n, vectorization_mode=mode, cycle="us06", scenario="random")
     try:
         obs, _ = envs.reset(seed=3)
         vec = HevThermalVectorEnv(n, cycle="us06", scenario="random")
@@ -296,7 +296,7 @@ def test_gymnasium_make_vec(mode):
 
 @pytest.mark.full
 def test_sb3_subproc_vec_env():
-    env = SubprocVecEnv([lambda: gym.make("hev_thermal_env:HevThermal-v1", cycle="us06") for _ in range(2)])
+    env = SubprocVecEnv([lambda: gym.make("hev_thermal_env:HevThermal-v2", cycle="us06") for _ in range(2)])
     try:
         env.seed(0)
         obs = env.reset()

@@ -111,21 +111,29 @@ def arrays(trace: dict) -> tuple[np.ndarray, np.ndarray]:
     return (np.column_stack([trace[k] for k in C.OUT_NAMES]), np.column_stack([trace[k] for k in C.STATE_NAMES]))
 
 
-def test_cost_is_fuel_plus_priced_miss_plus_overheat_from_the_trace():
+@pytest.mark.parametrize("physics", [2, 1])
+def test_cost_is_fuel_plus_priced_miss_plus_overheat_from_the_trace(physics):
+    """v2 prices the winding insulation's life; v1 the housing above 60 °C (0.05 g/K²) and each second cut off
+    (20 g)."""
     cyc = cycle_from_arrays(load_cycle("hwfet").speed_mps[:121], name="hwfet_tiny")
     hot = Conditions(initial_motor_temp_c=68.0, coolant="off")  # above the soft limit, then cut off
-    res = run_strategy(get_strategy("rule"), cyc, conditions=hot)
+    res = run_strategy(get_strategy("rule"), cyc, conditions=hot, physics=physics)
     tr = res.trace
     lhv = paper_bus().engine.fuel_lhv_j_per_g
     miss_price = 1.0 / (lhv * 0.36 * 0.90 * 0.90 * 0.93)  # g per J, README "Metrics"
     fuel = tr["fuel_g"].sum()
     miss = tr["missed_wheel_energy_j"].sum() * miss_price
-    over_k = np.maximum(tr["motor_temp_c"] - 60.0, 0.0)
-    overheat = 0.05 * np.sum(over_k ** 2) + 20.0 * np.sum(tr["motor_cutoff"] > 0)
-    assert overheat > 100.0 and miss > 0.0  # the terms are exercised
+    if physics == 1:
+        over_k = np.maximum(tr["motor_temp_c"] - 60.0, 0.0)
+        overheat = 0.05 * np.sum(over_k ** 2) + 20.0 * np.sum(tr["motor_cutoff"] > 0)
+        assert overheat > 100.0
+    else:  # 4.175 t of diesel over 20,000 h at 180 °C, halving every 10 K below it
+        overheat = np.sum(4175000.0 / (20000.0 * 3600.0) * 2.0 ** ((tr["winding_temp_c"] - 180.0) / 10.0))
+        assert overheat > 0.0
+    assert miss > 0.0  # the terms are exercised
     assert res.summary["cost_g"] == pytest.approx(fuel + miss + overheat, rel=1e-9)
     out, state = arrays(tr)
-    derating = RewardParams(derate_weight=3.0)  # the derate term too, with another weight
+    derating = RewardParams.for_physics(physics).replace(derate_weight=3.0)  # the derate term too, another weight
     extra = 3.0 * np.sum(np.clip(tr["heat_x"], 0.0, 1.0))
     assert extra > 0.0
     assert yardstick_cost_g(out, state, derating, lhv, 1.0) == pytest.approx(fuel + miss + overheat + extra, rel=1e-9)

@@ -45,7 +45,7 @@ def run_fit(args: argparse.Namespace, out: Path) -> dict[str, float]:
     attempts = F.calibrate(settings, with_profiles=not args.no_profiles, progress=not args.quiet)
     adopted = attempts[-1]
     values = {p.name: F.round_sig(adopted.values[p.name]) for p in proto.fitted_parameters()}
-    extra = ("Values written to the code (4 significant digits): "
+    extra = ("Values written to the code (5 significant digits: F1's onset jumps between crossings): "
              + ", ".join(f"`{k}` = {v:g}" for k, v in values.items()) + f". Total wall time "
              f"{time.perf_counter() - t0:.0f} s." + (f" {args.note}" if args.note else ""))
     if not args.no_log:

@@ -310,7 +310,7 @@ def calibrate(settings: Settings = Settings(), *, with_profiles: bool = True, pr
     return attempts
 
 
-def round_sig(x: float, digits: int = 4) -> float:
+def round_sig(x: float, digits: int = 5) -> float:
     """``x`` to ``digits`` significant digits: the precision written into the code's defaults."""
     if x == 0.0 or not math.isfinite(x):
         return float(x)

@@ -59,7 +59,8 @@ def main(args: argparse.Namespace) -> int:
             missing.append(missing_text(t, exc))
     paths = ensure_results(Path(args.results_dir), ready, args.methods, progress=print, references=refs)
     entries, more_missing = score_files([*paths, *args.results], refs)
-    out = write_leaderboard(entries, [*missing, *more_missing], Path(args.out), physics_fingerprint(),
+    fingerprints = sorted({get_task(e["task"]).fingerprint() for e in entries}) or [physics_fingerprint()]
+    out = write_leaderboard(entries, [*missing, *more_missing], Path(args.out), ", ".join(fingerprints),
                             plot=not args.no_plot)
     print(f"{len(entries)} results on {len({e['task'] for e in entries})} tasks; wrote {out}")
     for m in missing + more_missing:

@@ -23,6 +23,7 @@ import csv
 import functools
 import io
 import os
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -137,7 +138,8 @@ def _load_csv(path: Path) -> Cycle:
 
 def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     """The cycle named by a built-in name from :func:`list_cycles` (case-insensitive), a generated cycle's name
-    (``FAMILY:SEED`` or ``validation_bus:K``, :mod:`~hev_thermal_env.cycles.names`) or a CSV path (module
+    (``FAMILY:SEED`` or ``validation_bus:K``, :mod:`~hev_thermal_env.cycles.names`), either followed by ``*K``
+    (:func:`laps`: K laps back to back, a service day's repetition, e.g. ``udds*3``) or a CSV path (module
     docstring); a :class:`Cycle` is returned unchanged.
 
     Raises ``ValueError`` if the name is neither built-in, nor a generated cycle's, nor an existing file (the
@@ -151,6 +153,9 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     if isinstance(name_or_path, str) and name_or_path.strip().lower() in _BUILTINS:
         return _load_builtin(name_or_path.strip().lower())
     if isinstance(name_or_path, str) and not Path(name_or_path).is_file():
+        lapped = _LAPS.match(name_or_path.strip())
+        if lapped is not None:
+            return laps(load_cycle(lapped.group(1)), int(lapped.group(2)))
         generated = generated_cycle(name_or_path)
         if generated is not None:
             return generated
@@ -165,6 +170,20 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
         "Generated bus cycles: FAMILY:SEED (families: random_bus, bus_long, bus_congested, bus_launch, "
         "bus_hilly, bus_mixed, bus_express) and validation_bus:K; generate_bus_cycle(seed) in Python."
     )
+
+
+_LAPS = re.compile(r"^(.+)\*(\d+)$")
+
+
+def laps(cycle: Cycle, k: int) -> Cycle:
+    """``k`` laps of ``cycle`` back to back (each lap's last second is the next one's first), named ``NAME*k``."""
+    if k < 1:
+        raise ValueError(f"laps: {cycle.name}*{k}: the number of laps must be at least 1")
+    speed, grade = np.asarray(cycle.speed_mps), np.asarray(cycle.grade)
+    return cycle_from_arrays(np.concatenate([speed[:-1]] * (k - 1) + [speed]),
+                             np.concatenate([grade[:-1]] * (k - 1) + [grade]), name=f"{cycle.name}*{k}",
+                             description=f"{k} laps of {cycle.name}", source=cycle.source,
+                             synthetic=cycle.synthetic, metadata={"laps": k, "lap": cycle.name})
 
 
 def cycle_from_arrays(speed_mps: Any, grade: Any = None, name: str = "custom", *, time_s: Any = None,

@@ -16,7 +16,7 @@ from gymnasium import spaces
 
 from ..cycles import Cycle
 from ..physics import core as C
-from ..physics.config import Conditions, VehicleConfig, paper_bus
+from ..physics.config import PHYSICS_VERSIONS, Conditions, VehicleConfig, paper_bus
 from ..physics.jit import jit
 from . import spaces as S
 from .episodes import CycleTables, Episode, EpisodeSampler, TableCache
@@ -181,10 +181,11 @@ class EnvParts:
 
     def _build(self, n_rows: int, cycle: Any, scenario: Any, config: VehicleConfig | None, conditions: Any, reward: Any,
                preview_s: int, preview_step_s: int, thermal: bool | None, random_start: bool,
-               info_keys: Any, soc_offset: float = 0.0) -> tuple[spaces.Box, spaces.Box]:
+               info_keys: Any, soc_offset: float = 0.0, physics: int = 2) -> tuple[spaces.Box, spaces.Box]:
         """Build the parts from the env's arguments; returns one env's observation and action spaces."""
         self.info_keys = S.check_info_keys(info_keys)
-        self.config = resolve_config(config, thermal)
+        self.physics = check_physics(physics)
+        self.config = resolve_config(config, thermal, self.physics)
         self.core = C.PhysicsCore(self.config)
         battery = self.config.battery
         self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start, soc_offset,
@@ -194,7 +195,7 @@ class EnvParts:
         self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
         low, high = S.observation_bounds(self.config, offsets.size)
         self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
-        self._rows = EpisodeRows(self.core, n_rows, offsets, low, high, RewardParams.of(reward))
+        self._rows = EpisodeRows(self.core, n_rows, offsets, low, high, RewardParams.of(reward, self.physics))
         return (spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32),
                 spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32))
 
@@ -217,10 +218,18 @@ class EnvParts:
         return self._rows.cond
 
 
-def resolve_config(config: VehicleConfig | None, thermal: bool | None) -> VehicleConfig:
-    """The vehicle: ``config`` (default ``paper_bus()``), its thermal model switched by ``thermal`` if given."""
+def check_physics(physics: Any) -> int:
+    """The env's ``physics`` argument: a version of :data:`~hev_thermal_env.physics.config.PHYSICS_VERSIONS`."""
+    if isinstance(physics, bool) or physics not in PHYSICS_VERSIONS:
+        raise ValueError(f"physics: {physics!r} is not one of {list(PHYSICS_VERSIONS)} (HevThermal-v1, HevThermal-v2)")
+    return int(physics)
+
+
+def resolve_config(config: VehicleConfig | None, thermal: bool | None, physics: int = 2) -> VehicleConfig:
+    """The vehicle: ``config`` (default ``paper_bus(physics=physics)``), its thermal model switched by ``thermal`` if
+    given."""
     if config is None:
-        config = paper_bus()
+        config = paper_bus(physics=physics)
     if not isinstance(config, VehicleConfig):
         raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
     return config if thermal is None else config.with_thermal(bool(thermal))

@@ -1,4 +1,4 @@
-"""``HevThermal-v1``, a thin MDP layer in the classic-control style; its spec is the class docstring.
+"""``HevThermal-v2`` (and v1), a thin MDP layer in the classic-control style; its spec is the class docstring.
 
 ``step`` is dynamics, reward and termination in one call of the batch engine (:mod:`.batch`, a batch of one); episodes
 (cycle, conditions, start) are drawn by :mod:`.episodes` from the scenario.
@@ -100,6 +100,7 @@ class HevThermalEnv(EnvParts, gym.Env):
                           − soc_deviation_weight · ((SOC − c) / soc_deviation_scale)²
         reward_overheat = −overheat_temp_weight · max(T − overheat_soft_limit_c, 0)² − cutoff_weight · [stopped]
                           − derate_weight · clip(x − derate_from_x, 0, 1 − derate_from_x)
+                          − motor_life_cost_g · dt / (insulation_life_h · 2^((insulation_class_temp_c − T_w) / 10 K))
         Φ(SOC, c)       = −soc_band_weight · max(|SOC − c| − soc_band, 0)
 
     The prices (:class:`~hev_thermal_env.prices.Prices`) are those of the corrected fuel of
@@ -180,9 +181,9 @@ class HevThermalEnv(EnvParts, gym.Env):
     ## Arguments
 
     ```python
-    gymnasium.make("HevThermal-v1", cycle="hwfet", scenario="paper", config=None, conditions=None,
+    gymnasium.make("HevThermal-v2", cycle="hwfet", scenario="paper", config=None, conditions=None,
                    reward=None, preview_s=10, preview_step_s=2, render_mode=None, thermal=None,
-                   random_start=False, info_keys="all")
+                   random_start=False, info_keys="all", soc_offset=0.0, physics=2)
     ```
 
     * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path, a
@@ -193,7 +194,10 @@ class HevThermalEnv(EnvParts, gym.Env):
     * ``scenario``: a name of :func:`~hev_thermal_env.scenarios.list_scenarios` (``"paper"``, ``"hot"``, ``"summer"``,
       ``"hilly"``, ``"full_bus"``, ``"random"``, ``"random_service"``: :mod:`hev_thermal_env.scenarios`) or a
       :class:`~hev_thermal_env.scenarios.Scenario`.
-    * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus()``).
+    * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus(physics=physics)``).
+    * ``physics``: the physics version, 1 or 2 (set by the id: ``HevThermal-v1``, ``HevThermal-v2``): the default
+      vehicle's parameters and the reward's defaults (:meth:`~hev_thermal_env.envs.reward.RewardParams.for_physics`);
+      a ``reward`` mapping overrides them field by field.
     * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides the scenario).
     * ``reward``: :class:`~hev_thermal_env.envs.reward.RewardParams` or a dict of its fields.
     * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds); ``preview_s=0``
@@ -226,13 +230,18 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Version History
 
+    * v2: physics v2: the motor rated where its nameplate says (30 kW at 3,600 rpm in 40 °C air settles the housing at
+      90 % of its rise to the 70 °C cut-off; the water jacket is the paper's h_water·A, the radiator sized by that
+      rating: docs/thermal_model.md, *The rated condition*), and the overheat price is the winding insulation's life
+      (Montsinger's halving every 10 K below class H's 180 °C, priced by the motor's replacement) with nothing added for
+      a cut-off beyond the fuel and missed energy it costs; the MDP is otherwise v1's. v1 stays available as it was.
     * v1: the motor thermal network with physical parameters (winding, stator/housing, pumped coolant loop; the
       valve senses the coolant; inverter losses to their cold plate; a 165 °C winding protection), the action governs
       braking (share of the available regeneration; u ≤ 0 friction only), the braking split between axles, the
       battery's coulombic efficiency, the accessory load as a condition; observation entry 7 (winding temperature)
       added; info keys ``winding_temp_c``, ``coolant_temp_c``, ``winding_trip`` and the safety cost ``cost``; the
       info's values are numpy scalars, with the same keys at reset as at every step. Results of v0 do not carry
-      over; ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming ``HevThermal-v1``.
+      over; ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming the newest id.
     * v0: initial version.
     """
 
@@ -241,13 +250,14 @@ class HevThermalEnv(EnvParts, gym.Env):
     def __init__(self, cycle: Any = "hwfet", scenario: str | Scenario = "paper", config: VehicleConfig | None = None,
                  conditions: Conditions | None = None, reward: RewardParams | dict | None = None, preview_s: int = 10,
                  preview_step_s: int = 2, render_mode: str | None = None, thermal: bool | None = None,
-                 random_start: bool = False, info_keys: str | Sequence[str] = "all", soc_offset: float = 0.0):
+                 random_start: bool = False, info_keys: str | Sequence[str] = "all", soc_offset: float = 0.0,
+                 physics: int = 2):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
         self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
                                                                 preview_s, preview_step_s, thermal, random_start,
-                                                                info_keys, soc_offset)
+                                                                info_keys, soc_offset, physics)
         self._cost_step_s = S.cost_step_s(self.config, self.core.dt_s)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
@@ -336,7 +346,7 @@ class HevThermalEnv(EnvParts, gym.Env):
             return None
         if self._plot is None:
             self._plot = EpisodePlot(human=self.render_mode == "human", fps=self.metadata["render_fps"])
-        self._plot.draw(self._history or {}, self.cycle, self.config)
+        self._plot.draw(self._history or {}, self.cycle, self.config, f"HevThermal-v{self.physics}")
         return self._plot.to_rgb() if self.render_mode == "rgb_array" else None
 
     def close(self):

@@ -1,4 +1,4 @@
-"""Drawing of an episode of ``HevThermal-v1`` so far: speed against the cycle, SOC, motor temperature,
+"""Drawing of an episode of ``HevThermal-v2`` so far: speed against the cycle, SOC, motor temperature,
 heat index and the torque split. Imported only when an env renders (matplotlib is slow to import).
 
 The frame is 640 × 640 pixels: a title row (cycle, time, legend) above five stacked panels whose labels sit outside the
@@ -75,11 +75,12 @@ class EpisodePlot:
             handles = [self._cycle_line, self._lines["speed_mps"], self._cutoff_line, self._soft_line]
             self.fig.legend(handles, ["cycle", "vehicle", "motor cutoff", "soft limit"], loc="upper right",
                             ncol=2, fontsize=FONT_PT - 1, frameon=False, bbox_to_anchor=(0.995, 0.995))
-            self._title = self.fig.text(0.01, 0.985, "HevThermal-v1", ha="left", va="top", fontsize=FONT_PT + 1.5,
+            self._title = self.fig.text(0.01, 0.985, "HevThermal", ha="left", va="top", fontsize=FONT_PT + 1.5,
                                         fontweight="bold")
             self.fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.94), h_pad=0.4)
 
-    def draw(self, history: dict[str, list], cycle: Cycle | None, config: VehicleConfig) -> None:
+    def draw(self, history: dict[str, list], cycle: Cycle | None, config: VehicleConfig,
+             env_id: str = "HevThermal-v2") -> None:
         """Redraw the panels from ``history`` (lists per quantity, as the env records them)."""
         if cycle is not None and cycle is not self._cycle:
             self._cycle = cycle
@@ -92,7 +93,7 @@ class EpisodePlot:
             y = np.asarray(history.get(name, []), dtype=float)
             line.set_data(t, y * 3.6 if name == "speed_mps" else y)
         name = cycle.name if cycle is not None else "no cycle"
-        self._title.set_text(f"HevThermal-v1: {name}, t = {t[-1]:.0f} s" if t else f"HevThermal-v1: {name}")
+        self._title.set_text(f"{env_id}: {name}, t = {t[-1]:.0f} s" if t else f"{env_id}: {name}")
         soc = history.get("soc", [])
         if soc:
             lo, hi = min(soc), max(soc)

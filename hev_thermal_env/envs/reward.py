@@ -1,4 +1,4 @@
-"""The reward of ``HevThermal-v1``, written once: the env, the vector env, DP and ECMS all call it.
+"""The reward of ``HevThermal-v2`` (v1: other weights), written once: the env, the vector env, DP and ECMS all call it.
 
 Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here: its weights and prices
 (:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
@@ -9,6 +9,7 @@ Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -22,7 +23,12 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 
 # positions in the weight vector of reward_kernel
 (W_FUEL, W_MISS, W_SOC_ENERGY, W_SOC_BAND, W_SOC_BAND_WEIGHT, W_SOC_DEV, W_SOC_SCALE, W_TEMP, W_SOFT_LIMIT,
- W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, W_DERATE_FROM, N_WEIGHTS) = range(16)
+ W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, W_DERATE_FROM, W_LIFE, W_CLASS_C, N_WEIGHTS) = range(18)
+
+#: Seconds per hour.
+HOUR_S = 3600.0
+#: ln 2 / 10 K: the insulation's life halves every 10 K (Montsinger).
+LN2_PER_10K = math.log(2.0) / 10.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,25 +50,46 @@ class RewardParams(Params):
     descent_recovery: float = spec(0.6, "share of the potential energy of the route still to descend that the band "
                                         "expects back in the battery (lowers the band's center on high ground; "
                                         "0: a fixed band)", min=0.0, max=1.0)
-    overheat_soft_limit_c: float = spec(60.0, "motor temperature above which overheating is penalised")
-    overheat_temp_weight: float = spec(0.05, "per step per K² above the soft limit", min=0.0)
-    cutoff_weight: float = spec(20.0, "per step with the motor cut off by its 70 °C protection", min=0.0)
+    overheat_soft_limit_c: float = spec(60.0, "motor temperature above which overheat_temp_weight applies")
+    overheat_temp_weight: float = spec(0.0, "per step per K² above the soft limit (physics v1: 0.05)", min=0.0)
+    cutoff_weight: float = spec(0.0, "per step with the motor cut off by either protection, beyond the fuel and "
+                                     "missed energy the lost assist costs (physics v1: 20)", min=0.0)
     derate_weight: float = spec(0.0, "per step per unit of the heat-index integrator x above derate_from_x (by "
                                      "default the heat index PWM itself: the safety cost's price)", min=0.0)
     derate_from_x: float = spec(0.0, "heat-index integrator x (eq 9) from which derate_weight applies: 0 prices the "
                                      "heat index PWM = clip(x, 0, 1); below 0 also the approach to derating, as "
                                      "ecms_thermal's x_thr (its overload reserve is 0.3 at most)", min=-0.3, max=0.0)
+    motor_life_cost_g: float = spec(4175000.0, "what the motor's insulation life is worth, in grams of diesel: the "
+                                               "motor and inverter replaced at the end of it (MOTOR_LIFE_COST_G; "
+                                               "physics v1: 0, not priced)", min=0.0)
+    insulation_class_temp_c: float = spec(180.0, "the winding insulation's thermal class: class H, 180 °C (IEC 60085), "
+                                                 "the hot-spot temperature it lasts insulation_life_h at", min=100.0,
+                                          max=250.0)
+    insulation_life_h: float = spec(20000.0, "the insulation's life at its class temperature (IEC 60085 / 60216: the "
+                                             "thermal class is the temperature of a 20,000 h life)", min=1000.0)
     prices: Prices = dataclasses.field(default_factory=Prices)
 
     @classmethod
-    def of(cls, reward: RewardParams | dict | None) -> RewardParams:
-        """The env's ``reward`` argument as :class:`RewardParams`: None the defaults, a dict its fields."""
+    def for_physics(cls, physics: int = 2) -> RewardParams:
+        """The defaults of a physics version. v2 (the fields' defaults) prices overheating by the insulation's life
+        (Montsinger: it halves every 10 K, L = 20,000 h · 2^((T_class − T_w)/10 K), priced by the motor's replacement,
+        :data:`MOTOR_LIFE_COST_G`) and adds nothing for a cut-off, whose cost to the service (the assist it loses: fuel
+        and missed wheel energy) the other terms already charge; v1 by weights (0.05 g/K² above 60 °C, 20 g per second
+        cut off)."""
+        if physics == 1:
+            return cls(overheat_temp_weight=0.05, cutoff_weight=20.0, motor_life_cost_g=0.0)
+        return cls()
+
+    @classmethod
+    def of(cls, reward: RewardParams | dict | None, physics: int = 2) -> RewardParams:
+        """The env's ``reward`` argument as :class:`RewardParams`: None the physics version's defaults, a dict its
+        fields over them."""
         if reward is None:
-            return cls()
+            return cls.for_physics(physics)
         if isinstance(reward, RewardParams):
             return reward
         if isinstance(reward, dict):
-            return cls.from_dict(reward, where="reward")
+            return cls.from_dict({**cls.for_physics(physics).to_dict(), **reward}, where="reward")
         raise TypeError(f"reward: expected RewardParams, a dict or None, got {type(reward).__name__}")
 
     def weights(self, lhv_j_per_g: float, *, battery: bool = True, soc_deviation: bool = True,
@@ -86,8 +113,15 @@ class RewardParams(Params):
         w[W_MISS_PRICE] = self.prices.miss_g_per_j(lhv_j_per_g)
         w[W_DESCENT] = self.descent_recovery
         w[W_DERATE_FROM] = self.derate_from_x
+        w[W_LIFE] = self.motor_life_cost_g / (self.insulation_life_h * HOUR_S) if overheat else 0.0
+        w[W_CLASS_C] = self.insulation_class_temp_c
         return w
 
+
+MOTOR_LIFE_COST_G = 8000.0 / 1.60 * 835.0
+"""Physics v2's price of the insulation's life: the traction motor and its inverter replaced (8,000 €, a stated
+assumption for a 90 kW bus drive) at 1.60 € per litre of diesel of 835 g: 4.2 t of diesel, 0.058 g per second at
+the class temperature, halving every 10 K below it (docs/environment.md, *Rewards*)."""
 
 OBSERVED_REWARD_FIELDS = ("descent_recovery",)
 """The reward's arguments the observation carries: ``descent_recovery`` places the band's center, which is the
@@ -157,6 +191,8 @@ def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
     derate = min(max(st[b, C.HEAT_X] - w[W_DERATE_FROM], 0.0), 1.0 - w[W_DERATE_FROM])  # PWM when it is 0
     off = max(st[b, C.CUTOFF], st[b, C.WINDING_TRIP])  # either protection stops the motor
     heat = -w[W_TEMP] * over * over - w[W_CUTOFF] * off - w[W_DERATE] * derate
+    if w[W_LIFE] > 0.0:  # the insulation's life consumed: dt / L(T_w), L halving every 10 K (physics v2)
+        heat -= w[W_LIFE] * dt_s * math.exp(LN2_PER_10K * (st[b, C.WINDING_C] - w[W_CLASS_C]))
     return fuel, miss, soc, heat, ((fuel + miss) + soc) + heat
 
 

@@ -1,4 +1,4 @@
-"""The observation and info layout of ``HevThermal-v1``: names and bounds, the info builders, the safety cost and codes.
+"""The observation and info layout of ``HevThermal-v2``: names and bounds, the info builders, the safety cost and codes.
 
 Shared by the single env, the batch engine and the vector env, so all three report the same keys and values. The
 info's two categorical values are numeric codes (the env's spec, section Info):

@@ -1,4 +1,4 @@
-"""Native batched vector form of ``HevThermal-v1``: n sub-environments stepped by one call of the batch engine.
+"""Native batched vector form of ``HevThermal-v2``: n sub-environments stepped by one call of the batch engine.
 
 Sub-environment ``i`` reset with seed ``s`` lives through exactly the trajectory of ``HevThermalEnv`` reset with seed
 ``s``: both step through :class:`~hev_thermal_env.envs.batch.EpisodeRows`.
@@ -26,7 +26,7 @@ _PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond"
 
 
 class HevThermalVectorEnv(EnvParts, VectorEnv):
-    """``num_envs`` copies of ``HevThermal-v1`` stepped together by one batched call of the physics core.
+    """``num_envs`` copies of ``HevThermal-v2`` stepped together by one batched call of the physics core.
 
     Arguments are those of :class:`~hev_thermal_env.envs.HevThermalEnv` (shared by all sub-environments; ``render_mode``
     must be None: render single envs), plus ``max_episode_steps`` (optional cap on an episode's steps, per sub-env) and
@@ -48,7 +48,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     one array of dtype :data:`~hev_thermal_env.envs.spaces.INFO_DTYPES` per key. Resets and steps report the same keys,
     so every mask is all True after a full reset and the keys do not change when sub-envs reset; torchrl reads a batch
     through fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
-    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v1", n, autoreset_mode="SameStep"))``). The batch
+    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v2", n, autoreset_mode="SameStep"))``). The batch
     attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``, ``k`` [n], ``phys_state`` [n,
     N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and ``last_out`` [n, N_OUT] mirror the single env's.
     """
@@ -60,7 +60,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
                  reward: RewardParams | dict | None = None, preview_s: int = 10, preview_step_s: int = 2,
                  thermal: bool | None = None, random_start: bool = False, max_episode_steps: int | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, render_mode: str | None = None,
-                 info_keys: str | Sequence[str] = "all", soc_offset: float = 0.0):
+                 info_keys: str | Sequence[str] = "all", soc_offset: float = 0.0, physics: int = 2):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if render_mode is not None:
@@ -74,7 +74,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.single_observation_space, self.single_action_space = self._build(
             self.num_envs, cycle, scenario, config, conditions, reward, preview_s, preview_step_s, thermal,
-            random_start, info_keys, soc_offset)
+            random_start, info_keys, soc_offset, physics)
         self._cost_step_s = cost_step_s(self.config, self.core.dt_s)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -224,7 +224,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         return (result,) * self.num_envs
 
     def render(self):
-        gym.logger.warn("HevThermalVectorEnv does not render; render a single HevThermal-v1 env instead")
+        gym.logger.warn("HevThermalVectorEnv does not render; render a single HevThermal-v2 env instead")
         return None
 
     def __repr__(self) -> str:

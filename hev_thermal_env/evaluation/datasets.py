@@ -1,6 +1,6 @@
 """Offline datasets in Minari's format: a strategy's episodes on a task or on training routes.
 
-:func:`write_dataset` drives ``HevThermal-v1`` through Minari's ``DataCollector`` (the env unmodified, its infos
+:func:`write_dataset` drives ``HevThermal-v2`` through Minari's ``DataCollector`` (the env unmodified, its infos
 recorded) with one of :data:`SOURCES` (D4RL's expert / medium / random levels: the thermal optimum, ECMS, the rule
 strategy, the bus with its motor unused, the shipped policy, uniform random actions) and writes the dataset with its
 card filled: the algorithm, the code's permalink, the physics fingerprint, the task id and digest (or the training
@@ -92,6 +92,7 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
         t = get_task(task)
         resets = [(s, dict(o)) for s, o in t.resets()]
         env_kwargs, meta = t.env_kwargs(), {"hev_thermal_task": t.id, "hev_thermal_task_digest": t.digest()}
+        env_id, fingerprint = t.env_id, t.fingerprint()
     else:
         held = sorted(set(r.lower() for r in routes) & set(held_out_cycles()))
         if held:
@@ -99,10 +100,11 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
         resets = [(0, {"cycle": r, "start_s": 0}) for r in routes]
         env_kwargs = {"cycle": list(routes), "scenario": scenario, "random_start": False}
         meta = {"hev_thermal_task": None, "hev_thermal_routes": list(routes), "hev_thermal_scenario": scenario}
+        env_id, fingerprint = ENV_ID, physics_fingerprint()
     name = dataset_name or dataset_id(source, task, scenario)
     t0 = time.perf_counter()
     reset, act, source_options = _act_fn(source, seed)
-    env = minari.DataCollector(gym.make(ENV_ID, **env_kwargs, **source_options), record_infos=True,
+    env = minari.DataCollector(gym.make(env_id, **env_kwargs, **source_options), record_infos=True,
                                data_format="arrow")
     steps = 0
     for env_seed, options in resets:
@@ -118,8 +120,8 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
         warnings.filterwarnings("ignore", message=".*author_email.*")
         dataset = env.create_dataset(dataset_id=name, eval_env=env.spec, algorithm_name=algorithm,
                                      code_permalink=code_permalink(), author="hev-thermal-env",
-                                     description=_description(source, meta, len(resets), steps))
-    dataset.storage.update_metadata({**meta, "hev_thermal_physics_fingerprint": physics_fingerprint(),
+                                     description=_description(source, meta, len(resets), steps, fingerprint))
+    dataset.storage.update_metadata({**meta, "hev_thermal_physics_fingerprint": fingerprint,
                                      "hev_thermal_source": source, "hev_thermal_episodes": [
                                          {"seed": int(s), "cycle": o["cycle"], "start_s": int(o["start_s"])}
                                          for s, o in resets]})
@@ -130,10 +132,10 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
             "wall_s": round(time.perf_counter() - t0, 1)}
 
 
-def _description(source: str, meta: dict[str, Any], episodes: int, steps: int) -> str:
+def _description(source: str, meta: dict[str, Any], episodes: int, steps: int, fingerprint: str) -> str:
     where = meta.get("hev_thermal_task") or f"training routes {', '.join(meta['hev_thermal_routes'])}"
     return (f"{episodes} episodes ({steps} steps) of {source} on {where}; physics fingerprint "
-            f"{physics_fingerprint()}. Replay: reset with each entry of metadata['hev_thermal_episodes'].")
+            f"{fingerprint}. Replay: reset with each entry of metadata['hev_thermal_episodes'].")
 
 
 def replay(dataset: Any) -> tuple[float, float]:

@@ -27,7 +27,6 @@ from typing import Any
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.io import atomic_write_json
-from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import Task, get_task, list_tasks
 
 from .executors import LocalExecutor
@@ -90,7 +89,7 @@ def compute_reference(task: str | Task, progress: Callable[[str], None] | None =
         raise ValueError(f"{task.id}: references are computed for episodes from second 0, not {task.start_s}")
     t0 = time.perf_counter()
     threads = 1 if jobs > 1 else None
-    cells = [(options["cycle"], seed, task.scenario, threads) for seed, options in task.resets()]
+    cells = [(options["cycle"], seed, task.scenario, threads, task.physics) for seed, options in task.resets()]
     order = list(range(len(cells)))
     if jobs > 1:
         order.sort(key=lambda i: -load_cycle(cells[i][0]).n_steps)
@@ -108,20 +107,20 @@ def compute_reference(task: str | Task, progress: Callable[[str], None] | None =
                          f"{e['optimum_plan_s']} s to solve)")
     budget = safety_budget_s([e["optimum"]["safety_cost_s"] for e in episodes])
     return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-            physics_fingerprint(), "safety_budget_s": budget, "budget_rule": BUDGET_RULE,
+            task.fingerprint(), "safety_budget_s": budget, "budget_rule": BUDGET_RULE,
             "wall_s": round(time.perf_counter() - t0, 1), "jobs": int(jobs), "episodes": episodes}
 
 
-def reference_episode(cell: tuple[str, int, str, int | None]) -> dict[str, Any]:
-    """One episode's reference record: ``cell`` = (cycle, seed, scenario, the optimum's threads or None)."""
-    cycle, seed, scenario, threads = cell
+def reference_episode(cell: tuple[str, int, str, int | None, int]) -> dict[str, Any]:
+    """One episode's reference record: ``cell`` = (cycle, seed, scenario, the optimum's threads or None, physics)."""
+    cycle, seed, scenario, threads, physics = cell
     t_ep = time.perf_counter()
-    anchor = run_strategy(get_strategy(ANCHOR), cycle, scenario, seed=seed)
+    anchor = run_strategy(get_strategy(ANCHOR), cycle, scenario, seed=seed, physics=physics)
     width = frontier_halfwidth_for(anchor.summary["soc_initial"], anchor.summary["soc_final"])
     options: dict[str, Any] = {} if width is None else {"frontier_halfwidth": width}
     if threads is not None:
         options["threads"] = threads
-    opt = run_strategy(get_strategy(REFERENCE, **options), cycle, scenario, seed=seed)
+    opt = run_strategy(get_strategy(REFERENCE, **options), cycle, scenario, seed=seed, physics=physics)
     return _episode_record(cycle, seed, opt, anchor, time.perf_counter() - t_ep)
 
 
@@ -178,7 +177,7 @@ def load_reference(task: str | Task, directory: Path | None = None, *, check: bo
 def check_current(record: dict[str, Any], task: Task, where: str) -> None:
     """:class:`StaleReferenceError` naming the stored and current values when ``record`` (a reference or a result
     file) was measured on other physics or another definition of ``task``."""
-    fingerprint = physics_fingerprint()
+    fingerprint = task.fingerprint()
     problems = []
     if record.get("physics_fingerprint") != fingerprint:
         problems.append(f"physics fingerprint {record.get('physics_fingerprint')!r} (current {fingerprint!r})")

@@ -1,4 +1,4 @@
-"""Run one strategy over one cycle in ``HevThermal-v1`` and report its metrics (:func:`run_strategy`).
+"""Run one strategy over one cycle in ``HevThermal-v2`` and report its metrics (:func:`run_strategy`).
 
 The metrics come from :func:`hev_thermal_env.metrics.run_metrics`, so they match the whole-cycle simulation, with
 ``cost_g``, the yardstick cost of :func:`hev_thermal_env.metrics.yardstick_cost_g` at the env's reward weights.
@@ -81,18 +81,20 @@ def jsonable(x: Any) -> Any:
 
 def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
                  config: VehicleConfig | None = None, conditions: Conditions | None = None,
-                 seed: int = 0) -> RunResult:
+                 seed: int = 0, physics: int = 2) -> RunResult:
     """Drive ``cycle`` (a built-in name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`) with ``strategy``
     (e.g. from :func:`hev_thermal_env.agents.get_strategy`) in the ``scenario`` (``"random"`` draws from the env's
     reset ``seed``) or explicit ``conditions``; ``config``: the vehicle before the strategy's change (default
-    ``paper_bus()``). The :class:`RunResult` holds ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every
+    ``paper_bus(physics=physics)``); ``physics``: the env's physics version (the vehicle's and the reward's defaults,
+    ``HevThermal-vN``). The :class:`RunResult` holds ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every
     ``info`` field, every physics output (:data:`~hev_thermal_env.physics.core.OUT_NAMES`), the state after each step
     and ``u``."""
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()
-    vehicle = strategy.vehicle_config(config if config is not None else paper_bus())  # the strategy's vehicle
-    env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions, **strategy.env_options())
+    vehicle = strategy.vehicle_config(config if config is not None else paper_bus(physics=physics))
+    env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions, physics=physics,
+                        **strategy.env_options())
     try:
         obs, info = env.reset(seed=seed)
         e = env.unwrapped

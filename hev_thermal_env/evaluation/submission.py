@@ -30,7 +30,6 @@ from typing import Any
 
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.agents.base import Strategy
-from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import Task, get_task
 
 from .references import StaleReferenceError, check_current, load_reference
@@ -191,7 +190,7 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
         width = widths.get((opts["cycle"], int(env_seed)))
         kwargs = options if width is None else {**options, "frontier_halfwidth": width}
         agent = get_strategy(strategy, **kwargs) if isinstance(strategy, str) else strategy
-        res = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed)
+        res = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed, physics=task.physics)
         s = res.summary
         rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), "cost_g": s["cost_g"],
                      "soc_initial": s["soc_initial"], "soc_final": s["soc_final"],
@@ -199,7 +198,7 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
                      "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
                      "charge_sustaining": bool(s["charge_sustaining"])})
     return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-            physics_fingerprint(), "method": method or str(getattr(strategy, "label", strategy)), "seeds": [0],
+            task.fingerprint(), "method": method or str(getattr(strategy, "label", strategy)), "seeds": [0],
             "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
 
 
@@ -219,7 +218,7 @@ def result_of_seeds(task: str | Task, policies: dict[int, str | Strategy], metho
         one = result_of_strategy(task, name, method)
         rows += [{**row, "seed": int(seed)} for row in one["episodes"]]
     record = {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-              physics_fingerprint(), "method": method, "seeds": [int(s) for s in policies],
+              task.fingerprint(), "method": method, "seeds": [int(s) for s in policies],
               "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
     if training is not None:
         record["training"] = training
@@ -241,7 +240,7 @@ def result_of_reference(task: str | Task, references: Path | None = None) -> dic
         rows.append({k: v for k, v in row.items() if v is not None})
         plan_s += float(e.get("optimum_plan_s") or 0.0)
     return validate_result({"format": FORMAT, "task": task.id, "task_digest": task.digest(),
-                            "physics_fingerprint": physics_fingerprint(), "method": REFERENCE, "seeds": [0],
+                            "physics_fingerprint": task.fingerprint(), "method": REFERENCE, "seeds": [0],
                             "wall_clock_s": round(plan_s, 1), "episodes": rows,
                             "description": "the optimum's runs as the task's stored reference holds them"},
                            f"{REFERENCE} on {task.id} (stored reference)")

@@ -234,20 +234,17 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         soc_new = bat.soc_step(ba, soc, current, dt)
 
         # --- thermal: temperatures (paper's eq 7 or the network), heat index (eq 9), protections --------
-        # the mapped loss (motor and inverter): the inverter's share heats its cold plate (network), the motor keeps
-        # the rest, split between the winding (copper, and the derate's extra current) and the housing (iron and
-        # friction) in proportion to their mapped parts
-        q_inverter = min((1.0 - th[thm.IDX.inverter_efficiency]) * abs(p_elec), motor_loss) if network else 0.0
-        heat_w = motor_loss - q_inverter
-        keep = heat_w / motor_loss if motor_loss > 0.0 else 1.0
-        q_housing = keep * (1.0 + extra) * mot.core_loss_w(mo, w_m)
+        # the mapped loss (motor and inverter) split between winding, housing and the inverter's cold plate
+        q_core = (1.0 + extra) * mot.core_loss_w(mo, w_m)
+        q_winding, q_housing, q_inverter, heat_w = tnet.split_loss_w(motor_loss, p_elec, q_core,
+                                                                     th[thm.IDX.inverter_efficiency], network)
         if v != v_memo:  # (k·v)^n = exp(n·(log k + log v)): one logarithm for both factors
             v_memo = v
             log_v = math.log(v) if v > 0.0 else 0.0
             forced_term = math.exp(air_exp * (log_air_per_mps + log_v)) if v > 0.0 else 0.0
             ram_term = math.exp(ram_exp * (log_ram_per_mps + log_v)) if (v > 0.0 and network) else 0.0
         temp_new, winding_new, coolant_new, q_air, q_rad, q_cool, q_radiator, coolant_on = tnet.thermal_step(
-            th, temp, winding, coolant, heat_w - q_housing, q_housing, q_inverter, ambient, water, coolant_factor,
+            th, temp, winding, coolant, q_winding, q_housing, q_inverter, ambient, water, coolant_factor,
             fan_factor, forced_term, ram_term, inv_dt)
         cont = mot.continuous_torque_nm(mo, w_m)
         hx_min_new = thm.heat_index_floor(th, temp_new)  # the floor follows the motor's temperature

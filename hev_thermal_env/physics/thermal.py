@@ -12,7 +12,8 @@ T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; 
 in the motor temperature. Efficiency derate −1 point per 15 °C above 35 °C (``motor.py``), cutoff at 70 °C until
 cooled to 60 °C, and the winding's own protection (165 °C / 155 °C); ``enabled=False`` is ADVISOR's unmodified motor
 (the paper's baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m
-hev_thermal_env.calibration``. Every value's range and source: docs/thermal_model.md.
+hev_thermal_env.calibration``; the two cooling conductances are set by the motor's rating (``rating.py``). Every
+value's range and source: docs/thermal_model.md.
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ class ThermalParams(Params):
     # --- heat index, eqs 8-10 ---
     t_s_s: float = spec(30.0, "T_s of eq 9: longest run time at peak torque (paper)", min=0.0, min_exclusive=True)
     t_gain_cold: float = spec(
-        0.1715, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3], varying with temperature)",
+        0.17307, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3], varying with temperature)",
         min=0.1, max=0.3)
     t_gain_hot: float = spec(0.3, "T_gain at and above t_gain_temp_hi_c (paper's upper value, Fig. 4's example)",
                              min=0.1, max=0.3)
@@ -92,8 +93,8 @@ class ThermalParams(Params):
     winding_trip_temp_c: float = spec(165.0, "winding protection trips here: class 180 (H), 125 K rise (Table 1) "
                                              "over 40 °C (IEC 60034-1)")
     winding_release_temp_c: float = spec(155.0, "winding protection releases once cooled to this")
-    jacket_ua_w_per_k: float = spec(250.0, "fitted: housing-to-coolant UA of the water jacket (at most the paper's "
-                                           "h_water·A)", min=50.0, max=1282.0)
+    jacket_ua_w_per_k: float = spec(1281.9, "housing-to-coolant UA of the water jacket: the paper's h_water·A (eq 5, "
+                                            "3,000 W/(m²·K) × 0.4273 m²)", min=50.0, max=1282.0)
     coolant_flow_l_per_min: float = spec(12.0, "pump flow through jacket, inverter plate and valve", min=6.0,
                                          max=20.0)
     coolant_density_kg_per_l: float = spec(1.07, "50 % ethylene glycol", min=1.06, max=1.08)
@@ -103,8 +104,9 @@ class ThermalParams(Params):
                                                            max=10000.0)
     thermostat_band_k: float = spec(5.0, "the valve (on the coolant temperature) opens fully this much above "
                                          "thermostat_temp_c", min=2.0, max=15.0)
-    radiator_ua_w_per_k: float = spec(175.0, "fitted: radiator UA at the reference face air speed", min=50.0,
-                                      max=600.0)
+    radiator_ua_w_per_k: float = spec(138.0, "radiator UA at the reference face air speed, set by the rating "
+                                             "(physics/rating.py): 30 kW at 3,600 rpm in 40 °C air settles the "
+                                             "housing at 90 % of its rise to the cut-off", min=50.0, max=600.0)
     radiator_ref_air_speed_mps: float = spec(5.0, "face air speed of radiator_ua_w_per_k", min=3.0, max=8.0)
     radiator_air_exponent: float = spec(0.7, "UA ∝ (face air speed)^n: air-side Nusselt ∝ Re^0.5-0.8",
                                         min=0.5, max=0.8)

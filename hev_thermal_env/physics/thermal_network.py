@@ -28,6 +28,22 @@ from .thermal import IDX
 
 
 @jit
+def split_loss_w(mapped_loss_w, elec_power_w, core_loss_w, inverter_efficiency, network):
+    """Where the mapped loss (motor and inverter, ``motor.total_loss_w``) goes: (winding, housing, inverter, motor) in
+    W, the motor's heat being the winding's and the housing's.
+
+    The network: the inverter's share (1 − η_inv)·|P_elec| (at most the whole loss) heats its cold plate in the coolant;
+    the motor keeps the rest, split between the housing (iron and friction, ``core_loss_w`` with the extra loss) and
+    the winding (copper, and the derate's extra current) in proportion to their mapped parts. The paper's node heats
+    with the sum."""
+    q_inverter = min((1.0 - inverter_efficiency) * abs(elec_power_w), mapped_loss_w) if network else 0.0
+    heat_w = mapped_loss_w - q_inverter
+    keep = heat_w / mapped_loss_w if mapped_loss_w > 0.0 else 1.0
+    q_housing = keep * core_loss_w
+    return heat_w - q_housing, q_housing, q_inverter, heat_w
+
+
+@jit
 def radiator_core(ua_ref, ram_term, still_term, inv_ref_mps, expo, fan_mps, fan_on_c, inv_fan_band, coolant_temp_c,
                   fan_factor):
     """UA_ref·(v_face/v_ref)^n with v_face = max(ram air, fan, still air), from scalars: the largest of the three

@@ -1,5 +1,5 @@
 """Training of SB3 agents (PPO, SAC; TQC and RecurrentPPO from sb3-contrib; PPO-Lagrangian, :mod:`.lagrangian`) on
-``HevThermal-v1``: the library behind ``train.py`` (docs/training.md).
+``HevThermal-v2``: the library behind ``train.py`` (docs/training.md).
 
 A run is one plain dict, its config (:func:`build_config`), which :func:`train` runs (or :func:`resume`
 continues) into a run directory; :func:`load_policy` loads its policy, :func:`export_policy` packs one for

@@ -1,0 +1,159 @@
+#!/usr/bin/env python
+"""Where does heat bind? The search for thermal tasks on a physics version, and its matrix.
+
+For each candidate condition (a route × ambient × cooling × payload × road) every strategy of :data:`STRATEGIES` is
+driven through ``run_strategy`` on the chosen physics (``--physics``). Per run: the yardstick cost (g), corrected fuel
+(L/100 km), the frontier ratio against ``dp_thermal``'s frontier, ΔSOC, derated and cut-off seconds, the housing
+and winding peaks. ``engine_only`` is the spinning-loss-only run (u = 0: no assist, no regeneration), whose
+housing peak shows whether the spinning motor's loss alone holds it above the cut-off's release.
+
+A candidate is a *thermal task* when (docs/tasks.md, *Thermal tasks*):
+
+* knowing the heat pays: the thermal-blind ``dp`` driven on the thermal physics has a frontier ratio ≥ 1.01;
+* the optimum is never cut off (``dp_thermal`` cut-off seconds = 0);
+* the thermal-aware ECMS is no dearer than its blind twin (``ecms_thermal`` ratio ≤ ``ecms`` ratio);
+* the spinning losses alone never cut the motor off (``engine_only``: no cut-off, housing peak below the release).
+
+Run with the checkout on ``PYTHONPATH``; ``dp_thermal`` takes from seconds to minutes per candidate::
+
+    PYTHONPATH=. python benchmarks/thermal_tasks.py --physics 2 --out benchmarks/results/thermal_tasks_v2.json
+    PYTHONPATH=. python benchmarks/thermal_tasks.py --physics 1 --out benchmarks/results/thermal_tasks_v1.json
+    PYTHONPATH=. python benchmarks/thermal_tasks.py --quick --out /tmp/thermal_tasks_quick.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+from tqdm.auto import tqdm
+
+STRATEGIES = ("engine_only", "rule", "ecms", "ecms_thermal", "dp", "dp_thermal")
+#: Generated routes for the search: seeds above every training, validation and earlier selection seed.
+ROUTE_SEED = 2**31 + 300
+HOT_FULL = {"ambient_c": 40.0, "payload_kg": 4500.0}
+#: Physics v2's candidates: name, cycle (``NAME*K``: K laps, ``load_cycle``), scenario (its road), and the
+#: conditions' changes from the paper's (ambient, motor and coolant starting at the ambient; ``pump``: the pump's flow
+#: share; ``fan``).
+#: Chosen from a screen with the causal strategies (docs/tasks.md, *Where heat binds*): the blind ECMS is cut off
+#: only over an hour and more of service in 40 °C air with a full bus and a weak cooling loop.
+CANDIDATES = (
+    ("udds-40c-full", "udds", "paper", {**HOT_FULL}),
+    ("udds3-40c-full-pump15", "udds*3", "paper", {**HOT_FULL, "pump": 0.15}),
+    ("udds3-40c-full-pump20-nofan", "udds*3", "paper", {**HOT_FULL, "pump": 0.2, "fan": False}),
+    ("udds3-40c-full-pump30-nofan", "udds*3", "paper", {**HOT_FULL, "pump": 0.3, "fan": False}),
+    ("udds2-40c-full-pump10", "udds*2", "paper", {**HOT_FULL, "pump": 0.1}),
+    ("beijing3-40c-full-pump20-nofan", "beijing*3", "paper", {**HOT_FULL, "pump": 0.2, "fan": False}),
+    ("long-40c-full-pump10", f"bus_long:{ROUTE_SEED}", "paper", {**HOT_FULL, "pump": 0.1}),
+)
+#: Physics v1's thermal tasks, in their own scenarios (the matrix before).
+V1_TASKS = (
+    ("udds-hot-v1", "udds", "hot", None),
+    ("hilly-v1", "udds", "hilly", None),
+    ("full-bus-v1", "udds", "full_bus", None),
+    ("summer-v1", "udds", "summer", None),
+)
+QUICK = (("udds-40c-full", "udds", "paper", {**HOT_FULL}),)
+QUICK_OPTIONS = {"dp_thermal": {"grid_scale": 0.5}}  # a coarser optimum: a check that everything runs
+SUMMARY_FIELDS = ("cost_g", "fuel_g", "fuel_corrected_l_per_100km", "delta_soc", "derated_s", "cutoff_s",
+                  "max_motor_temp_c", "safety_cost_s", "missed_wheel_energy_kwh", "wall_s", "plan_s")
+
+
+def conditions_of(changes: dict[str, Any] | None) -> Any:
+    """The candidate's :class:`~hev_thermal_env.physics.Conditions` (None: the scenario's own)."""
+    from hev_thermal_env.physics import Conditions
+    if changes is None:
+        return None
+    ambient, pump = changes.get("ambient_c", 20.0), changes.get("pump", 1.0)
+    return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=ambient, coolant_temp_c=ambient,
+                      coolant="on" if pump >= 1.0 else "degraded", coolant_degraded_factor=min(pump, 1.0),
+                      payload_kg=changes.get("payload_kg", 0.0), fan=changes.get("fan", True))
+
+
+def run_candidate(candidate: tuple, physics: int, quick: bool, threads: int | None = None) -> dict[str, Any]:
+    """Every strategy on one candidate; ratios against the candidate's own ``dp_thermal`` frontier."""
+    warnings.filterwarnings("ignore", category=DeprecationWarning)
+    from hev_thermal_env.agents import get_strategy
+    from hev_thermal_env.evaluation import run_strategy
+    from hev_thermal_env.evaluation.yardstick import Frontier, frontier_ratio
+
+    name, cycle, scenario, changes = candidate
+    cond = conditions_of(changes)
+    runs: dict[str, dict[str, Any]] = {}
+    frontier = None
+    for strategy in reversed(STRATEGIES):  # the optimum first: its frontier is every ratio's reference
+        options = dict(QUICK_OPTIONS.get(strategy, {})) if quick else {}
+        if strategy in ("dp", "dp_thermal") and threads is not None:
+            options["threads"] = threads
+        res = run_strategy(get_strategy(strategy, **options), cycle, scenario, conditions=cond,
+                           physics=physics)
+        s = res.summary
+        row = {k: s.get(k) for k in SUMMARY_FIELDS}
+        row["winding_peak_c"] = float(res.trace["winding_temp_c"].max())
+        if strategy == "dp_thermal":
+            frontier = Frontier.from_settings(s.get("strategy_settings"))
+        row["frontier_ratio"], row["ratio_note"] = frontier_ratio(s["cost_g"], s["soc_final"], frontier)
+        runs[strategy] = row
+    ratio = {k: r["frontier_ratio"] for k, r in runs.items()}
+    from hev_thermal_env.physics import paper_bus
+    release = paper_bus(physics=physics).thermal.cutoff_release_temp_c
+    checks = {
+        "knowing_heat_pays": ratio["dp"] is not None and ratio["dp"] >= 1.01,
+        "optimum_never_cut_off": runs["dp_thermal"]["cutoff_s"] == 0,
+        "ecms_thermal_no_dearer": (ratio["ecms_thermal"] is not None and ratio["ecms"] is not None
+                                   and ratio["ecms_thermal"] <= ratio["ecms"]),
+        "spinning_losses_harmless": runs["engine_only"]["cutoff_s"] == 0
+                                    and runs["engine_only"]["max_motor_temp_c"] < release,
+    }
+    return {"name": name, "cycle": cycle, "scenario": scenario, "conditions": None if cond is None else cond.to_dict(),
+            "value_of_knowing_heat": ratio["dp"], "checks": checks,
+            "thermal_task": all(checks.values()), "runs": runs}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--physics", type=int, default=2, help="physics version (HevThermal-vN): 2 searches the "
+                        "candidates, 1 drives physics v1's thermal tasks (the matrix before)")
+    parser.add_argument("--quick", action="store_true", help="one candidate with a coarse optimum (a smoke test)")
+    parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args(argv)
+    candidates = QUICK if args.quick else (V1_TASKS if args.physics == 1 else CANDIDATES)
+    t0 = time.perf_counter()
+    results: list[dict[str, Any]] = []
+    order = {c[0]: i for i, c in enumerate(candidates)}
+
+    def record() -> dict[str, Any]:
+        done = sorted(results, key=lambda r: order[r["name"]])
+        return {"physics": args.physics, "quick": args.quick, "wall_s": time.perf_counter() - t0,
+                "criteria": "dp frontier ratio >= 1.01; dp_thermal never cut off; ecms_thermal ratio <= ecms ratio; "
+                            "engine_only (u = 0) never cut off and below the 60 °C release",
+                "searched": len(done), "of": len(candidates),
+                "tasks": [r["name"] for r in done if r["thermal_task"]], "candidates": done}
+
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as ex:
+        threads = 1 if args.jobs > 1 else None
+        futures = [ex.submit(run_candidate, c, args.physics, args.quick, threads) for c in candidates]
+        for fut in tqdm(as_completed(futures), total=len(futures), desc="candidates"):
+            results.append(fut.result())
+            args.out.write_text(json.dumps(record(), indent=1) + "\n")  # what is done so far, candidate by candidate
+    final = record()
+    results = final["candidates"]
+    for r in results:
+        flags = " ".join(f"{k}={'y' if v else 'n'}" for k, v in r["checks"].items())
+        vk = r["value_of_knowing_heat"]
+        print(f"{r['name']:24s} dp/dp_thermal {vk if vk is None else round(vk, 4)}  {flags}")
+    print(f"thermal tasks: {final['tasks']}  ({final['wall_s']:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
