@@ -13,9 +13,10 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import hev_thermal_env
 from hev_thermal_env import Conditions, list_cycles, load_cycle, paper_bus, simulate
-from hev_thermal_env.envs import INFO_KEYS, HevThermalEnv, coolant_mode, cycle_name, observation_names
+from hev_thermal_env.envs import INFO_KEYS, HevThermalEnv, observation_names
 from hev_thermal_env.envs.episodes import RESET_OPTIONS
 from hev_thermal_env.envs.reward import REWARD_TERMS, RewardParams, reward_terms
+from hev_thermal_env.envs.spaces import coolant_mode, cycle_name
 from hev_thermal_env.physics import core as C
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 

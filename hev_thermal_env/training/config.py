@@ -196,8 +196,7 @@ def _validate_env(env: dict[str, Any]) -> None:
     env["cycles"] = [str(c) for c in cycles]
     get_scenario(env["scenario"])
     RewardParams.from_dict(dict(env.get("reward") or {}), where="env.reward")
-    # a run saved before the key existed started on its target
-    check_soc_offset(env.setdefault("soc_offset", 0.0), "env.soc_offset")
+    check_soc_offset(env["soc_offset"], "env.soc_offset")
     names = observation_names(whole_number("env.preview_s", env["preview_s"]),
                               whole_number("env.preview_step_s", env["preview_step_s"]))
     env["observation_size"] = len(names)
