@@ -49,8 +49,8 @@ ENV_DEFAULTS = {"cycles": ["random_bus", "bus_long", "bus_congested", "bus_launc
                            "bus_express"], "scenario": "random_service", "random_start": True, "preview_s": 10,
                 "preview_step_s": 2, "thermal": True, "reward": {}, "soc_offset": 0.0}
 #: The ``eval`` section's settings (the periodic evaluation) and their defaults. The checkpoints are scored on the
-#: last ten validation cycles (one of each rotating family, then five express routes), which
-#: ``benchmarks/ppo_vs_dp.py`` leaves out of its validation cells.
+#: last ten validation cycles (one of each rotating family, then five express routes); ``validation_bus:0..19`` are
+#: left for judging the trained policies.
 EVAL_DEFAULTS = {"cycles": ["validation_bus:20..29"], "scenarios": ["paper", "full_bus"], "freq": 100_000,
                  "selection": DEFAULT_SCORER, "final_cycles": ["validation_bus"]}
 #: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's), and their defaults.
