@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 from hev_thermal_env.planning.problem import DPProblem, split_grid
 from hev_thermal_env.planning.soc_dp import WALL_G_PER_SOC, DPPlan, DPSettings, choose, rollout, solve
 
@@ -60,8 +60,8 @@ class DPStrategy(Strategy):
         plan = solve(problem, self.settings)
         run = rollout(plan, problem, self.settings, free=False)
         self._report = {
-            "planned_soc_final": float(run["state"][-1, C.SOC]),
-            "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
+            "planned_soc_final": float(run["state"][-1, core.SOC]),
+            "planned_fuel_g": float(run["out"][:, core.FUEL_G].sum()),
             "planned_cost_g": float(plan.lookup(0, problem.state0[None, :])[0]),
             "plan_total_s": time.perf_counter() - t0,
         }
@@ -79,7 +79,7 @@ class DPStrategy(Strategy):
         if i < 0 or i >= plan.n_stages:
             return np.zeros(1, dtype=np.float32)
         st, out = env.peek(self._u_exec)
-        demand = out[0, C.SHAFT_DEMAND]
+        demand = out[0, core.SHAFT_DEMAND]
         if demand == 0.0:
             return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
         u = self._u_exec

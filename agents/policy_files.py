@@ -37,8 +37,6 @@ ALGORITHMS = {"ppo": "stable_baselines3:PPO", "sac": "stable_baselines3:SAC", "t
               "recurrent_ppo": "sb3_contrib:RecurrentPPO", "ppo_lagrangian": "stable_baselines3:PPO"}
 #: The off-policy algorithms (a replay buffer, checkpointed with the model).
 OFF_POLICY = ("sac", "tqc")
-#: The algorithms whose policy keeps a state between steps.
-RECURRENT = ("recurrent_ppo",)
 CHECKPOINTS = "checkpoints"
 _CKPT_RE = re.compile(r"^ckpt_(\d+)_steps\.zip$")
 

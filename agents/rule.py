@@ -36,9 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.physics import VehicleConfig
-from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics import engine as eng
+from hev_thermal_env.physics import VehicleConfig, core, engine
 
 from .base import Strategy
 
@@ -107,7 +105,7 @@ class RuleBased(Strategy):
     def engine_torque_nm(self, demand_nm: float, engine_speed_radps: float, soc: float,
                          speed_mps: float) -> float | None:
         """ADVISOR's engine torque for a positive shaft demand; None means engine off."""
-        t_max = float(eng.max_torque_nm(self.env.core.en, engine_speed_radps))
+        t_max = float(engine.max_torque_nm(self.env.core.en, engine_speed_radps))
         f = min(max((soc - self.lo_soc) / (self.hi_soc - self.lo_soc), 0.0), 1.0)
         launch = self.launch_spd_lo_mps + f * (self.launch_spd_hi_mps - self.launch_spd_lo_mps)
         on = demand_nm > self.off_trq_frac * t_max or speed_mps >= launch or soc < self.lo_soc
@@ -121,17 +119,17 @@ class RuleBased(Strategy):
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
         env = self.env
         _, out = env.peek(np.zeros(1))  # the next step's shaft demand and engine speed do not depend on u
-        demand = float(out[0, C.SHAFT_DEMAND])
+        demand = float(out[0, core.SHAFT_DEMAND])
         if demand < 0.0:
             return np.ones(1, dtype=np.float32)  # braking: all the regeneration available
         if demand == 0.0:
             return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
-        soc = float(env.phys_state[0, C.SOC])
+        soc = float(env.phys_state[0, core.SOC])
         speed = float(env.cycle.speed_mps[env.k])
-        t_eng = self.engine_torque_nm(demand, float(out[0, C.ENGINE_SPEED]), soc, speed)
+        t_eng = self.engine_torque_nm(demand, float(out[0, core.ENGINE_SPEED]), soc, speed)
         if t_eng is not None:
             # the engine gives at most its full-load torque (less the accessories); the motor the rest
-            t_eng = min(t_eng, float(out[0, C.ENGINE_MAX]))
+            t_eng = min(t_eng, float(out[0, core.ENGINE_MAX]))
         u = 1.0 if t_eng is None else 1.0 - t_eng / demand
         return np.array([min(max(u, -1.0), 1.0)], dtype=np.float32)
 

@@ -46,7 +46,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import hev_thermal_env  # noqa: E402  (registers HevThermal-v1)
 from hev_thermal_env.envs import HevThermalVectorEnv  # noqa: E402
-from hev_thermal_env.physics import core as C  # noqa: E402
+from hev_thermal_env.physics.core import N_OUT, N_STATE  # noqa: E402
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv  # noqa: E402
 
 TARGET_PENDULUM_RATIO = 1.0  # one env at least as fast as Pendulum-v1 in the same run
@@ -141,8 +141,8 @@ def kernel_rate(num_envs: int, n_steps: int) -> dict:
     r, k = rows.all_rows, rows.k
     v0, v1, g = rows.speed[r, k], rows.speed[r, k + 1], rows.grade[r, k]
     u = np.full(num_envs, 0.3)
-    st_out = np.empty((num_envs, C.N_STATE))
-    out = np.empty((num_envs, C.N_OUT))
+    st_out = np.empty((num_envs, N_STATE))
+    out = np.empty((num_envs, N_OUT))
     kwargs = dict(state_out=st_out, out=out)
     core.step(rows.state, u, v0, v1, g, rows.cond, **kwargs)
     t0 = time.perf_counter()

@@ -51,7 +51,7 @@ from hev_thermal_env.cycles.generator import generate_bus_cycle
 from hev_thermal_env.envs.hev_env import HevThermalEnv
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.metrics import run_metrics
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 
 DEFAULT_JSON = Path(__file__).resolve().parent / "results" / "reward_optimum.json"
 LIMIT_DELTA_SOC = 0.02
@@ -86,21 +86,22 @@ def drive(cycle: Cycle, reward: RewardParams | None, dp_options: dict) -> dict:
     strategy = get_strategy("dp", **dp_options)
     strategy.reset(env)
     n = env.cycle.n_steps
-    outs, states = np.empty((n, C.N_OUT)), np.empty((n, C.N_STATE))
+    outs, states = np.empty((n, core.N_OUT)), np.empty((n, core.N_STATE))
     terms = np.zeros(4)
     for k in range(n):
         obs, _, _, truncated, info = env.step(strategy.act(obs, info))
         outs[k], states[k] = env.last_out, env.phys_state[0]
         terms += [info["reward_fuel"], info["reward_miss"], info["reward_soc"], info["reward_overheat"]]
-    trace = {name: outs[:, i] for i, name in enumerate(C.OUT_NAMES)}
-    trace.update({name: states[:, i] for i, name in enumerate(C.STATE_NAMES)})
+    trace = {name: outs[:, i] for i, name in enumerate(core.OUT_NAMES)}
+    trace.update({name: states[:, i] for i, name in enumerate(core.STATE_NAMES)})
     trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
     soc0 = env.soc_target
     m = run_metrics(trace, env.config, soc0, env.cycle.speed_mps, 0, n, env.core.dt_s)
     corrected_g = m["fuel_corrected_l_per_100km"] * env.config.engine.fuel_density_kg_per_l * m["distance_km"] * 10.0
     d = strategy.describe()
     return {
-        "delta_soc": m["delta_soc"], "soc_min": float(states[:, C.SOC].min()), "soc_max": float(states[:, C.SOC].max()),
+        "delta_soc": m["delta_soc"],
+        "soc_min": float(states[:, core.SOC].min()), "soc_max": float(states[:, core.SOC].max()),
         "fuel_corrected_l_per_100km": m["fuel_corrected_l_per_100km"], "fuel_l_per_100km": m["fuel_l_per_100km"],
         "corrected_fuel_g": corrected_g, "return_g": float(terms.sum()),
         "fuel_miss_soc_terms_g": float(terms[:3].sum()), "overheat_terms_g": float(terms[3]),

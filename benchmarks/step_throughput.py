@@ -17,8 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from hev_thermal_env.cycles import load_cycle
-from hev_thermal_env.physics import Conditions, PhysicsCore, paper_bus
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import Conditions, PhysicsCore, core, paper_bus
 
 TARGET = 10_000_000
 
@@ -29,7 +28,7 @@ def measure(batch: int, seconds: float) -> dict:
     cond_obj = Conditions()
     state = phys.initial_state(cond_obj, batch)
     st_out = np.empty_like(state)
-    out = np.empty((batch, C.N_OUT))
+    out = np.empty((batch, core.N_OUT))
     cond = phys.conditions_array(cond_obj, batch)
     rng = np.random.default_rng(0)
     action = rng.uniform(-1, 1, batch)

@@ -17,8 +17,7 @@ import numpy as np
 
 from .cycles import list_cycles
 from .envs import HevThermalVectorEnv
-from .physics import battery as bat_mod
-from .physics import core as C
+from .physics import battery, core
 from .scenarios import list_scenarios
 
 #: Steps whose energy balance, summed over an episode, may miss by this fraction of the energy in and out.
@@ -28,10 +27,10 @@ TEMP_TOL_C = 1e-6
 
 
 def _balance_terms(out: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    e_in = out[:, C.ENGINE_POWER] + out[:, C.BATT_CHEM]
-    e_out = (out[:, C.WHEEL_POWER] + out[:, C.BRAKE_POWER] + out[:, C.BATT_LOSS] + out[:, C.MOTOR_LOSS]
-             + out[:, C.CLUTCH_LOSS] + out[:, C.DRIVELINE_LOSS] + out[:, C.ACC])
-    scale = np.abs(out[:, C.ENGINE_POWER]) + np.abs(out[:, C.BATT_CHEM])
+    e_in = out[:, core.ENGINE_POWER] + out[:, core.BATT_CHEM]
+    e_out = (out[:, core.WHEEL_POWER] + out[:, core.BRAKE_POWER] + out[:, core.BATT_LOSS] + out[:, core.MOTOR_LOSS]
+             + out[:, core.CLUTCH_LOSS] + out[:, core.DRIVELINE_LOSS] + out[:, core.ACC])
+    scale = np.abs(out[:, core.ENGINE_POWER]) + np.abs(out[:, core.BATT_CHEM])
     return e_in, e_out, scale
 
 
@@ -67,7 +66,7 @@ def _fuzz_scenario(scenario: str, cycles: list[str], num_envs: int, seed: int, n
     aggressive = rng.random(num_envs) < 0.33
     done_steps = 0
     while done_steps < n_steps:
-        soc_before = env.phys_state[:, C.SOC].copy()
+        soc_before = env.phys_state[:, core.SOC].copy()
         obs, rew, term, trunc, info = env.step(_random_actions(rng, aggressive)[:, None])
         stepped = ~resetting
         soc, temp, margin = _check_step(scenario, env, obs, rew, info, sink, stepped, soc_before)
@@ -123,14 +122,14 @@ def _check_step(scenario: str, env, obs, rew, info, sink, stepped, soc_before):
     if not np.all(inside):
         bad = np.argwhere(~inside)[0]
         raise AssertionError(f"{scenario}: observation {bad[1]} = {obs[bad[0], bad[1]]} outside its bounds")
-    soc = state[:, C.SOC]
+    soc = state[:, core.SOC]
     if np.any(soc < bat.soc_min - 1e-12) or np.any(soc > bat.soc_max + 1e-12):
         raise AssertionError(f"{scenario}: SOC {soc.min()}..{soc.max()} left [{bat.soc_min}, {bat.soc_max}]")
-    voc_table = env.core.ba[bat_mod.IDX.voc_v:bat_mod.IDX.voc_v + bat_mod.N_SOC]
-    voc = np.interp(soc_before, np.linspace(0.0, 1.0, bat_mod.N_SOC), voc_table)
-    chem_from_soc = -(soc - soc_before) * env.core.ba[bat_mod.IDX.capacity_as] * voc / env.core.dt_s
-    chem_err = np.abs(chem_from_soc - out[:, C.BATT_CHEM])[stepped]
-    if chem_err.size and chem_err.max() > 1e-6 * max(float(np.abs(out[:, C.BATT_CHEM]).max()), 1.0):
+    voc_table = env.core.ba[battery.IDX.voc_v:battery.IDX.voc_v + battery.N_SOC]
+    voc = np.interp(soc_before, np.linspace(0.0, 1.0, battery.N_SOC), voc_table)
+    chem_from_soc = -(soc - soc_before) * env.core.ba[battery.IDX.capacity_as] * voc / env.core.dt_s
+    chem_err = np.abs(chem_from_soc - out[:, core.BATT_CHEM])[stepped]
+    if chem_err.size and chem_err.max() > 1e-6 * max(float(np.abs(out[:, core.BATT_CHEM]).max()), 1.0):
         raise AssertionError(f"{scenario}: battery chemical power differs from −ΔSOC·capacity·V_oc by "
                              f"{chem_err.max():.3g} W")
     hi = info["heat_index"]
@@ -138,7 +137,7 @@ def _check_step(scenario: str, env, obs, rew, info, sink, stepped, soc_before):
         raise AssertionError(f"{scenario}: heat index {hi.min()}..{hi.max()} outside [0, 1]")
     if np.any(info["fuel_g"] < 0):
         raise AssertionError(f"{scenario}: negative fuel {info['fuel_g'].min()}")
-    temp = state[:, C.TEMP_C]
+    temp = state[:, core.TEMP_C]
     margin = temp - sink
     if np.any(margin[stepped] < -TEMP_TOL_C):
         i = int(np.argmin(np.where(stepped, margin, np.inf)))
@@ -149,7 +148,7 @@ def _check_step(scenario: str, env, obs, rew, info, sink, stepped, soc_before):
 def _sinks(env) -> np.ndarray:
     """Per env: the coolest temperature the motor can be drawn toward in this episode."""
     start = np.array([c.initial_motor_temp_c for c in env.conditions])
-    return np.minimum(np.minimum(env.cond[:, C.AMBIENT_C], env.cond[:, C.WATER_C]), start)
+    return np.minimum(np.minimum(env.cond[:, core.AMBIENT_C], env.cond[:, core.WATER_C]), start)
 
 
 def _check_finite(obs, rew, info, out) -> None:

@@ -15,7 +15,7 @@ import numpy as np
 
 from .cycles import Cycle, load_cycle
 from .metrics import summarize
-from .physics import core as C
+from .physics import core
 from .physics.config import Conditions, VehicleConfig, paper_bus
 
 Split = float | Callable[[int, dict], float] | np.ndarray
@@ -36,7 +36,7 @@ class CoreDriver:
 
     def __init__(self, config: VehicleConfig, cycle: Cycle, conditions: Conditions):
         self.config = config
-        self.core = C.PhysicsCore(config)
+        self.core = core.PhysicsCore(config)
         self.cycle = cycle
         self.conditions = conditions
         self.k = 0
@@ -68,7 +68,7 @@ class CoreDriver:
         """Step to the end of the cycle with u = ``action(k)``; :func:`step_traces` and ``time_s`` (the end of
         each step)."""
         n = self.cycle.n_steps
-        outs, states = np.empty((n, C.N_OUT)), np.empty((n, C.N_STATE))
+        outs, states = np.empty((n, core.N_OUT)), np.empty((n, core.N_STATE))
         for k in range(n):
             states[k], outs[k] = self.step(action(k))
         trace = step_traces(outs, states)
@@ -96,8 +96,8 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
     def called(k: int) -> float:
         s = driver.phys_state[0]
         u = float(split(k, {
-            "soc": s[C.SOC], "motor_temp_c": s[C.TEMP_C], "heat_x": s[C.HEAT_X],
-            "heat_index": min(max(s[C.HEAT_X], 0.0), 1.0), "motor_cutoff": s[C.CUTOFF],
+            "soc": s[core.SOC], "motor_temp_c": s[core.TEMP_C], "heat_x": s[core.HEAT_X],
+            "heat_index": min(max(s[core.HEAT_X], 0.0), 1.0), "motor_cutoff": s[core.CUTOFF],
             "speed_mps": v[k], "next_speed_mps": v[k + 1], "grade": g[k]}))
         if not np.isfinite(u):
             raise ValueError(f"split returned {u} at step {k}")
@@ -138,8 +138,8 @@ def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
 def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
     """Every physics output of ``outs`` [n, N_OUT] and state of ``states`` [n, N_STATE] (after each step) by name
     (:mod:`hev_thermal_env.physics.core`), and ``heat_index`` = clip(heat_x, 0, 1)."""
-    trace = {name: outs[:, i].copy() for i, name in enumerate(C.OUT_NAMES)}
-    for i, name in enumerate(C.STATE_NAMES):
+    trace = {name: outs[:, i].copy() for i, name in enumerate(core.OUT_NAMES)}
+    for i, name in enumerate(core.STATE_NAMES):
         trace[name] = states[:, i].copy()
     trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
     return trace

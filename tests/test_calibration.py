@@ -16,10 +16,9 @@ import yaml
 from scipy.stats import qmc
 
 from hev_thermal_env import paper_bus
-from hev_thermal_env.calibration import docs as D
-from hev_thermal_env.calibration import fit as F
+from hev_thermal_env.calibration import docs, fit
 from hev_thermal_env.calibration import protocol as proto
-from hev_thermal_env.paper import measure as M
+from hev_thermal_env.paper import measure
 from hev_thermal_env.paper.figures import FITTED, HELD_OUT
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig
 
@@ -37,7 +36,7 @@ def test_light_driver_reproduces_the_environment_run(cycle):
     from hev_thermal_env.evaluation.runner import run_strategy
 
     ref = run_strategy(get_strategy("rule"), cycle, "paper")
-    _, tr = M.cycle_run(paper_bus(), cycle)
+    _, tr = measure.cycle_run(paper_bus(), cycle)
     for key in ("fuel_g", "motor_temp_c", "winding_temp_c", "heat_x", "soc", "coolant_temp_c", "u"):
         np.testing.assert_array_equal(tr[key], ref.trace[key])
 
@@ -116,7 +115,7 @@ def test_the_committed_fit_is_the_adopted_attempt():
     for name, value in meta["fixed"].items():  # the fallback fixes a parameter at its documented start
         assert value == starts[name] == values[name]
     for name in meta["free"]:
-        assert values[name] == F.round_sig(adopted[0]["values"][name])
+        assert values[name] == fit.round_sig(adopted[0]["values"][name])
     for earlier in ATTEMPTS[:-1]:
         assert earlier["fallback"] and set(earlier["fallback"]) <= set(meta["fixed"])
 
@@ -126,8 +125,8 @@ def test_a_reduced_fit_reproduces_the_committed_one():
     meta = COMMITTED["fit"]
     params = [p for p in proto.fitted_parameters() if p.name in meta["free"]]
     t0 = time.perf_counter()
-    problem = F.Problem(params, meta["fixed"])
-    start = F.fit_from(problem, "committed start", meta["start_unit"], F.Settings(**meta["settings"]))
+    problem = fit.Problem(params, meta["fixed"])
+    start = fit.fit_from(problem, "committed start", meta["start_unit"], fit.Settings(**meta["settings"]))
     wall = time.perf_counter() - t0
     print(f"reduced fit: {start.values} Σr² {start.cost:.4f} in {start.evaluations} runs, {wall:.1f} s "
           f"(committed {meta['x_unit']}, Σr² {meta['cost']:.4f})")
@@ -156,7 +155,7 @@ class Linear:
 def test_identifiability_of_a_linear_problem():
     a = np.array([[3.0, 0.0], [0.0, 0.1], [1.0, 1.0]])
     lin, x = Linear(a, [1.0, 0.0, 0.5]), np.array([0.3, 0.99])
-    idf = F.identifiability(lin, x, F.Settings())
+    idf = fit.identifiability(lin, x, fit.Settings())
     np.testing.assert_allclose(idf["jacobian"], a, atol=1e-9)
     assert idf["steps"] == ["central", "backward"]  # 0.99 + 0.02 would leave the unit box
     sv = np.linalg.svd(a, compute_uv=False)
@@ -166,26 +165,26 @@ def test_identifiability_of_a_linear_problem():
     np.testing.assert_allclose(idf["se_unit"], se, rtol=1e-9)
     np.testing.assert_allclose(idf["se_physical"], 10.0 * se, rtol=1e-9)
     assert idf["distance_from_bounds"] == pytest.approx([0.3, 0.01]) and idf["near_bound"] == [False, True]
-    ill = F.identifiability(Linear([[3.0, 0.0], [0.0, 0.1]], [0, 0]), x, F.Settings())
-    assert set(F.fallback_fixes(lin.params, ill, [], F.Settings())) == {"p1"}  # 0.1 < 0.05 × 3
+    ill = fit.identifiability(Linear([[3.0, 0.0], [0.0, 0.1]], [0, 0]), x, fit.Settings())
+    assert set(fit.fallback_fixes(lin.params, ill, [], fit.Settings())) == {"p1"}  # 0.1 < 0.05 × 3
 
 
 def test_profiles_find_a_flat_parameter_and_the_fallback_fixes_it():
     lin = Linear([[2.0, 0.0], [0.0, 0.0]], [1.0, 0.0])  # p1 never moves a residual
     x = np.array([0.5, 0.5])
-    profs = F.profiles(lin, x, F.Settings(profile_points=11), lambda what, cost: None)
+    profs = fit.profiles(lin, x, fit.Settings(profile_points=11), lambda what, cost: None)
     assert [p["flat"] for p in profs] == [False, True]
     assert profs[0]["identified_low"] and profs[0]["identified_high"]
     assert profs[0]["delta"][0] == pytest.approx(1.0) and max(profs[1]["delta"]) == pytest.approx(0.0, abs=1e-12)
-    idf = F.identifiability(lin, x, F.Settings())
-    assert set(F.fallback_fixes(lin.params, idf, profs, F.Settings())) == {"p1"}
+    idf = fit.identifiability(lin, x, fit.Settings())
+    assert set(fit.fallback_fixes(lin.params, idf, profs, fit.Settings())) == {"p1"}
     flat_only = {**idf, "singular_values": [2.0, 1.0]}  # the profile rule alone
-    assert "profile flat" in F.fallback_fixes(lin.params, flat_only, profs, F.Settings())["p1"]
+    assert "profile flat" in fit.fallback_fixes(lin.params, flat_only, profs, fit.Settings())["p1"]
 
 
 def test_the_starts_are_the_documented_one_and_eight_sobol_points():
     params = proto.fitted_parameters()
-    starts = F.start_points(params, F.Settings())
+    starts = fit.start_points(params, fit.Settings())
     assert [s[0] for s in starts] == ["documented"] + [f"sobol {i}" for i in range(1, 9)]
     np.testing.assert_allclose(starts[0][1], [p.to_unit(p.start) for p in params])
     np.testing.assert_array_equal(np.array([s[1] for s in starts[1:]]),
@@ -224,8 +223,8 @@ def test_command_writes_the_residuals_and_checks_the_defaults(tmp_path):
 
 
 def test_the_thermal_model_page_holds_what_the_code_gives():
-    page, generated = D.page_blocks(), D.generated()
-    assert set(page) == set(D.BLOCKS)
+    page, generated = docs.page_blocks(), docs.generated()
+    assert set(page) == set(docs.BLOCKS)
     for name, lines in generated.items():
         assert page[name] == "\n".join(lines), f"docs/thermal_model.md block {name!r}: run " \
                                                 "python -m hev_thermal_env.calibration --report-only --write-docs"

@@ -17,7 +17,7 @@ from gymnasium.vector import AutoresetMode
 
 import hev_thermal_env
 from hev_thermal_env import load_cycle
-from hev_thermal_env.envs import coolant_mode, cycle_name
+from hev_thermal_env.envs.spaces import coolant_mode, cycle_name
 from hev_thermal_env.physics.config import COOLANT_MODES
 
 torchrl_gym = pytest.importorskip("torchrl.envs.libs.gym")  # the [dev] extra installs it

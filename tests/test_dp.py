@@ -11,7 +11,7 @@ from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cyc
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.core import OUT_NAMES, SOC, STATE_NAMES
 from hev_thermal_env.planning.corridor import backward_envelope, extreme_actions, forward_envelope
 from hev_thermal_env.planning.problem import BRAKING, DPInfeasibleError, DPProblem
 from hev_thermal_env.planning.soc_dp import DPSettings, interp_soc, rollout, solve
@@ -54,7 +54,7 @@ def test_threaded_core_step_gives_the_same_batch():
     n = 10_000
     rng = np.random.default_rng(3)
     st = core.initial_state(Conditions(), n)
-    st[:, C.SOC] = rng.uniform(0.45, 0.75, n)
+    st[:, SOC] = rng.uniform(0.45, 0.75, n)
     args = (st, rng.uniform(-1, 1, n), np.full(n, 10.0), np.full(n, 11.0), np.zeros(n),
             core.conditions_array(Conditions(), n))
     a_st, a_out = core.step(*args, threads=1)
@@ -76,10 +76,10 @@ def test_forward_envelope_bounds_every_action_sequence(city200):
         u = rng.uniform(-1.0, 1.0, n)
         u[:5] = [-1.0, 1.0, 0.0, 0.5, 0.999]
         x = np.repeat(held[i][None, :], n, axis=0)  # the planning model: thermal state held
-        x[:, C.SOC] = st[:, C.SOC]
+        x[:, SOC] = st[:, SOC]
         so, _ = p.step(x, u, i)
-        st[:, C.SOC] = so[:, C.SOC]
-        assert np.all(st[:, C.SOC] >= lo[i + 1] - 1e-12) and np.all(st[:, C.SOC] <= hi[i + 1] + 1e-12)
+        st[:, SOC] = so[:, SOC]
+        assert np.all(st[:, SOC] >= lo[i + 1] - 1e-12) and np.all(st[:, SOC] <= hi[i + 1] + 1e-12)
 
 
 def test_backward_envelope_edge_just_reaches_the_band(city200):
@@ -94,13 +94,13 @@ def test_backward_envelope_edge_just_reaches_the_band(city200):
     assert np.sum(kind == BRAKING) > 20
     for i in range(p.n_stages):
         x = np.repeat(held[i][None, :], 2, axis=0)  # the planning model: thermal state held
-        x[:, C.SOC] = soc
+        x[:, SOC] = soc
         a = np.array([-1.0, 1.0]) if kind[i] == 1 else np.array([1.0, 0.0]) if kind[i] == BRAKING else np.zeros(2)
         np.testing.assert_array_equal(a, extreme_actions(p)[i, ::-1])
         st, _ = p.step(x, a, i)
-        soc = st[:, C.SOC]
-    assert st[0, C.SOC] == pytest.approx(band[0], abs=2e-6)
-    assert st[1, C.SOC] == pytest.approx(band[1], abs=2e-6)
+        soc = st[:, SOC]
+    assert st[0, SOC] == pytest.approx(band[0], abs=2e-6)
+    assert st[1, SOC] == pytest.approx(band[1], abs=2e-6)
 
 
 # -- optimality -------------------------------------------------------------------------------------
@@ -138,8 +138,8 @@ def test_dp_plan_cost_matches_its_run_and_ends_in_the_band(city200):
     assert d["final_soc_feasible"] is True
     assert abs(res.summary["soc_final"] - 0.65) <= 0.005 + 1e-4
     lhv = paper_bus().engine.fuel_lhv_j_per_g
-    out = np.column_stack([res.trace[name] for name in C.OUT_NAMES])
-    st = np.column_stack([res.trace[name] for name in C.STATE_NAMES])
+    out = np.column_stack([res.trace[name] for name in OUT_NAMES])
+    st = np.column_stack([res.trace[name] for name in STATE_NAMES])
     realized = stage_cost_g(RewardParams(), out, st, 0.65, lhv, 1.0).sum()
     assert d["planned_cost_g"] == pytest.approx(realized, rel=2e-3)
 

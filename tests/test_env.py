@@ -13,10 +13,11 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import hev_thermal_env
 from hev_thermal_env import Conditions, list_cycles, load_cycle, paper_bus, simulate
-from hev_thermal_env.envs import INFO_KEYS, HevThermalEnv, coolant_mode, cycle_name, observation_names
+from hev_thermal_env.envs import INFO_KEYS, HevThermalEnv, observation_names
 from hev_thermal_env.envs.episodes import RESET_OPTIONS
 from hev_thermal_env.envs.reward import REWARD_TERMS, RewardParams, reward_terms
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.envs.spaces import coolant_mode, cycle_name
+from hev_thermal_env.physics import core
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 
 DESIGN_INFO_KEYS = (
@@ -202,9 +203,9 @@ def test_info_contract_and_reward_terms():
     assert tuple(info) == INFO_KEYS
     assert set(DESIGN_INFO_KEYS) <= set(info)
     out = env.last_out
-    assert info["motor_speed_rpm"] == pytest.approx(out[C.MOTOR_SPEED] * 30 / math.pi)
-    assert info["engine_speed_rpm"] == pytest.approx(out[C.ENGINE_SPEED] * 30 / math.pi)
-    assert info["soc"] == env.phys_state[0, C.SOC] and info["motor_temp_c"] == env.phys_state[0, C.TEMP_C]
+    assert info["motor_speed_rpm"] == pytest.approx(out[core.MOTOR_SPEED] * 30 / math.pi)
+    assert info["engine_speed_rpm"] == pytest.approx(out[core.ENGINE_SPEED] * 30 / math.pi)
+    assert info["soc"] == env.phys_state[0, core.SOC] and info["motor_temp_c"] == env.phys_state[0, core.TEMP_C]
     assert type(info["engine_on"]) is np.bool_ and type(info["gear"]) is np.int64
     assert info["time_s"] == env.k and info["cycle_speed_mps"] == env.cycle.speed_mps[env.k]
     terms = reward_terms(env.reward_params, out[None, :], env.phys_state, env.soc_target,
@@ -213,7 +214,7 @@ def test_info_contract_and_reward_terms():
     for i, key in enumerate(REWARD_TERMS):
         assert info[key] == terms[0, i]
     assert r == pytest.approx(sum(info[k] for k in REWARD_TERMS), rel=1e-12)
-    assert state_before.shape == (1, C.N_STATE)
+    assert state_before.shape == (1, core.N_STATE)
 
 
 def test_reward_argument():
@@ -258,23 +259,23 @@ def test_contract_attributes():
     env = make(conditions=Conditions(initial_soc=0.6, ambient_temp_c=30.0)).unwrapped
     obs, _ = env.reset(seed=0, options={"start_s": 100})
     assert env.config == paper_bus()
-    assert isinstance(env.core, C.PhysicsCore) and env.core.config is env.config
+    assert isinstance(env.core, core.PhysicsCore) and env.core.config is env.config
     assert env.conditions.initial_soc == 0.6 and env.soc_target == 0.6
     assert env.cycle.name == "hwfet" and env.k == 100
-    assert env.phys_state.shape == (1, C.N_STATE) and env.phys_state.dtype == np.float64
-    assert env.cond.shape == (1, C.N_COND) and env.cond[0, C.AMBIENT_C] == 30.0
-    assert env.last_out.shape == (C.N_OUT,) and not env.last_out.any()
+    assert env.phys_state.shape == (1, core.N_STATE) and env.phys_state.dtype == np.float64
+    assert env.cond.shape == (1, core.N_COND) and env.cond[0, core.AMBIENT_C] == 30.0
+    assert env.last_out.shape == (core.N_OUT,) and not env.last_out.any()
     assert isinstance(env.reward_params, RewardParams)
     names = env.obs_names
     assert obs[names.index("speed_mps")] == np.float32(env.cycle.speed_mps[100])
     assert obs[names.index("cycle_progress")] == np.float32(100 / env.cycle.n_steps)
     assert obs[names.index("soc")] == np.float32(0.6)
     assert obs[names.index("preview_speed_4s_mps")] == np.float32(env.cycle.speed_mps[104])
-    assert obs[names.index("motor_torque_avail_nm")] == np.float32(env.peek(np.zeros(1))[1][0, C.MOTOR_AVAIL])
+    assert obs[names.index("motor_torque_avail_nm")] == np.float32(env.peek(np.zeros(1))[1][0, core.MOTOR_AVAIL])
     env.step(np.array([0.5], np.float32))
     assert env.k == 101 and env.last_out.any()
     obs, *_ = env.step(np.array([0.5], np.float32))
-    assert obs[names.index("motor_torque_avail_nm")] == np.float32(env.last_out[C.MOTOR_AVAIL])
+    assert obs[names.index("motor_torque_avail_nm")] == np.float32(env.last_out[core.MOTOR_AVAIL])
     assert obs[names.index("gear")] >= 1
 
 
@@ -286,7 +287,7 @@ def test_peek_predicts_the_step_without_changing_the_env():
     before = (env.k, env.phys_state.copy(), env.last_out.copy())
     grid = np.linspace(-1.0, 1.0, 21)
     states, outs = env.peek(grid)
-    assert states.shape == (21, C.N_STATE) and outs.shape == (21, C.N_OUT)
+    assert states.shape == (21, core.N_STATE) and outs.shape == (21, core.N_OUT)
     assert env.k == before[0]
     np.testing.assert_array_equal(env.phys_state, before[1])
     np.testing.assert_array_equal(env.last_out, before[2])
@@ -333,7 +334,7 @@ def test_reset_options():
     assert env.cycle.name == "us06" and env.k == 42 and info["start_s"] == 42
     c = env.conditions
     assert (c.ambient_temp_c, c.initial_motor_temp_c, c.initial_soc, c.coolant) == (35.0, 45.0, 0.55, "off")
-    assert env.soc_target == 0.55 and env.phys_state[0, C.TEMP_C] == 45.0
+    assert env.soc_target == 0.55 and env.phys_state[0, core.TEMP_C] == 45.0
     assert coolant_mode(info["coolant_code"]) == "off" and info["soc_target"] == 0.55
     assert cycle_name(info["cycle_id"]) == "us06" and info["cycle_id"] == list_cycles().index("us06")
     env.reset()
@@ -450,9 +451,9 @@ def test_braking_share_governs_regeneration_and_the_winding_is_observed():
         for _ in range(300):
             obs, _, _, _, info = env.step(np.array([u], dtype=np.float32))
             out = env.unwrapped.last_out
-            if out[C.SHAFT_DEMAND] < 0.0 and out[C.SPEED] > 1.0:
-                torque.append(out[C.MOTOR_TORQUE])
-                brake.append(out[C.BRAKE_POWER])
+            if out[core.SHAFT_DEMAND] < 0.0 and out[core.SPEED] > 1.0:
+                torque.append(out[core.MOTOR_TORQUE])
+                brake.append(out[core.BRAKE_POWER])
         assert obs[names.index("winding_temp_c")] == pytest.approx(info["winding_temp_c"], rel=1e-6)
         regen[u], friction[u] = np.array(torque), np.array(brake)
     assert len(regen[1.0]) > 10 and np.all(regen[1.0] < 0.0)

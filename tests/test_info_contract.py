@@ -18,10 +18,8 @@ from hev_thermal_env.envs import (
     INFO_DTYPES,
     INFO_KEYS,
     HevThermalVectorEnv,
-    coolant_mode,
-    cycle_name,
 )
-from hev_thermal_env.envs.spaces import STATE_INFO_KEYS
+from hev_thermal_env.envs.spaces import STATE_INFO_KEYS, coolant_mode, cycle_name
 
 RANDOM_KW = {"cycle": ["hwfet", "random_bus"], "scenario": "random"}
 

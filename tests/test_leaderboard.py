@@ -11,8 +11,9 @@ import pytest
 
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cli.evaluate import main as evaluate_main
-from hev_thermal_env.evaluation import references as R
 from hev_thermal_env.evaluation.leaderboard import PROFILE_FILE, score_result
+from hev_thermal_env.evaluation.references import BUDGET_RULE, load_reference
+from hev_thermal_env.evaluation.references import FORMAT as REFERENCE_FORMAT
 from hev_thermal_env.evaluation.submission import (
     FORMAT,
     EpisodeTally,
@@ -108,8 +109,8 @@ def synthetic_reference(r0_cost: float) -> dict:
                                                      "grid": "synthetic", "soc_min": 0.3},
           "optimum": {"cost_g": 1000.0, "soc_final": 0.6, "frontier_ratio": 1.0, "safety_cost_s": 0.0},
           "anchor": {"cost_g": r0_cost, "soc_final": 0.6, "frontier_ratio": r0_cost / 1000.0, "safety_cost_s": 0.0}}
-    return {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(),
-            "physics_fingerprint": hwfet_fingerprint(), "safety_budget_s": 10.0, "budget_rule": R.BUDGET_RULE,
+    return {"format": REFERENCE_FORMAT, "task": task.id, "task_digest": task.digest(),
+            "physics_fingerprint": hwfet_fingerprint(), "safety_budget_s": 10.0, "budget_rule": BUDGET_RULE,
             "episodes": [ep]}
 
 
@@ -167,7 +168,7 @@ def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp
     task = get_task("hwfet")
     episode = {"cycle": "hwfet", "seed": 0, "frontier_halfwidth": 0.13}
     (tmp_path / f"{task.id}.json").write_text(json.dumps(
-        {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
+        {"format": REFERENCE_FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
          hwfet_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
     asked = []
 
@@ -184,7 +185,7 @@ def test_the_optimum_is_asked_for_the_frontier_its_reference_was_solved_with(tmp
     episode.pop("frontier_halfwidth")  # a reference that records none (solved with the default)
     (tmp_path / "plain").mkdir()
     (tmp_path / "plain" / f"{task.id}.json").write_text(json.dumps(
-        {"format": R.FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
+        {"format": REFERENCE_FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
          hwfet_fingerprint(), "safety_budget_s": 10.0, "episodes": [episode]}))
     asked.clear()
     result_of_strategy(task, "dp_thermal", references=tmp_path / "plain")
@@ -203,7 +204,7 @@ def test_a_seed_family_result_has_every_seeds_episodes():
 
 
 def test_the_optimums_row_is_its_stored_reference_run_without_a_solve(tmp_path, monkeypatch):
-    from hev_thermal_env.evaluation import leaderboard as L
+    from hev_thermal_env.evaluation import leaderboard
 
     refs = tmp_path / "refs"
     refs.mkdir()
@@ -212,18 +213,18 @@ def test_the_optimums_row_is_its_stored_reference_run_without_a_solve(tmp_path, 
     def no_solve(*args, **kwargs):
         raise AssertionError("the optimum was solved")
 
-    monkeypatch.setattr(L, "result_of_strategy", no_solve)
-    [path] = L.ensure_results(tmp_path / "res", ["hwfet"], ["dp_thermal"], references=refs)
+    monkeypatch.setattr(leaderboard, "result_of_strategy", no_solve)
+    [path] = leaderboard.ensure_results(tmp_path / "res", ["hwfet"], ["dp_thermal"], references=refs)
     result = load_result(path)
     assert result["method"] == "dp_thermal" and result["episodes"][0]["cost_g"] == 1000.0
-    entry = score_result(result, R.load_reference("hwfet", refs))
+    entry = score_result(result, load_reference("hwfet", refs))
     assert entry["score"] == pytest.approx(100.0) and entry["frontier_ratio"] == pytest.approx(1.0)
 
 
 def test_the_shipped_policys_stored_result_is_redone_once_the_policy_changes(tmp_path, monkeypatch):
     """The ``ppo`` row is reused while the shipped policy's files are the same and driven again once they change (a
     retrained policy): its result records their digest."""
-    from hev_thermal_env.evaluation import leaderboard as L
+    from hev_thermal_env.evaluation import leaderboard
 
     refs = tmp_path / "refs"
     refs.mkdir()
@@ -232,17 +233,17 @@ def test_the_shipped_policys_stored_result_is_redone_once_the_policy_changes(tmp
 
     def fake_run(task, method, references=None):
         runs.append(method)
-        return L.result_of_reference(task, references) | {"method": method}
+        return leaderboard.result_of_reference(task, references) | {"method": method}
 
-    monkeypatch.setattr(L, "result_of_strategy", fake_run)
+    monkeypatch.setattr(leaderboard, "result_of_strategy", fake_run)
     digest = {"value": "aaaa"}
-    monkeypatch.setattr(L, "shipped_policy_digest", lambda: digest["value"])
-    [path] = L.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
+    monkeypatch.setattr(leaderboard, "shipped_policy_digest", lambda: digest["value"])
+    [path] = leaderboard.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
     assert runs == ["ppo"] and load_result(path)["policy_digest"] == "aaaa"
-    L.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
+    leaderboard.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
     assert runs == ["ppo"]  # the same policy: reused
     digest["value"] = "bbbb"
-    L.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
+    leaderboard.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
     assert runs == ["ppo", "ppo"] and load_result(path)["policy_digest"] == "bbbb"
 
 

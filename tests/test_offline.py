@@ -12,7 +12,7 @@ import pytest
 from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.agents.ppo import trained_reward
-from hev_thermal_env.evaluation import datasets as D
+from hev_thermal_env.evaluation import datasets
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import TEST_SEED_BASE, get_task, held_out_cycles
 
@@ -35,7 +35,7 @@ def short_routes(tmp_path_factory) -> list[str]:
 @pytest.mark.parametrize("source", ["rule", "random"])
 def test_round_trip_replays_observations_and_rewards_exactly(source, short_routes, tmp_path, monkeypatch):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    info = D.write_dataset(source, routes=short_routes, scenario="hot", root=tmp_path,
+    info = datasets.write_dataset(source, routes=short_routes, scenario="hot", root=tmp_path,
                            dataset_name=f"hev-thermal/test/{source}-v0")
     assert info["episodes"] == 2 and info["steps"] == 40 + 60 and info["bytes"] > 0
     data = minari.load_dataset(info["dataset_id"])
@@ -45,21 +45,21 @@ def test_round_trip_replays_observations_and_rewards_exactly(source, short_route
     assert meta["hev_thermal_routes"] == short_routes and meta["hev_thermal_source"] == source
     episodes = list(data.iterate_episodes())
     assert not np.allclose(episodes[0].actions[:5], 0.0) or source == "rule"
-    assert D.replay(data) == (0.0, 0.0)
+    assert datasets.replay(data) == (0.0, 0.0)
 
 
 def test_a_policy_dataset_records_the_env_it_drove(short_routes, tmp_path, monkeypatch):
     # the shipped policy is driven with its own observation settings (PPOStrategy.env_options); the dataset's env
     # carries them, so the replay is exact on a graded route, where the band's center depends on them
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    info = D.write_dataset("ppo", routes=short_routes, scenario="hilly", root=tmp_path,
+    info = datasets.write_dataset("ppo", routes=short_routes, scenario="hilly", root=tmp_path,
                            dataset_name="hev-thermal/test/ppo-v0")
     data = minari.load_dataset(info["dataset_id"])
     env = data.recover_environment()
     shipped = get_strategy("ppo")
     assert env.unwrapped.reward_params.descent_recovery == trained_reward(shipped.policy).descent_recovery
     env.close()
-    assert D.replay(data) == (0.0, 0.0)
+    assert datasets.replay(data) == (0.0, 0.0)
     # a policy cloned from it is driven in the env its observations came from
     from hev_thermal_env.training.bc import BCStrategy, train_bc
 
@@ -69,7 +69,7 @@ def test_a_policy_dataset_records_the_env_it_drove(short_routes, tmp_path, monke
 
 def test_task_dataset_card(tmp_path, monkeypatch):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    info = D.write_dataset("engine_only", task="hwfet", root=tmp_path)
+    info = datasets.write_dataset("engine_only", task="hwfet", root=tmp_path)
     assert info["dataset_id"] == "hev-thermal/hwfet-v2/engine_only-v0"
     data = minari.load_dataset(info["dataset_id"])
     meta = data.storage.metadata
@@ -79,18 +79,18 @@ def test_task_dataset_card(tmp_path, monkeypatch):
 
 
 def test_training_routes_are_not_held_out():
-    routes = D.training_routes(12)
+    routes = datasets.training_routes(12)
     assert len(set(routes)) == 12 and not {r.lower() for r in routes} & set(held_out_cycles())
     assert all(int(r.split(":")[1]) < TEST_SEED_BASE for r in routes)
     with pytest.raises(ValueError, match="held-out"):
-        D.write_dataset("rule", routes=[get_task("bus-generalisation").cycles[0]])
+        datasets.write_dataset("rule", routes=[get_task("bus-generalisation").cycles[0]])
     with pytest.raises(ValueError, match="not training families"):
-        D.training_routes(2, ("validation_bus",))
+        datasets.training_routes(2, ("validation_bus",))
 
 
 @pytest.mark.full
 def test_dataset_loads_in_a_fresh_process(short_routes, tmp_path):
-    D.write_dataset("rule", routes=short_routes[:1], root=tmp_path, dataset_name="hev-thermal/test/fresh-v0")
+    datasets.write_dataset("rule", routes=short_routes[:1], root=tmp_path, dataset_name="hev-thermal/test/fresh-v0")
     code = ("import minari, hev_thermal_env; d = minari.load_dataset('hev-thermal/test/fresh-v0'); "
             "env = d.recover_environment(); print(d.total_steps, env.spec.id)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300,
@@ -105,7 +105,8 @@ def test_behaviour_cloning_fits_a_dataset_and_drives(short_routes, tmp_path, mon
     from hev_thermal_env.training.bc import BCStrategy, load_bc, save_bc, train_bc
 
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    D.write_dataset("rule", routes=short_routes, scenario="hot", root=tmp_path, dataset_name="hev-thermal/test/bc-v0")
+    datasets.write_dataset("rule", routes=short_routes, scenario="hot", root=tmp_path,
+                           dataset_name="hev-thermal/test/bc-v0")
     record, report = train_bc("hev-thermal/test/bc-v0", epochs=150, seed=0)
     assert report["pairs"] == 100 and report["mse_last"] < 0.25 * report["action_variance"]
     policy = BCStrategy(load_bc(save_bc(record, tmp_path / "bc.pt")))
@@ -124,7 +125,7 @@ def test_bc_command_writes_a_seed_family_for_the_leaderboard(short_routes, tmp_p
     from hev_thermal_env.evaluation.submission import load_result
 
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    D.write_dataset("rule", routes=short_routes, scenario="paper", root=tmp_path,
+    datasets.write_dataset("rule", routes=short_routes, scenario="paper", root=tmp_path,
                     dataset_name="hev-thermal/test/bccli-v0")
     out = tmp_path / "res"
     code = evaluate_main(["bc", "--dataset", "hev-thermal/test/bccli-v0", "--tasks", "hwfet", "--seeds", "0", "1",

@@ -12,7 +12,17 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.yardstick import Frontier
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.core import (
+    BATT_CHEM,
+    COOLANT_C,
+    CUTOFF,
+    HEAT_X,
+    MOTOR_TORQUE,
+    N_STATE,
+    SOC,
+    TEMP_C,
+    WINDING_C,
+)
 from hev_thermal_env.planning import stage
 from hev_thermal_env.planning.bins import (
     KEY_BITS,
@@ -98,11 +108,11 @@ def test_a_stage_stepped_in_blocks_on_threads_is_the_env_step_and_cost(monkeypat
     p = problem_for(speed, Conditions(ambient_temp_c=40.0, initial_motor_temp_c=62.0))
     rng = np.random.default_rng(3)
     states = np.repeat(p.state0[None, :], 300, axis=0)
-    states[:, C.SOC] += rng.uniform(-0.05, 0.05, 300)
-    for col, lo, hi in ((C.TEMP_C, -10.0, 15.0), (C.WINDING_C, 0.0, 60.0), (C.COOLANT_C, -5.0, 10.0)):
+    states[:, SOC] += rng.uniform(-0.05, 0.05, 300)
+    for col, lo, hi in ((TEMP_C, -10.0, 15.0), (WINDING_C, 0.0, 60.0), (COOLANT_C, -5.0, 10.0)):
         states[:, col] += rng.uniform(lo, hi, 300)
-    states[:, C.HEAT_X] = rng.uniform(-0.3, 0.6, 300)
-    states[::7, C.CUTOFF] = 1.0
+    states[:, HEAT_X] = rng.uniform(-0.3, 0.6, 300)
+    states[::7, CUTOFF] = 1.0
     cost, batt_j = rng.uniform(0.0, 50.0, 300), rng.uniform(-1e5, 1e5, 300)
     u = np.linspace(-1.0, 1.0, 31)
     for i in (1, 3):  # traction, braking
@@ -113,8 +123,8 @@ def test_a_stage_stepped_in_blocks_on_threads_is_the_env_step_and_cost(monkeypat
         np.testing.assert_array_equal(a, np.tile(u, 300))
         np.testing.assert_array_equal(so, ref_so)
         np.testing.assert_array_equal(c, ref_c + np.repeat(cost, u.size))
-        np.testing.assert_array_equal(e, np.repeat(batt_j, u.size) + out[:, C.BATT_CHEM] * 1.0)
-    assert np.any(out[:, C.MOTOR_TORQUE] < 0.0) and np.any(ref_c != ref_c[0])
+        np.testing.assert_array_equal(e, np.repeat(batt_j, u.size) + out[:, BATT_CHEM] * 1.0)
+    assert np.any(out[:, MOTOR_TORQUE] < 0.0) and np.any(ref_c != ref_c[0])
 
 
 def test_the_search_runs_with_one_blas_thread():
@@ -157,9 +167,9 @@ def test_search_matches_an_exhaustive_search_on_a_short_cycle(heat_free):
     for i in range(p.n_stages):
         st, out = p.step(st, seqs[:, i], i)
         cost += stage_cost_g(p.reward_params, out, st, p.soc_target, p.lhv, 1.0, battery=False, overheat=True)
-    soc_f, f = frontier_points(res.final_state[:, C.SOC], res.final_cost_g)
-    for s in np.quantile(st[:, C.SOC], [0.1, 0.3, 0.5, 0.7, 0.9]):
-        exact = cost[st[:, C.SOC] >= s].min()
+    soc_f, f = frontier_points(res.final_state[:, SOC], res.final_cost_g)
+    for s in np.quantile(st[:, SOC], [0.1, 0.3, 0.5, 0.7, 0.9]):
+        exact = cost[st[:, SOC] >= s].min()
         found = f[np.searchsorted(soc_f, s)]  # the search's cheapest path ending at SOC >= s
         assert exact <= found + 1e-9
         assert found <= exact * 1.001, (s, exact, found)
@@ -194,7 +204,7 @@ def test_temperature_bins_widen_only_where_heat_is_cheap():
     times it; SOC, heat index and the flags keep theirs; a finer grid narrows both the bins and the grams."""
     g = SearchGrid()
     base = g.widths()
-    cols = [KEY_COLUMNS.index(c) for c in (C.TEMP_C, C.WINDING_C, C.COOLANT_C)]
+    cols = [KEY_COLUMNS.index(c) for c in (TEMP_C, WINDING_C, COOLANT_C)]
     others = [k for k in range(len(KEY_COLUMNS)) if k not in cols]
     np.testing.assert_array_equal(g.stage_widths(None), base)
     free = g.stage_widths(np.zeros(3))
@@ -231,11 +241,11 @@ def test_each_bin_keeps_its_heat_priced_state_and_nothing_more_where_heat_is_fre
     """One bin of four candidates: the cheapest (at the battery price), the cheapest at the second price, the coolest
     and the cheapest with heat priced survive; with heat free the heat-priced one is the cheapest and no fourth row
     comes in."""
-    states = np.zeros((4, C.N_STATE))
-    states[:, C.SOC] = 0.65
-    states[:, C.TEMP_C] = [59.9, 58.1, 59.8, 59.5]  # one 2 K housing bin
-    states[:, C.WINDING_C] = 80.0
-    states[:, C.COOLANT_C] = 50.0
+    states = np.zeros((4, N_STATE))
+    states[:, SOC] = 0.65
+    states[:, TEMP_C] = [59.9, 58.1, 59.8, 59.5]  # one 2 K housing bin
+    states[:, WINDING_C] = 80.0
+    states[:, COOLANT_C] = 50.0
     cost = np.array([100.0, 104.0, 99.0, 100.4])
     batt_j = np.array([0.0, 0.0, 1.1, 0.0])  # row 2 used more charge: the cheapest only at the lower price
     widths = np.array([1.5e-4, 2.0, 8.0, 4.0, 0.1, 1.0, 1.0])
@@ -251,7 +261,7 @@ def test_each_bin_keeps_its_heat_priced_state_and_nothing_more_where_heat_is_fre
     # no heat price: row 0 cheapest (100 against 100.1, 100.4, 104), row 2 at the price 0.8 (99.88), row 1 coolest
     assert kept(np.zeros(4)) == [0, 1, 2]
     # 2 g/K above 58 °C: row 3 (100.4 + 3.0) beats row 0 (103.8), row 2 (103.7) and row 1 (104.2)
-    assert kept(2.0 * (states[:, C.TEMP_C] - 58.0)) == [0, 1, 2, 3]
+    assert kept(2.0 * (states[:, TEMP_C] - 58.0)) == [0, 1, 2, 3]
     keep_cool = False  # where heat cannot bind: the coolest (row 1) is not kept for itself
     assert kept(np.zeros(4)) == [0, 2]
     # a third battery price in its slot: at 1.2 row 0 is still the cheapest (100 against 100.32, 100.4, 104)
@@ -344,12 +354,12 @@ def test_heat_is_priced_where_it_costs_and_not_where_it_does_not(city200):
     totals = []
     for sign in (1.0, -1.0):
         x = st.copy()
-        x[0, C.TEMP_C] += sign * DELTA_K
+        x[0, TEMP_C] += sign * DELTA_K
         total = 0.0
         for i in range(100, p.n_stages):
             x, out = p.step(x, 1.0, i)
             total += float(stage_cost_g(p.reward_params, out, x, p.soc_target, p.lhv, 1.0, battery=False,
-                                        overheat=True)[0]) + lam * float(out[0, C.BATT_CHEM])
+                                        overheat=True)[0]) + lam * float(out[0, BATT_CHEM])
         totals.append(total)
     direct = (totals[0] - totals[1]) / (2 * DELTA_K)
     assert prices["above_soft_limit"][100, 0] == pytest.approx(direct, rel=1e-9)

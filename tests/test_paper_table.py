@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from hev_thermal_env.paper import measure as M
+from hev_thermal_env.paper import measure
 from hev_thermal_env.paper.figures import (
     CHECK_NOTES,
     CHECKS,
@@ -75,30 +75,30 @@ def test_residual_kinds():
 
 def test_heat_index_figures_interpolate_the_crossings():
     x = np.array([-0.3, -0.1, 0.1, 0.3, 0.2, -0.2, -0.3])
-    f = M.heat_index_figures({"heat_x": x, "heat_index": np.clip(x, 0, 1)})
+    f = measure.heat_index_figures({"heat_x": x, "heat_index": np.clip(x, 0, 1)})
     assert f["hi_onset_s"] == pytest.approx(2.5)  # between the ends of steps 2 (x −0.1) and 3 (x 0.1)
     assert f["hi_peak"] == 0.3 and f["hi_peak_time_s"] == 4.0
     assert f["hi_return_s"] == pytest.approx(5.5 - 4.0)  # x 0.2 → −0.2 between the ends of steps 5 and 6
-    never = M.heat_index_figures({"heat_x": np.full(10, -0.2), "heat_index": np.zeros(10)})
-    assert never["hi_onset_s"] == pytest.approx(10 + M.EXTENSION_S * 0.2) and never["hi_onset_observed"] == 0.0
+    never = measure.heat_index_figures({"heat_x": np.full(10, -0.2), "heat_index": np.zeros(10)})
+    assert never["hi_onset_s"] == pytest.approx(10 + measure.EXTENSION_S * 0.2) and never["hi_onset_observed"] == 0.0
     assert never["hi_return_s"] == 0.0
-    stays = M.heat_index_figures({"heat_x": np.array([-0.1, 0.2, 0.1]), "heat_index": np.array([0, 0.2, 0.1])})
-    assert stays["hi_return_s"] == pytest.approx(3 + M.EXTENSION_S * 0.1 - 2)
+    stays = measure.heat_index_figures({"heat_x": np.array([-0.1, 0.2, 0.1]), "heat_index": np.array([0, 0.2, 0.1])})
+    assert stays["hi_return_s"] == pytest.approx(3 + measure.EXTENSION_S * 0.1 - 2)
 
 
 def test_warm_figures_measure_fig10_from_the_first_warm_second():
     temps = np.array([20.0, 30.0, 34.6, 36.0, 38.5, 31.0, 35.0])
-    w = M.warm_figures(temps)
+    w = measure.warm_figures(temps)
     assert w["warm_from_s"] == 3.0 and w["temp_warm_mean_c"] == pytest.approx(np.mean(temps[2:]))
     assert w["warm_excursion_k"] == pytest.approx(1.0) and w["warm_seconds_outside"] == 2.0
-    assert math.isnan(M.warm_figures(np.full(5, 30.0))["temp_warm_mean_c"])
+    assert math.isnan(measure.warm_figures(np.full(5, 30.0))["temp_warm_mean_c"])
 
 
 def test_target_values_map_every_target_to_its_run():
     cycles = {c: {"hi_onset_s": 1.0, "hi_peak": 2.0, "hi_return_s": 3.0, "temp_peak_c": 4.0, "temp_last300_c": 5.0,
                   "fuel_delta_l100": 6.0 + i, "warm_excursion_k": 7.0, "temp_warm_mean_c": 8.0, "hi_max": 9.0}
-              for i, c in enumerate(M.CYCLES)}
-    ours = M.target_values(cycles, {"accel_30c_delta_s": 10.0, "accel_50c_delta_s": 11.0})
+              for i, c in enumerate(measure.CYCLES)}
+    ours = measure.target_values(cycles, {"accel_30c_delta_s": 10.0, "accel_50c_delta_s": 11.0})
     assert set(ours) == {t.name for t in TARGETS}
     assert (ours["udds_fuel_delta_l100"], ours["beijing_fuel_delta_l100"], ours["hwfet_fuel_delta_l100"]) == (6, 7, 8)
     assert (ours["beijing_warm_band"], ours["beijing_hi_max"], ours["accel_50c_delta_s"]) == (7, 9, 11)

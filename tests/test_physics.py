@@ -17,9 +17,9 @@ from hev_thermal_env.physics import (
     PhysicsCore,
     ThermalParams,
     VehicleConfig,
+    core,
     paper_bus,
 )
-from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics import engine as eng
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
@@ -100,10 +100,10 @@ def test_heat_index_through_the_core_limits_motor_torque():
     phys = PhysicsCore(cfg)
     cond = Conditions()
     st = phys.initial_state(cond, 1)
-    st[0, C.HEAT_X] = 1.0  # fully derated
+    st[0, core.HEAT_X] = 1.0  # fully derated
     _, out = phys.step(st, np.ones(1), np.full(1, 5.0), np.full(1, 6.0), np.zeros(1), phys.conditions_array(cond))
-    w_m = out[0, C.MOTOR_SPEED]
-    assert out[0, C.MOTOR_TORQUE] <= mot.continuous_torque_nm(phys.mo, w_m) + 1e-9
+    w_m = out[0, core.MOTOR_SPEED]
+    assert out[0, core.MOTOR_TORQUE] <= mot.continuous_torque_nm(phys.mo, w_m) + 1e-9
 
 
 def test_tgain_and_pwm_initial_functions():
@@ -243,9 +243,9 @@ def test_batched_equals_single():
     n = 64
     cond_obj = Conditions()
     st = phys.initial_state(cond_obj, n)
-    st[:, C.SOC] = rng.uniform(0.4, 0.8, n)
-    st[:, C.TEMP_C] = rng.uniform(20, 80, n)
-    st[:, C.HEAT_X] = rng.uniform(-0.3, 1.0, n)
+    st[:, core.SOC] = rng.uniform(0.4, 0.8, n)
+    st[:, core.TEMP_C] = rng.uniform(20, 80, n)
+    st[:, core.HEAT_X] = rng.uniform(-0.3, 1.0, n)
     a = rng.uniform(-1, 1, n)
     v0 = rng.uniform(0, 25, n)
     v1 = np.clip(v0 + rng.uniform(-1.5, 1.5, n), 0, None)

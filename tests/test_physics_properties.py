@@ -8,9 +8,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hev_thermal_env.physics import Conditions, PhysicsCore, paper_bus
+from hev_thermal_env.physics import Conditions, PhysicsCore, core, paper_bus
 from hev_thermal_env.physics import battery as bat
-from hev_thermal_env.physics import core as C
 from hev_thermal_env.physics import engine as eng
 from hev_thermal_env.physics import glider as gli
 from hev_thermal_env.physics import motor as mot
@@ -130,16 +129,16 @@ MODELS = {"network": CFG, "paper_eqs": CFG.with_thermal_model("paper_eqs")}
 def _rows(arr: np.ndarray) -> tuple[np.ndarray, ...]:
     """State, action, v0, v1, grade and conditions from rows of ``step_inputs``."""
     n = arr.shape[0]
-    state = np.zeros((n, C.N_STATE))
-    state[:, C.SOC], state[:, C.TEMP_C], state[:, C.HEAT_X], state[:, C.CUTOFF] = arr[:, 0], arr[:, 1], arr[:, 2], \
-        arr[:, 3]
-    state[:, C.HEAT_X_MIN] = -0.3
-    state[:, C.WINDING_C] = arr[:, 1] - arr[:, 10]  # the winding above (or below) the housing
-    state[:, C.COOLANT_C] = arr[:, 8] + arr[:, 11]
-    cond = np.zeros((n, C.N_COND))
-    cond[:, C.AMBIENT_C], cond[:, C.WATER_C], cond[:, C.COOLANT_FACTOR] = arr[:, 8], arr[:, 8] + 5.0, arr[:, 9]
-    cond[:, C.PAYLOAD_KG], cond[:, C.FAN_FACTOR] = arr[:, 12], arr[:, 13]
-    cond[:, C.ACCESSORY_W] = 7457.0
+    state = np.zeros((n, core.N_STATE))
+    state[:, core.SOC], state[:, core.TEMP_C] = arr[:, 0], arr[:, 1]
+    state[:, core.HEAT_X], state[:, core.CUTOFF] = arr[:, 2], arr[:, 3]
+    state[:, core.HEAT_X_MIN] = -0.3
+    state[:, core.WINDING_C] = arr[:, 1] - arr[:, 10]  # the winding above (or below) the housing
+    state[:, core.COOLANT_C] = arr[:, 8] + arr[:, 11]
+    cond = np.zeros((n, core.N_COND))
+    cond[:, core.AMBIENT_C], cond[:, core.WATER_C], cond[:, core.COOLANT_FACTOR] = arr[:, 8], arr[:, 8] + 5.0, arr[:, 9]
+    cond[:, core.PAYLOAD_KG], cond[:, core.FAN_FACTOR] = arr[:, 12], arr[:, 13]
+    cond[:, core.ACCESSORY_W] = 7457.0
     v0 = arr[:, 5].copy()
     return state, arr[:, 4].copy(), v0, np.maximum(v0 + arr[:, 6], 0.0), arr[:, 7].copy(), cond
 
@@ -152,29 +151,29 @@ def test_step_invariants(inp, model):
     state, u, v0, v1, grade, cond = _rows(np.array([inp], dtype=float))
     new, out = phys.step(state, u, v0, v1, grade, cond)
     assert np.all(np.isfinite(new)) and np.all(np.isfinite(out))
-    assert cfg.battery.soc_min - 1e-12 <= new[0, C.SOC] <= cfg.battery.soc_max + 1e-12
-    assert 0.0 <= out[0, C.HEAT_INDEX] <= 1.0
-    assert out[0, C.FUEL_G] >= 0.0
-    assert out[0, C.MISSED_J] >= -1e-9 and out[0, C.BRAKE_POWER] >= -1e-9
-    tm = out[0, C.MOTOR_TORQUE]
+    assert cfg.battery.soc_min - 1e-12 <= new[0, core.SOC] <= cfg.battery.soc_max + 1e-12
+    assert 0.0 <= out[0, core.HEAT_INDEX] <= 1.0
+    assert out[0, core.FUEL_G] >= 0.0
+    assert out[0, core.MISSED_J] >= -1e-9 and out[0, core.BRAKE_POWER] >= -1e-9
+    tm = out[0, core.MOTOR_TORQUE]
     # within the envelope, or (an empty battery) braking the shaft on the motor's own spinning loss
-    assert abs(tm) <= max(out[0, C.MOTOR_AVAIL], 0.0) + 1e-9 or (out[0, C.MOTOR_MAX] < 0.0
-                                                                and tm <= out[0, C.MOTOR_MAX] + 1e-9)
+    assert abs(tm) <= max(out[0, core.MOTOR_AVAIL], 0.0) + 1e-9 or (out[0, core.MOTOR_MAX] < 0.0
+                                                                and tm <= out[0, core.MOTOR_MAX] + 1e-9)
     # the heat-index floor follows the motor's new temperature
-    assert new[0, C.HEAT_X_MIN] == -thm.pwm_initial(phys.th, new[0, C.TEMP_C])
-    assert new[0, C.HEAT_X] >= new[0, C.HEAT_X_MIN]
+    assert new[0, core.HEAT_X_MIN] == -thm.pwm_initial(phys.th, new[0, core.TEMP_C])
+    assert new[0, core.HEAT_X] >= new[0, core.HEAT_X_MIN]
     # never colder than the coolest heat sink (minus a small tolerance)
-    temp, amb, cf = state[0, C.TEMP_C], cond[0, C.AMBIENT_C], cond[0, C.COOLANT_FACTOR]
+    temp, amb, cf = state[0, core.TEMP_C], cond[0, core.AMBIENT_C], cond[0, core.COOLANT_FACTOR]
     if model == "paper_eqs":
         sink = min(temp, amb, amb + 5.0 if cf > 0 and temp > cfg.thermal.thermostat_temp_c else temp)
     else:  # backward Euler on a conductance network: a maximum principle holds (the heat input is >= 0)
-        sink = min(temp, amb, state[0, C.WINDING_C], state[0, C.COOLANT_C])
-        assert min(new[0, C.WINDING_C], new[0, C.COOLANT_C]) >= sink - 1e-6
-    assert new[0, C.TEMP_C] >= sink - 1e-6
+        sink = min(temp, amb, state[0, core.WINDING_C], state[0, core.COOLANT_C])
+        assert min(new[0, core.WINDING_C], new[0, core.COOLANT_C]) >= sink - 1e-6
+    assert new[0, core.TEMP_C] >= sink - 1e-6
     # energy balance of the step
-    e_in = out[0, C.ENGINE_POWER] + out[0, C.BATT_CHEM]
-    e_out = (out[0, C.WHEEL_POWER] + out[0, C.BRAKE_POWER] + out[0, C.BATT_LOSS] + out[0, C.MOTOR_LOSS]
-             + out[0, C.CLUTCH_LOSS] + out[0, C.DRIVELINE_LOSS] + out[0, C.ACC])
+    e_in = out[0, core.ENGINE_POWER] + out[0, core.BATT_CHEM]
+    e_out = (out[0, core.WHEEL_POWER] + out[0, core.BRAKE_POWER] + out[0, core.BATT_LOSS] + out[0, core.MOTOR_LOSS]
+             + out[0, core.CLUTCH_LOSS] + out[0, core.DRIVELINE_LOSS] + out[0, core.ACC])
     assert e_in == np_approx(e_out) or abs(e_in - e_out) < 1e-6 * max(abs(e_in), 1.0)
 
 
@@ -194,5 +193,5 @@ def test_vectorised_equals_single(rows, model):
 def test_initial_state_from_conditions():
     phys = PhysicsCore(CFG)
     s = phys.initial_state(Conditions(initial_motor_temp_c=45.0), 3)
-    assert np.all(s[:, C.HEAT_X] == s[:, C.HEAT_X_MIN])
-    assert np.all(s[:, C.HEAT_X] == -thm.pwm_initial(TH, 45.0))
+    assert np.all(s[:, core.HEAT_X] == s[:, core.HEAT_X_MIN])
+    assert np.all(s[:, core.HEAT_X] == -thm.pwm_initial(TH, 45.0))

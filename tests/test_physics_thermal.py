@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import load_cycle, simulate
-from hev_thermal_env.physics import Conditions, PhysicsCore, ThermalParams, paper_bus
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import Conditions, PhysicsCore, ThermalParams, core, paper_bus
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import performance_report
@@ -48,11 +47,11 @@ def test_derated_motor_above_max_speed_gets_nothing_through_the_core():
     cfg = paper_bus()
     phys = PhysicsCore(cfg)
     st = phys.initial_state(Conditions(), 1)
-    st[0, C.HEAT_X] = 1.0
+    st[0, core.HEAT_X] = 1.0
     _, out = _step(cfg, st, v0=35.0, v1=35.2)
-    assert out[0, C.MOTOR_SPEED] > 6000 * RPM
-    assert out[0, C.MOTOR_AVAIL] == 0.0
-    assert out[0, C.MOTOR_TORQUE] == 0.0
+    assert out[0, core.MOTOR_SPEED] > 6000 * RPM
+    assert out[0, core.MOTOR_AVAIL] == 0.0
+    assert out[0, core.MOTOR_TORQUE] == 0.0
 
 
 # --- the anti-windup floor follows the motor's state ---------------------------------------------------
@@ -61,29 +60,29 @@ def test_hot_started_motor_regains_its_reserve_once_cool():
     cfg = paper_bus()
     phys = PhysicsCore(cfg)
     hot = phys.initial_state(Conditions(initial_motor_temp_c=70.0), 1)
-    assert hot[0, C.HEAT_X] == pytest.approx(0.0) and hot[0, C.HEAT_X_MIN] == pytest.approx(0.0)
+    assert hot[0, core.HEAT_X] == pytest.approx(0.0) and hot[0, core.HEAT_X_MIN] == pytest.approx(0.0)
     cooled = hot.copy()
-    cooled[0, C.TEMP_C] = 22.0  # the same integrator state, the motor now cold
+    cooled[0, core.TEMP_C] = 22.0  # the same integrator state, the motor now cold
     new, _ = _step(cfg, cooled, u=0.0, v0=0.0, v1=0.0)  # standing: no torque, the index relaxes
-    assert new[0, C.HEAT_X] < 0.0
-    assert new[0, C.HEAT_X_MIN] == pytest.approx(-thm.pwm_initial(phys.th, new[0, C.TEMP_C]))
+    assert new[0, core.HEAT_X] < 0.0
+    assert new[0, core.HEAT_X_MIN] == pytest.approx(-thm.pwm_initial(phys.th, new[0, core.TEMP_C]))
     # held at standstill, it relaxes down to the cold reserve
     st = new
     for _ in range(2000):
         st, _ = _step(cfg, st, u=0.0, v0=0.0, v1=0.0)
-    assert st[0, C.HEAT_X] == pytest.approx(-thm.pwm_initial(cfg.thermal.pack(), st[0, C.TEMP_C]), abs=1e-6)
+    assert st[0, core.HEAT_X] == pytest.approx(-thm.pwm_initial(cfg.thermal.pack(), st[0, core.TEMP_C]), abs=1e-6)
 
 
 def test_cold_started_motor_loses_its_reserve_when_hot():
     cfg = paper_bus()
     phys = PhysicsCore(cfg)
     st = phys.initial_state(Conditions(), 1)
-    assert st[0, C.HEAT_X] == pytest.approx(-cfg.thermal.pwm_initial_at_ref)
-    st[0, C.TEMP_C] = st[0, C.WINDING_C] = 65.0  # heated since the start; the integrator holds the cold reserve
+    assert st[0, core.HEAT_X] == pytest.approx(-cfg.thermal.pwm_initial_at_ref)
+    st[0, core.TEMP_C] = st[0, core.WINDING_C] = 65.0  # heated since the start; the integrator holds the cold reserve
     new, _ = _step(cfg, st, u=0.0, v0=0.0, v1=0.0)
-    floor = -thm.pwm_initial(phys.th, new[0, C.TEMP_C])
+    floor = -thm.pwm_initial(phys.th, new[0, core.TEMP_C])
     assert floor > -0.05  # at 65 °C almost no reserve is left
-    assert new[0, C.HEAT_X] >= floor - 1e-12 and new[0, C.HEAT_X_MIN] == pytest.approx(floor)
+    assert new[0, core.HEAT_X] >= floor - 1e-12 and new[0, core.HEAT_X_MIN] == pytest.approx(floor)
 
 
 # --- the derate is exactly −1 percentage point per 15 °C -------------------------------------------------

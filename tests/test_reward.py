@@ -14,7 +14,20 @@ import pytest
 from hev_thermal_env import Conditions, PhysicsCore, load_cycle, paper_bus
 from hev_thermal_env.envs.reward import REWARD_TERMS, RewardParams, reward_terms, soc_band_charge_g, stage_cost_g
 from hev_thermal_env.metrics import summarize
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.core import (
+    BATT_CHEM,
+    CUTOFF,
+    FUEL_G,
+    HEAT_X,
+    MISSED_J,
+    N_OUT,
+    N_STATE,
+    OUT_NAMES,
+    SOC,
+    TEMP_C,
+    WINDING_C,
+    WINDING_TRIP,
+)
 from hev_thermal_env.planning.problem import DPProblem
 from hev_thermal_env.planning.soc_dp import DPSettings, rollout, solve
 from hev_thermal_env.prices import Prices
@@ -26,15 +39,15 @@ OLD_DEFAULT = RewardParams(soc_band_weight=0.0, soc_deviation_weight=0.2)
 
 def _batch(n=400, seed=1, target=0.62):
     rng = np.random.default_rng(seed)
-    out = rng.normal(size=(n, C.N_OUT)) * 3000.0
-    st = rng.normal(size=(n, C.N_STATE))
-    st[:, C.TEMP_C] = rng.uniform(20.0, 80.0, n)
-    st[:, C.WINDING_C] = rng.uniform(20.0, 200.0, n)
-    st[:, C.CUTOFF] = rng.integers(0, 2, n)
-    st[:, C.WINDING_TRIP] = rng.integers(0, 2, n)
-    st0 = rng.normal(size=(n, C.N_STATE))
-    st0[:, C.SOC] = target + rng.uniform(-0.05, 0.05, n)  # inside, at and beyond the band on both sides
-    st[:, C.SOC] = st0[:, C.SOC] + rng.uniform(-0.02, 0.02, n)
+    out = rng.normal(size=(n, N_OUT)) * 3000.0
+    st = rng.normal(size=(n, N_STATE))
+    st[:, TEMP_C] = rng.uniform(20.0, 80.0, n)
+    st[:, WINDING_C] = rng.uniform(20.0, 200.0, n)
+    st[:, CUTOFF] = rng.integers(0, 2, n)
+    st[:, WINDING_TRIP] = rng.integers(0, 2, n)
+    st0 = rng.normal(size=(n, N_STATE))
+    st0[:, SOC] = target + rng.uniform(-0.05, 0.05, n)  # inside, at and beyond the band on both sides
+    st[:, SOC] = st0[:, SOC] + rng.uniform(-0.02, 0.02, n)
     return out, st, st0
 
 
@@ -44,21 +57,21 @@ def _hinge(rp: RewardParams, soc, target):
 
 def _documented(rp: RewardParams, out, st, st0, target, dt):
     eta_e, eta_c, eta_d, eta_l = 0.36, 0.90, 0.90, 0.93  # the documented default efficiencies
-    batt_g = out[:, C.BATT_CHEM] * dt / (LHV * eta_e * eta_c)
-    miss_g = out[:, C.MISSED_J] / (LHV * eta_e * eta_c * eta_d * eta_l)
-    dev = ((st[:, C.SOC] - target) / rp.soc_deviation_scale) ** 2
-    band = _hinge(rp, st[:, C.SOC], target) - _hinge(rp, st0[:, C.SOC], target)
-    over = np.maximum(st[:, C.TEMP_C] - rp.overheat_soft_limit_c, 0.0)
+    batt_g = out[:, BATT_CHEM] * dt / (LHV * eta_e * eta_c)
+    miss_g = out[:, MISSED_J] / (LHV * eta_e * eta_c * eta_d * eta_l)
+    dev = ((st[:, SOC] - target) / rp.soc_deviation_scale) ** 2
+    band = _hinge(rp, st[:, SOC], target) - _hinge(rp, st0[:, SOC], target)
+    over = np.maximum(st[:, TEMP_C] - rp.overheat_soft_limit_c, 0.0)
     return {
-        "reward_fuel": -rp.fuel_weight * out[:, C.FUEL_G],
+        "reward_fuel": -rp.fuel_weight * out[:, FUEL_G],
         "reward_miss": -rp.miss_weight * miss_g,
         "reward_soc": -rp.soc_energy_weight * batt_g + band - rp.soc_deviation_weight * dev,
         "reward_overheat": -rp.overheat_temp_weight * over ** 2
-        - rp.cutoff_weight * ((st[:, C.CUTOFF] + st[:, C.WINDING_TRIP]) > 0)  # either protection stops the motor
-        - rp.derate_weight * (np.clip(st[:, C.HEAT_X], rp.derate_from_x, 1.0) - rp.derate_from_x)
+        - rp.cutoff_weight * ((st[:, CUTOFF] + st[:, WINDING_TRIP]) > 0)  # either protection stops the motor
+        - rp.derate_weight * (np.clip(st[:, HEAT_X], rp.derate_from_x, 1.0) - rp.derate_from_x)
         # the insulation's life: 20,000 h at its class temperature, halving every 10 K (Montsinger)
         - rp.motor_life_cost_g * dt / (rp.insulation_life_h * 3600.0
-                                       * 2.0 ** ((rp.insulation_class_temp_c - st[:, C.WINDING_C]) / 10.0)),
+                                       * 2.0 ** ((rp.insulation_class_temp_c - st[:, WINDING_C]) / 10.0)),
     }
 
 
@@ -81,10 +94,10 @@ def test_default_soc_terms_are_a_dead_zone_band_settlement():
     assert (rp.soc_band, rp.soc_band_weight, rp.soc_deviation_weight) == (0.01, 10000.0, 0.0)
     soc_before = np.array([0.65, 0.655, 0.66, 0.67, 0.64, 0.62, 0.63])
     soc_after = np.array([0.659, 0.645, 0.67, 0.68, 0.63, 0.61, 0.65])
-    st0 = np.zeros((7, C.N_STATE))
-    st = np.zeros((7, C.N_STATE))
-    st0[:, C.SOC], st[:, C.SOC] = soc_before, soc_after
-    out = np.zeros((7, C.N_OUT))  # no fuel, no battery energy: only the settlement is left
+    st0 = np.zeros((7, N_STATE))
+    st = np.zeros((7, N_STATE))
+    st0[:, SOC], st[:, SOC] = soc_before, soc_after
+    out = np.zeros((7, N_OUT))  # no fuel, no battery energy: only the settlement is left
     terms, _ = reward_terms(rp, out, st, 0.65, LHV, state_before=st0)
     # inside; inside; leaves upwards by 0.01; further out by 0.01; leaves downwards; further down; back inside
     np.testing.assert_allclose(terms[:, REWARD_TERMS.index("reward_soc")], [0.0, 0.0, -100.0, -100.0, -100.0, -100.0,
@@ -98,10 +111,10 @@ def test_band_settlement_adds_up_to_a_terminal_settlement_of_the_final_soc():
     target = 0.6
     path = target + np.cumsum(rng.normal(0.0, 0.004, 3001))  # wanders well beyond the band
     path[0] = target
-    st0 = np.zeros((3000, C.N_STATE))
-    st = np.zeros((3000, C.N_STATE))
-    st0[:, C.SOC], st[:, C.SOC] = path[:-1], path[1:]
-    terms, _ = reward_terms(rp, np.zeros((3000, C.N_OUT)), st, target, LHV, state_before=st0)
+    st0 = np.zeros((3000, N_STATE))
+    st = np.zeros((3000, N_STATE))
+    st0[:, SOC], st[:, SOC] = path[:-1], path[1:]
+    terms, _ = reward_terms(rp, np.zeros((3000, N_OUT)), st, target, LHV, state_before=st0)
     soc_col = REWARD_TERMS.index("reward_soc")
     assert np.max(np.abs(path - target)) > 0.05 and np.count_nonzero(terms[:, soc_col]) > 100
     final_excess = max(abs(path[-1] - target) - 0.01, 0.0)
@@ -116,11 +129,11 @@ def test_planner_cost_is_minus_the_reward_with_terms_switched_off(flags):
     e = _documented(rp, out, st, st0, 0.6, 1.0)
     expected = e["reward_fuel"] + e["reward_miss"]
     if flags.get("battery", True):
-        expected = expected - rp.soc_energy_weight * out[:, C.BATT_CHEM] / (LHV * 0.36 * 0.90)
+        expected = expected - rp.soc_energy_weight * out[:, BATT_CHEM] / (LHV * 0.36 * 0.90)
     if flags.get("soc_deviation", False):
-        expected = expected - rp.soc_deviation_weight * ((st[:, C.SOC] - 0.6) / 0.1) ** 2
+        expected = expected - rp.soc_deviation_weight * ((st[:, SOC] - 0.6) / 0.1) ** 2
         if flags.get("soc_band", True):
-            expected = expected + _hinge(rp, st[:, C.SOC], 0.6) - _hinge(rp, st0[:, C.SOC], 0.6)
+            expected = expected + _hinge(rp, st[:, SOC], 0.6) - _hinge(rp, st0[:, SOC], 0.6)
     if flags.get("overheat", False):
         expected = expected + e["reward_overheat"]
     cost = stage_cost_g(rp, out, st, 0.6, LHV, 1.0, state_before=st0, **flags)
@@ -131,13 +144,13 @@ def test_without_the_state_before_only_the_common_start_potential_is_left_out():
     """Choosing among actions from one state: a constant shift, Φ(SOC before), for every candidate."""
     rp = RewardParams()
     out, st, _ = _batch(n=50, seed=5, target=0.6)
-    start = np.zeros(C.N_STATE)
-    start[C.SOC] = 0.585  # outside the band: Φ = −10000 · 0.005 = −50 g
+    start = np.zeros(N_STATE)
+    start[SOC] = 0.585  # outside the band: Φ = −10000 · 0.005 = −50 g
     shared = stage_cost_g(rp, out, st, 0.6, LHV, 1.0, soc_deviation=True, state_before=start)
     blind = stage_cost_g(rp, out, st, 0.6, LHV, 1.0, soc_deviation=True)
     np.testing.assert_allclose(shared - blind, -50.0, atol=1e-9)
     with pytest.raises(ValueError, match="state_before"):
-        stage_cost_g(rp, out, st, 0.6, LHV, 1.0, state_before=np.zeros((3, C.N_STATE)))
+        stage_cost_g(rp, out, st, 0.6, LHV, 1.0, state_before=np.zeros((3, N_STATE)))
 
 
 def test_band_charge_of_a_final_soc_is_minus_the_hinge():
@@ -193,12 +206,12 @@ def test_env_settles_the_band_step_by_step():
     for _ in range(600):
         before = env.phys_state.copy()
         _, _, _, _, info = env.step(np.array([-1.0], dtype=np.float32))
-        batt_g = env.last_out[C.BATT_CHEM] / (lhv * 0.36 * 0.90)
-        band = _hinge(env.reward_params, env.phys_state[0, C.SOC], 0.65) - _hinge(env.reward_params,
-                                                                                  before[0, C.SOC], 0.65)
+        batt_g = env.last_out[BATT_CHEM] / (lhv * 0.36 * 0.90)
+        band = _hinge(env.reward_params, env.phys_state[0, SOC], 0.65) - _hinge(env.reward_params,
+                                                                                  before[0, SOC], 0.65)
         assert info["reward_soc"] == pytest.approx(-batt_g + band, rel=1e-12, abs=1e-9)
         settled += band
-    excess = env.phys_state[0, C.SOC] - 0.65 - 0.01
+    excess = env.phys_state[0, SOC] - 0.65 - 0.01
     assert excess > 0.02
     assert settled == pytest.approx(-10000.0 * excess, rel=1e-9)
 
@@ -263,16 +276,16 @@ def test_on_hills_the_settlement_adds_up_to_the_final_charge_and_a_constant_of_t
     obs, _ = env.reset(seed=0)
     lhv = env.config.engine.fuel_lhv_j_per_g
     rp = env.reward_params
-    start_center, soc0 = float(env.unwrapped._rows.band_center[0, 0]), env.phys_state[0, C.SOC]
+    start_center, soc0 = float(env.unwrapped._rows.band_center[0, 0]), env.phys_state[0, SOC]
     assert abs(start_center - obs[OBS_SOC_TARGET]) < 1e-6
     rng = np.random.default_rng(3)
     settled = 0.0
     done = False
     while not done:
         _, _, term, trunc, info = env.step(np.array([rng.uniform(-1.0, 1.0)], dtype=np.float32))
-        settled += info["reward_soc"] + env.last_out[C.BATT_CHEM] / (lhv * 0.36 * 0.90)
+        settled += info["reward_soc"] + env.last_out[BATT_CHEM] / (lhv * 0.36 * 0.90)
         done = term or trunc
-    final = env.phys_state[0, C.SOC]
+    final = env.phys_state[0, SOC]
     expected = _hinge(rp, final, 0.65) - _hinge(rp, soc0, start_center)
     assert settled == pytest.approx(expected, rel=1e-6, abs=1e-6)
 
@@ -290,7 +303,7 @@ def _free_final_soc_optimum(reward: RewardParams, cycle: str = "udds") -> dict:
     s = DPSettings(n_soc=101, n_u=11, n_u_exec=21, soc_tol=0.3, price_soc_deviation=True)
     plan = solve(p, s)
     run = rollout(plan, p, s, free=True)
-    return {"problem": p, "plan": plan, "run": run, "delta_soc": float(run["state"][-1, C.SOC] - p.state0[C.SOC])}
+    return {"problem": p, "plan": plan, "run": run, "delta_soc": float(run["state"][-1, SOC] - p.state0[SOC])}
 
 
 @pytest.mark.parametrize("reward", [
@@ -311,11 +324,11 @@ def test_on_the_charge_sustaining_optimum_the_return_is_minus_the_corrected_fuel
     out, states = run["out"], run["state"]
     terms, _ = reward_terms(p.reward_params, out, states[1:], p.soc_target, p.lhv, state_before=states[:-1])
     n = len(out)
-    trace = {name: out[:, i] for i, name in enumerate(C.OUT_NAMES)}
-    trace.update(soc=states[1:, C.SOC], motor_temp_c=states[1:, C.TEMP_C], motor_cutoff=states[1:, C.CUTOFF],
-                 heat_index=np.clip(states[1:, C.HEAT_X], 0.0, 1.0))
+    trace = {name: out[:, i] for i, name in enumerate(OUT_NAMES)}
+    trace.update(soc=states[1:, SOC], motor_temp_c=states[1:, TEMP_C], motor_cutoff=states[1:, CUTOFF],
+                 heat_index=np.clip(states[1:, HEAT_X], 0.0, 1.0))
     dist_m = float(np.sum(0.5 * (p.speed_mps[:n] + p.speed_mps[1:n + 1])))
-    m = summarize(trace, p.core.config, p.state0[C.SOC], dist_m)
+    m = summarize(trace, p.core.config, p.state0[SOC], dist_m)
     corrected_g = m["fuel_corrected_l_per_100km"] * paper_bus().engine.fuel_density_kg_per_l * dist_m / 100.0
     fuel_miss_soc = terms[:, :3].sum()
     assert fuel_miss_soc == pytest.approx(-corrected_g, rel=1e-9)

@@ -9,7 +9,7 @@ import pytest
 
 from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.evaluation import references as R
+from hev_thermal_env.evaluation import references
 from hev_thermal_env.evaluation.results_table import write_results
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.score import (
@@ -58,8 +58,8 @@ def test_family_rows_aggregate_their_members():
 
 
 def test_budget_rule():
-    assert R.safety_budget_s([0.0, 0.0]) == R.BUDGET_FLOOR_S
-    assert R.safety_budget_s([100.0, 40.0]) == pytest.approx(100.0 * (1 + R.BUDGET_MARGIN))
+    assert references.safety_budget_s([0.0, 0.0]) == references.BUDGET_FLOOR_S
+    assert references.safety_budget_s([100.0, 40.0]) == pytest.approx(100.0 * (1 + references.BUDGET_MARGIN))
 
 
 @pytest.fixture(scope="module")
@@ -73,20 +73,21 @@ def tiny_task(tmp_path_factory) -> Task:
 
 @pytest.fixture(scope="module")
 def tiny_reference(tiny_task):
-    return R.compute_reference(tiny_task)
+    return references.compute_reference(tiny_task)
 
 
 def test_optimum_scores_100_engine_only_0_and_no_strategy_beats_it(tiny_reference, tiny_task):
     ep = tiny_reference["episodes"][0]
     r0 = ep["anchor"]["frontier_ratio"]
     assert r0 - 1.0 > 0.02  # the motor saves something here: the score is well conditioned
-    _, opt_score, note = R.episode_score(ep, ep["optimum"]["cost_g"], ep["optimum"]["soc_final"])
+    _, opt_score, note = references.episode_score(ep, ep["optimum"]["cost_g"], ep["optimum"]["soc_final"])
     tol = score_tolerance(r0)
     assert note is None and abs(opt_score - 100.0) <= tol
-    assert R.episode_score(ep, ep["anchor"]["cost_g"], ep["anchor"]["soc_final"])[1] == pytest.approx(0.0, abs=1e-9)
+    anchor_score = references.episode_score(ep, ep["anchor"]["cost_g"], ep["anchor"]["soc_final"])[1]
+    assert anchor_score == pytest.approx(0.0, abs=1e-9)
     for name in CLASSIC:
         s = run_strategy(get_strategy(name), tiny_task.cycles[0], "hot").summary
-        ratio, score, _ = R.episode_score(ep, s["cost_g"], s["soc_final"])
+        ratio, score, _ = references.episode_score(ep, s["cost_g"], s["soc_final"])
         assert ratio >= 1.0 - OPTIMUM_RATIO_TOLERANCE, name
         assert score <= 100.0 + tol, (name, score)
 
@@ -95,26 +96,27 @@ def test_stale_reference_is_refused_naming_both(tiny_reference, tmp_path):
     task = get_task("hwfet")
     record = {**tiny_reference, "task": task.id, "task_digest": task.digest(), "physics_fingerprint": "0" * 16}
     (tmp_path / f"{task.id}.json").write_text(json.dumps(record))
-    with pytest.raises(R.StaleReferenceError, match=f"'{'0' * 16}'.*current '{task.fingerprint()}'"):
-        R.load_reference("hwfet", tmp_path)
+    with pytest.raises(references.StaleReferenceError, match=f"'{'0' * 16}'.*current '{task.fingerprint()}'"):
+        references.load_reference("hwfet", tmp_path)
     record.update(physics_fingerprint=task.fingerprint(), task_digest="f" * 64)
     (tmp_path / f"{task.id}.json").write_text(json.dumps(record))
-    with pytest.raises(R.StaleReferenceError, match=r"task digest ffff.*current " + task.digest()[:16]):
-        R.load_reference("hwfet", tmp_path)
+    with pytest.raises(references.StaleReferenceError, match=r"task digest ffff.*current " + task.digest()[:16]):
+        references.load_reference("hwfet", tmp_path)
     record.update(task_digest=task.digest())
     (tmp_path / f"{task.id}.json").write_text(json.dumps(record))
-    assert R.load_reference("hwfet", tmp_path)["task"] == task.id
+    assert references.load_reference("hwfet", tmp_path)["task"] == task.id
     with pytest.raises(FileNotFoundError, match=f"evaluate.py reference --task {get_task('beijing').id}"):
-        R.load_reference("beijing", tmp_path)
+        references.load_reference("beijing", tmp_path)
 
 
 def test_stored_references_are_current():
     """Every reference in the package belongs to the current physics and task definition (else recompute it)."""
-    stored = sorted(R.REFERENCE_DIR.glob("*.json"))
+    stored = sorted(references.REFERENCE_DIR.glob("*.json"))
     assert stored, "no stored reference"
     for path in stored:
-        ref = R.load_reference(path.stem)
-        assert ref["safety_budget_s"] == R.safety_budget_s([e["optimum"]["safety_cost_s"] for e in ref["episodes"]])
+        ref = references.load_reference(path.stem)
+        optimum_costs = [e["optimum"]["safety_cost_s"] for e in ref["episodes"]]
+        assert ref["safety_budget_s"] == references.safety_budget_s(optimum_costs)
 
 
 def test_results_table_carries_the_score(tmp_path):
@@ -144,14 +146,14 @@ EPISODES_CHECKED = 3
 def test_no_strategy_above_100_on_the_stored_tasks():
     """On every task with a stored reference (its shortest episodes), no classic strategy nor the shipped policy
     scores above 100 by more than the optimum's tolerance, and engine_only scores 0."""
-    for path in sorted(R.REFERENCE_DIR.glob("*.json")):
-        ref = R.load_reference(path.stem)
+    for path in sorted(references.REFERENCE_DIR.glob("*.json")):
+        ref = references.load_reference(path.stem)
         task = get_task(path.stem)
         shortest = sorted(ref["episodes"], key=lambda e: load_cycle(e["cycle"]).n_steps)[:EPISODES_CHECKED]
         for ep in shortest:
             for name in ("engine_only", *CLASSIC, "ppo"):
                 s = run_strategy(get_strategy(name), ep["cycle"], task.scenario, seed=ep["seed"]).summary
-                _, score, _ = R.episode_score(ep, s["cost_g"], s["soc_final"])
+                _, score, _ = references.episode_score(ep, s["cost_g"], s["soc_final"])
                 if score is not None:
                     assert score <= 100.0 + score_tolerance(ep["anchor"]["frontier_ratio"]), (path.stem, name, score)
                 if name == "engine_only":
@@ -161,22 +163,22 @@ def test_no_strategy_above_100_on_the_stored_tasks():
 def test_the_reference_frontier_reaches_the_anchors_final_charge():
     """Without regeneration engine_only can end far below the start: the reference's optimum then keeps a frontier
     reaching 0.01 below it (else r0 has no frontier to be read from); within the default's reach, the default."""
-    assert R.frontier_halfwidth_for(0.65, 0.60) is None  # 0.06 below: the default 0.08 reaches it
-    assert R.frontier_halfwidth_for(0.65, 0.58) is None  # exactly the default with the margin
-    assert R.frontier_halfwidth_for(0.65, 0.52) == pytest.approx(0.14)
-    assert R.frontier_halfwidth_for(0.65, 0.4905) == pytest.approx(0.17)  # rounded up to 0.01
+    assert references.frontier_halfwidth_for(0.65, 0.60) is None  # 0.06 below: the default 0.08 reaches it
+    assert references.frontier_halfwidth_for(0.65, 0.58) is None  # exactly the default with the margin
+    assert references.frontier_halfwidth_for(0.65, 0.52) == pytest.approx(0.14)
+    assert references.frontier_halfwidth_for(0.65, 0.4905) == pytest.approx(0.17)  # rounded up to 0.01
 
 
 def test_reference_table_names_every_task_and_goes_between_the_markers(tmp_path, capsys):
     from hev_thermal_env.cli.evaluate import main
     from hev_thermal_env.tasks import list_tasks
 
-    table = R.references_table()
+    table = references.references_table()
     assert [line.split(" | ")[0][3:-1] for line in table.splitlines()[2:]] == [get_task(t).id for t in list_tasks()]
     doc = tmp_path / "tasks.md"
-    doc.write_text(f"intro\n{R.TABLE_BEGIN}\nold table\n{R.TABLE_END}\nafter\n")
+    doc.write_text(f"intro\n{references.TABLE_BEGIN}\nold table\n{references.TABLE_END}\nafter\n")
     assert main(["reference", "--table", str(doc)]) == 0
-    assert doc.read_text() == f"intro\n{R.TABLE_BEGIN}\n{table}{R.TABLE_END}\nafter\n"
+    assert doc.read_text() == f"intro\n{references.TABLE_BEGIN}\n{table}{references.TABLE_END}\nafter\n"
     (tmp_path / "plain.md").write_text("no markers\n")
     assert main(["reference", "--table", str(tmp_path / "plain.md")]) == 2
     assert "plain.md: needs one line <!-- references:begin -->" in capsys.readouterr().err
@@ -188,8 +190,8 @@ def test_reference_table_names_every_task_and_goes_between_the_markers(tmp_path,
 
 def test_the_tasks_page_shows_the_stored_references():
     """docs/tasks.md's table is the stored references' (``evaluate.py reference --table docs/tasks.md`` writes it)."""
-    text = (R.REFERENCE_DIR.parents[2] / "docs" / "tasks.md").read_text()
-    assert text.split(R.TABLE_BEGIN + "\n")[1].split(R.TABLE_END)[0] == R.references_table()
+    text = (references.REFERENCE_DIR.parents[2] / "docs" / "tasks.md").read_text()
+    assert text.split(references.TABLE_BEGIN + "\n")[1].split(references.TABLE_END)[0] == references.references_table()
 
 
 @pytest.mark.full
@@ -200,7 +202,7 @@ def test_reference_in_two_processes_equals_the_serial_one(tmp_path, tiny_task):
     short.write_text("time_s,speed_mps\n" + "".join(f"{t},{x}\n" for t, x in enumerate(v)))
     task = Task("tiny2", 1, "120 s and 200 s of Beijing, hot", (str(short), tiny_task.cycles[0]), "hot")
     timing = ("optimum_wall_s", "optimum_plan_s", "plan_from_cache")
-    records = [R.compute_reference(task, jobs=jobs) for jobs in (2, 1)]
+    records = [references.compute_reference(task, jobs=jobs) for jobs in (2, 1)]
     episodes = [[{k: v for k, v in e.items() if k not in timing} for e in r["episodes"]] for r in records]
     assert [e["cycle"] for e in episodes[0]] == list(task.cycles)
     assert episodes[0] == episodes[1]

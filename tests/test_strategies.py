@@ -18,7 +18,7 @@ from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.plots import plot_run
 from hev_thermal_env.evaluation.runner import SUMMARY_KEYS, run_strategy
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.core import BATT_CHEM, FUEL_G, HEAT_X, SHAFT_DEMAND, SOC, TEMP_C
 from hev_thermal_env.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -185,7 +185,7 @@ def test_rule_charges_when_low_and_assists_when_high(city200):
         for _ in range(60):
             _, out = env.peek(np.zeros(1))
             u = float(rule.act(None, {})[0])
-            if out[0, C.SHAFT_DEMAND] > 0:
+            if out[0, SHAFT_DEMAND] > 0:
                 us.append(u)
             env.step(np.array([u], dtype=np.float32))
         assert us and sign * np.mean(us) > 0
@@ -205,9 +205,9 @@ def test_ecms_cost_is_fuel_plus_equivalent_battery_energy_plus_miss_price():
     rp = RewardParams()
     s = 2.5
     cost = ecms_cost_g(out, so, s, lhv, rp)
-    miss_price = stage_cost_g(rp, out, so, 0.0, lhv, 1.0, battery=False) - out[:, C.FUEL_G]
+    miss_price = stage_cost_g(rp, out, so, 0.0, lhv, 1.0, battery=False) - out[:, FUEL_G]
     assert np.all(miss_price >= 0.0)
-    np.testing.assert_allclose(cost, out[:, C.FUEL_G] + s * out[:, C.BATT_CHEM] / lhv + miss_price, rtol=1e-12)
+    np.testing.assert_allclose(cost, out[:, FUEL_G] + s * out[:, BATT_CHEM] / lhv + miss_price, rtol=1e-12)
     # at the reward's equivalence factor the battery term is the reward's battery price
     full = stage_cost_g(rp, out, so, 0.0, lhv, 1.0)
     np.testing.assert_allclose(ecms_cost_g(out, so, REWARD_EQUIVALENCE_FACTOR, lhv, rp), full, rtol=1e-9)
@@ -315,20 +315,20 @@ def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff
     agent.reset(env)
     fixed.reset(env)
     for temp_c, price in ((20.0, 60.0), (50.0, 150.0), (60.0, 300.0), (69.0, 300.0), (75.0, 300.0)):
-        env.phys_state[0, C.TEMP_C] = temp_c
+        env.phys_state[0, TEMP_C] = temp_c
         assert agent.heat_index_price() == pytest.approx(price) and fixed.heat_index_price() == 300.0
     # margin_floor: the price in a cool motor never below that share of w_x; the hot price unchanged
     floored = get_strategy("ecms_thermal", x_price="margin", w_x=300.0, margin_floor=0.5)
     floored.reset(env)
     for temp_c, price in ((20.0, 150.0), (40.0, 150.0), (50.0, 150.0), (55.0, 200.0), (60.0, 300.0), (75.0, 300.0)):
-        env.phys_state[0, C.TEMP_C] = temp_c
+        env.phys_state[0, TEMP_C] = temp_c
         assert floored.heat_index_price() == pytest.approx(price)
     # braking_floor: while the bus brakes, that floor instead (default: margin_floor's)
     assert floored.braking_floor == 0.5
     braked = get_strategy("ecms_thermal", x_price="margin", w_x=300.0, margin_floor=0.5, braking_floor=1.0)
     braked.reset(env)
     for temp_c, traction, braking in ((20.0, 150.0, 300.0), (55.0, 200.0, 300.0), (75.0, 300.0, 300.0)):
-        env.phys_state[0, C.TEMP_C] = temp_c
+        env.phys_state[0, TEMP_C] = temp_c
         assert braked.heat_index_price() == pytest.approx(traction)
         assert braked.heat_index_price(braking=True) == pytest.approx(braking)
         assert floored.heat_index_price(braking=True) == floored.heat_index_price()
@@ -372,16 +372,16 @@ def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
         agent.reset(env)
     seen = {"traction": 0, "braking": 0, "derating": 0}
     for _ in range(steps):
-        if env.peek(plain.u_grid)[1][0, C.SHAFT_DEMAND] == 0.0:
+        if env.peek(plain.u_grid)[1][0, SHAFT_DEMAND] == 0.0:
             break
         # below 0 every candidate stays short of derating; above it the regenerating ones derate
         for x0 in (-0.02, 0.02):
-            env.phys_state[0, C.HEAT_X] = x0
+            env.phys_state[0, HEAT_X] = x0
             st, out = env.peek(plain.u_grid)
-            soc = float(env.phys_state[0, C.SOC])
-            x_new = st[:, C.HEAT_X]
+            soc = float(env.phys_state[0, SOC])
+            x_new = st[:, HEAT_X]
             gap = braked.candidate_costs(st, out, soc) - plain.candidate_costs(st, out, soc)
-            if out[0, C.SHAFT_DEMAND] > 0.0:
+            if out[0, SHAFT_DEMAND] > 0.0:
                 assert np.array_equal(gap, np.zeros_like(gap))
                 seen["traction"] += 1
                 continue
@@ -418,11 +418,11 @@ def test_ecms_thermal_braking_options_only_below_a_temperature():
     braked = 0
     for _ in range(steps):
         st, out = env.peek(plain.u_grid)
-        if out[0, C.SHAFT_DEMAND] < 0.0:
-            soc = float(env.phys_state[0, C.SOC])
+        if out[0, SHAFT_DEMAND] < 0.0:
+            soc = float(env.phys_state[0, SOC])
             for temp_c, like in ((40.0, always), (55.0, plain)):
-                env.phys_state[0, C.TEMP_C] = temp_c
-                env.phys_state[0, C.HEAT_X] = -0.02
+                env.phys_state[0, TEMP_C] = temp_c
+                env.phys_state[0, HEAT_X] = -0.02
                 st, out = env.peek(plain.u_grid)
                 np.testing.assert_array_equal(cool.candidate_costs(st, out, soc), like.candidate_costs(st, out, soc))
                 assert cool.heat_index_terms(braking=True) == like.heat_index_terms(braking=True)

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from hev_thermal_env.paper import measure as M
+from hev_thermal_env.paper import measure
 from hev_thermal_env.physics import ThermalParams, paper_bus
 from hev_thermal_env.physics import thermal as thm
 
@@ -72,7 +72,7 @@ def _integrate(cfg, start: np.ndarray, torques: np.ndarray, speeds: np.ndarray, 
     out = [temps.copy()]
     for torque, w in zip(torques, speeds):
         def f(y: np.ndarray, torque: float = torque, w: float = w) -> np.ndarray:
-            return _derivatives(cfg, y, torque, w, M.LAUNCH_SPEED_MPS, M.PAPER_CONDITIONS.ambient_temp_c)
+            return _derivatives(cfg, y, torque, w, measure.LAUNCH_SPEED_MPS, measure.PAPER_CONDITIONS.ambient_temp_c)
         for _ in range(substeps):
             k1 = f(temps)
             k2 = f(temps + 0.5 * h * k1)
@@ -85,7 +85,7 @@ def _integrate(cfg, start: np.ndarray, torques: np.ndarray, speeds: np.ndarray, 
 
 @pytest.fixture(scope="module")
 def launch():
-    return M.launch_run(paper_bus())
+    return measure.launch_run(paper_bus())
 
 
 def test_c6_launch_winding_rise_matches_an_independent_integration(launch):
@@ -93,7 +93,8 @@ def test_c6_launch_winding_rise_matches_an_independent_integration(launch):
     start = np.array([launch["winding_c"][0], launch["housing_c"][0], launch["coolant_c"][0]])
     ref = _integrate(cfg, start, launch["torque_nm"], launch["speed_radps"])
     rise_core, rise_ref = launch["winding_rise_k"], ref[-1, 0] - ref[0, 0]
-    print(f"C6: {M.LAUNCH_S} s at {launch['torque_nm'][0]:.1f} N·m, {launch['speed_radps'][0] * 30 / math.pi:.0f} "
+    rpm = launch["speed_radps"][0] * 30 / math.pi
+    print(f"C6: {measure.LAUNCH_S} s at {launch['torque_nm'][0]:.1f} N·m, {rpm:.0f} "
           f"rpm from {launch['winding_c'][0]:.1f} °C (housing {launch['housing_c'][0]:.1f} °C, steady after "
           f"{launch['warm_s']:.0f} s at rated torque): winding +{rise_core:.2f} K (core), +{rise_ref:.2f} K "
           f"(independent)")
@@ -128,7 +129,7 @@ def test_c1_fig4_from_eq9_with_the_papers_constants():
     0.01·t exactly, so PWM leaves 0 at 30 s and reaches 1 at 130 s."""
     th = ThermalParams(t_gain_cold=0.3).pack()
     assert thm.t_gain(th, 20.0) == 0.3 and thm.pwm_initial(th, 20.0) == pytest.approx(0.3)
-    curve = M.fig4_curve()
+    curve = measure.fig4_curve()
     t = curve["time_s"]
     np.testing.assert_allclose(curve["pwm"], np.clip(-0.3 + 0.01 * t, 0.0, 1.0), atol=1e-12)
     assert (curve["pwm_leaves_zero_s"], curve["pwm_reaches_one_s"]) == (30.0, 130.0)

@@ -13,7 +13,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 import hev_thermal_env  # noqa: F401  (registers HevThermal-v2)
 from hev_thermal_env.envs import INFO_KEYS, HevThermalVectorEnv
 from hev_thermal_env.envs.reward import RewardParams
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
 
 # randomised everywhere: conditions, cycle choice (lengths differ), random bus cycles, start offsets
@@ -150,7 +150,7 @@ def test_infos_are_dicts_of_arrays_with_masks():
     for key in INFO_KEYS:
         assert info[key].shape == (5,) and info["_" + key].dtype == np.bool_ and info["_" + key].all()
     assert info["engine_on"].dtype == np.bool_ and info["gear"].dtype == np.int64
-    np.testing.assert_allclose(info["motor_speed_rpm"], vec.last_out[:, C.MOTOR_SPEED] * 30 / np.pi)
+    np.testing.assert_allclose(info["motor_speed_rpm"], vec.last_out[:, core.MOTOR_SPEED] * 30 / np.pi)
 
 
 def test_seed_int_and_list_agree_and_attributes():
@@ -160,8 +160,8 @@ def test_seed_int_and_list_agree_and_attributes():
     ob, _ = b.reset(seed=[5, 6, 7])
     np.testing.assert_array_equal(oa, ob)
     assert not np.array_equal(oa[0], oa[1])
-    assert a.phys_state.shape == (3, C.N_STATE) and a.cond.shape == (3, C.N_COND)
-    assert a.last_out.shape == (3, C.N_OUT) and a.soc_target.shape == (3,)
+    assert a.phys_state.shape == (3, core.N_STATE) and a.cond.shape == (3, core.N_COND)
+    assert a.last_out.shape == (3, core.N_OUT) and a.soc_target.shape == (3,)
     assert [c.initial_soc for c in a.conditions] == a.soc_target.tolist()
     assert a.get_attr("k") == tuple(a.k.tolist())
     assert a.get_attr("config") == (a.config,) * 3

@@ -21,8 +21,7 @@ from hev_thermal_env.evaluation import run_strategy
 from hev_thermal_env.evaluation.families import OVERALL, Family, family_rows, parse_family, tag_members
 from hev_thermal_env.evaluation.yardstick import Frontier, add_yardstick_columns, frontier_ratio, with_reference
 from hev_thermal_env.metrics import J1711_TOLERANCE, charge_sustaining, summarize, yardstick_cost_g
-from hev_thermal_env.physics import Conditions, paper_bus
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import Conditions, core, paper_bus
 from hev_thermal_env.stats import iqm, iqm_ci, stratified_iqm_ci
 
 FRONTIER = {"soc_final": [0.60, 0.64, 0.66, 0.70], "cost_g": [1000.0, 1100.0, 1140.0, 1200.0], "grid": "test grid"}
@@ -108,7 +107,7 @@ def test_j1711_flag_from_independent_numbers():
 
 def arrays(trace: dict) -> tuple[np.ndarray, np.ndarray]:
     """The physics outputs and states after each step, as [n, N_OUT] and [n, N_STATE] arrays."""
-    return (np.column_stack([trace[k] for k in C.OUT_NAMES]), np.column_stack([trace[k] for k in C.STATE_NAMES]))
+    return (np.column_stack([trace[k] for k in core.OUT_NAMES]), np.column_stack([trace[k] for k in core.STATE_NAMES]))
 
 
 @pytest.mark.parametrize("physics", [2, 1])

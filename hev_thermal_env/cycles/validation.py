@@ -3,7 +3,7 @@
 Cycle ``k`` (``validation_bus:k``) has family :func:`validation_family` (below :data:`ROTATION_SIZE` the five of
 :data:`VALIDATION_FAMILIES` in turn, then express routes) and seed ``VALIDATION_SEED_BASE + k``, above every
 training seed (:func:`validation_seed` asserts it). A training run selects its checkpoints on
-``validation_bus:20..29``; ``benchmarks/ppo_vs_dp.py`` judges on ``validation_bus:0..19``, which no selection saw.
+``validation_bus:20..29``; the trained policies are judged on ``validation_bus:0..19``, which no selection saw.
 """
 
 from __future__ import annotations

@@ -10,12 +10,10 @@ from .spaces import (
     EPISODE_INFO_KEYS,
     INFO_DTYPES,
     INFO_KEYS,
-    coolant_mode,
-    cycle_name,
     observation_names,
     safety_cost,
 )
 from .vector_env import HevThermalVectorEnv
 
 __all__ = ["EPISODE_INFO_KEYS", "INFO_DTYPES", "INFO_KEYS", "REWARD_TERMS", "HevThermalEnv", "HevThermalVectorEnv",
-           "RewardParams", "coolant_mode", "cycle_name", "observation_names", "safety_cost"]
+           "RewardParams", "observation_names", "safety_cost"]

@@ -12,8 +12,8 @@ import numpy as np
 from ..cycles import Cycle, expand_cycle_names, generate_family_cycle, load_cycle
 from ..cycles.families import training_seed
 from ..cycles.names import is_family
-from ..physics import core as C
 from ..physics.config import COOLANT_MODES, Conditions
+from ..physics.core import GEAR, WHEEL_DEMAND, PhysicsCore
 from ..scenarios import Scenario, get_scenario
 
 MAX_SOC_OFFSET = 0.2
@@ -145,7 +145,7 @@ class CycleTables:
     the cycle (they depend only on the speed trace, the grade and the vehicle).
     """
 
-    def __init__(self, core: C.PhysicsCore, cycle: Cycle, state_row: np.ndarray, cond_row: np.ndarray):
+    def __init__(self, core: PhysicsCore, cycle: Cycle, state_row: np.ndarray, cond_row: np.ndarray):
         n = cycle.n_steps
         v = np.array(cycle.speed_mps, dtype=np.float64)
         g = np.array(cycle.grade, dtype=np.float64)
@@ -154,8 +154,8 @@ class CycleTables:
         self.cycle = cycle
         self.speed_mps = v
         self.grade = g
-        self.wheel_power_demand_kw = out[:, C.WHEEL_DEMAND] / 1000.0
-        self.gear = out[:, C.GEAR].copy()
+        self.wheel_power_demand_kw = out[:, WHEEL_DEMAND] / 1000.0
+        self.gear = out[:, GEAR].copy()
         rise = 0.5 * (v[:-1] + v[1:]) * core.dt_s * g[:-1] / np.sqrt(1.0 + g[:-1] ** 2)
         #: Height reached at each instant, from the start (m): the climb of each step's distance on its grade.
         self.climb_m = np.concatenate([[0.0], np.cumsum(rise)])
@@ -168,7 +168,7 @@ class TableCache:
     (cycle, payload): a scenario that draws the payload per episode gets the right one.
     """
 
-    def __init__(self, core: C.PhysicsCore, fixed: Sequence[Cycle]):
+    def __init__(self, core: PhysicsCore, fixed: Sequence[Cycle]):
         self.core = core
         self._fixed = {id(c): c for c in fixed}
         self._cache: dict[tuple[int, float], CycleTables] = {}

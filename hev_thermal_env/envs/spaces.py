@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..cycles import list_cycles
-from ..physics import core as C
+from ..physics import core
 from ..physics.config import COOLANT_MODES, VehicleConfig
 from .reward import REWARD_TERMS
 
@@ -42,14 +42,14 @@ N_OBS_BASE = len(_OBS_FIELDS)
 # --- info layout ----------------------------------------------------------------------------------
 # Step-info keys straight from an output column of the physics core.
 _INFO_OUT_COLUMNS = (
-    ("fuel_g", C.FUEL_G), ("motor_torque_nm", C.MOTOR_TORQUE), ("motor_heat_w", C.MOTOR_HEAT),
-    ("engine_torque_nm", C.ENGINE_TORQUE), ("speed_mps", C.SPEED), ("trace_miss_mps", C.TRACE_MISS),
-    ("heat_index", C.HEAT_INDEX), ("missed_wheel_energy_j", C.MISSED_J), ("battery_chem_power_w", C.BATT_CHEM),
-    ("battery_power_w", C.BATT_POWER), ("motor_torque_avail_nm", C.MOTOR_AVAIL),
+    ("fuel_g", core.FUEL_G), ("motor_torque_nm", core.MOTOR_TORQUE), ("motor_heat_w", core.MOTOR_HEAT),
+    ("engine_torque_nm", core.ENGINE_TORQUE), ("speed_mps", core.SPEED), ("trace_miss_mps", core.TRACE_MISS),
+    ("heat_index", core.HEAT_INDEX), ("missed_wheel_energy_j", core.MISSED_J), ("battery_chem_power_w", core.BATT_CHEM),
+    ("battery_power_w", core.BATT_POWER), ("motor_torque_avail_nm", core.MOTOR_AVAIL),
 )
-_INFO_RPM_COLUMNS = (("motor_speed_rpm", C.MOTOR_SPEED), ("engine_speed_rpm", C.ENGINE_SPEED))
-_INFO_BOOL_COLUMNS = (("engine_on", C.ENGINE_ON), ("coolant_on", C.COOLANT_ON),
-                      ("motor_torque_clipped", C.MOTOR_CLIPPED))
+_INFO_RPM_COLUMNS = (("motor_speed_rpm", core.MOTOR_SPEED), ("engine_speed_rpm", core.ENGINE_SPEED))
+_INFO_BOOL_COLUMNS = (("engine_on", core.ENGINE_ON), ("coolant_on", core.COOLANT_ON),
+                      ("motor_torque_clipped", core.MOTOR_CLIPPED))
 _REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  # the documented contract order
 _REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
 
@@ -146,23 +146,23 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
     :data:`INFO_KEYS` order; ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (numpy scalars);
     ``cost_step``: the ``dt_s`` of :func:`safety_cost` (:func:`cost_step_s`)."""
     info = {
-        "fuel_g": out[C.FUEL_G], "soc": state[C.SOC], "motor_temp_c": state[C.TEMP_C],
-        "heat_index": out[C.HEAT_INDEX], "motor_torque_nm": out[C.MOTOR_TORQUE],
-        "motor_speed_rpm": out[C.MOTOR_SPEED] * RPM_PER_RADPS, "motor_heat_w": out[C.MOTOR_HEAT],
-        "engine_torque_nm": out[C.ENGINE_TORQUE], "engine_speed_rpm": out[C.ENGINE_SPEED] * RPM_PER_RADPS,
-        "engine_on": out[C.ENGINE_ON] != 0.0, "gear": _int64(out[C.GEAR]), "speed_mps": out[C.SPEED],
-        "trace_miss_mps": out[C.TRACE_MISS], "motor_cutoff": state[C.CUTOFF] != 0.0,
-        "coolant_on": out[C.COOLANT_ON] != 0.0, "winding_temp_c": state[C.WINDING_C],
-        "coolant_temp_c": state[C.COOLANT_C], "winding_trip": state[C.WINDING_TRIP] != 0.0,
+        "fuel_g": out[core.FUEL_G], "soc": state[core.SOC], "motor_temp_c": state[core.TEMP_C],
+        "heat_index": out[core.HEAT_INDEX], "motor_torque_nm": out[core.MOTOR_TORQUE],
+        "motor_speed_rpm": out[core.MOTOR_SPEED] * RPM_PER_RADPS, "motor_heat_w": out[core.MOTOR_HEAT],
+        "engine_torque_nm": out[core.ENGINE_TORQUE], "engine_speed_rpm": out[core.ENGINE_SPEED] * RPM_PER_RADPS,
+        "engine_on": out[core.ENGINE_ON] != 0.0, "gear": _int64(out[core.GEAR]), "speed_mps": out[core.SPEED],
+        "trace_miss_mps": out[core.TRACE_MISS], "motor_cutoff": state[core.CUTOFF] != 0.0,
+        "coolant_on": out[core.COOLANT_ON] != 0.0, "winding_temp_c": state[core.WINDING_C],
+        "coolant_temp_c": state[core.COOLANT_C], "winding_trip": state[core.WINDING_TRIP] != 0.0,
     }
     for key, col in _REWARD_COLUMNS:
         info[key] = terms[col]
     info.update(
-        cost=safety_cost(out[C.HEAT_INDEX], state[C.CUTOFF], state[C.WINDING_TRIP], cost_step),
-        missed_wheel_energy_j=out[C.MISSED_J], battery_chem_power_w=out[C.BATT_CHEM],
-        battery_power_w=out[C.BATT_POWER], motor_torque_avail_nm=out[C.MOTOR_AVAIL],
+        cost=safety_cost(out[core.HEAT_INDEX], state[core.CUTOFF], state[core.WINDING_TRIP], cost_step),
+        missed_wheel_energy_j=out[core.MISSED_J], battery_chem_power_w=out[core.BATT_CHEM],
+        battery_power_w=out[core.BATT_POWER], motor_torque_avail_nm=out[core.MOTOR_AVAIL],
         cycle_speed_mps=np.float64(cycle_speed), time_s=np.float64(time_s), motor_share=np.float64(u),
-        motor_share_clipped=np.True_ if clipped else np.False_, motor_torque_clipped=out[C.MOTOR_CLIPPED] != 0.0)
+        motor_share_clipped=np.True_ if clipped else np.False_, motor_torque_clipped=out[core.MOTOR_CLIPPED] != 0.0)
     info.update(episode)
     return info
 
@@ -195,10 +195,11 @@ def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycl
         info[name] = out[:, col] != 0.0
     for key, col in _REWARD_COLUMNS:
         info[key] = terms[:, col]
-    info.update(gear=out[:, C.GEAR].astype(np.int64), soc=state[:, C.SOC], motor_temp_c=state[:, C.TEMP_C],
-                motor_cutoff=state[:, C.CUTOFF] != 0.0, winding_temp_c=state[:, C.WINDING_C],
-                coolant_temp_c=state[:, C.COOLANT_C], winding_trip=state[:, C.WINDING_TRIP] != 0.0,
-                cost=safety_cost(out[:, C.HEAT_INDEX], state[:, C.CUTOFF], state[:, C.WINDING_TRIP], cost_step),
+    info.update(gear=out[:, core.GEAR].astype(np.int64), soc=state[:, core.SOC], motor_temp_c=state[:, core.TEMP_C],
+                motor_cutoff=state[:, core.CUTOFF] != 0.0, winding_temp_c=state[:, core.WINDING_C],
+                coolant_temp_c=state[:, core.COOLANT_C], winding_trip=state[:, core.WINDING_TRIP] != 0.0,
+                cost=safety_cost(out[:, core.HEAT_INDEX], state[:, core.CUTOFF], state[:, core.WINDING_TRIP],
+                                 cost_step),
                 cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u, motor_share_clipped=clipped,
                 **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
     return {key: info[key] for key in INFO_KEYS}
@@ -210,10 +211,10 @@ def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
     False."""
     st = rows.state[i]
     k = int(rows.k[i])
-    out = np.zeros(C.N_OUT)
-    out[C.SPEED] = rows.speed[i, k]
-    out[C.MOTOR_AVAIL] = rows.avail[i]
-    out[C.HEAT_INDEX] = min(max(st[C.HEAT_X], 0.0), 1.0)
+    out = np.zeros(core.N_OUT)
+    out[core.SPEED] = rows.speed[i, k]
+    out[core.MOTOR_AVAIL] = rows.avail[i]
+    out[core.HEAT_INDEX] = min(max(st[core.HEAT_X], 0.0), 1.0)
     episode = {"cycle_id": np.int64(cycle_id(ep.cycle.name)), "start_s": np.int64(ep.start_s),
                "soc_target": np.float64(rows.soc_target[i]), "ambient_temp_c": np.float64(ep.conditions.ambient_temp_c),
                "coolant_code": np.int64(coolant_code(ep.conditions.coolant))}

@@ -32,8 +32,6 @@ OPTIMUM_RATIO_TOLERANCE = 1e-3
 SOC_BOUND = 0.02
 """|ΔSOC| beyond which a run does not hold its charge: a checkpoint with such a validation run is not selected
 (:mod:`hev_thermal_env.training.selection`), and a score counts such runs (``beyond_soc_bound``)."""
-SCORE_COLUMNS = ("score", "score_ci_low", "score_ci_high", "score_anchor_ratio", "score_note")
-"""Columns the score adds to a benchmark row."""
 
 
 def normalised_score(ratio: float | None, anchor_ratio: float | None) -> tuple[float | None, str | None]:
@@ -81,7 +79,8 @@ def score_text(centre: float | None, low: float | None = None, high: float | Non
 
 
 def add_score_columns(rows: list[dict], is_family_row) -> None:
-    """Fill :data:`SCORE_COLUMNS` of every row: runs against :data:`ANCHOR`'s run of their cycle and scenario; family
+    """Fill the score's columns (``score``, ``score_ci_low``, ``score_ci_high``, ``score_anchor_ratio``,
+    ``score_note``) of every row: runs against :data:`ANCHOR`'s run of their cycle and scenario; family
     rows (``is_family_row``) as the aggregate of their members' scores (cycle and scenario ``all``: over every one)."""
     anchors = {(r["cycle"], r["scenario"]): r.get("frontier_ratio") for r in rows
                if r["strategy"] == ANCHOR and r.get("family") is None}

@@ -21,13 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..cycles import load_cycle
-from . import battery as bat
-from . import core as C
-from . import driveline as drv
-from . import engine as eng
-from . import glider as gli
-from . import motor as mot
-from . import thermal as thm
+from . import battery, core, driveline, engine, glider, motor, thermal
 from .config import Conditions, VehicleConfig
 from .jit import jit
 
@@ -71,15 +65,15 @@ def _maps(gl, dl, en, mo, th, ba, v0, v1, grade, payload, dt, w_e, t_e_brake, en
           soc_before, gear, road_w, fuel_g, p_elec, voc, r_dis, r_chg, ratio):
     for k in range(v0.shape[0]):
         v = 0.5 * (v0[k] + v1[k])
-        f = gli.road_force_n(gl, v, (v1[k] - v0[k]) / dt, grade[k], payload) if v > 1e-6 else 0.0
+        f = glider.road_force_n(gl, v, (v1[k] - v0[k]) / dt, grade[k], payload) if v > 1e-6 else 0.0
         road_w[k] = f * v
-        fuel_g[k] = eng.fuel_rate_gps(en, w_e[k], t_e_brake[k]) * dt if engine_on[k] != 0.0 else 0.0
-        derate = thm.derate_frac(th, temp_before[k])
-        p_elec[k] = mot.electric_power_w(mo, t_m[k], w_m[k], thm.extra_loss_frac(th), derate)
-        voc[k] = bat.open_circuit_voltage_v(ba, soc_before[k])
-        r_dis[k] = bat.resistance_ohm(ba, soc_before[k], False)
-        r_chg[k] = bat.resistance_ohm(ba, soc_before[k], True)
-        ratio[k] = drv.overall_ratio(dl, int(gear[k]) - 1)
+        fuel_g[k] = engine.fuel_rate_gps(en, w_e[k], t_e_brake[k]) * dt if engine_on[k] != 0.0 else 0.0
+        derate = thermal.derate_frac(th, temp_before[k])
+        p_elec[k] = motor.electric_power_w(mo, t_m[k], w_m[k], thermal.extra_loss_frac(th), derate)
+        voc[k] = battery.open_circuit_voltage_v(ba, soc_before[k])
+        r_dis[k] = battery.resistance_ohm(ba, soc_before[k], False)
+        r_chg[k] = battery.resistance_ohm(ba, soc_before[k], True)
+        ratio[k] = driveline.overall_ratio(dl, int(gear[k]) - 1)
 
 
 def _rel(a: np.ndarray, b: np.ndarray, scale: float) -> float:
@@ -103,7 +97,7 @@ class _Run:
     def __init__(self, trace: dict[str, np.ndarray], config: VehicleConfig, cycle: Any, conditions: Conditions):
         cyc = load_cycle(cycle)
         dt_s = 1.0
-        phys = C.PhysicsCore(config, dt_s=dt_s)
+        phys = core.PhysicsCore(config, dt_s=dt_s)
         n = len(trace["fuel_g"])
         v = np.asarray(cyc.speed_mps, dtype=np.float64)
         self.v0, self.v1 = v[:n].copy(), v[1:n + 1].copy()
@@ -112,8 +106,8 @@ class _Run:
         self.config, self.trace, self.dt_s = config, trace, dt_s
         self.idle_radps = config.engine.idle_speed_rpm * np.pi / 30.0
         self.before = {name: np.concatenate([[s0[i]], np.asarray(trace[name])[:-1]])
-                       for i, name in enumerate(C.STATE_NAMES)}
-        g = self.g = {name: np.asarray(trace[name], dtype=np.float64) for name in C.OUT_NAMES}
+                       for i, name in enumerate(core.STATE_NAMES)}
+        g = self.g = {name: np.asarray(trace[name], dtype=np.float64) for name in core.OUT_NAMES}
         w_e = g["engine_speed_radps"]
         # brake torque of the engine, accessories included, from its reported speed and power
         t_e_brake = np.where(w_e > 0.0, g["engine_power_w"] / np.maximum(w_e, 1e-12), 0.0)

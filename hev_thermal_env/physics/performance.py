@@ -10,18 +10,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import core as C
+from . import core
 from .config import Conditions, VehicleConfig
 
 
 def _sustainable(config: VehicleConfig, speeds_mps: np.ndarray, grade: float) -> np.ndarray:
     cfg = config.replace(motor=config.motor.replace(enabled=False))
-    phys = C.PhysicsCore(cfg)
+    phys = core.PhysicsCore(cfg)
     n = len(speeds_mps)
     cond = Conditions(initial_soc=0.5 * (cfg.battery.soc_min + cfg.battery.soc_max))
     state = phys.initial_state(cond, n)
     _, out = phys.step(state, np.zeros(n), speeds_mps, speeds_mps, np.full(n, grade), phys.conditions_array(cond, n))
-    return out[:, C.TRACE_MISS] <= 1e-9
+    return out[:, core.TRACE_MISS] <= 1e-9
 
 
 def max_sustained_speed_kmh(config: VehicleConfig, grade: float = 0.0, resolution_kmh: float = 0.05) -> float:
@@ -36,7 +36,7 @@ def max_sustained_speed_kmh(config: VehicleConfig, grade: float = 0.0, resolutio
 
 def acceleration_time_s(config: VehicleConfig, conditions: Conditions, dt_s: float = 0.1) -> float:
     """Time from standstill to 60 km/h at full demand, in steps of ``dt_s``; ``inf`` if not reached in 120 s."""
-    phys = C.PhysicsCore(config, dt_s=dt_s)
+    phys = core.PhysicsCore(config, dt_s=dt_s)
     state = phys.initial_state(conditions, 1)
     cond = phys.conditions_array(conditions, 1)
     v = np.zeros(1)
@@ -46,7 +46,7 @@ def acceleration_time_s(config: VehicleConfig, conditions: Conditions, dt_s: flo
     u = np.full(1, 0.5)
     while t < 120.0:
         state, out = phys.step(state, u, v, v + a_req * dt_s, np.zeros(1), cond)
-        v_new = out[0, C.SPEED]
+        v_new = out[0, core.SPEED]
         if v_new >= v_end:
             return t + dt_s * (v_end - v[0]) / max(v_new - v[0], 1e-12)
         v = np.array([v_new])

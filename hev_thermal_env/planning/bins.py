@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 from hev_thermal_env.physics.jit import jit
 
 #: State columns the search bins on, in key order, and the bits each gets in the 64-bit key (63 in all): a
 #: column's bin index must lie within ±2^(bits-1), which :func:`.search.check_key_range` enforces (SOC: ±2^20 bins, so
 #: bins down to 10⁻⁶ of SOC; temperatures and heat index ±512 bins).
-KEY_COLUMNS = (C.SOC, C.TEMP_C, C.WINDING_C, C.COOLANT_C, C.HEAT_X, C.CUTOFF, C.WINDING_TRIP)
+KEY_COLUMNS = (core.SOC, core.TEMP_C, core.WINDING_C, core.COOLANT_C, core.HEAT_X, core.CUTOFF, core.WINDING_TRIP)
 KEY_BITS = (21, 10, 10, 10, 10, 1, 1)
 _KEY_COLS = np.array(KEY_COLUMNS, dtype=np.int64)
 _BITS = np.array(KEY_BITS, dtype=np.int64)
@@ -103,8 +103,8 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, price3, heat_g, key_
 def hotness(states, b):
     """One number for "cooler" within a bin: motor (stator/housing) + winding + half the coolant temperature (K), plus
     20 K per unit heat index and 100 K for each protection that has stopped the motor (row ``b`` of ``states``)."""
-    return (states[b, C.TEMP_C] + states[b, C.WINDING_C] + 0.5 * states[b, C.COOLANT_C] + 20.0 * states[b, C.HEAT_X]
-            + 100.0 * (states[b, C.CUTOFF] + states[b, C.WINDING_TRIP]))
+    return (states[b, core.TEMP_C] + states[b, core.WINDING_C] + 0.5 * states[b, core.COOLANT_C]
+            + 20.0 * states[b, core.HEAT_X] + 100.0 * (states[b, core.CUTOFF] + states[b, core.WINDING_TRIP]))
 
 
 @jit

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 
 from .problem import BRAKING, TRACTION, DPInfeasibleError, DPProblem
 
@@ -36,12 +36,12 @@ def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, 
     a = extreme_actions(problem)
     lo = np.empty(n + 1)
     hi = np.empty(n + 1)
-    lo[0] = hi[0] = problem.state0[C.SOC]
+    lo[0] = hi[0] = problem.state0[core.SOC]
     for i in range(n):
         st[:] = held[i]
-        st[0, C.SOC], st[1, C.SOC] = lo[i], hi[i]
+        st[0, core.SOC], st[1, core.SOC] = lo[i], hi[i]
         so, _ = problem.step(st, a[i], i)
-        lo[i + 1], hi[i + 1] = so[0, C.SOC], so[1, C.SOC]
+        lo[i + 1], hi[i + 1] = so[0, core.SOC], so[1, core.SOC]
     return lo, hi
 
 
@@ -53,16 +53,16 @@ def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, f
     lo = np.empty(n + 1)
     hi = np.empty(n + 1)
     lo[n], hi[n] = band
-    st = np.empty((2, C.N_STATE))
+    st = np.empty((2, core.N_STATE))
     a = extreme_actions(problem)[:, ::-1].copy()  # row 0 charges (towards the lower edge), row 1 discharges
     for i in range(n - 1, -1, -1):
         target = np.array([lo[i + 1], hi[i + 1]])
         guess = target.copy()
         for _ in range(3):
             st[:] = held[i]
-            st[:, C.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
+            st[:, core.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
             so, _ = problem.step(st, a[i], i)
-            guess = target - (so[:, C.SOC] - st[:, C.SOC])
+            guess = target - (so[:, core.SOC] - st[:, core.SOC])
         lo[i] = bat.soc_min if target[0] <= bat.soc_min + 1e-12 else min(max(guess[0], bat.soc_min), bat.soc_max)
         hi[i] = bat.soc_max if target[1] >= bat.soc_max - 1e-12 else min(max(guess[1], bat.soc_min), bat.soc_max)
     return lo, hi
@@ -73,7 +73,7 @@ def corridor(problem: DPProblem, held: np.ndarray, soc_final: float | None, tol:
     """The SOC corridor (lowest and highest SOC per stage: reachable from the start and still reaching the band)
     for the band ``soc_final`` ± ``tol`` (default: the initial SOC), or for the nearest reachable one
     (``on_infeasible="closest"``)."""
-    soc0 = float(problem.state0[C.SOC])
+    soc0 = float(problem.state0[core.SOC])
     target = soc0 if soc_final is None else float(soc_final)
     band = (target - tol, target + tol)
     f_lo, f_hi = forward_envelope(problem, held)

@@ -21,12 +21,12 @@ from __future__ import annotations
 import numpy as np
 
 from hev_thermal_env.envs.reward import stage_cost_g
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 
 from .problem import DPProblem
 
 #: The priced temperatures, in the order of the price columns.
-PRICED = (C.TEMP_C, C.WINDING_C, C.COOLANT_C)
+PRICED = (core.TEMP_C, core.WINDING_C, core.COOLANT_C)
 #: Stages between two measured prices; the temperature step of the finite difference (K).
 EVERY, DELTA_K = 10, 1.0
 
@@ -53,7 +53,7 @@ def heat_prices(problem: DPProblem, u_ref: np.ndarray) -> np.ndarray:
         so, out = problem.step(np.vstack([ref, st[active]]), np.full(1 + int(active.sum()), u_ref[k]), k)
         cost = stage_cost_g(rp, out, so, problem.soc_target, problem.lhv, problem.core.dt_s, battery=False,
                             overheat=True)
-        adj[active] += cost[1:] + price * out[1:, C.BATT_CHEM] * problem.core.dt_s
+        adj[active] += cost[1:] + price * out[1:, core.BATT_CHEM] * problem.core.dt_s
         ref, st[active] = so[:1], so[1:]
     diff = (adj[sign > 0] - adj[sign < 0]).reshape(starts.size, len(PRICED)) / (2.0 * DELTA_K)
     mu = np.maximum(diff, 0.0)

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.envs.reward import RewardParams
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics.core import N_OUT, N_STATE, SHAFT_DEMAND, PhysicsCore
 
 #: What the action governs at a stage (:meth:`DPProblem.stage_kinds`), by the sign of the shaft demand: the split of a
 #: positive demand (u ∈ [-1, 1]); while braking the share u > 0 of the available regeneration (u ≤ 0: friction alone,
@@ -58,7 +58,7 @@ def argmin_small_action(cost: np.ndarray, actions: np.ndarray, tol_g: float = 1e
 class DPProblem:
     """What DP needs from an environment: the vehicle, the cycle from step ``k0``, the start, the prices."""
 
-    core: C.PhysicsCore
+    core: PhysicsCore
     speed_mps: np.ndarray
     grade: np.ndarray
     k0: int
@@ -100,12 +100,12 @@ class DPProblem:
         """The physics step of stage i for a small batch (planning helpers: the corridor, the heat prices, replays),
         by :meth:`~hev_thermal_env.physics.core.PhysicsCore.step_unchecked`: the inputs are the planner's own float64
         arrays, and the door's checks would cost more than a few rows' step."""
-        if states.ndim != 2 or states.shape[1] != C.N_STATE:
-            raise ValueError(f"DPProblem.step: states must have shape (B, {C.N_STATE}), got {states.shape}")
+        if states.ndim != 2 or states.shape[1] != N_STATE:
+            raise ValueError(f"DPProblem.step: states must have shape (B, {N_STATE}), got {states.shape}")
         b = states.shape[0]
         act = np.empty(b)
         act[:] = actions
-        so, out = np.empty((b, C.N_STATE)), np.empty((b, C.N_OUT))
+        so, out = np.empty((b, N_STATE)), np.empty((b, N_OUT))
         self.core.step_unchecked(np.ascontiguousarray(states, dtype=np.float64), act, *self.stage_inputs(i, b),
                                  np.ascontiguousarray(np.broadcast_to(self.cond, (b, self.cond.size))), so, out)
         return so, out
@@ -117,4 +117,4 @@ class DPProblem:
         k = self.k0
         _, out = self.core.step(np.repeat(self.state0[None, :], n, axis=0), 0.0, self.speed_mps[k:-1],
                                 self.speed_mps[k + 1:], self.grade[k:k + n], self.cond)
-        return np.sign(out[:, C.SHAFT_DEMAND]).astype(np.int64)
+        return np.sign(out[:, SHAFT_DEMAND]).astype(np.int64)

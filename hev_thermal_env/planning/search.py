@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 
 from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors
 from .corridor import backward_envelope
@@ -147,8 +147,8 @@ def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: flo
     range, and widened by ``margin``.
     """
     ref = problem.state0.copy()
-    ref[C.HEAT_X] = min(ref[C.HEAT_X], ref[C.HEAT_X_MIN])
-    ref[C.CUTOFF] = ref[C.WINDING_TRIP] = 0.0
+    ref[core.HEAT_X] = min(ref[core.HEAT_X], ref[core.HEAT_X_MIN])
+    ref[core.CUTOFF] = ref[core.WINDING_TRIP] = 0.0
     held = np.repeat(ref[None, :], problem.n_stages + 1, axis=0)
     lo, hi = backward_envelope(problem, held, (lo_final, hi_final))
     return lo - margin, hi + margin
@@ -240,7 +240,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         u = _stage_splits(u_grid, centers, i, int(kinds[i]))
         so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
         n_evals += so.shape[0]
-        inside = _inside(so[:, C.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
+        inside = _inside(so[:, core.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
         if heat_price is None or not np.any(heat_price[i + 1]):
             heat_g = buffers.no_heat[:so.shape[0]]
         else:

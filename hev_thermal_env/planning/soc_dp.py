@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hev_thermal_env.envs.reward import soc_band_charge_g, stage_cost_g
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 from hev_thermal_env.physics.jit import jit
 
 from .corridor import corridor
@@ -103,7 +103,7 @@ class DPPlan:
         """Cost-to-go at ``stage`` (0 = plan start) of full states [B, N_STATE]."""
         res = np.empty(states.shape[0])
         lo, hi = self.soc_lo[stage], self.soc_hi[stage]
-        interp_soc(self.cost_to_go[stage], lo, (hi - lo) / (self.n_soc - 1), self.n_soc, states[:, C.SOC],
+        interp_soc(self.cost_to_go[stage], lo, (hi - lo) / (self.n_soc - 1), self.n_soc, states[:, core.SOC],
                    WALL_G_PER_SOC, res)
         return res
 
@@ -117,7 +117,7 @@ class _Batch:
         self.x = np.repeat(problem.state0[None, :], n, axis=0)
         self.frac = np.repeat(unit, u.size)
         self.a = np.tile(u, unit.size)
-        self.so, self.out = np.empty_like(self.x), np.empty((n, C.N_OUT))
+        self.so, self.out = np.empty_like(self.x), np.empty((n, core.N_OUT))
         self.cond = np.repeat(problem.cond[None, :], n, axis=0)
         self.jn = np.empty(n)
 
@@ -138,14 +138,14 @@ def _backward(problem: DPProblem, s: DPSettings, soc_lo: np.ndarray, soc_hi: np.
     n_evals = 0
     for i in range(n_stages - 1, -1, -1):
         b = batches[int(kinds[i])]
-        b.x[:, C.SOC] = soc_lo[i] + b.frac * (soc_hi[i] - soc_lo[i])
+        b.x[:, core.SOC] = soc_lo[i] + b.frac * (soc_hi[i] - soc_lo[i])
         v0, v1, g = problem.stage_inputs(i, b.x.shape[0])
         problem.core.step(b.x, b.a, v0, v1, g, b.cond, state_out=b.so, out=b.out, threads=threads)
         n_evals += b.x.shape[0]
         cost = stage_cost_g(problem.reward_params, b.out, b.so, problem.soc_target, problem.lhv, problem.core.dt_s,
                             soc_deviation=s.price_soc_deviation, soc_band=False)
         lo = soc_lo[i + 1]
-        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, C.SOC], WALL_G_PER_SOC,
+        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, core.SOC], WALL_G_PER_SOC,
                    b.jn)
         J[i] = (cost + b.jn).reshape(n_soc, b.reps).min(axis=1)
     return J, n_evals
@@ -184,8 +184,8 @@ def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: boo
     u_exec = split_grid(settings.n_u_exec)
     n = plan.n_stages
     st = problem.state0.copy()
-    states = np.empty((n + 1, C.N_STATE))
-    outs = np.empty((n, C.N_OUT))
+    states = np.empty((n + 1, core.N_STATE))
+    outs = np.empty((n, core.N_OUT))
     us = np.empty(n)
     states[0] = st
     kinds = problem.stage_kinds()
@@ -195,9 +195,9 @@ def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: boo
         j = 0 if kinds[i] == IDLE else choose(plan, i, so, out, problem, settings, cand)
         st = so[j].copy()
         if not free:  # the thermal state held at the start's
-            soc = st[C.SOC]
+            soc = st[core.SOC]
             st[:] = problem.state0
-            st[C.SOC] = soc
+            st[core.SOC] = soc
         states[i + 1] = st
         outs[i] = out[j]
         us[i] = cand[j]

@@ -13,8 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from hev_thermal_env.envs.reward import reward_row
-from hev_thermal_env.physics import core as C
-from hev_thermal_env.physics.core import step_kernel
+from hev_thermal_env.physics.core import BATT_CHEM, N_OUT, N_STATE, SOC, step_kernel
 from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
 from hev_thermal_env.physics.jit import jit
 
@@ -57,7 +56,7 @@ def expand_kernel(gl, dl, en, mo, th, ba, pt, dt, w, target, states, cost, batt_
             s = lo + row // m
             total = reward_row(w, out, before, block, row, target, target, dt)[4]
             c[r0 + row] = -total + cost[s]
-            e[r0 + row] = batt_j[s] + out[row, C.BATT_CHEM] * dt
+            e[r0 + row] = batt_j[s] + out[row, BATT_CHEM] * dt
         lo += stride
 
 
@@ -66,11 +65,11 @@ class _Scratch:
     state before the step as far as the cost reads it) are filled once."""
 
     def __init__(self, problem: DPProblem, n: int):
-        self.x, self.out = np.empty((n, C.N_STATE)), np.empty((n, C.N_OUT))
+        self.x, self.out = np.empty((n, N_STATE)), np.empty((n, N_OUT))
         self.v0, self.v1, self.g = np.empty(n), np.empty(n), np.empty(n)
         self.cond = np.ascontiguousarray(np.broadcast_to(problem.cond, (n, problem.cond.size)), dtype=np.float64)
-        self.before = np.zeros((n, C.N_STATE))
-        self.before[:, C.SOC] = problem.soc_target  # the settlement's start: the band's center (the search charges
+        self.before = np.zeros((n, N_STATE))
+        self.before[:, SOC] = problem.soc_target  # the settlement's start: the band's center (the search charges
         # the band on the final SOC, :func:`~hev_thermal_env.envs.reward.soc_band_charge_g`)
 
 
@@ -91,7 +90,7 @@ class StageBuffers:
     def get(self, rows: int) -> StageBuffers:
         if rows > self.rows:
             n = max(rows, int(self.rows * 1.5))
-            self.so, self.c, self.e, self.a = np.empty((n, C.N_STATE)), np.empty(n), np.empty(n), np.empty(n)
+            self.so, self.c, self.e, self.a = np.empty((n, N_STATE)), np.empty(n), np.empty(n), np.empty(n)
             self.no_heat = np.zeros(n)  # the heat cost of every row where heat has no price (read only)
             self.rows = n
         return self

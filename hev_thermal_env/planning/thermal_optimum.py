@@ -27,7 +27,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from hev_thermal_env.envs.reward import stage_cost_g
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 
 from .heat_value import heat_prices
 from .problem import DPInfeasibleError, DPProblem
@@ -91,7 +91,7 @@ class OptimumSettings:
         most :data:`BIN_BUDGET` of the cycle's cost (at most 5× narrower)."""
         if self.fixed_soc_bin:
             return grid
-        soc, e = first.final_state[:, C.SOC], first.final_battery_j
+        soc, e = first.final_state[:, core.SOC], first.final_battery_j
         if soc.size < 3 or np.ptp(soc) <= 0.0:
             return grid
         j_per_soc = -np.polyfit(soc, e, 1)[0]
@@ -120,7 +120,7 @@ def adjusted_cost(result: SearchResult, problem: DPProblem) -> np.ndarray:
 
 def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, float], on_infeasible: str) -> int:
     """The final survivor to drive to: cheapest (cost + battery energy at the reward's price) in ``band``."""
-    soc = result.final_state[:, C.SOC]
+    soc = result.final_state[:, core.SOC]
     adj = adjusted_cost(result, problem)
     inside = np.flatnonzero((soc >= band[0]) & (soc <= band[1]))
     if inside.size:
@@ -141,15 +141,15 @@ def soc_dp_path(problem: DPProblem, target: float, soc_tol: float,
     the refining passes."""
     settings = DPSettings(soc_final=target, soc_tol=soc_tol, on_infeasible="closest", threads=threads)
     run = rollout(solve(problem, settings), problem, settings, free=True)
-    return np.asarray(run["u"], dtype=np.float64), run["state"][:, C.SOC].copy()
+    return np.asarray(run["u"], dtype=np.float64), run["state"][:, core.SOC].copy()
 
 
 def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
     """Drive the action sequence ``u`` on the physics from the start: states, outputs and the yardstick cost."""
     n = u.size
     st = problem.state0[None, :].copy()
-    states = np.empty((n + 1, C.N_STATE))
-    outs = np.empty((n, C.N_OUT))
+    states = np.empty((n + 1, core.N_STATE))
+    outs = np.empty((n, core.N_OUT))
     states[0] = st[0]
     for i in range(n):
         st, out = problem.step(st, np.array([u[i]]), i)
@@ -177,7 +177,7 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
     """Search the passes (see the module docstring) and return the plan into the final-SOC band."""
     t0 = time.perf_counter()
     grid = s.grid_for(problem.n_stages)
-    target = float(problem.state0[C.SOC]) if s.soc_final is None else float(s.soc_final)
+    target = float(problem.state0[core.SOC]) if s.soc_final is None else float(s.soc_final)
     window = (target - s.frontier_halfwidth, target + s.frontier_halfwidth)
     band = (target - s.soc_tol, target + s.soc_tol)
     dp_u, dp_soc = soc_dp_path(problem, target, s.soc_tol, s.threads)
@@ -204,12 +204,12 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
     result, j = _pick(passes, problem, band, s.on_infeasible)
     u = result.path(j)
     run = replay(problem, u)
-    soc_f, cost_f = frontier_points(np.concatenate([r.final_state[:, C.SOC] for r in passes]),
+    soc_f, cost_f = frontier_points(np.concatenate([r.final_state[:, core.SOC] for r in passes]),
                                     np.concatenate([r.final_cost_g for r in passes]))
     report = {
         "planned_cost_g": float(result.final_cost_g[j]), "replayed_cost_g": run["cost_g"],
-        "planned_soc_final": float(result.final_state[j, C.SOC]),
-        "planned_fuel_g": float(run["out"][:, C.FUEL_G].sum()),
+        "planned_soc_final": float(result.final_state[j, core.SOC]),
+        "planned_fuel_g": float(run["out"][:, core.FUEL_G].sum()),
         "solve_s": sum(r.solve_s for r in searched), "plan_total_s": time.perf_counter() - t0,
         "first_pass": first_pass,
         "passes": [{"solve_s": r.solve_s, "soc_bin": r.grid.soc, "max_states": r.max_states,
@@ -219,7 +219,7 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
         "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(),
                      "grid": grid.describe() + f" (every {REFINE_STRIDE}. split) + {N_LOCAL} splits within "
                                                f"±{LOCAL_HALFWIDTH:g} of {len(centers)} earlier path(s)",
-                     "soc_min": float(min(r.final_state[:, C.SOC].min() for r in passes)),
+                     "soc_min": float(min(r.final_state[:, core.SOC].min() for r in passes)),
                      "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
     }
     return OptimumPlan(u=u, report=report, grid=grid)
@@ -239,7 +239,7 @@ def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tu
     if not fine.soc < grid.soc:
         return [second], grid
     u2 = second.path(j2)
-    socs = [replay(problem, u2)["state"][:, C.SOC], dp_soc]
+    socs = [replay(problem, u2)["state"][:, core.SOC], dp_soc]
     tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
     third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:]), tube=tube,
                     heat_price=heat)

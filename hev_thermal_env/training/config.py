@@ -49,8 +49,8 @@ ENV_DEFAULTS = {"cycles": ["random_bus", "bus_long", "bus_congested", "bus_launc
                            "bus_express"], "scenario": "random_service", "random_start": True, "preview_s": 10,
                 "preview_step_s": 2, "thermal": True, "reward": {}, "soc_offset": 0.0}
 #: The ``eval`` section's settings (the periodic evaluation) and their defaults. The checkpoints are scored on the
-#: last ten validation cycles (one of each rotating family, then five express routes), which
-#: ``benchmarks/ppo_vs_dp.py`` leaves out of its validation cells.
+#: last ten validation cycles (one of each rotating family, then five express routes); ``validation_bus:0..19`` are
+#: left for judging the trained policies.
 EVAL_DEFAULTS = {"cycles": ["validation_bus:20..29"], "scenarios": ["paper", "full_bus"], "freq": 100_000,
                  "selection": DEFAULT_SCORER, "final_cycles": ["validation_bus"]}
 #: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's), and their defaults.
@@ -196,8 +196,7 @@ def _validate_env(env: dict[str, Any]) -> None:
     env["cycles"] = [str(c) for c in cycles]
     get_scenario(env["scenario"])
     RewardParams.from_dict(dict(env.get("reward") or {}), where="env.reward")
-    # a run saved before the key existed started on its target
-    check_soc_offset(env.setdefault("soc_offset", 0.0), "env.soc_offset")
+    check_soc_offset(env["soc_offset"], "env.soc_offset")
     names = observation_names(whole_number("env.preview_s", env["preview_s"]),
                               whole_number("env.preview_step_s", env["preview_step_s"]))
     env["observation_size"] = len(names)

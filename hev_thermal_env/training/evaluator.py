@@ -10,7 +10,7 @@ import numpy as np
 from hev_thermal_env.cycles import expand_cycle_names, load_cycle
 from hev_thermal_env.envs import HevThermalVectorEnv
 from hev_thermal_env.metrics import run_metrics
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 
 from .envs import env_kwargs
 
@@ -52,7 +52,7 @@ class PolicyEvaluator:
         n = len(self.cycles)
         venv = HevThermalVectorEnv(n, **{**kwargs, "cycle": self.cycles})
         obs, _ = venv.reset(seed=self.seed, options=[{"cycle": c} for c in self.cycles])
-        soc0 = venv.phys_state[:, C.SOC].copy()
+        soc0 = venv.phys_state[:, core.SOC].copy()
         if reset is not None:
             reset()
         lengths = np.array([c.n_steps for c in self.cycles])
