@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core
 from hev_thermal_env.planning.problem import argmin_small_action
 from hev_thermal_env.prices import Prices
 
@@ -65,7 +65,7 @@ def ecms_cost_g(out: np.ndarray, state_after: np.ndarray, s_eff: float, lhv_j_pe
                 reward_params: RewardParams, dt_s: float = 1.0) -> np.ndarray:
     """ECMS cost (fuel-equivalent g) of each candidate row: fuel + s_eff·E_batt/Q_lhv + miss price."""
     base = stage_cost_g(reward_params, out, state_after, 0.0, lhv_j_per_g, dt_s, battery=False)
-    return base + s_eff * out[:, C.BATT_CHEM] * dt_s / lhv_j_per_g
+    return base + s_eff * out[:, core.BATT_CHEM] * dt_s / lhv_j_per_g
 
 
 class ECMS(Strategy):
@@ -107,10 +107,10 @@ class ECMS(Strategy):
 
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
         env = self.env
-        soc = float(env.phys_state[0, C.SOC])
+        soc = float(env.phys_state[0, core.SOC])
         st, out = env.peek(self.u_grid)
         self._observe(soc)
-        if out[0, C.SHAFT_DEMAND] == 0.0:
+        if out[0, core.SHAFT_DEMAND] == 0.0:
             self.cost_curve_g = np.zeros(len(self.u_grid))
             return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
         cost = self.candidate_costs(st, out, soc)
@@ -203,7 +203,7 @@ class ThermalECMS(ECMS):
         ``x_price="margin"`` w_x · max(floor, min(1, ΔT_h / (T_cut − T))), from ``x_thr`` with the floor
         ``margin_floor``; while the bus brakes (``braking``), and with ``braking_below_c`` only in a motor cooler than
         that, from ``braking_x_thr`` with the floor ``braking_floor``."""
-        temp_c = float(self.env.phys_state[0, C.TEMP_C])
+        temp_c = float(self.env.phys_state[0, core.TEMP_C])
         own = braking and (self.braking_below_c is None or temp_c < self.braking_below_c)
         x_thr = self.braking_x_thr if own else self.x_thr
         if self.x_price == "fixed":
@@ -217,10 +217,10 @@ class ThermalECMS(ECMS):
 
     def candidate_costs(self, state_after: np.ndarray, out: np.ndarray, soc: float) -> np.ndarray:
         """ECMS's cost plus the price of the next thermal state (heat index, temperature, cutoff)."""
-        over = np.maximum(state_after[:, C.TEMP_C] - self.temp_soft_c, 0.0)
-        price, x_thr = self.heat_index_terms(bool(out[0, C.SHAFT_DEMAND] < 0.0))
-        heat = (price * np.maximum(state_after[:, C.HEAT_X] - x_thr, 0.0)
-                + self.w_temp * over * over + self.w_cutoff * state_after[:, C.CUTOFF])
+        over = np.maximum(state_after[:, core.TEMP_C] - self.temp_soft_c, 0.0)
+        price, x_thr = self.heat_index_terms(bool(out[0, core.SHAFT_DEMAND] < 0.0))
+        heat = (price * np.maximum(state_after[:, core.HEAT_X] - x_thr, 0.0)
+                + self.w_temp * over * over + self.w_cutoff * state_after[:, core.CUTOFF])
         return super().candidate_costs(state_after, out, soc) + heat
 
     def describe(self) -> dict[str, Any]:

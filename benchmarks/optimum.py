@@ -5,7 +5,7 @@ Writes ``benchmarks/results/optimum.json``:
 
 * ``cells``: every built-in cycle × scenario (``paper``, ``hot``, ``summer``, ``hilly``,
   ``full_bus``) and generated bus cycles (``validation_bus:0..19``, 1,200-4,500 s, the learned
-  policies' validation set, so ``ppo_vs_dp.py`` reuses the solved plans; paper) and ``--fresh`` generated
+  policies' validation set; paper) and ``--fresh`` generated
   routes no set uses (:func:`fresh_cycles`: the six families in turn, the five scenarios in turn): each strategy's
   yardstick cost, final SOC and frontier ratio (cost / the optimum's frontier at the strategy's final SOC); the
   optimum's planned, replayed and realised cost, solve time and states. A run ending below the

@@ -16,10 +16,9 @@ from pathlib import Path
 import yaml
 
 from ..physics import paper_bus, thermal
-from . import fit as F
-from . import log as L
+from . import fit, log
 from . import protocol as proto
-from . import report as R
+from . import report as residual_report
 
 OUT = proto.PROTOCOL_YAML.parent
 
@@ -39,22 +38,22 @@ def write_defaults(values: dict[str, float]) -> Path:
 
 
 def run_fit(args: argparse.Namespace, out: Path) -> dict[str, float]:
-    settings = F.Settings(max_nfev=args.max_nfev, profile_points=args.profile_points, n_sobol=args.n_sobol)
+    settings = fit.Settings(max_nfev=args.max_nfev, profile_points=args.profile_points, n_sobol=args.n_sobol)
     t0 = time.perf_counter()
-    prov = L.provenance()  # the tree the fit runs on, before anything is written
-    attempts = F.calibrate(settings, with_profiles=not args.no_profiles, progress=not args.quiet)
+    prov = log.provenance()  # the tree the fit runs on, before anything is written
+    attempts = fit.calibrate(settings, with_profiles=not args.no_profiles, progress=not args.quiet)
     adopted = attempts[-1]
-    values = {p.name: F.round_sig(adopted.values[p.name]) for p in proto.fitted_parameters()}
+    values = {p.name: fit.round_sig(adopted.values[p.name]) for p in proto.fitted_parameters()}
     extra = ("Values written to the code (5 significant digits: F1's onset jumps between crossings): "
              + ", ".join(f"`{k}` = {v:g}" for k, v in values.items()) + f". Total wall time "
              f"{time.perf_counter() - t0:.0f} s." + (f" {args.note}" if args.note else ""))
     if not args.no_log:
-        L.append(attempts, prov=prov, extra=extra)
+        log.append(attempts, prov=prov, extra=extra)
     best = adopted.starts[adopted.best]
     meta = {"attempt": adopted.label, "free": adopted.free, "fixed": adopted.fixed, "best_start": best.label,
             "start_unit": best.x0, "x_unit": adopted.x, "cost": adopted.cost, "settings": adopted.settings}
-    (out / "fitted_params.yaml").write_text(R.params_yaml(values, meta))
-    (out / "fit_result.json").write_text(json.dumps([L.attempt_record(a) for a in attempts], indent=1,
+    (out / "fitted_params.yaml").write_text(residual_report.params_yaml(values, meta))
+    (out / "fit_result.json").write_text(json.dumps([log.attempt_record(a) for a in attempts], indent=1,
                                                     default=float) + "\n")
     return values
 
@@ -63,9 +62,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hev_thermal_env.calibration", description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(OUT), help="output directory (default: docs/calibration)")
     ap.add_argument("--report-only", action="store_true", help="no fit: the residuals of the current defaults")
-    ap.add_argument("--max-nfev", type=int, default=F.Settings.max_nfev, help="least_squares max_nfev per start")
-    ap.add_argument("--profile-points", type=int, default=F.Settings.profile_points, help="points per profile")
-    ap.add_argument("--n-sobol", type=int, default=F.Settings.n_sobol, help="Sobol starts besides the documented one")
+    ap.add_argument("--max-nfev", type=int, default=fit.Settings.max_nfev, help="least_squares max_nfev per start")
+    ap.add_argument("--profile-points", type=int, default=fit.Settings.profile_points, help="points per profile")
+    ap.add_argument("--n-sobol", type=int, default=fit.Settings.n_sobol, help="Sobol starts besides the documented one")
     ap.add_argument("--no-profiles", action="store_true", help="skip the profiles (the fallback's second rule too)")
     ap.add_argument("--no-log", action="store_true", help="do not append to docs/calibration/fit_log.md")
     ap.add_argument("--note", default="", help="a sentence appended to this run's fit-log entry")
@@ -83,10 +82,10 @@ def main(argv: list[str] | None = None) -> int:
         config = proto.with_values(config, values)
         if args.write_defaults:
             say(f"wrote the fitted values into {write_defaults(values)}")
-    report = R.build(config)
-    (out / "residuals.md").write_text(R.residuals_markdown(report))
+    report = residual_report.build(config)
+    (out / "residuals.md").write_text(residual_report.residuals_markdown(report))
     (out / "residuals.json").write_text(json.dumps(report, indent=1, default=float) + "\n")
-    say(R.residuals_markdown(report))
+    say(residual_report.residuals_markdown(report))
     if args.write_docs:
         from . import docs
 

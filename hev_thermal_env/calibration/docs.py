@@ -20,9 +20,9 @@ from ..paper.measure import LAUNCH_GRADE, LAUNCH_S, LAUNCH_SPEED_MPS, launch_run
 from ..physics import VehicleConfig, paper_bus
 from ..physics import thermal as thm
 from ..physics import thermal_network as tnet
-from . import log as L
+from . import log
 from . import protocol as proto
-from . import report as R
+from . import report as residual_report
 from .fit import Attempt, Start
 
 PAGE = proto.PROTOCOL_YAML.parents[1] / "thermal_model.md"
@@ -130,8 +130,9 @@ def launch_lines(config: VehicleConfig | None = None) -> list[str]:
 
 
 def residual_lines(config: VehicleConfig | None = None) -> list[str]:
-    report = R.build(config)
-    return [*R.residual_table(report), "", R.summary_line(report), "", *R.checks_table(report)]
+    report = residual_report.build(config)
+    return [*residual_report.residual_table(report), "", residual_report.summary_line(report), "",
+            *residual_report.checks_table(report)]
 
 
 def _attempts(path: Path = FIT_RESULT) -> list[Attempt]:
@@ -145,7 +146,7 @@ def identifiability_lines(path: Path = FIT_RESULT) -> list[str]:
         values = ", ".join(f"`{n}` = {_g(a.values[n])}" for n in a.free) or "none free"
         lines += [f"**Attempt {i}: {a.label}** ({'adopted' if a.adopted else 'not adopted'}): {values}; "
                   f"Σr² = {a.cost:.2f} over F1-F7. {a.note[0].upper() + a.note[1:]}.", "",
-                  *L.identifiability_lines(a), "", *L.profile_lines(a), ""]
+                  *log.identifiability_lines(a), "", *log.profile_lines(a), ""]
     return lines[:-1]
 
 

@@ -15,10 +15,10 @@ import numpy as np
 from gymnasium import spaces
 
 from ..cycles import Cycle
-from ..physics import core as C
+from ..physics import core as physics_core
 from ..physics.config import PHYSICS_VERSIONS, Conditions, VehicleConfig, paper_bus
 from ..physics.jit import jit
-from . import spaces as S
+from . import spaces as env_spaces
 from .episodes import CycleTables, Episode, EpisodeSampler, TableCache
 from .observation import observe_kernel
 from .reward import REWARD_TERMS, RewardParams, band_center, descent_soc, reward_kernel
@@ -46,11 +46,11 @@ def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, s
         g[r] = tables[1, r, k[r]]
         c0[r] = band_center(w, soc_target[r], tables[4, r, k[r]])
         c1[r] = band_center(w, soc_target[r], tables[4, r, k[r] + 1])
-    C.step_kernel(gl, dl, en, mo, th, ba, pt, state, u, v0, v1, g, cond, dt_s, state_out, out)
+    physics_core.step_kernel(gl, dl, en, mo, th, ba, pt, state, u, v0, v1, g, cond, dt_s, state_out, out)
     reward_kernel(w, out, state, state_out, c0, c1, dt_s, terms, total)
     for r in range(n):
         k[r] += 1
-        avail[r] = out[r, C.MOTOR_AVAIL]
+        avail[r] = out[r, physics_core.MOTOR_AVAIL]
     observe_kernel(w, all_rows, k, state_out, cond, soc_target, avail, n_steps, tables[0], tables[2], tables[3],
                    tables[4], offsets, dt_s, low, high, obs)
 
@@ -58,8 +58,8 @@ def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, s
 class EpisodeRows:
     """Per-row episode tables of a batch of vehicles, each on its own cycle; the step of both envs."""
 
-    def __init__(self, core: C.PhysicsCore, n_rows: int, offsets: np.ndarray, low: np.ndarray, high: np.ndarray,
-                 reward_params: RewardParams):
+    def __init__(self, core: physics_core.PhysicsCore, n_rows: int, offsets: np.ndarray, low: np.ndarray,
+                 high: np.ndarray, reward_params: RewardParams):
         self.core = core
         self.n = n_rows
         self.offsets = np.ascontiguousarray(offsets, dtype=np.int64)
@@ -72,11 +72,11 @@ class EpisodeRows:
         self.k = np.zeros(n_rows, dtype=np.int64)
         self.end = np.ones(n_rows, dtype=np.int64)
         self.n_steps = np.ones(n_rows, dtype=np.int64)
-        self.state = np.zeros((n_rows, C.N_STATE))
-        self.cond = np.zeros((n_rows, C.N_COND))
+        self.state = np.zeros((n_rows, physics_core.N_STATE))
+        self.cond = np.zeros((n_rows, physics_core.N_COND))
         self.soc_target = np.zeros(n_rows)
         self.avail = np.zeros(n_rows)
-        self.last_out = np.zeros((n_rows, C.N_OUT))
+        self.last_out = np.zeros((n_rows, physics_core.N_OUT))
         self.cycles: list[Cycle | None] = [None] * n_rows
         self.conditions: list[Conditions | None] = [None] * n_rows
 
@@ -143,7 +143,7 @@ class EpisodeRows:
         k = self.k[rows]
         _, out = self.core.step(self.state[rows], 0.0, self.speed[rows, k], self.speed[rows, k + 1],
                                 self.grade[rows, k], self.cond[rows])
-        return out[:, C.MOTOR_AVAIL]
+        return out[:, physics_core.MOTOR_AVAIL]
 
     def step(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Advance every row with motor shares ``u`` (float64 [n], already clipped to [-1, 1]).
@@ -152,8 +152,8 @@ class EpisodeRows:
         updates the state, ``k``, ``last_out`` and the envelope.
         """
         n = self.n
-        state_out = np.empty((n, C.N_STATE))
-        out = np.empty((n, C.N_OUT))
+        state_out = np.empty((n, physics_core.N_STATE))
+        out = np.empty((n, physics_core.N_OUT))
         terms = np.empty((n, len(REWARD_TERMS)))
         total = np.empty(n)
         obs = np.empty((n, self.low.size), dtype=np.float32)
@@ -183,17 +183,17 @@ class EnvParts:
                preview_s: int, preview_step_s: int, thermal: bool | None, random_start: bool,
                info_keys: Any, soc_offset: float = 0.0, physics: int = 2) -> tuple[spaces.Box, spaces.Box]:
         """Build the parts from the env's arguments; returns one env's observation and action spaces."""
-        self.info_keys = S.check_info_keys(info_keys)
+        self.info_keys = env_spaces.check_info_keys(info_keys)
         self.physics = check_physics(physics)
         self.config = resolve_config(config, thermal, self.physics)
-        self.core = C.PhysicsCore(self.config)
+        self.core = physics_core.PhysicsCore(self.config)
         battery = self.config.battery
         self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start, soc_offset,
                                       (battery.soc_min, battery.soc_max))
-        offsets = S.preview_offsets(preview_s, preview_step_s)
+        offsets = env_spaces.preview_offsets(preview_s, preview_step_s)
         self.preview_s, self.preview_step_s = int(preview_s), int(preview_step_s)
-        self.obs_names = S.observation_names(self.preview_s, self.preview_step_s)
-        low, high = S.observation_bounds(self.config, offsets.size)
+        self.obs_names = env_spaces.observation_names(self.preview_s, self.preview_step_s)
+        low, high = env_spaces.observation_bounds(self.config, offsets.size)
         self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
         self._rows = EpisodeRows(self.core, n_rows, offsets, low, high, RewardParams.of(reward, self.physics))
         return (spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32),

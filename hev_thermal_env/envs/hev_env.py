@@ -14,10 +14,10 @@ import gymnasium as gym
 import numpy as np
 
 from ..cycles import Cycle
-from ..physics import core as C
+from ..physics import core
 from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
-from . import spaces as S
+from . import spaces
 from .batch import EnvParts
 from .render import EpisodePlot
 from .reward import RewardParams
@@ -114,7 +114,7 @@ class HevThermalEnv(EnvParts, gym.Env):
     adds up to −10,000 g per unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step
     by step as the SOC moves (a cost in the step that leaves the band, a refund in the step that returns). Its slope is
     about the battery price of a unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times the most that ending beyond the band
-    earns (≈1,100 g), so the reward's optimum is charge-sustaining (``benchmarks/reward_optimum.py``), and a run that
+    earns (≈1,100 g), so the reward's optimum is charge-sustaining (docs/metrics.md), and a run that
     starts and ends inside the band returns exactly minus its corrected fuel and the overheat terms. A step's settlement
     stays within ≈10 g (a step moves the SOC by ≈0.001 at most); a larger pack needs a proportionally larger
     ``soc_band_weight``.
@@ -258,7 +258,7 @@ class HevThermalEnv(EnvParts, gym.Env):
         self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
                                                                 preview_s, preview_step_s, thermal, random_start,
                                                                 info_keys, soc_offset, physics)
-        self._cost_step_s = S.cost_step_s(self.config, self.core.dt_s)
+        self._cost_step_s = spaces.cost_step_s(self.config, self.core.dt_s)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
         self.conditions: Conditions | None = None
@@ -289,17 +289,17 @@ class HevThermalEnv(EnvParts, gym.Env):
         super().reset(seed=seed)
         ep = self.sampler.sample(self.np_random, options)
         tab = self._tables.get(ep)
-        self._rows.last_out = np.zeros((1, C.N_OUT))  # a fresh array: references to the last one stay valid
+        self._rows.last_out = np.zeros((1, core.N_OUT))  # a fresh array: references to the last one stay valid
         self._rows.load([0], [ep], [tab])
         self.cycle = ep.cycle
         self.conditions = ep.conditions
         obs = self._rows.observe()[0]
-        info = S.reset_info_dict(self._rows, 0, ep)
-        self._episode_info = {key: info[key] for key in S.EPISODE_INFO_KEYS}
+        info = spaces.reset_info_dict(self._rows, 0, ep)
+        self._episode_info = {key: info[key] for key in spaces.EPISODE_INFO_KEYS}
         if self.render_mode is not None:
             self._history = {name: [] for name in _HISTORY_KEYS}
             self._record(info, motor_share=math.nan)
-        if self.info_keys is not S.INFO_KEYS:
+        if self.info_keys is not spaces.INFO_KEYS:
             info = {key: info[key] for key in self.info_keys}
         return obs, info
 
@@ -316,11 +316,11 @@ class HevThermalEnv(EnvParts, gym.Env):
         truncated = k >= rows.end[0]
         info = {}
         if self.info_keys or self._history is not None:
-            info = S.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], k, u, clipped,
+            info = spaces.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], k, u, clipped,
                                     self._episode_info, self._cost_step_s)
             if self._history is not None:
                 self._record(info)
-            if self.info_keys is not S.INFO_KEYS:
+            if self.info_keys is not spaces.INFO_KEYS:
                 info = {key: info[key] for key in self.info_keys}
         return obs[0], float(reward[0]), False, bool(truncated), info
 

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..physics import core as C
+from ..physics import core
 from ..physics.jit import jit
 from ..physics.params import Params, spec
 from ..prices import Prices
@@ -181,18 +181,18 @@ def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
     ``st0`` / ``st``: states before / after the step; ``target_before`` / ``target_after``: the band's center at those
     two instants (equal on a flat route).
     """
-    fuel = -w[W_FUEL] * out[b, C.FUEL_G]
-    miss = -w[W_MISS] * (out[b, C.MISSED_J] * w[W_MISS_PRICE])
-    e = (st[b, C.SOC] - target_after) / w[W_SOC_SCALE]
-    band = (soc_band_potential(w, st[b, C.SOC], target_after)
-            - soc_band_potential(w, st0[b, C.SOC], target_before))
-    soc = -w[W_SOC_ENERGY] * (out[b, C.BATT_CHEM] * dt_s * w[W_BATT_PRICE]) + band - w[W_SOC_DEV] * (e * e)
-    over = max(st[b, C.TEMP_C] - w[W_SOFT_LIMIT], 0.0)
-    derate = min(max(st[b, C.HEAT_X] - w[W_DERATE_FROM], 0.0), 1.0 - w[W_DERATE_FROM])  # PWM when it is 0
-    off = max(st[b, C.CUTOFF], st[b, C.WINDING_TRIP])  # either protection stops the motor
+    fuel = -w[W_FUEL] * out[b, core.FUEL_G]
+    miss = -w[W_MISS] * (out[b, core.MISSED_J] * w[W_MISS_PRICE])
+    e = (st[b, core.SOC] - target_after) / w[W_SOC_SCALE]
+    band = (soc_band_potential(w, st[b, core.SOC], target_after)
+            - soc_band_potential(w, st0[b, core.SOC], target_before))
+    soc = -w[W_SOC_ENERGY] * (out[b, core.BATT_CHEM] * dt_s * w[W_BATT_PRICE]) + band - w[W_SOC_DEV] * (e * e)
+    over = max(st[b, core.TEMP_C] - w[W_SOFT_LIMIT], 0.0)
+    derate = min(max(st[b, core.HEAT_X] - w[W_DERATE_FROM], 0.0), 1.0 - w[W_DERATE_FROM])  # PWM when it is 0
+    off = max(st[b, core.CUTOFF], st[b, core.WINDING_TRIP])  # either protection stops the motor
     heat = -w[W_TEMP] * over * over - w[W_CUTOFF] * off - w[W_DERATE] * derate
     if w[W_LIFE] > 0.0:  # the insulation's life consumed: dt / L(T_w), L halving every 10 K (physics v2)
-        heat -= w[W_LIFE] * dt_s * math.exp(LN2_PER_10K * (st[b, C.WINDING_C] - w[W_CLASS_C]))
+        heat -= w[W_LIFE] * dt_s * math.exp(LN2_PER_10K * (st[b, core.WINDING_C] - w[W_CLASS_C]))
     return fuel, miss, soc, heat, ((fuel + miss) + soc) + heat
 
 
@@ -221,8 +221,8 @@ def _before(state_before: np.ndarray | None, state_after: np.ndarray, soc_target
     """
     b = state_after.shape[0]
     if state_before is None:
-        before = np.zeros((b, C.N_STATE))
-        before[:, C.SOC] = soc_target
+        before = np.zeros((b, core.N_STATE))
+        before[:, core.SOC] = soc_target
         return before
     before = np.asarray(state_before, dtype=np.float64)
     if before.ndim == 1:

@@ -18,8 +18,7 @@ from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.cycles import Cycle, load_cycle
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.metrics import run_metrics, yardstick_cost_g
-from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import Conditions, VehicleConfig, core, paper_bus
 from hev_thermal_env.scenarios import Scenario, get_scenario
 from hev_thermal_env.simulate import step_traces
 
@@ -98,13 +97,13 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
     try:
         obs, info = env.reset(seed=seed)
         e = env.unwrapped
-        soc0 = float(e.phys_state[0, C.SOC])
+        soc0 = float(e.phys_state[0, core.SOC])
         k0 = int(e.k)
         t_plan = time.perf_counter()
         strategy.reset(env)
         plan_s = time.perf_counter() - t_plan
         n = e.cycle.n_steps - k0
-        outs, states, us = np.empty((n, C.N_OUT)), np.empty((n, C.N_STATE)), np.empty(n)
+        outs, states, us = np.empty((n, core.N_OUT)), np.empty((n, core.N_STATE)), np.empty(n)
         infos: dict[str, list] = {}
         steps = 0
         while True:

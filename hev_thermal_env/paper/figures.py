@@ -22,7 +22,6 @@ from collections.abc import Mapping
 from typing import Any
 
 WITHIN, OUTSIDE = "within tolerance", "OUTSIDE tolerance"
-GROUPS = ("fitted", "held_out", "check")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,7 +24,7 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.metrics import summarize
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, paper_bus
-from hev_thermal_env.physics import core as C
+from hev_thermal_env.physics import core as physics_core
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
@@ -254,17 +254,17 @@ def launch_run(config: VehicleConfig | None = None, warm_max_s: int = 6 * 3600) 
     the steady state on) and outputs (``torque_nm``, ``speed_radps``), and ``winding_rise_k``."""
     cfg = config or paper_bus()
     cfg = cfg.replace(thermal=cfg.thermal.replace(t_s_s=1e9))
-    core = C.PhysicsCore(cfg)
+    core = physics_core.PhysicsCore(cfg)
     state, cond = core.initial_state(PAPER_CONDITIONS, 1), core.conditions_array(PAPER_CONDITIONS, 1)
     v, g = np.array([LAUNCH_SPEED_MPS]), np.array([LAUNCH_GRADE])
     _, out = core.step(state, np.ones(1), v, v, g, cond)
-    u_rated = (mot.continuous_torque_nm(cfg.motor.pack(), out[0, C.MOTOR_SPEED]) * cfg.driveline.coupler_ratio
-               / out[0, C.SHAFT_DEMAND])
-    nodes = [C.WINDING_C, C.TEMP_C, C.COOLANT_C]
+    u_rated = (mot.continuous_torque_nm(cfg.motor.pack(), out[0, physics_core.MOTOR_SPEED])
+               * cfg.driveline.coupler_ratio / out[0, physics_core.SHAFT_DEMAND])
+    nodes = [physics_core.WINDING_C, physics_core.TEMP_C, physics_core.COOLANT_C]
     history = [state[0, nodes].copy()]
     for k in range(warm_max_s):
         state, _ = core.step(state, np.array([u_rated]), v, v, g, cond)
-        state[:, C.SOC] = PAPER_CONDITIONS.initial_soc
+        state[:, physics_core.SOC] = PAPER_CONDITIONS.initial_soc
         history.append(state[0, nodes].copy())
         if k >= 60 and np.abs(history[-1] - history[-61]).max() < 1e-3:
             break
@@ -272,7 +272,7 @@ def launch_run(config: VehicleConfig | None = None, warm_max_s: int = 6 * 3600) 
     for _ in range(LAUNCH_S):
         state, out = core.step(state, np.ones(1), v, v, g, cond)
         temps.append(state[0, nodes].copy())
-        outs.append(out[0, [C.MOTOR_TORQUE, C.MOTOR_SPEED]].copy())
+        outs.append(out[0, [physics_core.MOTOR_TORQUE, physics_core.MOTOR_SPEED]].copy())
     temps_a, outs_a = np.array(temps), np.array(outs)
     return {"warm_s": float(len(history) - 1), "rated_u": float(u_rated), "winding_c": temps_a[:, 0],
             "housing_c": temps_a[:, 1], "coolant_c": temps_a[:, 2], "torque_nm": outs_a[:, 0],

@@ -14,7 +14,7 @@ import numpy as np
 
 from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
-from .figures import PAPER_FIGURE_BY_NAME as P
+from .figures import PAPER_FIGURE_BY_NAME as FIGURES
 
 PAPER_COLOUR, OURS_COLOUR, OFF_COLOUR = "#e66101", "#1f78b4", "#999999"
 WITHIN_COLOUR, OUTSIDE_COLOUR, BAND_COLOUR = "#1a9641", "#d7191c", "#fdb863"
@@ -72,8 +72,9 @@ def verdict_figure(rows: list[dict[str, Any]], path: Path) -> Path:
 def fig4_figure(curve: dict[str, Any], path: Path) -> Path:
     fig, ax = pyplot().subplots(figsize=(9, 3.8), layout="constrained")
     ax.plot(curve["time_s"], curve["pwm"], color=OURS_COLOUR, label="ours: heat index PWM")
-    ax.plot([P["fig4_leaves_zero_s"].paper, P["fig4_reaches_one_s"].paper], [0.0, 1.0], ls="none", marker="D",
-            ms=8, mfc="none", mec=PAPER_COLOUR, mew=1.8, label="paper Fig. 4: leaves 0 at 30 s,\nreaches 1 at 130 s")
+    ax.plot([FIGURES["fig4_leaves_zero_s"].paper, FIGURES["fig4_reaches_one_s"].paper], [0.0, 1.0], ls="none",
+            marker="D", ms=8, mfc="none", mec=PAPER_COLOUR, mew=1.8,
+            label="paper Fig. 4: leaves 0 at 30 s,\nreaches 1 at 130 s")
     ax.set(xlabel="time (s)", ylabel="heat index PWM (-)", ylim=(0.0, 1.05))
     ax2 = ax.twinx()
     ax2.plot(curve["time_s"], curve["torque_nm"], color="#6a3d9a", ls="--", label="ours: available torque (right)")
@@ -134,7 +135,7 @@ def _band(ax, lo: float, hi: float, x0: float, x1: float, label: str) -> None:
 
 
 def _figs_7_8(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
-    peak, last, onset, hi_peak = (P[k] for k in ("udds_temp_peak_c", "udds_temp_last300_c", "udds_hi_onset_s",
+    peak, last, onset, hi_peak = (FIGURES[k] for k in ("udds_temp_peak_c", "udds_temp_last300_c", "udds_hi_onset_s",
                                                  "udds_hi_peak"))
     _band(ax_t, peak.paper - peak.tol, peak.paper + peak.tol, t[0], t[-1],
           f"paper: peak {peak.paper:g} ± {peak.tol:g} °C")
@@ -151,7 +152,7 @@ def _figs_7_8(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
 
 
 def _figs_9_10(ax_t, ax_h, t: np.ndarray, figures: dict[str, Any]) -> None:
-    band, mean, hi_max = P["beijing_warm_band"], P["beijing_temp_warm_mean_c"], P["beijing_hi_max"]
+    band, mean, hi_max = FIGURES["beijing_warm_band"], FIGURES["beijing_temp_warm_mean_c"], FIGURES["beijing_hi_max"]
     start = figures["warm_from_s"] if math.isfinite(figures["warm_from_s"]) else t[0]
     _band(ax_t, band.low, band.high, start, t[-1],
           f"paper: {band.low:g}-{band.high:g} °C from {band.start_at:g} °C on (H1)")

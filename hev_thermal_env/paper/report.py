@@ -17,8 +17,15 @@ from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writa
 from hev_thermal_env.physics import VehicleConfig, paper_bus
 
 from . import plots as figs
-from .figures import PAPER_FIGURE_BY_NAME as P
-from .figures import TABLE3_RUNS, VERDICT_CYCLES, agreement, fuel_level_rows, table3_paper, verdict_rows
+from .figures import PAPER_FIGURE_BY_NAME as FIGURES
+from .figures import (
+    TABLE3_RUNS,
+    VERDICT_CYCLES,
+    agreement,
+    fuel_level_rows,
+    table3_paper,
+    verdict_rows,
+)
 from .measure import Baseline, cutoff_curve, cycle_run, fig4_curve, figure_values, launch_run, table3, table3_row
 
 __all__ = ["build_report"]
@@ -58,7 +65,8 @@ def build_report(out_dir: str | Path, *, cycles: tuple[str, ...] = VERDICT_CYCLE
     data: dict[str, Any] = {
         "agreement": agreement(rows), "verdicts": rows, "fuel_levels": levels, "table3": t3,
         "fig4": {k: v for k, v in f4.items() if k not in ("time_s", "pwm", "torque_nm")}
-        | {"paper_leaves_zero_s": P["fig4_leaves_zero_s"].paper, "paper_reaches_one_s": P["fig4_reaches_one_s"].paper},
+        | {"paper_leaves_zero_s": FIGURES["fig4_leaves_zero_s"].paper,
+           "paper_reaches_one_s": FIGURES["fig4_reaches_one_s"].paper},
         "thermal_cutoff": {k: v for k, v in tc.items() if k != "temps_c"},
         "launch": _launch(config),
         "table2": runs,
@@ -112,7 +120,7 @@ def _levels_sentence(levels: list[dict[str, Any]]) -> str:
 
 def _performance_md(data: dict[str, Any]) -> list[str]:
     t3 = data["table3"]
-    p = {k: P[k].paper for k in ("accel_30c_delta_s", "accel_50c_delta_s")}
+    p = {k: FIGURES[k].paper for k in ("accel_30c_delta_s", "accel_50c_delta_s")}
     names = {"top_speed_kmh": "top speed (km/h)", "accel_0_60_s": "0-60 km/h (s)",
              "grade_4pct_speed_kmh": "4 % grade speed (km/h)"}
     lines = ["## Table 3: vehicle performance (coolant closed)", "",
