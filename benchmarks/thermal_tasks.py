@@ -14,7 +14,13 @@ A candidate is a *thermal task* when (docs/tasks.md, *Thermal tasks*):
 * the thermal-aware ECMS is no dearer than its blind twin (``ecms_thermal`` ratio ≤ ``ecms`` ratio);
 * the spinning losses alone never cut the motor off (``engine_only``: no cut-off, housing peak below the release).
 
-Run with the checkout on ``PYTHONPATH``; ``dp_thermal`` takes from seconds to minutes per candidate::
+``--screen`` first drives the causal strategies alone (``engine_only``, ``ecms``, ``ecms_thermal``: seconds a run)
+over a grid of routes, air, cooling and payload (:data:`SCREEN`): where is the blind ECMS cut off while the spinning
+motor is not? The candidates (:data:`CANDIDATES`) come from it.
+
+Run with the checkout on ``PYTHONPATH``; ``dp_thermal`` takes from seconds to many minutes per candidate::
+
+    PYTHONPATH=. python benchmarks/thermal_tasks.py --screen --out benchmarks/results/thermal_screen_v2.json
 
     PYTHONPATH=. python benchmarks/thermal_tasks.py --physics 2 --out benchmarks/results/thermal_tasks_v2.json
     PYTHONPATH=. python benchmarks/thermal_tasks.py --physics 1 --out benchmarks/results/thermal_tasks_v1.json
@@ -46,6 +52,7 @@ HOT_FULL = {"ambient_c": 40.0, "payload_kg": 4500.0}
 #: only over an hour and more of service in 40 °C air with a full bus and a weak cooling loop.
 CANDIDATES = (
     ("udds-40c-full", "udds", "paper", {**HOT_FULL}),
+    ("udds3-40c-full-pump10", "udds*3", "paper", {**HOT_FULL, "pump": 0.1}),
     ("udds3-40c-full-pump15", "udds*3", "paper", {**HOT_FULL, "pump": 0.15}),
     ("udds3-40c-full-pump20-nofan", "udds*3", "paper", {**HOT_FULL, "pump": 0.2, "fan": False}),
     ("udds3-40c-full-pump30-nofan", "udds*3", "paper", {**HOT_FULL, "pump": 0.3, "fan": False}),
@@ -60,6 +67,17 @@ V1_TASKS = (
     ("full-bus-v1", "udds", "full_bus", None),
     ("summer-v1", "udds", "summer", None),
 )
+#: The screen: the causal strategies alone (seconds a run) over routes × air × cooling (pump share, fan) × payload,
+#: to find where the blind ECMS is cut off and the spinning motor is not; the search's candidates come from it.
+SCREEN_CYCLES = ("udds*3", "beijing*3", "hwfet*2", f"bus_long:{ROUTE_SEED}", f"bus_hilly:{ROUTE_SEED}",
+                 f"bus_mixed:{ROUTE_SEED}")
+SCREEN_COOLING = ((1.0, True), (0.5, True), (0.3, True), (0.2, True), (0.15, True), (0.1, True), (1.0, False),
+                  (0.3, False), (0.2, False))
+SCREEN = tuple((f"{c}|{a:.0f}C|pump{p:.2f}|fan{int(f)}|{m:.0f}kg", c, "paper",
+                {"ambient_c": a, "pump": p, "fan": f, "payload_kg": m})
+               for c in SCREEN_CYCLES for a in (35.0, 40.0) for p, f in SCREEN_COOLING for m in (0.0, 4500.0)
+               if a == 40.0 or (m == 4500.0 and f))
+SCREEN_STRATEGIES = ("engine_only", "ecms", "ecms_thermal")
 QUICK = (("udds-40c-full", "udds", "paper", {**HOT_FULL}),)
 QUICK_OPTIONS = {"dp_thermal": {"grid_scale": 0.5}}  # a coarser optimum: a check that everything runs
 SUMMARY_FIELDS = ("cost_g", "fuel_g", "fuel_corrected_l_per_100km", "delta_soc", "derated_s", "cutoff_s",
@@ -75,6 +93,23 @@ def conditions_of(changes: dict[str, Any] | None) -> Any:
     return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=ambient, coolant_temp_c=ambient,
                       coolant="on" if pump >= 1.0 else "degraded", coolant_degraded_factor=min(pump, 1.0),
                       payload_kg=changes.get("payload_kg", 0.0), fan=changes.get("fan", True))
+
+
+def screen_candidate(candidate: tuple, physics: int) -> dict[str, Any]:
+    """The causal strategies on one screen cell: cost, housing peak, derated and cut-off seconds, ΔSOC."""
+    warnings.filterwarnings("ignore", category=DeprecationWarning)
+    from hev_thermal_env.agents import get_strategy
+    from hev_thermal_env.evaluation import run_strategy
+
+    name, cycle, scenario, changes = candidate
+    cond = conditions_of(changes)
+    runs = {}
+    for strategy in SCREEN_STRATEGIES:
+        s = run_strategy(get_strategy(strategy), cycle, scenario, conditions=cond, physics=physics).summary
+        runs[strategy] = {k: s.get(k) for k in ("cost_g", "max_motor_temp_c", "derated_s", "cutoff_s", "delta_soc")}
+    return {"name": name, "cycle": cycle, "conditions": changes, "runs": runs,
+            "ecms_cut_off": runs["ecms"]["cutoff_s"] > 0, "spinning_cut_off": runs["engine_only"]["cutoff_s"] > 0,
+            "ecms_thermal_over_ecms": runs["ecms_thermal"]["cost_g"] / runs["ecms"]["cost_g"]}
 
 
 def run_candidate(candidate: tuple, physics: int, quick: bool, threads: int | None = None) -> dict[str, Any]:
@@ -122,20 +157,36 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--physics", type=int, default=2, help="physics version (HevThermal-vN): 2 searches the "
                         "candidates, 1 drives physics v1's thermal tasks (the matrix before)")
     parser.add_argument("--quick", action="store_true", help="one candidate with a coarse optimum (a smoke test)")
+    parser.add_argument("--screen", action="store_true", help="the screen: causal strategies only, over a grid of "
+                        "routes, air, cooling and payload (minutes)")
+    parser.add_argument("--only", nargs="+", metavar="NAME", help="these candidates only, merged into --out's "
+                        "other candidates if it exists")
     parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
+    if args.screen:
+        return screen(args)
     candidates = QUICK if args.quick else (V1_TASKS if args.physics == 1 else CANDIDATES)
+    kept: list[dict[str, Any]] = []
+    if args.only:
+        unknown = sorted(set(args.only) - {c[0] for c in candidates})
+        if unknown:
+            parser.error(f"--only: unknown candidate(s) {unknown}; candidates: {[c[0] for c in candidates]}")
+        if args.out.is_file():
+            kept = [r for r in json.loads(args.out.read_text())["candidates"] if r["name"] not in args.only]
+        order = {c[0]: i for i, c in enumerate(candidates)}
+        candidates = tuple(c for c in candidates if c[0] in args.only)
+    else:
+        order = {c[0]: i for i, c in enumerate(candidates)}
     t0 = time.perf_counter()
-    results: list[dict[str, Any]] = []
-    order = {c[0]: i for i, c in enumerate(candidates)}
+    results: list[dict[str, Any]] = list(kept)
 
     def record() -> dict[str, Any]:
         done = sorted(results, key=lambda r: order[r["name"]])
         return {"physics": args.physics, "quick": args.quick, "wall_s": time.perf_counter() - t0,
                 "criteria": "dp frontier ratio >= 1.01; dp_thermal never cut off; ecms_thermal ratio <= ecms ratio; "
                             "engine_only (u = 0) never cut off and below the 60 °C release",
-                "searched": len(done), "of": len(candidates),
+                "searched": len(done), "of": len(order),
                 "tasks": [r["name"] for r in done if r["thermal_task"]], "candidates": done}
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -152,6 +203,23 @@ def main(argv: list[str] | None = None) -> int:
         vk = r["value_of_knowing_heat"]
         print(f"{r['name']:24s} dp/dp_thermal {vk if vk is None else round(vk, 4)}  {flags}")
     print(f"thermal tasks: {final['tasks']}  ({final['wall_s']:.0f} s)")
+    return 0
+
+
+def screen(args: argparse.Namespace) -> int:
+    """Write the screen's JSON: every cell, then where the blind ECMS is cut off while the spinning motor is not."""
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as ex:
+        rows = list(tqdm(ex.map(screen_candidate, SCREEN, [args.physics] * len(SCREEN)), total=len(SCREEN),
+                         desc="screen"))
+    binds = [r["name"] for r in rows if r["ecms_cut_off"] and not r["spinning_cut_off"]]
+    record = {"physics": args.physics, "strategies": list(SCREEN_STRATEGIES), "wall_s": time.perf_counter() - t0,
+              "cells": len(rows), "ecms_cut_off_spinning_not": binds,
+              "ecms_thermal_cheaper_than_ecms": [r["name"] for r in rows if r["ecms_thermal_over_ecms"] <= 1.0],
+              "rows": rows}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(record, indent=1) + "\n")
+    print(f"{len(rows)} cells; the blind ECMS cut off, the spinning motor not: {binds}")
     return 0
 
 

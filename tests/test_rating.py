@@ -22,6 +22,14 @@ def v2():
     return paper_bus()
 
 
+@pytest.fixture(scope="module")
+def point(v2):
+    """The rated point: 80 N·m at the envelopes' corner, 3,581 rpm (30 kW)."""
+    torque, rpm = R.rated_point(v2)
+    assert torque == 80.0 and rpm == pytest.approx(3580.99, abs=0.01) and torque * rpm * RPM == pytest.approx(30e3)
+    return torque, rpm
+
+
 def independent_rhs(config, torque_nm: float, speed_rpm: float, ambient_c: float):
     """dT/dt of (winding, housing, coolant) written from the parameters alone (docs/thermal_model.md), the bus
     standing with the pump full and the fan as controlled."""
@@ -65,51 +73,51 @@ def independent_rhs(config, torque_nm: float, speed_rpm: float, ambient_c: float
 
 
 @pytest.mark.parametrize("ambient_c", [20.0, 40.0])
-def test_steady_state_matches_an_independent_solution(v2, ambient_c):
+def test_steady_state_matches_an_independent_solution(v2, point, ambient_c):
     cond = R.OperatingCondition(ambient_c=ambient_c)
-    got = R.steady_state(v2, 80.0, 3600.0, cond)
-    rhs = independent_rhs(v2, 80.0, 3600.0, ambient_c)
+    got = R.steady_state(v2, *point, cond)
+    rhs = independent_rhs(v2, *point, ambient_c)
     want = fsolve(lambda y: rhs(0.0, y), [got["winding_c"] + 3, got["housing_c"] + 3, got["coolant_c"] + 3],
                   xtol=1e-12)
     assert np.allclose([got["winding_c"], got["housing_c"], got["coolant_c"]], want, atol=0.05), (got, want)
 
 
-def test_rated_transient_matches_an_independent_integration(v2):
+def test_rated_transient_matches_an_independent_integration(v2, point):
     """Heat alone, 30 kW at the base speed in 40 °C air from cold for two hours: the backward-Euler network at 1 s
     against scipy's adaptive integration of the same equations."""
-    run = R.hold(v2, 80.0, 3600.0, 7200, R.RATED)
-    sol = solve_ivp(independent_rhs(v2, 80.0, 3600.0, 40.0), (0.0, 7200.0), [40.0, 40.0, 40.0],
+    run = R.hold(v2, *point, 7200, R.RATED)
+    sol = solve_ivp(independent_rhs(v2, *point, 40.0), (0.0, 7200.0), [40.0, 40.0, 40.0],
                     t_eval=np.arange(1.0, 7201.0), max_step=5.0, rtol=1e-8, atol=1e-8)
     for i, node in enumerate(("winding_c", "housing_c", "coolant_c")):
         assert np.max(np.abs(run[node] - sol.y[i])) < 1.0, node
 
 
-def test_thirty_kilowatts_settle_within_80_to_100_percent_of_the_allowed_rise(v2):
+def test_thirty_kilowatts_settle_within_80_to_100_percent_of_the_allowed_rise(v2, point):
     """The rating: at the rated condition heat alone the governing limit's rise is 80-100 % of the allowed rise."""
-    node, share = R.rise_share(v2, R.steady_state(v2, 80.0, R.RATED_SPEED_RPM, R.RATED), R.RATED.ambient_c)
+    node, share = R.rise_share(v2, R.steady_state(v2, *point, R.RATED), R.RATED.ambient_c)
     assert node == "housing_c"
     assert 0.80 <= share <= 1.0, share
 
 
-def test_what_the_motor_holds_by_heat_alone(v2):
+def test_what_the_motor_holds_by_heat_alone(v2, point):
     """More than its rating in 40 °C (it settles below the limit), more still in the paper's 20 °C air, and the
     held torque's steady state sits at the limit."""
     hot, cool = R.RATED, R.OperatingCondition(ambient_c=20.0)
     r40, r20 = R.held_power_ratio(v2, condition=hot), R.held_power_ratio(v2, condition=cool)
     assert 1.0 <= r40 < r20 <= 2.5
-    t = R.held_torque_nm(v2, R.RATED_SPEED_RPM, hot)
-    _, share = R.rise_share(v2, R.steady_state(v2, t, R.RATED_SPEED_RPM, hot), hot.ambient_c)
+    t = R.held_torque_nm(v2, point[1], hot)
+    _, share = R.rise_share(v2, R.steady_state(v2, t, point[1], hot), hot.ambient_c)
     assert 0.98 <= share <= 1.0
 
 
-def test_as_shipped_the_heat_index_caps_an_overload_before_the_heat_does(v2):
+def test_as_shipped_the_heat_index_caps_an_overload_before_the_heat_does(v2, point):
     """Twice the continuous torque from the paper's 20 °C: eq 8 brings the torque down to the continuous envelope
     (times the magnets' factor) and the motor is never cut off; at the rated point nothing is capped."""
     run = R.hold(v2, 160.0, 3000.0, 1800, R.OperatingCondition(ambient_c=20.0), heat_index=True)
     assert run["torque_nm"][0] == pytest.approx(160.0)
     assert run["torque_nm"][-1] <= 80.0 + 1e-6
     assert run["housing_c"].max() < v2.thermal.cutoff_temp_c
-    rated = R.hold(v2, 80.0, 3600.0, 3 * 3600, R.RATED, heat_index=True)
+    rated = R.hold(v2, *point, 3 * 3600, R.RATED, heat_index=True)
     assert rated["housing_c"].max() < v2.thermal.cutoff_temp_c
     assert rated["torque_nm"].min() >= 80.0 * (1.0 - v2.thermal.torque_temp_coeff_per_c * 50.0)
 
@@ -121,10 +129,10 @@ def test_spinning_losses_alone_release_the_motor_in_the_paper_conditions(v2):
         assert R.spinning_steady_c(v2, rpm, cond) < v2.thermal.cutoff_release_temp_c
 
 
-def test_the_derate_against_copper_resistance(v2):
+def test_the_derate_against_copper_resistance(v2, point):
     """At the rated point the paper's derate adds more heat than R(T) would; at a low-speed launch far less."""
-    s = R.steady_state(v2, 80.0, 3600.0, R.RATED)
-    rated = R.derate_against_resistance(v2, 80.0, 3600.0, s["winding_c"], s["housing_c"])
+    s = R.steady_state(v2, *point, R.RATED)
+    rated = R.derate_against_resistance(v2, *point, s["winding_c"], s["housing_c"])
     assert rated["derate_w"] > 2.0 * rated["resistance_w"] > 0.0
     launch = R.derate_against_resistance(v2, 240.0, 1000.0, s["winding_c"], s["housing_c"])
     assert launch["derate_w"] < 0.5 * launch["resistance_w"]

@@ -23,8 +23,9 @@ PROTOCOL_RISE_K = 39.0
 def _losses(cfg, torque_nm: float, speed_radps: float, housing_c: float) -> tuple[float, float, float]:
     """(winding, housing, inverter cold plate) heat in W, from the protocol's loss statement (§1): the combined map
     L = 1.05·(k_cu·T² + k_fe·ω^1.5 + k_fr·ω), the paper's derate η' = η − δ motoring (δ = 1 point per 15 °C above
-    35 °C of the housing), the inverter's (1 − η_inv)·|P_dc| to the coolant, the rest split copper : iron + friction
-    in proportion to their mapped parts."""
+    35 °C of the housing), the inverter's (1 − η_inv)·|P_dc| to the coolant; of the rest, the housing takes the mapped
+    iron + friction loss in the share the motor keeps (1 − q_inv / loss) and the winding everything else: copper and
+    the derate's extra current, as the vehicle step splits it."""
     mo, th = cfg.motor, cfg.thermal
     copper = mo.copper_loss_coeff * torque_nm ** 2
     core = mo.iron_loss_coeff * speed_radps ** 1.5 + mo.friction_loss_coeff * speed_radps
@@ -35,7 +36,7 @@ def _losses(cfg, torque_nm: float, speed_radps: float, housing_c: float) -> tupl
     p_dc = p_mech / eta
     loss = p_dc - p_mech
     q_inv = (1.0 - th.inverter_efficiency) * abs(p_dc)
-    q_housing = (loss - q_inv) * (1.0 + th.extra_loss_frac) * core / mapped
+    q_housing = (loss - q_inv) / loss * (1.0 + th.extra_loss_frac) * core
     return loss - q_inv - q_housing, q_housing, q_inv
 
 

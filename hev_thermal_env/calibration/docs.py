@@ -117,9 +117,12 @@ def _duration(seconds: float) -> str:
 
 
 def launch_lines(config: VehicleConfig | None = None) -> list[str]:
-    run = launch_run(config or paper_bus())
-    return [f"From the steady state at the continuous torque ({LAUNCH_SPEED_MPS} m/s on a {100 * LAUNCH_GRADE:.0f} % "
-            f"grade, first gear, {run['speed_radps'][0] * 30 / math.pi:.0f} rpm; steady after "
+    config = config or paper_bus()
+    run = launch_run(config)
+    cont_nm = config.motor.continuous_torque_nm
+    return [f"From the steady state at the continuous torque ({cont_nm:.0f} N·m at "
+            f"{run['speed_radps'][0] * 30 / math.pi:.0f} rpm, {cont_nm * run['speed_radps'][0] / 1e3:.1f} kW, not the "
+            f"rated 30 kW: {LAUNCH_SPEED_MPS} m/s on a {100 * LAUNCH_GRADE:.0f} % grade, first gear; steady after "
             f"{run['warm_s'] / 3600:.1f} h): winding {run['winding_c'][0]:.1f} °C, "
             f"{run['winding_over_housing_start_k']:.1f} K above the housing ({run['housing_c'][0]:.1f} °C), coolant "
             f"{run['coolant_c'][0]:.1f} °C. {LAUNCH_S} s at "

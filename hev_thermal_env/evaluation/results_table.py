@@ -21,7 +21,7 @@ from hev_thermal_env.stats import CONFIDENCE
 from .families import OVERALL
 from .runner import jsonable
 from .score import ANCHOR, ILL_CONDITIONED, ILL_CONDITIONED_BELOW, add_score_columns, score_text, strategy_aggregates
-from .yardstick import REFERENCE, display_name
+from .yardstick import BLIND_DP, REFERENCE, display_name
 
 COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "fuel_g", "fuel_l_per_100km",
            "fuel_corrected_l_per_100km", "cost_g", "overheat_g", "frontier_ratio", "frontier_ratio_ci_low",
@@ -160,7 +160,7 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
                      [[r["strategy"], str(r["seeds"]), str(r["runs"]), ratio_text(r, "frontier_ratio"), _score_cell(r),
                        ratio_text(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
     md += _score_summary(rows)
-    md += ["", *_reference_lines(rows), "", EXPLANATION]
+    md += ["", *_reference_lines(rows), *_heat_value_lines(rows), "", EXPLANATION]
     if any(_is_family_row(r) for r in rows):
         md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "
                    "brackets; each seed's row is in results.csv and results.json (column `family`)."]
@@ -190,6 +190,17 @@ def _score_summary(rows: list[dict]) -> list[str]:
                 f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval in brackets; a deterministic strategy has one "
                 "run per cycle × scenario and no interval):", "",
             *_table(("strategy", "cycles × scenarios", "score", "left out"), lines)]
+
+
+def _heat_value_lines(rows: list[dict]) -> list[str]:
+    """The value of knowing the heat where ``dp`` ran: its frontier ratio, the thermal-blind plan driven on the thermal
+    physics over the optimum (1.000: knowing the heat is worth nothing there)."""
+    values = [f"{r['cycle']} / {r['scenario']} {r['frontier_ratio']:.3f}" for r in rows
+              if r.get("strategy") == BLIND_DP and r.get("family") is None and r.get("frontier_ratio") is not None]
+    if not values:
+        return []
+    return ["", f"The value of knowing the heat (`{BLIND_DP}` ÷ `{REFERENCE}`, the thermal-blind plan driven on the "
+                f"thermal physics over the optimum, at equal charge): {', '.join(values)}."]
 
 
 def _reference_lines(rows: list[dict]) -> list[str]:

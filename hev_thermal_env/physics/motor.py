@@ -1,8 +1,10 @@
 """Permanent-magnet synchronous traction motor (paper Table 1) with a loss-model efficiency map.
 
 Table 1 swaps the rated and peak power; read correctly: rated 30 kW, peak 90 kW, base/max speed 3600/6000 rpm,
-peak torque 240 N·m, hence 80 N·m continuous below base speed and constant power above. Both envelopes are 0 above
-the maximum speed, so a derated motor (eq 8 blends them) never gets more torque than a cold one.
+peak torque 240 N·m, hence 80 N·m continuous below base speed and constant power above. Both envelopes corner
+where torque × speed reaches the power, 90 kW / 240 N·m = 30 kW / 80 N·m = 375 rad/s: 3,581 rpm (Table 1 rounds
+it). Both envelopes are 0 above the maximum speed, so a derated motor (eq 8 blends them) never gets more torque than
+a cold one.
 
 Losses (motor + inverter): P_loss = k_cu·T² + k_fe·ω^1.5 + k_fr·ω; the defaults give ≈95 % peak efficiency and a
 shape close to ADVISOR's UQM PowerPhase 100 map scaled to 90 kW (``tests/test_physics.py``). Thermal effects: the
@@ -34,7 +36,7 @@ class MotorParams(Params):
     """Traction PMSM of the paper (Table 1)."""
 
     peak_torque_nm: float = spec(240.0, "peak torque below base speed (Table 1)", min=0.0)
-    continuous_torque_nm: float = spec(80.0, "continuous (rated) torque below base speed: 30 kW at 3600 rpm",
+    continuous_torque_nm: float = spec(80.0, "continuous (rated) torque below base speed: 30 kW at 3,581 rpm",
                                        min=0.0, min_exclusive=True)
     peak_power_w: float = spec(90e3, "peak power (Table 1, swapped)", min=0.0)
     continuous_power_w: float = spec(30e3, "rated power (Table 1, swapped)", min=0.0, min_exclusive=True)

@@ -1,7 +1,8 @@
 """The motor at constant operating points: its continuous (S1) rating, and what it holds by heat alone.
 
 A motor's continuous rating is the load it sustains indefinitely at its thermal limit at a stated condition. Ours
-(:data:`RATED`): 30 kW at the base speed (80 N·m at 3,600 rpm, Table 1) in 40 °C air, IEC 60034-1's reference
+(:data:`RATED`): 30 kW at the base speed (:func:`rated_point`: 80 N·m at 3,581 rpm, where both torque envelopes
+corner; Table 1 rounds it to 3,600 rpm) in 40 °C air, IEC 60034-1's reference
 temperature of the final coolant (clause 8.2: 40 °C air for machines whose ultimate coolant is the surrounding air; the
 bus's loop rejects its heat to that air), on a bench: the bus standing (no ram air, the housing in still air), the
 pump at full flow and the radiator fan as its controller runs it (full speed above 45 °C coolant). The governing limit
@@ -42,8 +43,13 @@ class OperatingCondition:
 
 RATED = OperatingCondition()
 """IEC 60034-1's 40 °C reference air; the bus standing, pump full, fan as controlled."""
-RATED_SPEED_RPM = 3600.0
-"""The base speed (Table 1), where the continuous torque is largest."""
+
+
+def rated_point(config: VehicleConfig) -> tuple[float, float]:
+    """(torque N·m, speed rpm) of the continuous rating: the continuous torque at the speed where it meets the
+    continuous power, the envelopes' corner (80 N·m at 3,581 rpm = 30 kW)."""
+    mo = config.motor
+    return mo.continuous_torque_nm, mo.continuous_power_w / mo.continuous_torque_nm / mot.RPM
 
 
 def _packed(config: VehicleConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -159,10 +165,11 @@ def held_torque_nm(config: VehicleConfig, speed_rpm: float, condition: Operating
     return lo
 
 
-def held_power_ratio(config: VehicleConfig, speed_rpm: float = RATED_SPEED_RPM,
+def held_power_ratio(config: VehicleConfig, speed_rpm: float | None = None,
                      condition: OperatingCondition = RATED) -> float:
-    """What the motor holds by heat alone at ``speed_rpm``, over its continuous power."""
-    return held_torque_nm(config, speed_rpm, condition) * speed_rpm * mot.RPM / config.motor.continuous_power_w
+    """What the motor holds by heat alone at ``speed_rpm`` (default the rated point's), over its continuous power."""
+    rpm = rated_point(config)[1] if speed_rpm is None else speed_rpm
+    return held_torque_nm(config, rpm, condition) * rpm * mot.RPM / config.motor.continuous_power_w
 
 
 def spinning_steady_c(config: VehicleConfig, speed_rpm: float, condition: OperatingCondition) -> float:
@@ -171,7 +178,7 @@ def spinning_steady_c(config: VehicleConfig, speed_rpm: float, condition: Operat
     return steady_state(config, 0.0, speed_rpm, condition)["housing_c"]
 
 
-__all__ = ["OperatingCondition", "RATED", "RATED_SPEED_RPM", "hold", "steady_state", "held_torque_nm",
+__all__ = ["OperatingCondition", "RATED", "rated_point", "hold", "steady_state", "held_torque_nm",
            "held_power_ratio", "rise_share", "spinning_steady_c", "limits_c"]
 
 

@@ -105,8 +105,9 @@ class ThermalParams(Params):
     thermostat_band_k: float = spec(5.0, "the valve (on the coolant temperature) opens fully this much above "
                                          "thermostat_temp_c", min=2.0, max=15.0)
     radiator_ua_w_per_k: float = spec(138.0, "radiator UA at the reference face air speed, set by the rating "
-                                             "(physics/rating.py): 30 kW at 3,600 rpm in 40 °C air settles the "
-                                             "housing at 90 % of its rise to the cut-off", min=50.0, max=600.0)
+                                             "(physics/rating.py): 30 kW in 40 °C air settles the housing at 90 % of "
+                                             "its rise to the cut-off at 3,600 rpm (Table 1), 89.4 % at the "
+                                             "envelopes' corner, 3,581 rpm", min=50.0, max=600.0)
     radiator_ref_air_speed_mps: float = spec(5.0, "face air speed of radiator_ua_w_per_k", min=3.0, max=8.0)
     radiator_air_exponent: float = spec(0.7, "UA ∝ (face air speed)^n: air-side Nusselt ∝ Re^0.5-0.8",
                                         min=0.5, max=0.8)
