@@ -8,8 +8,8 @@ installed beside it, so the suite checks the environment it runs in, activated o
 other changes, each listed in ``ADJUSTMENTS`` and each required to match a README line (so none can
 go stale silently):
 
-* ``pip install -e ".[dev]" && CMD``: the suite runs in the installed environment, so it runs ``CMD``
-  only (it never installs anything);
+* ``pip install -e ".[dev]" && CMD`` and ``pip install -e . && CMD``: the suite runs in the installed environment,
+  so it runs ``CMD`` only (it never installs anything);
 * ``python -m pytest -q`` and ``python -m pytest -q --full``, the test commands, are this suite: they
   are not run again from inside it; ``.ci/run`` must run the README's full-suite line exactly;
 * ``--timesteps N``: training budgets shrink to ``TINY_TIMESTEPS`` (one PPO rollout), the
@@ -36,11 +36,14 @@ README = ROOT / "README.md"
 DOCS = ROOT / "docs"
 
 INSTALL_PREFIX = 'pip install -e ".[dev]" && '
+#: The main job needs the package alone (no test, docs or scale-out extras).
+MAIN_INSTALL_PREFIX = "pip install -e . && "
 TEST_COMMANDS = ("python -m pytest -q", "python -m pytest -q --full")
 MAIN_JOB = "python evaluate.py benchmark --out results"
 TINY_TIMESTEPS = 2048
 ADJUSTMENTS = {
     "install prefix": INSTALL_PREFIX,
+    "the main job's install prefix": MAIN_INSTALL_PREFIX,
     "fast tests": TEST_COMMANDS[0],
     "full suite": TEST_COMMANDS[1],
     "main job": MAIN_JOB,
@@ -89,8 +92,9 @@ SNIPPETS = [(name, i, s) for name, text in TEXTS.items() for i, s in enumerate(f
 
 def as_run(command: str) -> str | None:
     """What the suite runs for a command (None: not run, see the module docstring)."""
-    if command.startswith(INSTALL_PREFIX):
-        command = command[len(INSTALL_PREFIX) :]
+    for prefix in (INSTALL_PREFIX, MAIN_INSTALL_PREFIX):
+        if command.startswith(prefix):
+            command = command[len(prefix) :]
     if bare(command) in TEST_COMMANDS:
         return None
     command = re.sub(r"--timesteps \d+", f"--timesteps {TINY_TIMESTEPS}", command)
@@ -160,7 +164,7 @@ def test_readme_has_the_commands_this_test_adjusts():
     for name, marker in ADJUSTMENTS.items():
         assert any(marker in c for c in README_COMMANDS), f"{name}: no README command contains {marker!r}"
     top = [bare(c) for c in command_lines(fenced(TEXTS["README.md"], "bash")[0])]
-    assert top == [INSTALL_PREFIX + c for c in (MAIN_JOB, *TEST_COMMANDS)], top
+    assert top == [MAIN_INSTALL_PREFIX + MAIN_JOB, *(INSTALL_PREFIX + c for c in TEST_COMMANDS)], top
 
 
 def test_ci_runs_the_readme_full_suite_command():

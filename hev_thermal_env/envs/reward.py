@@ -29,6 +29,11 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 HOUR_S = 3600.0
 #: ln 2 / 10 K: the insulation's life halves every 10 K (Montsinger).
 LN2_PER_10K = math.log(2.0) / 10.0
+MOTOR_LIFE_COST_G = 8000.0 / 1.60 * 835.0
+"""Physics v2's price of the insulation's life: the traction motor and its inverter replaced (8,000 €, a stated
+assumption for a 90 kW bus drive) at 1.60 € per litre of diesel of 835 g: 4.2 t of diesel, 0.058 g per second at
+the class temperature, halving every 10 K below it (docs/environment.md, *Physics versions and the overheat
+price*)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -59,9 +64,9 @@ class RewardParams(Params):
     derate_from_x: float = spec(0.0, "heat-index integrator x (eq 9) from which derate_weight applies: 0 prices the "
                                      "heat index PWM = clip(x, 0, 1); below 0 also the approach to derating, as "
                                      "ecms_thermal's x_thr (its overload reserve is 0.3 at most)", min=-0.3, max=0.0)
-    motor_life_cost_g: float = spec(4175000.0, "what the motor's insulation life is worth, in grams of diesel: the "
-                                               "motor and inverter replaced at the end of it (MOTOR_LIFE_COST_G; "
-                                               "physics v1: 0, not priced)", min=0.0)
+    motor_life_cost_g: float = spec(MOTOR_LIFE_COST_G, "what the motor's insulation life is worth, in grams of diesel: "
+                                                       "the motor and inverter replaced at the end of it (physics v1: "
+                                                       "0, not priced)", min=0.0)
     insulation_class_temp_c: float = spec(180.0, "the winding insulation's thermal class: class H, 180 °C (IEC 60085), "
                                                  "the hot-spot temperature it lasts insulation_life_h at", min=100.0,
                                           max=250.0)
@@ -117,11 +122,6 @@ class RewardParams(Params):
         w[W_CLASS_C] = self.insulation_class_temp_c
         return w
 
-
-MOTOR_LIFE_COST_G = 8000.0 / 1.60 * 835.0
-"""Physics v2's price of the insulation's life: the traction motor and its inverter replaced (8,000 €, a stated
-assumption for a 90 kW bus drive) at 1.60 € per litre of diesel of 835 g: 4.2 t of diesel, 0.058 g per second at
-the class temperature, halving every 10 K below it (docs/environment.md, *Rewards*)."""
 
 OBSERVED_REWARD_FIELDS = ("descent_recovery",)
 """The reward's arguments the observation carries: ``descent_recovery`` places the band's center, which is the
