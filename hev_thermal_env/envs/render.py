@@ -13,7 +13,6 @@ import numpy as np
 
 from ..cycles import Cycle
 from ..physics.config import VehicleConfig
-from .reward import RewardParams
 
 WIDTH_IN, HEIGHT_IN, DPI = 8.0, 8.0, 80  # 640 × 640 pixels
 FONT_PT = 9.5
@@ -66,14 +65,13 @@ class EpisodePlot:
                 ax.grid(alpha=0.3)
                 ax.tick_params(labelsize=FONT_PT - 1)
             self._cutoff_line = ax_t.axhline(math.nan, color="#6a3d9a", ls="-.", lw=1.2, label="cutoff")
-            self._soft_line = ax_t.axhline(RewardParams().overheat_soft_limit_c, color="#e08214", ls=":", lw=1.2,
-                                           label="soft limit")
+            self._release_line = ax_t.axhline(math.nan, color="#e08214", ls=":", lw=1.2, label="cutoff release")
             ax_hi.set_ylim(0.0, 1.0)
             ax_u.axhline(0.0, color="0.6", lw=0.6)
             ax_u.set_ylim(-1.05, 1.05)
             ax_u.set_xlabel("time [s]")
-            handles = [self._cycle_line, self._lines["speed_mps"], self._cutoff_line, self._soft_line]
-            self.fig.legend(handles, ["cycle", "vehicle", "motor cutoff", "soft limit"], loc="upper right",
+            handles = [self._cycle_line, self._lines["speed_mps"], self._cutoff_line, self._release_line]
+            self.fig.legend(handles, ["cycle", "vehicle", "motor cutoff", "cutoff release"], loc="upper right",
                             ncol=2, fontsize=FONT_PT - 1, frameon=False, bbox_to_anchor=(0.995, 0.995))
             self._title = self.fig.text(0.01, 0.985, "HevThermal", ha="left", va="top", fontsize=FONT_PT + 1.5,
                                         fontweight="bold")
@@ -88,6 +86,7 @@ class EpisodePlot:
             self.axes[0].set_xlim(0.0, max(cycle.duration_s, 1.0))
             self.axes[0].set_ylim(0.0, max(cycle.max_speed_kmh * 1.1, 10.0))
             self._cutoff_line.set_ydata([config.thermal.cutoff_temp_c] * 2)
+            self._release_line.set_ydata([config.thermal.cutoff_release_temp_c] * 2)
         t = history.get("time_s", [])
         for name, line in self._lines.items():
             y = np.asarray(history.get(name, []), dtype=float)

@@ -1,6 +1,6 @@
 """Trace figures: every strategy of one cycle and scenario on shared time axes (:func:`plot_run`, drawn alike by the
 benchmark and ``evaluate.py run``). Panels, top to bottom: the cycle's speed (thick, light) and each strategy's;
-the cumulative missed wheel energy; SOC; motor temperature, with the 60 °C soft limit and the 70 °C cutoff when the
+the cumulative missed wheel energy; SOC; motor temperature, with the 70 °C cutoff and its 60 °C release when the
 motor comes near them (a mark wherever a motor is cut off); the heat index; the split, one strip per strategy
 (colour = motor share u; green: the regeneration share while braking; grey where no torque is demanded).
 :func:`plot_benchmark` draws one per cycle and scenario (a seed family as its member nearest the IQM) and the fuel
@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
-from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.physics import paper_bus
 
 from .fuel_chart import FUEL_CHART_FILE, plot_fuel_chart
@@ -24,9 +23,9 @@ from .styles import CYCLE_COLOUR, figure_title, legend_outside, ordered, pyplot,
 
 __all__ = ["SPLIT_INFO_KEY", "plot_benchmark", "plot_run", "pyplot", "run_figure"]
 
-CUTOFF_COLOUR, SOFT_LIMIT_COLOUR = "#6a3d9a", "#e08214"
+CUTOFF_COLOUR, RELEASE_COLOUR = "#6a3d9a", "#e08214"
 
-#: The temperature lines are drawn when the hottest motor comes within this of the soft limit.
+#: The temperature lines are drawn when the hottest motor comes within this of the cutoff's release.
 LIMITS_SHOWN_WITHIN_K = 20.0
 
 
@@ -95,7 +94,8 @@ def _speed_panel(ax, traces, labels, styles) -> list:
 
 
 def _temperature_panel(ax, traces, labels, styles) -> list:
-    soft_c, cutoff_c = float(RewardParams().overheat_soft_limit_c), float(paper_bus().thermal.cutoff_temp_c)
+    thermal = paper_bus().thermal
+    release_c, cutoff_c = float(thermal.cutoff_release_temp_c), float(thermal.cutoff_temp_c)
     hottest = -np.inf
     for label in labels:
         tr = traces[label]
@@ -107,17 +107,17 @@ def _temperature_panel(ax, traces, labels, styles) -> list:
             on = cut > 0
             ax.plot(t[on], temp[on], ls="none", marker="|", ms=7, mew=1.2, color=styles[label]["color"], zorder=6)
     handles = []
-    if hottest >= soft_c - LIMITS_SHOWN_WITHIN_K:
+    if hottest >= release_c - LIMITS_SHOWN_WITHIN_K:
         handles = [ax.axhline(cutoff_c, color=CUTOFF_COLOUR, lw=2.0, ls="-.", label=f"cutoff {cutoff_c:g} °C"),
-                   ax.axhline(soft_c, color=SOFT_LIMIT_COLOUR, lw=1.4, ls=":",
-                              label=f"soft limit {soft_c:g} °C\n(overheat penalty)"),
+                   ax.axhline(release_c, color=RELEASE_COLOUR, lw=1.4, ls=":",
+                              label=f"release {release_c:g} °C\n(a cut-off motor runs again)"),
                    *ax.plot([], [], ls="none", marker="|", ms=7, mew=1.2, color="0.3",
                             label="motor cut off\n(mark on its line)")]
         ax.set_ylim(top=cutoff_c + 4.0)
         ax.set_title("motor temperature", fontsize=10)
     else:
-        ax.set_title(f"motor temperature (peak {hottest:.1f} °C: far below the {soft_c:g} °C soft limit and the "
-                     f"{cutoff_c:g} °C cutoff, not drawn)", fontsize=10)
+        ax.set_title(f"motor temperature (peak {hottest:.1f} °C: far below the {cutoff_c:g} °C cutoff and its "
+                     f"{release_c:g} °C release, not drawn)", fontsize=10)
     ax.set_ylabel("motor (°C)")
     return handles
 
