@@ -113,6 +113,23 @@ def screen_candidate(candidate: tuple, physics: int) -> dict[str, Any]:
             "ecms_thermal_over_ecms": runs["ecms_thermal"]["cost_g"] / runs["ecms"]["cost_g"]}
 
 
+def fixed_price_cost_g(trace: dict[str, Any], physics: int) -> float:
+    """A run's yardstick cost (fuel + missed energy at its price + overheat terms) at physics version ``physics``'s
+    overheat price, plus the battery energy it used at the battery's fixed price (equal charge): how the overheat
+    price alone moves a ranking."""
+    import numpy as np
+
+    from hev_thermal_env.envs.reward import RewardParams
+    from hev_thermal_env.metrics import yardstick_cost_g
+    from hev_thermal_env.physics import core, paper_bus
+
+    out = np.column_stack([trace[k] for k in core.OUT_NAMES])
+    state = np.column_stack([trace[k] for k in core.STATE_NAMES])
+    prices, lhv = RewardParams.for_physics(physics), paper_bus().engine.fuel_lhv_j_per_g
+    battery_g = float(np.sum(out[:, core.BATT_CHEM])) * prices.prices.battery_g_per_j(lhv)
+    return yardstick_cost_g(out, state, prices, lhv, 1.0) + battery_g
+
+
 def run_candidate(candidate: tuple, physics: int, quick: bool, threads: int | None = None) -> dict[str, Any]:
     """Every strategy on one candidate; ratios against the candidate's own ``dp_thermal`` frontier."""
     warnings.filterwarnings("ignore", category=DeprecationWarning)
@@ -142,6 +159,8 @@ def run_candidate(candidate: tuple, physics: int, quick: bool, threads: int | No
         s = res.summary
         row = {k: s.get(k) for k in SUMMARY_FIELDS}
         row["winding_peak_c"] = float(res.trace["winding_temp_c"].max())
+        row["fixed_price_cost_g"] = fixed_price_cost_g(res.trace, physics)
+        row["fixed_price_cost_g_other_price"] = fixed_price_cost_g(res.trace, 3 - physics)
         if strategy == "dp_thermal":
             frontier = Frontier.from_settings(s.get("strategy_settings"))
         row["frontier_ratio"], row["ratio_note"] = frontier_ratio(s["cost_g"], s["soc_final"], frontier)
@@ -157,8 +176,11 @@ def run_candidate(candidate: tuple, physics: int, quick: bool, threads: int | No
         "spinning_losses_harmless": runs["engine_only"]["cutoff_s"] == 0
                                     and runs["engine_only"]["max_motor_temp_c"] < release,
     }
+    by_cost = sorted((k for k in runs if k != "dp_thermal"), key=lambda k: runs[k]["fixed_price_cost_g"])
+    by_other = sorted((k for k in runs if k != "dp_thermal"), key=lambda k: runs[k]["fixed_price_cost_g_other_price"])
     return {"name": name, "cycle": cycle, "scenario": scenario, "conditions": None if cond is None else cond.to_dict(),
             "value_of_knowing_heat": ratio["dp"], "checks": checks,
+            "ranking_at_fixed_battery_price": by_cost, f"ranking_at_physics_v{3 - physics}_overheat_price": by_other,
             "thermal_task": all(v for v in checks.values() if v is not None), "runs": runs}
 
 
