@@ -25,6 +25,7 @@ from hev_thermal_env.agents.ppo import PPOStrategy
 from hev_thermal_env.evaluation.families import parse_family
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.submission import load_result
+from hev_thermal_env.tasks import get_task
 from hev_thermal_env.training import build_config
 from hev_thermal_env.training.config import load_run_config
 from hev_thermal_env.training.evaluator import PolicyEvaluator
@@ -290,42 +291,48 @@ def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_
 
 @pytest.mark.full
 def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
-    """Three methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved)."""
+    """Three methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved); each
+    family's track read from its runs' configs (PPO starts from a teacher's actions, RecurrentPPO has the reward
+    alone, BC is guided)."""
     script = _script()
     assert script.main(["--smoke", "--methods", "ppo", "recurrent_ppo", "bc", "--out", str(tmp_path)]) == 0
+    task = get_task(script.SMOKE_TASKS[0]).id
     record = json.loads((tmp_path / "learned_baselines.json").read_text())
     for method in ("ppo", "recurrent_ppo"):
         seeds = record["methods"][method]["seeds"]
         assert [s["seed"] for s in seeds] == [0, 1] and all(s["steps_per_s"] > 0 for s in seeds)
         assert all(Path(s["policy"]).is_file() for s in seeds)
-        ev = record["evaluation"]["hwfet-v1"]["methods"][method]
+        ev = record["evaluation"][task]["methods"][method]
         assert ev["runs"] == 2 and len(ev["episodes"]) == 2 and ev["scored_runs"] + ev["runs_without_score"] == 2
         if ev["scored_runs"]:  # an untrained policy scores far below the optimum, and never above it
             assert ev["score_iqm"] <= 100.0 + 1e-6 and ev["frontier_ratio_iqm"] >= 1.0 - 1e-6
         assert ev["safety_cost_s_iqm"] >= 0.0 and ev["max_abs_delta_soc"] >= 0.0
         assert 0 <= ev["above_optimum_safety"] <= 2 and 0 <= ev["beyond_soc_bound"] <= 2
-        result = load_result(tmp_path / "learned_baselines" / "hwfet-v1" / f"{script.FAMILY_NAMES[method]}.json")
+        result = load_result(tmp_path / "learned_baselines" / task / f"{script.FAMILY_NAMES[method]}.json")
         assert result["seeds"] == [0, 1] and len(result["training"]["wall_clock_s_per_seed"]) == 2
-    bc = record["evaluation"]["hwfet-v1"]["methods"]["bc"]  # behaviour cloning: two fits of a tiny dataset
+        assert result["track"] == ev["track"] == {"ppo": "guided", "recurrent_ppo": "RL"}[method]
+    bc = record["evaluation"][task]["methods"]["bc"]  # behaviour cloning: two fits of a tiny dataset
     assert bc["runs"] == 2 and len(bc["training_wall_s_per_seed"]) == 2 and record["bc"]["seeds"] == [0, 1]
-    assert load_result(tmp_path / "learned_baselines" / "hwfet-v1" / "BC.json")["seeds"] == [0, 1]
+    assert load_result(tmp_path / "learned_baselines" / task / "BC.json")["seeds"] == [0, 1]
+    assert bc["track"] == "guided"
     table = (tmp_path / "learned_baselines.md").read_text()
-    assert "| hwfet-v1 | RecurrentPPO |" in table and "| hwfet-v1 | BC (optimum) |" in table
+    assert f"| {task} | RecurrentPPO | RL |" in table and f"| {task} | BC (optimum) | guided |" in table
     assert not (tmp_path / "learned_baselines_curves.png").exists()  # the smoke runs evaluate nothing: no curves
 
 
 def test_the_table_shows_a_method_without_scores_or_interval():
     """A family whose runs end off the optimum's frontier has no ratio; one with a single scored episode no interval."""
     lb = _script()
-    m = {"frontier_ratio_iqm": None, "frontier_ratio_ci95": [None, None], "score_iqm": None, "score_ci95": [None, None],
+    m = {"track": "guided",
+         "frontier_ratio_iqm": None, "frontier_ratio_ci95": [None, None], "score_iqm": None, "score_ci95": [None, None],
          "runs_without_score": 5, "max_abs_delta_soc": 0.03, "safety_cost_s_iqm": 876.9, "safety_cost_s_max": 900.0,
          "runs": 5, "beyond_soc_bound": 2, "above_optimum_safety": 5}
     one = {**m, "frontier_ratio_iqm": 1.0991, "score_iqm": 59.1, "runs_without_score": 4}
     record = {"evaluation": {"udds-hot-v1": {"safety_budget_s": 10.0, "methods": {"bc": m}},
                              "hilly-v1": {"safety_budget_s": 29.962, "methods": {"bc": one}}}}
     lines = lb.table(record).splitlines()
-    assert lines[2].startswith("| udds-hot-v1 | BC (optimum) | - | - | 876.9; 900.0 | 10 | 5 | 0.030 (2) | 5 (5 "
-                               "without a")
+    assert lines[2].startswith("| udds-hot-v1 | BC (optimum) | guided | - | - | 876.9; 900.0 | 10 | 5 | 0.030 (2) | "
+                               "5 (5 without a")
     assert "| 1.0991 | 876.9; 900.0 | 29.962 |" in lines[3]
 
 
