@@ -272,6 +272,69 @@ def test_every_algorithm_has_a_checked_hyperparameter_file_on_the_same_observati
     assert cfg["total_timesteps"] >= 100_000
 
 
+#: The RL track's hyperparameter files, stored as rl-zoo3 files (rl-zoo3's name for each algorithm).
+ZOO_FILES = {"sac": "sac", "tqc": "tqc", "recurrent_ppo": "ppo_lstm"}
+
+
+@pytest.mark.parametrize("algo", list(ZOO_FILES))
+def test_the_rl_tracks_files_are_rl_zoo3_files_that_train_py_reads_alike(algo):
+    """An rl-zoo3 file: one section for the env id (its env_kwargs gymnasium.make's, policy_kwargs rl-zoo3's string)
+    and train.py's own settings apart; train.py reads the same hyperparameters from it, and the env its
+    env_kwargs make is the one train.py trains on."""
+    import gymnasium as gym
+
+    from hev_thermal_env.tasks import ENV_ID
+    from hev_thermal_env.training.hyperparams import PROJECT_SECTION, load_hyperparams
+
+    raw = yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yaml").read_text())
+    assert set(raw) == {ENV_ID, PROJECT_SECTION}
+    zoo = raw[ENV_ID]
+    assert isinstance(zoo["policy_kwargs"], str) and zoo["policy_kwargs"].startswith("dict(")
+    hp = load_hyperparams(algo)
+    assert hp["env"]["cycles"] == zoo["env_kwargs"]["cycle"] and hp["n_timesteps"] == zoo["n_timesteps"]
+    assert hp["policy_kwargs"]["activation_fn"] in ("relu", "tanh") and hp["policy_kwargs"]["net_arch"] == [64, 64]
+    assert hp["normalize"] == {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0}
+    env = gym.make(ENV_ID, **zoo["env_kwargs"])
+    try:
+        cfg = build_config(algo, task="bus-generalisation")
+        assert env.observation_space.shape == (cfg["env"]["observation_size"],)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("text, message", [
+    ("dict(net_arch=[8], activation_fn=nn.Softsign)", "nn.Softsign: expected one of"),
+    ("dict(net_arch=__import__('os'))", "policy_kwargs"),
+    ("[1, 2]", r"expected dict\(key=value"),
+])
+def test_an_rl_zoo3_string_is_read_without_evaluating_it(text, message):
+    from hev_thermal_env.training.hyperparams import zoo_mapping
+
+    assert zoo_mapping("dict(net_arch=[8, 8], activation_fn=nn.Tanh, n_quantiles=5)", "x") == {
+        "net_arch": [8, 8], "activation_fn": "tanh", "n_quantiles": 5}
+    with pytest.raises(ValueError, match=message):
+        zoo_mapping(text, "policy_kwargs")
+
+
+@pytest.mark.full
+def test_rl_zoo3_trains_sac_from_its_hyperparameter_file_as_written(tmp_path):
+    """The command of docs/training.md, with rl-zoo3's own --n-timesteps and log folder, in a temp dir: rl-zoo3 reads
+    sac.yaml unchanged, builds HevThermal-v2 from its env_kwargs and saves the model and its statistics."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "sac", "--env", "HevThermal-v2", "--gym-packages",
+           "hev_thermal_env", "--conf-file", str(ROOT / "agents" / "hyperparams" / "sac.yaml"),
+           "--n-timesteps", "1000", "--log-folder", str(tmp_path / "logs")]
+    done = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    run = tmp_path / "logs" / "sac" / "HevThermal-v2_1"
+    assert (run / "HevThermal-v2.zip").is_file() and (run / "HevThermal-v2" / "vecnormalize.pkl").is_file()
+    assert "Overwriting n_timesteps with n=1000" in done.stdout
+
+
 # --- benchmarks/learned_baselines.py --------------------------------------------------------------------
 
 def _script():
