@@ -286,17 +286,18 @@ def test_the_rl_tracks_files_are_rl_zoo3_files_that_train_py_reads_alike(algo):
     from hev_thermal_env.tasks import ENV_ID
     from hev_thermal_env.training.hyperparams import PROJECT_SECTION, load_hyperparams
 
-    raw = yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yaml").read_text())
+    path = ROOT / "agents" / "hyperparams" / f"{algo}.yaml"  # this checkout's, as rl-zoo3 is given it
+    raw = yaml.safe_load(path.read_text())
     assert set(raw) == {ENV_ID, PROJECT_SECTION}
     zoo = raw[ENV_ID]
     assert isinstance(zoo["policy_kwargs"], str) and zoo["policy_kwargs"].startswith("dict(")
-    hp = load_hyperparams(algo)
+    hp = load_hyperparams(algo, path)
     assert hp["env"]["cycles"] == zoo["env_kwargs"]["cycle"] and hp["n_timesteps"] == zoo["n_timesteps"]
     assert hp["policy_kwargs"]["activation_fn"] in ("relu", "tanh") and hp["policy_kwargs"]["net_arch"] == [64, 64]
     assert hp["normalize"] == {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0}
     env = gym.make(ENV_ID, **zoo["env_kwargs"])
     try:
-        cfg = build_config(algo, task="bus-generalisation")
+        cfg = build_config(algo, hyperparams_file=path, task="bus-generalisation")
         assert env.observation_space.shape == (cfg["env"]["observation_size"],)
     finally:
         env.close()
