@@ -16,12 +16,14 @@ normalised score (0 = ``engine_only``, 100 = the thermal optimum) and the fronti
 with the 95 % stratified bootstrap interval, the episode safety cost (Σ ``info["cost"]``) against the task's
 budget and the optimum's (+5 %), and the runs beyond |ΔSOC| 0.02.
 
-Writes ``OUT/learned_baselines.json``: per method its budget and per seed the process wall-clock, the training's
-steps/s and the saved policy's path (``bc``: the dataset's build time and each fit's); per task and method the
-scores, ratios and safety costs, and every seed's episodes. ``OUT/learned_baselines.md`` is the table;
-``OUT/learned_baselines/<task id>/<method>.json`` are result files (:mod:`hev_thermal_env.evaluation.submission`),
-which ``evaluate.py leaderboard --results`` places on the leaderboard with the training wall-clock per seed;
-``OUT/learned_baselines_curves.png`` the learning curves::
+Every family's track (``RL`` or ``guided``) is read from its runs' configs
+(:func:`hev_thermal_env.evaluation.submission.track_of`: guided when the run's start imitates a strategy); BC is guided.
+Writes ``OUT/learned_baselines.json``: per method its budget and per seed the process wall-clock, the training's steps/s
+and the saved policy's path (``bc``: the dataset's build time and each fit's); per task and method the scores, ratios
+and safety costs, and every seed's episodes. ``OUT/learned_baselines.md`` is the table; ``OUT/learned_baselines/<task
+id>/<method>.json`` are result files (:mod:`hev_thermal_env.evaluation.submission`), which ``evaluate.py leaderboard
+--results`` places on the leaderboard with the training wall-clock per seed; ``OUT/learned_baselines_curves.png`` the
+learning curves::
 
     python benchmarks/learned_baselines.py --methods ppo --runs runs/learned --out benchmarks/results   # one method
     python benchmarks/learned_baselines.py --runs runs/learned --out benchmarks/results    # all methods, the table
@@ -88,6 +90,8 @@ SMOKE_ARGS = {
 ROW_KEYS = ("cycle", "env_seed", "cost_g", "soc_final", "safety_cost_s", "fuel_g", "fuel_corrected_l_per_100km",
             "charge_sustaining")
 POLICY_FILE = "best_model.zip"
+#: Where the result files of ``--also`` families (variants of a method's recipe) go, under ``--out``.
+ABLATION_DIR = "ablation"
 
 
 def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str, Any]:
@@ -123,22 +127,27 @@ def _finished(out: Path) -> bool:
 
 def seed_record(out: Path, seed: int, policy_file: str = POLICY_FILE) -> dict[str, Any]:
     """What the JSON records of the finished run in ``out`` (its policy: ``policy_file``)."""
+    from hev_thermal_env.evaluation.submission import track_of
     from hev_thermal_env.training.config import load_run_config
 
-    res = load_run_config(out).get("result") or {}
-    return {"seed": seed, "run_dir": str(out), "policy": str(out / policy_file),
+    config = load_run_config(out)
+    res = config.get("result") or {}
+    return {"seed": seed, "run_dir": str(out), "policy": str(out / policy_file), "track": track_of(config),
             "train_wall_s": res.get("wall_s"), "timesteps": res.get("timesteps_done"),
             "steps_per_s": res.get("steps_per_s"), "env_share": res.get("env_share"),
             "imitation_wall_s": (res.get("imitation") or {}).get("wall_s"), "lagrangian": res.get("lagrangian")}
 
 
 def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir: Path,
-                  bc: dict[str, Any] | None = None) -> dict[str, Any]:
+                  bc: dict[str, Any] | None = None, ablation_dir: Path | None = None,
+                  variants: tuple[str, ...] = ()) -> dict[str, Any]:
     """Every seed family (method -> its training record) on the task's episodes, scored against the task's stored
     reference (no optimum is solved): writes ``RESULTS_DIR/<task id>/<family>.json`` (the leaderboard's result
     format) and returns per method the normalised score and frontier ratio IQM [95 % CI], the safety cost against
     the budget and every seed's episodes. ``bc``: the behaviour-cloning family's record (its result files, written
-    by ``evaluate.py bc``), scored alike."""
+    by ``evaluate.py bc``), scored alike. ``variants`` (``--also`` families, variants of a method's recipe) write their
+    result files into ``ABLATION_DIR/<task id>/`` instead: the leaderboard holds methods, the training page's
+    ablation table their variants."""
     from hev_thermal_env.evaluation.references import load_reference
     from hev_thermal_env.evaluation.submission import load_result, result_of_seeds
     from hev_thermal_env.io import atomic_write_json
@@ -153,20 +162,33 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
         seeds = trained["seeds"]
         training = {"wall_clock_s_per_seed": [s["train_wall_s"] or 0.0 for s in seeds],
                     "timesteps": seeds[0]["timesteps"], "steps_per_s": _mean([s["steps_per_s"] for s in seeds])}
-        path = results_dir / task.id / f"{FAMILY_NAMES[method]}.json"
+        path = (ablation_dir if method in variants else results_dir) / task.id / f"{FAMILY_NAMES[method]}.json"
         policies = [s["policy"] for s in seeds]
         digests = [_digest(p) for p in policies]
+        track = family_track(method, seeds)
         result = _current(path)
         if result is None or result.get("policies") != policies or result.get("policy_digests") != digests:
             result = {**result_of_seeds(task, {s["seed"]: f"ppo:{s['policy']}" for s in seeds}, FAMILY_NAMES[method],
-                                        training=training), "policies": policies, "policy_digests": digests}
+                                        training=training, track=track), "policies": policies,
+                      "policy_digests": digests}
             atomic_write_json(path, result)
+        elif result.get("track") != track:
+            atomic_write_json(path, {**result, "track": track})
         record["methods"][method] = {**score_family(result, reference), "wall_s": round(time.perf_counter() - t0, 1)}
     if bc is not None:
         result = load_result(Path(bc["results_dir"]) / task.id / "bc.json")
         atomic_write_json(results_dir / task.id / "BC.json", result)
         record["methods"][BC] = score_family(result, reference)
     return record
+
+
+def family_track(method: str, seeds: list[dict[str, Any]]) -> str:
+    """A seed family's track (``RL`` or ``guided``), read from its runs' configs (:func:`seed_record`); every seed's
+    must agree."""
+    tracks = {s["track"] for s in seeds}
+    if len(tracks) != 1:
+        raise SystemExit(f"{method}: its seeds were trained on different tracks ({', '.join(sorted(tracks))})")
+    return tracks.pop()
 
 
 def _digest(policy: str) -> str | None:
@@ -204,7 +226,8 @@ def score_family(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
     ratio_iqm, ratio_low, ratio_high = (stratified_iqm_ci(list(by_episode.values())) if by_episode
                                         else (None, None, None))
     deltas = [abs(e["delta_soc"]) for e in episodes if e["delta_soc"] is not None]
-    return {"score_iqm": entry["score"], "score_ci95": [entry["score_ci_low"], entry["score_ci_high"]],
+    return {"track": result.get("track"), "score_iqm": entry["score"],
+            "score_ci95": [entry["score_ci_low"], entry["score_ci_high"]],
             "scored_runs": entry["n"], "runs_without_score": entry["excluded"],
             "frontier_ratio_iqm": ratio_iqm, "frontier_ratio_ci95": [ratio_low, ratio_high],
             "safety_cost_s_iqm": entry["safety_cost_s"], "safety_cost_s_max": entry["safety_cost_max_s"],
@@ -247,10 +270,11 @@ def table(record: dict[str, Any]) -> str:
     from hev_thermal_env.evaluation.leaderboard import SAFETY_MARGIN
     from hev_thermal_env.evaluation.score import SOC_BOUND, score_text
 
-    lines = ["| task | method | score IQM [95 % CI] | frontier ratio IQM [95 % CI] | safety cost s (IQM; worst) | "
+    lines = ["| task | method | track | score IQM [95 % CI] | frontier ratio IQM [95 % CI] | "
+             "safety cost s (IQM; worst) | "
              f"budget s | above the optimum's safety + {100 * (SAFETY_MARGIN - 1):.0f} % (where it derates) | "
              f"max \\|ΔSOC\\| (runs > {SOC_BOUND:g}) | runs |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for task_id, ev in record["evaluation"].items():
         for method, m in ev["methods"].items():
             lo, hi = m["frontier_ratio_ci95"]
@@ -259,7 +283,8 @@ def table(record: dict[str, Any]) -> str:
                 ratio += f" [{lo:.4f}, {hi:.4f}]"
             left = f" ({m['runs_without_score']} without a score)" if m["runs_without_score"] else ""
             dsoc = "-" if m["max_abs_delta_soc"] is None else f"{m['max_abs_delta_soc']:.3f} ({m['beyond_soc_bound']})"
-            lines.append(f"| {task_id} | {NAMES[method]} | {score_text(m['score_iqm'], *m['score_ci95'])} | "
+            lines.append(f"| {task_id} | {NAMES[method]} | {m.get('track') or '-'} | "
+                         f"{score_text(m['score_iqm'], *m['score_ci95'])} | "
                          f"{ratio} | {m['safety_cost_s_iqm']:.1f}; {m['safety_cost_s_max']:.1f} | "
                          f"{ev['safety_budget_s']:g} | {m['above_optimum_safety']} | {dsoc} | {m['runs']}{left} |")
     return "\n".join(lines) + "\n"
@@ -287,7 +312,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="where learned_baselines.json and the benchmark's files go")
     p.add_argument("--also", nargs="+", default=[], metavar="NAME=DIR",
                    help="also score a family of finished runs DIR/seed_S (the same seeds; never trained here) under "
-                        "NAME, e.g. a variant of a method's hyperparameters")
+                        f"NAME, a variant of a method's recipe: its result files go to OUT/{ABLATION_DIR}/, off the "
+                        "leaderboard")
     p.add_argument("--also-final", action="store_true",
                    help=f"score the --also families' final model.zip instead of their {POLICY_FILE}")
     p.add_argument("--train-only", action="store_true", help="train (or reuse) the runs; evaluate nothing")
@@ -336,7 +362,7 @@ def main(argv: list[str] | None = None) -> int:
         for task_id in task_ids:
             print(f"evaluating on {task_id}", flush=True)
             record["evaluation"][task_id] = evaluate_task(task_id, record["methods"], out / "learned_baselines",
-                                                          record.get("bc"))
+                                                          record.get("bc"), out / ABLATION_DIR, tuple(also))
     record["machine"]["load_at_end"] = os.getloadavg()
     (path := out / "learned_baselines.json").write_text(json.dumps(record, indent=1, default=str) + "\n")
     print(f"wrote {path}", flush=True)

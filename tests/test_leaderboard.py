@@ -56,6 +56,7 @@ def good() -> dict:
      r"training\.wall_clock_s_per_seed: expected one number per seed \(2\)"),
     (lambda d: d.update(training={"wall_clock_s_per_seed": [60.0, -1.0]}),
      r"training\.wall_clock_s_per_seed\[1\]: expected a finite number ≥ 0, got -1.0"),
+    (lambda d: d.update(track="rl"), "track: expected one of RL, guided, got 'rl'"),
 ])
 def test_bad_result_files_give_clear_errors(good, change, message, tmp_path):
     data = copy.deepcopy(good)
@@ -148,11 +149,13 @@ def test_leaderboard_command_on_tiny_inputs(good, tmp_path, capsys):
                           "--out", str(page)])
     assert code == 0
     md = page.read_text()
-    assert "### hwfet-v2" in md and "| engine_only | 0.0 |" in md and "| outside |" in md and "| rule |" in md
-    assert "| outside | 1 | 50.0 [48.7, 51.3] | 2 | 1.5 min |" in md  # training per seed: the mean of 60 and 120 s
-    row = next(line for line in md.splitlines() if line.startswith("| outside | 50.0"))
+    assert "### hwfet-v2" in md and "| engine_only | - | 0.0 |" in md and "| rule | - |" in md
+    assert f"## On physics v2 (`HevThermal-v2`, fingerprint `{hwfet_fingerprint()}`)" in md
+    # training per seed: the mean of 60 and 120 s; a result that states no track says so
+    assert "| outside | unstated | 1 | 50.0 [48.7, 51.3] | 2 | 1.5 min |" in md
+    row = next(line for line in md.splitlines() if line.startswith("| outside | unstated | 50.0"))
     assert "| 2/2 | 0/2 |" in row  # both within the 10 s budget; the optimum does not derate, so none above it
-    assert "| rule | 1 | " in md and md.split("| rule | 1 | ")[1].split("\n")[0].endswith("| 1 | - |")
+    assert "| rule | - | 1 | " in md and md.split("| rule | - | 1 | ")[1].split("\n")[0].endswith("| 1 | - |")
     assert (page.parent / PROFILE_FILE).stat().st_size > 10_000
     assert (tmp_path / "res" / "hwfet-v2" / "rule.json").is_file()
     assert evaluate_main(["leaderboard", "--tasks", "beijing", "--references", str(refs), "--out", str(page)]) == 2
@@ -261,7 +264,8 @@ def test_profile_tells_every_method_apart_past_the_palette():
     from hev_thermal_env.evaluation.leaderboard import profile_figure
     from hev_thermal_env.evaluation.plots import pyplot
 
-    entries = [{"method": f"method {i:02d}", "scores": [90.0 + i / 10, 95.0], "excluded": 0} for i in range(25)]
+    entries = [{"method": f"method {i:02d}", "task": "hwfet-v2", "scores": [90.0 + i / 10, 95.0], "excluded": 0}
+               for i in range(25)]
     fig = profile_figure(entries)
     try:
         lines = [ln for ln in fig.axes[1].get_lines() if ln.get_label().startswith("method")]
@@ -272,27 +276,50 @@ def test_profile_tells_every_method_apart_past_the_palette():
         pyplot().close(fig)
 
 
-def test_profile_draws_the_variants_of_a_family_apart():
-    """"FAMILY (variant)" beside a method FAMILY is a variant: the top panels show the families and the other
-    methods, a panel per family below shows the family in black with its variants; a name in brackets whose family is
-    not on the page ("BC (optimum)") stays on top."""
-    from hev_thermal_env.evaluation.leaderboard import family_of, profile_figure
-    from hev_thermal_env.evaluation.plots import pyplot
+def test_the_track_is_read_from_the_training_config():
+    """A run whose start imitates a strategy is guided, whatever else it sets; a constraint on the env's own safety
+    cost or the reward's settings leave it on the RL track. The package's files: PPO and PPO-Lagrangian start from
+    ecms_thermal's actions, SAC, TQC and RecurrentPPO learn from the reward alone."""
+    from hev_thermal_env.evaluation.submission import track_of
+    from hev_thermal_env.training.hyperparams import load_hyperparams
 
-    names = ["PPO", "PPO (no refit)", "PPO (fixed price)", "SAC", "SAC (old)", "BC (optimum)", "ecms"]
-    entries = [{"method": m, "scores": [20.0 + 10 * i, 95.0 - i], "excluded": 0} for i, m in enumerate(names)]
-    assert family_of("PPO (no refit)", names) == "PPO" and family_of("BC (optimum)", names) is None
-    assert family_of("PPO", names) is None
-    fig = profile_figure(entries)
-    try:
-        def shown(ax):
-            return {ln.get_label().rsplit(" (", 1)[0] for ln in ax.get_lines() if "runs)" in ln.get_label()}
+    assert track_of({"init": {"imitate": "ecms_thermal"}}) == "guided"
+    assert track_of({"init": {"imitate": None, "episodes": 60}, "constraint": {"budget_s_per_h": 36.0},
+                     "env": {"reward": {"descent_recovery": 0.15}}}) == "RL"
+    assert track_of({}) == "RL" and track_of({"init": None}) == "RL"
+    tracks = {a: track_of(load_hyperparams(a)) for a in ("ppo", "ppo_lagrangian", "sac", "tqc", "recurrent_ppo")}
+    assert tracks == {"ppo": "guided", "ppo_lagrangian": "guided", "sac": "RL", "tqc": "RL", "recurrent_ppo": "RL"}
 
-        top, ppo, sac = fig.axes[0], fig.axes[2], fig.axes[3]
-        assert shown(top) == {"PPO", "SAC", "BC (optimum)", "ecms"} == shown(fig.axes[1])
-        assert shown(ppo) == {"PPO", "PPO (no refit)", "PPO (fixed price)"} and shown(sac) == {"SAC", "SAC (old)"}
-        family = [ln for ln in ppo.get_lines() if ln.get_label().startswith("PPO (2 runs)")]
-        assert len(family) == 1 and family[0].get_color() == "black"
-        assert sac.get_xlim()[0] < 80.0  # SAC scores lower: its panel starts below the zoom
-    finally:
-        pyplot().close(fig)
+
+def test_one_row_per_method_and_track(good):
+    """The same method name on both tracks is two rows, in the overall table and per task; the RL track comes before
+    the guided one, and every learned row says its track."""
+    from hev_thermal_env.evaluation.leaderboard import markdown, overall
+
+    ref = synthetic_reference(4000.0)
+    rl, guided = ({**copy.deepcopy(good), "method": "PPO", "track": t} for t in ("RL", "guided"))
+    guided["episodes"][0]["cost_g"] = 1500.0
+    entries = [score_result(guided, ref), score_result(rl, ref)]
+    assert [(o["method"], o["track"]) for o in overall(entries)] == [("PPO", "RL"), ("PPO", "guided")]
+    md = markdown(entries, [], None)
+    assert md.count("| PPO | RL | 1 |") == 1 and md.count("| PPO | guided | 1 |") == 1
+    assert md.count("| PPO | RL | ") == 2 and md.count("| PPO | guided | ") == 2
+
+
+def test_the_shipped_policy_is_driven_on_the_tasks_of_its_own_physics(tmp_path, monkeypatch):
+    """The shipped policy's config names the physics it was trained on: the ``ppo`` row is on those tasks only, and its
+    result states the config's track."""
+    from hev_thermal_env.evaluation import leaderboard
+
+    monkeypatch.setattr(leaderboard, "result_of_strategy", lambda task, method, references=None:
+                        leaderboard.result_of_reference(task, references) | {"method": method})
+    refs = tmp_path / "refs"
+    refs.mkdir()
+    (refs / "hwfet-v2.json").write_text(json.dumps(synthetic_reference(4000.0)))
+    config = leaderboard.shipped_policy_config()
+    assert config["versions"]["physics_fingerprint"] == get_task("hwfet").fingerprint()
+    [path] = leaderboard.ensure_results(tmp_path / "res", ["hwfet"], ["ppo"], references=refs)
+    assert load_result(path)["track"] == "guided"  # its start imitates ecms_thermal
+    monkeypatch.setattr(leaderboard, "shipped_policy_config", lambda: {**config, "versions": {
+        "physics_fingerprint": get_task("hwfet-v1").fingerprint()}})
+    assert leaderboard.ensure_results(tmp_path / "other", ["hwfet"], ["ppo"], references=refs) == []

@@ -25,6 +25,7 @@ from hev_thermal_env.agents.ppo import PPOStrategy
 from hev_thermal_env.evaluation.families import parse_family
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.submission import load_result
+from hev_thermal_env.tasks import get_task
 from hev_thermal_env.training import build_config
 from hev_thermal_env.training.config import load_run_config
 from hev_thermal_env.training.evaluator import PolicyEvaluator
@@ -271,6 +272,70 @@ def test_every_algorithm_has_a_checked_hyperparameter_file_on_the_same_observati
     assert cfg["total_timesteps"] >= 100_000
 
 
+#: The RL track's hyperparameter files, stored as rl-zoo3 files (rl-zoo3's name for each algorithm).
+ZOO_FILES = {"sac": "sac", "tqc": "tqc", "recurrent_ppo": "ppo_lstm"}
+
+
+@pytest.mark.parametrize("algo", list(ZOO_FILES))
+def test_the_rl_tracks_files_are_rl_zoo3_files_that_train_py_reads_alike(algo):
+    """An rl-zoo3 file: one section for the env id (its env_kwargs gymnasium.make's, policy_kwargs rl-zoo3's string)
+    and train.py's own settings apart; train.py reads the same hyperparameters from it, and the env its
+    env_kwargs make is the one train.py trains on."""
+    import gymnasium as gym
+
+    from hev_thermal_env.tasks import ENV_ID
+    from hev_thermal_env.training.hyperparams import PROJECT_SECTION, load_hyperparams
+
+    path = ROOT / "agents" / "hyperparams" / f"{algo}.yaml"  # this checkout's, as rl-zoo3 is given it
+    raw = yaml.safe_load(path.read_text())
+    assert set(raw) == {ENV_ID, PROJECT_SECTION}
+    zoo = raw[ENV_ID]
+    assert isinstance(zoo["policy_kwargs"], str) and zoo["policy_kwargs"].startswith("dict(")
+    hp = load_hyperparams(algo, path)
+    assert hp["env"]["cycles"] == zoo["env_kwargs"]["cycle"] and hp["n_timesteps"] == zoo["n_timesteps"]
+    assert hp["policy_kwargs"]["activation_fn"] in ("relu", "tanh") and hp["policy_kwargs"]["net_arch"] == [64, 64]
+    assert hp["normalize"] == {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0}
+    env = gym.make(ENV_ID, **zoo["env_kwargs"])
+    try:
+        cfg = build_config(algo, hyperparams_file=path, task="bus-generalisation")
+        assert env.observation_space.shape == (cfg["env"]["observation_size"],)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("text, message", [
+    ("dict(net_arch=[8], activation_fn=nn.Softsign)", "nn.Softsign: expected one of"),
+    ("dict(net_arch=__import__('os'))", "policy_kwargs"),
+    ("[1, 2]", r"expected dict\(key=value"),
+])
+def test_an_rl_zoo3_string_is_read_without_evaluating_it(text, message):
+    from hev_thermal_env.training.hyperparams import zoo_mapping
+
+    assert zoo_mapping("dict(net_arch=[8, 8], activation_fn=nn.Tanh, n_quantiles=5)", "x") == {
+        "net_arch": [8, 8], "activation_fn": "tanh", "n_quantiles": 5}
+    with pytest.raises(ValueError, match=message):
+        zoo_mapping(text, "policy_kwargs")
+
+
+@pytest.mark.full
+def test_rl_zoo3_trains_sac_from_its_hyperparameter_file_as_written(tmp_path):
+    """The command of docs/training.md, with rl-zoo3's own --n-timesteps and log folder, in a temp dir: rl-zoo3 reads
+    sac.yaml unchanged, builds HevThermal-v2 from its env_kwargs and saves the model and its statistics."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "sac", "--env", "HevThermal-v2", "--gym-packages",
+           "hev_thermal_env", "--conf-file", str(ROOT / "agents" / "hyperparams" / "sac.yaml"),
+           "--n-timesteps", "1000", "--log-folder", str(tmp_path / "logs")]
+    done = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    run = tmp_path / "logs" / "sac" / "HevThermal-v2_1"
+    assert (run / "HevThermal-v2.zip").is_file() and (run / "HevThermal-v2" / "vecnormalize.pkl").is_file()
+    assert "Overwriting n_timesteps with n=1000" in done.stdout
+
+
 # --- benchmarks/learned_baselines.py --------------------------------------------------------------------
 
 def _script():
@@ -290,42 +355,48 @@ def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_
 
 @pytest.mark.full
 def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
-    """Three methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved)."""
+    """Three methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved); each
+    family's track read from its runs' configs (PPO starts from a teacher's actions, RecurrentPPO has the reward
+    alone, BC is guided)."""
     script = _script()
     assert script.main(["--smoke", "--methods", "ppo", "recurrent_ppo", "bc", "--out", str(tmp_path)]) == 0
+    task = get_task(script.SMOKE_TASKS[0]).id
     record = json.loads((tmp_path / "learned_baselines.json").read_text())
     for method in ("ppo", "recurrent_ppo"):
         seeds = record["methods"][method]["seeds"]
         assert [s["seed"] for s in seeds] == [0, 1] and all(s["steps_per_s"] > 0 for s in seeds)
         assert all(Path(s["policy"]).is_file() for s in seeds)
-        ev = record["evaluation"]["hwfet-v1"]["methods"][method]
+        ev = record["evaluation"][task]["methods"][method]
         assert ev["runs"] == 2 and len(ev["episodes"]) == 2 and ev["scored_runs"] + ev["runs_without_score"] == 2
         if ev["scored_runs"]:  # an untrained policy scores far below the optimum, and never above it
             assert ev["score_iqm"] <= 100.0 + 1e-6 and ev["frontier_ratio_iqm"] >= 1.0 - 1e-6
         assert ev["safety_cost_s_iqm"] >= 0.0 and ev["max_abs_delta_soc"] >= 0.0
         assert 0 <= ev["above_optimum_safety"] <= 2 and 0 <= ev["beyond_soc_bound"] <= 2
-        result = load_result(tmp_path / "learned_baselines" / "hwfet-v1" / f"{script.FAMILY_NAMES[method]}.json")
+        result = load_result(tmp_path / "learned_baselines" / task / f"{script.FAMILY_NAMES[method]}.json")
         assert result["seeds"] == [0, 1] and len(result["training"]["wall_clock_s_per_seed"]) == 2
-    bc = record["evaluation"]["hwfet-v1"]["methods"]["bc"]  # behaviour cloning: two fits of a tiny dataset
+        assert result["track"] == ev["track"] == {"ppo": "guided", "recurrent_ppo": "RL"}[method]
+    bc = record["evaluation"][task]["methods"]["bc"]  # behaviour cloning: two fits of a tiny dataset
     assert bc["runs"] == 2 and len(bc["training_wall_s_per_seed"]) == 2 and record["bc"]["seeds"] == [0, 1]
-    assert load_result(tmp_path / "learned_baselines" / "hwfet-v1" / "BC.json")["seeds"] == [0, 1]
+    assert load_result(tmp_path / "learned_baselines" / task / "BC.json")["seeds"] == [0, 1]
+    assert bc["track"] == "guided"
     table = (tmp_path / "learned_baselines.md").read_text()
-    assert "| hwfet-v1 | RecurrentPPO |" in table and "| hwfet-v1 | BC (optimum) |" in table
+    assert f"| {task} | RecurrentPPO | RL |" in table and f"| {task} | BC (optimum) | guided |" in table
     assert not (tmp_path / "learned_baselines_curves.png").exists()  # the smoke runs evaluate nothing: no curves
 
 
 def test_the_table_shows_a_method_without_scores_or_interval():
     """A family whose runs end off the optimum's frontier has no ratio; one with a single scored episode no interval."""
     lb = _script()
-    m = {"frontier_ratio_iqm": None, "frontier_ratio_ci95": [None, None], "score_iqm": None, "score_ci95": [None, None],
+    m = {"track": "guided",
+         "frontier_ratio_iqm": None, "frontier_ratio_ci95": [None, None], "score_iqm": None, "score_ci95": [None, None],
          "runs_without_score": 5, "max_abs_delta_soc": 0.03, "safety_cost_s_iqm": 876.9, "safety_cost_s_max": 900.0,
          "runs": 5, "beyond_soc_bound": 2, "above_optimum_safety": 5}
     one = {**m, "frontier_ratio_iqm": 1.0991, "score_iqm": 59.1, "runs_without_score": 4}
     record = {"evaluation": {"udds-hot-v1": {"safety_budget_s": 10.0, "methods": {"bc": m}},
                              "hilly-v1": {"safety_budget_s": 29.962, "methods": {"bc": one}}}}
     lines = lb.table(record).splitlines()
-    assert lines[2].startswith("| udds-hot-v1 | BC (optimum) | - | - | 876.9; 900.0 | 10 | 5 | 0.030 (2) | 5 (5 "
-                               "without a")
+    assert lines[2].startswith("| udds-hot-v1 | BC (optimum) | guided | - | - | 876.9; 900.0 | 10 | 5 | 0.030 (2) | "
+                               "5 (5 without a")
     assert "| 1.0991 | 876.9; 900.0 | 29.962 |" in lines[3]
 
 

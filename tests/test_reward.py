@@ -342,14 +342,13 @@ def test_the_shipped_training_configs_change_no_objective():
     """The hyperparameter files override one reward argument at most, the band's center (``descent_recovery``, the
     PPO file's 0.15): shaping, not objective. On a road that ends as high as it starts, the same actions earn the
     same return under either center, step by step they are paid differently."""
-    import yaml
-
     from hev_thermal_env.agents import HYPERPARAMS_DIR
     from hev_thermal_env.envs.hev_env import HevThermalEnv
+    from hev_thermal_env.training.hyperparams import read_hyperparams_file
 
     centers = {}
     for path in sorted(HYPERPARAMS_DIR.glob("*.yaml")):
-        reward = (yaml.safe_load(path.read_text()).get("env") or {}).get("reward") or {}
+        reward = (read_hyperparams_file(path).get("env") or {}).get("reward") or {}
         assert set(reward) <= {"descent_recovery"}, f"{path.name} overrides the env's reward: {sorted(reward)}"
         centers[path.stem] = reward.get("descent_recovery")
     assert centers["ppo"] == 0.15

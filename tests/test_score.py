@@ -183,7 +183,7 @@ def test_reference_table_names_every_task_and_goes_between_the_markers(tmp_path,
     assert main(["reference", "--table", str(tmp_path / "plain.md")]) == 2
     assert "plain.md: needs one line <!-- references:begin -->" in capsys.readouterr().err
     assert main(["reference", "--task", "hwfet", "--check"]) == 0
-    assert "hwfet-v1: current" in capsys.readouterr().out
+    assert f"{get_task('hwfet').id}: current" in capsys.readouterr().out
     assert main(["reference", "--task", "hwfet", "--jobs", "0"]) == 2
     assert "--jobs must be at least 1, got 0" in capsys.readouterr().err
 

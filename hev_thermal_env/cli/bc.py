@@ -63,7 +63,8 @@ def main(args: argparse.Namespace) -> int:
     training = {"wall_clock_s_per_seed": [float(r["wall_s"]) for _, _, r in fits], "fits": [r for _, _, r in fits]}
     for name in args.tasks:
         task = get_task(name)
-        result = result_of_seeds(task, {seed: strategy for seed, strategy, _ in fits}, args.method, training=training)
+        result = result_of_seeds(task, {seed: strategy for seed, strategy, _ in fits}, args.method, training=training,
+                                 track="guided")  # fitted to its dataset's actions alone
         path = atomic_write_json(Path(args.results_dir) / task.id / "bc.json", result)
         print(f"{task.id}: {len(result['episodes'])} episodes in {result['wall_clock_s']:.1f} s -> {path}")
     return 0

@@ -14,7 +14,6 @@ from hev_thermal_env.evaluation.leaderboard import (
     write_leaderboard,
 )
 from hev_thermal_env.evaluation.references import StaleReferenceError, load_reference
-from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.tasks import get_task, list_tasks
 
 from .parsing import HelpFormatter, examples
@@ -59,9 +58,7 @@ def main(args: argparse.Namespace) -> int:
             missing.append(missing_text(t, exc))
     paths = ensure_results(Path(args.results_dir), ready, args.methods, progress=print, references=refs)
     entries, more_missing = score_files([*paths, *args.results], refs)
-    fingerprints = sorted({get_task(e["task"]).fingerprint() for e in entries}) or [physics_fingerprint()]
-    out = write_leaderboard(entries, [*missing, *more_missing], Path(args.out), ", ".join(fingerprints),
-                            plot=not args.no_plot)
+    out = write_leaderboard(entries, [*missing, *more_missing], Path(args.out), plot=not args.no_plot)
     print(f"{len(entries)} results on {len({e['task'] for e in entries})} tasks; wrote {out}")
     for m in missing + more_missing:
         print(f"left out: {m}")

@@ -10,9 +10,7 @@ import textwrap
 from collections.abc import Sequence
 from typing import Any
 
-from hev_thermal_env.agents import HYPERPARAMS_DIR
 from hev_thermal_env.cycles import list_cycles, list_families
-from hev_thermal_env.io import read_yaml_mapping
 from hev_thermal_env.scenarios import list_scenarios
 
 
@@ -69,10 +67,11 @@ def file_defaults() -> dict[str, dict[str, Any]]:
     """The run settings of each algorithm's hyperparameter file (what the options default to), by algorithm."""
     from hev_thermal_env.agents.policy_files import ALGORITHMS
     from hev_thermal_env.training.config import EVAL_DEFAULTS
+    from hev_thermal_env.training.hyperparams import load_hyperparams
 
     out = {}
     for algo in ALGORITHMS:
-        hp = read_yaml_mapping(HYPERPARAMS_DIR / f"{algo}.yaml")
+        hp = load_hyperparams(algo)
         env, ev = hp.get("env") or {}, hp.get("eval") or {}
         out[algo] = {"cycles": " ".join(map(str, env.get("cycles", []))), "scenario": env.get("scenario"),
                      "timesteps": hp.get("n_timesteps"), "n_envs": hp.get("n_envs"),

@@ -8,7 +8,8 @@ result against its task's reference (:mod:`.references`): the normalised score p
 aggregated by IQM with a 95 % stratified bootstrap interval (one stratum per episode, the seeds within), the frontier
 ratio, the episode safety cost against the task's budget and the fuel. :func:`write_leaderboard` writes the page and
 the performance profile (rliable's: the fraction of a method's runs, over every task, episode and seed, that score
-above τ, against τ). ``evaluate.py leaderboard`` is the command; docs/leaderboard.md is its page.
+above τ, against τ), one row per method and track (*RL* or *guided*, as each result states it, :mod:`.submission`) and
+each physics version apart. ``evaluate.py leaderboard`` is the command; docs/leaderboard.md is its page.
 """
 
 from __future__ import annotations
@@ -19,14 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.io import atomic_write_json, atomic_write_text, files_digest, save_png
+from hev_thermal_env.io import atomic_write_json, atomic_write_text, files_digest, read_yaml_mapping, save_png
 from hev_thermal_env.stats import CONFIDENCE, iqm
 from hev_thermal_env.tasks import get_task, list_tasks
 
 from .references import REFERENCE_DIR, StaleReferenceError, episode_score, load_reference
 from .score import SOC_BOUND, aggregate, score_text, usable
 from .styles import pyplot
-from .submission import ResultFormatError, load_result, result_of_reference, result_of_strategy
+from .submission import TRACKS, ResultFormatError, load_result, result_of_reference, result_of_strategy, track_of
 from .yardstick import REFERENCE, display_name
 
 METHODS = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
@@ -52,21 +53,35 @@ def shipped_policy_digest() -> str:
     return files_digest(DEFAULT_POLICY_DIR / "model.zip", DEFAULT_POLICY_DIR / "vecnormalize.pkl")
 
 
+def shipped_policy_config() -> dict[str, Any]:
+    """The shipped policy's training config (``config.yaml`` beside its model): its track
+    (:func:`~.submission.track_of`) and the physics fingerprint it was trained on (``versions.physics_fingerprint``)."""
+    from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR
+
+    return read_yaml_mapping(DEFAULT_POLICY_DIR / "config.yaml")
+
+
 def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str] = METHODS,
                    progress: Callable[[str], None] | None = None, references: Path | None = None) -> list[Path]:
     """``DIRECTORY/<task id>/<method>.json`` for every task and method: reused when it validates, else written
     (:func:`~.submission.result_of_strategy`; the optimum's from the task's stored reference in ``references``,
     default the package's, :func:`~.submission.result_of_reference`: its row is the reference's own runs, no plan
-    solved); returns the paths."""
+    solved); returns the paths. The shipped policy (``ppo``) is driven only on the tasks of the physics it was trained
+    on (:func:`shipped_policy_config`), and its result states its track."""
     paths = []
+    shipped = shipped_policy_config() if "ppo" in methods else {}
+    trained_on = (shipped.get("versions") or {}).get("physics_fingerprint")
     for name in tasks:
         task = get_task(name)
         for method in methods:
+            if method == "ppo" and trained_on is not None and task.fingerprint() != trained_on:
+                continue
             path = Path(directory) / task.id / f"{method}.json"
             digest = shipped_policy_digest() if method == "ppo" else None
             try:
                 stored = load_result(path)
-                stale = digest is not None and stored.get("policy_digest") != digest
+                stale = digest is not None and (stored.get("policy_digest") != digest
+                                                or stored.get("track") != track_of(shipped))
             except (ResultFormatError, StaleReferenceError):
                 stale = True
             if stale:
@@ -74,6 +89,7 @@ def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str]
                           else result_of_strategy(task, method, references=references))
                 if digest is not None:
                     record["policy_digest"] = digest
+                    record["track"] = track_of(shipped)
                 atomic_write_json(path, record)
                 if progress is not None:
                     how = ("from the stored reference" if method == REFERENCE
@@ -122,7 +138,8 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
     agg = aggregate(list(groups.values()))
     fuel = [r.get("fuel_corrected_l_per_100km") for r in result["episodes"]]
     cs = [r.get("charge_sustaining") for r in result["episodes"]]
-    return {"task": result["task"], "method": result["method"], "seeds": len(result["seeds"]),
+    return {"task": result["task"], "method": result["method"], "track": result.get("track"),
+            "seeds": len(result["seeds"]),
             "runs": len(result["episodes"]), **agg,
             "anchor_ratios": [e["anchor"]["frontier_ratio"] for e in reference["episodes"]],
             "scores": [s for g in groups.values() for s, note in g if usable(s, note)],
@@ -163,9 +180,32 @@ def missing_text(task: str, exc: Exception) -> str:
     return f"{task}: " + str(exc).replace(str(REFERENCE_DIR) + "/", "")
 
 
-def _order(methods: Sequence[str]) -> list[str]:
-    known = [m for m in METHODS if m in methods]
-    return known + sorted(m for m in dict.fromkeys(methods) if m not in METHODS)
+def track_text(entry: dict) -> str:
+    """A row's track: ``RL`` or ``guided`` as its result states it (:data:`~.submission.TRACKS`), ``-`` for a
+    package method that does not learn, ``unstated`` for another result that does not say."""
+    if entry.get("track"):
+        return entry["track"]
+    return "-" if entry["method"] in METHODS else "unstated"
+
+
+def row_key(entry: dict) -> tuple[str, str]:
+    """A row of the page: one method on one track."""
+    return entry["method"], track_text(entry)
+
+
+def row_label(key: tuple[str, str]) -> str:
+    """A row's name in the profile's legend: the method, and its track if it learns."""
+    method, track = key
+    return label(method) if track == "-" else f"{label(method)} [{track}]"
+
+
+def _order(keys: Sequence[tuple[str, str]]) -> list[tuple[str, str]]:
+    """The package's methods in :data:`METHODS` order, then the RL track, the guided track and the rest, each by
+    name."""
+    keys = list(dict.fromkeys(keys))
+    rank = {t: i for i, t in enumerate((*TRACKS, "unstated"))}
+    known = sorted((k for k in keys if k[0] in METHODS), key=lambda k: METHODS.index(k[0]))
+    return known + sorted((k for k in keys if k[0] not in METHODS), key=lambda k: (rank.get(k[1], len(rank)), k[0]))
 
 
 def _task_table(entries: list[dict]) -> list[str]:
@@ -175,16 +215,17 @@ def _task_table(entries: list[dict]) -> list[str]:
                f": the motor can save {100 * (1 - 1 / max(r0)):.1f} % of its cost at equal charge" +
                (" at most" if len(r0) > 1 else "") + ". ") if r0 else ""
     lines = [f"### {e0['task']}", "", f"{r0_text}Safety budget {e0['budget_s']:g} s per episode.", "",
-             "| method | score IQM [95 % CI] | frontier ratio | safety cost s (IQM; worst) | within budget | "
+             "| method | track | score IQM [95 % CI] | frontier ratio | safety cost s (IQM; worst) | within budget | "
              "above the optimum's | corrected L/100 km | fuel kg | J1711 | runs |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    by_method = {e["method"]: e for e in entries}
-    for m in _order(list(by_method)):
-        e = by_method[m]
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    by_row = {row_key(e): e for e in entries}
+    for key in _order(list(by_row)):
+        e = by_row[key]
         fuel = e["fuel_corrected_l_per_100km"]
         cs = "-" if e["charge_sustaining"] is None else f"{e['charge_sustaining']}/{e['runs']}"
         excl = f" ({e['excluded']} left out)" if e["excluded"] else ""
-        lines.append(f"| {label(m)} | {score_text(e['score'], e['score_ci_low'], e['score_ci_high'])}{excl} | "
+        lines.append(f"| {label(key[0])} | {key[1]} | "
+                     f"{score_text(e['score'], e['score_ci_low'], e['score_ci_high'])}{excl} | "
                      f"{_num(e['frontier_ratio'], 3)} | {e['safety_cost_s']:.0f}; {e['safety_cost_max_s']:.0f} | "
                      f"{e['within_budget']}/{e['runs']} | {e['above_optimum_safety']}/{e['runs']} | {_num(fuel, 2)} | "
                      f"{_num(e['fuel_kg'], 2)} | {cs} | "
@@ -197,14 +238,15 @@ def _num(v: float | None, digits: int) -> str:
 
 
 def overall(entries: list[dict]) -> list[dict]:
-    """Per method, the score over every task it has a result on (one stratum per task and episode, its seeds within)."""
+    """Per row (method and track), the score over every task it has a result on (one stratum per task and episode,
+    its seeds within)."""
     out = []
-    for m in _order([e["method"] for e in entries]):
-        mine = [e for e in entries if e["method"] == m]
+    for key in _order([row_key(e) for e in entries]):
+        mine = [e for e in entries if row_key(e) == key]
         groups = [[(s, None) for s in g] for e in mine for g in e["score_groups"]]
         walls = [e["training_wall_s"] for e in mine if e.get("training_wall_s") is not None]
-        out.append({"method": m, "tasks": len(mine), **aggregate(groups), "left_out": sum(e["excluded"] for e in mine),
-                    "training_wall_s": max(walls) if walls else None})
+        out.append({"method": key[0], "track": key[1], "tasks": len(mine), **aggregate(groups),
+                    "left_out": sum(e["excluded"] for e in mine), "training_wall_s": max(walls) if walls else None})
     return out
 
 
@@ -216,26 +258,47 @@ def _runs_cell(o: dict) -> str:
     return f"{o['n']} ({o['left_out']} left out)" if o["left_out"] else str(o["n"])
 
 
-def markdown(entries: list[dict], missing: Sequence[str], fingerprint: str, profile: str | None) -> str:
-    """The leaderboard page."""
-    tasks = [t for t in list_tasks() if any(e["task"] == t for e in entries)]
-    tasks += sorted({e["task"] for e in entries} - set(tasks))
-    md = ["# Leaderboard", "", LEAD.format(fp=fingerprint, conf=100 * CONFIDENCE), "", "## Over every task", "",
-          "| method | tasks | score IQM [95 % CI] | runs | training per seed |", "|---|---:|---:|---:|---:|"]
-    md += [f"| {label(o['method'])} | {o['tasks']} | {score_text(o['score'], o['score_ci_low'], o['score_ci_high'])} "
-           f"| {_runs_cell(o)} | {_minutes(o['training_wall_s'])} |" for o in overall(entries)]
+def physics_groups(entries: list[dict]) -> list[tuple[str, list[dict]]]:
+    """The entries by the physics they were measured on (``HevThermal-vN``, fingerprint), the newest first: scores on
+    different physics are never aggregated together."""
+    groups: dict[tuple[int, str], list[dict]] = {}
+    for e in entries:
+        task = get_task(e["task"])
+        groups.setdefault((task.physics, task.fingerprint()), []).append(e)
+    return [(f"physics v{v} (`HevThermal-v{v}`, fingerprint `{fp}`)", groups[(v, fp)])
+            for v, fp in sorted(groups, reverse=True)]
+
+
+def markdown(entries: list[dict], missing: Sequence[str], profile: str | None) -> str:
+    """The leaderboard page: per physics version (:func:`physics_groups`) the table over every task and the tables
+    per task; one performance profile with a panel row per physics version."""
+    order = {t: i for i, t in enumerate(list_tasks())}
+    md = ["# Leaderboard", "", LEAD.format(conf=100 * CONFIDENCE), ""]
     if profile:
-        md += ["", "## Performance profile", "", f"![performance profile]({profile})", "", PROFILE_TEXT]
-    md += ["", "## Per task", ""]
-    for t in tasks:
-        md += _task_table([e for e in entries if e["task"] == t])
+        md += ["## Performance profile", "", f"![performance profile]({profile})", "", PROFILE_TEXT, ""]
+    for title, mine in physics_groups(entries):
+        tasks = sorted({e["task"] for e in mine}, key=lambda t: (order.get(t, len(order)), t))
+        md += [f"## On {title}", "", f"Tasks: {', '.join(tasks)}.", "", "### Over every task", "",
+               "| method | track | tasks | score IQM [95 % CI] | runs | training per seed |",
+               "|---|---|---:|---:|---:|---:|"]
+        md += [f"| {label(o['method'])} | {o['track']} | {o['tasks']} | "
+               f"{score_text(o['score'], o['score_ci_low'], o['score_ci_high'])} | {_runs_cell(o)} | "
+               f"{_minutes(o['training_wall_s'])} |" for o in overall(mine)]
+        md += [""]
+        for t in tasks:
+            md += _task_table([e for e in mine if e["task"] == t])
     if missing:
         md += ["## Tasks without references", "", *[f"* {m}" for m in missing], ""]
     md += [COMMAND]
     return "\n".join(md).rstrip() + "\n"
 
 
-LEAD = ("Every method on every task that has stored references, measured on physics fingerprint `{fp}`. *score*: "
+LEAD = ("Every method on every task that has stored references, each physics version apart (its fingerprint in its "
+        "section's title and on the profile). *track*: what a learned method learns from: *RL*, the env's reward "
+        "alone; *guided*, also a strategy's actions or costs or the optimum's labels (imitation, DAgger, a teacher's "
+        "cost, behaviour cloning), read from its training config ([Training](training.md#two-tracks)); `-` for a "
+        "method that does not learn. One row per method and track; variants of a training recipe are in the "
+        "training page's [ablation table](training.md#ablations-of-the-guided-recipe). *score*: "
         "the normalised score, 0 = `engine_only` (the bus with its motor unused), 100 = the thermal optimum at "
         "equal charge, per episode 100 · (r0 − r) / (r0 − 1) with r the frontier ratio; the interquartile mean "
         "over episodes and seeds with its {conf:.0f} % stratified bootstrap interval "
@@ -248,12 +311,13 @@ LEAD = ("Every method on every task that has stored references, measured on phys
         "optimum's frontier, so no frontier ratio, or an ill-conditioned episode). The bootstrap resamples the "
         "seeds within each episode: a deterministic strategy has one run per episode, so its score has no "
         "interval. The optimum's row is the run stored with each task's reference (no plan is solved for this "
-        "page). *training per seed*: a learned method's mean wall-clock to train one seed (the result file's "
-        "`training`); `-` for a method that is not trained here.")
-PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed; a run without a score counts as "
-                "below every τ) whose normalised score exceeds τ, as rliable draws it: a curve further right is "
-                "better; where it drops shows the spread of the method's scores across tasks. The variants of a "
-                "family (\"PPO (no refit)\" of PPO) are drawn below, each family in black beside its variants.")
+        "page). The shipped policy (`ppo`) is on the tasks of the physics it was trained on. *training per seed*: a "
+        "learned method's mean wall-clock to train one seed (the result file's `training`); `-` for a method that "
+        "is not trained here.")
+PROFILE_TEXT = ("The fraction of a method's runs (every task, episode and seed of one physics version; a run without a "
+                "score counts as below every τ) whose normalised score exceeds τ, as rliable draws it: a curve "
+                "further right is better; where it drops shows the spread of the method's scores across tasks. One "
+                "row of panels per physics version, its fingerprint in the row's title.")
 COMMAND = ("Regenerate with `python evaluate.py leaderboard --results benchmarks/results/learned_baselines --out "
            "docs/leaderboard.md` (the learned baselines' seed families: `benchmarks/learned_baselines.py`, "
            "[Training](training.md#the-learned-baselines); add `--results FILE` for a method written elsewhere; the "
@@ -264,22 +328,15 @@ COMMAND = ("Regenerate with `python evaluate.py leaderboard --results benchmarks
 STYLES = ("-", ":", "-.")
 
 
-def family_of(method: str, methods: Sequence[str]) -> str | None:
-    """The family a variant belongs to (``"PPO (no refit)"`` → ``"PPO"``) when that family is on the page, else
-    None: the method is drawn with the others."""
-    base = method.split(" (", 1)[0]
-    return base if base != method and base in methods else None
-
-
-def _profile_lines(ax, scores: dict[str, np.ndarray], unscored: dict[str, int], lo: float, hi: float,
-                   look: dict[str, dict[str, Any]]) -> None:
-    for m, v in scores.items():
-        total = v.size + unscored[m]  # a run without a score lies below every τ
+def _profile_lines(ax, scores: dict[tuple[str, str], np.ndarray], unscored: dict[tuple[str, str], int], lo: float,
+                   hi: float, look: dict[tuple[str, str], dict[str, Any]]) -> None:
+    for key, v in scores.items():
+        total = v.size + unscored[key]  # a run without a score lies below every τ
         if v.size:
             x = np.r_[lo, v, hi]
             y = np.r_[v.size, v.size - np.arange(1, v.size + 1), 0.0] / total
-            what = f"{total} runs" + (f", {unscored[m]} without a score" if unscored[m] else "")
-            ax.step(x, y, where="post", label=f"{label(m)} ({what})", **look[m])
+            what = f"{total} runs" + (f", {unscored[key]} without a score" if unscored[key] else "")
+            ax.step(x, y, where="post", label=f"{row_label(key)} ({what})", **look[key])
     for x in (0.0, 100.0):
         ax.axvline(x, color="0.6", lw=0.8, zorder=0)
     ax.set_xlim(lo, hi)
@@ -288,68 +345,43 @@ def _profile_lines(ax, scores: dict[str, np.ndarray], unscored: dict[str, int], 
     ax.set_xlabel("normalised score τ (0 = engine_only, 100 = the thermal optimum)")
 
 
-def _looks(methods: Sequence[str], plt: Any) -> dict[str, dict[str, Any]]:
-    """One (colour, line style) pair per method: past the palette's length the styles change, so no two curves
-    agree."""
-    palette = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20").colors
-    return {m: {"color": palette[i % len(palette)], "lw": 2.2 if m == REFERENCE else 1.6,
-                "ls": "--" if m in ("engine_only", REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)]}
-            for i, m in enumerate(methods)}
+def _looks(keys: Sequence[tuple[str, str]], plt: Any) -> dict[tuple[str, str], dict[str, Any]]:
+    """One (colour, line style) pair per row: past the palette's length the styles change, so no two curves agree."""
+    palette = plt.get_cmap("tab10" if len(keys) <= 10 else "tab20").colors
+    return {k: {"color": palette[i % len(palette)], "lw": 2.2 if k[0] == REFERENCE else 1.6,
+                "ls": "--" if k[0] in ("engine_only", REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)]}
+            for i, k in enumerate(keys)}
 
 
 def profile_figure(entries: list[dict]):
-    """The performance profile (module docstring): every method but the variants of a family over the whole range of
-    scores (a symmetric-log axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ;
-    below it, when the page has variants (:func:`family_of`), each family in black beside its variants, zoomed."""
+    """The performance profile (module docstring), one row of panels per physics version (:func:`physics_groups`,
+    its fingerprint in the row's title): every row (method and track) over the whole range of scores (a
+    symmetric-log axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ."""
     plt = pyplot()
-    methods = _order([e["method"] for e in entries])
-    scores = {m: np.sort([s for e in entries if e["method"] == m for s in e["scores"]]) for m in methods}
-    unscored = {m: sum(e["excluded"] for e in entries if e["method"] == m) for m in methods}
-    variants = [m for m in methods if family_of(m, methods)]
-    main = [m for m in methods if m not in variants]
-    fig = plt.figure(figsize=(16.0, 5.8 if not variants else 11.0), layout="constrained")
-    top, bottom = fig.subfigures(2, 1, height_ratios=[1.0, 0.9]) if variants else (fig, None)
-    axes = top.subplots(1, 2, gridspec_kw={"width_ratios": [3, 2]})
-    lowest = min([-100.0, *(float(scores[m][0]) for m in main if scores[m].size)])
-    look = _looks(main, plt)
-    for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
-        _profile_lines(ax, {m: scores[m] for m in main}, unscored, lo, hi, look)
-    axes[0].set_xscale("symlog", linthresh=100.0)
-    axes[0].set_ylabel("fraction of runs with score > τ")
-    axes[0].set_title("every score (symmetric-log axis, linear within ±100)", fontsize=10)
-    axes[1].set_title(f"zoom: τ from {ZOOM[0]:g} to {ZOOM[1]:g}", fontsize=10)
-    top.legend(*axes[0].get_legend_handles_labels(), loc="outside right upper", fontsize=8)
-    if bottom is not None:
-        _variant_panels(bottom, methods, variants, scores, unscored, plt)
-    fig.suptitle("Performance profile over every task with references")
+    groups = physics_groups(entries)
+    fig = plt.figure(figsize=(16.0, 5.8 * len(groups)), layout="constrained")
+    subs = fig.subfigures(len(groups), 1, squeeze=False)[:, 0] if len(groups) > 1 else [fig]
+    for sub, (title, mine) in zip(subs, groups):
+        keys = _order([row_key(e) for e in mine])
+        scores = {k: np.sort([s for e in mine if row_key(e) == k for s in e["scores"]]) for k in keys}
+        unscored = {k: sum(e["excluded"] for e in mine if row_key(e) == k) for k in keys}
+        axes = sub.subplots(1, 2, gridspec_kw={"width_ratios": [3, 2]})
+        lowest = min([-100.0, *(float(v[0]) for v in scores.values() if v.size)])
+        look = _looks(keys, plt)
+        for ax, (lo, hi) in zip(axes, ((1.5 * lowest, 110.0), ZOOM)):
+            _profile_lines(ax, scores, unscored, lo, hi, look)
+        axes[0].set_xscale("symlog", linthresh=100.0)
+        axes[0].set_ylabel("fraction of runs with score > τ")
+        axes[0].set_title("every score (symmetric-log axis, linear within ±100)", fontsize=10)
+        axes[1].set_title(f"zoom: τ from {ZOOM[0]:g} to {ZOOM[1]:g}", fontsize=10)
+        sub.legend(*axes[0].get_legend_handles_labels(), loc="outside right upper", fontsize=8)
+        tasks = len({e["task"] for e in mine})
+        sub.suptitle(f"Performance profile on {title.replace('`', '')}: {tasks} task(s) with references",
+                     fontsize=11)
     return fig
 
 
-def _variant_panels(sub: Any, methods: list[str], variants: list[str], scores: dict[str, np.ndarray],
-                    unscored: dict[str, int], plt: Any) -> None:
-    """One panel per family: the family in black and its variants, from :data:`ZOOM`'s start or, for a family
-    scoring lower, from the 5th percentile of its runs' scores (to the nearest 10 below, at most down to -100)."""
-    members: dict[str, list[str]] = {}
-    for m in variants:
-        family = family_of(m, methods)
-        members.setdefault(family, [family]).append(m)
-    families = list(members)
-    look = {**_looks(variants, plt), **{f: {"color": "black", "lw": 2.4, "ls": "-"} for f in families}}
-    axes = sub.subplots(1, len(families), squeeze=False,
-                        gridspec_kw={"width_ratios": [len(members[f]) ** 0.5 for f in families]})[0]
-    handles: dict[str, Any] = {}
-    for ax, f in zip(axes, families):
-        every = np.concatenate([scores[m] for m in members[f]])
-        lo = min(ZOOM[0], max(-100.0, 10.0 * np.floor(np.percentile(every, 5) / 10.0))) if every.size else ZOOM[0]
-        _profile_lines(ax, {m: scores[m] for m in members[f]}, unscored, lo, ZOOM[1], look)
-        ax.set_title(f"{label(f)} (black) and its variants", fontsize=10)
-        handles.update(zip(*reversed(ax.get_legend_handles_labels())))
-    axes[0].set_ylabel("fraction of runs with score > τ")
-    sub.legend(list(handles.values()), list(handles), loc="outside right upper", fontsize=8)
-
-
-def write_leaderboard(entries: list[dict], missing: Sequence[str], out: Path, fingerprint: str,
-                      plot: bool = True) -> Path:
+def write_leaderboard(entries: list[dict], missing: Sequence[str], out: Path, plot: bool = True) -> Path:
     """Write the page ``out`` and, with ``plot``, :data:`PROFILE_FILE` beside it; returns the page's path."""
     out = Path(out)
     profile = None
@@ -358,5 +390,5 @@ def write_leaderboard(entries: list[dict], missing: Sequence[str], out: Path, fi
         save_png(fig, out.parent / PROFILE_FILE)
         pyplot().close(fig)
         profile = PROFILE_FILE
-    atomic_write_text(out, markdown(entries, missing, fingerprint, profile))
+    atomic_write_text(out, markdown(entries, missing, profile))
     return out

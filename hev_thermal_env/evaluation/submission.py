@@ -14,10 +14,13 @@ infos (:class:`EpisodeTally` adds them up): ``cost_g = −Σ (reward_fuel + rewa
 ``safety_cost_s = Σ cost``; ``soc_final`` is the last step's ``info["soc"]``. Optional: ``task_digest``, ``fuel_g``,
 ``soc_initial``, ``fuel_corrected_l_per_100km``, ``charge_sustaining``, ``description``, ``training`` (a learned
 method's training compute: ``wall_clock_s_per_seed``, one number per seed, and optionally ``timesteps`` and
-``steps_per_s``; the leaderboard shows the mean per seed). :func:`validate_result` checks a file and names the field
-and value of every problem; :func:`result_of_strategy` writes one for a strategy of this package,
-:func:`result_of_seeds` for a seed family of trained policies, :func:`result_of_reference` the optimum's as its task's
-stored reference holds it.
+``steps_per_s``; the leaderboard shows the mean per seed), ``track`` (a learned method's track, :data:`TRACKS`: ``"RL"``
+when it learns from the env's reward alone, ``"guided"`` when it also learns from a strategy's actions or costs or the
+optimum's labels: imitation, DAgger, a teacher's cost, behaviour cloning; :func:`track_of` decides it from a
+``train.py`` run's config; the leaderboard shows it on every row of a learned method). :func:`validate_result` checks a
+file and names the field and value of every problem; :func:`result_of_strategy` writes one for a strategy of this
+package, :func:`result_of_seeds` for a seed family of trained policies, :func:`result_of_reference` the optimum's as its
+task's stored reference holds it.
 """
 
 from __future__ import annotations
@@ -39,8 +42,19 @@ from .yardstick import REFERENCE
 FORMAT = "hev-thermal-result-v1"
 REQUIRED = ("format", "task", "physics_fingerprint", "method", "seeds", "episodes")
 ROW_NUMBERS = {"cost_g": (0.0, math.inf), "soc_final": (0.0, 1.0), "safety_cost_s": (0.0, math.inf)}
+#: The tracks of learned methods: ``RL`` (the env's reward alone), ``guided`` (a strategy's actions or costs, the
+#: optimum's labels).
+TRACKS = ("RL", "guided")
 OPTIONAL_NUMBERS = {"fuel_g": (0.0, math.inf), "fuel_corrected_l_per_100km": (-math.inf, math.inf),
                     "soc_initial": (0.0, 1.0)}
+
+
+def track_of(config: dict[str, Any]) -> str:
+    """The track of a ``train.py`` run from its config (``DIR/config.yaml`` or the policy's): ``guided`` when its start
+    imitates a strategy (``init.imitate``, under which the refit, DAgger and the teacher's cost also live), else
+    ``RL``. A constraint on the env's own safety cost (``constraint``) and the reward's settings (``env.reward``) are
+    the env's signal: they leave a run on the RL track."""
+    return "guided" if (config.get("init") or {}).get("imitate") else "RL"
 
 
 class ResultFormatError(ValueError):
@@ -102,6 +116,8 @@ def validate_result(data: Any, where: str = "result") -> dict[str, Any]:
     _check_episodes(data["episodes"], task, seeds, where)
     if data.get("training") is not None:
         _check_training(data["training"], seeds, f"{where}: training")
+    if data.get("track") is not None and data["track"] not in TRACKS:
+        raise ResultFormatError(f"{where}: track: expected one of {', '.join(TRACKS)}, got {data['track']!r}")
     return data
 
 
@@ -204,11 +220,12 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
 
 
 def result_of_seeds(task: str | Task, policies: dict[int, str | Strategy], method: str, *,
-                    training: dict[str, Any] | None = None) -> dict[str, Any]:
+                    training: dict[str, Any] | None = None, track: str | None = None) -> dict[str, Any]:
     """The result record of a seed family: ``policies`` maps each training seed to a strategy (a name, e.g.
     ``ppo:PATH`` for a policy saved by ``train.py`` whatever its algorithm, or a
     :class:`~hev_thermal_env.agents.base.Strategy`), each driven on every episode of ``task``
-    (:func:`result_of_strategy`); ``training``: the family's training compute (module docstring), or None."""
+    (:func:`result_of_strategy`); ``training``: the family's training compute (module docstring), or None; ``track``:
+    its track (:data:`TRACKS`), or None."""
     task = get_task(task)
     if not policies:
         raise ValueError(f"result_of_seeds: {method}: no seeds given")
@@ -222,6 +239,8 @@ def result_of_seeds(task: str | Task, policies: dict[int, str | Strategy], metho
               "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
     if training is not None:
         record["training"] = training
+    if track is not None:
+        record["track"] = track
     return validate_result(record, f"{method} on {task.id}")
 
 

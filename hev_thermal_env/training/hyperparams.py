@@ -3,10 +3,20 @@ them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argu
 (``PPO``, ``SAC``, ``TQC``, ``RecurrentPPO``) the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys
 (also inside ``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
 valid one.
+
+A file comes in one of two formats (:func:`read_hyperparams_file`): the project's flat mapping (``ppo.yaml``), or
+rl-zoo3's (``sac.yaml``, ``tqc.yaml``, ``recurrent_ppo.yaml``: ``python -m rl_zoo3.train --algo sac --env
+HevThermal-v2 --gym-packages hev_thermal_env --conf-file agents/hyperparams/sac.yaml`` reads them unchanged). An
+rl-zoo3 file has one section per env id; its section for :data:`~hev_thermal_env.tasks.ENV_ID` holds
+``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs`` (``gymnasium.make``'s keyword arguments:
+``cycle``, ``scenario``, ...), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
+arguments; the settings rl-zoo3 has no place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in a
+section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read.
 """
 
 from __future__ import annotations
 
+import ast
 import collections.abc
 import difflib
 import inspect
@@ -21,6 +31,7 @@ import torch
 from hev_thermal_env.agents import HYPERPARAMS_DIR
 from hev_thermal_env.agents.policy_files import SCHEDULE_KEYS, algorithm_class, schedule
 from hev_thermal_env.io import read_yaml_mapping
+from hev_thermal_env.tasks import ENV_ID
 
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
 RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer",
@@ -36,13 +47,64 @@ _KIND_NAMES = {bool: "true or false", int: "an integer", float: "a number", str:
                tuple: "a list", dict: "a mapping", type(None): "null", collections.abc.Callable: "lin_<number>"}
 
 
+#: The section of an rl-zoo3 hyperparameter file with the settings only ``train.py`` reads.
+PROJECT_SECTION = "hev_thermal_env"
+
+
 def load_hyperparams(algo: str, path: str | Path | None = None) -> dict[str, Any]:
-    """The hyperparameter file of ``algo`` (``agents/hyperparams/<algo>.yaml`` unless ``path``) as a dict."""
+    """The hyperparameter file of ``algo`` (``agents/hyperparams/<algo>.yaml`` unless ``path``) as a flat dict
+    (:func:`read_hyperparams_file`)."""
     algorithm_class(algo)  # validates the name
     p = Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo.lower()}.yaml"
     if not p.is_file():
         raise FileNotFoundError(f"hyperparameter file {p} not found")
-    return read_yaml_mapping(p)
+    return read_hyperparams_file(p)
+
+
+def read_hyperparams_file(path: str | Path) -> dict[str, Any]:
+    """A hyperparameter file in either format (module docstring) as the project's flat dict: an rl-zoo3 file's
+    ``env_kwargs`` become the ``env`` section (``cycle`` its ``cycles``), its ``normalize`` and ``policy_kwargs``
+    strings mappings (``nn.ReLU`` the name ``relu``), and :data:`PROJECT_SECTION` joins the rest."""
+    data = read_yaml_mapping(path)
+    env_ids = [k for k in data if str(k).startswith("HevThermal-v")]
+    if not env_ids:
+        return data
+    if env_ids != [ENV_ID] or set(data) - {ENV_ID, PROJECT_SECTION}:
+        raise ValueError(f"{path}: an rl-zoo3 file here has the sections {ENV_ID} and {PROJECT_SECTION}, got "
+                         f"{', '.join(map(str, data))}")
+    flat = {**dict(data[ENV_ID] or {}), **dict(data.get(PROJECT_SECTION) or {})}
+    env = dict(flat.pop("env_kwargs", None) or {})
+    if "cycle" in env:
+        env["cycles"] = env.pop("cycle")
+    if env:
+        flat["env"] = env
+    for key in ("normalize", "policy_kwargs"):
+        if isinstance(flat.get(key), str):
+            flat[key] = zoo_mapping(flat[key], f"{path}: {key}")
+    return flat
+
+
+def zoo_mapping(text: str, where: str) -> dict[str, Any]:
+    """rl-zoo3's ``"dict(key=value, ...)"`` string as a mapping, read without evaluating it: literal values, and
+    ``nn.<Activation>`` as its name in :data:`ACTIVATIONS`."""
+    names = {v: k for k, v in ACTIVATIONS.items()}
+    try:
+        call = ast.parse(text.strip(), mode="eval").body
+        if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id == "dict"
+                and not call.args and all(k.arg for k in call.keywords)):
+            raise ValueError("expected dict(key=value, ...)")
+        out = {}
+        for kw in call.keywords:
+            v = kw.value
+            if isinstance(v, ast.Attribute) and isinstance(v.value, ast.Name) and v.value.id == "nn":
+                if v.attr not in names:
+                    raise ValueError(f"nn.{v.attr}: expected one of {', '.join('nn.' + n for n in names)}")
+                out[kw.arg] = names[v.attr]
+            else:
+                out[kw.arg] = ast.literal_eval(v)
+        return out
+    except (SyntaxError, ValueError) as exc:
+        raise ValueError(f"{where}: {text!r}: {exc}") from None
 
 
 def algorithm_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
