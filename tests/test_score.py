@@ -152,7 +152,8 @@ def test_no_strategy_above_100_on_the_stored_tasks():
         shortest = sorted(ref["episodes"], key=lambda e: load_cycle(e["cycle"]).n_steps)[:EPISODES_CHECKED]
         for ep in shortest:
             for name in ("engine_only", *CLASSIC, "ppo"):
-                s = run_strategy(get_strategy(name), ep["cycle"], task.scenario, seed=ep["seed"]).summary
+                s = run_strategy(get_strategy(name), ep["cycle"], task.scenario, seed=ep["seed"],
+                                 physics=task.physics).summary
                 _, score, _ = references.episode_score(ep, s["cost_g"], s["soc_final"])
                 if score is not None:
                     assert score <= 100.0 + score_tolerance(ep["anchor"]["frontier_ratio"]), (path.stem, name, score)

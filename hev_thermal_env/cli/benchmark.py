@@ -88,7 +88,7 @@ def main(args: argparse.Namespace) -> int:
     try:
         rows = run_benchmark(Path(args.out), expand_cycle_names(cycles), args.strategies, scenarios,
                              jobs=args.jobs, plots=not args.no_plots, executor=args.executor, address=args.address,
-                             families=families)
+                             families=families, **({} if task is None else {"physics": task.physics}))
     except ExecutorError as exc:
         return report(exc)
     if task is not None:

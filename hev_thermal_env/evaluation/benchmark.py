@@ -30,6 +30,7 @@ from hev_thermal_env.agents import get_strategy, list_strategies
 from hev_thermal_env.cycles import ImplausibleCycleWarning, load_cycle
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import check_writable_dir
+from hev_thermal_env.physics.config import LATEST_PHYSICS
 from hev_thermal_env.scenarios import get_scenario
 
 from .executors import make_executor
@@ -61,12 +62,12 @@ BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]
 REFRESH_S = 1.0
 
 
-def _run_one(task: tuple[str, str, str, dict]) -> tuple[dict, dict]:
-    cycle, scenario, strategy, options = task
+def _run_one(task: tuple[str, str, str, dict, int]) -> tuple[dict, dict]:
+    cycle, scenario, strategy, options, physics = task
     with warnings.catch_warnings():  # the main process warned about implausible cycle data when validating
         warnings.simplefilter("ignore", ImplausibleCycleWarning)
         cyc = load_cycle(cycle)
-    res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario)
+    res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario, physics=physics)
     trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
     return {**res.summary, "cycle": cyc.name, "scenario": scenario, "strategy": strategy}, trace
 
@@ -99,8 +100,10 @@ def validate(cycles, strategies, scenarios, out: Path, options: dict | None = No
 def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT_STRATEGIES,
                   scenarios=DEFAULT_SCENARIOS, *, jobs: int | None = None, options: dict | None = None,
                   progress: bool = True, plots: bool = True, executor: str = "local",
-                  address: str | None = None, families: list[Family] | None = None) -> list[dict]:
-    """Run every combination, write the result files and plots, return the rows (runs, then families).
+                  address: str | None = None, families: list[Family] | None = None,
+                  physics: int = LATEST_PHYSICS) -> list[dict]:
+    """Run every combination on physics version ``physics``, write the result files and plots, return the rows (runs,
+    then families).
 
     ``dp_thermal`` is added to ``strategies`` if missing (``results.md`` says so). ``families``: seed families
     (:func:`~.families.parse_family`), each member run as ``ppo:PATH``. ``executor``: ``local`` (``jobs``
@@ -111,7 +114,7 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     loaded = validate(cycles, strategies, scenarios, out, options, fams)
     options = options or {}
     run_names = list(dict.fromkeys([*strategies, *(m for f in fams for m in f.members)]))
-    tasks = [(c, sc, st, options) for c in cycles for sc in scenarios for st in run_names]
+    tasks = [(c, sc, st, options, physics) for c in cycles for sc in scenarios for st in run_names]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
     t0 = time.perf_counter()
     with make_executor(executor, jobs=jobs, address=address) as runner:
@@ -133,9 +136,9 @@ def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, t
                ) -> list[tuple[dict, dict]]:
     """``_run_one`` of every task (on ``executor``, see :mod:`.executors`), results in the order of ``tasks``;
     ``cycles``: (name, steps) of each cycle, for the progress bar."""
-    costs = [expected_cost_s(st, cycles[c][1]) for c, _, st, _ in tasks]
+    costs = [expected_cost_s(st, cycles[c][1]) for c, _, st, *_ in tasks]
     order = sorted(range(len(tasks)), key=lambda i: (-costs[i], i))  # slow runs first: the workers stay busy
-    labels = [f"{cycles[c][0]}/{sc}/{st}" for c, sc, st, _ in tasks]
+    labels = [f"{cycles[c][0]}/{sc}/{st}" for c, sc, st, *_ in tasks]
     results: list[Any] = [None] * len(tasks)
     with BenchmarkProgress(labels, costs, order, executor.slots, enabled=progress) as bar:
         for item in executor.map(_run_one, tasks, order, tick_s=REFRESH_S):
