@@ -8,8 +8,8 @@ road). What the values do:
   radiator's to 16-50 %): a thermal-blind aggressive split derates and reaches the 70 °C cutoff on HWFET and on
   ``beijing``. At city and motorway motor speeds the spinning loss alone then holds the housing above the 60 °C
   release (docs/thermal_model.md, *The rated condition*), so once cut off the motor does not come back, whatever the
-  action: physics v1's thermal tasks keep it as it was; physics v2's tasks are chosen where an action can protect the
-  motor (docs/tasks.md).
+  action. It stays as it was for physics v1's task ``udds-hot-v1``; where heat binds on physics v2 with an action that
+  can still protect the motor: docs/tasks.md, *Where heat binds*.
 * ``summer`` (parked in the sun, cooling intact): above the 35 °C thermostat the valve is open from the start, the
   coolant runs warm enough for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets
   lose torque, so every overload derates at once.
