@@ -16,7 +16,7 @@ from gymnasium import spaces
 
 from ..cycles import Cycle
 from ..physics import core as physics_core
-from ..physics.config import PHYSICS_VERSIONS, Conditions, VehicleConfig, paper_bus
+from ..physics.config import Conditions, VehicleConfig, check_physics, paper_bus
 from ..physics.jit import jit
 from . import spaces as env_spaces
 from .episodes import CycleTables, Episode, EpisodeSampler, TableCache
@@ -216,13 +216,6 @@ class EnvParts:
     def cond(self) -> np.ndarray:
         """Conditions array of the episodes, [n, N_COND]."""
         return self._rows.cond
-
-
-def check_physics(physics: Any) -> int:
-    """The env's ``physics`` argument: a version of :data:`~hev_thermal_env.physics.config.PHYSICS_VERSIONS`."""
-    if isinstance(physics, bool) or physics not in PHYSICS_VERSIONS:
-        raise ValueError(f"physics: {physics!r} is not one of {list(PHYSICS_VERSIONS)} (HevThermal-v1, HevThermal-v2)")
-    return int(physics)
 
 
 def resolve_config(config: VehicleConfig | None, thermal: bool | None, physics: int = 2) -> VehicleConfig:

@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from ..physics import core
+from ..physics.config import check_physics
 from ..physics.jit import jit
 from ..physics.params import Params, spec
 from ..prices import Prices
@@ -81,7 +82,7 @@ class RewardParams(Params):
         :data:`MOTOR_LIFE_COST_G`) and adds nothing for a cut-off, whose cost to the service (the assist it loses: fuel
         and missed wheel energy) the other terms already charge; v1 by weights (0.05 g/K² above 60 °C, 20 g per second
         cut off)."""
-        if physics == 1:
+        if check_physics(physics) == 1:
             return cls(overheat_temp_weight=0.05, cutoff_weight=20.0, motor_life_cost_g=0.0)
         return cls()
 

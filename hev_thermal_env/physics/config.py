@@ -87,14 +87,19 @@ identified them; v2 sets them by the motor's rating, docs/thermal_model.md, *The
 value fitted with them."""
 
 
+def check_physics(physics: object) -> int:
+    """``physics`` as a version of :data:`PHYSICS_VERSIONS`, or a :class:`ConfigError` naming the known ones."""
+    if isinstance(physics, bool) or physics not in PHYSICS_VERSIONS:
+        raise ConfigError(f"physics: {physics!r} is not one of {list(PHYSICS_VERSIONS)} (HevThermal-v1, HevThermal-v2)")
+    return int(physics)
+
+
 def paper_bus(thermal_model: str = "network", physics: int = LATEST_PHYSICS) -> VehicleConfig:
     """The default vehicle, the paper's parallel hybrid city bus; ``thermal_model="paper_eqs"``: with the paper's
     one-node thermal model as written (eqs 1-7). ``physics``: 2 (``HevThermal-v2``, the motor rated where its nameplate
     says) or 1 (``HevThermal-v1``: the cooling conductances of :data:`PHYSICS_V1_THERMAL`)."""
-    if physics not in PHYSICS_VERSIONS:
-        raise ConfigError(f"physics: {physics!r} is not one of {list(PHYSICS_VERSIONS)}")
     config = VehicleConfig()
-    if physics == 1:
+    if check_physics(physics) == 1:
         config = config.replace(thermal=config.thermal.replace(**PHYSICS_V1_THERMAL))
     return config if thermal_model == "network" else config.with_thermal_model(thermal_model)
 
