@@ -50,6 +50,7 @@ import numpy as np
 
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.physics import core
+from hev_thermal_env.physics.config import LATEST_PHYSICS
 from hev_thermal_env.planning.problem import argmin_small_action
 from hev_thermal_env.prices import Prices
 
@@ -57,6 +58,13 @@ from .base import Strategy
 
 #: ``ecms_thermal``'s heat-index prices: ``fixed`` (w_x) and ``margin`` (w_x scaled by the distance to the cutoff).
 X_PRICES = ("fixed", "margin")
+#: ``ecms_thermal``'s heat prices by physics version: what ``w_x``, ``x_thr`` and ``w_temp`` take when left out (the
+#: env's physics version decides at reset). Physics v1 charges overheat in its reward, and ``ecms_thermal`` keeps the
+#: motor out of derating: 300 g per unit of the heat-index integrator from x = −0.05, 5 g/K² above 55 °C. Physics v2
+#: charges no derating (a derated motor costs the fuel its lost torque costs): 30 g per unit of the heat index PWM
+#: itself (x > 0), no temperature price; docs/strategies.md, "ecms_thermal on physics v2".
+THERMAL_PRICES = {1: {"w_x": 300.0, "x_thr": -0.05, "w_temp": 5.0},
+                  2: {"w_x": 30.0, "x_thr": 0.0, "w_temp": 0.0}}
 #: The equivalence factor (s in fuel + s·E_batt/Q_lhv) that matches the reward's default battery price.
 REWARD_EQUIVALENCE_FACTOR = Prices().equivalence_factor()
 
@@ -163,10 +171,10 @@ class ThermalECMS(ECMS):
     thermal_aware = True
 
     def __init__(self, s: float = 2.9, k_soc: float = 1.0, penalty: str = "linear", n_u: int = 41,
-                 soc_target: float | None = None, w_x: float = 300.0, x_thr: float = -0.05, w_temp: float = 5.0,
-                 temp_soft_c: float = 55.0, w_cutoff: float = 1000.0, x_price: str = "fixed",
-                 margin_floor: float = 0.0, braking_floor: float | None = None, braking_x_thr: float | None = None,
-                 braking_below_c: float | None = None):
+                 soc_target: float | None = None, w_x: float | None = None, x_thr: float | None = None,
+                 w_temp: float | None = None, temp_soft_c: float = 55.0, w_cutoff: float = 1000.0,
+                 x_price: str = "fixed", margin_floor: float = 0.0, braking_floor: float | None = None,
+                 braking_x_thr: float | None = None, braking_below_c: float | None = None):
         super().__init__(s=s, k_soc=k_soc, penalty=penalty, n_u=n_u, soc_target=soc_target)
         if x_price not in X_PRICES:
             raise ValueError(f"{self.name}: x_price {x_price!r} is not one of {list(X_PRICES)}")
@@ -180,21 +188,28 @@ class ThermalECMS(ECMS):
         self.x_price = x_price
         self.margin_floor = float(margin_floor)
         self.braking_floor = self.margin_floor if braking_floor is None else float(braking_floor)
-        self.w_x = float(w_x)
-        self.x_thr = float(x_thr)
         if braking_x_thr is not None and not -0.3 <= float(braking_x_thr) <= 0.0:
             raise ValueError(f"{self.name}: braking_x_thr must lie in [-0.3, 0] (the heat-index integrator x), got "
                              f"{braking_x_thr!r}")
-        self.braking_x_thr = self.x_thr if braking_x_thr is None else float(braking_x_thr)
         if braking_below_c is not None and not math.isfinite(float(braking_below_c)):
             raise ValueError(f"{self.name}: braking_below_c must be a finite temperature (°C), got {braking_below_c!r}")
         self.braking_below_c = None if braking_below_c is None else float(braking_below_c)
-        self.w_temp = float(w_temp)
         self.temp_soft_c = float(temp_soft_c)
         self.w_cutoff = float(w_cutoff)
+        self._given = {"w_x": w_x, "x_thr": x_thr, "w_temp": w_temp, "braking_x_thr": braking_x_thr}
+        self._set_prices(LATEST_PHYSICS)
+
+    def _set_prices(self, physics: int) -> None:
+        """``w_x``, ``x_thr``, ``w_temp`` as given, else :data:`THERMAL_PRICES` of ``physics``; ``braking_x_thr``
+        follows ``x_thr`` unless given."""
+        given = self._given
+        prices = {k: float(v if given[k] is None else given[k]) for k, v in THERMAL_PRICES[physics].items()}
+        self.w_x, self.x_thr, self.w_temp = prices["w_x"], prices["x_thr"], prices["w_temp"]
+        self.braking_x_thr = self.x_thr if given["braking_x_thr"] is None else float(given["braking_x_thr"])
 
     def reset(self, env: Any) -> None:
         super().reset(env)
+        self._set_prices(int(getattr(self.env, "physics", LATEST_PHYSICS)))
         th = self.env.config.thermal
         self.cutoff_c, self.band_k = th.cutoff_temp_c, th.cutoff_temp_c - th.cutoff_release_temp_c
 

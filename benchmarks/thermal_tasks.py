@@ -52,13 +52,14 @@ HOT_FULL = {"ambient_c": 40.0, "payload_kg": 4500.0}
 #: only over an hour and more of service in 40 °C air with a full bus and a weak cooling loop.
 CANDIDATES = (
     ("udds-40c-full", "udds", "paper", {**HOT_FULL}),
+    ("udds-40c-full-pump10-warm55", "udds", "paper", {**HOT_FULL, "pump": 0.1, "start_c": 55.0}),
+    ("udds2-40c-full-pump10-warm55", "udds*2", "paper", {**HOT_FULL, "pump": 0.1, "start_c": 55.0}),
+    ("udds2-40c-full-pump15-warm55", "udds*2", "paper", {**HOT_FULL, "pump": 0.15, "start_c": 55.0}),
+    ("udds2-40c-full-pump20-nofan-warm50", "udds*2", "paper", {**HOT_FULL, "pump": 0.2, "fan": False, "start_c": 50.0}),
+    ("udds2-40c-full-pump10-warm50", "udds*2", "paper", {**HOT_FULL, "pump": 0.1, "start_c": 50.0}),
+    ("udds2-40c-full-pump15-warm50", "udds*2", "paper", {**HOT_FULL, "pump": 0.15, "start_c": 50.0}),
     ("udds3-40c-full-pump10", "udds*3", "paper", {**HOT_FULL, "pump": 0.1}),
     ("udds3-40c-full-pump15", "udds*3", "paper", {**HOT_FULL, "pump": 0.15}),
-    ("udds3-40c-full-pump20-nofan", "udds*3", "paper", {**HOT_FULL, "pump": 0.2, "fan": False}),
-    ("udds3-40c-full-pump30-nofan", "udds*3", "paper", {**HOT_FULL, "pump": 0.3, "fan": False}),
-    ("udds2-40c-full-pump10", "udds*2", "paper", {**HOT_FULL, "pump": 0.1}),
-    ("beijing3-40c-full-pump20-nofan", "beijing*3", "paper", {**HOT_FULL, "pump": 0.2, "fan": False}),
-    ("long-40c-full-pump10", f"bus_long:{ROUTE_SEED}", "paper", {**HOT_FULL, "pump": 0.1}),
 )
 #: Physics v1's thermal tasks, in their own scenarios (the matrix before): the optimum is the task's stored reference
 #: (its run and its frontier, sampled), not solved again.
@@ -91,7 +92,8 @@ def conditions_of(changes: dict[str, Any] | None) -> Any:
     if changes is None:
         return None
     ambient, pump = changes.get("ambient_c", 20.0), changes.get("pump", 1.0)
-    return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=ambient, coolant_temp_c=ambient,
+    start = changes.get("start_c", ambient)
+    return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=start, coolant_temp_c=start,
                       coolant="on" if pump >= 1.0 else "degraded", coolant_degraded_factor=min(pump, 1.0),
                       payload_kg=changes.get("payload_kg", 0.0), fan=changes.get("fan", True))
 

@@ -26,7 +26,8 @@ def test_the_teachers_options_reach_its_demonstrations():
     """``init.teacher_options`` build the teacher: the shipped file's ``x_price: margin`` (with ``k_soc``) lets
     ``ecms_thermal`` derate a cool motor where the fixed price never does, and gives other actions from the same
     episodes."""
-    assert build_config("ppo")["init"]["teacher_options"] == {"x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5,
+    assert build_config("ppo")["init"]["teacher_options"] == {"w_x": 300.0, "x_thr": -0.05, "w_temp": 5.0,
+                                                              "x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5,
                                                               "braking_x_thr": 0.0, "braking_floor": 1.0,
                                                               "braking_below_c": 50.0}
     teachers = {p: teacher_of({"imitate": "ecms_thermal", "teacher_options": {"x_price": p}})

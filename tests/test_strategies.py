@@ -12,7 +12,7 @@ import pytest
 
 from hev_thermal_env import Conditions, cycle_from_arrays, load_cycle, paper_bus
 from hev_thermal_env.agents import get_strategy, list_strategies
-from hev_thermal_env.agents.ecms import ECMS, REWARD_EQUIVALENCE_FACTOR, AdaptiveECMS, ecms_cost_g
+from hev_thermal_env.agents.ecms import ECMS, REWARD_EQUIVALENCE_FACTOR, THERMAL_PRICES, AdaptiveECMS, ecms_cost_g
 from hev_thermal_env.agents.rule import RuleBased
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
@@ -233,13 +233,14 @@ def test_ecms_soc_penalty_and_aecms_pi():
 
 def test_ecms_regenerates_fully_and_ecms_thermal_less_when_the_motor_is_hot():
     """Braking from 54 km/h: ECMS takes all the available regeneration, cold or hot; with the motor hot, the thermal
-    ECMS takes a smaller share (its price on the next temperature and heat index)."""
+    ECMS at physics v1's heat prices takes a smaller share (its price on the next temperature and heat index)."""
     cyc = cycle_from_arrays(np.linspace(15.0, 0.0, 40), name="stop")
     shares = {}
     for temp in (20.0, 66.0):
         cond = Conditions(ambient_temp_c=40.0, initial_motor_temp_c=temp, coolant="off")
         for name in ("ecms", "ecms_thermal"):
-            tr = run_strategy(get_strategy(name), cyc, "paper", conditions=cond).trace
+            options = THERMAL_PRICES[1] if name == "ecms_thermal" else {}
+            tr = run_strategy(get_strategy(name, **options), cyc, "paper", conditions=cond).trace
             regen = tr["regen_available_nm"] < -10.0
             assert regen.sum() > 20
             shares[name, temp] = tr["motor_share"][regen]
@@ -248,12 +249,39 @@ def test_ecms_regenerates_fully_and_ecms_thermal_less_when_the_motor_is_hot():
     assert np.mean(shares["ecms_thermal", 66.0]) < 0.9
 
 
+def test_ecms_thermal_takes_its_physics_versions_heat_prices():
+    """Left out, ``w_x``, ``x_thr`` and ``w_temp`` follow the env's physics version at reset (v1: 300 g from
+    x = -0.05 and 5 g/K²; v2: 30 g on the heat index itself, no temperature price); given, they stay. On physics v2,
+    where the heat index stays 0 (a cool motor on a short cycle), ecms_thermal drives exactly as ecms; where the
+    heat index rises, it derates less."""
+    udds = load_cycle("udds")
+    cyc = cycle_from_arrays(udds.speed_mps[:400], name="udds-400")
+    for physics in (1, 2):
+        s = get_strategy("ecms_thermal")
+        run_strategy(s, cyc, "paper", physics=physics)
+        assert (s.w_x, s.x_thr, s.w_temp) == tuple(THERMAL_PRICES[physics][k] for k in ("w_x", "x_thr", "w_temp"))
+        given = get_strategy("ecms_thermal", w_x=7.0)
+        run_strategy(given, cyc, "paper", physics=physics)
+        assert given.w_x == 7.0 and given.x_thr == THERMAL_PRICES[physics]["x_thr"]
+    cool = {n: run_strategy(get_strategy(n), cyc, "paper", physics=2).trace for n in ("ecms", "ecms_thermal")}
+    assert np.all(cool["ecms"]["heat_index"] == 0.0)
+    np.testing.assert_array_equal(cool["ecms"]["u"], cool["ecms_thermal"]["u"])
+    hot = Conditions(ambient_temp_c=40.0, initial_motor_temp_c=60.0, coolant_temp_c=60.0, coolant="degraded",
+                     coolant_degraded_factor=0.1, payload_kg=4500.0)
+    runs = {n: run_strategy(get_strategy(n), cyc, "paper", conditions=hot, physics=2).summary
+            for n in ("ecms", "ecms_thermal")}
+    assert runs["ecms"]["derated_s"] > 0
+    assert runs["ecms_thermal"]["derated_s"] < runs["ecms"]["derated_s"]
+
+
 def test_ecms_thermal_holds_back_a_hot_motor():
     """A launch and a minute's cruise at 69 °C with a full battery (SOC 0.75 against a target of 0.65, so assisting is
-    cheap): the plain ECMS assists into the cutoff, the thermal ECMS asks the motor for less and avoids it."""
+    cheap): the plain ECMS assists into the cutoff, the thermal ECMS at physics v1's heat prices (its price on the
+    temperature above 55 °C) asks the motor for less and avoids it."""
     cyc = cycle_from_arrays(np.r_[np.linspace(0.0, 15.0, 40), np.full(60, 15.0)], name="launch")
     cond = Conditions(ambient_temp_c=40.0, initial_motor_temp_c=69.0, coolant="off", initial_soc=0.75)
-    runs = {name: run_strategy(get_strategy(name, soc_target=0.65), cyc, "paper", conditions=cond)
+    runs = {name: run_strategy(get_strategy(name, soc_target=0.65, **(THERMAL_PRICES[1] if name == "ecms_thermal"
+                                                                      else {})), cyc, "paper", conditions=cond)
             for name in ("ecms", "ecms_thermal")}
     assert runs["ecms"].summary["cutoff_s"] > 10 and runs["ecms_thermal"].summary["cutoff_s"] == 0
     torques = {name: np.abs(r.trace["motor_torque_nm"][:40]).sum() for name, r in runs.items()}  # before any cutoff
@@ -311,7 +339,7 @@ def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff
     failing cooling loop it still keeps the motor from the cutoff."""
     env = HevThermalEnv(cycle=cycle_from_arrays(np.full(20, 10.0), name="cruise"))
     env.reset(seed=0)
-    agent, fixed = get_strategy("ecms_thermal", x_price="margin", w_x=300.0), get_strategy("ecms_thermal")
+    agent, fixed = get_strategy("ecms_thermal", x_price="margin", w_x=300.0), get_strategy("ecms_thermal", w_x=300.0)
     agent.reset(env)
     fixed.reset(env)
     for temp_c, price in ((20.0, 60.0), (50.0, 150.0), (60.0, 300.0), (69.0, 300.0), (75.0, 300.0)):
@@ -343,11 +371,11 @@ def test_ecms_thermal_margin_prices_the_heat_index_by_the_distance_to_the_cutoff
         get_strategy("ecms_thermal", margin_floor=0.5)
     with pytest.raises(ValueError, match="x_price 'cheap' is not one of"):
         get_strategy("ecms_thermal", x_price="cheap")
-    runs = {p: run_strategy(get_strategy("ecms_thermal", x_price=p), "udds", "hilly").summary
+    runs = {p: run_strategy(get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price=p), "udds", "hilly").summary
             for p in ("fixed", "margin")}
     assert runs["margin"]["fuel_corrected_l_per_100km"] < 0.99 * runs["fixed"]["fuel_corrected_l_per_100km"]
     assert runs["margin"]["safety_cost_s"] > runs["fixed"]["safety_cost_s"] and runs["margin"]["cutoff_s"] == 0
-    hot = run_strategy(get_strategy("ecms_thermal", x_price="margin"), "udds", "hot").summary
+    hot = run_strategy(get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin"), "udds", "hot").summary
     assert hot["cutoff_s"] == 0 and hot["safety_cost_s"] < 1.0
 
 
@@ -365,9 +393,9 @@ def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
     derates), in traction from ``x_thr``; the price's floor is ``braking_floor`` while braking. The costs are compared
     candidate by candidate against a teacher without the braking options, on the same peeked step."""
     env, steps = _stop(cruise_s=5, stop_s=11)
-    plain = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5)
-    braked = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5, braking_floor=1.0, braking_x_thr=0.0)
-    thr_only = get_strategy("ecms_thermal", x_price="margin", margin_floor=0.5, braking_x_thr=0.0)
+    plain = get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", margin_floor=0.5)
+    braked = get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", margin_floor=0.5, braking_floor=1.0, braking_x_thr=0.0)
+    thr_only = get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", margin_floor=0.5, braking_x_thr=0.0)
     for agent in (plain, braked, thr_only):
         agent.reset(env)
     seen = {"traction": 0, "braking": 0, "derating": 0}
@@ -398,7 +426,7 @@ def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
         env.step(np.array([1.0], dtype=np.float32))
     assert seen["traction"] > 0 and seen["braking"] > 0 and seen["derating"] > 0
     with pytest.raises(ValueError, match="braking_x_thr must lie in \\[-0.3, 0\\]"):
-        get_strategy("ecms_thermal", x_price="margin", braking_x_thr=0.1)
+        get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", braking_x_thr=0.1)
     with pytest.raises(ValueError, match="braking_below_c must be a finite temperature"):
         get_strategy("ecms_thermal", braking_below_c=float("nan"))
     assert get_strategy("ecms_thermal", x_thr=-0.5).braking_x_thr == -0.5  # the default follows x_thr, unchecked
