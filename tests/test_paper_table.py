@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 import yaml
 
-from hev_thermal_env.paper import measure
 from hev_thermal_env.paper.figures import (
     CHECK_NOTES,
     CHECKS,
@@ -27,7 +26,8 @@ from hev_thermal_env.paper.figures import (
     table3_paper,
     verdict_rows,
 )
-from hev_thermal_env.paper.report import summary_line, verdict_markdown
+from tools.paper import measure
+from tools.paper.report import summary_line, verdict_markdown
 
 PROTOCOL = yaml.safe_load((Path(__file__).resolve().parents[1] / "docs" / "calibration" /
                            "parameter_ranges.yaml").read_text())
