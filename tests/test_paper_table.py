@@ -15,19 +15,15 @@ from hev_thermal_env.paper.figures import (
     CHECKS,
     FITTED,
     HELD_OUT,
-    OUTSIDE,
     PAPER_FIGURE_BY_NAME,
     PAPER_FIGURES,
     TARGETS,
-    WITHIN,
     PaperFigure,
-    agreement,
-    fuel_level_rows,
     table3_paper,
-    verdict_rows,
 )
 from tools.paper import measure
 from tools.paper.report import summary_line, verdict_markdown
+from tools.paper.verdicts import OUTSIDE, WITHIN, agreement, fuel_level_rows, verdict_rows
 
 PROTOCOL = yaml.safe_load((Path(__file__).resolve().parents[1] / "docs" / "calibration" /
                            "parameter_ranges.yaml").read_text())
