@@ -13,8 +13,7 @@ road). What the values do:
 * ``summer`` (parked in the sun, cooling intact): above the 35 °C thermostat the valve is open from the start, the
   coolant runs warm enough for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets
   lose torque, so every overload derates at once.
-* ``hilly``: the rolling hills of :func:`~hev_thermal_env.cycles.generate_grade_profile` laid under the cycle;
-  ``hilly_route()`` is ``beijing`` prepared so.
+* ``hilly``: the rolling hills of :func:`~hev_thermal_env.cycles.generate_grade_profile` laid under the cycle.
 * ``full_bus``: about 65 passengers on the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo), about
   the gross weight of a 12 m city bus.
 * ``random``, ``random_service``: for training, drawn per episode (:meth:`Scenario.sample`).

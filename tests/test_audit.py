@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import Conditions, cycle_from_arrays, load_cycle, paper_bus, simulate
-from hev_thermal_env.physics.audit import energy_audit
 from hev_thermal_env.simulate import energy_balance
+from tools.audit import energy_audit
 
 
 @pytest.fixture(scope="module")

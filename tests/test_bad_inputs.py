@@ -30,7 +30,6 @@ import hev_thermal_env.evaluation.benchmark as bench
 import hev_thermal_env.io as hev_io
 from hev_thermal_env import Conditions, ConfigError, VehicleConfig, load_cycle, simulate
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.cli import paper as cli_paper
 from hev_thermal_env.cli import performance as cli_performance
 from hev_thermal_env.cli import run as cli_run
 from hev_thermal_env.cli.evaluate import main as evaluate_main
@@ -38,6 +37,7 @@ from hev_thermal_env.cli.train import main as train_main
 from hev_thermal_env.cycles import PLAUSIBLE_ACCEL_MAX_MPS2, PLAUSIBLE_SPEED_MAX_MPS, ImplausibleCycleWarning
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_output_path, check_writable_dir
 from hev_thermal_env.training.loop import TrainingRun
+from tools.paper import report as paper_report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -395,7 +395,7 @@ def test_run_output_in_an_unwritable_directory(flag, monkeypatch, capsys):
 
 @pytest.mark.parametrize("command", ["paper", "benchmark", "train"])
 def test_report_directories_that_cannot_be_written(command, monkeypatch, tmp_path, capsys):
-    monkeypatch.setattr(cli_paper, "build_report", _no_work)
+    monkeypatch.setattr(paper_report, "build_report", _no_work)
     monkeypatch.setattr(bench, "_run_tasks", _no_work)
     monkeypatch.setattr(TrainingRun, "prepare", _no_work)
     (tmp_path / "file").write_text("x")

@@ -16,11 +16,11 @@ import yaml
 from scipy.stats import qmc
 
 from hev_thermal_env import paper_bus
-from hev_thermal_env.calibration import docs, fit
-from hev_thermal_env.calibration import protocol as proto
-from hev_thermal_env.paper import measure
 from hev_thermal_env.paper.figures import FITTED, HELD_OUT
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig
+from tools.calibration import docs, fit
+from tools.calibration import protocol as proto
+from tools.paper import measure
 
 ROOT = Path(__file__).resolve().parents[1]
 CAL = ROOT / "docs" / "calibration"
@@ -209,7 +209,7 @@ def test_the_fit_log_records_every_attempt():
 
 
 def test_command_writes_the_residuals_and_checks_the_defaults(tmp_path):
-    from hev_thermal_env.calibration.__main__ import main
+    from tools.calibration.__main__ import main
 
     shutil.copy(CAL / "fitted_params.yaml", tmp_path)
     assert main(["--out", str(tmp_path), "--report-only", "--check", "--quiet"]) == 0
@@ -227,7 +227,7 @@ def test_the_thermal_model_page_holds_what_the_code_gives():
     assert set(page) == set(docs.BLOCKS)
     for name, lines in generated.items():
         assert page[name] == "\n".join(lines), f"docs/thermal_model.md block {name!r}: run " \
-                                                "python -m hev_thermal_env.calibration --report-only --write-docs"
+                                                "python -m tools.calibration --report-only --write-docs"
 
 
 def test_with_values_sets_the_protocols_names_on_their_records():

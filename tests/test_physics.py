@@ -377,6 +377,6 @@ def test_cycle_distance_used_in_summary():
 def test_parameter_docs_up_to_date():
     from pathlib import Path
 
-    from hev_thermal_env.physics.docs import parameters_markdown
+    from tools.parameters_page import parameters_markdown
     doc = Path(__file__).resolve().parents[1] / "docs" / "parameters.md"
-    assert doc.read_text() == parameters_markdown(), "regenerate: python -m hev_thermal_env.physics.docs"
+    assert doc.read_text() == parameters_markdown(), "regenerate: python -m tools.parameters_page"

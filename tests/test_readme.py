@@ -225,9 +225,9 @@ def test_bash_block_runs_as_written(page: str, index: int, block: str, tmp_path:
 def check_specific(command: str, r: subprocess.CompletedProcess, cwd: Path) -> None:
     """What a few commands promise beyond writing their outputs."""
     words = shlex.split(command, comments=True)
-    if "hev_thermal_env.physics.docs" in command:
+    if "tools.parameters_page" in command:
         assert (cwd / "docs" / "parameters.md").read_text() == (DOCS / "parameters.md").read_text(), (
-            "docs/parameters.md is not what `python -m hev_thermal_env.physics.docs` writes: regenerate it"
+            "docs/parameters.md is not what `python -m tools.parameters_page` writes: regenerate it"
         )
     if words[:2] == ["python", "train.py"] and "--resume" not in words:
         assert "%" in r.stderr + r.stdout, "no progress bar in the training output"

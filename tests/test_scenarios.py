@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import load_cycle, paper_bus, simulate
-from hev_thermal_env.cycles import generate_bus_cycle, generate_grade_profile, hilly_route, with_grade_profile
+from hev_thermal_env.cycles import generate_bus_cycle, generate_grade_profile, with_grade_profile
 from hev_thermal_env.cycles.grades import HILLY_KWARGS, HILLY_SEED
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 
@@ -26,6 +26,11 @@ def test_grade_profile_is_seeded_bounded_and_closed():
     climb = np.trapezoid(np.interp(np.linspace(0, pos[-1], 20001), pos, g), dx=pos[-1] / 20000)
     assert abs(climb) < 1.0  # metres over the whole route: no net climb
     assert not np.array_equal(g, generate_grade_profile(6, 8000.0, **HILLY_KWARGS)[1])
+
+
+def hilly_route():
+    """``beijing`` over the ``hilly`` scenario's road (named ``hilly``)."""
+    return with_grade_profile(load_cycle("beijing"), HILLY_SEED, name="hilly", **HILLY_KWARGS)
 
 
 def test_hilly_route_keeps_the_speeds_and_flat_cycles_unchanged():

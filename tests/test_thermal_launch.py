@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from hev_thermal_env.paper import measure
 from hev_thermal_env.physics import ThermalParams, paper_bus
 from hev_thermal_env.physics import thermal as thm
+from tools.paper import measure
 
 SIGMA = 5.67e-8
 #: Core (backward Euler, 1 s, conductances at the start of the step) against the fine integration below.

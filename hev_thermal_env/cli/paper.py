@@ -1,4 +1,8 @@
-"""``evaluate.py paper``: the paper reproduction report."""
+"""``evaluate.py paper``: the paper reproduction report.
+
+The report is the maintainers' comparison of the model with the figures it was calibrated to; it lives in the
+workshop of a source checkout, ``tools/paper`` (docs/development.md), and is imported only when the command runs.
+"""
 
 from __future__ import annotations
 
@@ -6,8 +10,6 @@ import argparse
 
 from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.io import check_writable_dir
-from hev_thermal_env.paper.measure import table3_row
-from hev_thermal_env.paper.report import build_report
 
 from .parsing import HelpFormatter, examples
 
@@ -30,6 +32,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    try:
+        from tools.paper.measure import table3_row
+        from tools.paper.report import build_report
+    except ModuleNotFoundError as exc:
+        if exc.name not in ("tools", "tools.paper"):
+            raise
+        raise FileNotFoundError("evaluate.py paper runs from a source checkout of hev-thermal-env, where the report is "
+                           "(tools/paper): run it there as python evaluate.py paper") from None
     out = check_writable_dir(args.out)
     for c in args.cycles:
         load_cycle(c)  # unknown names fail here, before any work

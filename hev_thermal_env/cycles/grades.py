@@ -3,7 +3,7 @@
 :func:`generate_grade_profile` draws a road along the distance from its own seed (so no flat cycle changes):
 normal grades clipped to ``±max_grade`` on segments, joined by vertical curves, and (``closed``) ending at the
 height it started (a bus line loops back: no net climb to bias the fuel). :func:`with_grade_profile` lays it
-under any cycle; :func:`hilly_route` is the ``beijing`` speeds over the road of :data:`HILLY_SEED`.
+under any cycle; the ``hilly`` scenario lays the road of :data:`HILLY_SEED` under its cycles.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from .cycle import Cycle
 from .generator import check_range
 
-#: Seed of the road profile of :func:`hilly_route`.
+#: Seed of the road profile of the ``hilly`` scenario.
 HILLY_SEED = 2024
 
 
@@ -26,7 +26,7 @@ def hill_kwargs(max_grade: float) -> dict[str, Any]:
             "transition_m": 40.0, "closed": True}
 
 
-#: Keyword arguments of :func:`generate_grade_profile` for :func:`hilly_route`: rolling city hills up to ±7 %.
+#: Keyword arguments of :func:`generate_grade_profile` for the ``hilly`` scenario: rolling city hills up to ±7 %.
 HILLY_KWARGS: dict[str, Any] = hill_kwargs(0.07)
 
 
@@ -97,12 +97,3 @@ def with_grade_profile(cycle: Cycle, seed: int, *, name: str | None = None, **kw
                  source=f"{cycle.source}; grade from hev_thermal_env.cycles.generate_grade_profile(seed={int(seed)})",
                  metadata=metadata)
 
-
-def hilly_route(seed: int = HILLY_SEED, base: Cycle | None = None) -> Cycle:
-    """The hilly route: ``base`` (default the built-in ``beijing``) over the rolling hills of ``seed``; named
-    ``"hilly"`` for the default seed and base."""
-    from .loader import load_cycle
-
-    cyc = base if base is not None else load_cycle("beijing")
-    name = "hilly" if (base is None and seed == HILLY_SEED) else None
-    return with_grade_profile(cyc, seed, name=name, **HILLY_KWARGS)

@@ -1,3 +1,3 @@
-"""The paper: one table of its figures, the calibration protocol's targets and checks, and the judging of ours
-against them (:mod:`.figures`), one set of measuring functions (:mod:`.measure`) and the reproduction report
-``evaluate.py paper`` (:mod:`.report`, with its figures, :mod:`.plots`)."""
+"""The paper: one table of its figures, the calibration protocol's targets and checks, with their tolerances
+(:mod:`.figures`). What measures ours and judges it against them, and the reproduction report, are the workshop's,
+``tools/paper``."""

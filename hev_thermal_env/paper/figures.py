@@ -1,7 +1,7 @@
 """The paper's figures and the tolerances we judge ours against: one table, :data:`PAPER_FIGURES`.
 
-The targets are those of the pre-registered calibration protocol (docs/calibration/protocol.md, §3; the same rows
-as ``targets`` of docs/calibration/parameter_ranges.yaml, which ``tests/test_paper_table.py`` checks): F1-F7 are
+The targets are those of the calibration protocol (docs/calibration/protocol.md, §3), kept here alone (the
+calibration, ``tools/calibration``, reads them from this table): F1-F7 are
 fitted (:data:`FITTED`, the only rows in the calibration's cost), H1-H6 are held out (:data:`HELD_OUT`, measured
 after every fit, never in a cost). The checks C1-C3 (:data:`CHECKS`: Fig. 4 from eq 9, Table 3's engine-alone
 speeds, the 0-60 km/h time with the thermal model off) are judged beside them with no weight; C4-C6 are reported
@@ -18,10 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
 from typing import Any
-
-WITHIN, OUTSIDE = "within tolerance", "OUTSIDE tolerance"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,8 +150,6 @@ TABLE2_LEVELS = {("highway", "off"): 35.3, ("highway", "on"): 35.6, ("beijing", 
 TABLE2_ROWS = (("hwfet", "highway"), ("udds", "highway"), ("beijing", "beijing"))
 #: The runs of Table 3 (coolant closed): thermal model off, and on from a 30 or 50 °C start.
 TABLE3_RUNS = ("off", "30c", "50c")
-#: Cycles every verdict needs (Table 2 and Figs 7-10).
-VERDICT_CYCLES = ("hwfet", "udds", "beijing")
 
 
 def table3_paper(run: str) -> dict[str, float]:
@@ -163,45 +158,3 @@ def table3_paper(run: str) -> dict[str, float]:
     accel = off if run == "off" else round(off + PAPER_FIGURE_BY_NAME[f"accel_{run}_delta_s"].paper, 6)
     return {"top_speed_kmh": PAPER_FIGURE_BY_NAME["top_speed_off_kmh"].paper, "accel_0_60_s": accel,
             "grade_4pct_speed_kmh": PAPER_FIGURE_BY_NAME["grade_off_kmh"].paper}
-
-
-def verdict_rows(ours: Mapping[str, Any], figures: tuple[PaperFigure, ...] = PAPER_FIGURES) -> list[dict[str, Any]]:
-    """One row per figure: group, paper, ours, difference (absolute and %), residual and verdict."""
-    rows = []
-    for f in figures:
-        v = ours.get(f.name)
-        ok = f.within(v)
-        finite = v is not None and math.isfinite(v)
-        diff = v - f.paper if finite else None
-        rows.append({"id": f.id, "name": f.name, "group": f.group, "figure": f.figure, "description": f.description,
-                     "unit": f.unit, "paper": f.paper, "paper_text": f.paper_text(), "tolerance": f.tolerance_text(),
-                     "ours": v, "difference": diff,
-                     "difference_pct": 100.0 * diff / abs(f.paper) if finite and f.paper else None,
-                     "residual": f.residual(v) if finite else None, "within": bool(ok),
-                     "verdict": WITHIN if ok else OUTSIDE})
-    return rows
-
-
-def agreement(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    """n of m within tolerance, overall, per group (fitted, held out, check) and per paper figure."""
-    def count(key: str) -> dict[str, dict[str, int]]:
-        keys = dict.fromkeys(r[key] for r in rows)
-        return {k: {"within": sum(r["within"] for r in rows if r[key] == k),
-                    "total": sum(r[key] == k for r in rows)} for k in keys}
-    return {"within": sum(r["within"] for r in rows), "total": len(rows), "by_group": count("group"),
-            "by_figure": count("figure"), "outside": [r["name"] for r in rows if not r["within"]]}
-
-
-def fuel_level_rows(cycles: Mapping[str, dict[str, Any]]) -> list[dict[str, Any]]:
-    """Our raw fuel against the paper's Table 2 levels, like with like (raw with raw), per cycle and thermal model."""
-    rows = []
-    for cyc, paper_row in TABLE2_ROWS:
-        if cyc not in cycles:
-            continue
-        for label, thermal in (("without_thermal", "off"), ("with_thermal", "on")):
-            p = TABLE2_LEVELS[(paper_row, thermal)]
-            ours = cycles[cyc][label]["fuel_l100"]
-            rows.append({"cycle": cyc, "paper_row": paper_row, "thermal_model": thermal, "paper_l100": p,
-                         "ours_l100": ours, "gap_l100": ours - p, "gap_pct": 100.0 * (ours - p) / p,
-                         "ours_corrected_l100": cycles[cyc][label]["fuel_corrected_l100"]})
-    return rows

@@ -21,6 +21,8 @@ import torch
 from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.envs.reward import observation_options
 
+from .fit import adam_passes
+
 HIDDEN = (128, 128)
 EPOCHS = 60
 BATCH = 256
@@ -54,19 +56,7 @@ def fit_bc(obs: np.ndarray, actions: np.ndarray, *, hidden: tuple[int, ...] = HI
     y = torch.as_tensor(actions, dtype=torch.float32)
     net = _mlp(x.shape[1], tuple(hidden))
     opt = torch.optim.Adam(net.parameters(), lr=LEARNING_RATE)
-    gen = torch.Generator().manual_seed(int(seed))
-    history = []
-    for _ in range(int(epochs)):
-        perm = torch.randperm(len(x), generator=gen)
-        total = 0.0
-        for i in range(0, len(x), BATCH):
-            idx = perm[i:i + BATCH]
-            loss = torch.mean((net(x[idx])[:, 0] - y[idx]) ** 2)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            total += float(loss.detach()) * len(idx)
-        history.append(total / len(x))
+    history = adam_passes(opt, len(x), epochs, seed, lambda idx: torch.mean((net(x[idx])[:, 0] - y[idx]) ** 2), BATCH)
     return {"state_dict": net.state_dict(), "hidden": list(hidden), "obs_mean": mean, "obs_std": std}, history
 
 

@@ -80,6 +80,31 @@ def fit_targets(actions: np.ndarray, high: float, beyond_bound: float) -> np.nda
     return np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
 
 
+def adam_step(opt: torch.optim.Optimizer, loss: torch.Tensor) -> float:
+    """One step of ``opt`` down ``loss``; returns the loss."""
+    opt.zero_grad()
+    loss.backward()
+    opt.step()
+    return float(loss.detach())
+
+
+def adam_passes(opt: torch.optim.Optimizer, n: int, epochs: int, seed: int, loss_of: Any,
+                batch: int = BATCH) -> list[float]:
+    """``epochs`` passes of ``opt`` over ``n`` samples in shuffled batches (``loss_of(indices)`` the loss of one, the
+    order drawn from ``seed``): the one fitting loop of the imitation's fit and of behaviour cloning. Returns each
+    pass's mean loss."""
+    gen = torch.Generator().manual_seed(int(seed))
+    history = []
+    for _ in range(int(epochs)):
+        perm = torch.randperm(n, generator=gen)
+        total = 0.0
+        for i in range(0, n, batch):
+            idx = perm[i:i + batch]
+            total += adam_step(opt, loss_of(idx)) * len(idx)
+        history.append(total / n)
+    return history
+
+
 def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs: int, beyond_bound: float,
                     high: float, seed: int, weights: np.ndarray | None = None, curves: np.ndarray | None = None,
                     cost_weight: float = 0.0) -> list[float]:
@@ -92,24 +117,16 @@ def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs
     target = fit_targets(actions, high, beyond_bound)
     x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
     y = torch.as_tensor(target)
-    gen = torch.Generator().manual_seed(int(seed))
+
+    def loss_of(idx: torch.Tensor) -> torch.Tensor:
+        rows = idx.numpy()
+        mean = policy.get_distribution(x[idx]).distribution.mean[:, 0]
+        return fit_loss(mean, y[idx], None if weights is None else weights[rows],
+                        None if curves is None else curves[rows], cost_weight)
+
     opt = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
     policy.set_training_mode(True)
-    history = []
-    for _ in range(epochs):
-        perm = torch.randperm(len(x), generator=gen)
-        total = 0.0
-        for i in range(0, len(x), BATCH):
-            idx = perm[i:i + BATCH]
-            rows = idx.numpy()
-            mean = policy.get_distribution(x[idx]).distribution.mean[:, 0]
-            loss = fit_loss(mean, y[idx], None if weights is None else weights[rows],
-                            None if curves is None else curves[rows], cost_weight)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            total += float(loss.detach()) * len(idx)
-        history.append(total / len(x))
+    history = adam_passes(opt, len(x), epochs, seed, loss_of)
     policy.set_training_mode(False)
     return history
 

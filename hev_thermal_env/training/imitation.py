@@ -40,7 +40,16 @@ from hev_thermal_env.agents.policy_files import LoadedPolicy
 from hev_thermal_env.envs import HevThermalEnv
 
 from ..envs.spaces import observation_names
-from .fit import BATCH, fit_loss, fit_policy_mean, fit_targets, fit_weights, mean_cost_excess_g, near_derating
+from .fit import (
+    BATCH,
+    adam_step,
+    fit_loss,
+    fit_policy_mean,
+    fit_targets,
+    fit_weights,
+    mean_cost_excess_g,
+    near_derating,
+)
 from .hyperparams import check_known
 
 #: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
@@ -292,12 +301,9 @@ class DemonstrationRefit(BaseCallback):
         for _ in range(self.batches):
             idx = self.rng.integers(0, len(self.obs), BATCH)
             mean = policy.get_distribution(torch.as_tensor(self._normalize(self.obs[idx]))).distribution.mean[:, 0]
-            loss = fit_loss(mean, torch.as_tensor(self.target[idx]), None if self.weight is None else self.weight[idx],
-                            None if self.curves is None else self.curves[idx], self.cost_weight)
-            self.opt.zero_grad()
-            loss.backward()
-            self.opt.step()
-            total += float(loss.detach())
+            total += adam_step(self.opt, fit_loss(mean, torch.as_tensor(self.target[idx]),
+                                                  None if self.weight is None else self.weight[idx],
+                                                  None if self.curves is None else self.curves[idx], self.cost_weight))
         self.mse.append(total / max(self.batches, 1))
 
     def summary(self) -> dict[str, Any]:

@@ -1,8 +1,9 @@
 """``evaluate.py paper --out DIR``: ``report.md``, ``paper.json`` and the figures, our results beside the paper's
-Tables 2-3 and Figs 4, 7-10. The report opens with the verdicts (:func:`~.figures.verdict_rows`: the calibration
-protocol's fitted targets F1-F7, its held-out targets H1-H6 and the checks C1-C3, ours, the difference, within
-tolerance or not; the agreement per group) and the absolute fuel levels against Table 2 (raw with raw); the sections
-after show the runs, with the paper's points and bands drawn on the figures (:mod:`.plots`), and the launch check C6.
+Tables 2-3 and Figs 4, 7-10. The report opens with the verdicts (:func:`~.verdicts.verdict_rows`:
+the calibration protocol's fitted targets F1-F7, its held-out targets H1-H6 and the checks C1-C3, ours, the
+difference, within tolerance or not; the agreement per group) and the absolute fuel levels against Table 2 (raw with
+raw); the sections after show the runs, with the paper's points and bands drawn on the figures (:mod:`.plots`), and
+the launch check C6.
 """
 
 from __future__ import annotations
@@ -14,19 +15,13 @@ from typing import Any
 
 from hev_thermal_env.evaluation.runner import jsonable
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
+from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME as FIGURES
+from hev_thermal_env.paper.figures import TABLE3_RUNS, table3_paper
 from hev_thermal_env.physics import VehicleConfig, paper_bus
 
 from . import plots as figs
-from .figures import PAPER_FIGURE_BY_NAME as FIGURES
-from .figures import (
-    TABLE3_RUNS,
-    VERDICT_CYCLES,
-    agreement,
-    fuel_level_rows,
-    table3_paper,
-    verdict_rows,
-)
 from .measure import Baseline, cutoff_curve, cycle_run, fig4_curve, figure_values, launch_run, table3, table3_row
+from .verdicts import VERDICT_CYCLES, agreement, fuel_level_rows, verdict_rows
 
 __all__ = ["build_report"]
 

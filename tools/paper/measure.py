@@ -5,7 +5,8 @@ Every cycle run is the paper's own strategy, ``rule``, in the paper's conditions
 20 °C, coolant on), driven over the physics core (:func:`hev_thermal_env.simulate.drive`); Table 3's runs have the
 coolant closed, the motor starting at 30 or 50 °C. "The motor temperature" is the state's ``motor_temp_c``, the
 stator/housing node: the paper's one lumped motor temperature. :func:`target_values` maps the runs to the rows of
-:data:`~.figures.PAPER_FIGURES` (F1-F7, H1-H6 and the checks); :func:`measure` runs what a set of targets needs.
+:data:`hev_thermal_env.paper.figures.PAPER_FIGURES` (F1-F7, H1-H6 and the checks); :func:`measure` runs what a set
+of targets needs.
 The heat index's onset and its return to 0 are the interpolated zero crossings of its integrator x (continuous in
 the parameters, as the fit needs); an index that never rises has its onset past the cycle's end by 1,000 s per
 unit x stayed below 0 and its return at 0 s; one that never returns, past the end by 1,000 s per unit x left.
@@ -23,14 +24,13 @@ import numpy as np
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.metrics import summarize
+from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME, TARGET_BY_ID, TARGETS, PaperFigure
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, paper_bus
 from hev_thermal_env.physics import core as physics_core
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
 from hev_thermal_env.simulate import drive
-
-from .figures import PAPER_FIGURE_BY_NAME, TARGET_BY_ID, TARGETS, PaperFigure
 
 RPM = math.pi / 30.0
 #: The paper's conditions for Figs 7-10 and Table 2.
@@ -136,7 +136,8 @@ def table3(config: VehicleConfig, resolution_kmh: float = 0.05, accel_dt_s: floa
 
 
 def table3_row(t3: Mapping[str, float], run: str) -> dict[str, float]:
-    """Our Table 3 row of ``run`` (one of :data:`~.figures.TABLE3_RUNS`), keyed as :func:`~.figures.table3_paper`."""
+    """Our Table 3 row of ``run`` (one of :data:`hev_thermal_env.paper.figures.TABLE3_RUNS`), keyed as
+    :func:`hev_thermal_env.paper.figures.table3_paper`."""
     on = "off" if run == "off" else "on"
     return {"top_speed_kmh": t3[f"top_speed_{on}_kmh"], "accel_0_60_s": t3[f"accel_{run}_s"],
             "grade_4pct_speed_kmh": t3[f"grade_speed_{on}_kmh"]}
@@ -188,8 +189,8 @@ def target_values(cycles: Mapping[str, Mapping[str, float]], accel: Mapping[str,
 
 def figure_values(cycles: Mapping[str, Mapping[str, float]], t3: Mapping[str, float],
                   fig4: Mapping[str, Any] | None = None) -> dict[str, float | None]:
-    """Our value of every row of :data:`~.figures.PAPER_FIGURES` that was measured (None where its run did not
-    happen): ``cycles`` maps a cycle to its thermal-model :func:`cycle_run` figures, ``t3`` holds
+    """Our value of every row of :data:`hev_thermal_env.paper.figures.PAPER_FIGURES` that was measured (None where
+    its run did not happen): ``cycles`` maps a cycle to its thermal-model :func:`cycle_run` figures, ``t3`` holds
     :func:`accel_times` and maybe :func:`sustained_speeds`, ``fig4`` is :func:`fig4_curve`."""
     ours: dict[str, float | None] = {name: None for name in PAPER_FIGURE_BY_NAME}
     ours.update(target_values(cycles, t3))

@@ -2,7 +2,7 @@
 the parameter table (``params``: the protocol's rows with the code's values), the conductances and time constants
 (``time-constants``), the launch check C6 (``launch``), the residual table (``residuals``) and the identifiability of
 every fit attempt (``identifiability``, from docs/calibration/fit_result.json). ``python -m
-hev_thermal_env.calibration --report-only --write-docs`` rewrites them; ``tests/test_calibration.py`` checks that the
+tools.calibration --report-only --write-docs`` rewrites them; ``tests/test_calibration.py`` checks that the
 page holds what the code gives.
 """
 
@@ -16,10 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..paper.measure import LAUNCH_GRADE, LAUNCH_S, LAUNCH_SPEED_MPS, launch_run
-from ..physics import VehicleConfig, paper_bus
-from ..physics import thermal as thm
-from ..physics import thermal_network as tnet
+from hev_thermal_env.physics import VehicleConfig, paper_bus
+from hev_thermal_env.physics import thermal as thm
+from hev_thermal_env.physics import thermal_network as tnet
+from tools.paper.measure import LAUNCH_GRADE, LAUNCH_S, LAUNCH_SPEED_MPS, launch_run
+
 from . import log
 from . import protocol as proto
 from . import report as residual_report

@@ -10,9 +10,10 @@ from typing import Any
 
 import yaml
 
-from ..paper.figures import FITTED, TARGETS
-from ..paper.measure import Baseline, measure, sustained_speeds
-from ..physics import VehicleConfig, paper_bus
+from hev_thermal_env.paper.figures import FITTED, TARGETS
+from hev_thermal_env.physics import VehicleConfig, paper_bus
+from tools.paper.measure import Baseline, measure, sustained_speeds
+
 from . import protocol as proto
 
 #: Figs 7-8's quantities, measured on HWFET for the check C4 against the UDDS targets F1-F5.
@@ -94,7 +95,7 @@ def checks_table(report: dict[str, Any]) -> list[str]:
 def residuals_markdown(report: dict[str, Any]) -> str:
     return "\n".join([
         "# Thermal model calibration: residuals", "",
-        "Written by `python -m hev_thermal_env.calibration`. Rule strategy, ambient, motor and coolant at 20 °C, "
+        "Written by `python -m tools.calibration`. Rule strategy, ambient, motor and coolant at 20 °C, "
         "coolant on; Table 3 with the coolant closed. \"Network\": the defaults of `paper_bus`; \"paper's eqs\": "
         "the paper's one-node model as written (check C5). The motor temperature is the stator/housing node. "
         "Residual r in tolerances; |r| ≤ 1 meets a target (H1: met only when no second leaves the band). Fitted "
@@ -104,7 +105,7 @@ def residuals_markdown(report: dict[str, Any]) -> str:
 
 def params_yaml(values: dict[str, float], meta: dict[str, Any]) -> str:
     header = ("# The fitted thermal parameters of paper_bus (the protocol's three), written by\n"
-              "# python -m hev_thermal_env.calibration; ThermalParams's defaults hold them. `fit` records how the\n"
+              "# python -m tools.calibration; ThermalParams's defaults hold them. `fit` records how the\n"
               "# adopted fit was reached (the reduced fit of tests/test_calibration.py restarts from `start_unit`).\n")
     return header + yaml.safe_dump({"thermal": {k: float(v) for k, v in values.items()}, "fit": meta},
                                    sort_keys=False)

@@ -19,11 +19,11 @@ import dataclasses
 from typing import Any
 
 import numpy as np
+from numba import njit
 
-from ..cycles import load_cycle
-from . import battery, core, driveline, engine, glider, motor, thermal
-from .config import Conditions, VehicleConfig
-from .jit import jit
+from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.physics import battery, core, driveline, engine, glider, motor, thermal
+from hev_thermal_env.physics.config import Conditions, VehicleConfig
 
 #: Each per-step error relative to the component's peak power (or energy) may reach this: rounding is far below it,
 #: a changed map far above.
@@ -60,7 +60,8 @@ class AuditReport:
         return {c.name: {"error": c.error, "tol": c.tol, "ok": c.ok, "detail": c.detail} for c in self.checks}
 
 
-@jit
+# Compiled afresh in each process: numba's own cache would not see a change of the physics kernels it calls.
+@njit(cache=False, error_model="numpy")
 def _maps(gl, dl, en, mo, th, ba, v0, v1, grade, payload, dt, w_e, t_e_brake, engine_on, t_m, w_m, temp_before,
           soc_before, gear, road_w, fuel_g, p_elec, voc, r_dis, r_chg, ratio):
     for k in range(v0.shape[0]):

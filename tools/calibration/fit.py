@@ -29,9 +29,10 @@ import numpy as np
 from scipy import optimize
 from scipy.stats import qmc
 
-from ..paper.figures import FITTED, HELD_OUT, PaperFigure
-from ..paper.measure import Baseline, measure
-from ..physics import VehicleConfig, paper_bus
+from hev_thermal_env.paper.figures import FITTED, HELD_OUT, PaperFigure
+from hev_thermal_env.physics import VehicleConfig, paper_bus
+from tools.paper.measure import Baseline, measure
+
 from . import protocol as proto
 from .protocol import FitParam
 

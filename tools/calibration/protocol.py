@@ -16,7 +16,7 @@ from typing import Any
 
 import yaml
 
-from ..physics import Conditions, VehicleConfig
+from hev_thermal_env.physics import Conditions, VehicleConfig
 
 #: The protocol's machine-readable copy, in a source checkout.
 PROTOCOL_YAML = Path(__file__).resolve().parents[2] / "docs" / "calibration" / "parameter_ranges.yaml"

@@ -15,13 +15,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..paper.figures import FITTED, HELD_OUT
+from hev_thermal_env.paper.figures import FITTED, HELD_OUT
+
 from .fit import Attempt
 from .protocol import PROTOCOL_MD, PROTOCOL_YAML
 
 FIT_LOG = PROTOCOL_YAML.with_name("fit_log.md")
 HEADER = ("# Thermal calibration: fit log\n\n"
-          "Every attempt of the protocol's fit (protocol.md, §4), appended by `python -m hev_thermal_env.calibration` "
+          "Every attempt of the protocol's fit (protocol.md, §4), appended by `python -m tools.calibration` "
           "and never edited. Residuals r in tolerances (|r| ≤ 1 meets a target); held-out targets are measured after "
           "each attempt and never enter a cost. Unit coordinates θ̃ are in [0, 1] (logarithmic for the two "
           "conductances).\n")

@@ -1,4 +1,4 @@
-"""``python -m hev_thermal_env.calibration``: the protocol's fit (:mod:`.fit`), every attempt appended to the fit log
+"""``python -m tools.calibration``: the protocol's fit (:mod:`.fit`), every attempt appended to the fit log
 (:mod:`.log`), then ``fitted_params.yaml``, ``fit_result.json``, ``residuals.md`` and ``residuals.json`` in
 ``--out`` (default docs/calibration/). ``--report-only`` writes the residuals of the current defaults without
 fitting; ``--check`` fails if ``ThermalParams``'s defaults differ from the committed ``fitted_params.yaml``;
@@ -15,7 +15,8 @@ from pathlib import Path
 
 import yaml
 
-from ..physics import paper_bus, thermal
+from hev_thermal_env.physics import paper_bus, thermal
+
 from . import fit, log
 from . import protocol as proto
 from . import report as residual_report
@@ -59,7 +60,7 @@ def run_fit(args: argparse.Namespace, out: Path) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hev_thermal_env.calibration", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m tools.calibration", description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(OUT), help="output directory (default: docs/calibration)")
     ap.add_argument("--report-only", action="store_true", help="no fit: the residuals of the current defaults")
     ap.add_argument("--max-nfev", type=int, default=fit.Settings.max_nfev, help="least_squares max_nfev per start")
