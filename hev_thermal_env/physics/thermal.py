@@ -12,7 +12,7 @@ T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; 
 in the motor temperature. Efficiency derate −1 point per 15 °C above 35 °C (``motor.py``), cutoff at 70 °C until
 cooled to 60 °C, and the winding's own protection (165 °C / 155 °C); ``enabled=False`` is ADVISOR's unmodified motor
 (the paper's baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m
-hev_thermal_env.calibration``; the two cooling conductances are set by the motor's rating (``rating.py``). Every
+tools.calibration`` (a checkout's workshop); the two cooling conductances are set by the motor's rating (``rating.py``). Every
 value's range and source: docs/thermal_model.md.
 """
 
