@@ -58,6 +58,10 @@ CANDIDATES = (
     ("udds2-40c-full-pump20-nofan-warm50", "udds*2", "paper", {**HOT_FULL, "pump": 0.2, "fan": False, "start_c": 50.0}),
     ("udds2-40c-full-pump10-warm50", "udds*2", "paper", {**HOT_FULL, "pump": 0.1, "start_c": 50.0}),
     ("udds2-40c-full-pump15-warm50", "udds*2", "paper", {**HOT_FULL, "pump": 0.15, "start_c": 50.0}),
+    ("udds-hilly-35c-full-pump10-warm58", "udds", "hilly", {**HOT_FULL, "ambient_c": 35.0, "pump": 0.1, "start_c": 58.0}),
+    ("udds-hilly-40c-full-pump20-nofan-warm58", "udds", "hilly",
+     {**HOT_FULL, "pump": 0.2, "fan": False, "start_c": 58.0}),
+    ("udds-hilly-40c-full-pump10-warm55", "udds", "hilly", {**HOT_FULL, "pump": 0.1, "start_c": 55.0}),
     ("udds3-40c-full-pump10", "udds*3", "paper", {**HOT_FULL, "pump": 0.1}),
     ("udds3-40c-full-pump15", "udds*3", "paper", {**HOT_FULL, "pump": 0.15}),
 )

@@ -165,6 +165,8 @@ _TASKS = (
     Task("hwfet", 2, "EPA highway cycle, the paper's conditions: sustained load, trace misses above 89 km/h",
          ("hwfet",), "paper"),
     Task("beijing", 2, "the synthetic Beijing-like city-bus cycle, the paper's conditions", ("beijing",), "paper"),
+    Task("udds-weak-loop", 2, "EPA urban cycle, a full bus an hour into service on a 40 °C day, the pump's flow at "
+         "10 % (weak_loop): knowing the heat pays", ("udds",), "weak_loop"),
 )
 TASKS: dict[str, Task] = {t.id: t for t in _TASKS}
 """The tasks by id."""
