@@ -34,7 +34,7 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from tqdm.auto import tqdm
 
-from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.agents import get_strategy, registered
 from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.agents.policy_files import LoadedPolicy
 from hev_thermal_env.envs import HevThermalEnv
@@ -88,10 +88,10 @@ def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[st
         algos = ", ".join(IMITATING_ALGORITHMS)
         raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only ({algos}; algo {algo}); set it to "
                          "null")
-    classic = [s for s in list_strategies() if s not in ("ppo", "sac")]
-    if not isinstance(teacher, str) or teacher not in classic or teacher.startswith("dp"):
+    teachers = [cls.name for cls in registered() if cls.teacher]
+    if not isinstance(teacher, str) or teacher not in teachers:
         raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "
-                         f"{', '.join(s for s in classic if not s.startswith('dp'))}")
+                         f"{', '.join(teachers)}")
     options = out["teacher_options"] = {} if out["teacher_options"] is None else out["teacher_options"]
     if not isinstance(options, dict):
         raise ValueError(f"init.teacher_options must be a mapping of {teacher}'s options (or null), got {options!r}")
