@@ -38,8 +38,8 @@ from hev_thermal_env.scenarios import get_scenario
 from hev_thermal_env.tasks import get_task, held_out_cycles
 
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
-from .imitation import check_init
-from .lagrangian import check_constraint
+from .imitation import InitConfig
+from .lagrangian import ConstraintConfig
 from .overrides import apply_overrides
 from .selection import DEFAULT_SCORER, get_scorer
 
@@ -131,11 +131,10 @@ def validate_config(config: dict[str, Any]) -> None:
     Fills ``env.observation_size`` and ``env.observation_names`` (what a trained policy expects)."""
     _validate_env(config["env"])
     _validate_eval(config["eval"], config["env"])
-    init = config.get("init")
-    if init is not None and not isinstance(init, dict):
-        raise ValueError(f"init={init!r}: expected a mapping (imitate, episodes, epochs, beyond_bound)")
-    config["init"] = check_init(dict(init or {}), config["algo"], config["env"]["observation_names"])
-    config["constraint"] = check_constraint(config.get("constraint"), config["algo"], config.get("task"))
+    init = InitConfig.from_dict(config.get("init")).for_run(config["algo"], config["env"]["observation_names"])
+    config["init"] = init.to_dict()
+    constraint = ConstraintConfig.of_run(config.get("constraint"), config["algo"], config.get("task"))
+    config["constraint"] = None if constraint is None else constraint.to_dict()
     ev = config["eval"]
     if config["normalize"] is not False:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
