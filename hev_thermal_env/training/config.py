@@ -13,12 +13,13 @@ after training ``result``. No run trains or selects checkpoints on a held-out ta
 from __future__ import annotations
 
 import copy
+import dataclasses
 import datetime as _dt
 import inspect
 import platform
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium
 import numpy as np
@@ -42,6 +43,7 @@ from .imitation import InitConfig
 from .lagrangian import ConstraintConfig
 from .overrides import apply_overrides
 from .selection import DEFAULT_SCORER, get_scorer
+from .settings import Section, setting
 
 #: The ``env`` section's settings (the environment a run trains on) and their defaults: every family of generated bus
 #: cycles, random service conditions, random starts, a 10 s preview.
@@ -57,6 +59,26 @@ EVAL_DEFAULTS = {"cycles": ["validation_bus:20..29"], "scenarios": ["paper", "fu
 NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters
                        if k not in ("self", "venv", "gamma"))
 NORMALIZE_DEFAULTS = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0}
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSettings(Section):
+    """The run's top-level numbers (the sections are records of their own: :class:`~.imitation.InitConfig`,
+    :class:`~.lagrangian.ConstraintConfig`)."""
+
+    NAME: ClassVar[str] = ""
+
+    seed: int = setting(0, "the run's seed (--seed)", kind="whole", min=0, max=2**32 - 1)
+    total_timesteps: int = setting(1_000_000, "timesteps to train (n_timesteps in a file)", kind="whole", min=1)
+    n_envs: int = setting(1, "training envs stepped together", kind="whole", min=1)
+    checkpoint_freq: int = setting(500_000, "timesteps between checkpoints", kind="whole", min=1)
+
+    @classmethod
+    def of(cls, config: dict[str, Any]) -> RunSettings:
+        return cls.from_dict({f.name: config[f.name] for f in dataclasses.fields(cls)})
+
+
+RUN_DEFAULTS = RunSettings()
 
 
 def versions() -> dict[str, str]:
@@ -105,9 +127,9 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
         normalize = {**NORMALIZE_DEFAULTS, **(normalize if isinstance(normalize, dict) else {})}
     init = dict(hp.pop("init", None) or {})
     constraint = hp.pop("constraint", None)
-    total = whole_number("n_timesteps", hp.pop("n_timesteps", 1_000_000))
-    envs = whole_number("n_envs", hp.pop("n_envs", 1))
-    ckpt = whole_number("checkpoint_freq", hp.pop("checkpoint_freq", 500_000))
+    total = whole_number("n_timesteps", hp.pop("n_timesteps", RUN_DEFAULTS.total_timesteps))
+    envs = whole_number("n_envs", hp.pop("n_envs", RUN_DEFAULTS.n_envs))
+    ckpt = whole_number("checkpoint_freq", hp.pop("checkpoint_freq", RUN_DEFAULTS.checkpoint_freq))
     hp.setdefault("policy", "MlpPolicy")
     config = {"algo": algo, "seed": whole_number("seed", seed), "total_timesteps": total, "n_envs": envs, "env": env,
               "normalize": normalize, "init": init, "constraint": constraint, "hyperparams": hp, "eval": ev,
@@ -138,12 +160,9 @@ def validate_config(config: dict[str, Any]) -> None:
     ev = config["eval"]
     if config["normalize"] is not False:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
-    for key, value, least in (("total_timesteps", config["total_timesteps"], 1), ("n_envs", config["n_envs"], 1),
-                              ("checkpoint_freq", config["checkpoint_freq"], 1), ("eval.freq", ev["freq"], 0)):
-        if whole_number(key, value) < least:
-            raise ValueError(f"{key} must be at least {least}, got {value}")
-    if not 0 <= config["seed"] < 2**32:
-        raise ValueError(f"seed must be in [0, 2**32 - 1], got {config['seed']} (--seed)")
+    RunSettings.of(config)
+    if whole_number("eval.freq", ev["freq"]) < 0:
+        raise ValueError(f"eval.freq must be at least 0, got {ev['freq']}")
     check_hyperparams(config["algo"], config["hyperparams"])
     _check_batch_sizes(config)
 

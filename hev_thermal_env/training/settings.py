@@ -42,8 +42,9 @@ def _problem(f: dataclasses.Field, value: Any) -> str | None:
     kind, lo, hi = f.metadata["kind"], f.metadata["min"], f.metadata["max"]
     if kind == "bool" and not isinstance(value, bool):
         return "must be true or false"
-    if kind == "whole" and (not isinstance(value, int) or isinstance(value, bool) or value < lo):
-        return f"must be a whole number of at least {lo}"
+    if kind == "whole" and (not isinstance(value, int) or isinstance(value, bool) or value < lo
+                            or (hi is not None and value > hi)):
+        return f"must be a whole number of at least {lo}" if hi is None else f"must be a whole number in [{lo}, {hi}]"
     if kind == "number":
         low_ok = _is_number(value) and math.isfinite(value) and (
             value > lo if f.metadata["min_exclusive"] else value >= lo)
@@ -57,7 +58,7 @@ def _problem(f: dataclasses.Field, value: Any) -> str | None:
 
 @dataclasses.dataclass(frozen=True)
 class Section:
-    """Base class: a section of the run config (:attr:`NAME` in its messages)."""
+    """Base class: a section of the run config (:attr:`NAME` in its messages; empty: the top level)."""
 
     NAME: ClassVar[str] = "section"
 
@@ -65,7 +66,8 @@ class Section:
         for f in dataclasses.fields(self):
             problem = _problem(f, getattr(self, f.name))
             if problem:
-                raise ValueError(f"{self.NAME}.{f.name} {problem}, got {getattr(self, f.name)!r}")
+                raise ValueError(f"{self.NAME + '.' if self.NAME else ''}{f.name} {problem}, got "
+                                 f"{getattr(self, f.name)!r}")
         self.validate()
 
     def validate(self) -> None:
@@ -80,8 +82,8 @@ class Section:
         """The section from a mapping (None: every default); unknown keys raise ``ValueError``."""
         if data is not None and not isinstance(data, dict):
             names = ", ".join(f.name for f in dataclasses.fields(cls))
-            raise ValueError(f"{cls.NAME}={data!r}: expected a mapping ({names})")
-        check_known(f"{cls.NAME} setting", data or {}, [f.name for f in dataclasses.fields(cls)])
+            raise ValueError(f"{cls.NAME or 'config'}={data!r}: expected a mapping ({names})")
+        check_known(f"{cls.NAME or 'run'} setting", data or {}, [f.name for f in dataclasses.fields(cls)])
         return cls(**(data or {}))
 
     def to_dict(self) -> dict[str, Any]:
