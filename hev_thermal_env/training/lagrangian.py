@@ -31,6 +31,7 @@ from hev_thermal_env.io import atomic_write_text
 
 from .settings import Section, setting
 
+
 @dataclasses.dataclass(frozen=True)
 class ConstraintConfig(Section):
     """The ``constraint`` section (numbers, stored as floats); :meth:`of_run` builds it for a run."""
