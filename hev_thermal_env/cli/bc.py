@@ -15,7 +15,6 @@ EXAMPLES = (
     "python evaluate.py leaderboard --results results/leaderboard_bc --out docs/leaderboard.md",
 )
 
-
 HELP = "behaviour cloning on a Minari dataset, scored on tasks"
 DESCRIPTION = ("Fit a small MLP to a dataset's actions (once per seed) and write the seed "
                "family's result file on each task (RESULTS_DIR/<task>/bc.json) for the "

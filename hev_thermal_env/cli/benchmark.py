@@ -39,7 +39,6 @@ EXAMPLES = (
     "python evaluate.py benchmark --executor ray --address HEAD:6379 --out results   # on a Ray cluster",
 )
 
-
 HELP = "every strategy on every cycle and scenario: table + plots"
 DESCRIPTION = ("Run every strategy on every cycle in every scenario; write results.csv, "
                "results.json, results.md, timings.json and PNG plots into --out. Every run "

@@ -12,7 +12,6 @@ EXAMPLES = (
     "python evaluate.py dataset --source rule --routes 12 --root data/minari   # 12 training routes",
 )
 
-
 HELP = "a Minari dataset of a strategy's episodes (offline RL)"
 DESCRIPTION = ("Drive a task's episodes (or generated training routes) with a source strategy "
                "through Minari's DataCollector and write the dataset, its card filled (physics "

@@ -22,7 +22,6 @@ EXAMPLES = (
     "python evaluate.py leaderboard --tasks hwfet --methods rule ecms --results-dir /tmp/r --out /tmp/board.md",
 )
 
-
 HELP = "every method on every task: normalised score, safety cost, profile plot"
 DESCRIPTION = ("Run this package's methods on every task that has current references (their "
                "result files are kept in --results-dir and reused), add the result files of "

@@ -17,7 +17,6 @@ EXAMPLES = (
     "python evaluate.py paper --quick --out /tmp/paper             # reduced resolution, a quick look",
 )
 
-
 HELP = "paper reproduction report (markdown + PNG)"
 DESCRIPTION = ("Our results beside the paper's Tables 2-3 and Figs. 4, 7-10: report.md, "
                "paper.json and the figures, written into --out.")

@@ -29,7 +29,6 @@ PAPER_ROWS = {None: ("off", "thermal off"), 30.0: ("30c", "30 °C start, coolant
 FIGURES = (("top speed", "top_speed_kmh", "km/h"), ("0-60 km/h", "accel_0_60_s", "s"),
            ("speed on 4 % grade", "grade_4pct_speed_kmh", "km/h"))
 
-
 HELP = "vehicle performance tests (paper Table 3)"
 DESCRIPTION = ("Top speed, 0-60 km/h time and 4 % grade speed of the bus, each beside the "
                "paper's value for the same row of its Table 3.")

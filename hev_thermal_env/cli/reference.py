@@ -25,7 +25,6 @@ EXAMPLES = (
     "python evaluate.py reference --table docs/tasks.md   # the stored references as a table, into the docs",
 )
 
-
 HELP = "a task's reference values: r0, the optimum's cost, the safety budget"
 DESCRIPTION = ("Run the thermal optimum and engine_only on every episode of a named task and "
                "store their costs, final SOCs, safety costs and the optimum's frontier with the "

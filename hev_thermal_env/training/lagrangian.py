@@ -70,8 +70,6 @@ class ConstraintConfig(Section):
         return cls.from_dict(section)
 
 
-#: The ``constraint`` section's settings and defaults (:class:`ConstraintConfig`).
-CONSTRAINT_DEFAULTS: dict[str, Any] = ConstraintConfig().to_dict()
 #: The algorithms that take a ``constraint`` section.
 CONSTRAINED_ALGORITHMS = ("ppo_lagrangian",)
 

@@ -18,6 +18,8 @@ from typing import Any, ClassVar, TypeVar
 
 import yaml
 
+from hev_thermal_env.physics.params import Params
+
 from .hyperparams import check_known
 
 S = TypeVar("S", bound="Section")
@@ -98,8 +100,5 @@ class Section:
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from None
 
-    def to_yaml(self, path: str | Path | None = None) -> str:
-        text = yaml.safe_dump(self.to_dict(), sort_keys=False)
-        if path is not None:
-            Path(path).write_text(text)
-        return text
+    #: The YAML text of :meth:`to_dict`, also written to ``path`` if given (the vehicle records' method).
+    to_yaml = Params.to_yaml
