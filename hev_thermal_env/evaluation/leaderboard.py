@@ -26,7 +26,7 @@ from hev_thermal_env.stats import CONFIDENCE, iqm
 from hev_thermal_env.tasks import get_task, list_tasks
 
 from .references import REFERENCE_DIR, StaleReferenceError, episode_score, load_reference
-from .score import SOC_BOUND, aggregate, score_text, usable
+from .score import ANCHOR, SOC_BOUND, aggregate, score_text, usable
 from .styles import pyplot
 from .submission import TRACKS, ResultFormatError, load_result, result_of_reference, result_of_strategy, track_of
 from .yardstick import REFERENCE, display_name
@@ -352,7 +352,7 @@ def _looks(keys: Sequence[tuple[str, str]], plt: Any) -> dict[tuple[str, str], d
     """One (colour, line style) pair per row: past the palette's length the styles change, so no two curves agree."""
     palette = plt.get_cmap("tab10" if len(keys) <= 10 else "tab20").colors
     return {k: {"color": palette[i % len(palette)], "lw": 2.2 if k[0] == REFERENCE else 1.6,
-                "ls": "--" if k[0] in ("engine_only", REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)]}
+                "ls": "--" if k[0] in (ANCHOR, REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)]}
             for i, k in enumerate(keys)}
 
 
