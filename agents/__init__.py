@@ -3,42 +3,37 @@ source folder is the top-level ``agents/``): ``get_strategy("dp", n_soc=801)``, 
 
 ``get_strategy("name:arg")`` builds the strategy with its class's ``from_label(arg, **options)`` if it has one (``ppo``:
 the text after the colon is a model path), else reports the run under the label ``"name:arg"`` (one strategy with
-several settings in a benchmark). A strategy's module is imported when it is first built (torch only for ``ppo``); the
-planners behind ``dp`` and ``dp_thermal`` are :mod:`hev_thermal_env.planning`. Beside the strategies: ``policies/`` (the
-shipped PPO policy), ``hyperparams/`` (:data:`HYPERPARAMS_DIR`) and :mod:`.policy_files` (the files of a trained policy:
-reading them, and the layout the training writes).
+several settings in a benchmark). Every module of this folder is imported with the package and registers its
+strategies (:func:`.base.register`: a strategy is one module, its facts on its class); none imports torch before ``ppo``
+is built. The planners behind ``dp`` and ``dp_thermal`` are :mod:`hev_thermal_env.planning`. Beside the strategies:
+``policies/`` (the shipped PPO policy), ``hyperparams/`` (:data:`HYPERPARAMS_DIR`) and :mod:`.policy_files` (the files
+of a trained policy: reading them, and the layout the training writes).
 """
 
 from __future__ import annotations
 
 import importlib
 import inspect
+import pkgutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .base import Strategy
+from .base import Strategy, register, registered, strategy_class
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 """The hyperparameter files of ``train.py`` (``<algo>.yaml``)."""
 
-#: Strategy name -> (module, class).
-_REGISTRY: dict[str, tuple[str, str]] = {
-    "engine_only": ("hev_thermal_env.agents.rule", "EngineOnly"),
-    "conventional": ("hev_thermal_env.agents.rule", "Conventional"),
-    "rule": ("hev_thermal_env.agents.rule", "RuleBased"),
-    "ecms": ("hev_thermal_env.agents.ecms", "ECMS"),
-    "aecms": ("hev_thermal_env.agents.ecms", "AdaptiveECMS"),
-    "ecms_thermal": ("hev_thermal_env.agents.ecms", "ThermalECMS"),
-    "dp": ("hev_thermal_env.agents.dp", "DPStrategy"),
-    "dp_thermal": ("hev_thermal_env.agents.optimum", "ThermalOptimumStrategy"),
-    "ppo": ("hev_thermal_env.agents.ppo", "PPOStrategy"),
-}
+#: Modules of this folder that hold no strategy.
+_NOT_STRATEGIES = ("base", "policy_files")
+for _module in pkgutil.iter_modules(__path__):
+    if _module.name not in _NOT_STRATEGIES and not _module.name.startswith("_"):
+        importlib.import_module(f"{__name__}.{_module.name}")
 
 
 def list_strategies() -> list[str]:
-    """Names accepted by :func:`get_strategy`."""
-    return list(_REGISTRY)
+    """Names accepted by :func:`get_strategy`, in their order (:attr:`.base.Strategy.order`)."""
+    return [cls.name for cls in registered()]
 
 
 def get_strategy(name: str, **options: Any) -> Strategy:
@@ -50,10 +45,9 @@ def get_strategy(name: str, **options: Any) -> Strategy:
     if not isinstance(name, str):
         raise ValueError(f"strategy name must be a string, got {type(name).__name__}")
     base, _, label = name.partition(":")
-    if base not in _REGISTRY:
+    factory = strategy_class(base)
+    if factory is None:
         raise ValueError(f"unknown strategy {name!r}; valid strategies: {', '.join(list_strategies())}")
-    module, cls = _REGISTRY[base]
-    factory = getattr(importlib.import_module(module), cls)
     from_label = getattr(factory, "from_label", None)
     build = from_label if label and from_label is not None else factory
     _check_options(base, build, options, skip=1 if build is from_label else 0)
@@ -80,4 +74,4 @@ def _check_options(base: str, build: Callable[..., Any], options: dict[str, Any]
         raise ValueError(f"strategy {base!r}: unknown option(s) {unknown}; valid options: {', '.join(known) or 'none'}")
 
 
-__all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies"]
+__all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies", "register", "registered", "strategy_class"]

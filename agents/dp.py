@@ -13,9 +13,10 @@ from hev_thermal_env.physics import core
 from hev_thermal_env.planning.problem import DPProblem, split_grid
 from hev_thermal_env.planning.soc_dp import WALL_G_PER_SOC, DPPlan, DPSettings, choose, rollout, solve
 
-from .base import Strategy
+from .base import Strategy, register
 
 
+@register
 class DPStrategy(Strategy):
     """Dynamic programming over the known cycle. At each real step it re-optimises one step over a finer u grid (its
     shares of the available regeneration while braking) against the plan's cost-to-go, from the actual state
@@ -29,6 +30,13 @@ class DPStrategy(Strategy):
     """
 
     name = "dp"
+    order = 70
+    colour = "#000000"
+    line_style = "-"
+    label_suffix = " (thermal-blind)"
+    optimum = True
+    in_benchmark = True
+    seconds_per_step = 0.004
     thermal_aware = False
 
     def __init__(self, n_soc: int = DPSettings.n_soc, n_u: int = DPSettings.n_u, n_u_exec: int = DPSettings.n_u_exec,

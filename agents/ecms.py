@@ -54,7 +54,7 @@ from hev_thermal_env.physics.config import LATEST_PHYSICS
 from hev_thermal_env.planning.problem import argmin_small_action
 from hev_thermal_env.prices import Prices
 
-from .base import Strategy
+from .base import Strategy, register
 
 #: ``ecms_thermal``'s heat-index prices: ``fixed`` (w_x) and ``margin`` (w_x scaled by the distance to the cutoff).
 X_PRICES = ("fixed", "margin")
@@ -76,10 +76,15 @@ def ecms_cost_g(out: np.ndarray, state_after: np.ndarray, s_eff: float, lhv_j_pe
     return base + s_eff * out[:, core.BATT_CHEM] * dt_s / lhv_j_per_g
 
 
+@register
 class ECMS(Strategy):
     """Equivalent consumption minimisation with an SOC penalty on the equivalence factor."""
 
     name = "ecms"
+    order = 40
+    colour = "#1f77b4"
+    teacher = True
+    in_benchmark = True
     thermal_aware = False
 
     def __init__(self, s: float = 2.9, k_soc: float = 1.0, penalty: str = "linear", n_u: int = 41,
@@ -134,10 +139,13 @@ class ECMS(Strategy):
                 "reward_equivalence_factor": REWARD_EQUIVALENCE_FACTOR}
 
 
+@register
 class AdaptiveECMS(ECMS):
     """A-ECMS: the equivalence factor follows a PI controller on the SOC error."""
 
     name = "aecms"
+    order = 50
+    colour = "#17becf"
 
     def __init__(self, s0: float = 2.9, kp: float = 20.0, ki: float = 0.01, integral_limit: float = 20.0,
                  n_u: int = 41, soc_target: float | None = None):
@@ -164,10 +172,13 @@ class AdaptiveECMS(ECMS):
                 "reward_equivalence_factor": REWARD_EQUIVALENCE_FACTOR}
 
 
+@register
 class ThermalECMS(ECMS):
     """ECMS that also prices the next heat index, temperature and cutoff (avoids derating and cutoff)."""
 
     name = "ecms_thermal"
+    order = 60
+    colour = "#9467bd"
     thermal_aware = True
 
     def __init__(self, s: float = 2.9, k_soc: float = 1.0, penalty: str = "linear", n_u: int = 41,

@@ -14,9 +14,10 @@ from hev_thermal_env.planning.problem import DPProblem
 from hev_thermal_env.planning.search import LOCAL_HALFWIDTH, N_LOCAL, REFINE_STRIDE, SearchGrid
 from hev_thermal_env.planning.thermal_optimum import BIN_BUDGET, FIRST_PASS_SCALE, OptimumPlan, OptimumSettings
 
-from .base import Strategy
+from .base import Strategy, register
 
 
+@register
 class ThermalOptimumStrategy(Strategy):
     """The thermal optimum: drives the planned action sequence; ``describe()`` reports the planned and replayed
     cost, the grid and the frontier (the cost as a function of final SOC).
@@ -28,6 +29,13 @@ class ThermalOptimumStrategy(Strategy):
     """
 
     name = "dp_thermal"
+    order = 80
+    colour = "#7f7f7f"
+    line_style = "--"
+    leaderboard_label = "dp_thermal (the optimum)"
+    optimum = True
+    in_benchmark = True
+    seconds_per_step = 0.06  # the plan searches: 0.03-0.12
     thermal_aware = True
 
     def __init__(self, grid_scale: float = 1.0, soc_bin: float | None = None, n_u: int | None = None,

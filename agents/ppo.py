@@ -23,7 +23,7 @@ import numpy as np
 
 from hev_thermal_env.envs.reward import OBSERVED_REWARD_FIELDS, RewardParams, observation_options
 
-from .base import Strategy
+from .base import Strategy, register
 from .policy_files import LoadedPolicy, load_policy
 
 DEFAULT_POLICY_DIR = Path(__file__).resolve().parent / "policies" / "ppo_default"
@@ -65,6 +65,7 @@ def observation_mismatch(policy: LoadedPolicy, env: Any) -> str | None:
     return f"ppo: {where} does not match this environment: " + "; ".join(differences)
 
 
+@register
 class PPOStrategy(Strategy):
     """A policy trained by ``train.py``; deterministic actions on normalised observations.
 
@@ -73,6 +74,11 @@ class PPOStrategy(Strategy):
     """
 
     name = "ppo"
+    order = 90
+    leaderboard_label = "ppo (shipped policy)"
+    learned = True
+    in_benchmark = True
+    overhead_s = 8.0  # loads torch in its worker first
 
     def __init__(self, path: str | Path | None = None, normalize: bool = True):
         self.policy = load_policy(DEFAULT_POLICY_DIR if path is None else path, normalize=normalize)

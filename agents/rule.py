@@ -38,13 +38,18 @@ import numpy as np
 
 from hev_thermal_env.physics import VehicleConfig, core, engine
 
-from .base import Strategy
+from .base import Strategy, register
 
 
+@register
 class EngineOnly(Strategy):
     """The hybrid bus with its motor unused: u = 0 at every step (no assist, no regeneration)."""
 
     name = "engine_only"
+    order = 20
+    colour = "#8c564b"
+    teacher = True
+    in_benchmark = True
     thermal_aware = False  # the motor gives no torque; its spinning losses heat it whatever the strategy
 
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
@@ -55,11 +60,16 @@ class EngineOnly(Strategy):
                 "action": 0.0}
 
 
+@register
 class Conventional(Strategy):
     """Another vehicle: the conventional bus (no motor), driven with action 0; a reference row, not compared with the
     hybrid's optimum."""
 
     name = "conventional"
+    order = 10  # another vehicle: the reference row, first
+    colour = "#393b79"
+    teacher = True
+    in_benchmark = True
     thermal_aware = False  # no motor: nothing to respect
     other_vehicle = True
 
@@ -75,10 +85,15 @@ class Conventional(Strategy):
                 "action": 0.0, "other_vehicle": True}
 
 
+@register
 class RuleBased(Strategy):
     """ADVISOR's parallel electric-assist control strategy (see the module docstring)."""
 
     name = "rule"
+    order = 30
+    colour = "#bcbd22"
+    teacher = True
+    in_benchmark = True
     thermal_aware = False
 
     def __init__(self, hi_soc: float = 0.7, lo_soc: float = 0.6, launch_spd_lo_mps: float = 0.0,

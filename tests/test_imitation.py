@@ -4,6 +4,9 @@ settings are checked before any work."""
 
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -13,11 +16,13 @@ from hev_thermal_env.training.envs import env_kwargs
 from hev_thermal_env.training.fit import fit_policy_mean, fit_weights
 from hev_thermal_env.training.imitation import (
     INIT_DEFAULTS,
+    InitConfig,
     check_init,
     demonstrations,
     teacher_of,
 )
 
+ROOT = Path(__file__).resolve().parents[1]
 ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": True, "preview_s": 10,
        "preview_step_s": 2, "thermal": True, "reward": {}}
 
@@ -98,6 +103,24 @@ def test_fit_brings_the_policy_mean_to_the_teacher_and_beyond_the_bound_where_it
     # fitted beyond the bound: the clipped mean gets there (the teacher also takes all the regeneration, u = 1, at
     # every braking step, which a plain fit reaches more easily: 0.56 against 0.28 of the steps at the bound)
     assert reached[0.25][0] > 1.5 * reached[0.0][0]
+
+
+def test_init_section_is_a_typed_record_with_a_yaml_round_trip(tmp_path):
+    """The shipped policy's ``init`` section loads unchanged and writes back the same; errors name the file."""
+    import yaml
+
+    shipped = yaml.safe_load((ROOT / "agents" / "policies" / "ppo_default" / "config.yaml").read_text())["init"]
+    init = InitConfig.from_dict(shipped).for_run("ppo")
+    assert init.to_dict() == shipped and InitConfig.from_yaml(_write(tmp_path / "init.yaml", init.to_yaml())) == init
+    with pytest.raises(ValueError, match=r"bad.yaml: init.episodes must be a whole number of at least 1, got 0"):
+        InitConfig.from_yaml(_write(tmp_path / "bad.yaml", "episodes: 0\n"))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        init.episodes = 3
+
+
+def _write(path, text):
+    path.write_text(text)
+    return path
 
 
 def test_init_settings_are_checked_in_one_line():

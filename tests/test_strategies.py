@@ -22,7 +22,7 @@ from hev_thermal_env.physics.core import BATT_CHEM, FUEL_G, HEAT_X, SHAFT_DEMAND
 from hev_thermal_env.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
-ALL = ("engine_only", "conventional", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")
+ALL = ("conventional", "engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")
 
 
 @pytest.fixture(scope="module")
@@ -45,6 +45,30 @@ def test_registry_lists_every_strategy():
         s = get_strategy(name)
         assert s.name == name
         assert isinstance(s.describe(), dict)
+
+
+def test_each_strategy_carries_its_facts_and_the_package_reads_them():
+    """A strategy is one module: the benchmark, the leaderboard, the figures and imitation read its class."""
+    from hev_thermal_env.agents import register, strategy_class
+    from hev_thermal_env.agents.base import Strategy
+    from hev_thermal_env.evaluation.benchmark import DEFAULT_STRATEGIES
+    from hev_thermal_env.evaluation.leaderboard import METHODS, label
+    from hev_thermal_env.evaluation.styles import ordered, strategy_styles
+    from hev_thermal_env.evaluation.yardstick import display_name
+
+    assert DEFAULT_STRATEGIES == (*ALL, "ppo")
+    assert METHODS == (*ALL[1:], "ppo")  # conventional drives another bus
+    assert ordered(["ppo", "dp_thermal", "x", "rule", "conventional"]) == ["conventional", "rule", "x", "dp_thermal",
+                                                                           "ppo"]
+    styles = strategy_styles(list(ALL))
+    assert styles["dp"] == {"color": "#000000", "lw": 0.9, "zorder": 3, "ls": "-"}
+    assert styles["dp_thermal"]["ls"] == "--" and "ls" not in styles["ecms"]
+    assert len({st["color"] for st in styles.values()}) == len(ALL)
+    assert display_name("dp:fine") == "dp:fine (thermal-blind)" and label("dp_thermal") == "dp_thermal (the optimum)"
+    assert [n for n in list_strategies() if strategy_class(n).teacher] == list(ALL[:6])
+    assert strategy_class("ppo:runs/x").learned and strategy_class("greedy") is None
+    with pytest.raises(ValueError, match="taken"):
+        register(type("Other", (Strategy,), {"name": "rule"}))
 
 
 def test_unknown_strategy_lists_the_valid_ones():

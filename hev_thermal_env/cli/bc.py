@@ -8,8 +8,6 @@ from pathlib import Path
 from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.tasks import get_task, held_out_cycles, list_tasks
 
-from .parsing import HelpFormatter, examples
-
 EXAMPLES = (
     "python evaluate.py dataset --source optimum --routes 4 --families bus_launch bus_hilly",
     "python evaluate.py bc --dataset hev-thermal/train-paper/optimum-v0 --tasks hwfet beijing "
@@ -17,14 +15,14 @@ EXAMPLES = (
     "python evaluate.py leaderboard --results results/leaderboard_bc --out docs/leaderboard.md",
 )
 
+HELP = "behaviour cloning on a Minari dataset, scored on tasks"
+DESCRIPTION = ("Fit a small MLP to a dataset's actions (once per seed) and write the seed "
+               "family's result file on each task (RESULTS_DIR/<task>/bc.json) for the "
+               "leaderboard. The dataset must come from training routes: one with a task's "
+               "cycles is refused.")
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bc", help="behaviour cloning on a Minari dataset, scored on tasks",
-                       description="Fit a small MLP to a dataset's actions (once per seed) and write the seed "
-                                   "family's result file on each task (RESULTS_DIR/<task>/bc.json) for the "
-                                   "leaderboard. The dataset must come from training routes: one with a task's "
-                                   "cycles is refused.",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dataset", required=True, metavar="ID", help="Minari dataset id (in $MINARI_DATASETS_PATH)")
     p.add_argument("--tasks", nargs="+", default=list_tasks(), metavar="NAME", help="tasks to score it on")
     p.add_argument("--epochs", type=int, default=60, help="passes over the dataset")

@@ -26,7 +26,6 @@ from hev_thermal_env.scenarios import list_scenarios
 from hev_thermal_env.tasks import get_task, list_tasks
 
 from .errors import report
-from .parsing import HelpFormatter, examples
 from .run import strategies_help
 
 EXAMPLES = (
@@ -40,14 +39,14 @@ EXAMPLES = (
     "python evaluate.py benchmark --executor ray --address HEAD:6379 --out results   # on a Ray cluster",
 )
 
+HELP = "every strategy on every cycle and scenario: table + plots"
+DESCRIPTION = ("Run every strategy on every cycle in every scenario; write results.csv, "
+               "results.json, results.md, timings.json and PNG plots into --out. Every run "
+               f"is measured against the thermal optimum {REFERENCE} of its cycle and scenario "
+               "(frontier ratio, fixed-price ratio); dp is thermal-blind.")
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("benchmark", help="every strategy on every cycle and scenario: table + plots",
-                       description="Run every strategy on every cycle in every scenario; write results.csv, "
-                                   "results.json, results.md, timings.json and PNG plots into --out. Every run "
-                                   f"is measured against the thermal optimum {REFERENCE} of its cycle and scenario "
-                                   "(frontier ratio, fixed-price ratio); dp is thermal-blind.",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
                    help=f"built-in cycles ({', '.join(list_cycles())}), generated ones (FAMILY:SEED, "
                         f"validation_bus:K), sets (validation_bus, validation_bus:A..B) or CSV paths "

@@ -7,20 +7,18 @@ import argparse
 from hev_thermal_env.evaluation.datasets import SOURCES, training_routes, write_dataset
 from hev_thermal_env.tasks import TRAINING_FAMILIES, list_tasks
 
-from .parsing import HelpFormatter, examples
-
 EXAMPLES = (
     "python evaluate.py dataset --source optimum --task hwfet          # hev-thermal/hwfet-v1/optimum-v0",
     "python evaluate.py dataset --source rule --routes 12 --root data/minari   # 12 training routes",
 )
 
+HELP = "a Minari dataset of a strategy's episodes (offline RL)"
+DESCRIPTION = ("Drive a task's episodes (or generated training routes) with a source strategy "
+               "through Minari's DataCollector and write the dataset, its card filled (physics "
+               "fingerprint, task id and digest or the routes, each episode's reset arguments).")
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("dataset", help="a Minari dataset of a strategy's episodes (offline RL)",
-                       description="Drive a task's episodes (or generated training routes) with a source strategy "
-                                   "through Minari's DataCollector and write the dataset, its card filled (physics "
-                                   "fingerprint, task id and digest or the routes, each episode's reset arguments).",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--source", required=True, choices=list(SOURCES), help="who drives (optimum = dp_thermal)")
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--task", metavar="NAME", help=f"a task ({', '.join(list_tasks())})")

@@ -16,8 +16,9 @@ import sys
 from .errors import program_name, run_program
 from .parsing import HelpFormatter, OneLineErrorParser, examples
 
-#: The subcommands, each a module of this package with ``add_parser(subparsers)`` and ``main(args) -> int``,
-#: imported by :func:`build_parser` (so that a Ctrl-C while they load is reported in one line).
+#: The subcommands, each a module of this package with ``HELP``, ``DESCRIPTION``, ``EXAMPLES``,
+#: ``add_arguments(parser)`` and ``main(args) -> int``, imported by :func:`build_parser` (so that a Ctrl-C while they
+#: load is reported in one line).
 SUBCOMMANDS = ("benchmark", "run", "paper", "performance", "reference", "dataset", "bc", "leaderboard")
 
 EXAMPLES = (
@@ -39,8 +40,10 @@ def build_parser(prog: str = "evaluate.py") -> argparse.ArgumentParser:
     sub.required = True
     for name in SUBCOMMANDS:
         module = importlib.import_module(f"{__package__}.{name}")
-        module.add_parser(sub)
-        sub.choices[name].set_defaults(main=module.main)
+        p = sub.add_parser(name, help=module.HELP, description=module.DESCRIPTION, formatter_class=HelpFormatter,
+                           epilog=examples(module.EXAMPLES))
+        module.add_arguments(p)
+        p.set_defaults(main=module.main)
     return parser
 
 

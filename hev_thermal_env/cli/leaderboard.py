@@ -16,21 +16,19 @@ from hev_thermal_env.evaluation.leaderboard import (
 from hev_thermal_env.evaluation.references import StaleReferenceError, load_reference
 from hev_thermal_env.tasks import get_task, list_tasks
 
-from .parsing import HelpFormatter, examples
-
 EXAMPLES = (
     "python evaluate.py leaderboard --out docs/leaderboard.md          # every task with references",
     "python evaluate.py leaderboard --results my_sac/ --out board.md    # with a method written elsewhere",
     "python evaluate.py leaderboard --tasks hwfet --methods rule ecms --results-dir /tmp/r --out /tmp/board.md",
 )
 
+HELP = "every method on every task: normalised score, safety cost, profile plot"
+DESCRIPTION = ("Run this package's methods on every task that has current references (their "
+               "result files are kept in --results-dir and reused), add the result files of "
+               f"--results, and write the page --out with {PROFILE_FILE} beside it.")
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("leaderboard", help="every method on every task: normalised score, safety cost, profile plot",
-                       description="Run this package's methods on every task that has current references (their "
-                                   "result files are kept in --results-dir and reused), add the result files of "
-                                   f"--results, and write the page --out with {PROFILE_FILE} beside it.",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--tasks", nargs="+", default=None, metavar="NAME",
                    help="tasks (default: every task with a current reference)")
     p.add_argument("--methods", nargs="+", default=list(METHODS), metavar="STRATEGY",

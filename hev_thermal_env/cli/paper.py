@@ -11,20 +11,18 @@ import argparse
 from hev_thermal_env.cycles import load_cycle
 from hev_thermal_env.io import check_writable_dir
 
-from .parsing import HelpFormatter, examples
-
 EXAMPLES = (
     "python evaluate.py paper --out results/paper",
     "python evaluate.py paper --cycles hwfet beijing --out results/paper",
     "python evaluate.py paper --quick --out /tmp/paper             # reduced resolution, a quick look",
 )
 
+HELP = "paper reproduction report (markdown + PNG)"
+DESCRIPTION = ("Our results beside the paper's Tables 2-3 and Figs. 4, 7-10: report.md, "
+               "paper.json and the figures, written into --out.")
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("paper", help="paper reproduction report (markdown + PNG)",
-                       description="Our results beside the paper's Tables 2-3 and Figs. 4, 7-10: report.md, "
-                                   "paper.json and the figures, written into --out.",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="results/paper", metavar="DIR", help="output directory")
     p.add_argument("--cycles", nargs="+", default=["hwfet", "udds", "beijing"], metavar="CYCLE",
                    help="cycles for Table 2 and Figs. 7-10 (built-in names or CSV paths)")

@@ -16,8 +16,6 @@ from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics.config import COOLANT_MODES
 from hev_thermal_env.physics.performance import performance_report
 
-from .parsing import HelpFormatter, examples
-
 EXAMPLES = (
     "python evaluate.py performance --no-thermal --json results/performance.json   # paper: thermal off",
     "python evaluate.py performance --initial-motor-temp-c 30 --coolant off         # paper: 30 °C start",
@@ -31,12 +29,12 @@ PAPER_ROWS = {None: ("off", "thermal off"), 30.0: ("30c", "30 °C start, coolant
 FIGURES = (("top speed", "top_speed_kmh", "km/h"), ("0-60 km/h", "accel_0_60_s", "s"),
            ("speed on 4 % grade", "grade_4pct_speed_kmh", "km/h"))
 
+HELP = "vehicle performance tests (paper Table 3)"
+DESCRIPTION = ("Top speed, 0-60 km/h time and 4 % grade speed of the bus, each beside the "
+               "paper's value for the same row of its Table 3.")
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("performance", help="vehicle performance tests (paper Table 3)",
-                       description="Top speed, 0-60 km/h time and 4 % grade speed of the bus, each beside the "
-                                   "paper's value for the same row of its Table 3.",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="PATH", help="write the figures as JSON here")
     p.add_argument("--config", metavar="YAML", help="vehicle config file (default: the built-in paper_bus)")
     p.add_argument("--no-thermal", action="store_true", help="thermal model off (the paper's ADVISOR baseline)")

@@ -18,8 +18,6 @@ from hev_thermal_env.evaluation.references import (
 )
 from hev_thermal_env.tasks import get_task, list_tasks
 
-from .parsing import HelpFormatter, examples
-
 EXAMPLES = (
     "python evaluate.py reference --task hwfet               # recompute and store hwfet-v1's reference",
     "python evaluate.py reference --task hwfet beijing --check   # say whether the stored ones are current",
@@ -27,13 +25,13 @@ EXAMPLES = (
     "python evaluate.py reference --table docs/tasks.md   # the stored references as a table, into the docs",
 )
 
+HELP = "a task's reference values: r0, the optimum's cost, the safety budget"
+DESCRIPTION = ("Run the thermal optimum and engine_only on every episode of a named task and "
+               "store their costs, final SOCs, safety costs and the optimum's frontier with the "
+               f"physics fingerprint and the task's digest; safety budget: {BUDGET_RULE}.")
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("reference", help="a task's reference values: r0, the optimum's cost, the safety budget",
-                       description="Run the thermal optimum and engine_only on every episode of a named task and "
-                                   "store their costs, final SOCs, safety costs and the optimum's frontier with the "
-                                   f"physics fingerprint and the task's digest; safety budget: {BUDGET_RULE}.",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--task", nargs="+", metavar="NAME", help=f"tasks ({', '.join(list_tasks())})")
     p.add_argument("--dir", default=None, metavar="DIR", help=f"where references are kept (default: {REFERENCE_DIR})")
     p.add_argument("--check", action="store_true", help="only check the stored references (exit 1 if one is stale)")

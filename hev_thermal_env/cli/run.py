@@ -13,8 +13,6 @@ from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_output_path
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 
-from .parsing import HelpFormatter, examples
-
 DP_STRATEGIES = ("dp", "dp_thermal")
 
 
@@ -33,12 +31,13 @@ def strategies_help() -> str:
     return f"{', '.join(names)}, ppo (the shipped policy) or ppo:PATH (a train.py run directory or model zip)"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="one strategy on one cycle: summary, JSON, trace CSV, plot",
-                       description="Drive one cycle with one energy-management strategy in HevThermal-v1 and "
-                                   "report fuel, corrected fuel, SOC, motor temperature, heat index, derating "
-                                   "and cutoff time.",
-                       formatter_class=HelpFormatter, epilog=examples(EXAMPLES))
+HELP = "one strategy on one cycle: summary, JSON, trace CSV, plot"
+DESCRIPTION = ("Drive one cycle with one energy-management strategy in HevThermal-v1 and "
+               "report fuel, corrected fuel, SOC, motor temperature, heat index, derating "
+               "and cutoff time.")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cycle", required=True, metavar="NAME",
                    help=f"built-in cycle ({', '.join(list_cycles())}), a generated one (FAMILY:SEED, e.g. "
                         f"bus_long:7, or validation_bus:K) or a CSV path (time_s,speed_mps[,grade])")

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.agents import Strategy, get_strategy, list_strategies, registered, strategy_class
 from hev_thermal_env.cycles import ImplausibleCycleWarning, load_cycle
 from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import check_writable_dir
@@ -42,19 +42,12 @@ from .yardstick import REFERENCE, add_yardstick_columns, with_reference
 
 DEFAULT_CYCLES = ("hwfet", "beijing")
 DEFAULT_SCENARIOS = ("paper",)
-DEFAULT_STRATEGIES = ("conventional", "engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
+DEFAULT_STRATEGIES = tuple(cls.name for cls in registered() if cls.in_benchmark)
+"""The registered strategies marked ``in_benchmark``, in their order."""
 REFERENCE_ADDED_NOTE = f"{REFERENCE} was added to the strategies: it is the reference of both ratios."
 TRACE_KEYS = ("time_s", "speed_mps", "cycle_speed_mps", "soc", "motor_temp_c", "heat_index", SPLIT_INFO_KEY,
               "motor_torque_nm", "engine_torque_nm", "fuel_g", "missed_wheel_energy_j", "motor_cutoff",
               "shaft_torque_demand_nm")
-#: Expected seconds of a run per second of cycle on one core, by strategy (the plan searches; dp_thermal: 0.03-0.12).
-SECONDS_PER_STEP = {"dp_thermal": 0.06, "dp": 0.004}
-#: The same for every other strategy (a drive through the cycle).
-OTHER_SECONDS_PER_STEP = 1e-4
-#: Expected seconds of a run besides its steps (building the strategy and the environment), by strategy: a
-#: learned policy loads torch in its worker first.
-OVERHEAD_S = {"ppo": 8.0}
-OTHER_OVERHEAD_S = 0.2
 #: A run in progress counts its elapsed time up to this fraction of its weight.
 RUNNING_CREDIT = 0.9
 BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]"
@@ -162,8 +155,8 @@ def _plotted_traces(traces: dict, rows: list[dict], strategies: list[str], famil
 
 def expected_cost_s(strategy: str, n_steps: int) -> float:
     """Expected seconds of one run of ``strategy`` over a cycle of ``n_steps`` seconds, without a plan on disk."""
-    base = strategy.split(":", 1)[0]
-    return OVERHEAD_S.get(base, OTHER_OVERHEAD_S) + SECONDS_PER_STEP.get(base, OTHER_SECONDS_PER_STEP) * n_steps
+    cls = strategy_class(strategy) or Strategy  # an unregistered name: the defaults of a drive through the cycle
+    return cls.overhead_s + cls.seconds_per_step * n_steps
 
 
 class BenchmarkProgress:

@@ -20,18 +20,20 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.agents import registered, strategy_class
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, files_digest, read_yaml_mapping, save_png
 from hev_thermal_env.stats import CONFIDENCE, iqm
 from hev_thermal_env.tasks import get_task, list_tasks
 
 from .references import REFERENCE_DIR, StaleReferenceError, episode_score, load_reference
-from .score import SOC_BOUND, aggregate, score_text, usable
+from .score import ANCHOR, SOC_BOUND, aggregate, score_text, usable
 from .styles import pyplot
 from .submission import TRACKS, ResultFormatError, load_result, result_of_reference, result_of_strategy, track_of
 from .yardstick import REFERENCE, display_name
 
-METHODS = ("engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal", "ppo")
-"""The package's methods on the leaderboard, in its order (``ppo``: the shipped policy)."""
+METHODS = tuple(cls.name for cls in registered() if cls.in_benchmark and not cls.other_vehicle)
+"""The package's methods on the leaderboard, in its order: the benchmark's strategies that drive this bus (``ppo``: the
+shipped policy)."""
 SAFETY_MARGIN = 1.05
 """A run whose safety cost exceeds this times the optimum's on its episode, where the optimum's is not zero, counts in
 ``above_optimum_safety``: it derated its motor more than the optimum needed."""
@@ -42,8 +44,9 @@ ZOOM = (80.0, 101.0)
 
 def label(method: str) -> str:
     """A method's name on the page."""
-    names = {REFERENCE: f"{REFERENCE} (the optimum)", "ppo": "ppo (shipped policy)"}
-    return names.get(method, display_name(method))
+    cls = strategy_class(method)
+    return cls.leaderboard_label if cls is not None and cls.leaderboard_label and method == cls.name \
+        else display_name(method)
 
 
 def shipped_policy_digest() -> str:
@@ -349,7 +352,7 @@ def _looks(keys: Sequence[tuple[str, str]], plt: Any) -> dict[tuple[str, str], d
     """One (colour, line style) pair per row: past the palette's length the styles change, so no two curves agree."""
     palette = plt.get_cmap("tab10" if len(keys) <= 10 else "tab20").colors
     return {k: {"color": palette[i % len(palette)], "lw": 2.2 if k[0] == REFERENCE else 1.6,
-                "ls": "--" if k[0] in ("engine_only", REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)]}
+                "ls": "--" if k[0] in (ANCHOR, REFERENCE) else STYLES[(i // len(palette)) % len(STYLES)]}
             for i, k in enumerate(keys)}
 
 

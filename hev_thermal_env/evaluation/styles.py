@@ -1,9 +1,10 @@
 """The look shared by every figure: the pyplot door, the order and colours of the strategies, legends outside.
 
-Strategies go from the simplest to the optimum (:data:`STRATEGY_ORDER`, led by ``conventional``, the reference
-vehicle; other names before DP), then the learned policies (``ppo``, ``ppo:PATH``, seed families passed as
-``learned``) in warm colours with thicker lines. A strategy has the same colour in every figure; ``dp`` is labelled
-thermal-blind (:func:`short_label`).
+Strategies go from the simplest to the optimum (by their classes' ``order``, led by ``conventional``, the reference
+vehicle; unregistered names before the optima), then the learned policies (``ppo``, ``ppo:PATH``, seed families passed
+as ``learned``) in warm colours with thicker lines. A registered strategy has its class's colour in every figure;
+``dp`` is labelled thermal-blind (:func:`short_label`). The facts come from the strategies' classes
+(:mod:`hev_thermal_env.agents.base`).
 """
 
 from __future__ import annotations
@@ -14,21 +15,13 @@ from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+from hev_thermal_env.agents import strategy_class
 from hev_thermal_env.io import save_png
 
 from .yardstick import display_name
 
 NON_INTERACTIVE_BACKENDS = ("agg", "pdf", "svg", "ps", "cairo")
 
-#: Classic strategies from the simplest to the optimum (``conventional`` first: another vehicle, the reference row).
-STRATEGY_ORDER = ("conventional", "engine_only", "rule", "ecms", "aecms", "ecms_thermal", "dp", "dp_thermal")
-#: Strategies whose names start with one of these are learned policies (``ppo``, ``ppo:PATH``).
-LEARNED_PREFIXES = ("ppo",)
-#: Strategies that are the optimum (the reference of the fuel ratio).
-OPTIMUM = ("dp", "dp_thermal")
-
-_CLASSIC_COLOURS = {"conventional": "#393b79", "engine_only": "#8c564b", "rule": "#bcbd22", "ecms": "#1f77b4",
-                    "aecms": "#17becf", "ecms_thermal": "#9467bd", "dp": "#000000", "dp_thermal": "#7f7f7f"}
 _OTHER_COLOURS = ("#2ca02c", "#98df8a", "#aec7e8", "#c5b0d5", "#c49c94")
 _LEARNED_COLOURS = ("#d62728", "#ff7f0e", "#e377c2", "#8b0000", "#ff9896")
 LEARNED_BAND_COLOUR = "#fde0dd"
@@ -53,20 +46,22 @@ def base_name(strategy: str) -> str:
 
 
 def is_learned(strategy: str, learned: Collection[str] = ()) -> bool:
-    """A learned policy: ``ppo``, ``ppo:PATH``, or a name (before any ``:``) in ``learned`` (seed families)."""
-    return base_name(strategy) in LEARNED_PREFIXES or base_name(strategy) in learned
+    """A learned policy: a learned strategy's name (``ppo``, ``ppo:PATH``), or a name (before any ``:``) in ``learned``
+    (seed families)."""
+    cls = strategy_class(strategy)
+    return (cls is not None and cls.learned) or base_name(strategy) in learned
 
 
 def ordered(strategies: Iterable[str], learned: Collection[str] = ()) -> list[str]:
     """The strategies from the simplest to the optimum, then the learned ones (each group stable)."""
     names = list(dict.fromkeys(strategies))
 
-    def rank(name: str) -> tuple[int, int]:
-        base = base_name(name)
+    def rank(name: str) -> tuple[float, ...]:
+        cls = strategy_class(name)
         if is_learned(name, learned):
             return (3, names.index(name))
-        if base in STRATEGY_ORDER:
-            return (2 if base in OPTIMUM else 0, STRATEGY_ORDER.index(base) * 1000 + names.index(name))
+        if cls is not None:
+            return (2 if cls.optimum else 0, cls.order, names.index(name))
         return (1, names.index(name))
 
     return sorted(names, key=rank)
@@ -90,15 +85,15 @@ def strategy_styles(strategies: Sequence[str], learned: Collection[str] = ()) ->
     styles: dict[str, dict[str, Any]] = {}
     learned_colours, other_colours = itertools.cycle(_LEARNED_COLOURS), itertools.cycle(_OTHER_COLOURS)
     for name in strategies:
-        base = base_name(name)
+        cls = strategy_class(name)
         if is_learned(name, learned):
             styles[name] = {"color": next(learned_colours), "lw": 1.6, "zorder": 5}
-        elif base in _CLASSIC_COLOURS and name == base:
-            styles[name] = {"color": _CLASSIC_COLOURS[base], "lw": 0.9, "zorder": 3}
+        elif cls is not None and cls.colour is not None and name == cls.name:
+            styles[name] = {"color": cls.colour, "lw": 0.9, "zorder": 3}
         else:
             styles[name] = {"color": next(other_colours), "lw": 0.9, "zorder": 3}
-        if base in OPTIMUM:
-            styles[name]["ls"] = "--" if base == "dp_thermal" else "-"
+        if cls is not None and cls.line_style is not None:
+            styles[name]["ls"] = cls.line_style
     return styles
 
 

@@ -5,7 +5,7 @@ The reference run publishes in its settings (``strategy_settings``) the optimum'
 (:func:`hev_thermal_env.metrics.yardstick_cost_g`) non-decreasing in it. :func:`add_yardstick_columns` gives each
 row ``frontier_ratio`` (``cost_g`` / F(``soc_final``), F interpolated on the frontier; None outside its range, with
 a ``frontier_note``), ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and ``reference``. ``dp`` plans with
-the thermal state held: labelled thermal-blind everywhere (:data:`BLIND_SUFFIX`). See docs/metrics.md.
+the thermal state held: labelled thermal-blind everywhere (its class's ``label_suffix``). See docs/metrics.md.
 """
 
 from __future__ import annotations
@@ -16,11 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from hev_thermal_env.agents import strategy_class
+
 REFERENCE = "dp_thermal"
 """The strategy whose run is the yardstick (added to every benchmark)."""
 BLIND_DP = "dp"
 """The thermal-blind DP, kept as the reference of ``fuel_vs_thermal_blind_dp_pct``."""
-BLIND_SUFFIX = " (thermal-blind)"
 SOC_TOLERANCE = 1e-9  # a final SOC this close to the frontier's end is on it (float round-off)
 
 
@@ -98,9 +99,10 @@ def with_reference(strategies: Iterable[str]) -> tuple[list[str], bool]:
 
 
 def display_name(strategy: str) -> str:
-    """The name tables and figures show: ``dp`` (and ``dp:LABEL``) marked thermal-blind."""
-    s = str(strategy)
-    return s + BLIND_SUFFIX if s.split(":", 1)[0] == BLIND_DP else s
+    """The name tables and figures show: with its class's ``label_suffix`` (``dp`` and ``dp:LABEL`` marked
+    thermal-blind)."""
+    cls = strategy_class(strategy)
+    return str(strategy) + (cls.label_suffix if cls is not None else "")
 
 
 def reference_text(ref_row: Mapping[str, Any] | None, frontier: Frontier | None) -> str:

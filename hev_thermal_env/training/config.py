@@ -12,13 +12,13 @@ after training ``result``. No run trains or selects checkpoints on a held-out ta
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 import datetime as _dt
 import inspect
 import platform
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium
 import numpy as np
@@ -35,28 +35,121 @@ from hev_thermal_env.envs.spaces import observation_names
 from hev_thermal_env.io import atomic_write_yaml, read_yaml_mapping
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
-from hev_thermal_env.tasks import get_task, held_out_cycles
+from hev_thermal_env.tasks import TRAINING_FAMILIES, get_task, held_out_cycles
 
 from .hyperparams import check_hyperparams, check_known, load_hyperparams
-from .imitation import check_init
-from .lagrangian import check_constraint
+from .imitation import InitConfig
+from .lagrangian import ConstraintConfig
 from .overrides import apply_overrides
 from .selection import DEFAULT_SCORER, get_scorer
+from .settings import Section, setting
 
-#: The ``env`` section's settings (the environment a run trains on) and their defaults: every family of generated bus
-#: cycles, random service conditions, random starts, a 10 s preview.
-ENV_DEFAULTS = {"cycles": ["random_bus", "bus_long", "bus_congested", "bus_launch", "bus_hilly", "bus_mixed",
-                           "bus_express"], "scenario": "random_service", "random_start": True, "preview_s": 10,
-                "preview_step_s": 2, "thermal": True, "reward": {}, "soc_offset": 0.0}
-#: The ``eval`` section's settings (the periodic evaluation) and their defaults. The checkpoints are scored on the
-#: last ten validation cycles (one of each rotating family, then five express routes); ``validation_bus:0..19`` are
-#: left for judging the trained policies.
-EVAL_DEFAULTS = {"cycles": ["validation_bus:20..29"], "scenarios": ["paper", "full_bus"], "freq": 100_000,
-                 "selection": DEFAULT_SCORER, "final_cycles": ["validation_bus"]}
 #: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's), and their defaults.
 NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters
                        if k not in ("self", "venv", "gamma"))
 NORMALIZE_DEFAULTS = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "clip_reward": 10.0}
+
+
+@dataclasses.dataclass(frozen=True)
+class RunSettings(Section):
+    """The run's top-level numbers (the sections are records of their own: :class:`~.imitation.InitConfig`,
+    :class:`~.lagrangian.ConstraintConfig`)."""
+
+    NAME: ClassVar[str] = ""
+
+    seed: int = setting(0, "the run's seed (--seed)", kind="whole", min=0, max=2**32 - 1)
+    total_timesteps: int = setting(1_000_000, "timesteps to train (n_timesteps in a file)", kind="whole", min=1)
+    n_envs: int = setting(1, "training envs stepped together", kind="whole", min=1)
+    checkpoint_freq: int = setting(500_000, "timesteps between checkpoints", kind="whole", min=1)
+
+    @classmethod
+    def of(cls, config: dict[str, Any]) -> RunSettings:
+        return cls.from_dict({f.name: config[f.name] for f in dataclasses.fields(cls)})
+
+
+RUN_DEFAULTS = RunSettings()
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvConfig(Section):
+    """The ``env`` section: the environment a run trains on (by default every family of generated bus cycles, random
+    service conditions, random starts, a 10 s preview); the check fills ``observation_size`` and
+    ``observation_names``, what a trained policy expects."""
+
+    NAME: ClassVar[str] = "env"
+
+    cycles: list[str] | str = setting(list(TRAINING_FAMILIES), "training cycles: names, families, sets or CSV paths")
+    scenario: str = setting("random_service", "the training scenario")
+    random_start: bool = setting(True, "episodes start anywhere in the cycle")
+    preview_s: int = setting(10, "seconds of the cycle ahead in the observation")
+    preview_step_s: int = setting(2, "the preview's step")
+    thermal: bool = setting(True, "the motor's thermal model on")
+    reward: dict[str, Any] | None = setting({}, "RewardParams fields set otherwise")
+    soc_offset: float = setting(0.0, "the SOC target's offset")
+    observation_size: int | None = setting(None, "filled by the check")
+    observation_names: list[str] | None = setting(None, "filled by the check")
+
+    def validate(self) -> None:
+        cycles = self.cycles if isinstance(self.cycles, list) else [self.cycles]
+        if not cycles:
+            raise ValueError("no training cycles given")
+        for c in expand_cycle_names(cycles):
+            if not is_family(c):
+                _refuse_held_out("env.cycles", c)
+                load_cycle(c)
+        get_scenario(self.scenario)
+        RewardParams.from_dict(dict(self.reward or {}), where="env.reward")
+        check_soc_offset(self.soc_offset, "env.soc_offset")
+        names = observation_names(whole_number("env.preview_s", self.preview_s),
+                                  whole_number("env.preview_step_s", self.preview_step_s))
+        for key, value in (("cycles", [str(c) for c in cycles]), ("observation_size", len(names)),
+                           ("observation_names", list(names))):
+            object.__setattr__(self, key, value)
+
+
+@dataclasses.dataclass(frozen=True)
+class EvalConfig(Section):
+    """The ``eval`` section: the periodic evaluation. The checkpoints are scored on the last ten validation cycles
+    (one of each rotating family, then five express routes); ``validation_bus:0..19`` are left for judging the
+    trained policies. :meth:`for_run` refuses a cycle the run also trains on."""
+
+    NAME: ClassVar[str] = "eval"
+
+    cycles: list[str] | None = setting(["validation_bus:20..29"], "the checkpoints' evaluation cycles")
+    scenarios: list[str] = setting(["paper", "full_bus"], "the evaluation scenarios (fixed conditions)")
+    freq: int = setting(100_000, "env-steps between evaluations (0: none)")
+    selection: str = setting(DEFAULT_SCORER, "the rule that picks best_model.zip (training.selection)")
+    final_cycles: list[str] | None = setting(["validation_bus"], "the best and final models' validation cycles")
+
+    def validate(self) -> None:
+        if whole_number("eval.freq", self.freq) < 0:
+            raise ValueError(f"eval.freq must be at least 0, got {self.freq}")
+        scorer = get_scorer(str(self.selection))
+        for s in self.scenarios:
+            if get_scenario(s).randomized and self.cycles:
+                raise ValueError(f"eval.selection {scorer.name} compares with a reference on the same conditions: "
+                                 f"the evaluation scenarios must be fixed, and {s!r} draws them at random")
+        for key in ("cycles", "final_cycles"):
+            object.__setattr__(self, key, [str(c) for c in (getattr(self, key) or [])])
+            for c in expand_cycle_names(getattr(self, key)):
+                _refuse_held_out(f"eval.{key}", c)
+                load_cycle(c)
+
+    def for_run(self, env: EnvConfig) -> EvalConfig:
+        trained = {str(c).strip().lower() for c in expand_cycle_names(env.cycles) if not is_family(c)}
+        for key in ("cycles", "final_cycles"):
+            for c in expand_cycle_names(getattr(self, key)):
+                if str(c).strip().lower() in trained:
+                    raise ValueError(f"eval.{key}: {c!r} is also a training cycle; a run must be scored on cycles "
+                                     "it does not train on")
+        return self
+
+
+#: The ``env`` and ``eval`` sections' settings and defaults.
+ENV_DEFAULTS = {f.name: f.default_factory() if callable(f.default_factory) else f.default
+                for f in dataclasses.fields(EnvConfig) if not f.name.startswith("observation_")}
+EVAL_DEFAULTS = {f.name: f.default_factory() if callable(f.default_factory) else f.default
+                 for f in dataclasses.fields(EvalConfig)}
 
 
 def versions() -> dict[str, str]:
@@ -97,7 +190,7 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
              "checkpoint_freq": checkpoint_freq}
     given = {k: list(v) if isinstance(v, (list, tuple)) else v for k, v in given.items() if v is not None}
     hp = apply_overrides(load_hyperparams(algo, hyperparams_file), {**(overrides or {}), **given})
-    env, ev = _with_defaults(hp.pop("env", None), ENV_DEFAULTS), _with_defaults(hp.pop("eval", None), EVAL_DEFAULTS)
+    env, ev = hp.pop("env", None), hp.pop("eval", None)
     normalize = hp.pop("normalize", None)
     if normalize is not False:
         if not isinstance(normalize, (dict, bool, type(None))):
@@ -105,9 +198,9 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
         normalize = {**NORMALIZE_DEFAULTS, **(normalize if isinstance(normalize, dict) else {})}
     init = dict(hp.pop("init", None) or {})
     constraint = hp.pop("constraint", None)
-    total = whole_number("n_timesteps", hp.pop("n_timesteps", 1_000_000))
-    envs = whole_number("n_envs", hp.pop("n_envs", 1))
-    ckpt = whole_number("checkpoint_freq", hp.pop("checkpoint_freq", 500_000))
+    total = whole_number("n_timesteps", hp.pop("n_timesteps", RUN_DEFAULTS.total_timesteps))
+    envs = whole_number("n_envs", hp.pop("n_envs", RUN_DEFAULTS.n_envs))
+    ckpt = whole_number("checkpoint_freq", hp.pop("checkpoint_freq", RUN_DEFAULTS.checkpoint_freq))
     hp.setdefault("policy", "MlpPolicy")
     config = {"algo": algo, "seed": whole_number("seed", seed), "total_timesteps": total, "n_envs": envs, "env": env,
               "normalize": normalize, "init": init, "constraint": constraint, "hyperparams": hp, "eval": ev,
@@ -117,34 +210,19 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
     return config
 
 
-def _with_defaults(section: dict[str, Any] | None, defaults: dict[str, Any]) -> dict[str, Any]:
-    """A section of the config with every setting it lacks set to its default."""
-    out = dict(section or {})
-    for key, value in defaults.items():
-        out.setdefault(key, copy.deepcopy(value))
-    return out
-
-
 def validate_config(config: dict[str, Any]) -> None:
     """Fail before any work, with one-line messages, on unknown names, wrong types and impossible numbers.
 
     Fills ``env.observation_size`` and ``env.observation_names`` (what a trained policy expects)."""
-    _validate_env(config["env"])
-    _validate_eval(config["eval"], config["env"])
-    init = config.get("init")
-    if init is not None and not isinstance(init, dict):
-        raise ValueError(f"init={init!r}: expected a mapping (imitate, episodes, epochs, beyond_bound)")
-    config["init"] = check_init(dict(init or {}), config["algo"], config["env"]["observation_names"])
-    config["constraint"] = check_constraint(config.get("constraint"), config["algo"], config.get("task"))
-    ev = config["eval"]
+    env = EnvConfig.from_dict(config["env"])
+    config["env"], config["eval"] = env.to_dict(), EvalConfig.from_dict(config["eval"]).for_run(env).to_dict()
+    init = InitConfig.from_dict(config.get("init")).for_run(config["algo"], config["env"]["observation_names"])
+    config["init"] = init.to_dict()
+    constraint = ConstraintConfig.of_run(config.get("constraint"), config["algo"], config.get("task"))
+    config["constraint"] = None if constraint is None else constraint.to_dict()
     if config["normalize"] is not False:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
-    for key, value, least in (("total_timesteps", config["total_timesteps"], 1), ("n_envs", config["n_envs"], 1),
-                              ("checkpoint_freq", config["checkpoint_freq"], 1), ("eval.freq", ev["freq"], 0)):
-        if whole_number(key, value) < least:
-            raise ValueError(f"{key} must be at least {least}, got {value}")
-    if not 0 <= config["seed"] < 2**32:
-        raise ValueError(f"seed must be in [0, 2**32 - 1], got {config['seed']} (--seed)")
+    RunSettings.of(config)
     check_hyperparams(config["algo"], config["hyperparams"])
     _check_batch_sizes(config)
 
@@ -162,45 +240,6 @@ def _check_batch_sizes(config: dict[str, Any]) -> None:
     least = 2 if on_policy else 1
     if "batch_size" in hp and whole_number("batch_size", hp["batch_size"]) < least:
         raise ValueError(f"batch_size must be at least {least}, got {hp['batch_size']}")
-
-
-def _validate_eval(ev: dict[str, Any], env: dict[str, Any]) -> None:
-    """The evaluation settings: cycles load, scenarios exist, the scorer resolves, nothing is both trained and
-    evaluated on."""
-    check_known("eval setting", ev, EVAL_DEFAULTS)
-    scorer = get_scorer(str(ev["selection"]))
-    for s in ev["scenarios"]:
-        if get_scenario(s).randomized and ev["cycles"]:
-            raise ValueError(f"eval.selection {scorer.name} compares with a reference on the same conditions: the "
-                             f"evaluation scenarios must be fixed, and {s!r} draws them at random")
-    trained = {str(c).strip().lower() for c in expand_cycle_names(env["cycles"]) if not is_family(c)}
-    for key in ("cycles", "final_cycles"):
-        ev[key] = [str(c) for c in (ev[key] or [])]
-        for c in expand_cycle_names(ev[key]):
-            _refuse_held_out(f"eval.{key}", c)
-            load_cycle(c)
-            if str(c).strip().lower() in trained:
-                raise ValueError(f"eval.{key}: {c!r} is also a training cycle; a run must be scored on cycles it does "
-                                 f"not train on")
-
-
-def _validate_env(env: dict[str, Any]) -> None:
-    check_known("env setting", env, (*ENV_DEFAULTS, "observation_size", "observation_names"))
-    cycles = env["cycles"] if isinstance(env["cycles"], list) else [env["cycles"]]
-    if not cycles:
-        raise ValueError("no training cycles given")
-    for c in expand_cycle_names(cycles):
-        if not is_family(c):
-            _refuse_held_out("env.cycles", c)
-            load_cycle(c)
-    env["cycles"] = [str(c) for c in cycles]
-    get_scenario(env["scenario"])
-    RewardParams.from_dict(dict(env.get("reward") or {}), where="env.reward")
-    check_soc_offset(env["soc_offset"], "env.soc_offset")
-    names = observation_names(whole_number("env.preview_s", env["preview_s"]),
-                              whole_number("env.preview_step_s", env["preview_step_s"]))
-    env["observation_size"] = len(names)
-    env["observation_names"] = list(names)
 
 
 def _refuse_held_out(key: str, cycle: Any) -> None:

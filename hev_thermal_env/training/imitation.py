@@ -23,9 +23,10 @@ teacher's own cost of the student's action): :mod:`.fit`.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 import torch
@@ -34,7 +35,7 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from tqdm.auto import tqdm
 
-from hev_thermal_env.agents import get_strategy, list_strategies
+from hev_thermal_env.agents import get_strategy, registered
 from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.agents.policy_files import LoadedPolicy
 from hev_thermal_env.envs import HevThermalEnv
@@ -50,13 +51,8 @@ from .fit import (
     mean_cost_excess_g,
     near_derating,
 )
-from .hyperparams import check_known
+from .settings import Section, setting
 
-#: The ``init`` section's keys and defaults (no imitation unless the hyperparameter file asks for it).
-INIT_DEFAULTS: dict[str, Any] = {"imitate": None, "teacher_options": {}, "episodes": 60, "epochs": 30,
-                                 "beyond_bound": 0.25, "noise": 0.0, "freeze_obs_stats": False, "refit_batches": 0,
-                                 "refit_lr": 1e-4, "refit_decay": False, "dagger_every": 0, "dagger_episodes": 20,
-                                 "heat_weight": 0.0, "heat_weight_above_x": 0.0, "cost_weight": 0.0}
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 #: An entry whose variance over the demonstrations is at most this the teacher never moves (``ecms_thermal`` with its
@@ -65,85 +61,96 @@ IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 MIN_FROZEN_VAR = 1e-12
 
 
-def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[str] = ()) -> dict[str, Any]:
-    """The ``init`` section completed with its defaults; one-line errors for unknown keys and bad values. ``names``:
-    the env's observation names, which ``freeze_obs_stats`` may list."""
-    check_known("init setting", init, INIT_DEFAULTS)
-    out = {**INIT_DEFAULTS, **init}
-    teacher = out["imitate"]
-    f = out["freeze_obs_stats"]
-    if not isinstance(f, bool) and not (isinstance(f, list) and f and all(isinstance(n, str) for n in f)):
-        raise ValueError(f"init.freeze_obs_stats must be true, false or a list of observation names, got {f!r}")
-    if isinstance(f, list) and names:
-        unknown = [n for n in f if n not in names]
-        if unknown:
-            raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: "
-                             f"{', '.join(names)}")
-    if teacher is None:
-        if f is not False:
+@dataclasses.dataclass(frozen=True)
+class InitConfig(Section):
+    """The ``init`` section: the imitation start (module docstring); no imitation unless the hyperparameter file asks
+    for it. :meth:`for_run` adds the checks that need the run (its algorithm and observations)."""
+
+    NAME: ClassVar[str] = "init"
+
+    imitate: str | None = setting(None, "the teacher, a step-by-step classic strategy (null: start from scratch)")
+    teacher_options: dict[str, Any] | None = setting({}, "the teacher's options (get_strategy; null: its defaults)")
+    episodes: int = setting(60, "demonstration episodes driven by the teacher", kind="whole", min=1)
+    epochs: int = setting(30, "passes of the fit over the demonstrations", kind="whole", min=0)
+    beyond_bound: float = setting(0.25, "fit target beyond the upper bound where the teacher sits at it",
+                                  kind="number", min=0.0, max=1.0)
+    noise: float = setting(0.0, "noise on the driven action", kind="number", min=0.0, max=1.0,
+                           what=" (the spread of the driven action)")
+    freeze_obs_stats: bool | list[str] = setting(False, "observation statistics kept at the demonstrations'")
+    refit_batches: int = setting(0, "batches of the demonstrations fitted again after every rollout", kind="whole",
+                                 min=0)
+    refit_lr: float = setting(1e-4, "the refit's learning rate", kind="number", min=0.0, max=1.0, min_exclusive=True)
+    refit_decay: bool = setting(False, "the refit's learning rate decays with the run", kind="bool")
+    dagger_every: int = setting(0, "timesteps between DAgger rounds (0: none)", kind="whole", min=0)
+    dagger_episodes: int = setting(20, "episodes the student drives per DAgger round", kind="whole", min=0)
+    heat_weight: float = setting(0.0, "the fit's extra weight near derating", kind="number", min=0.0, max=1000.0,
+                                 what=" (the extra weight of a state near derating)")
+    heat_weight_above_x: float = setting(0.0, "where the extra weight starts", kind="number", min=-0.3, max=1.0,
+                                         what=" (a heat-index integrator value)")
+    cost_weight: float = setting(0.0, "the weight of the teacher's cost of the student's action", kind="number",
+                                 min=0.0, max=1000.0,
+                                 what=" (1/g: the weight of the teacher's cost of the student's action)")
+
+    def validate(self) -> None:
+        f = self.freeze_obs_stats
+        if not isinstance(f, bool) and not (isinstance(f, list) and f and all(isinstance(n, str) for n in f)):
+            raise ValueError(f"init.freeze_obs_stats must be true, false or a list of observation names, got {f!r}")
+        if self.imitate is None and f is not False:
             raise ValueError("init.freeze_obs_stats keeps the statistics of an imitation start; set init.imitate "
                              "or leave it false")
-        return out
-    if algo not in IMITATING_ALGORITHMS:
-        algos = ", ".join(IMITATING_ALGORITHMS)
-        raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only ({algos}; algo {algo}); set it to "
-                         "null")
-    classic = [s for s in list_strategies() if s not in ("ppo", "sac")]
-    if not isinstance(teacher, str) or teacher not in classic or teacher.startswith("dp"):
-        raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "
-                         f"{', '.join(s for s in classic if not s.startswith('dp'))}")
-    options = out["teacher_options"] = {} if out["teacher_options"] is None else out["teacher_options"]
-    if not isinstance(options, dict):
-        raise ValueError(f"init.teacher_options must be a mapping of {teacher}'s options (or null), got {options!r}")
-    try:
-        teacher = teacher_of(out)
-    except ValueError as e:
-        raise ValueError(f"init.teacher_options: {e} (another teacher: set init.teacher_options=null for its "
-                         "defaults)") from None
-    for key, least in (("episodes", 1), ("epochs", 0)):
-        value = out[key]
-        if isinstance(value, bool) or not isinstance(value, int) or value < least:
-            raise ValueError(f"init.{key} must be a whole number of at least {least}, got {value!r}")
-    _check_number(out, "beyond_bound", 0.0, 1.0)
-    n = out["refit_batches"]
-    if isinstance(n, bool) or not isinstance(n, int) or n < 0:
-        raise ValueError(f"init.refit_batches must be a whole number of at least 0, got {n!r}")
-    for key in ("dagger_every", "dagger_episodes"):
-        value = out[key]
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise ValueError(f"init.{key} must be a whole number of at least 0, got {value!r}")
-    if out["dagger_every"] and not n:
-        raise ValueError("init.dagger_every adds the student's states to the refitted demonstrations; set "
-                         "init.refit_batches > 0 or leave it 0")
-    if not isinstance(out["refit_decay"], bool):
-        raise ValueError(f"init.refit_decay must be true or false, got {out['refit_decay']!r}")
-    r = out["refit_lr"]
-    if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < float(r) <= 1.0:
-        raise ValueError(f"init.refit_lr must be a number in (0, 1], got {r!r}")
-    _check_fit(out, teacher)
-    _check_number(out, "noise", 0.0, 1.0, " (the spread of the driven action)")
-    return out
+        if self.teacher_options is None:
+            object.__setattr__(self, "teacher_options", {})
+        if not isinstance(self.teacher_options, dict):
+            raise ValueError(f"init.teacher_options must be a mapping of {self.imitate}'s options (or null), got "
+                             f"{self.teacher_options!r}")
+        if self.dagger_every and not self.refit_batches:
+            raise ValueError("init.dagger_every adds the student's states to the refitted demonstrations; set "
+                             "init.refit_batches > 0 or leave it 0")
+
+    def for_run(self, algo: str, names: tuple[str, ...] | list[str] = ()) -> InitConfig:
+        """This section, checked against the run: an imitation start needs a PPO algorithm and a teacher that can be
+        built with its options (and prices its actions for ``cost_weight``); ``freeze_obs_stats`` may list the
+        env's observation ``names`` only."""
+        f = self.freeze_obs_stats
+        if isinstance(f, list) and names:
+            unknown = [n for n in f if n not in names]
+            if unknown:
+                raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: "
+                                 f"{', '.join(names)}")
+        teacher = self.imitate
+        if teacher is None:
+            return self
+        if algo not in IMITATING_ALGORITHMS:
+            algos = ", ".join(IMITATING_ALGORITHMS)
+            raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only ({algos}; algo {algo}); set "
+                             "it to null")
+        teachers = [cls.name for cls in registered() if cls.teacher]
+        if not isinstance(teacher, str) or teacher not in teachers:
+            raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "
+                             f"{', '.join(teachers)}")
+        try:
+            strategy = teacher_of(self.to_dict())
+        except ValueError as e:
+            raise ValueError(f"init.teacher_options: {e} (another teacher: set init.teacher_options=null for its "
+                             "defaults)") from None
+        if self.cost_weight and not hasattr(strategy, "cost_curve_g"):
+            raise _unpriced(strategy)
+        return self
 
 
-def _check_fit(init: dict[str, Any], teacher: Strategy) -> None:
-    """The fit's weights (:mod:`.fit`); ``init.cost_weight`` needs a teacher that prices its candidates."""
-    _check_number(init, "heat_weight", 0.0, 1000.0, " (the extra weight of a state near derating)")
-    _check_number(init, "heat_weight_above_x", -0.3, 1.0, " (a heat-index integrator value)")
-    _check_number(init, "cost_weight", 0.0, 1000.0, " (1/g: the weight of the teacher's cost of the student's action)")
-    if init["cost_weight"] and not hasattr(teacher, "cost_curve_g"):
-        raise _unpriced(teacher)
+INIT_DEFAULTS: dict[str, Any] = InitConfig().to_dict()
+"""The ``init`` section's keys and defaults."""
+
+
+def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[str] = ()) -> dict[str, Any]:
+    """The ``init`` section completed with its defaults (:class:`InitConfig`); one-line errors for unknown keys and
+    bad values. ``names``: the env's observation names, which ``freeze_obs_stats`` may list."""
+    return InitConfig.from_dict(init).for_run(algo, names).to_dict()
 
 
 def _unpriced(teacher: Strategy) -> ValueError:
     return ValueError(f"init.cost_weight: the teacher {teacher.name!r} does not price its candidate actions; use "
                       "ecms, aecms or ecms_thermal, or set init.cost_weight to 0")
-
-
-def _check_number(init: dict[str, Any], key: str, lo: float, hi: float, what: str = "") -> None:
-    """``init[key]`` must be a number in [lo, hi]; else a one-line error naming it."""
-    value = init[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= float(value) <= hi:
-        raise ValueError(f"init.{key} must be a number in [{lo:g}, {hi:g}]{what}, got {value!r}")
 
 
 class FrozenRunningMeanStd(RunningMeanStd):

@@ -13,30 +13,63 @@ policy derates more than the budget allows and falls back towards 0 while it sta
 relaxation of the constrained problem max E[return] s.t. E[cost] ≤ d, solved by alternating policy and multiplier
 steps. The budget is a rate because training episodes differ in length (random starts, generated routes).
 
-The ``constraint`` section of the run config holds the settings (:data:`CONSTRAINT_DEFAULTS`); the multiplier's
+The ``constraint`` section of the run config holds the settings (:class:`ConstraintConfig`); the multiplier's
 history is saved with each checkpoint and in ``lagrangian.csv`` of the run directory.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
-import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from hev_thermal_env.io import atomic_write_text
 
-from .hyperparams import check_known
+from .settings import Section, setting
 
-#: The ``constraint`` section's settings and defaults. ``budget_s_per_h``: the allowed episode safety cost per hour
-#: driven (36 s/h: one per cent of the time with the motor fully derated), or ``task`` for the budget stored with the
-#: training task's references (:func:`task_budget_s_per_h`); ``lambda_lr``: λ's step per update, in g/s of λ per s/h
-#: of excess; ``lambda_init``, ``lambda_max``: λ's start and ceiling (g of fuel per second of safety cost).
-CONSTRAINT_DEFAULTS: dict[str, Any] = {"budget_s_per_h": 36.0, "lambda_init": 0.0, "lambda_lr": 0.005,
-                                       "lambda_max": 50.0}
+
+@dataclasses.dataclass(frozen=True)
+class ConstraintConfig(Section):
+    """The ``constraint`` section (numbers, stored as floats); :meth:`of_run` builds it for a run."""
+
+    NAME: ClassVar[str] = "constraint"
+
+    budget_s_per_h: float = setting(36.0, "the allowed episode safety cost per hour driven (36 s/h: one per cent of "
+                                    "the time with the motor fully derated), or 'task' for the budget stored with "
+                                    "the training task's references (task_budget_s_per_h)", kind="number", min=0.0)
+    lambda_init: float = setting(0.0, "λ's start (g of fuel per second of safety cost)", kind="number", min=0.0)
+    lambda_lr: float = setting(0.005, "λ's step per update, in g/s of λ per s/h of excess", kind="number", min=0.0)
+    lambda_max: float = setting(50.0, "λ's ceiling (g of fuel per second of safety cost)", kind="number", min=0.0)
+
+    def validate(self) -> None:
+        for f in dataclasses.fields(self):
+            object.__setattr__(self, f.name, float(getattr(self, f.name)))
+        if self.lambda_init > self.lambda_max:
+            raise ValueError(f"constraint.lambda_init={self.lambda_init} is above lambda_max={self.lambda_max}")
+
+    @classmethod
+    def of_run(cls, section: Any, algo: str, task_id: str | None) -> ConstraintConfig | None:
+        """The section of a run of ``algo`` (None for an unconstrained algorithm, which must not have one); a budget
+        of ``task`` is the training task's (``task_id``)."""
+        if algo not in CONSTRAINED_ALGORITHMS:
+            if section:
+                raise ValueError(f"constraint: algorithm {algo} is unconstrained; the constraint section belongs to "
+                                 f"{', '.join(CONSTRAINED_ALGORITHMS)}")
+            return None
+        if isinstance(section, dict) and section.get("budget_s_per_h") == "task":
+            budget = task_budget_s_per_h(task_id)
+            if budget is None:
+                raise ValueError(f"constraint.budget_s_per_h=task: no current safety budget is stored for task "
+                                 f"{task_id} (train with --task, and see python evaluate.py reference --check); give "
+                                 "the budget in seconds of safety cost per hour driven")
+            section = {**section, "budget_s_per_h": budget}
+        return cls.from_dict(section)
+
+
 #: The algorithms that take a ``constraint`` section.
 CONSTRAINED_ALGORITHMS = ("ppo_lagrangian",)
 
@@ -61,35 +94,6 @@ def task_budget_s_per_h(task_id: str | None) -> float | None:
         return None
     hours = [load_cycle(e["cycle"]).n_steps / 3600.0 for e in ref["episodes"]]
     return float(ref["safety_budget_s"]) / float(np.mean(hours))
-
-
-def check_constraint(section: Any, algo: str, task_id: str | None) -> dict[str, Any] | None:
-    """The ``constraint`` section completed with its defaults (None for an unconstrained algorithm); one-line
-    ``ValueError`` on unknown keys, bad values, or a constraint given to an algorithm that does not use one."""
-    if algo not in CONSTRAINED_ALGORITHMS:
-        if section:
-            raise ValueError(f"constraint: algorithm {algo} is unconstrained; the constraint section belongs to "
-                             f"{', '.join(CONSTRAINED_ALGORITHMS)}")
-        return None
-    if section is not None and not isinstance(section, dict):
-        raise ValueError(f"constraint={section!r}: expected a mapping ({', '.join(CONSTRAINT_DEFAULTS)})")
-    check_known("constraint setting", section or {}, CONSTRAINT_DEFAULTS)
-    out = {**CONSTRAINT_DEFAULTS, **(section or {})}
-    if out["budget_s_per_h"] == "task":
-        budget = task_budget_s_per_h(task_id)
-        if budget is None:
-            raise ValueError(f"constraint.budget_s_per_h=task: no current safety budget is stored for task {task_id} "
-                             "(train with --task, and see python evaluate.py reference --check); give the budget in "
-                             "seconds of safety cost per hour driven")
-        out["budget_s_per_h"] = budget
-    for key in CONSTRAINT_DEFAULTS:
-        value = out[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise ValueError(f"constraint.{key} must be a number of at least 0, got {value!r}")
-        out[key] = float(value)
-    if out["lambda_init"] > out["lambda_max"]:
-        raise ValueError(f"constraint.lambda_init={out['lambda_init']} is above lambda_max={out['lambda_max']}")
-    return out
 
 
 class LagrangeMultiplier:
