@@ -119,5 +119,6 @@ class PPOStrategy(Strategy):
             "total_timesteps": cfg.get("total_timesteps"), "train_cycles": env_cfg.get("cycles"),
             "train_scenario": env_cfg.get("scenario"), "preview_s": env_cfg.get("preview_s"),
             "preview_step_s": env_cfg.get("preview_step_s"), "normalized_obs": self.policy.stats is not None,
+            "imitate": (cfg.get("init") or {}).get("imitate"),
         }
 

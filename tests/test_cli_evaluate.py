@@ -246,3 +246,20 @@ def test_paper_report_quick_within_tolerances(tmp_path, tiny_cycles):
     assert {"accel_30c_delta_s", "accel_50c_delta_s", "udds_fuel_delta_l100"} <= {v["name"] for v in data["verdicts"]}
     assert {r["cycle"] for r in data["fuel_levels"]} == {"hwfet", "udds", "beijing"}
 
+
+
+def test_the_results_name_each_learned_rows_track():
+    """A learned row's track (docs/training.md, *Two tracks*): guided where its training imitates a strategy (the
+    shipped policy imitates ecms_thermal), RL where it does not; classic rows have none."""
+    from hev_thermal_env.agents import get_strategy
+    from hev_thermal_env.evaluation.results_table import _track_lines
+
+    shipped = get_strategy("ppo").describe()
+    assert shipped["imitate"] == "ecms_thermal"
+    rows = [{"strategy": "ppo", "strategy_settings": shipped},
+            {"strategy": "ppo:runs/pure", "strategy_settings": {**shipped, "imitate": None}},
+            {"strategy": "ecms", "strategy_settings": {"s": 2.9}}]
+    (line,) = [x for x in _track_lines(rows) if x]
+    assert "`ppo` guided (its training imitates `ecms_thermal`)" in line and "`ppo:runs/pure` RL." in line
+    assert "ecms`" not in line
+    assert _track_lines(rows[2:]) == []

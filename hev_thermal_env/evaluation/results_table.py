@@ -160,7 +160,7 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
                      [[r["strategy"], str(r["seeds"]), str(r["runs"]), ratio_text(r, "frontier_ratio"), _score_cell(r),
                        ratio_text(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
     md += _score_summary(rows)
-    md += ["", *_reference_lines(rows), *_heat_value_lines(rows), "", EXPLANATION]
+    md += ["", *_reference_lines(rows), *_heat_value_lines(rows), *_track_lines(rows), "", EXPLANATION]
     if any(_is_family_row(r) for r in rows):
         md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "
                    "brackets; each seed's row is in results.csv and results.json (column `family`)."]
@@ -201,6 +201,23 @@ def _heat_value_lines(rows: list[dict]) -> list[str]:
         return []
     return ["", f"The value of knowing the heat (`{BLIND_DP}` ÷ `{REFERENCE}`, the thermal-blind plan driven on the "
                 f"thermal physics over the optimum, at equal charge): {', '.join(values)}."]
+
+
+def _track_lines(rows: list[dict]) -> list[str]:
+    """The track of each learned row (docs/training.md, *Two tracks*): *guided* where its training imitates a
+    strategy (its settings' ``imitate``), else *RL* (the env's reward alone)."""
+    tracks: dict[str, str] = {}
+    for r in rows:
+        settings = r.get("strategy_settings") or {}
+        if "imitate" in settings and not _is_family_row(r):
+            teacher = settings["imitate"]
+            tracks.setdefault(display_name(r["strategy"]),
+                              f"guided (its training imitates `{teacher}`)" if teacher else "RL")
+    if not tracks:
+        return []
+    return ["", "Learned rows by track (*RL*: the env's reward alone; *guided*: a strategy's actions or costs in "
+                "training; docs/training.md, *Two tracks*): "
+                + ", ".join(f"`{name}` {track}" for name, track in tracks.items()) + "."]
 
 
 def _reference_lines(rows: list[dict]) -> list[str]:
