@@ -45,6 +45,7 @@ DIGESTS = {
     "bus-generalisation-v1": "8990109ebd3d",
     "hwfet-v2": "e17bb4398281",
     "beijing-v2": "ad7012630465",
+    "udds-weak-loop-v2": "d52bb40fbaf9",
 }
 _FAMILY_SEED = re.compile(r"^([a-z_]+):(\d+)$")
 
