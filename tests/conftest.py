@@ -6,10 +6,18 @@ minutes. ``python -m pytest --full`` runs the full suite (what ``.ci/run`` runs)
 the tests marked ``full``, those of the modules in :data:`FULL_MODULES` and single slow tests marked
 ``@pytest.mark.full``. The fast tier deselects them (the summary line counts them as
 "deselected"); a test file named on the command line runs whole in either tier.
+
+Both tiers run on two worker processes (pytest-xdist, ``-n 2 --dist loadgroup`` in ``pyproject.toml``; ``-n 0``
+runs in one process). A test module with a fixture it shares across its tests (``scope="module"`` or wider) runs
+whole on one worker, so the fixture is built once; other tests are dealt out one by one. Tests that must not run at
+the same time as others share an ``xdist_group`` mark (Ray's runtimes: ``"ray"``). The ``full`` tests, the long
+ones, are dealt out first, then the larger groups, so that no worker is left with a long one at the end.
 """
 
+import functools
 import os
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -25,6 +33,8 @@ FULL_MODULES = {
 }
 
 _DESELECTED = pytest.StashKey[int]()
+_DESELECTED_IDS = pytest.StashKey[list[str]]()
+_WIDE_SCOPES = ("module", "package", "session")
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -50,20 +60,56 @@ def _named_files(config) -> set[Path]:
     return {(here / arg.split("::")[0]).resolve() for arg in config.args if arg.split("::")[0].endswith(".py")}
 
 
+def _shares_a_module_fixture(item) -> bool:
+    """Whether ``item`` uses a fixture of module scope or wider defined in its own test module."""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return False
+    module = item.nodeid.split("::")[0]
+    return any(d.scope in _WIDE_SCOPES and d.baseid == module
+               for name in item.fixturenames for d in info.name2fixturedefs.get(name, ()))
+
+
+def _group_for_the_workers(items) -> None:
+    """Under pytest-xdist (a worker collects): a module sharing a fixture is one group, and the groups are ordered
+    as the scheduler deals them out (``--no-loadscope-reorder``): those with full tests first, then the larger ones."""
+    groups: dict[str, list] = {}
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None and _shares_a_module_fixture(item):
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+        mark = item.get_closest_marker("xdist_group")
+        groups.setdefault(item.nodeid if mark is None else f"@{mark.args[0]}", []).append(item)
+    ordered = sorted(groups.values(), key=lambda g: (all(i.get_closest_marker("full") is None for i in g), -len(g)))
+    items[:] = [item for group in ordered for item in group]
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.path.name in FULL_MODULES:
             item.add_marker(pytest.mark.full)
-    if config.getoption("full"):
-        return
-    named = _named_files(config)
-    fast = [item for item in items if item.get_closest_marker("full") is None or item.path in named]
-    deselected = [item for item in items if item not in fast]
-    config.stash[_DESELECTED] = len(deselected)
-    if deselected:
-        config.hook.pytest_deselected(items=deselected)
-        items[:] = fast
+    if not config.getoption("full"):
+        named = _named_files(config)
+        fast = [item for item in items if item.get_closest_marker("full") is None or item.path in named]
+        deselected = [item for item in items if item not in fast]
+        config.stash[_DESELECTED] = len(deselected)
+        config.stash[_DESELECTED_IDS] = [item.nodeid for item in deselected]
+        if deselected:
+            config.hook.pytest_deselected(items=deselected)
+            items[:] = fast
+    if hasattr(config, "workerinput"):  # a pytest-xdist worker
+        config.workeroutput["deselected"] = config.stash.get(_DESELECTED_IDS, [])
+        _group_for_the_workers(items)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """The controller (pytest-xdist): the summary line counts the tests the fast tier deselected, once."""
+    config = node.config
+    nodeids = getattr(node, "workeroutput", {}).get("deselected")
+    if nodeids and _DESELECTED not in config.stash:
+        config.stash[_DESELECTED] = len(nodeids)
+        config.hook.pytest_deselected(items=[SimpleNamespace(nodeid=nodeid) for nodeid in nodeids])
 
 
 def pytest_report_collectionfinish(config, start_path, items):
@@ -97,3 +143,20 @@ def pytest_sessionfinish(session, exitstatus):
 @pytest.fixture(scope="session")
 def reference_dir() -> Path:
     return REFERENCE
+
+
+@functools.cache
+def _config_cycle(name: str):
+    from hev_thermal_env.cycles import load_cycle
+
+    return load_cycle(name)
+
+
+@pytest.fixture
+def config_cycles_loaded_once(monkeypatch):
+    """A config's checks load each cycle once per worker: building a config loads every training and evaluation cycle
+    it names to check it (the default evaluation cycles are generated, seconds a config). The checks still run and
+    still fail on a bad name (a failed load is not kept); only a name that loaded before is not generated again."""
+    from hev_thermal_env.training import config
+
+    monkeypatch.setattr(config, "load_cycle", _config_cycle)

@@ -33,6 +33,9 @@ from hev_thermal_env.training.lagrangian import LagrangeMultiplier, LagrangianVe
 
 ROOT = Path(__file__).resolve().parents[1]
 
+pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
+
+
 # tiny runs of each method: 2 envs, 256 env-steps, no periodic evaluation
 COMMON = ["--timesteps", "256", "--n-envs", "2", "--seed", "0", "--no-progress", "--quiet", "--eval-cycles",
           "--checkpoint-freq", "128"]

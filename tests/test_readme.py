@@ -185,9 +185,20 @@ def test_commands_run_with_the_suites_interpreter():
     assert as_run("python train.py --timesteps 10000000").endswith(f"train.py --timesteps {TINY_TIMESTEPS}")
 
 
+def worker_group(block: str) -> tuple:
+    """Under pytest-xdist, the blocks that must share a worker with other tests (tests/conftest.py): those with the
+    main job read the session's one run of it, and Ray's runtimes run one at a time (tests/test_scale_out.py)."""
+    commands = [as_run(c) for c in command_lines(block)]
+    if any(c is not None and bare(c) == bare(as_run(MAIN_JOB)) for c in commands):
+        return (pytest.mark.xdist_group("main_job"),)
+    if any(c is not None and "--executor ray" in c for c in commands):
+        return (pytest.mark.xdist_group("ray"),)
+    return ()
+
+
 @pytest.mark.parametrize(
     "page, index, block",
-    BASH_BLOCKS,
+    [pytest.param(page, i, b, marks=worker_group(b)) for page, i, b in BASH_BLOCKS],
     ids=[
         f"{page}#{i}:{bare(command_lines(b)[0])[:40]}" if command_lines(b) else f"{page}#{i}"
         for page, i, b in BASH_BLOCKS
@@ -233,6 +244,7 @@ def check_specific(command: str, r: subprocess.CompletedProcess, cwd: Path) -> N
         assert "%" in r.stderr + r.stdout, "no progress bar in the training output"
 
 
+@pytest.mark.xdist_group("main_job")
 def test_readme_table_is_the_main_jobs(main_job):
     """The README's table is the table the main job writes (``results/results.md``), row for row."""
     cwd, r = main_job

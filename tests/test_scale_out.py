@@ -30,6 +30,10 @@ from hev_thermal_env.training.sweep_report import TrialRecord, write_report
 from hev_thermal_env.training.sweep_trial import check_space, encode_choice, trial_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
+
+#: One worker runs this module and the README's Ray command (tests/test_readme.py), one after the other: a killed
+#: worker below is found by its process title, which any Ray runtime of the machine gives its cells.
+pytestmark = pytest.mark.xdist_group("ray")
 RESULT_FILES = ("results.csv", "results.json", "results.md")
 TINY_HP = ["n_steps=64", "batch_size=128", "n_epochs=2", "init.episodes=1", "init.epochs=2"]
 SPACE = "learning_rate: {loguniform: [1.0e-4, 1.0e-3]}\npolicy_kwargs.net_arch: {choice: [[16, 16], [8]]}\n"

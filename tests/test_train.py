@@ -33,6 +33,9 @@ from hev_thermal_env.training.overrides import apply_overrides, parse_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 
+pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
+
+
 # a small but complete PPO: 4 envs x 64 steps = 256 env-steps per rollout
 TINY_HP = ["n_steps=64", "batch_size=128", "n_epochs=2", "policy_kwargs.net_arch=[16,16]", "init.episodes=1",
            "init.epochs=2"]
