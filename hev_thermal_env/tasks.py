@@ -167,9 +167,6 @@ _TASKS = (
     Task("beijing", 2, "the synthetic Beijing-like city-bus cycle, the paper's conditions", ("beijing",), "paper"),
     Task("udds-weak-loop", 2, "EPA urban cycle, a full bus an hour into service on a 40 °C day, the pump's flow at "
          "10 % (weak_loop): knowing the heat pays", ("udds",), "weak_loop"),
-    Task("udds-failed-fan-hills", 2, "EPA urban cycle over rolling hills, a full bus an hour into service on a 40 °C "
-         "day, the radiator fan failed and the pump at 20 % (failed_fan_hills): knowing the heat pays",
-         ("udds",), "failed_fan_hills"),
 )
 TASKS: dict[str, Task] = {t.id: t for t in _TASKS}
 """The tasks by id."""

@@ -48,7 +48,6 @@ DIGESTS = {
     "hwfet-v2": "e17bb4398281",
     "beijing-v2": "ad7012630465",
     "udds-weak-loop-v2": "d52bb40fbaf9",
-    "udds-failed-fan-hills-v2": "242336c02066",
 }
 _FAMILY_SEED = re.compile(r"^([a-z_]+):(\d+)$")
 
