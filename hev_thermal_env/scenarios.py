@@ -16,11 +16,10 @@ road). What the values do:
 * ``hilly``: the rolling hills of :func:`~hev_thermal_env.cycles.generate_grade_profile` laid under the cycle.
 * ``full_bus``: about 65 passengers on the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo), about
   the gross weight of a 12 m city bus.
-* ``weak_loop`` and its kin (physics v2's thermal tasks, docs/tasks.md, *Where heat binds*): a full bus an hour
-  into service on a hot day, the motor and coolant still warm from it, with a weak cooling loop: the pump's flow at
-  10 % (``weak_loop``: 40 °C air, motor at 55 °C; ``weak_loop_hills``: rolling hills in 35 °C air, motor at 58 °C)
-  or the fan failed with the pump at 20 % (``failed_fan_hills``: rolling hills, 40 °C, 58 °C). The spinning loss
-  alone keeps the housing below the 60 °C release, so every cut-off is the split's doing and some action avoids it.
+* ``weak_loop`` (physics v2's thermal task ``udds-weak-loop-v2``, docs/tasks.md, *Where heat binds*): a full bus an
+  hour into service on a 40 °C day, the motor and coolant still warm from it (55 °C), with a weak cooling loop (the
+  pump's flow at 10 %). The spinning loss alone keeps the housing below the 60 °C release, so every cut-off is the
+  split's doing and some action avoids it.
 * ``random``, ``random_service``: for training, drawn per episode (:meth:`Scenario.sample`).
 """
 
@@ -109,13 +108,6 @@ SCENARIOS: dict[str, Scenario] = {
                          Conditions(payload_kg=4500.0)),
     "weak_loop": Scenario("weak_loop", "a full bus an hour into service: 40 °C air, motor and coolant at 55 °C, "
                                        "pump flow at 10 % (a weak loop)", _in_service(40.0, 55.0, 0.1)),
-    "weak_loop_hills": Scenario("weak_loop_hills", "rolling hills, a full bus an hour into service: 35 °C air, "
-                                                   "motor and coolant at 58 °C, pump flow at 10 %",
-                                _in_service(35.0, 58.0, 0.1), grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
-    "failed_fan_hills": Scenario("failed_fan_hills", "rolling hills, a full bus an hour into service: 40 °C air, "
-                                                     "motor and coolant at 58 °C, pump flow at 20 %, fan failed",
-                                 _in_service(40.0, 58.0, 0.2, fan=False),
-                                 grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",
                        Conditions(), randomized=True),
     "random_service": Scenario("random_service", "as random, plus a payload of 0-4.5 t per episode (training)",
