@@ -10,7 +10,7 @@ import re
 import numpy as np
 import pytest
 
-from hev_thermal_env import load_cycle
+from hev_thermal_env import load_cycle, paper_bus
 from hev_thermal_env.cycles.families import (
     FAMILIES,
     TRAINING_SEED_LIMIT,
@@ -228,3 +228,27 @@ def test_benchmark_task_runs_the_tasks_cycles_and_scenario(tmp_path, monkeypatch
     assert record["id"] == "tiny-v1" and record["digest"] == tiny.digest()
     assert main(["benchmark", "--task", "tiny", "--cycles", "udds", "--out", str(tmp_path / "no")]) != 0
     assert "drop --cycles and --scenarios" in capsys.readouterr().err
+
+
+def test_the_thermal_task_measures_thermal_management():
+    """udds-weak-loop-v2 (docs/tasks.md, *Where heat binds*), against its stored optimum's frontier: knowing the heat
+    pays (the thermal-blind plan driven on the thermal physics ≥ 1.01), the thermal ECMS is no dearer than the blind
+    one, no strategy is more than 0.1 % below the optimum, and the spinning motor alone (u = 0) is never cut off and
+    stays below the release, while the blind controllers are cut off."""
+    from hev_thermal_env.agents import get_strategy
+    from hev_thermal_env.evaluation import run_strategy
+    from hev_thermal_env.evaluation.references import load_reference
+    from hev_thermal_env.evaluation.yardstick import Frontier, frontier_ratio
+
+    task = get_task("udds-weak-loop-v2")
+    episode = load_reference(task)["episodes"][0]
+    frontier = Frontier.from_settings({"frontier": episode["frontier"]})
+    runs, ratio = {}, {}
+    for name in ("engine_only", "ecms", "ecms_thermal", "dp"):
+        runs[name] = run_strategy(get_strategy(name), task.cycles[0], task.scenario, physics=task.physics).summary
+        ratio[name] = frontier_ratio(runs[name]["cost_g"], runs[name]["soc_final"], frontier)[0]
+    assert ratio["dp"] >= 1.01 and ratio["ecms_thermal"] <= ratio["ecms"]
+    assert min(ratio.values()) >= 0.999
+    assert runs["dp"]["cutoff_s"] > 0 and runs["ecms"]["cutoff_s"] > runs["ecms_thermal"]["cutoff_s"]
+    release = paper_bus(physics=task.physics).thermal.cutoff_release_temp_c
+    assert runs["engine_only"]["cutoff_s"] == 0 and runs["engine_only"]["max_motor_temp_c"] < release
