@@ -258,8 +258,11 @@ def test_the_results_name_each_learned_rows_track():
     assert shipped["imitate"] == "ecms_thermal"
     rows = [{"strategy": "ppo", "strategy_settings": shipped},
             {"strategy": "ppo:runs/pure", "strategy_settings": {**shipped, "imitate": None}},
-            {"strategy": "ecms", "strategy_settings": {"s": 2.9}}]
+            {"strategy": "ecms", "strategy_settings": {"s": 2.9}},
+            {"strategy": "ppo:runs/fam/s0", "family": "fam", "strategy_settings": shipped},
+            {"strategy": "ppo:runs/fam/s1", "family": "fam", "strategy_settings": shipped}]
     (line,) = [x for x in _track_lines(rows) if x]
-    assert "`ppo` guided (its training imitates `ecms_thermal`)" in line and "`ppo:runs/pure` RL." in line
+    assert "`ppo` guided (its training imitates `ecms_thermal`)" in line and "`ppo:runs/pure` RL" in line
+    assert "`fam` guided" in line and "s0" not in line  # a family under its name, its members not one by one
     assert "ecms`" not in line
-    assert _track_lines(rows[2:]) == []
+    assert _track_lines(rows[2:3]) == []

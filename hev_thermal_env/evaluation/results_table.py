@@ -204,14 +204,14 @@ def _heat_value_lines(rows: list[dict]) -> list[str]:
 
 
 def _track_lines(rows: list[dict]) -> list[str]:
-    """The track of each learned row (docs/training.md, *Two tracks*): *guided* where its training imitates a
-    strategy (its settings' ``imitate``), else *RL* (the env's reward alone)."""
+    """The track of each learned row or seed family (docs/training.md, *Two tracks*): *guided* where its training
+    imitates a strategy (its settings' ``imitate``), else *RL* (the env's reward alone)."""
     tracks: dict[str, str] = {}
     for r in rows:
         settings = r.get("strategy_settings") or {}
-        if "imitate" in settings and not _is_family_row(r):
+        if "imitate" in settings and not _is_family_row(r):  # a family's members: under the family's name
             teacher = settings["imitate"]
-            tracks.setdefault(display_name(r["strategy"]),
+            tracks.setdefault(r.get("family") or display_name(r["strategy"]),
                               f"guided (its training imitates `{teacher}`)" if teacher else "RL")
     if not tracks:
         return []
