@@ -14,8 +14,9 @@ reward and the corrected-fuel metric do.
   gentle near the target, firm far from it; with k ≤ 5 too soft on ``beijing``: ΔSOC +0.02 at s = 2.9), which keeps the
   run charge-sustaining.
 * ``aecms``: s_eff = s0 + k_p·e + k_i·∫e dt, e = SOC_target − SOC (PI; the integral clamped, anti-windup).
-* ``ecms_thermal``: ``ecms`` plus a price on the peeked next thermal state, to avoid derating and the 70 °C cutoff:
-  w_x · max(x' − x_thr, 0) (heat-index integrator x, eq 9, above a threshold just below 0) +
+* ``ecms_thermal``: ``ecms`` plus a price on the peeked next thermal state, to avoid derating and the 70 °C cutoff
+  (w_x, x_thr and w_temp by the env's physics version unless given, :data:`THERMAL_PRICES`):
+  w_x · max(x' − x_thr, 0) (heat-index integrator x, eq 9, above x_thr: physics v1 just below 0, v2 at 0) +
   w_T · max(T' − T_soft, 0)² + w_cut · [cut off]'. It prices only what the split changes (the spinning motor's iron
   losses heat it whatever the split), regeneration included: a hot motor may take less of it. With
   ``x_price="margin"`` the heat-index price follows the motor's distance from the cutoff: w_x · min(1, ΔT_h / (T_cut −
