@@ -14,7 +14,6 @@ the same time as others share an ``xdist_group`` mark (Ray's runtimes: ``"ray"``
 ones, are dealt out first, then the larger groups, so that no worker is left with a long one at the end.
 """
 
-import functools
 import os
 from pathlib import Path
 from types import SimpleNamespace
@@ -143,20 +142,3 @@ def pytest_sessionfinish(session, exitstatus):
 @pytest.fixture(scope="session")
 def reference_dir() -> Path:
     return REFERENCE
-
-
-@functools.cache
-def _config_cycle(name: str):
-    from hev_thermal_env.cycles import load_cycle
-
-    return load_cycle(name)
-
-
-@pytest.fixture
-def config_cycles_loaded_once(monkeypatch):
-    """A config's checks load each cycle once per worker: building a config loads every training and evaluation cycle
-    it names to check it (the default evaluation cycles are generated, seconds a config). The checks still run and
-    still fail on a bad name (a failed load is not kept); only a name that loaded before is not generated again."""
-    from hev_thermal_env.training import config
-
-    monkeypatch.setattr(config, "load_cycle", _config_cycle)

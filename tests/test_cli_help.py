@@ -17,7 +17,6 @@ from hev_thermal_env.cli.train import build_parser as train_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
 
 SUBCOMMANDS = ("run", "benchmark", "paper", "performance")
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import tempfile
 from pathlib import Path
@@ -366,3 +367,17 @@ def test_csv_round_trip_is_exact(speeds):
         again = load_cycle(cyc.to_csv(os.path.join(tmp, "prop.csv")))
     np.testing.assert_array_equal(again.speed_mps, cyc.speed_mps)
     assert again.distance_m == cyc.distance_m
+
+
+def test_a_named_generated_cycle_is_generated_once_and_read_only():
+    """Checking a training config loads every cycle it names; a named generated cycle (FAMILY:SEED,
+    validation_bus:K) is generated once per process and shared, which is safe because a Cycle cannot change."""
+    from hev_thermal_env import load_cycle
+
+    for name in ("validation_bus:3", "bus_long:11"):
+        first = load_cycle(name)
+        assert load_cycle(name) is first and load_cycle(name.upper()) is first
+        with pytest.raises(ValueError):
+            first.speed_mps[0] = 1.0
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            first.name = "other"

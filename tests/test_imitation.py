@@ -24,7 +24,6 @@ from hev_thermal_env.training.imitation import (
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
 
 ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": True, "preview_s": 10,
        "preview_step_s": 2, "thermal": True, "reward": {}}

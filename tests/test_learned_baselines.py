@@ -33,7 +33,6 @@ from hev_thermal_env.training.lagrangian import LagrangeMultiplier, LagrangianVe
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
 
 
 # tiny runs of each method: 2 envs, 256 env-steps, no periodic evaluation

@@ -23,8 +23,6 @@ from hev_thermal_env.training.selection import (
     run_key,
 )
 
-pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
-
 CYCLES = ("validation_bus:0", "validation_bus:1")
 REFERENCE = {run_key(c, "paper"): 40.0 for c in CYCLES}
 

@@ -33,8 +33,6 @@ from hev_thermal_env.tasks import (
     make_task,
 )
 
-pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
-
 #: Each version's definition (Task.digest): a change under an existing id fails here; give the changed task a new
 #: version instead.
 DIGESTS = {

@@ -33,7 +33,6 @@ from hev_thermal_env.training.overrides import apply_overrides, parse_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.usefixtures("config_cycles_loaded_once")  # tests/conftest.py
 
 
 # a small but complete PPO: 4 envs x 64 steps = 256 env-steps per rollout

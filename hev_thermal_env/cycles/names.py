@@ -10,6 +10,7 @@ draws a fresh cycle of the family every episode.
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Iterable
 from typing import Any
@@ -59,11 +60,18 @@ def generated_cycle(name: str) -> Cycle | None:
                          f"pass it where a list of cycles is accepted, or name one cycle (FAMILY:SEED, "
                          f"{VALIDATION_SET}:K)")
     m = _ONE.match(key)
-    if m is not None and m.group(1) == VALIDATION_SET:
-        return validation_cycle(int(m.group(2)))
-    if m is not None and m.group(1) in FAMILIES:
-        return generate_family_cycle(m.group(1), int(m.group(2)))
+    if m is not None and (m.group(1) == VALIDATION_SET or m.group(1) in FAMILIES):
+        return _generated(m.group(1), int(m.group(2)))
     return None
+
+
+@functools.lru_cache(maxsize=128)
+def _generated(family: str, seed: int) -> Cycle:
+    """A named generated cycle, generated once per process: a :class:`Cycle` is immutable, and checking a training
+    config loads every evaluation cycle it names (the validation set's 30 are generated in seconds)."""
+    if family == VALIDATION_SET:
+        return validation_cycle(seed)
+    return generate_family_cycle(family, seed)
 
 
 def expand_cycle_names(cycles: Any) -> list[Any]:
