@@ -18,7 +18,8 @@ A candidate is a *thermal task* when (docs/tasks.md, *Thermal tasks*):
 
 ``--screen`` first drives the causal strategies alone (``engine_only``, ``ecms``, ``ecms_thermal``: seconds a run)
 over a grid of routes, air, cooling and payload (:data:`SCREEN`) and of warm starts on one lap of UDDS
-(:data:`SCREEN_WARM`): where is the blind ECMS cut off while the spinning motor is not? The candidates (:data:`CANDIDATES`) come from it.
+(:data:`SCREEN_WARM`): where is the blind ECMS cut off while the spinning motor is not? The candidates
+(:data:`CANDIDATES`) come from it.
 
 Run with the checkout on ``PYTHONPATH``; ``dp_thermal`` takes from seconds to many minutes per candidate::
 
@@ -58,7 +59,8 @@ HOT_FULL = {"ambient_c": 40.0, "payload_kg": 4500.0}
 CANDIDATES = (
     ("udds-40c-full", "udds", "paper", {**HOT_FULL}),
     ("udds-40c-full-pump10-warm55", "udds", "paper", {**HOT_FULL, "pump": 0.1, "start_c": 55.0}),
-    ("udds-hilly-35c-full-pump10-warm58", "udds", "hilly", {**HOT_FULL, "ambient_c": 35.0, "pump": 0.1, "start_c": 58.0}),
+    ("udds-hilly-35c-full-pump10-warm58", "udds", "hilly",
+     {**HOT_FULL, "ambient_c": 35.0, "pump": 0.1, "start_c": 58.0}),
     ("udds-hilly-40c-full-pump20-nofan-warm58", "udds", "hilly",
      {**HOT_FULL, "pump": 0.2, "fan": False, "start_c": 58.0}),
     ("udds-hilly-40c-full-pump10-warm55", "udds", "hilly", {**HOT_FULL, "pump": 0.1, "start_c": 55.0}),

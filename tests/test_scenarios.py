@@ -64,8 +64,8 @@ def test_heat_matters_in_the_new_scenarios(scenario):
 
 def test_thermal_blind_ecms_derates_more_than_thermal_ecms():
     from hev_thermal_env.agents import get_strategy
-    from hev_thermal_env.evaluation.runner import run_strategy
     from hev_thermal_env.agents.ecms import THERMAL_PRICES
+    from hev_thermal_env.evaluation.runner import run_strategy
     sc = get_scenario("summer")
     blind = run_strategy(get_strategy("ecms"), "udds", sc).summary
     aware = run_strategy(get_strategy("ecms_thermal"), "udds", sc).summary  # physics v2's price: derating itself

@@ -418,7 +418,8 @@ def test_ecms_thermal_prices_regeneration_from_its_own_threshold():
     candidate by candidate against a teacher without the braking options, on the same peeked step."""
     env, steps = _stop(cruise_s=5, stop_s=11)
     plain = get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", margin_floor=0.5)
-    braked = get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", margin_floor=0.5, braking_floor=1.0, braking_x_thr=0.0)
+    braked = get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", margin_floor=0.5,
+                          braking_floor=1.0, braking_x_thr=0.0)
     thr_only = get_strategy("ecms_thermal", **THERMAL_PRICES[1], x_price="margin", margin_floor=0.5, braking_x_thr=0.0)
     for agent in (plain, braked, thr_only):
         agent.reset(env)

@@ -11,9 +11,9 @@ Heat index (eqs 8-9): dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1), PWM = cl
 T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; T_gain (eq 10) and PWM_initial are linear
 in the motor temperature. Efficiency derate −1 point per 15 °C above 35 °C (``motor.py``), cutoff at 70 °C until
 cooled to 60 °C, and the winding's own protection (165 °C / 155 °C); ``enabled=False`` is ADVISOR's unmodified motor
-(the paper's baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m
-tools.calibration`` (a checkout's workshop); the two cooling conductances are set by the motor's rating (``rating.py``). Every
-value's range and source: docs/thermal_model.md.
+(the paper's baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m tools.calibration``
+(a checkout's workshop); the two cooling conductances are set by the motor's rating (``rating.py``). Every value's
+range and source: docs/thermal_model.md.
 """
 
 from __future__ import annotations
