@@ -2,12 +2,10 @@
 source folder is the top-level ``agents/``): ``get_strategy("dp", n_soc=801)``, :func:`list_strategies`.
 
 ``get_strategy("name:arg")`` builds the strategy with its class's ``from_label(arg, **options)`` if it has one (``ppo``:
-the text after the colon is a model path), else reports the run under the label ``"name:arg"`` (one strategy with
-several settings in a benchmark). Every module of this folder is imported with the package and registers its
-strategies (:func:`.base.register`: a strategy is one module, its facts on its class); none imports torch before ``ppo``
-is built. The planners behind ``dp`` and ``dp_thermal`` are :mod:`hev_thermal_env.planning`. Beside the strategies:
-``policies/`` (the shipped PPO policy), ``hyperparams/`` (:data:`HYPERPARAMS_DIR`) and :mod:`.policy_files` (the files
-of a trained policy: reading them, and the layout the training writes).
+the text after the colon is a model path), else reports the run under the label ``"name:arg"``. Every module of this
+folder is imported with the package and registers its strategies (:func:`.base.register`); none imports torch before
+``ppo`` is built. Beside them: ``policies/`` (the shipped PPO policy), ``hyperparams/`` (:data:`HYPERPARAMS_DIR`) and
+:mod:`.policy_files` (the files of a trained policy).
 """
 
 from __future__ import annotations

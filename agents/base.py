@@ -7,13 +7,9 @@ A strategy is driven through ``HevThermal-v1``::
 
 ``env_options()`` gives the env arguments a strategy drives with that leave the episode, the physics and the score as
 they are (a trained policy's observation settings); ``vehicle_config(config)`` lets a strategy change the vehicle it
-drives (``conventional`` drives the conventional bus,
-and says so with ``other_vehicle``: its rows are not compared with the hybrid's optimum); ``thermal_aware`` says whether
-it respects the thermal model.
-
-A strategy is one module: its class carries its facts (:class:`Strategy`'s class attributes: name, place, colour, what
-it is) and registers itself with :func:`register`; the package imports every module of ``agents/``, so the registry,
-the benchmark, the leaderboard, the figures and imitation know it with nothing else changed.
+drives (``conventional``). A strategy is one module: its class carries its facts (:class:`Strategy`'s class
+attributes) and registers itself with :func:`register`, so the registry, the benchmark, the leaderboard, the figures
+and imitation know it with nothing else changed.
 """
 
 from __future__ import annotations

@@ -37,7 +37,6 @@ class DPStrategy(Strategy):
     optimum = True
     in_benchmark = True
     seconds_per_step = 0.004
-    thermal_aware = False
 
     def __init__(self, n_soc: int = DPSettings.n_soc, n_u: int = DPSettings.n_u, n_u_exec: int = DPSettings.n_u_exec,
                  soc_tol: float = DPSettings.soc_tol,

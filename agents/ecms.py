@@ -1,45 +1,26 @@
 """Equivalent consumption minimisation: ``ecms``, ``aecms`` (adaptive) and ``ecms_thermal``.
 
-Every step one ``env.peek`` call (the batched physics step) evaluates a grid of splits u ∈ [-1, 1] (41 by default) for
-the next step, and the cheapest wins, in traction and while braking alike (there u > 0 is the share of the available
-regeneration and u ≤ 0 friction alone: every u ≤ 0 costs the same and the tie goes to u = 0)::
+Every step one ``env.peek`` call evaluates a grid of splits u ∈ [-1, 1] (41 by default) for the next step, and the
+cheapest wins, in traction and while braking alike (there u > 0 is the share of the available regeneration and u ≤ 0
+friction alone: the tie goes to u = 0)::
 
     J(u) = fuel_g + s_eff · E_batt / Q_lhv + miss price
 
-E_batt: the battery's chemical energy over the step (J, negative when charging); Q_lhv: the fuel's lower heating value;
-the miss price is the reward's. s = :data:`REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery energy exactly as the
-reward and the corrected-fuel metric do.
+E_batt: the battery's chemical energy over the step (J); Q_lhv: the fuel's lower heating value; the miss price is the
+reward's. s = :data:`REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery energy as the reward and the corrected fuel do.
 
-* ``ecms``: s_eff = s · (1 + k · ((SOC_target − SOC)/0.1)^p), p = 1 (``penalty="linear"``, default) or 3 (``"cubic"``:
-  gentle near the target, firm far from it; with k ≤ 5 too soft on ``beijing``: ΔSOC +0.02 at s = 2.9), which keeps the
-  run charge-sustaining.
+* ``ecms``: s_eff = s · (1 + k · ((SOC_target − SOC)/0.1)^p), p = 1 (``penalty="linear"``) or 3 (``"cubic"``).
 * ``aecms``: s_eff = s0 + k_p·e + k_i·∫e dt, e = SOC_target − SOC (PI; the integral clamped, anti-windup).
-* ``ecms_thermal``: ``ecms`` plus a price on the peeked next thermal state, to avoid derating and the 70 °C cutoff
-  (w_x, x_thr and w_temp by the env's physics version unless given, :data:`THERMAL_PRICES`):
-  w_x · max(x' − x_thr, 0) (heat-index integrator x, eq 9, above x_thr: physics v1 just below 0, v2 at 0) +
-  w_T · max(T' − T_soft, 0)² + w_cut · [cut off]'. It prices only what the split changes (the spinning motor's iron
-  losses heat it whatever the split), regeneration included: a hot motor may take less of it. With
-  ``x_price="margin"`` the heat-index price follows the motor's distance from the cutoff: w_x · min(1, ΔT_h / (T_cut −
-  T)), T the motor's temperature before the step and ΔT_h = T_cut − T_release the cutoff's hysteresis band (10 K):
-  the whole price within the band, half of it 20 K below the cutoff, a sixth at 20 °C. Derating a cool motor only
-  costs its lost seconds of peak torque; the same overload in a hot one is also heat on the way to the cutoff. No new
-  parameter (the band is the motor's). On the 30 validation routes it spares 0.2-0.4 % of corrected fuel in the
-  ``paper``, ``full_bus``, ``summer`` and ``hilly`` conditions for 0.3-3 s of derating per route, and drives ``hot`` as
-  the fixed price does. ``margin_floor`` (0 by default) keeps the price of a cool motor at that share of w_x at least:
-  w_x · max(floor, min(1, ΔT_h / (T_cut − T))). While the bus brakes (negative shaft demand), ``braking_x_thr`` and
-  ``braking_floor`` (by default x_thr and margin_floor) take their place, with ``braking_below_c`` only while the motor
-  is cooler than that: with ``braking_x_thr=0`` only regeneration that derates is priced, not its approach, which
-  otherwise gives up regeneration that never derates; in a hot motor the approach is worth pricing, for the heat
-  stays (docs/training.md, "Regeneration priced where it derates").
-
-While braking, fuel does not depend on the share and the battery term falls with it as long as s_eff > 0: ECMS and
-A-ECMS regenerate all that is available unless the SOC is so far above the target that s_eff ≤ 0.
+* ``ecms_thermal``: ``ecms`` plus a price on the peeked next thermal state (w_x, x_thr and w_temp by the env's physics
+  version unless given, :data:`THERMAL_PRICES`): w_x · max(x' − x_thr, 0) (heat-index integrator x, eq 9) +
+  w_T · max(T' − T_soft, 0)² + w_cut · [cut off]'. With ``x_price="margin"`` the heat-index price is
+  w_x · max(floor, min(1, ΔT_h / (T_cut − T))), ΔT_h = T_cut − T_release the cutoff's hysteresis band (10 K), floor
+  ``margin_floor``; while the bus brakes, ``braking_x_thr`` and ``braking_floor`` (by default x_thr and margin_floor)
+  take their place, with ``braking_below_c`` only while the motor is cooler than that (docs/strategies.md,
+  "ecms_thermal's heat-index price"; docs/training.md, "Regeneration priced where it derates").
 
 Tuning (one setting for both cycle families): s = 2.9, k = 1 (linear); A-ECMS s0 = 2.9, k_p = 20, k_i = 0.01 1/s, end
-``beijing`` (``paper``) at ΔSOC ≈ +0.005 within 0.1 % of DP's corrected fuel. Without the penalty, s = 2.7 ends
-``beijing`` at ΔSOC −0.006 and s = 3.0 at +0.036: charging at the engine's marginal efficiency is cheaper than the
-reward's battery price. On HWFET, where the engine alone falls short at highway speeds, the cost weighs motor assist
-against the priced miss, and ECMS ends charge-sustaining (ΔSOC ≈ −0.001).
+``beijing`` (``paper``) at ΔSOC ≈ +0.005 within 0.1 % of DP's corrected fuel.
 """
 
 from __future__ import annotations
@@ -59,11 +40,8 @@ from .base import Strategy, register
 
 #: ``ecms_thermal``'s heat-index prices: ``fixed`` (w_x) and ``margin`` (w_x scaled by the distance to the cutoff).
 X_PRICES = ("fixed", "margin")
-#: ``ecms_thermal``'s heat prices by physics version: what ``w_x``, ``x_thr`` and ``w_temp`` take when left out (the
-#: env's physics version decides at reset). Physics v1 charges overheat in its reward, and ``ecms_thermal`` keeps the
-#: motor out of derating: 300 g per unit of the heat-index integrator from x = −0.05, 5 g/K² above 55 °C. Physics v2
-#: charges no derating (a derated motor costs the fuel its lost torque costs): 30 g per unit of the heat index PWM
-#: itself (x > 0), no temperature price; docs/strategies.md, "ecms_thermal on physics v2".
+#: ``ecms_thermal``'s heat prices by physics version when left out (v1 keeps the motor out of derating, v2 prices the
+#: heat index PWM itself; docs/strategies.md, "ecms_thermal on physics v2").
 THERMAL_PRICES = {1: {"w_x": 300.0, "x_thr": -0.05, "w_temp": 5.0},
                   2: {"w_x": 30.0, "x_thr": 0.0, "w_temp": 0.0}}
 #: The equivalence factor (s in fuel + s·E_batt/Q_lhv) that matches the reward's default battery price.
@@ -86,7 +64,6 @@ class ECMS(Strategy):
     colour = "#1f77b4"
     teacher = True
     in_benchmark = True
-    thermal_aware = False
 
     def __init__(self, s: float = 2.9, k_soc: float = 1.0, penalty: str = "linear", n_u: int = 41,
                  soc_target: float | None = None):
@@ -94,12 +71,9 @@ class ECMS(Strategy):
             raise ValueError(f"{self.name}: penalty {penalty!r} is not one of ['cubic', 'linear']")
         if n_u < 2:
             raise ValueError(f"{self.name}: n_u must be at least 2, got {n_u}")
-        self.s = float(s)
-        self.k_soc = float(k_soc)
-        self.penalty = penalty
+        self.s, self.k_soc, self.penalty = float(s), float(k_soc), penalty
         self.u_grid = np.linspace(-1.0, 1.0, int(n_u))
-        self.soc_target_option = soc_target
-        self.soc_target = soc_target
+        self.soc_target_option = self.soc_target = soc_target
         #: The last step's cost of every candidate above the cheapest (g, over ``u_grid``; zeros while standing): what
         #: a student's action costs by the strategy's own measure (``init.cost_weight``, docs/training.md).
         self.cost_curve_g: np.ndarray | None = None
@@ -151,10 +125,7 @@ class AdaptiveECMS(ECMS):
     def __init__(self, s0: float = 2.9, kp: float = 20.0, ki: float = 0.01, integral_limit: float = 20.0,
                  n_u: int = 41, soc_target: float | None = None):
         super().__init__(s=s0, k_soc=0.0, penalty="linear", n_u=n_u, soc_target=soc_target)
-        self.kp = float(kp)
-        self.ki = float(ki)
-        self.integral_limit = float(integral_limit)
-        self.integral = 0.0
+        self.kp, self.ki, self.integral_limit, self.integral = float(kp), float(ki), float(integral_limit), 0.0
 
     def reset(self, env: Any) -> None:
         super().reset(env)
@@ -190,9 +161,7 @@ class ThermalECMS(ECMS):
         super().__init__(s=s, k_soc=k_soc, penalty=penalty, n_u=n_u, soc_target=soc_target)
         if x_price not in X_PRICES:
             raise ValueError(f"{self.name}: x_price {x_price!r} is not one of {list(X_PRICES)}")
-        for key, floor in (("margin_floor", margin_floor), ("braking_floor", braking_floor)):
-            if floor is None:
-                continue
+        for key, floor in (("margin_floor", margin_floor), ("braking_floor", braking_floor or 0.0)):
             if not 0.0 <= float(floor) <= 1.0:
                 raise ValueError(f"{self.name}: {key} must lie in [0, 1] (a share of w_x), got {floor!r}")
             if x_price != "margin" and float(floor) != 0.0:
@@ -206,8 +175,7 @@ class ThermalECMS(ECMS):
         if braking_below_c is not None and not math.isfinite(float(braking_below_c)):
             raise ValueError(f"{self.name}: braking_below_c must be a finite temperature (°C), got {braking_below_c!r}")
         self.braking_below_c = None if braking_below_c is None else float(braking_below_c)
-        self.temp_soft_c = float(temp_soft_c)
-        self.w_cutoff = float(w_cutoff)
+        self.temp_soft_c, self.w_cutoff = float(temp_soft_c), float(w_cutoff)
         self._given = {"w_x": w_x, "x_thr": x_thr, "w_temp": w_temp, "braking_x_thr": braking_x_thr}
         self._set_prices(LATEST_PHYSICS)
 

@@ -5,12 +5,9 @@
 ``model.zip`` → ``vecnormalize.pkl``, ``best_model.zip`` → ``best_vecnormalize.pkl``, ``checkpoints/ckpt_N_steps.zip`` →
 ``ckpt_N_steps_vecnormalize.pkl``, any other ``NAME.zip`` → ``NAME_vecnormalize.pkl`` or ``vecnormalize.pkl``. The run's
 ``config.yaml`` (beside the zip, or above ``checkpoints/``) gives the algorithm (:data:`ALGORITHMS`) and the observation
-layout. A recurrent policy (``recurrent_ppo``) carries its LSTM state from one :meth:`LoadedPolicy.act` to the next
-until :meth:`LoadedPolicy.reset_state` (an episode's start).
-A missing file raises ``FileNotFoundError``, an unreadable one ``ValueError``, each in one line.
-
-A model zip pickles its schedules by the import path of :class:`LinearSchedule` (``lin_3e-4`` in a hyperparameter file);
-loading rebuilds them from the run's hyperparameters instead (:func:`custom_objects`).
+layout. A missing file raises ``FileNotFoundError``, an unreadable one ``ValueError``, each in one line. A model zip
+pickles its schedules by the import path of :class:`LinearSchedule`; loading rebuilds them from the run's
+hyperparameters instead (:func:`custom_objects`).
 """
 
 from __future__ import annotations
@@ -30,9 +27,8 @@ import yaml
 
 from hev_thermal_env.physics.fingerprint import physics_fingerprint
 
-#: The algorithms ``train.py`` trains, by name: SB3's PPO and SAC, sb3-contrib's TQC and RecurrentPPO (imported on
-#: first use), and ``ppo_lagrangian``, PPO on the reward less a multiple of the safety cost whose multiplier is learned
-#: (:mod:`hev_thermal_env.training.lagrangian`): its model is a PPO model.
+#: The algorithms ``train.py`` trains, by name (``ppo_lagrangian``, :mod:`hev_thermal_env.training.lagrangian`, makes a
+#: PPO model).
 ALGORITHMS = {"ppo": "stable_baselines3:PPO", "sac": "stable_baselines3:SAC", "tqc": "sb3_contrib:TQC",
               "recurrent_ppo": "sb3_contrib:RecurrentPPO", "ppo_lagrangian": "stable_baselines3:PPO"}
 #: The off-policy algorithms (a replay buffer, checkpointed with the model).
@@ -83,10 +79,8 @@ def schedule(value: Any) -> Any:
 
 
 def custom_objects(hyperparams: Mapping[str, Any] | None) -> dict[str, Any]:
-    """``custom_objects`` for SB3's ``load``: the schedules of a run, rebuilt from its hyperparameters.
-
-    ``lr_schedule`` is recomputed by SB3 from ``learning_rate`` on loading; it is replaced only so that the saved one is
-    not unpickled."""
+    """``custom_objects`` for SB3's ``load``: the schedules of a run, rebuilt from its hyperparameters (``lr_schedule``
+    only so that the saved one is not unpickled: SB3 recomputes it)."""
     hp = hyperparams or {}
     objects = {key: schedule(hp[key]) for key in SCHEDULE_KEYS if key in hp}
     if "learning_rate" in objects:
@@ -101,9 +95,8 @@ def checkpoint_paths(run_dir: str | Path, timesteps: int) -> tuple[Path, Path, P
 
 
 def checkpoint_files(run_dir: str | Path) -> list[tuple[int, Path, Path]]:
-    """Complete checkpoints of a run, oldest first: (timesteps, model zip, statistics pickle).
-
-    A checkpoint counts once its model zip exists (it is written last, atomically)."""
+    """Complete checkpoints of a run (their model zip, written last, exists), oldest first: (timesteps, model zip,
+    statistics pickle)."""
     found = [(int(m.group(1)), p) for p in (Path(run_dir) / CHECKPOINTS).glob("ckpt_*_steps.zip")
              if (m := _CKPT_RE.match(p.name))]
     return sorted((n, p, checkpoint_paths(run_dir, n)[1]) for n, p in found)
@@ -125,12 +118,10 @@ def resolve_model_path(path: str | Path) -> Path:
     """The model zip that ``path`` (a run directory or a zip) designates."""
     p = Path(path).expanduser()
     if p.is_dir():
-        for name in ("model.zip", "best_model.zip"):
-            if (p / name).is_file():
-                return p / name
-        ckpts = checkpoint_files(p)
-        if ckpts:
-            return ckpts[-1][1]
+        found = [p / n for n in ("model.zip", "best_model.zip") if (p / n).is_file()]
+        found += [ckpt for _, ckpt, _ in checkpoint_files(p)[-1:]]  # the latest checkpoint
+        if found:
+            return found[0]
         raise FileNotFoundError(f"ppo: no model in directory {p} (expected model.zip, best_model.zip or "
                                 f"checkpoints/ckpt_N_steps.zip from train.py)")
     if p.is_file():
@@ -193,20 +184,13 @@ def load_sb3_model(path: Path, algo: str = "ppo", hyperparams: dict[str, Any] | 
 
 
 class LoadedPolicy:
-    """A model and its observation statistics: ``act(obs [n, dim]) -> actions [n, 1]``.
-
-    ``stats`` is a ``VecNormalize`` whose statistics are only read, or None (raw observations). The one way a policy
-    acts: the ``ppo`` strategy and the evaluation during training both call :meth:`act` (the latter on the live model
-    and training statistics). A recurrent policy (``recurrent``) keeps the LSTM state of the batch it last acted on:
-    :meth:`reset_state` starts new episodes (the next :meth:`act` begins from a zero state, as in training); a batch
-    of another size also starts afresh.
+    """A model and its observation statistics (a ``VecNormalize`` only read, or None): ``act(obs [n, dim]) -> actions
+    [n, 1]``, for the ``ppo`` strategy and the evaluation during training alike. A recurrent policy keeps the LSTM state
+    of the batch it last acted on until :meth:`reset_state` (or a batch of another size).
     """
 
     def __init__(self, model, stats=None, config: dict[str, Any] | None = None, path: Path | None = None):
-        self.model = model
-        self.stats = stats
-        self.config = config
-        self.path = path
+        self.model, self.stats, self.config, self.path = model, stats, config, path
         self.obs_dim = int(model.observation_space.shape[0])
         self.recurrent = hasattr(model.policy, "lstm_actor")
         self.state: tuple[np.ndarray, ...] | None = None
@@ -221,8 +205,7 @@ class LoadedPolicy:
         return obs if self.stats is None else self.stats.normalize_obs(obs)
 
     def reset_state(self) -> None:
-        """Forget the recurrent state: the next :meth:`act` starts new episodes (nothing to do for a feed-forward
-        policy)."""
+        """Forget the recurrent state: the next :meth:`act` starts new episodes."""
         self.state = None
 
     def act(self, obs: np.ndarray) -> np.ndarray:
@@ -230,11 +213,10 @@ class LoadedPolicy:
         x = self.normalize(obs)
         if not self.recurrent:
             actions, _ = self.model.policy.predict(x, deterministic=True)
-            return np.asarray(actions, dtype=np.float32).reshape(-1, 1)
-        n = len(x)
-        fresh = self.state is None or self.state[0].shape[1] != n
-        actions, self.state = self.model.policy.predict(x, state=None if fresh else self.state,
-                                                        episode_start=np.full(n, fresh), deterministic=True)
+        else:
+            fresh = self.state is None or self.state[0].shape[1] != len(x)
+            actions, self.state = self.model.policy.predict(x, state=None if fresh else self.state,
+                                                            episode_start=np.full(len(x), fresh), deterministic=True)
         return np.asarray(actions, dtype=np.float32).reshape(-1, 1)
 
     @property
@@ -259,11 +241,8 @@ def load_policy(path: str | Path, *, normalize: bool = True) -> LoadedPolicy:
 
 
 def warn_if_other_physics(model_path: Path, config: dict[str, Any] | None) -> str | None:
-    """Log one warning line if the policy was trained on physics that behave differently from today's.
-
-    The run's ``config.yaml`` records ``versions.physics_fingerprint``
-    (:func:`hev_thermal_env.physics.fingerprint.physics_fingerprint`); returns the warning, or None.
-    """
+    """Log one warning line (once) if the run's ``versions.physics_fingerprint`` is not today's
+    (:func:`hev_thermal_env.physics.fingerprint.physics_fingerprint`); returns the warning, or None."""
     trained = ((config or {}).get("versions") or {}).get("physics_fingerprint")
     current = physics_fingerprint()
     if trained == current:

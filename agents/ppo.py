@@ -1,17 +1,12 @@
-"""``ppo``: a policy trained by ``train.py`` (any of its algorithms: PPO, SAC, TQC, RecurrentPPO, PPO-Lagrangian),
-behind the strategy protocol.
+"""``ppo``: a policy trained by ``train.py`` (any of its algorithms), behind the strategy protocol.
 
 ``get_strategy("ppo")`` loads the policy shipped in ``agents/policies/ppo_default/``; ``"ppo:PATH"`` or ``path=PATH`` a
-run directory or model zip of ``train.py`` (:func:`.policy_files.load_policy`, which says where each file is looked up
-and what it raises). It acts deterministically on observations normalised with the saved statistics
-(:meth:`.policy_files.LoadedPolicy.act`); an env whose observation differs from the one the model was trained on (e.g.
-another ``preview_s``, or another ``descent_recovery``, which moves the band's center in the ``soc_target`` entry)
-raises ``ValueError`` naming what differs. :meth:`PPOStrategy.env_options` gives the env the policy's
-``descent_recovery``, so :func:`~hev_thermal_env.evaluation.runner.run_strategy` (every task's, benchmark's and
-leaderboard's runs) and the datasets drive every policy with the center it was trained on; with
-:func:`~hev_thermal_env.tasks.make_task` pass ``**strategy.env_options()`` (the episodes and their score do not depend
-on it). A recurrent policy's state starts afresh at every :meth:`PPOStrategy.reset` (an episode's start) and is carried
-from step to step within the episode.
+run directory or model zip of ``train.py`` (:func:`.policy_files.load_policy`). It acts deterministically on
+observations normalised with the saved statistics; an env whose observation differs from the one the model was trained
+on (e.g. another ``preview_s`` or ``descent_recovery``) raises ``ValueError`` naming what differs.
+:meth:`PPOStrategy.env_options` gives the env the policy's ``descent_recovery`` (with
+:func:`~hev_thermal_env.tasks.make_task` pass ``**strategy.env_options()``; the episodes and their score do not depend
+on it). A recurrent policy's state starts afresh at every :meth:`PPOStrategy.reset`.
 """
 
 from __future__ import annotations
@@ -103,8 +98,7 @@ class PPOStrategy(Strategy):
     def reset(self, env: Any) -> None:
         super().reset(env)
         self.policy.reset_state()
-        problem = observation_mismatch(self.policy, env)
-        if problem:
+        if problem := observation_mismatch(self.policy, env):
             raise ValueError(problem)
 
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:

@@ -2,13 +2,12 @@
 
 ``engine_only``
     The hybrid bus driven with u = 0 at every step: the engine carries everything, the friction brakes do all the
-    braking (no regeneration). The motor stays in the driveline: its spinning (zero-torque) losses still draw on the
-    battery and heat it.
+    braking. The motor stays in the driveline: its spinning (zero-torque) losses still draw on the battery and heat it.
 
 ``conventional``
     Another vehicle, a reference row: the conventional bus (:meth:`VehicleConfig.conventional`: no motor, no
-    regeneration, the engine idles instead of stopping), driven with action 0. It is not the hybrid's action space, so
-    it is left out of the comparison with the hybrid's optimum.
+    regeneration, the engine idles instead of stopping), driven with action 0; left out of the comparison with the
+    hybrid's optimum.
 
 ``rule``
     ADVISOR's charge-sustaining parallel electric-assist control (``PTC_PAR`` defaults), evaluated on the next step's
@@ -19,15 +18,11 @@
       SOC < ``lo_soc``;
     * engine torque T_eng = max(T_dem + T_chg, T_min) with
       T_chg = ``charge_trq_nm``·((lo + hi)/2 − SOC)/((hi − lo)/2) and
-      T_min = ``min_trq_frac``·T_eng,max(ω) when SOC < ``lo_soc`` (else 0);
-    * the motor takes the rest (u = 1 − T_eng/T_dem);
-    * while braking u = 1: the motor takes all the regeneration available (the driven axle's share of the braking,
-      within the motor's and the battery's limits), ADVISOR's behaviour.
+      T_min = ``min_trq_frac``·T_eng,max(ω) when SOC < ``lo_soc`` (else 0), capped at the full-load curve (less the
+      accessories); the motor takes the rest (u = 1 − T_eng/T_dem, clipped to [-1, 1]);
+    * while braking u = 1: the motor takes all the regeneration available, ADVISOR's behaviour.
 
-    With ADVISOR's defaults (``off_trq_frac`` 0, launch speed 0) the engine is on whenever the bus pulls: that is
-    ADVISOR's default behaviour, kept on purpose. The physics clips u to [-1, 1], so at light load the charging torque
-    is limited to T_dem (engine at most 2·T_dem). The engine torque is capped at its full-load curve (less the
-    accessories) and the motor asked for the rest, as in ADVISOR (the physics never tops up by itself).
+    With ADVISOR's defaults (``off_trq_frac`` 0, launch speed 0) the engine is on whenever the bus pulls, on purpose.
 """
 
 from __future__ import annotations
@@ -50,7 +45,6 @@ class EngineOnly(Strategy):
     colour = "#8c564b"
     teacher = True
     in_benchmark = True
-    thermal_aware = False  # the motor gives no torque; its spinning losses heat it whatever the strategy
 
     def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
         return np.zeros(1, dtype=np.float32)
@@ -61,23 +55,17 @@ class EngineOnly(Strategy):
 
 
 @register
-class Conventional(Strategy):
+class Conventional(EngineOnly):
     """Another vehicle: the conventional bus (no motor), driven with action 0; a reference row, not compared with the
     hybrid's optimum."""
 
     name = "conventional"
     order = 10  # another vehicle: the reference row, first
     colour = "#393b79"
-    teacher = True
-    in_benchmark = True
-    thermal_aware = False  # no motor: nothing to respect
     other_vehicle = True
 
     def vehicle_config(self, config: VehicleConfig) -> VehicleConfig:
         return config.conventional()
-
-    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
-        return np.zeros(1, dtype=np.float32)
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, "vehicle": "another vehicle: the conventional bus (VehicleConfig.conventional(): "
@@ -94,22 +82,17 @@ class RuleBased(Strategy):
     colour = "#bcbd22"
     teacher = True
     in_benchmark = True
-    thermal_aware = False
 
     def __init__(self, hi_soc: float = 0.7, lo_soc: float = 0.6, launch_spd_lo_mps: float = 0.0,
                  launch_spd_hi_mps: float = 0.0, off_trq_frac: float = 0.0, min_trq_frac: float = 0.4,
                  charge_trq_nm: float | None = None, charge_trq_frac_of_min_max: float = 0.25):
         if not 0.0 < lo_soc < hi_soc < 1.0:
             raise ValueError(f"rule: need 0 < lo_soc < hi_soc < 1, got lo_soc={lo_soc}, hi_soc={hi_soc}")
-        self.hi_soc = float(hi_soc)
-        self.lo_soc = float(lo_soc)
-        self.launch_spd_lo_mps = float(launch_spd_lo_mps)
-        self.launch_spd_hi_mps = float(launch_spd_hi_mps)
-        self.off_trq_frac = float(off_trq_frac)
-        self.min_trq_frac = float(min_trq_frac)
-        self._charge_trq_nm = None if charge_trq_nm is None else float(charge_trq_nm)
+        self.hi_soc, self.lo_soc, self.off_trq_frac, self.min_trq_frac = (float(hi_soc), float(lo_soc),
+                                                                          float(off_trq_frac), float(min_trq_frac))
+        self.launch_spd_lo_mps, self.launch_spd_hi_mps = float(launch_spd_lo_mps), float(launch_spd_hi_mps)
+        self._charge_trq_nm = self.charge_trq_nm = None if charge_trq_nm is None else float(charge_trq_nm)
         self.charge_trq_frac = float(charge_trq_frac_of_min_max)
-        self.charge_trq_nm = self._charge_trq_nm
 
     def reset(self, env: Any) -> None:
         super().reset(env)
@@ -142,10 +125,8 @@ class RuleBased(Strategy):
         soc = float(env.phys_state[0, core.SOC])
         speed = float(env.cycle.speed_mps[env.k])
         t_eng = self.engine_torque_nm(demand, float(out[0, core.ENGINE_SPEED]), soc, speed)
-        if t_eng is not None:
-            # the engine gives at most its full-load torque (less the accessories); the motor the rest
-            t_eng = min(t_eng, float(out[0, core.ENGINE_MAX]))
-        u = 1.0 if t_eng is None else 1.0 - t_eng / demand
+        # the engine gives at most its full-load torque (less the accessories); the motor the rest
+        u = 1.0 if t_eng is None else 1.0 - min(t_eng, float(out[0, core.ENGINE_MAX])) / demand
         return np.array([min(max(u, -1.0), 1.0)], dtype=np.float32)
 
     def describe(self) -> dict[str, Any]:

@@ -36,19 +36,17 @@ class HevThermalEnv(EnvParts, gym.Env):
     ``paper_bus("paper_eqs")`` is the paper's one-node eqs 1-7), loses peak torque as its heat index (PWM, eqs 8-9)
     integrates sustained overload, loses efficiency as it warms and stops at 70 °C (the stator/housing node, the
     paper's motor temperature) or at a 165 °C winding until it has cooled. Where the powertrain cannot deliver
-    the demand, the step records a trace miss (missed wheel energy, speed deficit) and the reward prices it; the next
-    step follows the cycle again. See :mod:`hev_thermal_env.physics.core`.
+    the demand, the step records a priced trace miss; the next step follows the cycle again
+    (:mod:`hev_thermal_env.physics.core`).
 
     ## Action Space
 
     ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler. Motor u·T_dem, engine
     (1 - u)·T_dem; u < 0 loads the engine more and charges the battery. The physics core clips the motor request to its
     envelope (peak torque, heat index, cutoff) and the battery's limits and lets the engine cover the rest up to its
-    full load; what is still missing is a priced trace miss (the motor never tops up by itself). While braking, u > 0
-    is the share of the available regeneration the motor takes (the driven axle's share of the braking, within the
-    motor's and the battery's limits; friction brakes take the rest) and u ≤ 0 brakes by friction alone, so that u = 0
-    throughout drives the bus with its motor unused (``engine_only``); standing, the action has no effect. Values
-    outside [-1, 1] are clipped
+    full load (the motor never tops up by itself). While braking, u > 0 is the share of the available regeneration the
+    motor takes (friction brakes take the rest) and u ≤ 0 brakes by friction alone, so that u = 0 throughout drives the
+    bus with its motor unused (``engine_only``); standing, the action has no effect. Values outside [-1, 1] are clipped
     (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share applied); NaN or inf, or a shape other than
     ``(1,)``, raise ``ValueError``.
 
@@ -79,11 +77,9 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     Entry 11 is the motor's torque limit in the last step: the peak torque at that speed, derated by the heat index
     (eq 8), 0 while cut off; after reset, the limit for the first step. Its upper bound is the motor's peak torque (240
-    N·m for ``paper_bus``); that of entry 12 the number of gears (5). The gear is always 1 or more, but its declared
-    lower bound is 0, so that an all-zero observation lies inside the space (torchrl, for one, fills the final
-    observation of a batch with zeros and checks it against the space); every other entry's range holds 0 already. The
-    preview is taken from the start of the next step and held at the cycle's last speed past its end; with the defaults
-    (``preview_s=10``, ``preview_step_s=2``) it has 5 entries (+2 to +10 s) and the observation 21.
+    N·m for ``paper_bus``); that of entry 12 the number of gears (5), its lower bound 0 so that an all-zero observation
+    lies inside the space (torchrl fills a batch's final observation with zeros). The preview is held at the cycle's
+    last speed past its end; with the defaults it has 5 entries (+2 to +10 s) and the observation 21.
     :func:`observation_names` gives the names in order.
 
     ## Rewards
@@ -107,17 +103,13 @@ class HevThermalEnv(EnvParts, gym.Env):
     :mod:`hev_thermal_env.metrics`: with the default weights an episode's fuel, miss and battery terms add up to minus
     its corrected fuel, so DP and ECMS, which minimise the same terms, optimise the metric they are judged by.
 
-    Why the band settlement: the battery is priced at one stated average efficiency (engine 0.36 × charge path 0.90),
-    but the engine's marginal efficiency under load is better, so fuel, miss and battery energy alone are minimised by
-    ending with more charge (DP with a free final SOC: +0.06 on UDDS, the corrected fuel 1-2 % below the
-    charge-sustaining optimum). The settlement is the potential difference of the dead-zone hinge Φ: over an episode it
-    adds up to −10,000 g per unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step
-    by step as the SOC moves (a cost in the step that leaves the band, a refund in the step that returns). Its slope is
-    about the battery price of a unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times the most that ending beyond the band
-    earns (≈1,100 g), so the reward's optimum is charge-sustaining (docs/metrics.md), and a run that
-    starts and ends inside the band returns exactly minus its corrected fuel and the overheat terms. A step's settlement
-    stays within ≈10 g (a step moves the SOC by ≈0.001 at most); a larger pack needs a proportionally larger
-    ``soc_band_weight``.
+    Why the band settlement: the battery is priced at one stated average efficiency, but the engine's marginal
+    efficiency under load is better, so the prices alone are minimised by ending with more charge (docs/metrics.md).
+    The settlement is the potential difference of the dead-zone hinge Φ: over an episode it adds up to −10,000 g per
+    unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step by step as the SOC
+    moves. That is 9 times the most that ending beyond the band earns (≈1,100 g), so the reward's optimum is
+    charge-sustaining, and a run that starts and ends inside the band returns exactly minus its corrected fuel and the
+    overheat terms. A larger pack needs a proportionally larger ``soc_band_weight``.
 
     The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on high ground it sits
     lower by the charge the remaining descent will return (:func:`~hev_thermal_env.envs.reward.band_center`)::
@@ -133,17 +125,14 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ``reset`` and ``step`` return the same keys in the same order, :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the
     contract first: fuel, SOC, motor and engine operating points, heat index, cutoff, reward terms, the safety cost;
-    then extras such as ``motor_share``, the share u applied after clipping, and ``motor_share_clipped``, and the
-    episode's keys, :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``, in
-    their order. Every value is a numpy scalar, ``np.float64``, ``np.int64`` or ``np.bool_``
-    (:data:`~hev_thermal_env.envs.spaces.INFO_DTYPES`), the same type for a key at every reset and step, so that
-    readers that store each info value as an array or tensor of a fixed dtype and shape (torchrl's default info
-    reader, Minari's ``DataCollector(record_infos=True)``, gymnasium's vector wrappers) take the info unchanged. A
-    reset's info holds the starting state (:data:`~hev_thermal_env.envs.spaces.STATE_INFO_KEYS`: SOC, temperatures,
-    heat index, protections, speed, time, the first step's torque envelope, the episode's keys) and zero or False
-    for every quantity of a step (fuel, torques, speeds of the machines, reward terms, ``cost``, ``motor_share``, ...).
-    The cycle and the coolant mode are codes, ``cycle_id`` (:func:`~hev_thermal_env.envs.spaces.cycle_name` gives the
-    name, as does ``env.unwrapped.cycle.name``) and ``coolant_code``
+    then extras such as ``motor_share``, the share u applied after clipping, and the episode's keys,
+    :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``, in their order. Every
+    value is a numpy scalar of the same type for a key at every reset and step
+    (:data:`~hev_thermal_env.envs.spaces.INFO_DTYPES`), so that readers that store each info value with a fixed dtype
+    (torchrl, Minari's ``DataCollector(record_infos=True)``, gymnasium's vector wrappers) take the info unchanged. A
+    reset's info holds the starting state (:data:`~hev_thermal_env.envs.spaces.STATE_INFO_KEYS`) and zero or False
+    for every quantity of a step. The cycle and the coolant mode are codes, ``cycle_id``
+    (:func:`~hev_thermal_env.envs.spaces.cycle_name`, or ``env.unwrapped.cycle.name``) and ``coolant_code``
     (:func:`~hev_thermal_env.envs.spaces.coolant_mode`).
 
     ## Cost
@@ -155,15 +144,9 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     PWM (eq 9, the heat index after the step) is the share of the motor's overload reserve, peak minus continuous
     torque (eq 8), that heat has taken away; ``[stopped]`` is 1 while the 70 °C protection or the 165 °C winding
-    protection holds the motor at zero torque. One unit is one second of the motor fully derated or stopped, so an
-    episode's safety cost reads as seconds of lost motor capability: 0 for a motor that keeps its whole envelope,
-    the episode's length for one stopped throughout; 0 throughout with the thermal model off (``thermal=False``:
-    nothing derates or stops). Why this measure: derating and the protections are what heat does
-    to this bus (torque lost, a motor stopped); both are bounded per step, so a budget in seconds compares across
-    cycles and scenarios, and the measure needs no temperature threshold besides the protections the vehicle has.
-    Temperature above a limit is priced in the reward already (``reward_overheat``); an excess would add a second,
-    arbitrary threshold. :func:`~hev_thermal_env.envs.spaces.safety_cost` computes it; docs/tasks.md says how the
-    benchmark's tasks use it.
+    protection holds the motor at zero torque. An episode's safety cost reads as seconds of lost motor capability; 0
+    throughout with the thermal model off (``thermal=False``). :func:`~hev_thermal_env.envs.spaces.safety_cost`
+    computes it; docs/tasks.md says why this measure and how the benchmark's tasks use it.
 
     ## Starting State
 
@@ -204,18 +187,15 @@ class HevThermalEnv(EnvParts, gym.Env):
       removes it.
     * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor temperature, heat index and
       split so far) or ``"human"`` (the same in a matplotlib window, redrawn at every step and reset).
-    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting, on for
-      ``paper_bus()``); False is the paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the
-      baseline of its tables.
+    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting); False is the
+      paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
     * ``soc_offset``: start each episode up to this much SOC (uniform, at most 0.2, clipped to the battery's window)
       above or below its SOC target, the scenario's initial SOC; the reward's band and the observation still refer to
-      the unshifted target (training: the charge away from its target and the way back). A reset's ``initial_soc``
-      option is never shifted. 0 (default): on the target.
+      the unshifted target. A reset's ``initial_soc`` option is never shifted. 0 (default): on the target.
     * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence of names from
       :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean path for gymnasium's vector wrappers
-      (``gymnasium.make_vec(..., vectorization_mode="sync", info_keys=())`` merges no infos per step) and trainers that
-      read none.
+      and trainers that read none.
 
     ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this episode only),
     ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant`` (``"on"``, ``"degraded"``, ``"off"``) and
@@ -230,18 +210,11 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Version History
 
-    * v2: physics v2: the motor rated where its nameplate says (30 kW at 3,600 rpm in 40 °C air settles the housing at
-      90 % of its rise to the 70 °C cut-off; the water jacket is the paper's h_water·A, the radiator sized by that
-      rating: docs/thermal_model.md, *The rated condition*), and the overheat price is the winding insulation's life
-      (Montsinger's halving every 10 K below class H's 180 °C, priced by the motor's replacement) with nothing added for
-      a cut-off beyond the fuel and missed energy it costs; the MDP is otherwise v1's. v1 stays available as it was.
-    * v1: the motor thermal network with physical parameters (winding, stator/housing, pumped coolant loop; the
-      valve senses the coolant; inverter losses to their cold plate; a 165 °C winding protection), the action governs
-      braking (share of the available regeneration; u ≤ 0 friction only), the braking split between axles, the
-      battery's coulombic efficiency, the accessory load as a condition; observation entry 7 (winding temperature)
-      added; info keys ``winding_temp_c``, ``coolant_temp_c``, ``winding_trip`` and the safety cost ``cost``; the
-      info's values are numpy scalars, with the same keys at reset as at every step. Results of v0 do not carry
-      over; ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming the newest id.
+    * v2: physics v2: the motor rated where its nameplate says (docs/thermal_model.md, *The rated condition*), and the
+      overheat price is the winding insulation's life (docs/environment.md); the MDP is otherwise v1's.
+    * v1: the motor thermal network with physical parameters, the action governs braking, observation entry 7
+      (winding temperature), the safety cost ``cost``, numpy-scalar infos with the same keys at reset as at every step
+      (CHANGELOG.md). ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming the newest id.
     * v0: initial version.
     """
 

@@ -22,7 +22,13 @@ from .reward import RewardParams
 from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, cost_step_s, reset_info_dict, step_info_arrays
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
-_PER_ENV_ATTRS = ("cycle", "conditions", "k", "soc_target", "phys_state", "cond", "last_out", "np_random")
+_PER_ENV_ATTRS = {
+    "cycle": lambda env, i: env._rows.cycles[i], "conditions": lambda env, i: env._rows.conditions[i],
+    "k": lambda env, i: int(env._rows.k[i]), "soc_target": lambda env, i: float(env._rows.soc_target[i]),
+    "phys_state": lambda env, i: env._rows.state[i:i + 1].copy(),
+    "cond": lambda env, i: env._rows.cond[i:i + 1].copy(),
+    "last_out": lambda env, i: env._rows.last_out[i].copy(), "np_random": lambda env, i: env._rngs[i],
+}
 
 
 class HevThermalVectorEnv(EnvParts, VectorEnv):
@@ -45,12 +51,10 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     ``reset_mask`` (bool array: reset only these), or a list of one options dict per sub-env.
 
     Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys and values,
-    one array of dtype :data:`~hev_thermal_env.envs.spaces.INFO_DTYPES` per key. Resets and steps report the same keys,
-    so every mask is all True after a full reset and the keys do not change when sub-envs reset; torchrl reads a batch
-    through fixed info specs (it accepts the ``SAME_STEP`` and ``DISABLED`` modes:
-    ``torchrl.envs.GymWrapper(gymnasium.make_vec("HevThermal-v2", n, autoreset_mode="SameStep"))``). The batch
-    attributes ``config``, ``core``, ``reward_params``, ``cycles``, ``conditions``, ``k`` [n], ``phys_state`` [n,
-    N_STATE], ``cond`` [n, N_COND], ``soc_target`` [n] and ``last_out`` [n, N_OUT] mirror the single env's.
+    one array of dtype :data:`~hev_thermal_env.envs.spaces.INFO_DTYPES` per key; resets and steps report the same keys
+    (torchrl reads it in the ``SAME_STEP`` and ``DISABLED`` modes). The batch attributes ``config``, ``core``,
+    ``reward_params``, ``cycles``, ``conditions``, ``k`` [n], ``phys_state`` [n, N_STATE], ``cond`` [n, N_COND],
+    ``soc_target`` [n] and ``last_out`` [n, N_OUT] mirror the single env's.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -83,29 +87,11 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
         self._episode_cols = {key: np.zeros(self.num_envs, dtype=INFO_DTYPES[key]) for key in EPISODE_INFO_KEYS}
 
-    # -- batch attributes --------------------------------------------------------------------------
-
-    @property
-    def cycles(self) -> list:
-        return list(self._rows.cycles)
-
-    @property
-    def conditions(self) -> list:
-        return list(self._rows.conditions)
-
-    @property
-    def k(self) -> np.ndarray:
-        return self._rows.k.copy()
-
-    @property
-    def soc_target(self) -> np.ndarray:
-        return self._rows.soc_target
-
-    @property
-    def last_out(self) -> np.ndarray:
-        return self._rows.last_out
-
-    # -- gymnasium vector API -----------------------------------------------------------------------
+    cycles = property(lambda self: list(self._rows.cycles))
+    conditions = property(lambda self: list(self._rows.conditions))
+    k = property(lambda self: self._rows.k.copy())
+    soc_target = property(lambda self: self._rows.soc_target)
+    last_out = property(lambda self: self._rows.last_out)
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None,
               options: dict[str, Any] | Sequence[dict[str, Any] | None] | None = None):
@@ -191,17 +177,9 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         """The attribute of every sub-environment: per-env values for the episode attributes
         (``cycle``, ``conditions``, ``k``, ``soc_target``, ``phys_state``, ``cond``, ``last_out``, ``np_random``), else
         the shared attribute of the vector env repeated."""
-        rows = self._rows
         if name in _PER_ENV_ATTRS:
-            per = {
-                "cycle": lambda i: rows.cycles[i], "conditions": lambda i: rows.conditions[i],
-                "k": lambda i: int(rows.k[i]), "soc_target": lambda i: float(rows.soc_target[i]),
-                "phys_state": lambda i: rows.state[i:i + 1].copy(), "cond": lambda i: rows.cond[i:i + 1].copy(),
-                "last_out": lambda i: rows.last_out[i].copy(), "np_random": lambda i: self._rngs[i],
-            }[name]
-            return tuple(per(i) for i in range(self.num_envs))
-        value = getattr(self, name)
-        return (value,) * self.num_envs
+            return tuple(_PER_ENV_ATTRS[name](self, i) for i in range(self.num_envs))
+        return (getattr(self, name),) * self.num_envs
 
     def set_attr(self, name: str, values: Any) -> None:
         """Set a shared attribute (e.g. ``reward_params``); a list must hold the same value for every env."""
@@ -220,8 +198,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple:
         """Call a method of the vector env once (or read an attribute); the result for every sub-env."""
         attr = getattr(self, name)
-        result = attr(*args, **kwargs) if callable(attr) else attr
-        return (result,) * self.num_envs
+        return (attr(*args, **kwargs) if callable(attr) else attr,) * self.num_envs
 
     def render(self):
         gym.logger.warn("HevThermalVectorEnv does not render; render a single HevThermal-v2 env instead")
@@ -229,8 +206,6 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
 
     def __repr__(self) -> str:
         return f"HevThermalVectorEnv(num_envs={self.num_envs}, autoreset_mode={self.autoreset_mode.value})"
-
-    # -- internals ------------------------------------------------------------------------------------
 
     def _seed_list(self, seed: Any) -> list[int | None]:
         if seed is None:
@@ -269,11 +244,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
             return {}
         arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped, self._episode_cols,
                                   self._cost_step_s)
-        infos = {}
-        for key in self.info_keys:
-            infos[key] = arrays[key]
-            infos["_" + key] = mask
-        return infos
+        return {k: v for key in self.info_keys for k, v in ((key, arrays[key]), ("_" + key, mask))}
 
     def _reset_info_arrays(self, idx: np.ndarray, reset_infos: list[dict], infos: dict) -> dict:
         """``infos`` with the reset infos of sub-envs ``idx`` written into fresh arrays (the step's arrays may view the
