@@ -32,7 +32,7 @@ import numpy as np
 
 from .cycles import load_cycle, with_grade_profile
 from .cycles.families import PAYLOAD_KG_RANGE
-from .cycles.grades import HILLY_KWARGS, HILLY_SEED
+from .cycles.generator import HILLY_KWARGS, HILLY_SEED
 from .physics.config import Conditions
 
 

@@ -27,7 +27,7 @@ from hev_thermal_env.cycles.families import (
     training_seed,
 )
 from hev_thermal_env.cycles.generator import BEIJING_SEED
-from hev_thermal_env.cycles.validation import VALIDATION_FAMILIES, VALIDATION_SIZE, validation_cycle
+from hev_thermal_env.cycles.names import VALIDATION_FAMILIES, VALIDATION_SIZE, validation_cycle
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.physics.config import VehicleConfig
 from hev_thermal_env.scenarios import get_scenario

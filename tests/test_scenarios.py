@@ -7,7 +7,7 @@ import pytest
 
 from hev_thermal_env import load_cycle, paper_bus, simulate
 from hev_thermal_env.cycles import generate_bus_cycle, generate_grade_profile, with_grade_profile
-from hev_thermal_env.cycles.grades import HILLY_KWARGS, HILLY_SEED
+from hev_thermal_env.cycles.generator import HILLY_KWARGS, HILLY_SEED
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 
 

@@ -18,7 +18,7 @@ from hev_thermal_env.cycles.families import (
     inner_seed,
     training_seed,
 )
-from hev_thermal_env.cycles.validation import VALIDATION_SIZE, validation_cycle, validation_seed
+from hev_thermal_env.cycles.names import VALIDATION_SIZE, validation_cycle, validation_seed
 from hev_thermal_env.scenarios import get_scenario
 from hev_thermal_env.tasks import (
     TASK_ARGS,

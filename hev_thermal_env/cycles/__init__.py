@@ -5,19 +5,17 @@
   range gives an :class:`ImplausibleCycleWarning`.
 * :func:`generate_bus_cycle`: seeded synthetic stop-to-stop city-bus cycles (:mod:`.generator`);
   :func:`generate_grade_profile`, :func:`with_grade_profile`: seeded hilly roads
-  (:mod:`.grades`).
+  (:mod:`.generator`).
 * :func:`generate_family_cycle`, :func:`list_families`: families of generated bus cycles, loadable as
   ``FAMILY:SEED`` (:mod:`.families`); ``validation_bus``, a fixed set of them that training never draws
-  (:mod:`.validation`, :func:`expand_cycle_names`).
+  (:mod:`.names`, :func:`expand_cycle_names`).
 """
 
 from .cycle import PLAUSIBLE_ACCEL_MAX_MPS2, PLAUSIBLE_SPEED_MAX_MPS, Cycle, ImplausibleCycleWarning
 from .families import cycle_statistics, generate_family_cycle, list_families
-from .generator import generate_bus_cycle
-from .grades import generate_grade_profile, with_grade_profile
+from .generator import generate_bus_cycle, generate_grade_profile, with_grade_profile
 from .loader import cycle_from_arrays, list_cycles, load_cycle
-from .names import expand_cycle_names
-from .validation import VALIDATION_SET
+from .names import VALIDATION_SET, expand_cycle_names
 
 __all__ = ["PLAUSIBLE_ACCEL_MAX_MPS2", "PLAUSIBLE_SPEED_MAX_MPS", "VALIDATION_SET", "Cycle", "ImplausibleCycleWarning",
            "cycle_from_arrays", "cycle_statistics", "expand_cycle_names", "generate_bus_cycle", "generate_family_cycle",

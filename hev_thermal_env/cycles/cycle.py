@@ -1,10 +1,5 @@
-"""The :class:`Cycle` container and the sample checks shared by every cycle source.
-
-A cycle is a speed trace (and an optional road grade) sampled every second from ``t = 0``.
-Every way of making a cycle (built-in name, user CSV, arrays, the synthetic generator) ends in
-the same :class:`Cycle`, whose arrays are read-only so a cycle can be shared between
-environments without copies.
-"""
+"""The :class:`Cycle` container (read-only arrays, shared between environments without copies) and the sample checks
+shared by every cycle source."""
 
 from __future__ import annotations
 
@@ -20,17 +15,13 @@ import numpy as np
 
 #: Speed below which a 1-s sample counts as standing still [m/s].
 IDLE_SPEED_MPS = 0.1
-
 #: Largest accepted ``|grade|`` (rise/run). Steeper values are almost surely percent or degrees.
 MAX_ABS_GRADE = 0.5
-
 #: Tolerance on the time grid [s] (time stamps written with a few decimals still pass).
 TIME_TOL_S = 1e-6
-
 #: Speed above which a user cycle sample is implausible for a city bus [m/s] (126 km/h; the paper's bus
 #: tops out at 89 km/h). A cycle in km/h under a ``speed_mps`` header exceeds it at any highway speed.
 PLAUSIBLE_SPEED_MAX_MPS = 35.0
-
 #: Largest plausible |acceleration| of a bus over one step of a user cycle [m/s²] (hard braking is about
 #: 3 m/s², a city bus accelerates at 1-1.5 m/s²). Speeds in km/h read as m/s multiply it by 3.6.
 PLAUSIBLE_ACCEL_MAX_MPS2 = 3.5
@@ -209,43 +200,25 @@ class Cycle:
         v = self.speed_mps
         return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(self.time_s)))
 
-    @property
-    def distance_km(self) -> float:
-        """Distance [km]."""
-        return self.distance_m / 1000.0
-
-    @property
-    def mean_speed_kmh(self) -> float:
-        """Mean speed including stops [km/h]: distance divided by duration."""
-        return 3.6 * self.distance_m / self.duration_s
-
-    @property
-    def max_speed_kmh(self) -> float:
-        """Maximum speed [km/h]."""
-        return 3.6 * float(np.max(self.speed_mps))
-
-    @property
-    def idle_fraction(self) -> float:
-        """Fraction of 1-s samples with speed below 0.1 m/s."""
-        return float(np.mean(self.speed_mps < IDLE_SPEED_MPS))
-
-    @property
-    def accel_mps2(self) -> np.ndarray:
-        """Forward-difference acceleration [m/s^2] over each 1-s step (length ``n_steps``)."""
-        return np.diff(self.speed_mps) / np.diff(self.time_s)
-
-    @property
-    def max_abs_accel_mps2(self) -> float:
-        """Largest ``|acceleration|`` [m/s^2] from the 1-s forward difference of the speed."""
-        return float(np.max(np.abs(self.accel_mps2)))
+    #: Distance [km].
+    distance_km = property(lambda self: self.distance_m / 1000.0)
+    #: Mean speed including stops [km/h]: distance divided by duration.
+    mean_speed_kmh = property(lambda self: 3.6 * self.distance_m / self.duration_s)
+    #: Maximum speed [km/h].
+    max_speed_kmh = property(lambda self: 3.6 * float(np.max(self.speed_mps)))
+    #: Fraction of 1-s samples with speed below 0.1 m/s.
+    idle_fraction = property(lambda self: float(np.mean(self.speed_mps < IDLE_SPEED_MPS)))
+    #: Forward-difference acceleration [m/s^2] over each 1-s step (length ``n_steps``).
+    accel_mps2 = property(lambda self: np.diff(self.speed_mps) / np.diff(self.time_s))
+    #: Largest ``|acceleration|`` [m/s^2] from the 1-s forward difference of the speed.
+    max_abs_accel_mps2 = property(lambda self: float(np.max(np.abs(self.accel_mps2))))
 
     def to_csv(self, path: str | os.PathLike) -> Path:
         """Write the cycle to ``path`` (overwritten) as CSV ``time_s,speed_mps,grade`` and return the path;
         ``load_cycle(cycle.to_csv(p))`` reproduces the arrays exactly."""
         path = Path(path)
-        lines = ["time_s,speed_mps,grade"]
-        rows = zip(self.time_s, self.speed_mps, self.grade)
-        lines.extend(f"{float(t)!r},{float(v)!r},{float(g)!r}" for t, v, g in rows)  # repr: reads back the same float
+        rows = zip(self.time_s, self.speed_mps, self.grade)  # repr: reads back the same float
+        lines = ["time_s,speed_mps,grade"] + [f"{float(t)!r},{float(v)!r},{float(g)!r}" for t, v, g in rows]
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path
 

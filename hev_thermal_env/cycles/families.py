@@ -7,9 +7,8 @@ within what the loader accepts without an :class:`~hev_thermal_env.cycles.Implau
 :data:`FAMILIES`; their statistics and why each is there: docs/cycle-families.md. Payload is a condition of the
 run, not part of a cycle.
 
-Seeds (names: :mod:`~hev_thermal_env.cycles.names`): training draws from ``[0, TRAINING_SEED_LIMIT)``
-(:func:`training_seed`); the validation set (:mod:`~hev_thermal_env.cycles.validation`) uses seeds from
-:data:`VALIDATION_SEED_BASE` up, disjoint by construction. Segments and roads are seeded with :func:`inner_seed`,
+Seeds: training draws from ``[0, TRAINING_SEED_LIMIT)`` (:func:`training_seed`); the validation set
+(:mod:`~hev_thermal_env.cycles.names`) uses seeds from :data:`VALIDATION_SEED_BASE` up, disjoint by construction. Segments and roads are seeded with :func:`inner_seed`,
 an injective map of (family, seed, part) onto integers from 2**48 up: no two family cycles share a generator
 seed, and none is the seed of a built-in or ``random_bus`` cycle; the per-cycle draws (durations, segment kinds,
 launch accelerations, hill heights) use ``inner_seed(family, seed, 0)``.
@@ -24,8 +23,7 @@ from typing import Any
 import numpy as np
 
 from .cycle import IDLE_SPEED_MPS, Cycle
-from .generator import BEIJING_SEED, generate_bus_cycle
-from .grades import grade_along, hill_kwargs
+from .generator import BEIJING_SEED, as_lists, generate_bus_cycle, grade_along, hill_kwargs
 
 #: Training seeds are drawn from ``[0, TRAINING_SEED_LIMIT)``.
 TRAINING_SEED_LIMIT = 2**31 - 1
@@ -208,15 +206,14 @@ def generate_family_cycle(family: str, seed: int, *, name: str | None = None) ->
         seg_seed = inner_seed(family, seed, i)
         speeds.append(generate_bus_cycle(seg_seed, float(duration_s), **kwargs).speed_mps[1:])
         segments.append({"kind": kind, "duration_s": int(duration_s), "seed": seg_seed,
-                         "params": {k: list(v) if isinstance(v, tuple) else v for k, v in kwargs.items()}})
+                         "params": as_lists(kwargs)})
     v = np.concatenate(speeds)
-    road = None
-    grade = np.zeros(len(v))
+    road, grade = None, np.zeros(len(v))
     if plan.max_grade is not None:
         road_seed = inner_seed(family, seed, _PARTS - 1)
         kwargs = hill_kwargs(plan.max_grade)
         grade = grade_along(v, road_seed, **kwargs)
-        road = {"seed": road_seed, "params": {k: list(x) if isinstance(x, tuple) else x for k, x in kwargs.items()}}
+        road = {"seed": road_seed, "params": as_lists(kwargs)}
     metadata = {"synthetic": True, "generator": "hev_thermal_env.cycles.families.generate_family_cycle",
                 "family": family, "seed": int(seed), "segments": segments, "grade_profile": road}
     return Cycle(name=label, time_s=np.arange(len(v), dtype=np.float64), speed_mps=v, grade=grade, synthetic=True,

@@ -1,4 +1,4 @@
-"""Seeded stop-to-stop (micro-trip) generator of synthetic city-bus cycles.
+"""Seeded synthetic city-bus cycles (stop-to-stop micro-trips) and hilly roads under any cycle.
 
 A bus cycle is a chain of micro-trips, each from standstill to standstill: dwell, accelerate, cruise (possibly
 change speed, traffic), brake to a stop. Dwells, cruise durations, per-trip driver factors on the traction curve
@@ -11,7 +11,12 @@ overrun is shortened (shorter cruise, then lower speed) and the remainder become
 rounded to 1e-6 m/s so that a generated cycle written to CSV reads back identically; the road is flat.
 
 The built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and :data:`BEIJING_KWARGS`; it is
-synthetic, not a measured Beijing bus cycle. Hilly roads under any cycle: :mod:`~hev_thermal_env.cycles.grades`.
+synthetic, not a measured Beijing bus cycle.
+
+:func:`generate_grade_profile` draws a road along the distance from its own seed (so no flat cycle changes):
+normal grades clipped to ``±max_grade`` on segments, joined by vertical curves, and (``closed``) ending at the
+height it started (a bus line loops back: no net climb to bias the fuel). :func:`with_grade_profile` lays it
+under any cycle; the ``hilly`` scenario lays the road of :data:`HILLY_SEED` under its cycles.
 """
 
 from __future__ import annotations
@@ -69,10 +74,9 @@ def _build_trip(segments: list[tuple[float, int]], noise: np.ndarray, accel_limi
                 noise_corr: float) -> list[float]:
     """Speeds after each 1-s step of one micro-trip from standstill back to standstill over ``segments``
     ``(cruise_speed_mps, cruise_s)``; ``noise``: standard normal draws, one per second of cruise."""
-    v, a = 0.0, 0.0
+    v = a = e = 0.0
     out: list[float] = []
     k_noise = 0
-    e = 0.0
 
     def step(target: float) -> None:
         nonlocal v, a
@@ -89,8 +93,7 @@ def _build_trip(segments: list[tuple[float, int]], noise: np.ndarray, accel_limi
         for _ in range(cruise_s):
             e = noise_corr * e + noise_std_mps * math.sqrt(1.0 - noise_corr**2) * noise[k_noise]
             k_noise += 1
-            ref = min(max(cruise_mps + e, 0.5 * cruise_mps), max_speed_mps)
-            step(ref)
+            step(min(max(cruise_mps + e, 0.5 * cruise_mps), max_speed_mps))
     for _ in range(_MAX_APPROACH_STEPS):
         if v <= 0.0:
             break
@@ -108,7 +111,12 @@ def bus_cycle_params(**kwargs: Any) -> dict[str, Any]:
     if unknown:
         raise ValueError(f"unknown generate_bus_cycle parameters: {sorted(unknown)}")
     params.update(kwargs)
-    return {k: list(v) if isinstance(v, tuple) else v for k, v in params.items()}
+    return as_lists(params)
+
+
+def as_lists(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``kwargs`` with tuples as lists (a cycle's metadata, JSON-like)."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in kwargs.items()}
 
 
 def check_range(name: str, rng_: tuple[float, float], lo: float = 0.0) -> tuple[float, float]:
@@ -128,8 +136,7 @@ def _checked_params(seed: Any, **p: Any) -> dict[str, Any]:
     for label in ("max_speed_kmh", "max_accel_mps2", "accel_power_w_per_kg", "max_jerk_mps3"):
         if not (math.isfinite(p[label]) and p[label] > 0.0):
             raise ValueError(f"{label} must be positive, got {p[label]!r}")
-    for label in ("cruise_speed_kmh_range", "cruise_s_range", "dwell_s_range", "accel_scale_range",
-                  "decel_mps2_range"):
+    for label in ("cruise_speed_kmh_range", "cruise_s_range", "dwell_s_range", "accel_scale_range", "decel_mps2_range"):
         p[label] = list(check_range(label, p[label]))
     cruise_lo, cruise_hi = p["cruise_speed_kmh_range"]
     if cruise_lo <= 0.0 or cruise_hi > p["max_speed_kmh"]:
@@ -230,9 +237,85 @@ def generate_bus_cycle(seed: int, duration_s: float = 1300.0, *, max_speed_kmh: 
     speed_mps = np.maximum(speed_mps, 0.0) + 0.0  # no negative zeros
     metadata = {"synthetic": True, "generator": "hev_thermal_env.cycles.generate_bus_cycle", "seed": int(seed),
                 "params": params, "n_trips": n_trips}
-    if description is None:
-        description = f"Synthetic city-bus cycle (generated, not measured), seed {int(seed)}"
     return Cycle(name=name if name is not None else f"bus_seed{int(seed)}",
                  time_s=np.arange(n_total + 1, dtype=np.float64), speed_mps=speed_mps, grade=np.zeros(n_total + 1),
-                 synthetic=True, description=description, source="hev_thermal_env.cycles.generator.generate_bus_cycle",
+                 synthetic=True, metadata=metadata, source="hev_thermal_env.cycles.generator.generate_bus_cycle",
+                 description=f"Synthetic city-bus cycle (generated, not measured), seed {int(seed)}"
+                 if description is None else description)
+
+
+#: Seed of the road profile of the ``hilly`` scenario.
+HILLY_SEED = 2024
+
+
+def hill_kwargs(max_grade: float) -> dict[str, Any]:
+    """:func:`generate_grade_profile` arguments of rolling hills with grades up to ``±max_grade``."""
+    return {"max_grade": float(max_grade), "grade_std": 0.5 * float(max_grade), "segment_m_range": (150.0, 600.0),
+            "transition_m": 40.0, "closed": True}
+
+
+#: Keyword arguments of :func:`generate_grade_profile` for the ``hilly`` scenario: rolling city hills up to ±7 %.
+HILLY_KWARGS: dict[str, Any] = hill_kwargs(0.07)
+
+
+def generate_grade_profile(seed: int, length_m: float, *, max_grade: float = 0.07, grade_std: float = 0.035,
+                           segment_m_range: tuple[float, float] = (150.0, 600.0), transition_m: float = 40.0,
+                           closed: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """A seeded road, piecewise linear in the returned (positions [m], grade there) from 0 to at least ``length_m``.
+
+    Grades (rise/run) are constant on segments of ``segment_m_range`` metres, with linear vertical curves of
+    ``transition_m`` between them; with ``closed`` the length-weighted mean grade is removed (no net climb).
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"seed must be an integer, got {seed!r}")
+    if not (math.isfinite(length_m) and length_m > 0.0):
+        raise ValueError(f"length_m must be positive, got {length_m!r}")
+    if not (0.0 < max_grade <= 0.3) or not (grade_std >= 0.0):
+        raise ValueError("max_grade must lie in (0, 0.3] and grade_std be >= 0")
+    seg_lo, seg_hi = check_range("segment_m_range", segment_m_range)
+    if seg_lo <= 0.0 or not (0.0 <= transition_m < seg_lo):
+        raise ValueError("segment_m_range must be positive and transition_m in [0, its low end)")
+    rng = np.random.default_rng(int(seed))
+    lengths: list[float] = []
+    while sum(lengths) < length_m:
+        lengths.append(float(rng.uniform(seg_lo, seg_hi)))
+    seg = np.asarray(lengths)
+    grades = np.clip(rng.normal(0.0, grade_std, len(seg)), -max_grade, max_grade)
+    for _ in range(50 if closed else 0):  # remove the net climb, re-clipping; converges in a few rounds
+        grades = np.clip(grades - np.sum(grades * seg) / np.sum(seg), -max_grade, max_grade)
+    ends = np.cumsum(seg)
+    starts = ends - seg
+    pos, val = [0.0], [float(grades[0])]
+    for i in range(1, len(seg)):  # vertical curve around the boundary at starts[i]
+        pos += [starts[i] - 0.5 * transition_m, starts[i] + 0.5 * transition_m]
+        val += [float(grades[i - 1]), float(grades[i])]
+    return np.asarray(pos + [float(ends[-1])]), np.asarray(val + [float(grades[-1])])
+
+
+def grade_along(speed_mps: np.ndarray, seed: int, **kwargs: Any) -> np.ndarray:
+    """The grade under each sample of a 1-s speed trace driven over the road of :func:`generate_grade_profile`:
+    step k climbs the grade at the middle of the distance it covers, the last sample repeats the last step's grade;
+    rounded to 1e-9 (a CSV round trip keeps it)."""
+    v = np.asarray(speed_mps, dtype=np.float64)
+    step_m = 0.5 * (v[1:] + v[:-1])
+    start_m = np.concatenate([[0.0], np.cumsum(step_m)[:-1]])
+    mid_m = start_m + 0.5 * step_m
+    pos, val = generate_grade_profile(seed, max(float(np.sum(step_m)), 1.0), **kwargs)
+    g = np.interp(mid_m, pos, val)
+    return np.round(np.concatenate([g, g[-1:]]), 9) + 0.0
+
+
+def with_grade_profile(cycle: Cycle, seed: int, *, name: str | None = None, **kwargs: Any) -> Cycle:
+    """``cycle``'s speeds over the road of :func:`generate_grade_profile` (``seed``, ``kwargs``), sampled by
+    :func:`grade_along`; the cycle's own grade is replaced."""
+    v = np.asarray(cycle.speed_mps, dtype=np.float64)
+    grade = grade_along(v, seed, **kwargs)
+    metadata = {**cycle.metadata, "grade_profile": {"seed": int(seed), "params": as_lists(kwargs),
+                                                    "generator": "hev_thermal_env.cycles.generate_grade_profile"}}
+    return Cycle(name=name if name is not None else f"{cycle.name}_hilly{int(seed)}",
+                 time_s=np.asarray(cycle.time_s, dtype=np.float64), speed_mps=v, grade=grade, synthetic=True,
+                 description=f"{cycle.description or cycle.name} over a generated hilly road (seed {int(seed)}, "
+                             "synthetic)",
+                 source=f"{cycle.source}; grade from hev_thermal_env.cycles.generate_grade_profile(seed={int(seed)})",
                  metadata=metadata)
+

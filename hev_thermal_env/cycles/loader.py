@@ -10,11 +10,9 @@ User CSV files have a header row naming the columns (case-insensitive; other col
 ``speed_mps`` are required, ``grade`` (rise/run) defaults to 0. Blank lines and lines starting with ``#`` are
 skipped. Time must increase with a uniform step; it is shifted to 0 s and resampled to 1 s
 (:func:`~hev_thermal_env.cycles.cycle.to_1s_grid`). Errors raise ``ValueError`` naming the file, the position as
-``data row N (line M)`` (data rows count from 1 after the header, lines from 1 at the top) and the problem. Valid
-data implausible for a bus (e.g. km/h under a ``speed_mps`` header) gives an
-:class:`~hev_thermal_env.cycles.cycle.ImplausibleCycleWarning` naming the first such row, here and for
-:func:`cycle_from_arrays`; the cycle is used as given. The built-in cycles are not checked (``us06`` and
-``wltc_3b`` are car cycles above a bus's top speed).
+``data row N (line M)`` and the problem. Data implausible for a bus gives an
+:class:`~hev_thermal_env.cycles.cycle.ImplausibleCycleWarning` (not for the built-in cycles: ``us06`` and ``wltc_3b``
+are car cycles above a bus's top speed).
 """
 
 from __future__ import annotations
@@ -107,7 +105,6 @@ def _read_csv(text: str, *, origin: str) -> tuple[np.ndarray, np.ndarray, np.nda
 
     def where(i: int) -> str:
         return f"data row {i + 1} (line {data[i][0]})"
-
     values = {c: np.empty(len(data)) for c in _REQUIRED + _OPTIONAL if c in columns}
     for i, (_, fields) in enumerate(data):
         for col, arr in values.items():
@@ -153,11 +150,9 @@ def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     if isinstance(name_or_path, str) and name_or_path.strip().lower() in _BUILTINS:
         return _load_builtin(name_or_path.strip().lower())
     if isinstance(name_or_path, str) and not Path(name_or_path).is_file():
-        lapped = _LAPS.match(name_or_path.strip())
-        if lapped is not None:
+        if (lapped := _LAPS.match(name_or_path.strip())) is not None:
             return laps(load_cycle(lapped.group(1)), int(lapped.group(2)))
-        generated = generated_cycle(name_or_path)
-        if generated is not None:
+        if (generated := generated_cycle(name_or_path)) is not None:
             return generated
     path = Path(name_or_path)
     if path.is_file():
