@@ -1,12 +1,9 @@
 """File outputs shared by the library and the command lines: checks made before any work, atomic writes.
 
-* :func:`check_writable_dir` / :func:`check_output_path` fail at once, in one line naming the directory, when an
-  output cannot be written: they create and remove a probe file where it will go (``os.access`` says yes to root on
-  a read-only directory).
-* :func:`atomic_write_bytes` (and ``_text``, ``_json``, ``_yaml``, :func:`save_png`): ``path`` is either the old
-  file or the complete new one, with the permissions a plain ``open`` gives. A symbolic link is followed; a path
-  that is not a regular file (``/dev/stdout``, a FIFO) is written to as a stream, never replaced.
-* :func:`files_digest`: a short digest of files' bytes, to tell when a stored result made from them is stale.
+:func:`check_writable_dir` / :func:`check_output_path` fail at once, in one line naming the directory, when an output
+cannot be written: they create and remove a probe file where it will go (``os.access`` says yes to root on a read-only
+directory). After an atomic write (:func:`atomic_write_bytes` and the others) ``path`` is either the old file or the
+complete new one; a path that is not a regular file (``/dev/stdout``, a FIFO) is written to as a stream.
 """
 
 from __future__ import annotations
@@ -57,24 +54,13 @@ def check_writable_dir(directory: str | Path) -> Path:
     return d
 
 
-def _is_stream(p: Path) -> bool:
-    """True for an existing output that is not a regular file (a device, a pipe): written to, never replaced."""
-    return p.exists() and not p.is_file()
-
-
-def _target(path: str | Path) -> Path:
-    """The file a write to ``path`` replaces: ``path``, or the file its symbolic link points to."""
-    p = Path(path)
-    return p.resolve() if p.is_symlink() and p.exists() else p
-
-
 def check_output_path(path: str | Path) -> Path:
     """Fail early, with a clear message, if the file ``path`` cannot be written."""
     p = Path(path)
     if p.is_dir():
         raise IsADirectoryError(f"{p}: is a directory, expected a file path")
-    if not _is_stream(p):
-        check_writable_dir(_target(p).parent)
+    if not (p.exists() and not p.is_file()):  # a regular file, not a stream
+        check_writable_dir((p.resolve() if p.is_symlink() and p.exists() else p).parent)
         return p
     try:
         with open(p, "ab"):
@@ -98,11 +84,11 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     p = Path(path)
     if p.is_dir():
         raise IsADirectoryError(f"{p}: is a directory, expected a file path")
-    if _is_stream(p):
+    if p.exists() and not p.is_file():  # a device, a pipe: written to, never replaced
         with open(p, "wb") as fh:
             fh.write(data)
         return Path(path)
-    p = _target(p)
+    p = p.resolve() if p.is_symlink() and p.exists() else p  # the file a symbolic link points to
     p.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = _open_temp(p.parent, p.name)
     try:

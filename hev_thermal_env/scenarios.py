@@ -1,26 +1,12 @@
-"""Named scenarios: the run conditions (and how they are randomised) for the same vehicle; see docs/scenarios.md.
+"""Named scenarios: the run conditions (and how they are randomised) for the same vehicle; what each is for and does:
+docs/scenarios.md.
 
 A scenario is a small record of deltas (:data:`SCENARIOS`), not a code path; a runner calls
 :meth:`Scenario.prepare_cycle` on the cycle before building the episode (the conditions alone do not carry the
-road). What the values do:
-
-* ``hot`` (a failing cooling loop: the pump's flow at 3 %, so the jacket's conductance falls to 10 % of intact and the
-  radiator's to 16-50 %): a thermal-blind aggressive split derates and reaches the 70 °C cutoff on HWFET and on
-  ``beijing``. At city and motorway motor speeds the spinning loss alone then holds the housing above the 60 °C
-  release (docs/thermal_model.md, *The rated condition*), so once cut off the motor does not come back, whatever the
-  action. It stays as it was for physics v1's task ``udds-hot-v1``; where heat binds on physics v2 with an action that
-  can still protect the motor: docs/tasks.md, *Where heat binds*.
-* ``summer`` (parked in the sun, cooling intact): above the 35 °C thermostat the valve is open from the start, the
-  coolant runs warm enough for the fan, the overload reserve is gone (PWM_initial(38 °C) is small) and the magnets
-  lose torque, so every overload derates at once.
-* ``hilly``: the rolling hills of :func:`~hev_thermal_env.cycles.generate_grade_profile` laid under the cycle.
-* ``full_bus``: about 65 passengers on the 15 t test mass (which already carries ADVISOR's 1.84 t of cargo), about
-  the gross weight of a 12 m city bus.
-* ``weak_loop`` (physics v2's thermal task ``udds-weak-loop-v2``, docs/tasks.md, *Where heat binds*): a full bus an
-  hour into service on a 40 °C day, the motor and coolant still warm from it (55 °C), with a weak cooling loop (the
-  pump's flow at 10 %). The spinning loss alone keeps the housing below the 60 °C release, so every cut-off is the
-  split's doing and some action avoids it.
-* ``random``, ``random_service``: for training, drawn per episode (:meth:`Scenario.sample`).
+road). ``hot`` (a failing cooling loop, the pump's flow at 3 %) stays as it was for physics v1's task ``udds-hot-v1``;
+``weak_loop`` (a full bus an hour into service on a 40 °C day, the pump's flow at 10 %) is physics v2's thermal task
+``udds-weak-loop-v2`` (docs/tasks.md, *Where heat binds*); ``random`` and ``random_service`` are for training, drawn
+per episode (:meth:`Scenario.sample`).
 """
 
 from __future__ import annotations
@@ -61,9 +47,7 @@ class Scenario:
         if not self.randomized:
             return self.conditions
         ambient = float(rng.uniform(10.0, 40.0))
-        motor = ambient + float(rng.uniform(0.0, 30.0))
-        soc = float(rng.uniform(0.55, 0.75))
-        draw = rng.random()
+        motor, soc, draw = ambient + float(rng.uniform(0.0, 30.0)), float(rng.uniform(0.55, 0.75)), rng.random()
         if draw < 0.6:
             coolant, factor = "on", 0.1
         elif draw < 0.9:
@@ -77,10 +61,8 @@ class Scenario:
         return cond
 
     def prepare_cycle(self, cycle: Any) -> Any:
-        """The cycle this scenario drives: ``cycle`` itself, or laid over the scenario's road profile.
-
-        A cycle that already has a grade keeps it (the scenario's road would replace the real one).
-        """
+        """The cycle this scenario drives: ``cycle`` itself, or laid over the scenario's road profile (a cycle that
+        already has a grade keeps it)."""
         cyc = load_cycle(cycle)
         if self.grade_profile is None or np.any(np.asarray(cyc.grade) != 0.0):
             return cyc

@@ -1,13 +1,10 @@
-"""The benchmark's named tasks: fixed cycles × a scenario × seeds × an episode definition, each versioned.
+"""The benchmark's named tasks: fixed cycles × a scenario × seeds × an episode definition, each versioned; the tasks
+and why each is there: docs/tasks.md.
 
-A task (:class:`Task`, a frozen record) is what a result is *on*: its id, ``NAME-vVERSION`` (``hwfet-v1``), names one
-definition for good. Changing anything that changes the episodes (a cycle, the scenario, the seeds, the start) makes a
-new version; :meth:`Task.digest` hashes the definition, the cycles' samples and the scenario's conditions, and the
-test suite pins each version's digest, so that no definition changes under its id unnoticed. The physics is not part
-of a task (results carry the physics fingerprint beside the task id).
-
-:func:`list_tasks` gives the ids, :func:`get_task` a task by id or by name (its newest version), :func:`make_task` its
-env (or a vector env); :meth:`Task.resets` the ``reset`` arguments of its episodes, in order::
+A task's id, ``NAME-vVERSION`` (``hwfet-v1``), names one definition for good: changing anything that changes the
+episodes makes a new version, and the test suite pins each version's :meth:`Task.digest`. The physics is not part of
+a task (results carry the physics fingerprint beside the task id). :func:`make_task` builds its env,
+:meth:`Task.resets` gives the ``reset`` arguments of its episodes::
 
     from hev_thermal_env.tasks import get_task, make_task
 
@@ -18,12 +15,8 @@ env (or a vector env); :meth:`Task.resets` the ``reset`` arguments of its episod
         ...  # drive to truncation: one episode of the task
 
 ``bus-generalisation`` is a test set of generated bus routes (:data:`TEST_FAMILIES`, seeds from
-:data:`TEST_SEED_BASE`) that no training run and no validation cycle uses: training draws family seeds below
-:data:`~hev_thermal_env.cycles.families.TRAINING_SEED_LIMIT`, the validation set has the 30 seeds from
-:data:`~hev_thermal_env.cycles.families.VALIDATION_SEED_BASE`, and a family cycle's generator seeds are an injective
-map of (family, seed) (:func:`~hev_thermal_env.cycles.families.inner_seed`). A training config that names a held-out
-cycle, for training or for checkpoint selection, is refused (:func:`held_out_cycles`). The tasks and why each is there:
-docs/tasks.md.
+:data:`TEST_SEED_BASE`) that no training run and no validation cycle uses; a training config that names one of its
+cycles is refused (:func:`held_out_cycles`).
 """
 
 from __future__ import annotations
@@ -61,13 +54,11 @@ TASK_ARGS = ("cycle", "scenario", "conditions", "config", "thermal", "random_sta
 class Task:
     """One named, versioned benchmark task.
 
-    ``cycles``: the cycles driven (names :func:`~hev_thermal_env.cycles.load_cycle` accepts), each once per seed;
-    ``scenario``: their conditions (:mod:`hev_thermal_env.scenarios`); ``seeds``: the env's reset seeds (a fixed
-    scenario starting at a fixed second draws nothing, so one seed, 0); ``start_s``: every episode starts at this second
-    of its cycle and runs to the cycle's end (truncation). ``train_cycles`` / ``train_scenario``: what a learned method
-    trains on for the task (``train.py --task``); the task's own cycles unless they are held out. ``physics``: the
-    physics version its episodes are driven on (:attr:`env_id`); it is not part of :meth:`digest` (results carry the
-    physics fingerprint beside the task id).
+    ``cycles``: the cycles driven, each once per seed; ``scenario``: their conditions; ``seeds``: the env's reset seeds
+    (a fixed scenario starting at a fixed second draws nothing, so one seed, 0); ``start_s``: every episode starts at
+    this second of its cycle and runs to the cycle's end. ``train_cycles`` / ``train_scenario``: what a learned method
+    trains on for the task (``train.py --task``; the task's own unless held out). ``physics``: the physics version its
+    episodes are driven on (:attr:`env_id`), not part of :meth:`digest`.
     """
 
     name: str
@@ -81,31 +72,20 @@ class Task:
     train_scenario: str | None = None
     physics: int = LATEST_PHYSICS
 
-    @property
-    def env_id(self) -> str:
-        """The env the task's episodes are driven in: ``HevThermal-v{physics}``."""
-        return f"HevThermal-v{self.physics}"
+    #: The env the task's episodes are driven in: ``HevThermal-v{physics}``.
+    env_id = property(lambda self: f"HevThermal-v{self.physics}")
+    #: ``NAME-vVERSION``, e.g. ``hwfet-v1``.
+    id = property(lambda self: f"{self.name}-v{self.version}")
+    #: Whether the task's cycles are a test set that training never sees.
+    held_out = property(lambda self: self.train_cycles is not None and not set(self.cycles) & set(self.train_cycles))
+    #: The training cycles and scenario of the task (``train.py --task``).
+    training = property(lambda self: (self.train_cycles or self.cycles, self.train_scenario or self.scenario))
+    n_episodes = property(lambda self: len(self.cycles) * len(self.seeds))
 
     def fingerprint(self) -> str:
-        """The physics fingerprint of the task's vehicle
-        (:func:`~hev_thermal_env.physics.fingerprint.physics_fingerprint` of ``paper_bus(physics=self.physics)``): what
-        its references and results are checked against."""
+        """The physics fingerprint of ``paper_bus(physics=self.physics)``: what the task's references and results are
+        checked against."""
         return physics_fingerprint(paper_bus(physics=self.physics))
-
-    @property
-    def id(self) -> str:
-        """``NAME-vVERSION``, e.g. ``hwfet-v1``."""
-        return f"{self.name}-v{self.version}"
-
-    @property
-    def held_out(self) -> bool:
-        """Whether the task's cycles are a test set that training never sees."""
-        return self.train_cycles is not None and not set(self.cycles) & set(self.train_cycles)
-
-    @property
-    def training(self) -> tuple[tuple[str, ...], str]:
-        """The training cycles and scenario of the task (``train.py --task``)."""
-        return self.train_cycles or self.cycles, self.train_scenario or self.scenario
 
     def env_kwargs(self) -> dict[str, Any]:
         """The env's arguments that the task fixes (plain values, so that the env's spec serialises)."""
@@ -115,10 +95,6 @@ class Task:
     def resets(self) -> list[tuple[int, dict[str, Any]]]:
         """``(seed, options)`` of ``env.reset`` for each episode: every cycle with every seed, in order."""
         return [(seed, {"cycle": cycle, "start_s": self.start_s}) for cycle in self.cycles for seed in self.seeds]
-
-    @property
-    def n_episodes(self) -> int:
-        return len(self.cycles) * len(self.seeds)
 
     def to_dict(self) -> dict[str, Any]:
         """The record as JSON-ready values, with its id."""

@@ -65,7 +65,7 @@ def test_the_keys_follow_the_sources_that_kernels_and_planners_read(tmp_path, mo
     monkeypatch.setattr(jit, "PACKAGE_DIR", copy)
     kernels = set(jit.kernel_modules())
     assert {"hev_thermal_env.physics.core", "hev_thermal_env.envs.reward", "hev_thermal_env.envs.batch",
-            "hev_thermal_env.envs.observation", "hev_thermal_env.planning.bins"} <= kernels
+            "hev_thermal_env.planning.bins"} <= kernels
     assert "hev_thermal_env.physics.config" not in kernels and "hev_thermal_env.planning.search" not in kernels
     plans = ["hev_thermal_env.planning.thermal_optimum"]
     base = jit.source_hash(), jit.source_hash(plans)
@@ -83,7 +83,7 @@ def test_the_keys_follow_the_sources_that_kernels_and_planners_read(tmp_path, mo
     assert edited("physics/thermal.py") == (True, True)
     assert edited("physics/config.py") == (True, True)  # no kernel, but the kernels read its values
     assert edited("envs/reward.py") == (True, True)  # inlined into the env's fused step and priced by the planners
-    assert edited("envs/observation.py") == (True, False)
+    assert edited("envs/batch.py") == (True, False)
     assert edited("envs/spaces.py") == (True, False)  # the observation kernel reads its layout
     assert edited("planning/thermal_optimum.py") == (False, True)
     assert edited("envs/render.py") == (False, False)

@@ -2,8 +2,8 @@
 
 :class:`EpisodeRows` holds per row the cycle tables (padded to a common width), the step index, the state, the
 conditions and the SOC target. :meth:`EpisodeRows.step` is one call of :func:`advance_kernel` (physics, reward and
-observation fused): one dispatch per step, so the single env (a batch of one) steps as cheaply as a classic-control env;
-the vector env is a batch of n.
+observation, :func:`observe_kernel`, fused): one dispatch per step, so the single env (a batch of one) steps as cheaply
+as a classic-control env; the vector env is a batch of n. Nothing that plans (DP, the thermal optimum) imports it.
 """
 
 from __future__ import annotations
@@ -20,8 +20,45 @@ from ..physics.config import Conditions, VehicleConfig, check_physics, paper_bus
 from ..physics.jit import jit
 from . import spaces as env_spaces
 from .episodes import CycleTables, Episode, EpisodeSampler, TableCache
-from .observation import observe_kernel
 from .reward import REWARD_TERMS, RewardParams, band_center, descent_soc, reward_kernel
+
+
+@jit
+def observe_kernel(w, rows, k, state, cond, soc_target, avail, n_steps, speed, demand, gear, descent, offsets, dt_s,
+                   low, high, obs):
+    """Observations of ``rows`` into ``obs`` [len(rows), dim] (float32, clipped to [low, high]), in the order of
+    :func:`~hev_thermal_env.envs.spaces.observation_names`; the band's center from ``descent`` and the weights ``w``."""
+    n_base = env_spaces.N_OBS_BASE
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        j = k[r]
+        v0 = speed[r, j]
+        obs[i, env_spaces.OBS_SPEED] = v0
+        obs[i, env_spaces.OBS_ACCEL] = (speed[r, j + 1] - v0) / dt_s
+        obs[i, env_spaces.OBS_DEMAND] = demand[r, j]
+        obs[i, env_spaces.OBS_SOC] = state[r, physics_core.SOC]
+        center = band_center(w, soc_target[r], descent[r, j])
+        obs[i, env_spaces.OBS_SOC_TARGET] = center
+        obs[i, env_spaces.OBS_SOC_DEVIATION] = state[r, physics_core.SOC] - center
+        obs[i, env_spaces.OBS_TEMP] = state[r, physics_core.TEMP_C]
+        obs[i, env_spaces.OBS_WINDING] = state[r, physics_core.WINDING_C]
+        obs[i, env_spaces.OBS_PWM] = state[r, physics_core.HEAT_X]  # PWM = clip(x, 0, 1): the bounds below clip it
+        obs[i, env_spaces.OBS_HEAT_X] = state[r, physics_core.HEAT_X]
+        # either protection stops the motor
+        obs[i, env_spaces.OBS_CUTOFF] = max(state[r, physics_core.CUTOFF], state[r, physics_core.WINDING_TRIP])
+        obs[i, env_spaces.OBS_AVAIL] = avail[r]
+        obs[i, env_spaces.OBS_GEAR] = gear[r, j]
+        obs[i, env_spaces.OBS_PROGRESS] = j / n_steps[r]
+        obs[i, env_spaces.OBS_AMBIENT] = cond[r, physics_core.AMBIENT_C]
+        obs[i, env_spaces.OBS_COOLANT] = cond[r, physics_core.COOLANT_FACTOR]
+        for p in range(offsets.shape[0]):
+            obs[i, n_base + p] = speed[r, j + offsets[p]]
+        for c in range(obs.shape[1]):
+            x = obs[i, c]
+            if x < low[c]:
+                obs[i, c] = low[c]
+            elif x > high[c]:
+                obs[i, c] = high[c]
 
 
 @jit
@@ -35,11 +72,7 @@ def advance_kernel(gl, dl, en, mo, th, ba, pt, dt_s, w, u, tables, k, n_steps, s
     ``avail`` (the motor envelope of the step, the next observation's entry) and ``obs``; increments ``k``.
     """
     n = u.shape[0]
-    v0 = np.empty(n)
-    v1 = np.empty(n)
-    g = np.empty(n)
-    c0 = np.empty(n)
-    c1 = np.empty(n)
+    v0, v1, g, c0, c1 = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     for r in range(n):
         v0[r] = tables[0, r, k[r]]
         v1[r] = tables[0, r, k[r] + 1]
@@ -60,22 +93,17 @@ class EpisodeRows:
 
     def __init__(self, core: physics_core.PhysicsCore, n_rows: int, offsets: np.ndarray, low: np.ndarray,
                  high: np.ndarray, reward_params: RewardParams):
-        self.core = core
-        self.n = n_rows
+        self.core, self.n = core, n_rows
         self.offsets = np.ascontiguousarray(offsets, dtype=np.int64)
         self.low, self.high = low.astype(np.float32), high.astype(np.float32)  # the observation's bounds
         self.lhv = core.config.engine.fuel_lhv_j_per_g
         self.reward_params = reward_params
         self.pad = int(self.offsets.max()) + 2 if self.offsets.size else 2
         self.tables = np.zeros((5, n_rows, 2))
-        self.all_rows = np.arange(n_rows, dtype=np.int64)
-        self.k = np.zeros(n_rows, dtype=np.int64)
-        self.end = np.ones(n_rows, dtype=np.int64)
-        self.n_steps = np.ones(n_rows, dtype=np.int64)
-        self.state = np.zeros((n_rows, physics_core.N_STATE))
-        self.cond = np.zeros((n_rows, physics_core.N_COND))
-        self.soc_target = np.zeros(n_rows)
-        self.avail = np.zeros(n_rows)
+        self.all_rows, self.k = np.arange(n_rows, dtype=np.int64), np.zeros(n_rows, dtype=np.int64)
+        self.end, self.n_steps = np.ones(n_rows, dtype=np.int64), np.ones(n_rows, dtype=np.int64)
+        self.state, self.cond = np.zeros((n_rows, physics_core.N_STATE)), np.zeros((n_rows, physics_core.N_COND))
+        self.soc_target, self.avail = np.zeros(n_rows), np.zeros(n_rows)
         self.last_out = np.zeros((n_rows, physics_core.N_OUT))
         self.cycles: list[Cycle | None] = [None] * n_rows
         self.conditions: list[Conditions | None] = [None] * n_rows
@@ -89,14 +117,9 @@ class EpisodeRows:
         self._reward_params = value
         self._weights = value.weights(self.lhv)
 
-    @property
-    def speed(self) -> np.ndarray:
-        """Cycle speed [n, width] of every row (held at the cycle's last value past its end)."""
-        return self.tables[0]
-
-    @property
-    def grade(self) -> np.ndarray:
-        return self.tables[1]
+    #: Cycle speed [n, width] of every row (held at the cycle's last value past its end), and grade.
+    speed = property(lambda self: self.tables[0])
+    grade = property(lambda self: self.tables[1])
 
     @property
     def band_center(self) -> np.ndarray:
@@ -115,25 +138,19 @@ class EpisodeRows:
         j_per_soc = ba.nominal_energy_kwh * 3.6e6
         for i, ep, tab in zip(rows, episodes, tables):
             n = tab.speed_mps.size
-            speed[i, :n] = tab.speed_mps
-            speed[i, n:] = tab.speed_mps[-1]
-            grade[i, :n] = tab.grade
-            grade[i, n:] = 0.0
-            demand[i, :n - 1] = tab.wheel_power_demand_kw
-            demand[i, n - 1:] = 0.0
-            gear[i, :n - 1] = tab.gear
-            gear[i, n - 1:] = tab.gear[-1]
+            speed[i, :n], speed[i, n:] = tab.speed_mps, tab.speed_mps[-1]
+            grade[i, :n], grade[i, n:] = tab.grade, 0.0
+            demand[i, :n - 1], demand[i, n - 1:] = tab.wheel_power_demand_kw, 0.0
+            gear[i, :n - 1], gear[i, n - 1:] = tab.gear, tab.gear[-1]
             self.state[i] = self.core.initial_state(ep.conditions, 1)[0]
             self.cond[i] = self.core.conditions_array(ep.conditions, 1)[0]
             self.soc_target[i] = ep.soc_target
             descent[i, :n] = descent_soc(tab.climb_m, gl.mass_kg + ep.conditions.payload_kg, gl.gravity_mps2,
                                          j_per_soc)
             descent[i, n:] = 0.0
-            self.k[i] = ep.start_s
-            self.n_steps[i] = ep.cycle.n_steps
+            self.k[i], self.n_steps[i] = ep.start_s, ep.cycle.n_steps
             self.end[i] = ep.cycle.n_steps if max_steps is None else min(ep.cycle.n_steps, ep.start_s + max_steps)
-            self.cycles[i] = ep.cycle
-            self.conditions[i] = ep.conditions
+            self.cycles[i], self.conditions[i] = ep.cycle, ep.conditions
             self.last_out[i] = 0.0
         idx = np.asarray(rows, dtype=np.int64)
         self.avail[idx] = self._envelope(idx)
@@ -151,18 +168,14 @@ class EpisodeRows:
         Returns (reward [n], terms [n, 4] in ``REWARD_TERMS`` order, outputs [n, N_OUT], next observations [n, dim]);
         updates the state, ``k``, ``last_out`` and the envelope.
         """
-        n = self.n
-        state_out = np.empty((n, physics_core.N_STATE))
-        out = np.empty((n, physics_core.N_OUT))
-        terms = np.empty((n, len(REWARD_TERMS)))
-        total = np.empty(n)
+        n, core = self.n, self.core
+        state_out, out = np.empty((n, physics_core.N_STATE)), np.empty((n, physics_core.N_OUT))
+        terms, total = np.empty((n, len(REWARD_TERMS))), np.empty(n)
         obs = np.empty((n, self.low.size), dtype=np.float32)
-        core = self.core
         advance_kernel(core.gl, core.dl, core.en, core.mo, core.th, core.ba, core.pt, core.dt_s, self._weights, u,
                        self.tables, self.k, self.n_steps, self.state, self.cond, self.soc_target, self.offsets,
                        self.low, self.high, self.all_rows, state_out, out, terms, total, self.avail, obs)
-        self.state = state_out
-        self.last_out = out
+        self.state, self.last_out = state_out, out
         return total, terms, out, obs
 
     def observe(self, rows: np.ndarray | None = None) -> np.ndarray:
