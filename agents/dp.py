@@ -53,8 +53,7 @@ class DPStrategy(Strategy):
                                    price_soc_deviation=bool(price_soc_deviation), threads=threads)
         self.plan: DPPlan | None = None
         self.problem: DPProblem | None = None
-        self._cache_key: str | None = None
-        self._report: dict[str, Any] = {}
+        self._cache_key, self._report = None, {}
         self._u_exec = split_grid(self.settings.n_u_exec)
         self._shares = self._u_exec >= 0.0  # while braking u < 0 brakes like u = 0
 
@@ -103,10 +102,8 @@ class DPStrategy(Strategy):
             "price_overheat": False, "price_soc_deviation": s.price_soc_deviation,
             "thermal_planning": "held at the initial state",
         }
-        if self.plan is not None:
-            p = self.plan
-            d.update({
-                "n_states": p.n_soc, "n_stages": p.n_stages, "solve_s": p.solve_s,
-                "vehicle_steps_evaluated": int(p.n_evals), "vehicle_steps_per_s": p.n_evals / max(p.solve_s, 1e-9),
-                **p.info, **self._report})
+        if (p := self.plan) is not None:
+            d.update({"n_states": p.n_soc, "n_stages": p.n_stages, "solve_s": p.solve_s,
+                      "vehicle_steps_evaluated": int(p.n_evals),
+                      "vehicle_steps_per_s": p.n_evals / max(p.solve_s, 1e-9), **p.info, **self._report})
         return d

@@ -60,8 +60,7 @@ class ThermalOptimumStrategy(Strategy):
                                         frontier_halfwidth=float(frontier_halfwidth), threads=threads)
         self.plan_cache = bool(plan_cache)
         self.plan: OptimumPlan | None = None
-        self._key: str | None = None
-        self._k0 = 0
+        self._key, self._k0 = None, 0
 
     def plan_for(self, problem: DPProblem) -> np.ndarray:
         """Search (or reuse the plan of the same problem) and return the planned action sequence."""

@@ -35,11 +35,8 @@ class CoreDriver:
     calibration's thousands of runs, a pure function of the vehicle, the cycle and the conditions."""
 
     def __init__(self, config: VehicleConfig, cycle: Cycle, conditions: Conditions):
-        self.config = config
+        self.config, self.cycle, self.conditions, self.k = config, cycle, conditions, 0
         self.core = core.PhysicsCore(config)
-        self.cycle = cycle
-        self.conditions = conditions
-        self.k = 0
         self.phys_state = self.core.initial_state(conditions, 1)
         self.cond = self.core.conditions_array(conditions, 1)
         self._v = np.asarray(cycle.speed_mps, dtype=np.float64)
@@ -51,8 +48,7 @@ class CoreDriver:
 
     def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         a = np.array(actions, dtype=np.float64).reshape(-1)
-        n = a.size
-        k = self.k
+        n, k = a.size, self.k
         return self.core.step(np.repeat(self.phys_state, n, axis=0), a, np.full(n, self._v[k]),
                               np.full(n, self._v[k + 1]), np.full(n, self._g[k]), np.repeat(self.cond, n, axis=0))
 
@@ -60,8 +56,7 @@ class CoreDriver:
         k = self.k
         state, out = self.core.step(self.phys_state, np.array([u]), self._v[k:k + 1], self._v[k + 1:k + 2],
                                     self._g[k:k + 1], self.cond)
-        self.phys_state = state
-        self.k = k + 1
+        self.phys_state, self.k = state, k + 1
         return state[0], out[0]
 
     def run(self, action: Callable[[int], float]) -> dict[str, np.ndarray]:
@@ -108,8 +103,7 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
     trace = driver.run(action)
     wall = time.perf_counter() - t0
     trace["cycle_speed_mps"] = v[1:].copy()
-    summary = summarize(trace, config, conditions.initial_soc, cyc.distance_m)
-    summary["wall_s"] = wall
+    summary = {**summarize(trace, config, conditions.initial_soc, cyc.distance_m), "wall_s": wall}
     return SimResult(trace=trace, summary=summary)
 
 

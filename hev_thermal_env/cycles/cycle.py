@@ -46,13 +46,9 @@ def _first(mask: np.ndarray) -> int | None:
 
 def check_samples(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, *, origin: str,
                   locate: Locate = _index_locator) -> float:
-    """The uniform time step [s] of raw cycle samples (1-D float arrays of equal length).
-
-    Raises ``ValueError`` starting with ``origin`` (e.g. ``"cycle file 'x.csv'"``) and the position
-    (``locate`` of the 0-based sample index, e.g. ``"data row 3 (line 4)"``) if there are fewer than two
-    samples, a value is NaN/inf, a speed is negative, ``|grade|`` exceeds :data:`MAX_ABS_GRADE`, or the time
-    does not increase by a uniform step.
-    """
+    """The uniform time step [s] of raw cycle samples (1-D float arrays of equal length); a ``ValueError`` starting
+    with ``origin`` and the position (``locate`` of the 0-based sample index) for fewer than two samples, NaN/inf, a
+    negative speed, ``|grade|`` above :data:`MAX_ABS_GRADE`, or a time that does not increase by a uniform step."""
 
     def fail(i: int, problem: str) -> ValueError:
         return ValueError(f"{origin}: {locate(i)}: {problem}")
@@ -84,9 +80,8 @@ def check_samples(time_s: np.ndarray, speed_mps: np.ndarray, grade: np.ndarray, 
 
 def warn_implausible(time_s: np.ndarray, speed_mps: np.ndarray, *, origin: str,
                      locate: Locate = _index_locator) -> None:
-    """Warn (:class:`ImplausibleCycleWarning`) about speeds above :data:`PLAUSIBLE_SPEED_MAX_MPS` and
-    accelerations beyond ±:data:`PLAUSIBLE_ACCEL_MAX_MPS2`, naming the first such sample, its value and how
-    many there are. Samples that passed :func:`check_samples`; real but odd data stays usable."""
+    """Warn (:class:`ImplausibleCycleWarning`) about speeds above :data:`PLAUSIBLE_SPEED_MAX_MPS` and accelerations
+    beyond ±:data:`PLAUSIBLE_ACCEL_MAX_MPS2`, naming the first such sample, its value and how many there are."""
     accel = np.diff(speed_mps) / np.diff(time_s)
     findings = []
     fast = np.flatnonzero(speed_mps > PLAUSIBLE_SPEED_MAX_MPS)
@@ -153,13 +148,12 @@ def float_vector(label: str, values: Any, origin: str) -> np.ndarray:
 @dataclasses.dataclass(frozen=True, eq=False)
 class Cycle:
     """A drive cycle sampled at 1 s: ``time_s`` ``0, 1, 2, ...`` [s], ``speed_mps`` ``>= 0`` and ``grade`` (rise/run:
-    0.04 is a 4 % climb), stored as read-only float64 copies.
+    0.04 is a 4 % climb), stored as read-only float64 copies; instances compare by identity.
 
     Build cycles with :func:`~hev_thermal_env.cycles.load_cycle`, :func:`~hev_thermal_env.cycles.cycle_from_arrays`
     or :func:`~hev_thermal_env.cycles.generate_bus_cycle`; the constructor accepts only data already on the 1-s
-    grid and raises ``ValueError`` for the faults of :func:`check_samples`. ``synthetic``: generated rather than
-    measured or standardised; ``source``: where the data come from; ``metadata``: free-form (a generated cycle's
-    seed and parameters, a resampled file's original time step). Instances compare by identity.
+    grid. ``synthetic``: generated rather than measured; ``metadata``: free-form (a generated cycle's seed and
+    parameters, a resampled file's original time step).
     """
 
     name: str

@@ -8,10 +8,10 @@ within what the loader accepts without an :class:`~hev_thermal_env.cycles.Implau
 run, not part of a cycle.
 
 Seeds: training draws from ``[0, TRAINING_SEED_LIMIT)`` (:func:`training_seed`); the validation set
-(:mod:`~hev_thermal_env.cycles.names`) uses seeds from :data:`VALIDATION_SEED_BASE` up, disjoint by construction. Segments and roads are seeded with :func:`inner_seed`,
-an injective map of (family, seed, part) onto integers from 2**48 up: no two family cycles share a generator
-seed, and none is the seed of a built-in or ``random_bus`` cycle; the per-cycle draws (durations, segment kinds,
-launch accelerations, hill heights) use ``inner_seed(family, seed, 0)``.
+(:mod:`~hev_thermal_env.cycles.names`) uses seeds from :data:`VALIDATION_SEED_BASE` up, disjoint by construction.
+Segments and roads are seeded with :func:`inner_seed`, an injective map of (family, seed, part) onto integers from 2**48
+up: no two family cycles share a generator seed, and none is the seed of a built-in or ``random_bus`` cycle; the
+per-cycle draws (durations, segment kinds, launch accelerations, hill heights) use ``inner_seed(family, seed, 0)``.
 """
 
 from __future__ import annotations

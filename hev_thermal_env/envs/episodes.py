@@ -16,8 +16,10 @@ from ..physics.config import COOLANT_MODES, Conditions
 from ..physics.core import GEAR, WHEEL_DEMAND, PhysicsCore
 from ..scenarios import Scenario, get_scenario
 
+#: The largest ``soc_offset`` an env takes (SOC).
 MAX_SOC_OFFSET = 0.2
-"""The largest ``soc_offset`` an env takes (SOC)."""
+#: Keys accepted in ``reset(options=...)``.
+RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
 
 
 def check_soc_offset(value: Any, where: str = "soc_offset") -> float:
@@ -28,17 +30,10 @@ def check_soc_offset(value: Any, where: str = "soc_offset") -> float:
     return float(value)
 
 
-RESET_OPTIONS = ("cycle", "ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant", "start_s")
-"""Keys accepted in ``reset(options=...)``."""
-
-
 class CycleChoice:
-    """What the env's ``cycle`` argument asks for (its spec lists the forms): fixed cycles and cycle families,
-    one drawn uniformly per episode.
-
-    Named and file cycles are loaded once, here, so errors show at construction; a family draws a fresh cycle every
-    episode, its seed from :func:`~hev_thermal_env.cycles.families.training_seed` (never a validation seed). A scenario
-    with a road profile (``hilly``) lays it under every flat cycle (:meth:`Scenario.prepare_cycle`).
+    """What the env's ``cycle`` argument asks for: fixed cycles (loaded once, here, so errors show at construction)
+    and cycle families (a fresh cycle every episode, seeded by :func:`~hev_thermal_env.cycles.families.training_seed`),
+    one drawn uniformly per episode, laid over the scenario's road if it has one (:meth:`Scenario.prepare_cycle`).
     """
 
     def __init__(self, cycle: Any, scenario: Scenario | None = None):
@@ -81,14 +76,8 @@ class Episode:
 
 class EpisodeSampler:
     """Draws episodes from a generator, in a fixed order (conditions, cycle, random bus seed, start offset, then the
-    SOC offset if ``soc_offset`` > 0), for the single and the vector env: a vector sub-env seeded like a single env
-    lives through the same episodes.
-
-    ``soc_offset`` > 0: the episode starts a uniform draw of up to that much SOC above or below its target, the
-    conditions' initial SOC, clipped to the battery's ``soc_window``; the reward's band and the observation still refer
-    to the unshifted target, so training sees the charge away from its target and the way back. A reset's
-    ``initial_soc`` option is the episode's start and target, never shifted. 0 (default): every episode starts on
-    its target."""
+    SOC offset if ``soc_offset`` > 0; the env's spec says what it does), for the single and the vector env: a vector
+    sub-env seeded like a single env lives through the same episodes."""
 
     def __init__(self, cycle: Any, scenario: str | Scenario, conditions: Conditions | None, random_start: bool,
                  soc_offset: float = 0.0, soc_window: tuple[float, float] = (0.0, 1.0)):
@@ -96,8 +85,7 @@ class EpisodeSampler:
         self.cycles = CycleChoice(cycle, self.scenario)
         if conditions is not None and not isinstance(conditions, Conditions):
             raise TypeError(f"conditions: expected Conditions or None, got {type(conditions).__name__}")
-        self.conditions = conditions
-        self.random_start = bool(random_start)
+        self.conditions, self.random_start = conditions, bool(random_start)
         self.soc_offset, self.soc_window = check_soc_offset(soc_offset), (float(soc_window[0]), float(soc_window[1]))
 
     def sample(self, rng: np.random.Generator, options: dict[str, Any] | None) -> Episode:
@@ -139,11 +127,8 @@ class EpisodeSampler:
 
 
 class CycleTables:
-    """Per-step quantities of a cycle that do not depend on the vehicle's state.
-
-    The demanded wheel power and the gear of each step come from one batched call of the physics core over all steps of
-    the cycle (they depend only on the speed trace, the grade and the vehicle).
-    """
+    """Per-step quantities of a cycle that do not depend on the vehicle's state: the demanded wheel power and the gear
+    of each step from one batched call of the physics core over all steps."""
 
     def __init__(self, core: PhysicsCore, cycle: Cycle, state_row: np.ndarray, cond_row: np.ndarray):
         n = cycle.n_steps
@@ -151,9 +136,7 @@ class CycleTables:
         g = np.array(cycle.grade, dtype=np.float64)
         _, out = core.step(np.repeat(state_row[None, :], n, axis=0), np.zeros(n), v[:-1].copy(), v[1:].copy(),
                            g[:-1].copy(), np.repeat(cond_row[None, :], n, axis=0))
-        self.cycle = cycle
-        self.speed_mps = v
-        self.grade = g
+        self.cycle, self.speed_mps, self.grade = cycle, v, g
         self.wheel_power_demand_kw = out[:, WHEEL_DEMAND] / 1000.0
         self.gear = out[:, GEAR].copy()
         rise = 0.5 * (v[:-1] + v[1:]) * core.dt_s * g[:-1] / np.sqrt(1.0 + g[:-1] ** 2)
@@ -162,11 +145,8 @@ class CycleTables:
 
 
 class TableCache:
-    """Cycle tables of the env's fixed cycles, computed once per payload; other cycles (random, from options) fresh.
-
-    The demanded wheel power and the gear depend on the cycle and the payload (the mass) alone, so a table is kept per
-    (cycle, payload): a scenario that draws the payload per episode gets the right one.
-    """
+    """Cycle tables of the env's fixed cycles, kept per (cycle, payload) (the mass changes them); other cycles
+    (random, from options) fresh."""
 
     def __init__(self, core: PhysicsCore, fixed: Sequence[Cycle]):
         self.core = core
@@ -175,8 +155,7 @@ class TableCache:
 
     def get(self, ep: Episode) -> CycleTables:
         key = (id(ep.cycle), float(ep.conditions.payload_kg))
-        tab = self._cache.get(key)
-        if tab is not None:
+        if (tab := self._cache.get(key)) is not None:
             return tab
         st = self.core.initial_state(ep.conditions, 1)[0]
         tab = CycleTables(self.core, ep.cycle, st, self.core.conditions_array(ep.conditions, 1)[0])

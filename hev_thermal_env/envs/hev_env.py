@@ -150,11 +150,10 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Starting State
 
-    The scenario (:mod:`hev_thermal_env.scenarios`; ``"paper"``: 20 °C ambient and motor, coolant on, SOC 0.65; the
-    randomised ones draw every episode from ``self.np_random``) or ``conditions`` set the ambient temperature, the
-    motor's starting temperature, the SOC, the coolant mode and the payload; reset options override them. The heat-index
-    integrator starts at -PWM_initial(T_start) (eq 9). The episode starts at ``start_s`` into the cycle (0, or uniform
-    with ``random_start``).
+    The scenario (``"paper"``: 20 °C ambient and motor, coolant on, SOC 0.65; the randomised ones draw every episode
+    from ``self.np_random``) or ``conditions`` set the ambient and starting temperatures, the SOC, the coolant mode and
+    the payload; reset options override them. The heat-index integrator starts at -PWM_initial(T_start) (eq 9). The
+    episode starts at ``start_s`` into the cycle (0, or uniform with ``random_start``).
 
     ## Episode End
 
@@ -169,20 +168,17 @@ class HevThermalEnv(EnvParts, gym.Env):
                    random_start=False, info_keys="all", soc_offset=0.0, physics=2)
     ```
 
-    * ``cycle``: a built-in name (``hwfet``, ``udds``, ``us06``, ``wltc_3b``, ``beijing``), a CSV path, a
+    * ``cycle``: a built-in name (:func:`~hev_thermal_env.cycles.list_cycles`), a CSV path, a
       :class:`~hev_thermal_env.cycles.Cycle`, a generated cycle's name (``bus_long:7``, ``validation_bus:3``) or set
-      (``validation_bus``), a cycle family (one of :func:`~hev_thermal_env.cycles.list_families`, ``"random_bus"`` to
-      ``"bus_express"``: a fresh cycle of the family per episode, seeded from ``self.np_random``;
-      :mod:`hev_thermal_env.cycles.families`), or a list of these (one drawn per episode).
-    * ``scenario``: a name of :func:`~hev_thermal_env.scenarios.list_scenarios` (``"paper"``, ``"hot"``, ``"summer"``,
-      ``"hilly"``, ``"full_bus"``, ``"random"``, ``"random_service"``: :mod:`hev_thermal_env.scenarios`) or a
+      (``validation_bus``), a cycle family (:func:`~hev_thermal_env.cycles.list_families`: a fresh cycle of the family
+      per episode, seeded from ``self.np_random``), or a list of these (one drawn per episode).
+    * ``scenario``: a name of :func:`~hev_thermal_env.scenarios.list_scenarios` or a
       :class:`~hev_thermal_env.scenarios.Scenario`.
     * ``config``: the :class:`~hev_thermal_env.physics.VehicleConfig` (default ``paper_bus(physics=physics)``).
-    * ``physics``: the physics version, 1 or 2 (set by the id: ``HevThermal-v1``, ``HevThermal-v2``): the default
-      vehicle's parameters and the reward's defaults (:meth:`~hev_thermal_env.envs.reward.RewardParams.for_physics`);
-      a ``reward`` mapping overrides them field by field.
+    * ``physics``: the physics version, 1 or 2 (set by the id): the default vehicle's parameters and the reward's
+      defaults (:meth:`~hev_thermal_env.envs.reward.RewardParams.for_physics`).
     * ``conditions``: fixed :class:`~hev_thermal_env.physics.Conditions` for every episode (overrides the scenario).
-    * ``reward``: :class:`~hev_thermal_env.envs.reward.RewardParams` or a dict of its fields.
+    * ``reward``: :class:`~hev_thermal_env.envs.reward.RewardParams` or a dict of its fields (over the version's).
     * ``preview_s``, ``preview_step_s``: length and spacing of the speed preview (integers, seconds); ``preview_s=0``
       removes it.
     * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor temperature, heat index and

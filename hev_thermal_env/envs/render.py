@@ -1,8 +1,6 @@
-"""Drawing of an episode of ``HevThermal-v2`` so far: speed against the cycle, SOC, motor temperature,
-heat index and the torque split. Imported only when an env renders (matplotlib is slow to import).
-
-The frame is 640 × 640 pixels: a title row (cycle, time, legend) above five stacked panels whose labels sit outside the
-data; the layout is computed once the title is known, so nothing is cut.
+"""Drawing of an episode of ``HevThermal-v2`` so far, 640 × 640 pixels: a title row (cycle, time, legend) above five
+stacked panels (speed against the cycle, SOC, motor temperature, heat index, the torque split). Imported only when an
+env renders (matplotlib is slow to import).
 """
 
 from __future__ import annotations
@@ -27,15 +25,11 @@ _PANELS = (("speed_mps", "speed\n[km/h]", {"color": "C0", "lw": 1.2, "label": "v
 
 
 class EpisodePlot:
-    """One figure with five stacked panels, redrawn from the episode's history on each :meth:`draw`.
-
-    ``human=True`` uses a pyplot window (shown and paused at ``fps`` when the backend is interactive); otherwise an
-    off-screen Agg canvas whose pixels :meth:`to_rgb` returns.
-    """
+    """One figure with five stacked panels, redrawn from the episode's history on each :meth:`draw`: in a pyplot window
+    (``human``, paused at ``fps`` when the backend is interactive) or an off-screen canvas (:meth:`to_rgb`)."""
 
     def __init__(self, human: bool, fps: float = 30.0):
-        self.human = human
-        self.fps = float(fps)
+        self.human, self.fps = human, float(fps)
         if human:
             import matplotlib.pyplot as plt
 

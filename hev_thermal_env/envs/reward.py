@@ -1,9 +1,8 @@
 """The reward of ``HevThermal-v2`` (v1: other weights), written once: the env, the vector env, DP and ECMS all call it.
 
-Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards. Here: its weights and prices
-(:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
-(:func:`reward_kernel`), the band's center (:func:`descent_soc`, :func:`band_center`) and what planners call on batches
-(:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
+Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards: its weights (:class:`RewardParams`), the one
+compiled implementation (:func:`reward_kernel`), the band's center (:func:`band_center`) and what planners call on
+batches (:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
 """
 
 from __future__ import annotations
@@ -30,11 +29,10 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 HOUR_S = 3600.0
 #: ln 2 / 10 K: the insulation's life halves every 10 K (Montsinger).
 LN2_PER_10K = math.log(2.0) / 10.0
+#: Physics v2's price of the insulation's life: the motor and its inverter replaced (8,000 €, a stated assumption for a
+#: 90 kW bus drive) at 1.60 € per litre of diesel of 835 g (docs/environment.md, *Physics versions and the overheat
+#: price*).
 MOTOR_LIFE_COST_G = 8000.0 / 1.60 * 835.0
-"""Physics v2's price of the insulation's life: the traction motor and its inverter replaced (8,000 €, a stated
-assumption for a 90 kW bus drive) at 1.60 € per litre of diesel of 835 g: 4.2 t of diesel, 0.058 g per second at
-the class temperature, halving every 10 K below it (docs/environment.md, *Physics versions and the overheat
-price*)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,11 +75,9 @@ class RewardParams(Params):
 
     @classmethod
     def for_physics(cls, physics: int = 2) -> RewardParams:
-        """The defaults of a physics version. v2 (the fields' defaults) prices overheating by the insulation's life
-        (Montsinger: it halves every 10 K, L = 20,000 h · 2^((T_class − T_w)/10 K), priced by the motor's replacement,
-        :data:`MOTOR_LIFE_COST_G`) and adds nothing for a cut-off, whose cost to the service (the assist it loses: fuel
-        and missed wheel energy) the other terms already charge; v1 by weights (0.05 g/K² above 60 °C, 20 g per second
-        cut off)."""
+        """The defaults of a physics version: v2 (the fields' defaults) prices overheating by the insulation's life
+        (Montsinger: L = 20,000 h · 2^((T_class − T_w)/10 K), :data:`MOTOR_LIFE_COST_G`), v1 by weights (0.05 g/K²
+        above 60 °C, 20 g per second cut off)."""
         if check_physics(physics) == 1:
             return cls(overheat_temp_weight=0.05, cutoff_weight=20.0, motor_life_cost_g=0.0)
         return cls()
@@ -124,9 +120,9 @@ class RewardParams(Params):
         return w
 
 
+#: The reward's arguments the observation carries (``descent_recovery`` places the band's center, the ``soc_target``
+#: entry): a trained policy is driven with the values it learned them at.
 OBSERVED_REWARD_FIELDS = ("descent_recovery",)
-"""The reward's arguments the observation carries: ``descent_recovery`` places the band's center, which is the
-``soc_target`` entry. A trained policy is driven with the values it learned them at."""
 
 
 def observation_options(reward: dict | None) -> dict:
@@ -216,10 +212,7 @@ def reward_kernel(w, out, state_before, state_after, target_before, target_after
 
 
 def _before(state_before: np.ndarray | None, state_after: np.ndarray, soc_target: np.ndarray) -> np.ndarray:
-    """States before the step, [B, N_STATE]; one state [N_STATE] is shared by every row.
-
-    None: the band settlement's potential before the step is left out (taken as at the target).
-    """
+    """States before the step, [B, N_STATE] (one [N_STATE] shared by every row; None: at the target)."""
     b = state_after.shape[0]
     if state_before is None:
         before = np.zeros((b, core.N_STATE))

@@ -1,13 +1,9 @@
-"""The observation and info layout of ``HevThermal-v2``: names and bounds, the info builders, the safety cost and codes.
+"""The observation and info layout of ``HevThermal-v2``: names and bounds, the info builders, the safety cost and codes,
+shared by the single env, the batch engine and the vector env.
 
-Shared by the single env, the batch engine and the vector env, so all three report the same keys and values. The
-info's two categorical values are numeric codes (the env's spec, section Info):
-
-* ``info["cycle_id"]`` → :func:`cycle_name`: the built-in cycles have fixed ids, their order in
-  :func:`hev_thermal_env.cycles.list_cycles`; any other cycle gets the next free id the first time the process meets its
-  name, so its id is valid only in the process that ran the env.
-* ``info["coolant_code"]`` → :func:`coolant_mode`: the index in :data:`~hev_thermal_env.physics.config.COOLANT_MODES`
-  (``"on"`` 0, ``"degraded"`` 1, ``"off"`` 2).
+``info["cycle_id"]`` → :func:`cycle_name`: the built-in cycles have fixed ids, their order in
+:func:`hev_thermal_env.cycles.list_cycles`; any other cycle gets the next free id the first time the process meets its
+name, so its id is valid only in that process. ``info["coolant_code"]`` → :func:`coolant_mode`.
 """
 
 from __future__ import annotations
@@ -24,9 +20,8 @@ from .reward import REWARD_TERMS
 
 RPM_PER_RADPS = 30.0 / math.pi
 
-# --- observation layout ---------------------------------------------------------------------------
-# (name, low, high) in order; ``None`` bounds are filled from the vehicle. The meaning and unit of each entry:
-# the observation table of :class:`~hev_thermal_env.envs.HevThermalEnv` (the spec).
+# The observation: (name, low, high) in order; ``None`` bounds are filled from the vehicle (meaning and unit: the
+# observation table of :class:`~hev_thermal_env.envs.HevThermalEnv`).
 _OBS_FIELDS = (
     ("speed_mps", 0.0, 60.0), ("accel_mps2", -10.0, 10.0), ("wheel_power_demand_kw", -2000.0, 2000.0),
     ("soc", 0.0, 1.0), ("soc_target", 0.0, 1.0), ("soc_deviation", -1.0, 1.0), ("motor_temp_c", -40.0, 200.0),
@@ -39,7 +34,6 @@ N_OBS_BASE = len(_OBS_FIELDS)
 (OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_WINDING, OBS_PWM,
  OBS_HEAT_X, OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)
 
-# --- info layout ----------------------------------------------------------------------------------
 # Step-info keys straight from an output column of the physics core.
 _INFO_OUT_COLUMNS = (
     ("fuel_g", core.FUEL_G), ("motor_torque_nm", core.MOTOR_TORQUE), ("motor_heat_w", core.MOTOR_HEAT),
@@ -82,14 +76,9 @@ STATE_INFO_KEYS = ("soc", "motor_temp_c", "heat_index", "motor_cutoff", "winding
 
 
 def safety_cost(heat_index: Any, cutoff: Any, winding_trip: Any, dt_s: float) -> Any:
-    """The safety cost of steps (``info["cost"]``, the env's spec, section Cost): ``dt_s · max(PWM, stopped)``.
-
-    PWM (eq 9) is the share of the motor's overload reserve (peak minus continuous torque, eq 8) that the heat index
-    has taken away after the step, ``stopped`` 1 while either protection (``cutoff``: 70 °C, ``winding_trip``:
-    165 °C winding) holds the motor at zero torque, else 0: one unit is one second of the motor fully derated or
-    stopped. ``dt_s``: the step's length, 0 for a motor without the thermal model (:func:`cost_step_s`). Arrays, or
-    numpy scalars (a numpy scalar out).
-    """
+    """The safety cost of steps (``info["cost"]``, the env's spec, section Cost): ``dt_s · max(PWM, stopped)``, PWM
+    the heat index after the step (eq 9), ``stopped`` either protection (``cutoff``: 70 °C, ``winding_trip``: 165 °C
+    winding); ``dt_s`` 0 for a motor without the thermal model (:func:`cost_step_s`). Arrays, or numpy scalars."""
     if isinstance(heat_index, np.ndarray):
         return np.maximum(heat_index, np.maximum(cutoff, winding_trip)) * dt_s
     return max(heat_index, cutoff, winding_trip) * dt_s  # one step: a tenth of the ufuncs' time

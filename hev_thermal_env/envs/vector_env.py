@@ -38,17 +38,14 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     must be None: render single envs), plus ``max_episode_steps`` (optional cap on an episode's steps, per sub-env) and
     ``autoreset_mode`` (:class:`gymnasium.vector.AutoresetMode` or its value):
 
-    - ``NEXT_STEP`` (default, as gymnasium 1.x): the step after a truncation resets that sub-env, ignores its action and
-      returns the reset observation with reward 0 and the reset's info.
-    - ``SAME_STEP``: a truncating sub-env resets within the same step; the observation and the info are the reset's,
-      ``infos["final_obs"]`` (object array) and ``infos["final_info"]`` (dict of arrays) hold the last step's. The SB3
-      adapter uses it.
-    - ``DISABLED``: stepping an ended sub-env raises; reset it with ``reset(options={"reset_mask": mask})``.
+    ``NEXT_STEP`` (default, as gymnasium 1.x: the step after a truncation resets that sub-env, ignores its action and
+    returns reward 0 and the reset's info), ``SAME_STEP`` (a truncating sub-env resets within the same step;
+    ``infos["final_obs"]`` and ``infos["final_info"]`` hold the last step's; the SB3 adapter uses it) or ``DISABLED``
+    (stepping an ended sub-env raises; reset it with ``reset(options={"reset_mask": mask})``).
 
-    Sub-envs may run different cycles of different lengths; each truncates at the end of its own. Seeding follows
-    gymnasium: ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, a list seeds each one, each with its own generator
-    made as the single env's. ``reset(options=...)`` takes the single env's options for every reset sub-env,
-    ``reset_mask`` (bool array: reset only these), or a list of one options dict per sub-env.
+    Each sub-env truncates at the end of its own cycle. ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i`` (a list
+    seeds each one), each with its own generator made as the single env's. ``reset(options=...)`` takes the single
+    env's options for every reset sub-env, ``reset_mask`` (reset only these), or a list of one dict per sub-env.
 
     Infos are dicts of arrays with ``_key`` masks (gymnasium's vector format), with the single env's keys and values,
     one array of dtype :data:`~hev_thermal_env.envs.spaces.INFO_DTYPES` per key; resets and steps report the same keys

@@ -1,3 +1,2 @@
-"""The paper: one table of its figures, the calibration protocol's targets and checks, with their tolerances
-(:mod:`.figures`). What measures ours and judges it against them, and the reproduction report, are the workshop's,
-``tools/paper``."""
+"""The paper: one table of its figures, targets and checks, with their tolerances (:mod:`.figures`); measuring and
+judging ours is the workshop's, ``tools/paper``."""

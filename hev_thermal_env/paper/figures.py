@@ -1,11 +1,9 @@
 """The paper's figures and the tolerances we judge ours against: one table, :data:`PAPER_FIGURES`.
 
-The targets are those of the calibration protocol (docs/calibration/protocol.md, §3), kept here alone (the
-calibration, ``tools/calibration``, reads them from this table): F1-F7 are
-fitted (:data:`FITTED`, the only rows in the calibration's cost), H1-H6 are held out (:data:`HELD_OUT`, measured
-after every fit, never in a cost). The checks C1-C3 (:data:`CHECKS`: Fig. 4 from eq 9, Table 3's engine-alone
-speeds, the 0-60 km/h time with the thermal model off) are judged beside them with no weight; C4-C6 are reported
-(:data:`CHECK_NOTES`). Table 2's absolute fuel levels are reported, not judged (:data:`TABLE2_LEVELS`).
+The targets are those of the calibration protocol (docs/calibration/protocol.md, §3), kept here alone: F1-F7 are
+fitted (:data:`FITTED`, the only rows in the calibration's cost), H1-H6 are held out (:data:`HELD_OUT`, never in a
+cost). The checks C1-C3 (:data:`CHECKS`) are judged beside them with no weight; C4-C6 are reported
+(:data:`CHECK_NOTES`), and Table 2's absolute fuel levels too (:data:`TABLE2_LEVELS`).
 
 Residual r in tolerances (:meth:`PaperFigure.residual`), |r| ≤ 1 meets a row: ``kind="band"``,
 (x − paper)/tol; ``"max"``, one-sided, max(0, x − paper)/tol; ``"rel"``, (x − paper)/(tol·paper);

@@ -16,18 +16,11 @@ from ..envs.vector_env import HevThermalVectorEnv
 class Sb3VecEnv(VecEnv):
     """SB3 ``VecEnv`` over :class:`~hev_thermal_env.envs.HevThermalVectorEnv` in ``SAME_STEP`` autoreset mode.
 
-    SB3 semantics: a sub-environment that ends is reset in the same step (by the vector env); the
-    returned observation is the new episode's, ``infos[i]["terminal_observation"]`` holds the last
-    one, ``infos[i]["TimeLimit.truncated"]`` says whether the end was a truncation (always, here)
-    and ``reset_infos[i]`` the new episode's reset info. ``seed()`` and ``set_options()`` apply at
-    the next ``reset()`` (SB3 convention).
-
-    ``info_keys`` selects the info keys copied into SB3's per-env info dicts (and ``reset_infos``):
-    ``"all"`` (default) or a sequence of names; ``()`` is fastest when only the SB3 keys are needed (PPO and
-    ``VecMonitor`` need no others). Other arguments build the vector env.
-
-    ``get_attr`` returns per-env values of episode attributes, else the shared value; ``set_attr`` sets a
-    shared attribute (all indices at once); ``env_method`` calls the vector env's method once.
+    SB3 semantics: a sub-environment that ends is reset in the same step; ``infos[i]["terminal_observation"]`` holds
+    its last observation, ``infos[i]["TimeLimit.truncated"]`` says whether the end was a truncation (always, here) and
+    ``reset_infos[i]`` the new episode's reset info. ``seed()`` and ``set_options()`` apply at the next ``reset()``.
+    ``info_keys`` selects the info keys copied into SB3's info dicts (``()`` is fastest: PPO and ``VecMonitor`` need no
+    others). ``set_attr`` sets a shared attribute (all indices at once); ``env_method`` calls the vector env's once.
     """
 
     def __init__(self, num_envs: int, *, info_keys: str | Sequence[str] = "all", **env_kwargs: Any):
