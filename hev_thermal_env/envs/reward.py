@@ -1,9 +1,9 @@
 """The reward of ``HevThermal-v2`` (v1: other weights), written once: the env, the vector env, DP and ECMS all call it.
 
 Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards: its weights and prices
-(:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation (:func:`reward_kernel`),
-the band's center (:func:`band_center`) and what planners call on batches (:func:`reward_terms`, :func:`stage_cost_g`,
-:func:`soc_band_charge_g`).
+(:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
+(:func:`reward_kernel`), the band's center (:func:`band_center`) and what planners call on batches
+(:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
 """
 
 from __future__ import annotations
