@@ -187,6 +187,7 @@ def test_without_ray_local_works_and_ray_says_how_to_install(monkeypatch, tiny_c
     monkeypatch.setitem(sys.modules, "ray", None)  # "import ray" now fails as if it were not installed
     run_benchmark(tmp_path / "local", cycles=tiny_cycles[:1], strategies=("rule",), jobs=1, progress=False, plots=False)
     assert (tmp_path / "local" / "results.csv").is_file()
+    capsys.readouterr()  # the local run's own notices (a plan solved afresh is announced on stderr)
     args = ["benchmark", "--cycles", tiny_cycles[0], "--strategies", "rule", "--out", str(tmp_path / "r")]
     assert evaluate_main([*args, "--executor", "ray"]) == 2
     line = one_line(capsys.readouterr().err)
