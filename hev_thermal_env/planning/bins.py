@@ -12,8 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from hev_thermal_env.physics import core
-from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
-from hev_thermal_env.physics.jit import jit
+from hev_thermal_env.physics.jit import MIN_THREAD_BATCH, jit, thread_pool
 
 #: State columns the search bins on, in key order, and the bits each gets in the 64-bit key (63 in all): a
 #: column's bin index must lie within ±2^(bits-1), which :func:`.search.check_key_range` enforces (SOC: ±2^20 bins, so
@@ -113,22 +112,13 @@ def keep_best_per_bin(states, inside, cost, batt_j, price, price2, price3, heat_
     """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2``, the coolest
     (:func:`hotness`; only with ``keep_cool``: where heat cannot bind, :func:`~.search.heat_stays_cheap`, the
     heat-priced one stands for it) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row: the
-    temperatures at the prices of :mod:`.heat_value`); writes their indices to ``out_idx`` (a row once) and returns
-    how many. With ``price3`` > 0 the coolest's slot holds the cheapest at battery price ``price3`` instead (kept
-    whatever ``keep_cool``).
+    temperatures at the prices of :func:`~.search.heat_prices`); writes their indices to ``out_idx`` (a row once) and
+    returns how many. With ``price3`` > 0 the coolest's slot holds the cheapest at battery price ``price3`` instead
+    (kept whatever ``keep_cool``). Why these four: docs/strategies.md.
 
     Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run on separate
-    threads). The cost compared is ``cost + price · batt_j`` (g). One representative per bin drifts (the cheaper state
-    now is usually the hotter or emptier one, a fraction of a bin each stage); with ``price2`` below the reward's price
-    the better lineage survives when the true value of charge lies between the two (200 s of Beijing, ``hot``: one
-    representative at ΔSOC 2.5·10⁻⁴ left ECMS 0.6 % below the frontier, three at 1.5·10⁻⁴ 0.06 %). An open-addressing
-    hash table, sized from ``cap_hint`` (the expected number of bins) and grown when it fills, finds a row's bin in
-    O(1).
-
-    Heat: two states of a bin can differ by most of its width in every temperature; near the overheat soft limit a
-    kelvin of the housing costs grams at every later step, and the cheapest state of a bin is often the hotter one
-    (Beijing in ``hot``: with the first three alone ``rule`` ended 1.7 % below the frontier). The heat-priced
-    representative keeps the cooler lineage where heat has a price; with no price (``heat_g`` 0) it is the cheapest.
+    threads). The cost compared is ``cost + price · batt_j`` (g). An open-addressing hash table, sized from
+    ``cap_hint`` (the expected number of bins) and grown when it fills, finds a row's bin in O(1).
     """
     cap = 1024
     while cap < 4 * cap_hint:
@@ -205,13 +195,9 @@ def dominated_by_fuller(soc_bin, q, value, order, out):
     """Mark (``out``) every row that a row of a higher SOC bin and the same thermal bins (``q``: motor, winding,
     coolant, heat index, cutoff, winding trip) beats or ties on ``value``; returns how many are marked.
 
-    Used where heat cannot bind (:func:`~.search.heat_stays_cheap`), with ``value`` the cost-to-come plus the heat
-    at its price: a path from the fuller state that takes the same actions ends with more charge at the same fuel,
-    and the frontier prices a final state by the charge it ends with or more; within one thermal bin the heat a
-    state carries is worth at most about a gram, and the price counts it. On Beijing in ``paper`` it removes a lot:
-    40-50 % of a stage's survivors have a fuller, cheaper state in their thermal bins (each one a lineage
-    the bins would expand at every later stage). Only where heat cannot bind: on Beijing in ``hot`` the same rule at
-    every stage left the plan 1.9-3.7 % dearer.
+    Used where heat cannot bind (:func:`~.search.heat_stays_cheap`; docs/strategies.md), with ``value`` the
+    cost-to-come plus the heat at its price: a path from the fuller state that takes the same actions ends with more
+    charge at the same fuel, and the frontier prices a final state by the charge it ends with or more.
 
     ``order`` sorts the rows by SOC bin descending. Rows are grouped by SOC bin and a group is compared only with the
     fuller groups before it, so the representatives of one bin (:func:`keep_best_per_bin`) all stay. The lowest value

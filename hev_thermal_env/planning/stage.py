@@ -2,10 +2,8 @@
 physics core and priced by the env's reward in one compiled call per thread.
 
 Row r of a stage is state r // m with split r % m (m splits). The rows are cut into blocks of :data:`BLOCK_ROWS`; a
-thread steps and prices its blocks inside :func:`expand_kernel`, so a stage makes one Python call per thread instead
-of a few per block (HWFET, two threads: the stages' share of the solve 4.6 → 4.2 s). Nothing here is physics or a cost
-of its own: :func:`~hev_thermal_env.physics.core.step_kernel` and :func:`~hev_thermal_env.envs.reward.reward_row` do
-both, as in the env.
+thread steps and prices its blocks inside :func:`expand_kernel`, with the env's own
+:func:`~hev_thermal_env.physics.core.step_kernel` and :func:`~hev_thermal_env.envs.reward.reward_row`.
 """
 
 from __future__ import annotations
@@ -14,15 +12,12 @@ import numpy as np
 
 from hev_thermal_env.envs.reward import reward_row
 from hev_thermal_env.physics.core import BATT_CHEM, N_OUT, N_STATE, SOC, step_kernel
-from hev_thermal_env.physics.door_arrays import MIN_THREAD_BATCH, thread_pool
-from hev_thermal_env.physics.jit import jit
+from hev_thermal_env.physics.jit import MIN_THREAD_BATCH, jit, thread_pool
 
 from .problem import DPProblem
 
-#: Rows one thread steps and prices at a time: its inputs, the physics outputs (38 columns) live in scratch arrays of
-#: that many rows, reused block after block, so they stay in the core's cache; only the next states, costs, battery
-#: energies and splits (about 90 B a row) go to memory. Threads take the blocks in turn (block k to thread k mod
-#: threads), so a run of costly rows is shared.
+#: Rows one thread steps and prices at a time, in scratch arrays reused block after block so that they stay in the
+#: core's cache. Threads take the blocks in turn (block k to thread k mod threads), so a run of costly rows is shared.
 BLOCK_ROWS = 4096
 
 
@@ -74,12 +69,9 @@ class _Scratch:
 
 
 class StageBuffers:
-    """Arrays of a stage's candidates, kept from stage to stage (grown when a stage has more rows): allocating
-    and zero-filling hundreds of MB every stage costs as much as the physics; and each thread's scratch block.
-
-    ``weights``: the reward's weights of a stage's cost (fuel, missed wheel energy, the overheat terms; the battery is
-    priced by the bins and the band on the final SOC).
-    """
+    """Arrays of a stage's candidates, kept from stage to stage (grown when a stage has more rows: allocating hundreds
+    of MB every stage costs as much as the physics), each thread's scratch block, and the reward's ``weights`` of a
+    stage's cost (the battery is priced by the bins and the band on the final SOC)."""
 
     def __init__(self, problem: DPProblem):
         self.problem, self.rows = problem, 0
