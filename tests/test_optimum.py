@@ -24,15 +24,15 @@ from hev_thermal_env.physics.core import (
     WINDING_C,
 )
 from hev_thermal_env.planning import stage
-from hev_thermal_env.planning.bins import (
+from hev_thermal_env.planning.problem import DPProblem, stage_splits
+from hev_thermal_env.planning.search import SearchGrid, frontier_points, heat_stays_cheap, search
+from hev_thermal_env.planning.stage import (
     KEY_BITS,
     KEY_COLUMNS,
     dominated_by_fuller,
     keep_best_per_bin,
     pareto_per_soc_bin,
 )
-from hev_thermal_env.planning.problem import DPProblem, stage_splits
-from hev_thermal_env.planning.search import SearchGrid, frontier_points, heat_stays_cheap, search
 from hev_thermal_env.prices import Prices
 
 

@@ -88,6 +88,5 @@ def fuel_rate_gps(en, speed_radps, torque_nm):
     w = speed_radps
     p_kw = max(torque_nm, 0.0) * w * 1e-3
     c = IDX.fuel_coeffs
-    rate = (en[c] + en[c + 1] * w + en[c + 2] * w * w
-            + (en[c + 3] + en[c + 4] * w) * p_kw + en[c + 5] * p_kw * p_kw)
+    rate = (en[c] + en[c + 1] * w + en[c + 2] * w * w + (en[c + 3] + en[c + 4] * w) * p_kw + en[c + 5] * p_kw * p_kw)
     return max(rate, 0.0)

@@ -1,13 +1,10 @@
 """Typed, frozen parameter records with validation, a YAML round-trip and the packed layout the kernels read.
 
-Every component module defines one ``Params`` dataclass deriving from :class:`Params`. Each field carries its unit
-in its name and an admissible range in its metadata (:func:`spec`), so that an invalid value is reported with the
-field's name, the value and the allowed range.
-
-A :class:`Layout` places each parameter in the packed float64 vector a kernel reads, one :class:`Slot` per packed
-value; :meth:`Layout.index` gives the component module its offsets by slot name (``IDX = LAYOUT.index()``; a kernel
-reads ``gl[IDX.mass_kg]``): a module-level namedtuple, which numba compiles in as constants. Reordering, adding or
-removing fields cannot hand a kernel the wrong parameter, and a field that no slot packs is an error.
+Each field of a component's :class:`Params` carries its unit in its name and its meaning and admissible range in its
+metadata (:func:`spec`). A :class:`Layout` places each field in the packed float64 vector a kernel reads;
+:meth:`Layout.index` gives the module its offsets by slot name (``IDX = LAYOUT.index()``, ``gl[IDX.mass_kg]``): a
+namedtuple, which numba compiles in as constants. Reordering, adding or removing fields cannot hand a kernel the wrong
+parameter, and a field that no slot packs is an error.
 """
 
 from __future__ import annotations

@@ -74,8 +74,7 @@ def hold(config: VehicleConfig, torque_nm: float, speed_rpm: float, seconds: int
     cutoff = trip = 0.0
     forced, ram = _speed_terms(th, condition.vehicle_speed_mps)
     n = int(seconds / dt_s)
-    names = ("torque_nm", "winding_c", "housing_c", "coolant_c", "heat_x", "q_winding_w", "q_housing_w",
-             "q_inverter_w")
+    names = ("torque_nm", "winding_c", "housing_c", "coolant_c", "heat_x", "q_winding_w", "q_housing_w", "q_inverter_w")
     out = {k: np.empty(n) for k in names}
     extra = thm.extra_loss_frac(th)
     for k in range(n):
@@ -183,5 +182,4 @@ def derate_against_resistance(config: VehicleConfig, torque_nm: float, speed_rpm
     with_derate = mot.total_loss_w(mo, torque_nm, w, extra, thm.derate_frac(th, housing_c))
     without = mot.total_loss_w(mo, torque_nm, w, extra, 0.0)
     copper_w = config.motor.copper_loss_coeff * torque_nm ** 2
-    return {"derate_w": with_derate - without,
-            "resistance_w": copper_w * COPPER_ALPHA_PER_K * (winding_c - 20.0)}
+    return {"derate_w": with_derate - without, "resistance_w": copper_w * COPPER_ALPHA_PER_K * (winding_c - 20.0)}

@@ -110,8 +110,7 @@ def thermal_step(th, temp_c, winding_c, coolant_c, q_winding_w, q_housing_w, q_i
     inv_ref, expo = th[IDX.inv_radiator_ref_air_speed], th[IDX.radiator_air_exponent]
     fan_mps, fan_on, inv_fan_band = th[IDX.fan_air_speed_mps], th[IDX.fan_on_temp_c], th[IDX.inv_fan_band_per_k]
     if network:
-        ua = radiator_core(ua_ref, ram_term, still, inv_ref, expo, fan_mps, fan_on, inv_fan_band, coolant_c,
-                           fan_factor)
+        ua = radiator_core(ua_ref, ram_term, still, inv_ref, expo, fan_mps, fan_on, inv_fan_band, coolant_c, fan_factor)
         g_rad = _radiation_conductance(eps_sigma_area, temp_c, ambient_c)
         t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
             c_w * inv_dt, c_h * inv_dt, c_c * inv_dt, g_w, flow_conductance(mcp, ua_jacket), g_air, g_rad,

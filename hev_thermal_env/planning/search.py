@@ -2,7 +2,7 @@
 
 Why forward, the bins, the heat prices and the passes: docs/strategies.md. Each stage expands every surviving state by
 every split the stage offers (:func:`~.problem.stage_splits`) in batched calls of the physics core (:mod:`.stage`),
-prices the candidates with the env's reward, keeps a few per bin (:mod:`.bins`) and drops those that can no longer
+prices the candidates with the env's reward, keeps a few per bin (:mod:`.stage`) and drops those that can no longer
 reach the final-SOC window (the backward SOC envelope of :mod:`.soc_dp`). Nothing is interpolated: a surviving path's
 planned cost is its realised cost. The last stage's survivors give the frontier (:func:`frontier_points`), at the
 yardstick cost (fuel, missed wheel energy at the miss price, the reward's overheat terms; no battery price).
@@ -25,10 +25,9 @@ from threadpoolctl import threadpool_limits
 from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core
 
-from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors
 from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
 from .soc_dp import backward_envelope
-from .stage import StageBuffers, expand
+from .stage import KEY_BITS, KEY_COLUMNS, StageBuffers, expand, non_dominated, survivors
 
 #: The priced temperatures, in the order of the price columns.
 PRICED = (core.TEMP_C, core.WINDING_C, core.COOLANT_C)
@@ -38,7 +37,7 @@ EVERY, DELTA_K = 10, 1.0
 _PRICED_KEY = tuple(KEY_COLUMNS.index(col) for col in PRICED)
 
 #: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
-#: (:func:`~.bins.keep_best_per_bin`).
+#: (:func:`~.stage.keep_best_per_bin`).
 SECOND_PRICE = 0.8
 #: Where heat stays cheap over the whole cycle (the coarse pass is skipped, :mod:`.thermal_optimum`), the slot of a
 #: bin's coolest state holds its cheapest with the battery priced at this fraction of the reward's price.
@@ -74,7 +73,7 @@ class SearchGrid:
                              f"width), got {self.heat_bin_max}, {self.heat_bin_g}")
 
     def widths(self) -> np.ndarray:
-        """The widths in the order of :data:`~.bins.KEY_COLUMNS` (the two protection flags: 1)."""
+        """The widths in the order of :data:`~.stage.KEY_COLUMNS` (the two protection flags: 1)."""
         return np.array([self.soc, self.housing_k, self.winding_k, self.coolant_k, self.heat_index, 1.0, 1.0])
 
     def scaled(self, factor: float) -> SearchGrid:
@@ -160,7 +159,7 @@ def heat_stays_cheap(grid: SearchGrid, heat_price: np.ndarray | None, n: int) ->
     """Per stage 0..n: True where heat cannot bind from then to the end: a bin of each priced temperature at the grid's
     own width holds at most ``heat_bin_g`` of heat at every later stage's price (``paper`` conditions: HWFET 0.3 g,
     Beijing 0.07 g; ``hot``: about 100 g). There a bin needs no coolest representative and a fuller state of the same
-    bins that costs no more with its heat priced replaces a state (:func:`~.bins.dominated_by_fuller`). False at the
+    bins that costs no more with its heat priced replaces a state (:func:`~.stage.dominated_by_fuller`). False at the
     last stage (the final-SOC band needs its states) and everywhere without prices or with a price that is not a
     finite number."""
     out = np.zeros(n + 1, dtype=bool)
@@ -217,7 +216,7 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`). ``tube`` (SOC
     bounds per stage 0..n) also drops the states outside it (at a stage where none is inside, the tube is ignored).
     ``heat_price`` (g/K of the temperatures :data:`PRICED` after each stage, [n + 1, 3]) gives each bin
-    its heat-priced representative (:func:`~.bins.keep_best_per_bin`). ``third_price``: where heat stays cheap, a bin
+    its heat-priced representative (:func:`~.stage.keep_best_per_bin`). ``third_price``: where heat stays cheap, a bin
     keeps its cheapest at :data:`THIRD_PRICE` in place of its coolest.
     ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
@@ -261,10 +260,9 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         max_states = max(max_states, keep.size)
         if progress is not None:
             progress(i + 1, n, keep.size)
-    return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents,
-                        actions=actions, grid=grid, solve_s=time.perf_counter() - t0, n_evals=n_evals,
-                        max_states=max_states, info={"threads": threads, "final_soc_window": list(final_window),
-                                              "tube": tube is not None})
+    return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents, actions=actions,
+                        grid=grid, solve_s=time.perf_counter() - t0, n_evals=n_evals, max_states=max_states,
+                        info={"threads": threads, "final_soc_window": list(final_window), "tube": tube is not None})
 
 
 def heat_prices(problem: DPProblem, u_ref: np.ndarray) -> np.ndarray:

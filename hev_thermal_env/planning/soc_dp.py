@@ -141,8 +141,7 @@ def _backward(problem: DPProblem, s: DPSettings, soc_lo: np.ndarray, soc_hi: np.
         cost = stage_cost_g(problem.reward_params, b.out, b.so, problem.soc_target, problem.lhv, problem.core.dt_s,
                             soc_deviation=s.price_soc_deviation, soc_band=False)
         lo = soc_lo[i + 1]
-        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, core.SOC], WALL_G_PER_SOC,
-                   b.jn)
+        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, core.SOC], WALL_G_PER_SOC, b.jn)
         J[i] = (cost + b.jn).reshape(n_soc, b.reps).min(axis=1)
     return J, n_evals
 
@@ -165,9 +164,8 @@ def solve(problem: DPProblem, settings: DPSettings) -> DPPlan:
 def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, problem: DPProblem,
            settings: DPSettings, actions: np.ndarray) -> int:
     """Index of the cheapest candidate: stage cost + interpolated cost-to-go of its next state."""
-    cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv,
-                        problem.core.dt_s, soc_deviation=settings.price_soc_deviation,
-                        soc_band=False)
+    cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv, problem.core.dt_s,
+                        soc_deviation=settings.price_soc_deviation, soc_band=False)
     return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions)
 
 
