@@ -1,9 +1,9 @@
 """The thermal optimum's search: forward dynamic programming over exact physics states (cost-to-come).
 
-Why forward, the bins, the heat prices and the passes: docs/strategies.md. Each stage expands every surviving state by
-every split the stage offers (:func:`~.problem.stage_splits`) in batched calls of the physics core (:mod:`.stage`),
-prices the candidates with the env's reward, keeps a few per bin (:mod:`.stage`) and drops those that can no longer
-reach the final-SOC window (the backward SOC envelope of :mod:`.soc_dp`). Nothing is interpolated: a surviving path's
+Why forward, the bins, the heat prices and the passes: docs/strategies.md. Each stage (:mod:`.stage`) expands every
+surviving state by every split the stage offers (:func:`~.problem.stage_splits`) in batched calls of the physics core,
+prices the candidates with the env's reward, keeps a few per bin and drops those that can no longer reach the
+final-SOC window (the backward SOC envelope of :mod:`.soc_dp`). Nothing is interpolated: a surviving path's
 planned cost is its realised cost. The last stage's survivors give the frontier (:func:`frontier_points`), at the
 yardstick cost (fuel, missed wheel energy at the miss price, the reward's overheat terms; no battery price).
 
@@ -142,10 +142,8 @@ def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable.
-
-    Computed with the motor at full capability (no heat index, neither protection tripped), which can only widen the
-    range, and widened by ``margin``.
+    """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable, widened by
+    ``margin``; with the motor at full capability (no heat index, neither protection tripped), which can only widen it.
     """
     ref = problem.state0.copy()
     ref[core.HEAT_X] = min(ref[core.HEAT_X], ref[core.HEAT_X_MIN])
