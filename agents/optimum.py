@@ -1,5 +1,5 @@
 """``dp_thermal``: the thermal optimum over the known cycle (:mod:`hev_thermal_env.planning.thermal_optimum`), the
-benchmark's yardstick. A solved plan is kept on disk and reused (:mod:`hev_thermal_env.planning.plan_cache`).
+benchmark's yardstick. A solved plan is kept on disk and reused (its ``cached_plan``).
 """
 
 from __future__ import annotations
@@ -9,10 +9,15 @@ from typing import Any
 
 import numpy as np
 
-from hev_thermal_env.planning.plan_cache import cached_plan
 from hev_thermal_env.planning.problem import DPProblem
 from hev_thermal_env.planning.search import LOCAL_HALFWIDTH, N_LOCAL, REFINE_STRIDE, SearchGrid
-from hev_thermal_env.planning.thermal_optimum import BIN_BUDGET, FIRST_PASS_SCALE, OptimumPlan, OptimumSettings
+from hev_thermal_env.planning.thermal_optimum import (
+    BIN_BUDGET,
+    FIRST_PASS_SCALE,
+    OptimumPlan,
+    OptimumSettings,
+    cached_plan,
+)
 
 from .base import Strategy, register
 

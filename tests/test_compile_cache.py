@@ -65,7 +65,7 @@ def test_the_keys_follow_the_sources_that_kernels_and_planners_read(tmp_path, mo
     monkeypatch.setattr(jit, "PACKAGE_DIR", copy)
     kernels = set(jit.kernel_modules())
     assert {"hev_thermal_env.physics.core", "hev_thermal_env.envs.reward", "hev_thermal_env.envs.batch",
-            "hev_thermal_env.planning.bins"} <= kernels
+            "hev_thermal_env.planning.stage"} <= kernels
     assert "hev_thermal_env.physics.config" not in kernels and "hev_thermal_env.planning.search" not in kernels
     plans = ["hev_thermal_env.planning.thermal_optimum"]
     base = jit.source_hash(), jit.source_hash(plans)

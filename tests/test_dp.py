@@ -12,9 +12,8 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.physics.core import OUT_NAMES, SOC, STATE_NAMES
-from hev_thermal_env.planning.corridor import backward_envelope, extreme_actions, forward_envelope
 from hev_thermal_env.planning.problem import BRAKING, DPInfeasibleError, DPProblem
-from hev_thermal_env.planning.soc_dp import DPSettings, interp_soc, rollout, solve
+from hev_thermal_env.planning.soc_dp import DPSettings, backward_envelope, forward_envelope, interp_soc, rollout, solve
 from hev_thermal_env.simulate import simulate
 
 
@@ -96,7 +95,7 @@ def test_backward_envelope_edge_just_reaches_the_band(city200):
         x = np.repeat(held[i][None, :], 2, axis=0)  # the planning model: thermal state held
         x[:, SOC] = soc
         a = np.array([-1.0, 1.0]) if kind[i] == 1 else np.array([1.0, 0.0]) if kind[i] == BRAKING else np.zeros(2)
-        np.testing.assert_array_equal(a, extreme_actions(p)[i, ::-1])
+        np.testing.assert_array_equal(a, p.extreme_actions()[i, ::-1])
         st, _ = p.step(x, a, i)
         soc = st[:, SOC]
     assert st[0, SOC] == pytest.approx(band[0], abs=2e-6)

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from hev_thermal_env.physics import battery, config, driveline, engine, glider, motor, thermal
-from hev_thermal_env.physics.layout import Layout, Slot
-from hev_thermal_env.physics.params import Params, spec
+from hev_thermal_env.physics.params import Layout, Params, Slot, spec
 
 LAYOUTS = {
     "glider": glider.LAYOUT, "driveline": driveline.LAYOUT, "engine": engine.LAYOUT, "motor": motor.LAYOUT,

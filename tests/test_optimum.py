@@ -24,15 +24,15 @@ from hev_thermal_env.physics.core import (
     WINDING_C,
 )
 from hev_thermal_env.planning import stage
-from hev_thermal_env.planning.bins import (
+from hev_thermal_env.planning.problem import DPProblem, stage_splits
+from hev_thermal_env.planning.search import SearchGrid, frontier_points, heat_stays_cheap, search
+from hev_thermal_env.planning.stage import (
     KEY_BITS,
     KEY_COLUMNS,
     dominated_by_fuller,
     keep_best_per_bin,
     pareto_per_soc_bin,
 )
-from hev_thermal_env.planning.problem import DPProblem, stage_splits
-from hev_thermal_env.planning.search import SearchGrid, frontier_points, heat_stays_cheap, search
 from hev_thermal_env.prices import Prices
 
 
@@ -328,13 +328,13 @@ def test_a_solved_plan_is_reused_from_disk_and_drives_the_same_run(city200):
 
 
 def test_heat_is_priced_where_it_costs_and_not_where_it_does_not(city200):
-    """The price of a kelvin (:mod:`~hev_thermal_env.planning.heat_value`) along the hybrid driven at u = 1, with
+    """The price of a kelvin (``planning.search.heat_prices``) along the hybrid driven at u = 1, with
     physics v1's prices (a soft limit at 60 °C): nothing on a cool motor (paper: below the derate's 35 °C and far
     from the soft limit), a little on a hot one (the derate), grams per kelvin of the housing above the overheat soft
     limit; the housing's price from a direct difference of two replays from stage 100 (2 K apart) agrees."""
     import dataclasses
 
-    from hev_thermal_env.planning.heat_value import DELTA_K, heat_prices
+    from hev_thermal_env.planning.search import DELTA_K, heat_prices
     from hev_thermal_env.scenarios import get_scenario
 
     hot = get_scenario("hot").conditions

@@ -1,9 +1,8 @@
 """Battery pack: open-circuit voltage and internal resistance over SOC, power limits, SOC window.
 
-Equivalent circuit: terminal power P = V_oc·I − R·I² (I > 0 discharging). The pack is built of
-ADVISOR's Ovonic 45 Ah NiMH module (ESS_NIMH45_OVONIC at 22 °C): ``n_series`` modules in a string,
-``n_parallel`` strings, sized for the 90 kW motor (> 100 kW pulse). The SOC window is enforced by
-the physics: the current allowed in a step never takes the SOC past ``soc_min``/``soc_max``.
+Equivalent circuit: terminal power P = V_oc·I − R·I² (I > 0 discharging). ``n_series`` ADVISOR Ovonic 45 Ah NiMH
+modules (ESS_NIMH45_OVONIC at 22 °C) in a string, ``n_parallel`` strings, sized for the 90 kW motor (> 100 kW pulse).
+The physics enforces the SOC window: the current allowed in a step never takes the SOC past ``soc_min``/``soc_max``.
 """
 
 from __future__ import annotations
@@ -14,8 +13,7 @@ import math
 import numpy as np
 
 from .jit import jit
-from .layout import Layout, Slot
-from .params import ConfigError, Params, spec
+from .params import Layout, Params, Slot, spec
 
 N_SOC = 11  # Voc and R tables over SOC 0, 0.1, ..., 1
 
@@ -44,12 +42,10 @@ class BatteryParams(Params):
                                               "ESS_NIMH45_OVONIC 0.975; NIMH93 1.0)", min=0.95, max=1.0)
 
     def validate(self) -> None:
-        if self.soc_min >= self.soc_max:
-            raise ConfigError(f"BatteryParams.soc_min: the SOC window is inverted or empty "
-                              f"(soc_min={self.soc_min} >= soc_max={self.soc_max})")
+        self.require(self.soc_min < self.soc_max, "soc_min", f"the SOC window is inverted or empty "
+                     f"(soc_min={self.soc_min} >= soc_max={self.soc_max})")
         for name in ("module_voc_v", "module_r_discharge_ohm", "module_r_charge_ohm"):
-            if len(getattr(self, name)) != N_SOC:
-                raise ConfigError(f"BatteryParams.{name}: need {N_SOC} values (SOC 0 to 1 by 0.1)")
+            self.require(len(getattr(self, name)) == N_SOC, name, f"need {N_SOC} values (SOC 0 to 1 by 0.1)")
         if not isinstance(self.n_series, int) or not isinstance(self.n_parallel, int):
             object.__setattr__(self, "n_series", int(self.n_series))
             object.__setattr__(self, "n_parallel", int(self.n_parallel))
@@ -75,8 +71,7 @@ LAYOUT = BatteryParams.LAYOUT = Layout(BatteryParams, (
          fields=("module_r_discharge_ohm",)),
     Slot("r_charge_ohm", N_SOC, fill=lambda p: np.asarray(p.module_r_charge_ohm) * p.n_series / p.n_parallel,
          fields=("module_r_charge_ohm",)),
-), unpacked=("module_mass_kg",))
-"""Packed pack-level battery parameters read by the kernels (module data scaled to the pack)."""
+), unpacked=("module_mass_kg",))  # the module data scaled to the pack
 IDX = LAYOUT.index()
 
 

@@ -1,7 +1,4 @@
-"""The whole-vehicle configuration, the run conditions, and the default ``paper_bus``.
-
-``VehicleConfig`` groups one frozen parameter record per component; ``Conditions`` holds what varies between runs
-of the same vehicle (ambient, starting temperature and SOC, coolant mode). Both round-trip through YAML.
+"""The whole-vehicle configuration (one record per component), the run conditions and the default ``paper_bus``.
 
 Where the ``paper_bus`` numbers come from:
 
@@ -30,9 +27,8 @@ from .battery import BatteryParams
 from .driveline import DrivelineParams
 from .engine import EngineParams
 from .glider import GliderParams
-from .layout import Layout
 from .motor import MotorParams
-from .params import ConfigError, Params, spec
+from .params import ConfigError, Layout, Params, spec
 from .thermal import ThermalParams
 
 COOLANT_MODES = ("on", "degraded", "off")
@@ -47,7 +43,6 @@ class PowertrainParams(Params):
 
 
 POWERTRAIN_LAYOUT = PowertrainParams.LAYOUT = Layout.of_fields(PowertrainParams)
-"""Packed powertrain facts read by the kernel: one slot per field."""
 PT_IDX = POWERTRAIN_LAYOUT.index()
 
 
@@ -110,8 +105,7 @@ class Conditions(Params):
 
     ambient_temp_c: float = spec(20.0, "ambient air temperature (paper: 20 °C)", min=-40.0, max=60.0)
     initial_motor_temp_c: float = spec(20.0, "motor temperature at the start (paper: 20 °C)", min=-40.0, max=150.0)
-    initial_soc: float = spec(0.65, "battery SOC at the start (middle of ADVISOR's 0.6-0.7 band)",
-                              min=0.0, max=1.0)
+    initial_soc: float = spec(0.65, "battery SOC at the start (middle of ADVISOR's 0.6-0.7 band)", min=0.0, max=1.0)
     coolant: str = "on"
     coolant_temp_c: float | None = None
     coolant_degraded_factor: float = spec(0.1, "coolant multiplier when degraded (network: the pump's flow; "
@@ -124,8 +118,7 @@ class Conditions(Params):
                                     min=0.0, max=20000.0)
 
     def validate(self) -> None:
-        if self.coolant not in COOLANT_MODES:
-            raise ConfigError(f"Conditions.coolant: {self.coolant!r} is not one of {list(COOLANT_MODES)}")
+        self.require(self.coolant in COOLANT_MODES, "coolant", f"{self.coolant!r} is not one of {list(COOLANT_MODES)}")
         if self.coolant_temp_c is not None:
             object.__setattr__(self, "coolant_temp_c", float(self.coolant_temp_c))
 

@@ -1,22 +1,16 @@
-"""The one physics step of the vehicle, vectorised over a batch axis.
+"""The one physics step of the vehicle, vectorised over a batch axis (docs/vehicle.md, docs/architecture.md).
 
-``step_kernel`` advances B independent vehicles by one time step: the only place where the components are put
-together, called through :class:`PhysicsCore` by everything that steps a vehicle (docs/architecture.md).
-Backward-facing quasi-static model (ADVISOR-style): the cycle asks for a speed change v0 → v1 on a grade; road
-load gives the wheel torque at the mean speed, the driveline maps it to the coupler shaft, the action splits it.
-
-Split and limits. For a positive shaft demand T_dem and action u ∈ [-1, 1] the motor is asked for u·T_dem,
-clipped only by its own limits (peak torque, the heat index of eq 8, the cutoff) and the battery's power and SOC
-limits; the engine covers the rest up to its full-load torque. Whatever is still missing is a trace miss: the
-step delivers what it can and reports the missed wheel energy and the speed deficit it would cause
-(``trace_miss_mps`` = missed force·dt / effective mass); the next step follows the cycle again. The motor never
-tops up by itself: where the engine alone falls short, the action chooses between assisting (battery energy,
-motor heat) and missing (priced by the reward and the corrected-fuel metric alike), so every strategy and DP face
-the same choice at the same price. Braking: the driven axle takes a speed-dependent share of the braking
-(``glider.driven_axle_brake_frac``), the other axle's friction brakes the rest; of the driven axle's braking, within
-the motor's and the battery's limits (the available regeneration), the motor takes the share u > 0 and friction
-brakes the rest; u ≤ 0 brakes by friction alone. u = 0 at every step is the bus with its motor unused (no assist,
-no regeneration; the spinning motor's losses remain). At standstill the action has no effect.
+``step_kernel`` advances B independent vehicles by one step: the only place where the components are put together,
+called through :class:`PhysicsCore` by everything that steps a vehicle. Backward-facing and quasi-static (ADVISOR):
+the road load at the mean of the cycle's speeds v0 → v1 gives the wheel torque, the driveline maps it to the coupler
+shaft, the action u ∈ [-1, 1] splits it. Traction: the motor is asked for u·T_dem, clipped only by its own limits
+(peak torque, the heat index of eq 8, the protections) and the battery's power and SOC limits; the engine covers the
+rest up to full load. What is still missing is a trace miss (missed wheel energy; ``trace_miss_mps`` = missed
+force·dt / effective mass); the motor never tops up by itself, so assisting or missing is the action's choice, at the
+same price for every strategy. Braking: the driven axle takes a speed-dependent share
+(``glider.driven_axle_brake_frac``), the other axle's friction brakes the rest; of its available regeneration the
+motor takes the share u > 0 (u ≤ 0: friction alone). u = 0 throughout is the bus with its motor unused (the spinning
+motor's losses remain); at standstill the action has no effect.
 """
 
 from __future__ import annotations
@@ -33,22 +27,18 @@ from . import motor as mot
 from . import thermal as thm
 from . import thermal_network as tnet
 from .config import PT_IDX, Conditions, VehicleConfig
-from .door_arrays import MIN_THREAD_BATCH, as_batch, as_float64, checked_out, thread_pool
-from .jit import jit
+from .jit import MIN_THREAD_BATCH, jit, thread_pool
 
-# state columns (``motor_temp_c``: the stator/housing node of the network, the paper's one lumped motor temperature;
-# ``heat_x_min``: the heat index's anti-windup floor, −PWM_initial at the motor's temperature; ``motor_cutoff``: the
-# 70 °C protection; ``winding_temp_c``, ``coolant_temp_c``: the network's other nodes (the paper's model holds the
-# winding equal to the motor and the coolant at the run's water temperature); ``winding_trip``: the winding's own
-# protection)
+# state columns (``motor_temp_c``: the stator/housing node, the paper's lumped motor temperature; ``heat_x_min``: the
+# heat index's anti-windup floor, −PWM_initial at that temperature; ``motor_cutoff``: the 70 °C protection; the winding
+# and coolant nodes: the paper's model holds them at the motor's and the run's water temperature)
 SOC, TEMP_C, HEAT_X, HEAT_X_MIN, CUTOFF, WINDING_C, COOLANT_C, WINDING_TRIP = range(8)
 N_STATE = 8
 STATE_NAMES = ("soc", "motor_temp_c", "heat_x", "heat_x_min", "motor_cutoff", "winding_temp_c", "coolant_temp_c",
                "winding_trip")
 
-# condition columns (``water_c``: the coolant's starting temperature, and the paper's perfect-radiator
-# water temperature; ``coolant_factor``: 1 on, < 1 degraded, 0 off; ``payload_kg`` on top of the test
-# mass; ``fan_factor``: 1 the radiator fan works, 0 it has failed; ``accessory_w``: the accessory load)
+# condition columns (``water_c``: the coolant's start, and the paper's perfect-radiator water temperature;
+# ``coolant_factor``: 1 on, < 1 degraded, 0 off; ``fan_factor``: 1 the radiator fan works, 0 it has failed)
 AMBIENT_C, WATER_C, COOLANT_FACTOR, PAYLOAD_KG, FAN_FACTOR, ACCESSORY_W = range(6)
 N_COND = 6
 
@@ -63,11 +53,10 @@ OUT_NAMES = (
     "shaft_torque_demand_nm", "motor_torque_clipped", "engine_torque_max_nm", "motor_torque_max_nm",
     "q_radiator_w", "inverter_heat_w", "regen_available_nm",
 )
-(FUEL_G, ENGINE_ON, ENGINE_SPEED, ENGINE_TORQUE, ENGINE_POWER, MOTOR_TORQUE, MOTOR_SPEED, MOTOR_ELEC,
- MOTOR_LOSS, MOTOR_HEAT, MOTOR_AVAIL, MOTOR_REQ, BATT_POWER, BATT_CHEM, BATT_LOSS, BATT_CURRENT, GEAR,
- SPEED, WHEEL_DEMAND, WHEEL_POWER, MISSED_J, TRACE_MISS, BRAKE_POWER, CLUTCH_LOSS, DRIVELINE_LOSS, ACC,
- COOLANT_ON, HEAT_INDEX, Q_AIR, Q_RAD, Q_COOL, SHAFT_DEMAND, MOTOR_CLIPPED, ENGINE_MAX, MOTOR_MAX,
- Q_RADIATOR, INVERTER_HEAT, REGEN_AVAIL) = range(38)
+(FUEL_G, ENGINE_ON, ENGINE_SPEED, ENGINE_TORQUE, ENGINE_POWER, MOTOR_TORQUE, MOTOR_SPEED, MOTOR_ELEC, MOTOR_LOSS,
+ MOTOR_HEAT, MOTOR_AVAIL, MOTOR_REQ, BATT_POWER, BATT_CHEM, BATT_LOSS, BATT_CURRENT, GEAR, SPEED, WHEEL_DEMAND,
+ WHEEL_POWER, MISSED_J, TRACE_MISS, BRAKE_POWER, CLUTCH_LOSS, DRIVELINE_LOSS, ACC, COOLANT_ON, HEAT_INDEX, Q_AIR, Q_RAD,
+ Q_COOL, SHAFT_DEMAND, MOTOR_CLIPPED, ENGINE_MAX, MOTOR_MAX, Q_RADIATOR, INVERTER_HEAT, REGEN_AVAIL) = range(38)
 N_OUT = len(OUT_NAMES)
 
 
@@ -75,13 +64,11 @@ N_OUT = len(OUT_NAMES)
 def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, dt, state_out, out):
     """Advance every row of ``state`` [B, N_STATE] by one step; write ``state_out`` and ``out`` [B, N_OUT].
 
-    ``action``, ``v0``, ``v1``, ``grade`` have length B; ``cond`` is [B, N_COND]. One row's step is written inside
-    the loop, indexing the 2-D arrays by ``b``, with no per-row view (``state[b]``) and no per-row call taking a
-    parameter vector: the speed rule of ``jit.py`` (such reference-counted values take ≈270 ns; a row ≈50-90 ns).
+    ``action``, ``v0``, ``v1``, ``grade`` have length B; ``cond`` is [B, N_COND]. One loop indexing the 2-D arrays by
+    ``b``, with no per-row view and no per-row call taking a parameter vector: the speed rule of ``jit.py``.
     """
     inv_dt = 1.0 / dt
-    # the speed's factors of the thermal model (two powers), recomputed only when the speed changes from the
-    # previous row: every row of a DP stage or of a batch over one cycle step shares them
+    # the speed's factors of the thermal model, recomputed only when the speed changes from the previous row
     log_air_per_mps, air_exp = math.log(th[thm.IDX.air_speed_per_mps]), th[thm.IDX.air_speed_exponent]
     log_ram_per_mps, ram_exp = math.log(th[thm.IDX.ram_air_per_mps]), th[thm.IDX.radiator_air_exponent]
     network = th[thm.IDX.model] == thm.MODEL_NETWORK
@@ -309,39 +296,25 @@ class PhysicsCore:
     >>> state = core.initial_state(Conditions(), batch=4)
     >>> new_state, out = core.step(state, action=np.zeros(4), speed_start_mps=np.zeros(4),
     ...                            speed_end_mps=np.ones(4), grade=0.0, cond=core.conditions_array(Conditions(), 4))
-
-    :meth:`step` coerces every input to float64 C-contiguous arrays (``door_arrays``), broadcasts scalars over the
-    batch, checks shapes and can split large batches over threads (the kernel releases the GIL).
     """
 
     def __init__(self, config: VehicleConfig, dt_s: float = 1.0):
-        self.config = config
-        self.dt_s = float(dt_s)
-        self.gl = config.glider.pack()
-        self.dl = config.driveline.pack()
-        self.en = config.engine.pack()
-        self.mo = config.motor.pack()
-        self.th = config.thermal.pack()
-        self.ba = config.battery.pack()
-        self.pt = config.powertrain.pack()
-
-    @property
-    def params(self) -> tuple:
-        """The packed parameter vectors, in the kernel's argument order."""
-        return (self.gl, self.dl, self.en, self.mo, self.th, self.ba, self.pt)
+        self.config, self.dt_s = config, float(dt_s)
+        #: The packed parameter vectors, in the kernel's argument order.
+        self.params = tuple(p.pack() for p in (config.glider, config.driveline, config.engine, config.motor,
+                                                config.thermal, config.battery, config.powertrain))
+        self.gl, self.dl, self.en, self.mo, self.th, self.ba, self.pt = self.params
 
     def initial_state(self, conditions: Conditions, batch: int = 1) -> np.ndarray:
         conditions.check_soc(self.config.battery)
+        t0, th = conditions.initial_motor_temp_c, self.config.thermal
         st = np.zeros((batch, N_STATE))
         st[:, SOC] = conditions.initial_soc
-        st[:, TEMP_C] = conditions.initial_motor_temp_c
-        st[:, HEAT_X] = thm.heat_index_floor(self.th, conditions.initial_motor_temp_c)
-        st[:, HEAT_X_MIN] = st[:, HEAT_X]
-        th = self.config.thermal
-        st[:, CUTOFF] = 1.0 if (th.enabled and conditions.initial_motor_temp_c >= th.cutoff_temp_c) else 0.0
-        st[:, WINDING_C] = conditions.initial_motor_temp_c
+        st[:, TEMP_C] = st[:, WINDING_C] = t0
+        st[:, HEAT_X] = st[:, HEAT_X_MIN] = thm.heat_index_floor(self.th, t0)
+        st[:, CUTOFF] = float(th.enabled and t0 >= th.cutoff_temp_c)
         st[:, COOLANT_C] = conditions.water_temp_c
-        st[:, WINDING_TRIP] = 1.0 if (th.enabled and conditions.initial_motor_temp_c >= th.winding_trip_temp_c) else 0.0
+        st[:, WINDING_TRIP] = float(th.enabled and t0 >= th.winding_trip_temp_c)
         return st
 
     @staticmethod
@@ -364,24 +337,25 @@ class PhysicsCore:
         """Advance a batch of B vehicles by one step; returns (new state [B, N_STATE], outputs [B, N_OUT]).
 
         ``action`` (the motor share u), ``speed_start_mps``, ``speed_end_mps`` and ``grade``: [B] or scalars;
-        ``cond`` [B, N_COND] or [N_COND]. ``state_out``/``out`` (float64, C-contiguous) are filled if given.
-        ``threads`` > 1 splits batches of at least :data:`MIN_THREAD_BATCH` rows over that many threads.
+        ``cond`` [B, N_COND] or [N_COND]. Every input reaches the kernel as a float64 C-contiguous array (one
+        compiled specialisation); a bad shape raises a ``ValueError`` naming the argument. ``state_out``/``out``
+        (float64, C-contiguous) are filled if given. ``threads`` > 1 splits batches of at least
+        :data:`~.jit.MIN_THREAD_BATCH` rows over that many threads (the kernel releases the GIL).
         """
-        state = as_float64(state, "state")
+        state = _as_float64(state, "state")
         if state.ndim != 2 or state.shape[1] != N_STATE:
             raise ValueError(f"PhysicsCore.step: state must have shape (B, {N_STATE}), got {state.shape}")
         b = state.shape[0]
-        action = as_batch(action, b, "action")
-        v0 = as_batch(speed_start_mps, b, "speed_start_mps")
-        v1 = as_batch(speed_end_mps, b, "speed_end_mps")
-        grade = as_batch(grade, b, "grade")
-        cond = as_float64(cond, "cond")
+        action, v0, v1, grade = (_as_batch(x, b, name) for x, name in (
+            (action, "action"), (speed_start_mps, "speed_start_mps"), (speed_end_mps, "speed_end_mps"),
+            (grade, "grade")))
+        cond = _as_float64(cond, "cond")
         if cond.shape == (N_COND,):
             cond = np.ascontiguousarray(np.broadcast_to(cond, (b, N_COND)))
         if cond.shape != (b, N_COND):
             raise ValueError(f"PhysicsCore.step: cond must have shape ({b}, {N_COND}), got {cond.shape}")
-        state_out = np.empty((b, N_STATE)) if state_out is None else checked_out(state_out, (b, N_STATE), "state_out")
-        out = np.empty((b, N_OUT)) if out is None else checked_out(out, (b, N_OUT), "out")
+        state_out = _checked_out(state_out, (b, N_STATE), "state_out")
+        out = _checked_out(out, (b, N_OUT), "out")
         n = max(1, int(threads))
         if n == 1 or b < MIN_THREAD_BATCH:
             self.step_unchecked(state, action, v0, v1, grade, cond, state_out, out)
@@ -394,3 +368,28 @@ class PhysicsCore:
 
         list(thread_pool(n).map(run, range(n)))
         return state_out, out
+
+
+def _as_float64(x, name: str) -> np.ndarray:
+    try:
+        return np.ascontiguousarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"PhysicsCore.step: {name} must be numeric, got {type(x).__name__}") from None
+
+
+def _as_batch(x, b: int, name: str) -> np.ndarray:
+    a = _as_float64(x, name)
+    if a.shape == (b,):
+        return a
+    if a.ndim == 0 or a.shape == (1,):
+        return np.full(b, float(a.reshape(-1)[0]))
+    raise ValueError(f"PhysicsCore.step: {name} must be a scalar or have shape ({b},), got {a.shape}")
+
+
+def _checked_out(x: np.ndarray | None, shape: tuple[int, int], name: str) -> np.ndarray:
+    """``x``, or a new array of ``shape`` if None."""
+    if x is None:
+        return np.empty(shape)
+    if not (isinstance(x, np.ndarray) and x.dtype == np.float64 and x.flags.c_contiguous and x.shape == shape):
+        raise ValueError(f"PhysicsCore.step: {name} must be a C-contiguous float64 array of shape {shape}")
+    return x

@@ -1,26 +1,19 @@
 """Driveline: wheel ← final drive ← automated manual gearbox ← torque coupler ← clutch ← engine.
 
-The motor joins the engine shaft through the torque coupler ahead of the gearbox (the paper's
-"torque synthesizer"), so both see the gearbox input shaft ("coupler shaft"). The motor turns at
-``coupler_ratio`` times the shaft speed, with ADVISOR's TC_DUMMY rule
-``0.99 · max motor speed / max engine speed`` (lossless coupler).
-
-Gear choice is a stateless shift map on vehicle speed and load: the highest gear whose shaft
-speed is at least the up-shift speed, which rises with the demanded load fraction from
-``upshift_low_load_rpm`` to ``upshift_full_load_rpm`` (ADVISOR's PTC_PAR schedule in spirit,
-without its hysteresis, so that dynamic programming needs no gear state).
+The motor joins the engine shaft through the torque coupler ahead of the gearbox (the paper's "torque synthesizer"),
+both on the gearbox input shaft ("coupler shaft"); the motor turns at ``coupler_ratio`` times its speed (ADVISOR's
+TC_DUMMY rule, 0.99 · max motor speed / max engine speed; lossless). The gear is a stateless shift map on vehicle speed
+and load: the highest gear whose shaft speed reaches the up-shift speed, rising with the load fraction from
+``upshift_low_load_rpm`` to ``upshift_full_load_rpm`` (ADVISOR's PTC_PAR schedule without its hysteresis, so that
+dynamic programming needs no gear state).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 
 from .jit import jit
-from .layout import Layout, Slot
-from .params import ConfigError, Params, spec
-
-RPM = math.pi / 30.0
+from .params import RPM, Layout, Params, Slot, spec
 
 MAX_GEARS = 8
 
@@ -40,12 +33,11 @@ class DrivelineParams(Params):
     upshift_full_load_rpm: float = spec(2400.0, "shaft speed above which to up-shift at full load", min=300.0)
 
     def validate(self) -> None:
-        if not 1 <= len(self.gear_ratios) <= MAX_GEARS:
-            raise ConfigError(f"DrivelineParams.gear_ratios: need 1 to {MAX_GEARS} gears, got {len(self.gear_ratios)}")
-        if any(a <= b for a, b in zip(self.gear_ratios, self.gear_ratios[1:])):
-            raise ConfigError(f"DrivelineParams.gear_ratios: must decrease from first to top, got {self.gear_ratios}")
-        if self.upshift_full_load_rpm < self.upshift_low_load_rpm:
-            raise ConfigError("DrivelineParams.upshift_full_load_rpm: must be >= upshift_low_load_rpm")
+        g = self.gear_ratios
+        self.require(1 <= len(g) <= MAX_GEARS, "gear_ratios", f"need 1 to {MAX_GEARS} gears, got {len(g)}")
+        self.require(all(a > b for a, b in zip(g, g[1:])), "gear_ratios", f"must decrease from first to top, got {g}")
+        self.require(self.upshift_full_load_rpm >= self.upshift_low_load_rpm, "upshift_full_load_rpm",
+                     "must be >= upshift_low_load_rpm")
 
 
 LAYOUT = DrivelineParams.LAYOUT = Layout.of_fields(DrivelineParams, replace={
@@ -54,8 +46,7 @@ LAYOUT = DrivelineParams.LAYOUT = Layout.of_fields(DrivelineParams, replace={
                                  fields=("upshift_low_load_rpm",)),
     "upshift_full_load_rpm": Slot("upshift_full_load_radps", fill=lambda p: p.upshift_full_load_rpm * RPM,
                                   fields=("upshift_full_load_rpm",)),
-})
-"""Packed driveline parameters read by the kernels (speeds in rad/s, gear table padded)."""
+})  # speeds in rad/s, the gear table padded
 IDX = LAYOUT.index()
 
 
@@ -79,8 +70,7 @@ def select_gear(dl, wheel_speed_radps, load_frac, shaft_max_radps):
             lowest_ok = min(lowest_ok, k)
             if w >= up:
                 gear = k
-    # if even first gear over-speeds, take the lowest gear that does not (found in the same pass:
-    # a second, conditional loop over ``dl`` costs reference counting, speed rule in jit.py)
+    # if even first gear over-speeds, the lowest that does not (found in the same pass: speed rule in jit.py)
     if wheel_speed_radps * overall_ratio(dl, gear) > shaft_max_radps:
         gear = lowest_ok
     return gear

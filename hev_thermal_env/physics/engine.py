@@ -1,35 +1,25 @@
 """Diesel engine: maximum torque curve and a parametric fuel-rate surface.
 
-Fuel rate (Willans-type surface in speed ω [rad/s] and brake power P [kW])::
+Fuel rate, a Willans-type surface in speed ω [rad/s] and brake power P [kW]: fuel_gps = c0 + c1·ω + c2·ω²
++ (c3 + c4·ω)·P + c5·P², a least-squares fit to ADVISOR's FC_CI119 (6.5 L, 119 kW) fuel map (2.1 % RMS, 5.1 % max
+error over its 54 points: ``tests/test_physics.py::test_engine_fit_against_advisor``). The constant and speed terms
+give the fuel at zero load (idle, motoring with accessories only). Fuel is cut on overrun (no positive torque asked
+while the shaft turns above idle) and zero with the engine off.
 
-    fuel_gps = c0 + c1·ω + c2·ω² + (c3 + c4·ω)·P + c5·P²
-
-Coefficients are a least-squares fit to ADVISOR's FC_CI119 (6.5 L, 119 kW) fuel map
-(``tests/test_physics.py::test_engine_fit_against_advisor`` checks the error: 2.1 % RMS, 5.1 % max over
-the 54 map points). The constant-plus-speed terms give the fuel at zero load (idle and
-motoring with accessories only). Fuel is cut on overrun (no positive torque requested while the
-shaft turns above idle) and zero when the engine is off.
-
-Below the map's domain. FC_CI119 is measured from 1,000 to 3,500 rpm and 120 to 420 N·m; the bus
-runs below it at idle (700 rpm), with the accessories alone (7.5 kW ≈ 100 N·m at 700 rpm) and in
-light city traction. There the fuel is the surface's extrapolation, which no measured point
-checks: 0.25 g/s (1.1 L/h) at idle with no load, 0.67 g/s (322 g/kWh) at idle carrying the
-7.5 kW accessories, 0.21 g/s at 1,000 rpm unloaded. The fuel rises with power everywhere
-there (c3 + c4·ω > 0 up to the maximum speed), so no load point below the map is free.
+Below the map (measured from 1,000 to 3,500 rpm and 120 to 420 N·m), at idle (700 rpm), with the accessories alone
+(7.5 kW ≈ 100 N·m at 700 rpm) and in light city traction, the fuel is the surface's unchecked extrapolation: 0.25 g/s
+(1.1 L/h) idling unloaded, 0.67 g/s (322 g/kWh) idling with the 7.5 kW accessories, 0.21 g/s at 1,000 rpm unloaded. It
+rises with power everywhere there (c3 + c4·ω > 0 up to the maximum speed), so no load point below the map is free.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from .jit import jit
-from .layout import Layout, Slot
-from .params import ConfigError, Params, spec
-
-RPM = math.pi / 30.0
+from .params import RPM, Layout, Params, Slot, spec
 
 MAX_CURVE = 12
 
@@ -50,16 +40,12 @@ class EngineParams(Params):
                                 "full-load torque at those speeds (FC_CI119)", min=0.0)
 
     def validate(self) -> None:
-        if len(self.fuel_coeffs) != 6:
-            raise ConfigError("EngineParams.fuel_coeffs: need 6 coefficients")
-        if len(self.max_torque_speed_rpm) != len(self.max_torque_nm):
-            raise ConfigError("EngineParams.max_torque_nm: length differs from max_torque_speed_rpm")
-        if not 2 <= len(self.max_torque_nm) <= MAX_CURVE:
-            raise ConfigError(f"EngineParams.max_torque_nm: need 2 to {MAX_CURVE} points")
-        if any(a >= b for a, b in zip(self.max_torque_speed_rpm, self.max_torque_speed_rpm[1:])):
-            raise ConfigError("EngineParams.max_torque_speed_rpm: must increase")
-        if self.max_speed_rpm <= self.idle_speed_rpm:
-            raise ConfigError("EngineParams.max_speed_rpm: must exceed idle_speed_rpm")
+        s, t = self.max_torque_speed_rpm, self.max_torque_nm
+        self.require(len(self.fuel_coeffs) == 6, "fuel_coeffs", "need 6 coefficients")
+        self.require(len(s) == len(t), "max_torque_nm", "length differs from max_torque_speed_rpm")
+        self.require(2 <= len(t) <= MAX_CURVE, "max_torque_nm", f"need 2 to {MAX_CURVE} points")
+        self.require(all(a < b for a, b in zip(s, s[1:])), "max_torque_speed_rpm", "must increase")
+        self.require(self.max_speed_rpm > self.idle_speed_rpm, "max_speed_rpm", "must exceed idle_speed_rpm")
 
     @property
     def max_power_w(self) -> float:
@@ -75,8 +61,7 @@ LAYOUT = EngineParams.LAYOUT = Layout.of_fields(EngineParams, replace={
         Slot("curve_speed_radps", MAX_CURVE, fill=lambda p: np.asarray(p.max_torque_speed_rpm) * RPM,
              fields=("max_torque_speed_rpm",))),
     "max_torque_nm": Slot("max_torque_nm", MAX_CURVE),
-}, derived={"max_power_w": lambda p: p.max_power_w})
-"""Packed engine parameters read by the kernels (speeds in rad/s, full-load curve padded)."""
+}, derived={"max_power_w": lambda p: p.max_power_w})  # speeds in rad/s, the full-load curve padded
 IDX = LAYOUT.index()
 
 
@@ -103,6 +88,5 @@ def fuel_rate_gps(en, speed_radps, torque_nm):
     w = speed_radps
     p_kw = max(torque_nm, 0.0) * w * 1e-3
     c = IDX.fuel_coeffs
-    rate = (en[c] + en[c + 1] * w + en[c + 2] * w * w
-            + (en[c + 3] + en[c + 4] * w) * p_kw + en[c + 5] * p_kw * p_kw)
+    rate = (en[c] + en[c + 1] * w + en[c + 2] * w * w + (en[c + 3] + en[c + 4] * w) * p_kw + en[c + 5] * p_kw * p_kw)
     return max(rate, 0.0)

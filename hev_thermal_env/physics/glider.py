@@ -1,13 +1,8 @@
 """Glider and road load: the force the wheels must deliver to follow a speed trace.
 
-Road load::
-
-    F = m·a·(1 + f_rot) + m·g·Crr·cos(θ) + m·g·sin(θ) + ½·ρ·Cd·A·v²
-
-with θ = atan(grade). Defaults are the 40-ft transit-bus glider of ADVISOR (VEH_RTS06 body,
-WH_HEAVY tyres); the test mass is calibrated to the paper's Table 3 (see ``config.paper_bus``).
-m is the test mass plus the run's payload (``Conditions.payload_kg``: passengers on top of the
-test mass, which already carries ADVISOR's 1.84 t of cargo).
+Road load: F = m·a·(1 + f_rot) + m·g·Crr·cos(θ) + m·g·sin(θ) + ½·ρ·Cd·A·v², θ = atan(grade), m the test mass
+(ADVISOR's 40-ft transit bus, VEH_RTS06 body and WH_HEAVY tyres, calibrated to the paper's Table 3) plus the run's
+payload (``Conditions.payload_kg``: passengers on top of the test mass, which carries ADVISOR's 1.84 t of cargo).
 """
 
 from __future__ import annotations
@@ -16,8 +11,7 @@ import dataclasses
 import math
 
 from .jit import jit
-from .layout import Layout
-from .params import Params, spec
+from .params import Layout, Params, spec
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,15 +27,13 @@ class GliderParams(Params):
     wheel_radius_m: float = spec(0.5, "tyre rolling radius (ADVISOR WH_HEAVY)", min=0.05, max=2.0)
     air_density_kgpm3: float = spec(1.23, "air density", min=0.5, max=2.0)
     gravity_mps2: float = spec(9.81, "gravitational acceleration", min=9.0, max=10.5)
-    regen_driven_axle_frac_10mph: float = spec(
-        0.5, "share of the braking the driven axle takes at 10 mph (ADVISOR WH_HEAVY wh_fa_dl_brake_frac)",
-        min=0.4, max=0.7)
+    regen_driven_axle_frac_10mph: float = spec(0.5, "share of the braking the driven axle takes at 10 mph (ADVISOR "
+                                               "WH_HEAVY wh_fa_dl_brake_frac)", min=0.4, max=0.7)
     regen_driven_axle_frac_60mph: float = spec(
         0.8, "share of the braking the driven axle takes at and above 60 mph (ADVISOR WH_HEAVY)", min=0.6, max=0.9)
 
 
 LAYOUT = GliderParams.LAYOUT = Layout.of_fields(GliderParams)
-"""Packed glider parameters read by the kernels: one slot per field."""
 IDX = LAYOUT.index()
 
 

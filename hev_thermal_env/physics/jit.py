@@ -1,28 +1,28 @@
-"""The compile decorator of every numba kernel in the project, with a cache that cannot go stale.
+"""The compile decorator of every numba kernel in the project, with a cache that cannot go stale, and their threads.
 
 ``error_model="numpy"``: division by zero gives inf/NaN instead of raising, which removes a branch from every
 division in the hot loop; valid configurations never divide by zero and the fuzz tests check that no NaN or inf
-reaches an output.
+reaches an output. ``nogil``: :func:`thread_pool` runs large batches on several threads.
 
-Speed rule for the step (``core.step_kernel``): numba reference-counts array values with atomic calls
-(``NRT_incref``/``NRT_decref``) and removes a pair only when both sit on simple paths; in the per-row code these
-calls cost most of the time. So: no per-row array views or per-row calls that bind arrays (index the 2-D arrays
-with the row), and a component function taking a packed vector reads it for the last time outside any branch and
-returns from one place (``thermal.cutoff_step``, ``thermal.heat_flows_w``, ``driveline.select_gear``).
+Speed rule for the step (``core.step_kernel``): numba reference-counts array values with atomic calls and removes a
+pair only when both sit on simple paths; in the per-row code these calls cost most of the time (≈270 ns, a row
+≈50-90 ns). So: no per-row array views or per-row calls that bind arrays (index the 2-D arrays with the row), and a
+component function taking a packed vector reads it for the last time outside any branch and returns from one place
+(``thermal.cutoff_step``, ``thermal.heat_flows_w``, ``driveline.select_gear``).
 
-**The cache** (docs/architecture.md) lives in ``cache_root() / source_hash()``: a hash of the numba version, of
-every package file with an ``@jit`` line (:func:`jit` refuses a function defined anywhere else) and of the project
-modules those import at module level, transitively, since a kernel inlines other files' kernels and constants.
-Without a writable directory the kernels compile uncached. numba's own cache settings are process-wide, so
-:func:`jit` sets its cache directory only while it creates a dispatcher.
+**The cache** (docs/architecture.md) lives in ``cache_root() / source_hash()``: a hash of the numba version, of every
+package file with an ``@jit`` line (:func:`jit` refuses a function defined anywhere else) and of the project modules
+those import at module level, transitively (a kernel inlines other files' kernels and constants).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import re
 from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numba
@@ -33,6 +33,14 @@ PACKAGE_DIR = Path(__file__).resolve().parent.parent
 _OPTIONS = {"error_model": "numpy", "nogil": True}
 _KERNEL_LINE = re.compile(rb"^@jit\b", re.M)
 _IMPORT = re.compile(rb"^(?:from[ \t]+(\.*[\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)|import[ \t]+([^\n]*))", re.M)
+#: Batches smaller than this are not split over threads (thread start-up would dominate).
+MIN_THREAD_BATCH = 4096
+
+
+@functools.cache
+def thread_pool(n: int) -> ThreadPoolExecutor:
+    """The process's pool of ``n`` kernel threads."""
+    return ThreadPoolExecutor(max_workers=n, thread_name_prefix="hev-kernel")
 
 
 def package_modules() -> dict[str, Path]:
@@ -126,8 +134,8 @@ def jit(fn):
                            f"{PACKAGE_DIR}, which the compiled cache's key covers")
     if CACHE_DIR is None:
         return njit(cache=False, **_OPTIONS)(fn)
-    previous = _numba_config.CACHE_DIR
-    _numba_config.CACHE_DIR = str(CACHE_DIR)  # read once, when the dispatcher picks its cache locator
+    previous = _numba_config.CACHE_DIR  # process-wide: set only while the dispatcher picks its cache locator
+    _numba_config.CACHE_DIR = str(CACHE_DIR)
     try:
         return njit(cache=True, **_OPTIONS)(fn)
     finally:

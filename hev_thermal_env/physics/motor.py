@@ -1,10 +1,9 @@
 """Permanent-magnet synchronous traction motor (paper Table 1) with a loss-model efficiency map.
 
-Table 1 swaps the rated and peak power; read correctly: rated 30 kW, peak 90 kW, base/max speed 3600/6000 rpm,
-peak torque 240 N·m, hence 80 N·m continuous below base speed and constant power above. Both envelopes corner
-where torque × speed reaches the power, 90 kW / 240 N·m = 30 kW / 80 N·m = 375 rad/s: 3,581 rpm (Table 1 rounds
-it). Both envelopes are 0 above the maximum speed, so a derated motor (eq 8 blends them) never gets more torque than
-a cold one.
+Table 1 swaps the rated and peak power; read correctly: rated 30 kW, peak 90 kW, base/max speed 3600/6000 rpm, peak
+torque 240 N·m, hence 80 N·m continuous below base speed and constant power above; both envelopes corner at 90 kW /
+240 N·m = 30 kW / 80 N·m = 375 rad/s, 3,581 rpm (Table 1 rounds it), and are 0 above the maximum speed, so a derated
+motor (eq 8 blends them) never gets more torque than a cold one.
 
 Losses (motor + inverter): P_loss = k_cu·T² + k_fe·ω^1.5 + k_fr·ω; the defaults give ≈95 % peak efficiency and a
 shape close to ADVISOR's UQM PowerPhase 100 map scaled to 90 kW (``tests/test_physics.py``). Thermal effects: the
@@ -20,10 +19,7 @@ import dataclasses
 import math
 
 from .jit import jit
-from .layout import Layout, Slot
-from .params import ConfigError, Params, spec
-
-RPM = math.pi / 30.0
+from .params import RPM, Layout, Params, Slot, spec
 
 #: Efficiency below which the temperature derate fades out (motoring), η_k.
 DERATE_KNEE_EFF = 0.5
@@ -48,10 +44,9 @@ class MotorParams(Params):
     enabled: bool = spec(True, "False removes the motor (conventional bus): no torque, no losses")
 
     def validate(self) -> None:
-        if self.continuous_torque_nm > self.peak_torque_nm:
-            raise ConfigError("MotorParams.continuous_torque_nm: must not exceed peak_torque_nm")
-        if self.continuous_power_w > self.peak_power_w:
-            raise ConfigError("MotorParams.continuous_power_w: must not exceed peak_power_w")
+        for what in ("torque_nm", "power_w"):
+            self.require(getattr(self, "continuous_" + what) <= getattr(self, "peak_" + what), "continuous_" + what,
+                         f"must not exceed peak_{what}")
 
     @property
     def base_speed_rpm(self) -> float:
@@ -60,8 +55,7 @@ class MotorParams(Params):
 
 LAYOUT = MotorParams.LAYOUT = Layout.of_fields(MotorParams, replace={
     "max_speed_rpm": Slot("max_speed_radps", fill=lambda p: p.max_speed_rpm * RPM, fields=("max_speed_rpm",)),
-}, unpacked=("mass_kg",))
-"""Packed motor parameters read by the kernels (the mass belongs to the thermal model)."""
+}, unpacked=("mass_kg",))  # the mass belongs to the thermal model
 IDX = LAYOUT.index()
 
 
@@ -154,8 +148,7 @@ def torque_limits_for_power(mo, speed_radps, p_dis_max_w, p_chg_max_w, extra_fra
     """
     w = abs(speed_radps)
     f = 1.0 + extra_frac
-    # the packed vector is read here only: the solve below takes scalars (speed rule in jit.py; it is too
-    # large to be inlined, and a call taking the array would reference-count it)
+    # the packed vector is read here only, the solve takes scalars (speed rule in jit.py: it is not inlined)
     return _torque_limits(f * mo[IDX.copper_loss_coeff],
                           f * (mo[IDX.iron_loss_coeff] * w * math.sqrt(w) + mo[IDX.friction_loss_coeff] * w), w,
                           p_dis_max_w, p_chg_max_w, derate_frac, t_cap_nm)

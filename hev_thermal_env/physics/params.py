@@ -1,15 +1,18 @@
-"""Typed, frozen parameter records with validation and a YAML round-trip.
+"""Typed, frozen parameter records with validation, a YAML round-trip and the packed layout the kernels read.
 
-Every component module defines one ``Params`` dataclass deriving from :class:`Params`.
-Each field carries its unit in its name and an admissible range in its metadata
-(``field(default=..., metadata={"min": ..., "max": ..., "doc": ...})``), so that an
-invalid value is reported with the field's name, the value and the allowed range.
+Each field of a component's :class:`Params` carries its unit in its name and its meaning and admissible range in its
+metadata (:func:`spec`). A :class:`Layout` places each field in the packed float64 vector a kernel reads;
+:meth:`Layout.index` gives the module its offsets by slot name (``IDX = LAYOUT.index()``, ``gl[IDX.mass_kg]``): a
+namedtuple, which numba compiles in as constants. Reordering, adding or removing fields cannot hand a kernel the wrong
+parameter, and a field that no slot packs is an error.
 """
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
@@ -17,6 +20,9 @@ import numpy as np
 import yaml
 
 P = TypeVar("P", bound="Params")
+
+RPM = math.pi / 30.0
+"""rad/s per rpm."""
 
 
 def spec(default: Any, doc: str, *, min: float | None = None, max: float | None = None,
@@ -67,7 +73,12 @@ class Params:
         self.validate()
 
     def validate(self) -> None:
-        """Cross-field checks; subclasses raise :class:`ConfigError` naming the fields."""
+        """Cross-field checks; subclasses raise :class:`ConfigError` naming the fields (:meth:`require`)."""
+
+    def require(self, ok: bool, name: str, message: str) -> None:
+        """Raise a :class:`ConfigError` ``"<Class>.<name>: <message>"`` unless ``ok``."""
+        if not ok:
+            raise ConfigError(f"{type(self).__name__}.{name}: {message}")
 
     def replace(self: P, **changes: Any) -> P:
         """A copy with some fields changed (validated again)."""
@@ -134,3 +145,78 @@ class Params:
         if data is None:
             raise ConfigError(f"{where}: the config is empty")
         return cls.from_dict(data, where=where)
+
+
+@dataclasses.dataclass(frozen=True)
+class Slot:
+    """``size`` consecutive packed values named ``name``: ``fill(params)``, by default the field of the same name
+    (bools as 0/1), a table shorter than ``size`` zero-padded; ``fields``: the fields it packs (default ``name``)."""
+
+    name: str
+    size: int = 1
+    fill: Callable[[Any], Any] | None = None
+    fields: tuple[str, ...] | None = None
+
+    def value(self, params: Any) -> np.ndarray:
+        arr = np.atleast_1d(np.asarray(getattr(params, self.name) if self.fill is None else self.fill(params),
+                                       dtype=np.float64))
+        if arr.size > self.size:
+            raise ValueError(f"{type(params).__name__}: {self.name} has {arr.size} values, "
+                             f"the layout holds {self.size}")
+        return arr
+
+    def packs(self) -> tuple[str, ...]:
+        return (self.name,) if self.fields is None else self.fields
+
+
+class Layout:
+    """Offsets of named slots in a packed parameter vector, and the packing itself; ``unpacked`` fields are in none
+    (a field that is in no slot and not unpacked is an error)."""
+
+    def __init__(self, params_cls: type, slots: Iterable[Slot], *, unpacked: Iterable[str] = ()):
+        self.params_cls, self.slots, self._offset = params_cls, tuple(slots), {}
+        pos = 0
+        for slot in self.slots:
+            if slot.name in self._offset:
+                raise ValueError(f"{params_cls.__name__}: slot {slot.name!r} appears twice in the layout")
+            self._offset[slot.name] = pos
+            pos += slot.size
+        self.size = pos
+        packed = {name for slot in self.slots for name in slot.packs()} | set(unpacked)
+        missing = [f.name for f in dataclasses.fields(params_cls) if f.name not in packed]
+        if missing:
+            raise ValueError(f"{params_cls.__name__}: fields {missing} are in no slot of the packed layout")
+
+    @classmethod
+    def of_fields(cls, params_cls: type, *, replace: dict[str, Slot | Sequence[Slot]] | None = None,
+                  derived: dict[str, Callable[[Any], Any]] | None = None, unpacked: Iterable[str] = ()) -> Layout:
+        """One slot per field in declaration order (``replace`` maps a field to its own slot(s): a unit conversion,
+        a padded table), then one slot per ``derived`` name filled by its function of the params (a constant the
+        kernels would otherwise recompute per row); ``unpacked`` fields are left out."""
+        replace, unpacked = replace or {}, tuple(unpacked)
+        slots: list[Slot] = []
+        for f in dataclasses.fields(params_cls):
+            if f.name not in unpacked:
+                mapped = replace.get(f.name, Slot(f.name))
+                slots.extend([mapped] if isinstance(mapped, Slot) else mapped)
+        slots += [Slot(name, fill=fill, fields=()) for name, fill in (derived or {}).items()]
+        return cls(params_cls, slots, unpacked=unpacked)
+
+    def __getitem__(self, name: str) -> int:
+        try:
+            return self._offset[name]
+        except KeyError:
+            raise KeyError(f"{self.params_cls.__name__} layout has no slot {name!r}") from None
+
+    def index(self) -> tuple:
+        """The offset of every slot as a namedtuple field of the same name (``IDX.mass_kg``)."""
+        return collections.namedtuple(f"{self.params_cls.__name__}Index", list(self._offset))(**self._offset)
+
+    def pack(self, params: Any) -> np.ndarray:
+        if not isinstance(params, self.params_cls):
+            raise TypeError(f"expected {self.params_cls.__name__}, got {type(params).__name__}")
+        v = np.zeros(self.size)
+        for slot in self.slots:
+            arr = slot.value(params)
+            v[self._offset[slot.name]:self._offset[slot.name] + arr.size] = arr
+        return v

@@ -1,19 +1,15 @@
 """The motor at constant operating points: its continuous (S1) rating, and what it holds by heat alone.
 
-A motor's continuous rating is the load it sustains indefinitely at its thermal limit at a stated condition. Ours
-(:data:`RATED`): 30 kW at the base speed (:func:`rated_point`: 80 N·m at 3,581 rpm, where both torque envelopes
-corner; Table 1 rounds it to 3,600 rpm) in 40 °C air, IEC 60034-1's reference
-temperature of the final coolant (clause 8.2: 40 °C air for machines whose ultimate coolant is the surrounding air; the
-bus's loop rejects its heat to that air), on a bench: the bus standing (no ram air, the housing in still air), the
-pump at full flow and the radiator fan as its controller runs it (full speed above 45 °C coolant). The governing limit
-is whichever protection a steady state reaches first: the housing's 70 °C cut-off (the paper's motor temperature) or
-the winding's own trip (class H, 165 °C); *the allowed rise* is that limit less the 40 °C air.
+The rating (docs/thermal_model.md, *The rated condition*, gives the numbers): 30 kW at the base speed
+(:func:`rated_point`) in 40 °C air, IEC 60034-1's reference temperature of the final coolant (clause 8.2: 40 °C air
+for machines whose ultimate coolant is the surrounding air), on a bench (:data:`RATED`: the bus standing, the pump at
+full flow, the fan as its controller runs it). The governing limit is whichever protection a steady state reaches
+first: the housing's 70 °C cut-off or the winding's own trip (class H, 165 °C); the allowed rise is that limit less
+the air's temperature.
 
-:func:`hold` steps the thermal network (``thermal_network.thermal_step``) fed by the loss split the vehicle step uses
-(``thermal_network.split_loss_w``), at one torque and speed: *heat alone* keeps the torque whatever the heat index
-(eqs 8-9) says and never trips, *as shipped* caps it by the heat index and the protections as the vehicle step does.
-:func:`steady_state` is the heat-alone fixed point, :func:`held_torque_nm` the largest torque whose steady state stays
-within both limits. docs/thermal_model.md, *The rated condition*, gives the numbers.
+:func:`hold` steps the thermal network fed by the loss split of the vehicle step at one torque and speed: *heat alone*
+keeps the torque whatever the heat index (eqs 8-9) says and never trips, *as shipped* caps it by the heat index and the
+protections as the vehicle step does.
 """
 
 from __future__ import annotations
@@ -26,8 +22,6 @@ from . import motor as mot
 from . import thermal as thm
 from . import thermal_network as tnet
 from .config import VehicleConfig
-
-KELVIN = thm.KELVIN
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,10 +46,6 @@ def rated_point(config: VehicleConfig) -> tuple[float, float]:
     return mo.continuous_torque_nm, mo.continuous_power_w / mo.continuous_torque_nm / mot.RPM
 
 
-def _packed(config: VehicleConfig) -> tuple[np.ndarray, np.ndarray]:
-    return config.motor.LAYOUT.pack(config.motor), config.thermal.LAYOUT.pack(config.thermal)
-
-
 def _speed_terms(th: np.ndarray, v_mps: float) -> tuple[float, float]:
     """eq 4's (V/48.27)^0.63 and the radiator's (ram air / reference)^n at vehicle speed ``v_mps``."""
     if v_mps <= 0.0:
@@ -75,7 +65,7 @@ def hold(config: VehicleConfig, torque_nm: float, speed_rpm: float, seconds: int
 
     Returns per step the torque given, the winding, housing and coolant temperatures after it (°C), the heat index's
     integrator x, and the winding, housing and inverter heat (W)."""
-    mo, th = _packed(config)
+    mo, th = config.motor.pack(), config.thermal.pack()
     network = th[thm.IDX.model] == thm.MODEL_NETWORK
     w = speed_rpm * mot.RPM
     start = condition.ambient_c if start_c is None else start_c
@@ -84,8 +74,7 @@ def hold(config: VehicleConfig, torque_nm: float, speed_rpm: float, seconds: int
     cutoff = trip = 0.0
     forced, ram = _speed_terms(th, condition.vehicle_speed_mps)
     n = int(seconds / dt_s)
-    names = ("torque_nm", "winding_c", "housing_c", "coolant_c", "heat_x", "q_winding_w", "q_housing_w",
-             "q_inverter_w")
+    names = ("torque_nm", "winding_c", "housing_c", "coolant_c", "heat_x", "q_winding_w", "q_housing_w", "q_inverter_w")
     out = {k: np.empty(n) for k in names}
     extra = thm.extra_loss_frac(th)
     for k in range(n):
@@ -148,7 +137,7 @@ def held_torque_nm(config: VehicleConfig, speed_rpm: float, condition: Operating
                    tol_nm: float = 0.05) -> float:
     """The largest torque at ``speed_rpm`` whose heat-alone steady state stays within both protections (bisection;
     at most the peak envelope, 0 if the spinning motor's loss alone exceeds them)."""
-    mo, _ = _packed(config)
+    mo = config.motor.pack()
     hi = mot.peak_torque_nm(mo, speed_rpm * mot.RPM)
 
     def fits(t: float) -> bool:
@@ -178,10 +167,6 @@ def spinning_steady_c(config: VehicleConfig, speed_rpm: float, condition: Operat
     return steady_state(config, 0.0, speed_rpm, condition)["housing_c"]
 
 
-__all__ = ["OperatingCondition", "RATED", "rated_point", "hold", "steady_state", "held_torque_nm",
-           "held_power_ratio", "rise_share", "spinning_steady_c", "limits_c"]
-
-
 #: Copper's temperature coefficient of resistance at 20 °C (1/K; IEC 60028 annealed copper).
 COPPER_ALPHA_PER_K = 0.00393
 
@@ -191,11 +176,10 @@ def derate_against_resistance(config: VehicleConfig, torque_nm: float, speed_rpm
     """The paper's efficiency derate against copper resistance rising with temperature, at one point: the heat the
     derate adds at the housing temperature (W, over the loss without it), and the heat R(T) would add instead, the
     copper loss at 20 °C (the mapped k_cu·T²) times α·(T_winding − 20 °C)."""
-    mo, th = _packed(config)
+    mo, th = config.motor.pack(), config.thermal.pack()
     w = speed_rpm * mot.RPM
     extra = thm.extra_loss_frac(th)
     with_derate = mot.total_loss_w(mo, torque_nm, w, extra, thm.derate_frac(th, housing_c))
     without = mot.total_loss_w(mo, torque_nm, w, extra, 0.0)
     copper_w = config.motor.copper_loss_coeff * torque_nm ** 2
-    return {"derate_w": with_derate - without,
-            "resistance_w": copper_w * COPPER_ALPHA_PER_K * (winding_c - 20.0)}
+    return {"derate_w": with_derate - without, "resistance_w": copper_w * COPPER_ALPHA_PER_K * (winding_c - 20.0)}

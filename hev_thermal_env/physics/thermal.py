@@ -1,19 +1,17 @@
-"""The motor's thermal parameters and effects: the paper's eqs 1-10, for both thermal models.
+"""The motor's thermal parameters and effects: the paper's eqs 1-10, for both thermal models (docs/thermal_model.md).
 
-``ThermalParams.model`` selects the temperature model, both stepped by ``thermal_network.thermal_step``:
-``"network"`` (the default): a winding node, the stator/housing node, and a pumped coolant loop with a thermostat
-valve and a radiator; the paper's one lumped "motor temperature" is the stator/housing node. ``"paper_eqs"``: the
-paper's one node as written, m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool (eq 7) with Q_air = h_air·A·(T − T_amb)
-(eq 1), h_air = 6 + 6·(ΔT/1000)^0.25 + 60·(V/48.27)^0.63 with V in km/h (eq 4), Q_cool = h_water·A·(T − T_water)
-above the thermostat (eq 5, T_water held) and Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
+``ThermalParams.model``: ``"network"`` (default; ``thermal_network.py``: winding, stator/housing and a pumped coolant
+loop, the paper's lumped motor temperature the stator/housing node) or ``"paper_eqs"``, the paper's node as written:
+m·c_p·dT/dt = Q_gen − Q_air − Q_rad − Q_cool (eq 7), Q_air = h_air·A·(T − T_amb) (eq 1), h_air = 6 + 6·(ΔT/1000)^0.25 +
+60·(V/48.27)^0.63, V in km/h (eq 4), Q_cool = h_water·A·(T − T_water) above the thermostat (eq 5, T_water held),
+Q_rad = ε·σ·A·(T⁴ − T_amb⁴) in kelvin (eq 6).
 
 Heat index (eqs 8-9): dx/dt = (T_gain/T_s)·(|T_out|/T_cont(ω) − 1), PWM = clip(x, 0, 1), available torque
-T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; T_gain (eq 10) and PWM_initial are linear
-in the motor temperature. Efficiency derate −1 point per 15 °C above 35 °C (``motor.py``), cutoff at 70 °C until
-cooled to 60 °C, and the winding's own protection (165 °C / 155 °C); ``enabled=False`` is ADVISOR's unmodified motor
-(the paper's baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m tools.calibration``
-(a checkout's workshop); the two cooling conductances are set by the motor's rating (``rating.py``). Every value's
-range and source: docs/thermal_model.md.
+T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; T_gain (eq 10) and PWM_initial linear in the
+motor temperature. Derate −1 efficiency point per 15 °C above 35 °C (``motor.py``), cutoff at 70 °C until cooled to
+60 °C, the winding's own protection (165 °C / 155 °C); ``enabled=False`` is ADVISOR's unmodified motor (the paper's
+baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m tools.calibration``; the two cooling
+conductances are set by the motor's rating (``rating.py``).
 """
 
 from __future__ import annotations
@@ -22,8 +20,7 @@ import dataclasses
 import math
 
 from .jit import jit
-from .layout import Layout, Slot
-from .params import ConfigError, Params, spec
+from .params import Layout, Params, Slot, spec
 
 SIGMA = 5.67e-8
 KELVIN = 273.15
@@ -35,10 +32,7 @@ MODEL_NETWORK = 1.0
 
 @dataclasses.dataclass(frozen=True)
 class ThermalParams(Params):
-    """Motor thermal model (paper's node or lumped network), heat index and protection of the traction motor.
-
-    Fields marked "fitted" are calibrated to the paper's figures (module docstring).
-    """
+    """Motor thermal model (paper's node or lumped network), heat index and protection of the traction motor."""
 
     model: str = spec("network", "thermal model: 'network' (motor + coolant loop + radiator, calibrated) or "
                                  "'paper_eqs' (the paper's one-node eqs 1-7 as written)")
@@ -47,8 +41,7 @@ class ThermalParams(Params):
     mass_kg: float = spec(100.0, "thermal mass of the motor (Table 1)", min=0.0, min_exclusive=True)
     cp_j_per_kgk: float = spec(430.0, "specific heat (Table 1)", min=0.0, min_exclusive=True)
     area_m2: float = spec(0.4273, "cooling area (Table 1; ADVISOR 0.4·(m/91)^0.7)", min=0.0, min_exclusive=True)
-    h_water_w_per_m2k: float = spec(3000.0, "coolant heat-transfer coefficient (paper eq 5; paper_eqs model)",
-                                    min=0.0)
+    h_water_w_per_m2k: float = spec(3000.0, "coolant heat-transfer coefficient (paper eq 5; paper_eqs model)", min=0.0)
     thermostat_temp_c: float = spec(35.0, "coolant flows above this motor temperature (paper)")
     emissivity: float = spec(0.9, "radiation emissivity (paper eq 6)", min=0.0, max=1.0)
     cutoff_temp_c: float = spec(70.0, "the motor stops at this temperature (paper)")
@@ -65,9 +58,8 @@ class ThermalParams(Params):
     torque_ref_temp_c: float = spec(20.0, "temperature of the unmodified (cold) torque envelopes (magnet data: 20 °C)")
     # --- heat index, eqs 8-10 ---
     t_s_s: float = spec(30.0, "T_s of eq 9: longest run time at peak torque (paper)", min=0.0, min_exclusive=True)
-    t_gain_cold: float = spec(
-        0.17307, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3], varying with temperature)",
-        min=0.1, max=0.3)
+    t_gain_cold: float = spec(0.17307, "fitted: T_gain at and below t_gain_temp_lo_c (paper: T_gain in [0.1, 0.3], "
+                              "varying with temperature)", min=0.1, max=0.3)
     t_gain_hot: float = spec(0.3, "T_gain at and above t_gain_temp_hi_c (paper's upper value, Fig. 4's example)",
                              min=0.1, max=0.3)
     t_gain_temp_lo_c: float = spec(35.0, "T_gain starts to rise above this (paper: its corrections act above 35 °C)")
@@ -95,8 +87,7 @@ class ThermalParams(Params):
     winding_release_temp_c: float = spec(155.0, "winding protection releases once cooled to this")
     jacket_ua_w_per_k: float = spec(1281.9, "housing-to-coolant UA of the water jacket: the paper's h_water·A (eq 5, "
                                             "3,000 W/(m²·K) × 0.4273 m²)", min=50.0, max=1282.0)
-    coolant_flow_l_per_min: float = spec(12.0, "pump flow through jacket, inverter plate and valve", min=6.0,
-                                         max=20.0)
+    coolant_flow_l_per_min: float = spec(12.0, "pump flow through jacket, inverter plate and valve", min=6.0, max=20.0)
     coolant_density_kg_per_l: float = spec(1.07, "50 % ethylene glycol", min=1.06, max=1.08)
     coolant_cp_j_per_kgk: float = spec(3300.0, "50 % ethylene glycol", min=3200.0, max=3500.0)
     coolant_volume_l: float = spec(10.0, "coolant in jacket, hoses and radiator", min=5.0, max=20.0)
@@ -109,8 +100,7 @@ class ThermalParams(Params):
                                              "its rise to the cut-off at 3,600 rpm (Table 1), 89.4 % at the "
                                              "envelopes' corner, 3,581 rpm", min=50.0, max=600.0)
     radiator_ref_air_speed_mps: float = spec(5.0, "face air speed of radiator_ua_w_per_k", min=3.0, max=8.0)
-    radiator_air_exponent: float = spec(0.7, "UA ∝ (face air speed)^n: air-side Nusselt ∝ Re^0.5-0.8",
-                                        min=0.5, max=0.8)
+    radiator_air_exponent: float = spec(0.7, "UA ∝ (face air speed)^n: air-side Nusselt ∝ Re^0.5-0.8", min=0.5, max=0.8)
     ram_air_frac: float = spec(0.25, "face air speed per unit vehicle speed (ram air)", min=0.1, max=0.5)
     still_air_speed_mps: float = spec(0.5, "face air speed at standstill with the fan off", min=0.0, max=1.0)
     fan_air_speed_mps: float = spec(4.0, "face air speed of the fan at full speed", min=2.0, max=6.0)
@@ -118,24 +108,20 @@ class ThermalParams(Params):
     fan_band_k: float = spec(5.0, "the fan reaches full speed this much above fan_on_temp_c", min=2.0, max=10.0)
 
     def validate(self) -> None:
-        if self.model not in THERMAL_MODELS:
-            raise ConfigError(f"ThermalParams.model: {self.model!r} is not one of {list(THERMAL_MODELS)}")
-        if self.cutoff_release_temp_c >= self.cutoff_temp_c:
-            raise ConfigError("ThermalParams.cutoff_release_temp_c: must be below cutoff_temp_c")
-        if self.t_gain_temp_hi_c <= self.t_gain_temp_lo_c:
-            raise ConfigError("ThermalParams.t_gain_temp_hi_c: must exceed t_gain_temp_lo_c")
-        if self.pwm_initial_zero_temp_c <= self.pwm_initial_ref_temp_c:
-            raise ConfigError("ThermalParams.pwm_initial_zero_temp_c: must exceed pwm_initial_ref_temp_c")
-        if self.winding_release_temp_c >= self.winding_trip_temp_c:
-            raise ConfigError("ThermalParams.winding_release_temp_c: must be below winding_trip_temp_c")
-        if self.winding_heat_capacity_j_per_k >= 0.5 * self.heat_capacity_j_per_k:
-            raise ConfigError("ThermalParams.winding_heat_capacity_j_per_k: must be below half the motor's m·c_p")
-        if self.model == "paper_eqs":
-            # the paper's node is integrated explicitly: its fastest time constant must exceed the step
-            tau = self.mass_kg * self.cp_j_per_kgk / max(self.h_water_w_per_m2k * self.area_m2, 1e-12)
-            if tau < 2.0:
-                raise ConfigError(f"ThermalParams.h_water_w_per_m2k: thermal time constant {tau:.2f} s is below "
-                                  "2 s, too stiff for the 1 s step")
+        self.require(self.model in THERMAL_MODELS, "model", f"{self.model!r} is not one of {list(THERMAL_MODELS)}")
+        self.require(self.cutoff_release_temp_c < self.cutoff_temp_c, "cutoff_release_temp_c",
+                     "must be below cutoff_temp_c")
+        self.require(self.t_gain_temp_hi_c > self.t_gain_temp_lo_c, "t_gain_temp_hi_c", "must exceed t_gain_temp_lo_c")
+        self.require(self.pwm_initial_zero_temp_c > self.pwm_initial_ref_temp_c, "pwm_initial_zero_temp_c",
+                     "must exceed pwm_initial_ref_temp_c")
+        self.require(self.winding_release_temp_c < self.winding_trip_temp_c, "winding_release_temp_c",
+                     "must be below winding_trip_temp_c")
+        self.require(self.winding_heat_capacity_j_per_k < 0.5 * self.heat_capacity_j_per_k,
+                     "winding_heat_capacity_j_per_k", "must be below half the motor's m·c_p")
+        # the paper's node is integrated explicitly: its fastest time constant must exceed the step
+        tau = self.mass_kg * self.cp_j_per_kgk / max(self.h_water_w_per_m2k * self.area_m2, 1e-12)
+        self.require(self.model != "paper_eqs" or tau >= 2.0, "h_water_w_per_m2k",
+                     f"thermal time constant {tau:.2f} s is below 2 s, too stiff for the 1 s step")
 
     @property
     def heat_capacity_j_per_k(self) -> float:
@@ -178,8 +164,7 @@ LAYOUT = ThermalParams.LAYOUT = Layout.of_fields(ThermalParams, replace={
     "tgain_slope_per_c": lambda p: (p.t_gain_hot - p.t_gain_cold) / (p.t_gain_temp_hi_c - p.t_gain_temp_lo_c),
     "pwm0_slope_per_c": lambda p: -p.pwm_initial_at_ref / (p.pwm_initial_zero_temp_c - p.pwm_initial_ref_temp_c),
     "inv_t_s": lambda p: 1.0 / p.t_s_s,
-})
-"""Packed thermal parameters: one slot per field, in field order (the model as its index), then derived constants."""
+})  # one slot per field (the model as its index), then the derived constants
 IDX = LAYOUT.index()
 
 

@@ -1,21 +1,16 @@
 """The motor's lumped thermal network, and the one thermal step both thermal models go through.
 
-Nodes of ``ThermalParams.model = "network"`` (diagram, equations and every parameter's source:
-docs/thermal_model.md):
+Nodes of ``ThermalParams.model = "network"`` (diagram, equations and every parameter's source: docs/thermal_model.md):
+the winding (copper loss; its own protection at 165 °C); the stator/housing, **the paper's lumped motor temperature**
+(iron and friction losses; air convection, eqs 1 and 4, and radiation, eq 6, over the paper's cooling area, and the
+water jacket); the coolant loop (the pump's flow ṁ·c_p through the jacket, ε-NTU: G = ṁc_p·(1 − exp(−UA/ṁc_p)), and
+the inverter's cold plate, then a thermostat valve on the coolant routing it through the radiator, UA growing with
+ram air and fan, or a bypass). The coolant mode scales the pump's flow (degraded) or stops it (off).
 
-* the winding (heated by the copper loss; its own protection at 165 °C),
-* the stator/housing: **the paper's lumped motor temperature** (heat index, derate, torque coefficient, 70 °C
-  cutoff); heated by iron and friction losses, cooled by air convection (eqs 1, 4) and radiation (eq 6) over the
-  paper's cooling area and by the water jacket,
-* the coolant loop: a pump's flow ṁ·c_p through the jacket (ε-NTU: G = ṁc_p·(1 − exp(−UA/ṁc_p))) and the inverter's
-  cold plate (the inverter's losses), then a thermostat valve sensing the coolant that routes the flow through the
-  radiator (UA growing with ram air and fan) or a bypass.
-
-The run's coolant mode scales the pump flow (degraded) or stops it (off). Integration: conductances at the start of
-the step (radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin), then one backward-Euler step of the three
-temperatures (a tridiagonal solve): stable at any step, and the reported flows close the balance exactly,
-C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt. ``"paper_eqs"`` (``thermal.py``): one
-explicit-Euler node heated by every loss, the coolant held.
+Integration: conductances at the start of the step (radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin),
+then one backward-Euler step of the three temperatures (a tridiagonal solve): stable at any step, and the flows close
+the balance exactly, C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt. ``"paper_eqs"``
+(``thermal.py``): one explicit-Euler node heated by every loss, the coolant held.
 """
 
 from __future__ import annotations
@@ -29,8 +24,7 @@ from .thermal import IDX
 
 @jit
 def split_loss_w(mapped_loss_w, elec_power_w, core_loss_w, inverter_efficiency, network):
-    """Where the mapped loss (motor and inverter, ``motor.total_loss_w``) goes: (winding, housing, inverter, motor) in
-    W, the motor's heat being the winding's and the housing's.
+    """Where the mapped loss (motor and inverter, ``motor.total_loss_w``) goes: (winding, housing, inverter, motor), W.
 
     The network: the inverter's share (1 − η_inv)·|P_elec| (at most the whole loss) heats its cold plate in the coolant;
     the motor keeps the rest, split between the housing (iron and friction, ``core_loss_w`` with the extra loss) and
@@ -91,14 +85,12 @@ def _radiation_conductance(eps_sigma_area, temp_c, ambient_c):
 @jit
 def thermal_step(th, temp_c, winding_c, coolant_c, q_winding_w, q_housing_w, q_inverter_w, ambient_c, water_c,
                  coolant_factor, fan_factor, forced_term, ram_term, inv_dt):
-    """One step of the selected thermal model; ``temp_c`` is the motor (stator/housing) temperature, ``inv_dt`` =
-    1 / step.
+    """One step of the selected thermal model from the motor (stator/housing) temperature ``temp_c``; ``inv_dt`` =
+    1 / step; ``forced_term`` and ``ram_term``: the speed's factors of eq 4 and of the radiator.
 
-    ``forced_term`` and ``ram_term`` are the speed's factors of eq 4 and of the radiator, which the step kernel
-    computes once per distinct speed. Returns (motor, winding, coolant temperature, Q_air, Q_rad, Q_cool (motor to
-    coolant), Q_radiator (coolant to air), valve open). ``paper_eqs``: one node heated by every loss, a perfect
-    radiator at the run's water temperature (Q_radiator = Q_cool), the coolant node held. Every parameter is read
-    before any branch (speed rule in jit.py).
+    Returns (motor, winding, coolant temperature, Q_air, Q_rad, Q_cool (motor to coolant), Q_radiator (coolant to air),
+    valve open). ``paper_eqs``: a perfect radiator at the run's water temperature (Q_radiator = Q_cool), the coolant
+    node held. Every parameter is read before any branch (speed rule in jit.py).
     """
     network = th[IDX.model] == thm.MODEL_NETWORK
     c_m = th[IDX.motor_heat_capacity_j_per_k]
@@ -118,8 +110,7 @@ def thermal_step(th, temp_c, winding_c, coolant_c, q_winding_w, q_housing_w, q_i
     inv_ref, expo = th[IDX.inv_radiator_ref_air_speed], th[IDX.radiator_air_exponent]
     fan_mps, fan_on, inv_fan_band = th[IDX.fan_air_speed_mps], th[IDX.fan_on_temp_c], th[IDX.inv_fan_band_per_k]
     if network:
-        ua = radiator_core(ua_ref, ram_term, still, inv_ref, expo, fan_mps, fan_on, inv_fan_band, coolant_c,
-                           fan_factor)
+        ua = radiator_core(ua_ref, ram_term, still, inv_ref, expo, fan_mps, fan_on, inv_fan_band, coolant_c, fan_factor)
         g_rad = _radiation_conductance(eps_sigma_area, temp_c, ambient_c)
         t_w, t_h, t_c, q_air, q_rad, q_cool, q_radiator = network_core(
             c_w * inv_dt, c_h * inv_dt, c_c * inv_dt, g_w, flow_conductance(mcp, ua_jacket), g_air, g_rad,

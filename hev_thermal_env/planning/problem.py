@@ -118,3 +118,13 @@ class DPProblem:
         _, out = self.core.step(np.repeat(self.state0[None, :], n, axis=0), 0.0, self.speed_mps[k:-1],
                                 self.speed_mps[k + 1:], self.grade[k:k + n], self.cond)
         return np.sign(out[:, SHAFT_DEMAND]).astype(np.int64)
+
+    def extreme_actions(self) -> np.ndarray:
+        """Per stage [n_stages, 2], the action of the most discharge and of the most charge: in traction u = +1 (the
+        motor asked for the whole demand) and u = −1 (the engine up to twice the demand or its full load); while braking
+        u = 0 (no regeneration, the spinning motor's loss drawn from the battery) and u = 1 (all the available
+        regeneration)."""
+        kind = self.stage_kinds()
+        discharge = np.where(kind == TRACTION, 1.0, 0.0)
+        charge = np.where(kind == TRACTION, -1.0, np.where(kind == BRAKING, 1.0, 0.0))
+        return np.column_stack([discharge, charge])

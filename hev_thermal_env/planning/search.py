@@ -1,12 +1,17 @@
 """The thermal optimum's search: forward dynamic programming over exact physics states (cost-to-come).
 
-Why forward, the bins and the passes: docs/strategies.md. Each stage expands every surviving state by every split the
-stage offers (:func:`~.problem.stage_splits`: while braking the shares in [0, 1] of the available regeneration; one
-split where the action has no effect) in batched calls of the physics core, prices the candidates with the env's
-reward, keeps a few per bin (:mod:`.bins`) and drops those that can no longer reach the final-SOC window (the backward
-SOC envelope of :mod:`.corridor`). Nothing is interpolated: a surviving path's planned cost is its realised cost. The
-last stage's survivors give the frontier (:func:`frontier_points`), at the yardstick cost (fuel, missed wheel energy at
-the miss price, the reward's overheat terms; no battery price).
+Why forward, the bins, the heat prices and the passes: docs/strategies.md. Each stage (:mod:`.stage`) expands every
+surviving state by every split the stage offers (:func:`~.problem.stage_splits`) in batched calls of the physics core,
+prices the candidates with the env's reward, keeps a few per bin and drops those that can no longer reach the
+final-SOC window (the backward SOC envelope of :mod:`.soc_dp`). Nothing is interpolated: a surviving path's
+planned cost is its realised cost. The last stage's survivors give the frontier (:func:`frontier_points`), at the
+yardstick cost (fuel, missed wheel energy at the miss price, the reward's overheat terms; no battery price).
+
+The bins also price heat (:func:`heat_prices`): what a kelvin of each temperature is worth at each stage, measured
+along a reference path. From every :data:`EVERY`-th stage the path's remaining actions are replayed with one
+temperature ± :data:`DELTA_K`; the difference of the rest of the path's cost (plus the battery energy at the reward's
+price) over 2·ΔT, at least 0 (cooler is never worse in this physics), linear between the sampled stages and 0 at the
+end. A price ranks states within a bin and sets how wide its temperature bins are (:meth:`SearchGrid.stage_widths`).
 """
 
 from __future__ import annotations
@@ -17,19 +22,22 @@ from dataclasses import dataclass, field
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core
 
-from .bins import KEY_BITS, KEY_COLUMNS, non_dominated, survivors
-from .corridor import backward_envelope
-from .heat_value import PRICED
 from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
-from .stage import StageBuffers, expand
+from .soc_dp import backward_envelope
+from .stage import KEY_BITS, KEY_COLUMNS, StageBuffers, expand, non_dominated, survivors
 
-#: Where each priced temperature (:data:`~.heat_value.PRICED`) sits in :meth:`SearchGrid.widths`.
+#: The priced temperatures, in the order of the price columns.
+PRICED = (core.TEMP_C, core.WINDING_C, core.COOLANT_C)
+#: Stages between two measured prices; the temperature step of the finite difference (K).
+EVERY, DELTA_K = 10, 1.0
+#: Where each priced temperature (:data:`PRICED`) sits in :meth:`SearchGrid.widths`.
 _PRICED_KEY = tuple(KEY_COLUMNS.index(col) for col in PRICED)
 
 #: Each bin also keeps its cheapest state with the battery priced at this fraction of the reward's price
-#: (:func:`~.bins.keep_best_per_bin`).
+#: (:func:`~.stage.keep_best_per_bin`).
 SECOND_PRICE = 0.8
 #: Where heat stays cheap over the whole cycle (the coarse pass is skipped, :mod:`.thermal_optimum`), the slot of a
 #: bin's coolest state holds its cheapest with the battery priced at this fraction of the reward's price.
@@ -42,18 +50,12 @@ REFINE_STRIDE, N_LOCAL, LOCAL_HALFWIDTH = 2, 11, 0.05
 @dataclass(frozen=True)
 class SearchGrid:
     """Bin widths of the search (state units: ``housing_k`` the motor temperature, the stator/housing node;
-    ``winding_k`` the winding's) and the split grid; ``scaled(f)`` divides every width by f.
+    ``winding_k`` the winding's), the split grid, and how far the temperature bins widen where heat is cheap
+    (:meth:`stage_widths`).
 
     The winding's bin holds less heat than the housing's (8 K × 3.3 kJ/K against 2 K × 43 kJ/K): the winding matters
     through the heat it passes to the housing and through its own trip, far above where the housing cuts the motor off;
-    at 4 K its bins kept more lineages of the braking shares (the first 600 s of Beijing, paper: 1.3 times the
-    vehicle-steps).
-
-    Where heat is cheap the temperature bins widen (:meth:`stage_widths`): a stage's bin of a priced temperature
-    (:data:`~.heat_value.PRICED`) spans ``heat_bin_g`` grams of heat at that stage's price, at least its width here and
-    at most ``heat_bin_max`` times it (a price of 0: that many times). On a cool motor (paper conditions: a kelvin of
-    the housing worth 0.01-0.14 g) the thermal bins are several times wider and fewer states survive; where heat binds
-    (``hot``: tens of g/K) they stay as they are.
+    at 4 K its bins kept 1.3 times the vehicle-steps (the first 600 s of Beijing, paper).
     """
 
     soc: float = 1.5e-4
@@ -71,20 +73,19 @@ class SearchGrid:
                              f"width), got {self.heat_bin_max}, {self.heat_bin_g}")
 
     def widths(self) -> np.ndarray:
-        """The widths in the order of :data:`~.bins.KEY_COLUMNS` (the two protection flags: 1)."""
+        """The widths in the order of :data:`~.stage.KEY_COLUMNS` (the two protection flags: 1)."""
         return np.array([self.soc, self.housing_k, self.winding_k, self.coolant_k, self.heat_index, 1.0, 1.0])
 
     def scaled(self, factor: float) -> SearchGrid:
-        """Every bin ``factor`` times narrower, ``factor`` times as many split intervals (an even number: u = 0
-        stays)."""
+        """Every bin ``factor`` times narrower, ``factor`` times as many split intervals (even: u = 0 stays)."""
         return SearchGrid(self.soc / factor, self.winding_k / factor, self.housing_k / factor, self.coolant_k / factor,
                           self.heat_index / factor, 2 * int(round((self.n_u - 1) * factor / 2)) + 1,
                           self.heat_bin_g / factor, self.heat_bin_max)
 
     def stage_widths(self, heat_price: np.ndarray | None) -> np.ndarray:
-        """The bin widths of a stage whose temperatures :data:`~.heat_value.PRICED` cost ``heat_price`` g/K: each
-        priced temperature's bin holds ``heat_bin_g`` of heat, within [1, ``heat_bin_max``] times its width here
-        (a price of 0: the widest; no prices, or one that is not a finite number: the widths here)."""
+        """The bin widths of a stage whose temperatures :data:`PRICED` cost ``heat_price`` g/K: each priced
+        temperature's bin holds ``heat_bin_g`` of heat, within [1, ``heat_bin_max``] times its width here (a price of
+        0: the widest; no prices, or one that is not a finite number: the widths here)."""
         w = self.widths()
         if heat_price is None:
             return w
@@ -141,10 +142,8 @@ def frontier_points(soc: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable.
-
-    Computed with the motor at full capability (no heat index, neither protection tripped), which can only widen the
-    range, and widened by ``margin``.
+    """Per stage, the SOC range from which the final window [lo_final, hi_final] is still reachable, widened by
+    ``margin``; with the motor at full capability (no heat index, neither protection tripped), which can only widen it.
     """
     ref = problem.state0.copy()
     ref[core.HEAT_X] = min(ref[core.HEAT_X], ref[core.HEAT_X_MIN])
@@ -158,7 +157,7 @@ def heat_stays_cheap(grid: SearchGrid, heat_price: np.ndarray | None, n: int) ->
     """Per stage 0..n: True where heat cannot bind from then to the end: a bin of each priced temperature at the grid's
     own width holds at most ``heat_bin_g`` of heat at every later stage's price (``paper`` conditions: HWFET 0.3 g,
     Beijing 0.07 g; ``hot``: about 100 g). There a bin needs no coolest representative and a fuller state of the same
-    bins that costs no more with its heat priced replaces a state (:func:`~.bins.dominated_by_fuller`). False at the
+    bins that costs no more with its heat priced replaces a state (:func:`~.stage.dominated_by_fuller`). False at the
     last stage (the final-SOC band needs its states) and everywhere without prices or with a price that is not a
     finite number."""
     out = np.zeros(n + 1, dtype=bool)
@@ -214,8 +213,8 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
 
     ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`). ``tube`` (SOC
     bounds per stage 0..n) also drops the states outside it (at a stage where none is inside, the tube is ignored).
-    ``heat_price`` (g/K of the temperatures :data:`~.heat_value.PRICED` after each stage, [n + 1, 3]) gives each bin
-    its heat-priced representative (:func:`~.bins.keep_best_per_bin`). ``third_price``: where heat stays cheap, a bin
+    ``heat_price`` (g/K of the temperatures :data:`PRICED` after each stage, [n + 1, 3]) gives each bin
+    its heat-priced representative (:func:`~.stage.keep_best_per_bin`). ``third_price``: where heat stays cheap, a bin
     keeps its cheapest at :data:`THIRD_PRICE` in place of its coolest.
     ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
@@ -259,7 +258,38 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
         max_states = max(max_states, keep.size)
         if progress is not None:
             progress(i + 1, n, keep.size)
-    return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents,
-                        actions=actions, grid=grid, solve_s=time.perf_counter() - t0, n_evals=n_evals,
-                        max_states=max_states, info={"threads": threads, "final_soc_window": list(final_window),
-                                              "tube": tube is not None})
+    return SearchResult(final_state=states, final_cost_g=cost, final_battery_j=batt_j, parents=parents, actions=actions,
+                        grid=grid, solve_s=time.perf_counter() - t0, n_evals=n_evals, max_states=max_states,
+                        info={"threads": threads, "final_soc_window": list(final_window), "tube": tube is not None})
+
+
+def heat_prices(problem: DPProblem, u_ref: np.ndarray) -> np.ndarray:
+    """Prices [n_stages + 1, len(PRICED)] (g/K) of the temperatures after each stage (module docstring)."""
+    n = problem.n_stages
+    starts = np.arange(0, n, EVERY)
+    rows = starts.size * len(PRICED) * 2
+    start = np.repeat(starts, len(PRICED) * 2)
+    col = np.tile(np.repeat(np.array(PRICED), 2), starts.size)
+    sign = np.tile([1.0, -1.0], starts.size * len(PRICED))
+    rp = problem.reward_params
+    price = rp.prices.battery_g_per_j(problem.lhv) * rp.soc_energy_weight
+    st = np.repeat(problem.state0[None, :], rows, axis=0)
+    ref = problem.state0[None, :].copy()
+    adj = np.zeros(rows)
+    for k in range(n):
+        new = start == k
+        if np.any(new):
+            st[new] = ref[0]
+            st[new, col[new]] += sign[new] * DELTA_K
+        active = start <= k
+        so, out = problem.step(np.vstack([ref, st[active]]), np.full(1 + int(active.sum()), u_ref[k]), k)
+        cost = stage_cost_g(rp, out, so, problem.soc_target, problem.lhv, problem.core.dt_s, battery=False,
+                            overheat=True)
+        adj[active] += cost[1:] + price * out[1:, core.BATT_CHEM] * problem.core.dt_s
+        ref, st[active] = so[:1], so[1:]
+    diff = (adj[sign > 0] - adj[sign < 0]).reshape(starts.size, len(PRICED)) / (2.0 * DELTA_K)
+    mu = np.maximum(diff, 0.0)
+    # the price of the temperature after stage i: measured from the start of stage i + 1
+    at = np.arange(n + 1)
+    out_mu = np.column_stack([np.interp(at, np.r_[starts, n], np.r_[mu[:, d], 0.0]) for d in range(len(PRICED))])
+    return out_mu

@@ -1,27 +1,24 @@
-"""Dynamic programming over a known cycle with SOC as the state (the ``dp`` strategy's planner).
+"""Dynamic programming over a known cycle with SOC as the state (the ``dp`` strategy's planner), and its corridor.
 
 Backward recursion over the stages on a grid of SOC states, the thermal state held at its initial value: thermal-blind,
-so where heat binds (``hot``, ``summer``, long climbs) not an optimum (the yardstick is :mod:`.thermal_optimum`). Each
-stage is ONE batched call of the physics step (split over threads) for every grid state × every split the stage offers
-(:func:`~.problem.stage_splits`: the ``n_u`` splits in traction, their shares in [0, 1] while braking, one where the
-action has no effect).
-
-Cost (g of fuel equivalent, the env's reward, :func:`~hev_thermal_env.envs.reward.stage_cost_g`): fuel, missed wheel
-energy and battery energy at the reward's prices, so DP minimises the corrected fuel; ``price_soc_deviation`` adds the
-SOC terms (the band settlement charged on the final SOC, :func:`~hev_thermal_env.envs.reward.soc_band_charge_g`).
+so where heat binds not an optimum (the yardstick is :mod:`.thermal_optimum`). Each stage is ONE batched call of the
+physics step for every grid state × every split the stage offers (:func:`~.problem.stage_splits`). Cost (g of fuel
+equivalent, the env's reward, :func:`~hev_thermal_env.envs.reward.stage_cost_g`): fuel, missed wheel energy and
+battery energy at the reward's prices; ``price_soc_deviation`` adds the SOC terms (the band settlement charged on the
+final SOC, :func:`~hev_thermal_env.envs.reward.soc_band_charge_g`).
 
 The final SOC lies within ``soc_tol`` of ``soc_final`` (default: the initial SOC ± 0.005). A penalty wall between fixed
 grid points would diffuse back through the stages (the SOC moves far less than a cell per step), so each stage's
-``n_soc`` points span exactly its corridor (:mod:`.corridor`), and beyond the grid's ends the cost-to-go continues with
-the slope :data:`WALL_G_PER_SOC`. An unreachable band raises :class:`~.problem.DPInfeasibleError`;
-``on_infeasible="closest"`` plans for the nearest reachable one. At each real step :func:`choose` picks among a finer u
-grid (its shares while braking) from the actual state, by stage cost plus interpolated cost-to-go.
+``n_soc`` points span exactly its corridor (:func:`corridor`: reachable from the start and still reaching the band),
+and beyond the grid's ends the cost-to-go continues with the slope :data:`WALL_G_PER_SOC`. At each real step
+:func:`choose` picks among a finer u grid from the actual state, by stage cost plus interpolated cost-to-go.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -29,8 +26,7 @@ from hev_thermal_env.envs.reward import soc_band_charge_g, stage_cost_g
 from hev_thermal_env.physics import core
 from hev_thermal_env.physics.jit import jit
 
-from .corridor import corridor
-from .problem import IDLE, DPProblem, argmin_small_action, default_threads, split_grid, stage_splits
+from .problem import IDLE, DPInfeasibleError, DPProblem, argmin_small_action, default_threads, split_grid, stage_splits
 
 #: Beyond the corridor's ends the cost-to-go continues with this slope (g per unit SOC).
 WALL_G_PER_SOC = 1e6
@@ -145,8 +141,7 @@ def _backward(problem: DPProblem, s: DPSettings, soc_lo: np.ndarray, soc_hi: np.
         cost = stage_cost_g(problem.reward_params, b.out, b.so, problem.soc_target, problem.lhv, problem.core.dt_s,
                             soc_deviation=s.price_soc_deviation, soc_band=False)
         lo = soc_lo[i + 1]
-        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, core.SOC], WALL_G_PER_SOC,
-                   b.jn)
+        interp_soc(J[i + 1], lo, (soc_hi[i + 1] - lo) / (n_soc - 1), n_soc, b.so[:, core.SOC], WALL_G_PER_SOC, b.jn)
         J[i] = (cost + b.jn).reshape(n_soc, b.reps).min(axis=1)
     return J, n_evals
 
@@ -169,9 +164,8 @@ def solve(problem: DPProblem, settings: DPSettings) -> DPPlan:
 def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, problem: DPProblem,
            settings: DPSettings, actions: np.ndarray) -> int:
     """Index of the cheapest candidate: stage cost + interpolated cost-to-go of its next state."""
-    cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv,
-                        problem.core.dt_s, soc_deviation=settings.price_soc_deviation,
-                        soc_band=False)
+    cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv, problem.core.dt_s,
+                        soc_deviation=settings.price_soc_deviation, soc_band=False)
     return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions)
 
 
@@ -202,3 +196,78 @@ def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: boo
         outs[i] = out[j]
         us[i] = cand[j]
     return {"state": states, "out": outs, "u": us}
+
+
+def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest SOC reachable at each stage from the start: the most discharge and the most charge
+    throughout (:meth:`~.problem.DPProblem.extreme_actions`), the other state columns following ``held``."""
+    n = problem.n_stages
+    st = np.repeat(problem.state0[None, :], 2, axis=0)
+    a = problem.extreme_actions()
+    lo, hi = np.empty(n + 1), np.empty(n + 1)
+    lo[0] = hi[0] = problem.state0[core.SOC]
+    for i in range(n):
+        st[:] = held[i]
+        st[0, core.SOC], st[1, core.SOC] = lo[i], hi[i]
+        so, _ = problem.step(st, a[i], i)
+        lo[i + 1], hi[i + 1] = so[0, core.SOC], so[1, core.SOC]
+    return lo, hi
+
+
+def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest / highest SOC at each stage from which the most charge / the most discharge throughout
+    (:meth:`~.problem.DPProblem.extreme_actions`) still reaches the band (three fixed-point iterations per stage)."""
+    n = problem.n_stages
+    bat = problem.core.config.battery
+    lo, hi = np.empty(n + 1), np.empty(n + 1)
+    lo[n], hi[n] = band
+    st = np.empty((2, core.N_STATE))
+    a = problem.extreme_actions()[:, ::-1].copy()  # row 0 charges (towards the lower edge), row 1 discharges
+    for i in range(n - 1, -1, -1):
+        target = np.array([lo[i + 1], hi[i + 1]])
+        guess = target.copy()
+        for _ in range(3):
+            st[:] = held[i]
+            st[:, core.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
+            so, _ = problem.step(st, a[i], i)
+            guess = target - (so[:, core.SOC] - st[:, core.SOC])
+        lo[i] = bat.soc_min if target[0] <= bat.soc_min + 1e-12 else min(max(guess[0], bat.soc_min), bat.soc_max)
+        hi[i] = bat.soc_max if target[1] >= bat.soc_max - 1e-12 else min(max(guess[1], bat.soc_min), bat.soc_max)
+    return lo, hi
+
+
+def corridor(problem: DPProblem, held: np.ndarray, soc_final: float | None, tol: float,
+             on_infeasible: str) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The SOC corridor (lowest and highest SOC per stage: reachable from the start and still reaching the band)
+    for the band ``soc_final`` ± ``tol`` (default: the initial SOC), or for the nearest reachable one
+    (``on_infeasible="closest"``)."""
+    soc0 = float(problem.state0[core.SOC])
+    target = soc0 if soc_final is None else float(soc_final)
+    band = (target - tol, target + tol)
+    f_lo, f_hi = forward_envelope(problem, held)
+    info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
+
+    def bounds(band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, bool]:
+        b_lo, b_hi = backward_envelope(problem, held, band)
+        lo, hi = np.maximum(f_lo, b_lo), np.minimum(f_hi, b_hi)
+        return lo, hi, bool(np.all(lo <= hi + 1e-9))
+
+    lo, hi, feasible = bounds(band)
+    info["final_soc_feasible"] = feasible
+    if not feasible:
+        if on_infeasible == "raise":
+            raise DPInfeasibleError(
+                f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
+                f"{soc0:.4f}: the reachable final SOC is [{f_lo[-1]:.4f}, {f_hi[-1]:.4f}] (change soc_final or "
+                f"soc_tol, or pass on_infeasible='closest' (evaluate.py run: --dp-on-infeasible closest) to plan for "
+                f"the nearest reachable band)")
+        if f_hi[-1] < band[0]:
+            band = (float(f_hi[-1]) - 2.0 * tol, float(f_hi[-1]))
+        else:
+            band = (float(f_lo[-1]), float(f_lo[-1]) + 2.0 * tol)
+        lo, hi, feasible = bounds(band)
+        if not feasible:
+            raise DPInfeasibleError(f"dp: even the nearest reachable final-SOC band {band} is infeasible on cycle "
+                                    f"{problem.name!r}")
+    info["soc_band_used"] = [float(band[0]), float(band[1])]
+    return lo, hi, info

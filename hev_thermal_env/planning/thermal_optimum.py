@@ -1,35 +1,39 @@
 """The thermal optimum over a known cycle and its fuel-versus-final-SOC frontier (the ``dp_thermal`` planner).
 
-The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md); the SOC DP
-(:mod:`.soc_dp`) seeds the refining passes with its path, and the heat prices of the bins (:mod:`.heat_value`) are
-measured along its path for the first pass and along the first pass's for the others. Where heat stays cheap along
-the SOC DP's path over the whole cycle (:func:`~.search.heat_stays_cheap`), the coarse first pass is skipped: the
-refining passes centre on the SOC DP's path, priced along it. The plan is the cheapest path
-into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
-battery energy at the reward's price (as the SOC DP and the reward choose): an exact action sequence, so the env
-realises the planned cost (the report gives both). The report's ``frontier``, over the final states of the same passes,
-is the cost by final SOC within ``frontier_halfwidth`` of the target: the benchmark divides each strategy's cost by it
-at the strategy's own final SOC.
+The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md), seeded by the SOC
+DP's path (:mod:`.soc_dp`), with heat prices measured along that path or the first pass's. The plan is the cheapest
+path into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
+battery energy at the reward's price: an exact action sequence, so the env realises the planned cost. The report's
+``frontier``, over the final states of the same passes, is the cost by final SOC within ``frontier_halfwidth`` of the
+target: the benchmark divides each strategy's cost by it at the strategy's own final SOC. Every pass shows a bar of its
+stages on stderr (hidden off a terminal and in worker processes).
 
-Every pass shows a bar of its stages on stderr, cleared when the pass ends; hidden off a terminal and in worker
-processes (a pool's parent shows its own progress).
+Solved plans are kept on disk (:func:`cached_plan`: JSON in ``plans/`` beside the compiled-kernel cache), under a hash
+of the plan's key (:meth:`OptimumSettings.key`) and of the sources the planner runs
+(:func:`~hev_thermal_env.physics.jit.source_hash`), so an edit of any of them solves afresh and an edit elsewhere does
+not.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import multiprocessing
+import sys
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from tqdm.auto import tqdm
 
 from hev_thermal_env.envs.reward import stage_cost_g
+from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.physics import core
+from hev_thermal_env.physics.jit import CACHE_DIR, source_hash
 
-from .heat_value import heat_prices
 from .problem import DPInfeasibleError, DPProblem
 from .search import (
     LOCAL_HALFWIDTH,
@@ -38,6 +42,7 @@ from .search import (
     SearchGrid,
     SearchResult,
     frontier_points,
+    heat_prices,
     heat_stays_cheap,
     search,
 )
@@ -161,7 +166,7 @@ def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
 
 def _search(problem: DPProblem, grid: SearchGrid, window: tuple[float, float], label: str, threads: int | None,
             **refine: Any) -> SearchResult:
-    """:func:`~.search.search` with a bar of its stages (see "Progress" in the module docstring)."""
+    """:func:`~.search.search` with a bar of its stages."""
     hidden = True if in_worker_process() else None  # None: tqdm hides it off a terminal
     with tqdm(total=problem.n_stages, desc=f"dp_thermal {problem.name}: {label}", unit="stage", leave=False,
               disable=hidden) as bar:
@@ -257,3 +262,40 @@ def _pick(passes: list[SearchResult], problem: DPProblem, band: tuple[float, flo
         except DPInfeasibleError:
             pass
     return min(picks, key=lambda rj: adjusted_cost(rj[0], problem)[rj[1]])
+
+
+_told = False
+
+
+def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool = True) -> OptimumPlan:
+    """The plan of ``problem``: read from disk if it was solved before (its report then says ``from_cache``), else
+    solved by :func:`plan_optimum` and kept (``use_cache=False``: always solved, not kept)."""
+    grid = settings.grid_for(problem.n_stages)
+    path = None
+    if use_cache and CACHE_DIR is not None:
+        key = settings.key(problem) + source_hash([__name__])
+        path = CACHE_DIR.parent / "plans" / f"dp_thermal-{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+    if path is not None and path.is_file():
+        try:
+            data = json.loads(path.read_text())
+            return OptimumPlan(u=np.asarray(data["u"], dtype=np.float64), report=dict(data["report"], from_cache=True),
+                               grid=grid)
+        except (OSError, ValueError, KeyError):
+            pass
+    plan = plan_optimum(problem, settings)
+    if path is not None:
+        try:
+            atomic_write_json(path, {"u": plan.u.tolist(), "report": plan.report})
+        except OSError:
+            return plan
+        _tell(path)
+    return plan
+
+
+def _tell(path: Path) -> None:
+    """Say once per process (not in pool workers) where plans are kept."""
+    global _told
+    if not _told and not in_worker_process():
+        _told = True
+        tqdm.write(f"dp_thermal: plan kept in {path.parent}/ and reused whenever the same cycle, start, vehicle and "
+                   f"settings come again (plan_cache=False solves afresh)", file=sys.stderr)
