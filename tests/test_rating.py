@@ -11,7 +11,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
 from hev_thermal_env.physics import paper_bus
-from hev_thermal_env.physics import rating as R
+from tools import rating as R
 
 RPM = math.pi / 30.0
 SIGMA = 5.67e-8

@@ -6,7 +6,7 @@ Where the ``paper_bus`` numbers come from:
   thermostat 35 °C, cutoff 70 °C, 5 % extra loss, T_s 30 s, PWM_initial 0.3 at the 20 °C start, T_gain in
   [0.1, 0.3], efficiency −1 point per 15 °C); the lumped thermal network fitted to the paper's Figs 7-10 and
   Tables 2-3 (docs/thermal_model.md), its water jacket the paper's h_water·A and its radiator sized by the motor's
-  rating (physics v2, ``physics/rating.py``); ``paper_bus(thermal_model="paper_eqs")`` is the paper's one node as
+  rating (physics v2, ``tools/rating.py``); ``paper_bus(thermal_model="paper_eqs")`` is the paper's one node as
   written, ``paper_bus(physics=1)`` the vehicle of ``HevThermal-v1``.
 * Glider: ADVISOR VEH_RTS06 (Cd 0.79, A 7.8965 m²) and WH_HEAVY (Crr 0.00938, r 0.5 m). Test mass 15 000 kg:
   ADVISOR's 40-ft bus (12 156 kg glider + 1 837 kg cargo) plus the hybrid powertrain, fine-tuned with the final

@@ -11,7 +11,7 @@ T_cont·PWM + T_peak·(1 − PWM) ≤ T_peak, x held in [−PWM_initial(T), 1]; 
 motor temperature. Derate −1 efficiency point per 15 °C above 35 °C (``motor.py``), cutoff at 70 °C until cooled to
 60 °C, the winding's own protection (165 °C / 155 °C); ``enabled=False`` is ADVISOR's unmodified motor (the paper's
 baseline). Fields whose doc starts with "fitted:" hold the values of ``python -m tools.calibration``; the two cooling
-conductances are set by the motor's rating (``rating.py``).
+conductances are set by the motor's rating (``tools/rating.py``).
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ class ThermalParams(Params):
     thermostat_band_k: float = spec(5.0, "the valve (on the coolant temperature) opens fully this much above "
                                          "thermostat_temp_c", min=2.0, max=15.0)
     radiator_ua_w_per_k: float = spec(138.0, "radiator UA at the reference face air speed, set by the rating "
-                                             "(physics/rating.py): 30 kW in 40 °C air settles the housing at 90 % of "
+                                             "(tools/rating.py): 30 kW in 40 °C air settles the housing at 90 % of "
                                              "its rise to the cut-off at 3,600 rpm (Table 1), 89.4 % at the "
                                              "envelopes' corner, 3,581 rpm", min=50.0, max=600.0)
     radiator_ref_air_speed_mps: float = spec(5.0, "face air speed of radiator_ua_w_per_k", min=3.0, max=8.0)

@@ -18,10 +18,10 @@ import dataclasses
 
 import numpy as np
 
-from . import motor as mot
-from . import thermal as thm
-from . import thermal_network as tnet
-from .config import VehicleConfig
+from hev_thermal_env.physics import motor as mot
+from hev_thermal_env.physics import thermal as thm
+from hev_thermal_env.physics import thermal_network as tnet
+from hev_thermal_env.physics.config import VehicleConfig
 
 
 @dataclasses.dataclass(frozen=True)
