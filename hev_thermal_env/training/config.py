@@ -37,10 +37,9 @@ from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
 from hev_thermal_env.tasks import TRAINING_FAMILIES, get_task, held_out_cycles
 
-from .hyperparams import check_hyperparams, check_known, load_hyperparams
+from .hyperparams import apply_overrides, check_hyperparams, check_known, load_hyperparams
 from .imitation import InitConfig
 from .lagrangian import ConstraintConfig
-from .overrides import apply_overrides
 from .selection import DEFAULT_SCORER, get_scorer
 from .settings import Section, setting
 

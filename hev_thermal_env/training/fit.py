@@ -20,21 +20,14 @@ import torch
 
 from ..envs.spaces import observation_names
 
-#: The fit's batch size (the initial fit and the refit).
-BATCH = 1024
-#: The initial fit's Adam learning rate.
-LEARNING_RATE = 1e-3
-
-
-def heat_x(obs: np.ndarray) -> np.ndarray:
-    """The heat-index integrator x (observation ``heat_x``) of raw observations ``obs`` [N, dim]."""
-    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")]
+#: The fit's batch size (the initial fit and the refit) and the initial fit's Adam learning rate.
+BATCH, LEARNING_RATE = 1024, 1e-3
 
 
 def near_derating(obs: np.ndarray, above_x: float) -> np.ndarray:
-    """Which states (raw observations) lie near derating: :func:`heat_x` above ``above_x`` (0: the motor derates;
-    −0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
-    return heat_x(obs) > above_x
+    """Which states (raw observations [N, dim]) lie near derating: their heat-index integrator (``heat_x``) above
+    ``above_x`` (0: the motor derates; −0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
+    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")] > above_x
 
 
 def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float) -> np.ndarray | None:

@@ -11,13 +11,15 @@ rl-zoo3 file has one section per env id; its section for :data:`~hev_thermal_env
 ``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs`` (``gymnasium.make``'s keyword arguments:
 ``cycle``, ``scenario``, ...), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
 arguments; the settings rl-zoo3 has no place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in a
-section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read.
+section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read. ``--hp key=value`` overrides
+(:func:`parse_overrides`) change a file's values, dotted keys inside its mappings.
 """
 
 from __future__ import annotations
 
 import ast
 import collections.abc
+import copy
 import difflib
 import inspect
 import types
@@ -27,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import torch
+import yaml
 
 from hev_thermal_env.agents import HYPERPARAMS_DIR
 from hev_thermal_env.agents.policy_files import SCHEDULE_KEYS, algorithm_class, schedule
@@ -186,3 +189,43 @@ def _admits(kinds: set, value: Any) -> bool:
     if callable(value) and not isinstance(value, type):
         return collections.abc.Callable in kinds
     return type(value) in kinds
+
+
+def parse_value(text: str) -> Any:
+    """A ``--hp`` value, as YAML: ``0.99``, ``[64, 64]``, ``{net_arch: [64, 64]}``, ``lin_3e-4``."""
+    s = text.strip()
+    try:
+        return yaml.safe_load(s) if s else None
+    except yaml.YAMLError as exc:
+        raise ValueError(f"cannot parse {text!r} as YAML ({' '.join(str(exc).split())})") from None
+
+
+def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
+    """``["gamma=0.99", "policy_kwargs.net_arch=[64,64]"]`` -> ``{"gamma": 0.99, "policy_kwargs.net_arch": [64, 64]}``.
+
+    Dotted keys are resolved by :func:`apply_overrides`."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = str(item).partition("=")
+        key = key.strip()
+        if not sep or not key or any(not part for part in key.split(".")):
+            raise ValueError(f"--hp {item!r}: expected key=value (e.g. gamma=0.99 or policy_kwargs.net_arch=[64,64])")
+        out[key] = parse_value(value)
+    return out
+
+
+def apply_overrides(hp: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """A deep copy of ``hp`` with dotted-key overrides applied (mappings are merged, not replaced)."""
+    hp = copy.deepcopy(hp)
+    for key, value in overrides.items():
+        node = hp
+        parts = key.split(".")
+        for part in parts[:-1]:
+            if not isinstance(node.get(part), dict):
+                node[part] = {}
+            node = node[part]
+        if isinstance(value, dict) and isinstance(node.get(parts[-1]), dict):
+            node[parts[-1]] = {**node[parts[-1]], **value}
+        else:
+            node[parts[-1]] = value
+    return hp

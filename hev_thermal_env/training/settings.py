@@ -35,8 +35,9 @@ def setting(default: Any, doc: str, *, kind: str = "any", min: float | None = No
     return dataclasses.field(default=default, metadata=meta)
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+def is_number(value: Any) -> bool:
+    """A finite int or float (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _problem(f: dataclasses.Field, value: Any) -> str | None:
@@ -48,7 +49,7 @@ def _problem(f: dataclasses.Field, value: Any) -> str | None:
                             or (hi is not None and value > hi)):
         return f"must be a whole number of at least {lo}" if hi is None else f"must be a whole number in [{lo}, {hi}]"
     if kind == "number":
-        low_ok = _is_number(value) and math.isfinite(value) and (
+        low_ok = is_number(value) and (
             value > lo if f.metadata["min_exclusive"] else value >= lo)
         if hi is None and not low_ok:
             return f"must be a number of at least {lo:g}"
@@ -74,10 +75,6 @@ class Section:
 
     def validate(self) -> None:
         """Checks across fields; subclasses raise a one-line ``ValueError`` naming them."""
-
-    def replace(self: S, **changes: Any) -> S:
-        """A copy with some fields changed (validated again)."""
-        return dataclasses.replace(self, **changes)
 
     @classmethod
     def from_dict(cls: type[S], data: dict[str, Any] | None) -> S:
