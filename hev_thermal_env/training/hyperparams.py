@@ -39,17 +39,13 @@ from hev_thermal_env.tasks import ENV_ID
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
 RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer",
             "constraint")
-
 #: Constructor arguments the training sets itself.
 MANAGED_KEYS = ("self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model")
-
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",
                "silu": "SiLU"}
 
 _KIND_NAMES = {bool: "true or false", int: "an integer", float: "a number", str: "a string", list: "a list",
                tuple: "a list", dict: "a mapping", type(None): "null", collections.abc.Callable: "lin_<number>"}
-
-
 #: The section of an rl-zoo3 hyperparameter file with the settings only ``train.py`` reads.
 PROJECT_SECTION = "hev_thermal_env"
 
@@ -207,10 +203,9 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for item in items:
         key, sep, value = str(item).partition("=")
-        key = key.strip()
-        if not sep or not key or any(not part for part in key.split(".")):
+        if not sep or not all(key.strip().split(".")):
             raise ValueError(f"--hp {item!r}: expected key=value (e.g. gamma=0.99 or policy_kwargs.net_arch=[64,64])")
-        out[key] = parse_value(value)
+        out[key.strip()] = parse_value(value)
     return out
 
 
@@ -218,14 +213,11 @@ def apply_overrides(hp: dict[str, Any], overrides: dict[str, Any]) -> dict[str, 
     """A deep copy of ``hp`` with dotted-key overrides applied (mappings are merged, not replaced)."""
     hp = copy.deepcopy(hp)
     for key, value in overrides.items():
+        *path, last = key.split(".")
         node = hp
-        parts = key.split(".")
-        for part in parts[:-1]:
+        for part in path:
             if not isinstance(node.get(part), dict):
                 node[part] = {}
             node = node[part]
-        if isinstance(value, dict) and isinstance(node.get(parts[-1]), dict):
-            node[parts[-1]] = {**node[parts[-1]], **value}
-        else:
-            node[parts[-1]] = value
+        node[last] = {**node[last], **value} if isinstance(value, dict) and isinstance(node.get(last), dict) else value
     return hp

@@ -102,13 +102,9 @@ class LagrangeMultiplier:
     HISTORY_COLUMNS = ("timesteps", "lambda", "cost_s_per_h", "budget_s_per_h", "episodes")
 
     def __init__(self, budget_s_per_h: float, lambda_lr: float, lambda_init: float = 0.0, lambda_max: float = 50.0):
-        self.budget_s_per_h = float(budget_s_per_h)
-        self.lr = float(lambda_lr)
-        self.lam = float(lambda_init)
+        self.budget_s_per_h, self.lr, self.lam = float(budget_s_per_h), float(lambda_lr), float(lambda_init)
         self.lam_max = float(lambda_max)
-        self.cost_s = 0.0
-        self.hours = 0.0
-        self.episodes = 0
+        self.cost_s, self.hours, self.episodes = 0.0, 0.0, 0
         self.history: list[dict[str, float]] = []
 
     def record_episode(self, cost_s: float, duration_s: float) -> None:
@@ -130,12 +126,6 @@ class LagrangeMultiplier:
         self.cost_s, self.hours, self.episodes = 0.0, 0.0, 0
         return rate
 
-    def state(self) -> dict[str, Any]:
-        return {"lambda": self.lam, "history": list(self.history)}
-
-    def load_state(self, state: dict[str, Any]) -> None:
-        self.lam = float(state["lambda"])
-        self.history = list(state.get("history") or [])
 
 
 class LagrangianVecEnv(VecEnvWrapper):
@@ -145,11 +135,8 @@ class LagrangianVecEnv(VecEnvWrapper):
 
     def __init__(self, venv, multiplier: LagrangeMultiplier, update_every: int, dt_s: float):
         super().__init__(venv)
-        self.multiplier = multiplier
-        self.update_every = int(update_every)
-        self.dt_s = float(dt_s)
-        self.calls = 0
-        self.timesteps = 0
+        self.multiplier, self.update_every, self.dt_s = multiplier, int(update_every), float(dt_s)
+        self.calls = self.timesteps = 0
         self.episode_cost = np.zeros(self.num_envs)
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
 
@@ -182,12 +169,12 @@ def make_lagrangian(venv, config: dict[str, Any], dt_s: float) -> LagrangianVecE
 
 
 def state_path(model_path: Path) -> Path:
-    """Where the multiplier is saved beside a checkpoint or model zip (``NAME_lagrangian.json``)."""
+    """Where the multiplier (λ and its history) is saved beside a checkpoint or model zip (``NAME_lagrangian.json``)."""
     return Path(model_path).with_name(Path(model_path).stem + "_lagrangian.json")
 
 
 def save_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> None:
-    atomic_write_text(state_path(model_path), json.dumps(multiplier.state()))
+    atomic_write_text(state_path(model_path), json.dumps({"lambda": multiplier.lam, "history": multiplier.history}))
 
 
 def load_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> bool:
@@ -195,5 +182,6 @@ def load_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> bool:
     p = state_path(model_path)
     if not p.is_file():
         return False
-    multiplier.load_state(json.loads(p.read_text()))
+    state = json.loads(p.read_text())
+    multiplier.lam, multiplier.history = float(state["lambda"]), list(state.get("history") or [])
     return True

@@ -38,7 +38,7 @@ from hev_thermal_env.agents.policy_files import (
 )
 from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
 
-from .artifacts import read_evaluations, save_model_and_stats, write_csv, write_evaluations
+from .artifacts import check_new_dir, read_evaluations, save_model_and_stats, write_csv, write_evaluations
 from .config import load_run_config, save_run_config, validate_config
 from .curves import plot_training_curve
 from .envs import PolicyEvaluator, env_kwargs, final_validation, make_vec_env, wrap_normalize
@@ -124,18 +124,13 @@ class TrainingRun:
 
     def __init__(self, config: dict[str, Any], out_dir: Path, *, progress: bool = True, verbose: int = 1,
                  log: Callable[[str], None] | None = None):
-        self.config = config
-        self.out = Path(out_dir)
-        self.progress = progress
-        self.verbose = verbose
-        self.log = log or (lambda msg: print(msg, flush=True))
-        self.checkpoint_freq = int(config["checkpoint_freq"])
-        self.eval_freq = int(config["eval"]["freq"])
+        self.config, self.out, self.progress, self.verbose = config, Path(out_dir), progress, verbose
+        self.log = log or _print
+        self.checkpoint_freq, self.eval_freq = int(config["checkpoint_freq"]), int(config["eval"]["freq"])
         self.eval_rows = read_evaluations(self.out / "evaluations.csv")
         self.scorer = get_scorer(config["eval"]["selection"])
         self.best_score = min((r["score"] for r in self.eval_rows if np.isfinite(r["score"])), default=None)
-        self.eval_seconds = 0.0
-        self.session_start = time.perf_counter()
+        self.eval_seconds, self.session_start = 0.0, time.perf_counter()
         self.wall_before = float((config.get("result") or {}).get("wall_s", 0.0))
         self.evaluator = None
         if self.eval_freq and config["eval"]["cycles"]:
@@ -191,9 +186,8 @@ class TrainingRun:
             logger.record("eval/mean_return_g", mean_return)
             logger.record("eval/selection_score", score.value)
             for r in results:
-                tag = f"{r['cycle']}_{r['scenario']}"
                 for key in ("return_g", "fuel_corrected_l_per_100km", "delta_soc", "cutoff_s"):
-                    logger.record(f"eval/{key}_{tag}", r[key])
+                    logger.record(f"eval/{key}_{r['cycle']}_{r['scenario']}", r[key])
         if self.verbose:
             worst = max(abs(r["delta_soc"]) for r in results)
             self.log(f"eval @ {n}: {score.describe(self.scorer.short)}{' (new best)' if best else ''}; "
@@ -334,21 +328,6 @@ class TrainingRun:
         save_run_config(self.out, cfg)
 
 
-def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "config.yaml",
-                  overwrite: bool = False) -> Path:
-    """``out_dir`` can receive a new run (or sweep: ``holds``, with its settings file ``marker``): new or empty
-    (or ``overwrite``), and writable."""
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out}: exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()) and not overwrite:
-        if (out / marker).is_file():
-            raise ValueError(f"--out {out} already holds {holds}; continue it with --resume {out} or choose "
-                             f"another directory")
-        raise ValueError(f"--out {out} is not empty; choose an empty or new directory")
-    return check_writable_dir(out)
-
-
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
           overwrite: bool = False, log: Callable[[str], None] | None = None,
           run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
@@ -372,7 +351,7 @@ def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, comm
     out = Path(run_dir)
     config = load_run_config(out)
     validate_config(config)
-    log = log or (lambda msg: print(msg, flush=True))
+    log = log or _print
     if (config.get("result") or {}).get("finished") and (out / "model.zip").is_file():
         log(f"{out}: already finished ({config['result']['timesteps_done']} timesteps); nothing to do")
         return config["result"]
@@ -385,6 +364,10 @@ def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, comm
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     run.prepare(resume_from=start)
     return run.execute()
+
+
+def _print(msg: str) -> None:
+    print(msg, flush=True)
 
 
 def _append_command(out: Path, command: str | None) -> None:

@@ -30,12 +30,11 @@ from hev_thermal_env.io import (
 )
 from hev_thermal_env.stats import CONFIDENCE, iqm, iqm_ci
 
-from .artifacts import write_csv
+from .artifacts import check_new_dir, write_csv
 from .config import whole_number
 from .curves import plot_sweep
 from .export import export_best
 from .hyperparams import check_known
-from .loop import check_new_dir
 from .sweep_trial import (
     METRIC,
     RUN_DIR,
