@@ -23,10 +23,7 @@ from hev_thermal_env.envs.reward import observation_options
 
 from .fit import adam_passes
 
-HIDDEN = (128, 128)
-EPOCHS = 60
-BATCH = 256
-LEARNING_RATE = 1e-3
+HIDDEN, EPOCHS, BATCH, LEARNING_RATE = (128, 128), 60, 256, 1e-3
 
 
 def dataset_pairs(dataset: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -50,8 +47,7 @@ def fit_bc(obs: np.ndarray, actions: np.ndarray, *, hidden: tuple[int, ...] = HI
            seed: int = 0) -> tuple[dict[str, Any], list[float]]:
     """Fit the MLP; returns its policy record (weights and standardisation) and the MSE of every pass."""
     torch.manual_seed(int(seed))
-    mean = obs.mean(axis=0)
-    std = np.maximum(obs.std(axis=0), 1e-6)
+    mean, std = obs.mean(axis=0), np.maximum(obs.std(axis=0), 1e-6)
     x = torch.as_tensor((obs - mean) / std, dtype=torch.float32)
     y = torch.as_tensor(actions, dtype=torch.float32)
     net = _mlp(x.shape[1], tuple(hidden))
@@ -74,13 +70,11 @@ class BCStrategy(Strategy):
     name = "bc"
 
     def __init__(self, record: dict[str, Any], label: str = "bc"):
-        self.record = record
-        self.label = label
+        self.record, self.label = record, label
         self.net = _mlp(len(record["obs_mean"]), tuple(record["hidden"]))
         self.net.load_state_dict(record["state_dict"])
         self.net.eval()
-        self.mean = np.asarray(record["obs_mean"], dtype=np.float32)
-        self.std = np.asarray(record["obs_std"], dtype=np.float32)
+        self.mean, self.std = (np.asarray(record[k], dtype=np.float32) for k in ("obs_mean", "obs_std"))
 
     def env_options(self) -> dict[str, Any]:
         return dict(self.record.get("env_options") or {})

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from matplotlib.ticker import EngFormatter, MaxNLocator
 
+from hev_thermal_env.evaluation.score import SOC_BOUND
 from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
 from .artifacts import read_evaluations
@@ -169,8 +170,6 @@ def family_curves(families: dict[str, list[tuple[int, str | Path]]], path: str |
     evaluations (|ΔSOC| beyond :data:`~hev_thermal_env.evaluation.score.SOC_BOUND` on a run) crossed and each seed's
     ``best_model.zip`` starred (``evaluations.csv`` of every run); written to ``path``, or None when no run has
     evaluations."""
-    from hev_thermal_env.evaluation.score import SOC_BOUND
-
     curves: dict[str, list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
     for name, seeds in families.items():
         for seed, run_dir in seeds:

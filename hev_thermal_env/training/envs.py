@@ -114,11 +114,10 @@ class PolicyEvaluator:
         (:class:`~hev_thermal_env.agents.policy_files.LoadedPolicy`)."""
         if reset is None:
             reset = getattr(getattr(act, "__self__", None), "reset_state", None)
-        return [r for scenario in self.scenarios for r in self.run_scenario(act, scenario, reset)]
+        return [r for scenario in self.scenarios for r in self._run_scenario(act, scenario, reset)]
 
-    def run_scenario(self, act: Callable[[np.ndarray], np.ndarray], scenario: str,
-                     reset: Callable[[], None] | None = None) -> list[dict[str, Any]]:
-        """Every cycle in ``scenario``, in one batched env, after ``reset()`` (if given)."""
+    def _run_scenario(self, act: Callable[[np.ndarray], np.ndarray], scenario: str,
+                      reset: Callable[[], None] | None) -> list[dict[str, Any]]:
         kwargs = env_kwargs({**self.env_cfg, "scenario": scenario}, for_eval=True)
         n = len(self.cycles)
         venv = HevThermalVectorEnv(n, **{**kwargs, "cycle": self.cycles})

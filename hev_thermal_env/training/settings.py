@@ -5,8 +5,7 @@ A field is a :func:`setting` (as the vehicle's records use :func:`~hev_thermal_e
 its meaning, its kind (``whole``: an integer of at least ``min``; ``number``: a number in [``min``, ``max``], or
 (``min``, ``max``] with ``min_exclusive``; ``bool``; ``any``: checked by the section's :meth:`Section.validate`).
 Errors are one line naming the section, the field and the value (``init.episodes must be a whole number of at least
-1, got 0``); an unknown key names the closest known one. The run config stores each section as :meth:`Section.to_dict`
-(the fields in their order, the values as given), so ``config.yaml`` reads as before.
+1, got 0``); an unknown key names the closest known one.
 """
 
 from __future__ import annotations

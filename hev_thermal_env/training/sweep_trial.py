@@ -1,19 +1,11 @@
 """One trial of a sweep: the search space it is drawn from, its config, and the Ray Tune trainable that runs it.
 
-A search space maps ``--hp`` keys (dotted keys included) to a fixed value or one sampler, a one-key
-mapping::
-
-    learning_rate: {loguniform: [1.0e-4, 1.0e-3]}   # log-uniform between the bounds
-    gamma: {uniform: [0.95, 0.99]}                  # uniform between the bounds
-    n_epochs: {int: [3, 10]}                        # whole numbers, both bounds included
-    policy_kwargs.net_arch: {choice: [[64, 64], [128, 128]]}
-    ent_coef: 0.0                                   # fixed
-
-Choices travel through Tune and Optuna as their YAML text (Optuna's categorical values must be scalars).
-
-A trial is a ``train.py`` run in ``<trial dir>/run`` that reports every evaluation to Tune with a snapshot of the run
-directory as the checkpoint: itself a resumable run, which a trial restored by Tune copies back and resumes, so it ends
-where an uninterrupted trial would.
+A search space maps ``--hp`` keys (dotted keys included) to a fixed value or one sampler, a one-key mapping:
+``{uniform: [low, high]}``, ``{loguniform: [low, high]}``, ``{int: [low, high]}`` (both bounds included) or
+``{choice: [a, b, ...]}`` (examples: ``train.py sweep --help``). Choices travel through Tune and Optuna as their YAML
+text (Optuna's categorical values must be scalars). A trial is a ``train.py`` run in ``<trial dir>/run`` that reports
+every evaluation to Tune with a snapshot of the run directory as the checkpoint: itself a resumable run, which a
+trial restored by Tune copies back and resumes, so it ends where an uninterrupted trial would.
 """
 
 from __future__ import annotations
