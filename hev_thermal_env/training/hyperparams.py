@@ -2,17 +2,14 @@
 them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argument of the algorithm's constructor
 (``PPO``, ``SAC``, ``TQC``, ``RecurrentPPO``) the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys
 (also inside ``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
-valid one.
+valid one. ``--hp key=value`` overrides (:func:`parse_overrides`) change a file's values, dotted keys inside mappings.
 
-A file comes in one of two formats (:func:`read_hyperparams_file`): the project's flat mapping (``ppo.yaml``), or
-rl-zoo3's (``sac.yaml``, ``tqc.yaml``, ``recurrent_ppo.yaml``: ``python -m rl_zoo3.train --algo sac --env
-HevThermal-v2 --gym-packages hev_thermal_env --conf-file agents/hyperparams/sac.yaml`` reads them unchanged). An
-rl-zoo3 file has one section per env id; its section for :data:`~hev_thermal_env.tasks.ENV_ID` holds
-``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs`` (``gymnasium.make``'s keyword arguments:
-``cycle``, ``scenario``, ...), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
+A file is the project's flat mapping (``ppo.yaml``) or rl-zoo3's (``sac.yaml``, ``tqc.yaml``, ``recurrent_ppo.yaml``,
+which rl-zoo3 reads unchanged: docs/training.md), read by :func:`read_hyperparams_file`. An rl-zoo3 file's section for
+:data:`~hev_thermal_env.tasks.ENV_ID` holds ``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs``
+(``gymnasium.make``'s keyword arguments), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
 arguments; the settings rl-zoo3 has no place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in a
-section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read. ``--hp key=value`` overrides
-(:func:`parse_overrides`) change a file's values, dotted keys inside its mappings.
+section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read.
 """
 
 from __future__ import annotations

@@ -99,8 +99,8 @@ class InitConfig(Section):
         """This section, checked against the run: an imitation start needs a PPO algorithm and a teacher that can be
         built with its options (and prices its actions for ``cost_weight``); ``freeze_obs_stats`` may list the
         env's observation ``names`` only."""
-        unknown = [n for n in self.freeze_obs_stats if n not in names] if isinstance(self.freeze_obs_stats, list) \
-            and names else []
+        f = self.freeze_obs_stats
+        unknown = [n for n in f if n not in names] if isinstance(f, list) and names else []
         if unknown:
             raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: "
                              f"{', '.join(names)}")

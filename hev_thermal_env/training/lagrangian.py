@@ -1,20 +1,15 @@
 """PPO-Lagrangian (``train.py --algo ppo_lagrangian``): PPO on the reward less λ times the safety cost, λ learned.
 
-The env's reward is unchanged; :class:`LagrangianVecEnv`, a VecEnv wrapper under ``VecNormalize``, hands PPO
-``reward − λ · info["cost"]`` (g − g/s · s: the safety cost, in seconds of lost motor capability per step, priced at λ
-grams of fuel per second). After every PPO rollout (``n_steps`` calls of ``step``) λ takes one step of dual ascent on
-the constraint "episode safety cost per hour driven ≤ budget" (:func:`dual_ascent`)::
+:class:`LagrangianVecEnv`, a VecEnv wrapper under ``VecNormalize``, hands PPO ``reward − λ · info["cost"]`` (the safety
+cost, in seconds of lost motor capability per step, priced at λ grams of fuel per second). After every PPO rollout
+(``n_steps`` calls of ``step``) λ takes one step of dual ascent (:func:`dual_ascent`) on the constraint "episode safety
+cost per hour driven ≤ budget"::
 
     λ ← clip(λ + lr · (J − d), 0, λ_max)
 
-with J the safety cost of the episodes that ended since the last update, summed and divided by their hours driven
-(``cost_s_per_h``), and d the budget (``constraint.budget_s_per_h``); no episode ended, no update. λ rises while the
-policy derates more than the budget allows and falls back towards 0 while it stays under it: the Lagrangian
-relaxation of the constrained problem max E[return] s.t. E[cost] ≤ d, solved by alternating policy and multiplier
-steps. The budget is a rate because training episodes differ in length (random starts, generated routes).
-
-The ``constraint`` section of the run config holds the settings (:class:`ConstraintConfig`); the multiplier's
-history is saved with each checkpoint and in ``lagrangian.csv`` of the run directory.
+J: the safety cost of the episodes that ended since the last update over their hours driven (none ended: no update);
+d: ``constraint.budget_s_per_h`` (:class:`ConstraintConfig`). The Lagrangian relaxation of max E[return] s.t. E[cost]
+≤ d, solved by alternating policy and multiplier steps; the budget is a rate because episodes differ in length.
 """
 
 from __future__ import annotations
