@@ -28,7 +28,7 @@ from hev_thermal_env.evaluation.submission import load_result
 from hev_thermal_env.tasks import get_task
 from hev_thermal_env.training import build_config
 from hev_thermal_env.training.config import load_run_config
-from hev_thermal_env.training.evaluator import PolicyEvaluator
+from hev_thermal_env.training.envs import PolicyEvaluator
 from hev_thermal_env.training.lagrangian import LagrangeMultiplier, LagrangianVecEnv, dual_ascent
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -61,7 +61,7 @@ def test_a_policy_dataset_records_the_env_it_drove(short_routes, tmp_path, monke
     env.close()
     assert datasets.replay(data) == (0.0, 0.0)
     # a policy cloned from it is driven in the env its observations came from
-    from hev_thermal_env.training.bc import BCStrategy, train_bc
+    from hev_thermal_env.training.fit import BCStrategy, train_bc
 
     record, _ = train_bc(info["dataset_id"], epochs=1)
     assert BCStrategy(record).env_options() == shipped.env_options()
@@ -102,7 +102,7 @@ def test_dataset_loads_in_a_fresh_process(short_routes, tmp_path):
 def test_behaviour_cloning_fits_a_dataset_and_drives(short_routes, tmp_path, monkeypatch):
     """BC on a tiny dataset of the rule strategy: the fit's error falls well below the actions' variance, and the
     cloned policy, saved and loaded, drives an episode within the action bounds."""
-    from hev_thermal_env.training.bc import BCStrategy, load_bc, save_bc, train_bc
+    from hev_thermal_env.training.fit import BCStrategy, load_bc, save_bc, train_bc
 
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
     datasets.write_dataset("rule", routes=short_routes, scenario="hot", root=tmp_path,

@@ -26,7 +26,7 @@ from hev_thermal_env.evaluation.benchmark import run_benchmark
 from hev_thermal_env.evaluation.executors import ExecutorError, split_address
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.stats import iqm, iqm_ci
-from hev_thermal_env.training.sweep_report import TrialRecord, write_report
+from hev_thermal_env.training.sweep import TrialRecord, write_report
 from hev_thermal_env.training.sweep_trial import check_space, encode_choice, trial_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -402,7 +402,7 @@ def test_configurations_are_numbered_in_the_order_their_trials_were_created():
     configurations by creation (the number that starts a trial's experiment tag), so a resumed sweep keeps c0, c1..."""
     from types import SimpleNamespace
 
-    from hev_thermal_env.training.sweep_report import creation_order
+    from hev_thermal_env.training.sweep import creation_order
 
     listed = [SimpleNamespace(trial_id=i, experiment_tag=tag) for i, tag in
               [("e", "1_batch_size=512"), ("a", "4_x=1"), ("b", "10_x=2"), ("c", "3_x=3"), ("d", "2_x=4"),

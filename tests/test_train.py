@@ -27,9 +27,9 @@ from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR, PPOStrategy
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.training.config import load_run_config
-from hev_thermal_env.training.evaluator import PolicyEvaluator
+from hev_thermal_env.training.envs import PolicyEvaluator
+from hev_thermal_env.training.hyperparams import apply_overrides, parse_overrides
 from hev_thermal_env.training.loop import TrainingRun
-from hev_thermal_env.training.overrides import apply_overrides, parse_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -38,7 +38,7 @@ def main(args: argparse.Namespace) -> int:
     import minari
 
     from hev_thermal_env.evaluation.submission import result_of_seeds
-    from hev_thermal_env.training.bc import BCStrategy, save_bc, train_bc
+    from hev_thermal_env.training.fit import BCStrategy, save_bc, train_bc
 
     meta = minari.load_dataset(args.dataset).storage.metadata
     held = held_out_cycles()

@@ -95,7 +95,7 @@ def main(argv: list[str], prog: str = "train.py sweep", command: str | None = No
 
 
 def report_outcome(report, out: str, prog: str) -> int:
-    """Print the sweep's table (a :class:`~hev_thermal_env.training.sweep_report.SweepReport`) and where its files
+    """Print the sweep's table (a :class:`~hev_thermal_env.training.sweep.SweepReport`) and where its files
     are; returns the exit status."""
     print((Path(out) / "sweep_configs.md").read_text())
     failed = sum(t.status == "error" for t in report.trials)

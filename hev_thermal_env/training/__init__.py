@@ -9,10 +9,9 @@ imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
 
 from hev_thermal_env.agents.policy_files import load_policy
 
-from .callbacks import TrainingInterrupted
 from .config import build_config
 from .export import export_policy
-from .loop import resume, train
-from .overrides import parse_overrides
+from .hyperparams import parse_overrides
+from .loop import TrainingInterrupted, resume, train
 
 __all__ = ["TrainingInterrupted", "build_config", "export_policy", "load_policy", "parse_overrides", "resume", "train"]

@@ -1,4 +1,5 @@
-"""The files of a run directory (docs/training.md lists them): writing models and ``evaluations.csv``.
+"""The files of a run directory (docs/training.md lists them): its creation (:func:`check_new_dir`), models and
+``evaluations.csv``.
 
 Besides ``model.zip``, ``best_model.zip`` (each with its ``*vecnormalize.pkl``), ``config.yaml``,
 ``command.txt``, ``evaluations.csv``, ``validation.csv``, ``training_curve.png`` and ``tb/``, a run holds
@@ -18,7 +19,7 @@ from typing import Any
 
 import torch
 
-from hev_thermal_env.io import atomic_write_bytes, atomic_write_text
+from hev_thermal_env.io import atomic_write_bytes, atomic_write_text, check_writable_dir
 
 EVAL_COLUMNS = ("timesteps", "wall_s", "cycle", "scenario", "return_g", "fuel_corrected_l_per_100km", "delta_soc",
                 "cutoff_s", "trace_miss_max_mps", "fuel_ratio", "mean_return_g", "score", "qualified", "best")
@@ -73,3 +74,18 @@ def write_csv(path: Path, head: Sequence[str], rows: Sequence[Sequence[Any]]) ->
     buf = io.StringIO()
     csv.writer(buf, lineterminator="\n").writerows([head, *rows])
     return atomic_write_text(path, buf.getvalue())
+
+
+def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "config.yaml",
+                  overwrite: bool = False) -> Path:
+    """``out_dir`` can receive a new run (or sweep: ``holds``, with its settings file ``marker``): new or empty
+    (or ``overwrite``), and writable."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"--out {out}: exists and is not a directory")
+    if out.is_dir() and any(out.iterdir()) and not overwrite:
+        if (out / marker).is_file():
+            raise ValueError(f"--out {out} already holds {holds}; continue it with --resume {out} or choose "
+                             f"another directory")
+        raise ValueError(f"--out {out} is not empty; choose an empty or new directory")
+    return check_writable_dir(out)

@@ -1,7 +1,7 @@
 """The config of a training run: one plain dict, saved as ``DIR/config.yaml``.
 
 :func:`build_config` makes it from the hyperparameter file (:mod:`.hyperparams`), the ``--hp``
-overrides (:mod:`.overrides`) and the command-line settings, and :func:`validate_config` checks all of
+overrides and the command-line settings, and :func:`validate_config` checks all of
 it before anything is created (one-line ``ValueError`` s). Sections: ``algo``, ``seed``,
 ``total_timesteps``, ``n_envs``, ``env`` (the training env), ``normalize`` (``VecNormalize``), ``init``
 (:mod:`.imitation`), ``constraint`` (a constrained algorithm's safety-cost budget and multiplier, :mod:`.lagrangian`;
@@ -37,10 +37,9 @@ from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
 from hev_thermal_env.tasks import TRAINING_FAMILIES, get_task, held_out_cycles
 
-from .hyperparams import check_hyperparams, check_known, load_hyperparams
+from .hyperparams import apply_overrides, check_hyperparams, check_known, load_hyperparams
 from .imitation import InitConfig
 from .lagrangian import ConstraintConfig
-from .overrides import apply_overrides
 from .selection import DEFAULT_SCORER, get_scorer
 from .settings import Section, setting
 
@@ -61,10 +60,6 @@ class RunSettings(Section):
     total_timesteps: int = setting(1_000_000, "timesteps to train (n_timesteps in a file)", kind="whole", min=1)
     n_envs: int = setting(1, "training envs stepped together", kind="whole", min=1)
     checkpoint_freq: int = setting(500_000, "timesteps between checkpoints", kind="whole", min=1)
-
-    @classmethod
-    def of(cls, config: dict[str, Any]) -> RunSettings:
-        return cls.from_dict({f.name: config[f.name] for f in dataclasses.fields(cls)})
 
 
 RUN_DEFAULTS = RunSettings()
@@ -152,13 +147,6 @@ EVAL_DEFAULTS = {f.name: f.default_factory() if callable(f.default_factory) else
                  for f in dataclasses.fields(EvalConfig)}
 
 
-def versions() -> dict[str, str]:
-    return {"python": platform.python_version(), "numpy": str(np.__version__), "torch": str(torch.__version__),
-            "stable_baselines3": str(stable_baselines3.__version__), "gymnasium": str(gymnasium.__version__),
-            "hev_thermal_env": hev_thermal_env.__version__, "platform": platform.platform(),
-            "physics_fingerprint": physics_fingerprint()}
-
-
 def whole_number(key: str, value: Any) -> int:
     """``int(value)``, or a one-line ValueError naming ``key`` and ``value``."""
     try:
@@ -169,10 +157,10 @@ def whole_number(key: str, value: Any) -> int:
 
 def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overrides: dict[str, Any] | None = None,
                  cycles: Sequence[str] | None = None, scenario: str | None = None, timesteps: int | None = None,
-                 n_envs: int | None = None, seed: int = 0,
-                 eval_cycles: Sequence[str] | None = None, eval_scenarios: Sequence[str] | None = None,
-                 eval_freq: int | None = None, checkpoint_freq: int | None = None,
-                 command: str | None = None, task: str | None = None) -> dict[str, Any]:
+                 n_envs: int | None = None, seed: int = 0, eval_cycles: Sequence[str] | None = None,
+                 eval_scenarios: Sequence[str] | None = None, eval_freq: int | None = None,
+                 checkpoint_freq: int | None = None, command: str | None = None, task: str | None = None
+                 ) -> dict[str, Any]:
     """The complete config of a run (validated): the hyperparameter file, the ``overrides`` (``--hp``), the
     settings given here (None: not given), then the defaults of what none of them sets. ``task``: a benchmark task
     (:func:`~hev_thermal_env.tasks.get_task`) whose training cycles and scenario the run trains on, instead of
@@ -205,7 +193,11 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
     config = {"algo": algo, "seed": whole_number("seed", seed), "total_timesteps": total, "n_envs": envs, "env": env,
               "normalize": normalize, "init": init, "constraint": constraint, "hyperparams": hp, "eval": ev,
               "checkpoint_freq": ckpt, "task": task_id, "command": command,
-              "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"), "versions": versions()}
+              "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+              "versions": {"python": platform.python_version(), "numpy": str(np.__version__),
+                           "torch": str(torch.__version__), "stable_baselines3": str(stable_baselines3.__version__),
+                           "gymnasium": str(gymnasium.__version__), "hev_thermal_env": hev_thermal_env.__version__,
+                           "platform": platform.platform(), "physics_fingerprint": physics_fingerprint()}}
     validate_config(config)
     return config
 
@@ -222,19 +214,15 @@ def validate_config(config: dict[str, Any]) -> None:
     config["constraint"] = None if constraint is None else constraint.to_dict()
     if config["normalize"] is not False:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
-    RunSettings.of(config)
+    RunSettings(**{f.name: config[f.name] for f in dataclasses.fields(RunSettings)})
     check_hyperparams(config["algo"], config["hyperparams"])
     _check_batch_sizes(config)
-
-
-#: The algorithms built on PPO's rollouts (``n_steps`` per env between updates).
-ON_POLICY = ("ppo", "ppo_lagrangian", "recurrent_ppo")
 
 
 def _check_batch_sizes(config: dict[str, Any]) -> None:
     """The rollout and minibatch sizes SB3 asserts on, as one-line errors before any work."""
     hp, n_envs = config["hyperparams"], config["n_envs"]
-    on_policy = config["algo"] in ON_POLICY
+    on_policy = config["algo"] in ("ppo", "ppo_lagrangian", "recurrent_ppo")  # PPO's rollouts: n_steps per env
     if on_policy and "n_steps" in hp and whole_number("n_steps", hp["n_steps"]) * n_envs < 2:
         raise ValueError(f"n_steps={hp['n_steps']} with n_envs={n_envs}: PPO needs n_steps × n_envs of at least 2")
     least = 2 if on_policy else 1

@@ -1,14 +1,10 @@
-"""``DIR/training_curve.png``: three panels over env-steps.
+"""The figures of training: a run's ``DIR/training_curve.png``, seed families side by side (:func:`family_curves`) and
+a sweep's ``sweep.png`` (:func:`plot_sweep`).
 
-* training: SB3's ``rollout/ep_rew_mean`` (mean raw return of the last 100 episodes, from the run's
-  TensorBoard logs) and the mean episode length (random starts make it vary);
-* evaluation return per cycle and scenario, and their mean;
-* evaluation fuel in % of the selection's reference (:mod:`.selection`) per run, the score (their mean)
-  in black, disqualified evaluations crossed, ``best_model.zip`` starred with the rule in the legend.
-
-A dotted vertical line marks the selected evaluation on every panel.
-
-:func:`family_curves` draws seed families side by side: one panel per family, every seed's validation fuel.
+A run's figure has three panels over env-steps: the training episodes' mean return (SB3's ``rollout/ep_rew_mean``,
+the last 100 episodes, from the run's TensorBoard logs) and length; the evaluation return per cycle and scenario and
+their mean; the evaluation fuel in % of the selection's reference (:mod:`.selection`) per run, the score (their mean)
+in black, disqualified evaluations crossed and ``best_model.zip`` starred. A dotted line marks the selected evaluation.
 """
 
 from __future__ import annotations
@@ -18,7 +14,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib.ticker import EngFormatter, MaxNLocator
 
+from hev_thermal_env.evaluation.score import SOC_BOUND
 from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
 from .artifacts import read_evaluations
@@ -26,6 +24,8 @@ from .config import load_run_config
 from .selection import Scorer, get_scorer, run_key
 
 RETURN_TAG, LENGTH_TAG = "rollout/ep_rew_mean", "rollout/ep_len_mean"
+#: Configurations shown in the right panel of ``sweep.png`` (best first).
+MAX_CONFIGS_SHOWN = 12
 
 
 def read_training_returns(run_dir: str | Path) -> dict[str, np.ndarray]:
@@ -68,8 +68,6 @@ def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]
 def training_curve_figure(run_dir: str | Path):
     """The figure of the run in ``run_dir`` (see the module docstring); returns the matplotlib figure."""
     plt = pyplot()
-    from matplotlib.ticker import EngFormatter
-
     out = Path(run_dir)
     rows = read_evaluations(out / "evaluations.csv")
     training = read_training_returns(out)
@@ -90,7 +88,7 @@ def training_curve_figure(run_dir: str | Path):
         ax.ticklabel_format(axis="y", useOffset=False)
     axes[-1].set_xlabel("env-steps")
     axes[-1].xaxis.set_major_formatter(EngFormatter(sep=""))
-    legend_outside(fig, handles, [h.get_label() for h in handles])
+    legend_outside(fig, handles)
     figure_title(fig, f"{str(cfg['algo']).upper()} seed {cfg['seed']}: training return and evaluation on cycles not "
                  f"trained on", fontsize=11)
     return fig
@@ -172,8 +170,6 @@ def family_curves(families: dict[str, list[tuple[int, str | Path]]], path: str |
     evaluations (|ΔSOC| beyond :data:`~hev_thermal_env.evaluation.score.SOC_BOUND` on a run) crossed and each seed's
     ``best_model.zip`` starred (``evaluations.csv`` of every run); written to ``path``, or None when no run has
     evaluations."""
-    from hev_thermal_env.evaluation.score import SOC_BOUND
-
     curves: dict[str, list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
     for name, seeds in families.items():
         for seed, run_dir in seeds:
@@ -209,4 +205,41 @@ def family_curves(families: dict[str, list[tuple[int, str | Path]]], path: str |
     axes[0][0].set_ylabel("validation fuel, % of ECMS's (mean of 20 runs)")
     fig.suptitle("Learning curves on the selection runs (validation_bus:20..29 × paper, full_bus)\nx: an evaluation "
                  f"with |ΔSOC| > {SOC_BOUND:g} on a run; *: best_model.zip", fontsize=9)
+    return save_fig(fig, path)
+
+
+def plot_sweep(trials: list[Any], configs: list[Any], best: Any, path: Path, metric: str) -> Path:
+    """A sweep's figure (:mod:`.sweep`'s trial records and configuration summaries, best first; ``best``: the best
+    trial or None), a PNG at ``path``. Left: the validation return over env-steps per trial (the best configuration
+    drawn thick, trials stopped early dashed). Right: per configuration, each seed's last ``metric`` (dots), the IQM
+    (bar) and its 95 % bootstrap interval (whiskers)."""
+    plt = pyplot()
+    shown = [c for c in configs if c.iqm is not None][:MAX_CONFIGS_SHOWN]
+    colours = {c.config_id: plt.cm.tab10(i % 10) for i, c in enumerate(shown)}
+    fig, (ax_curve, ax_seeds) = plt.subplots(1, 2, figsize=(12, 4.8), gridspec_kw={"width_ratios": [3, 2]})
+    best_config = best.config_id if best is not None else None
+    for t in trials:
+        if t.curve:
+            ax_curve.plot(*zip(*t.curve), color=colours.get(t.config_id, "0.7"),
+                          lw=2.4 if t.config_id == best_config else 1.0, ls="--" if t.status == "stopped" else "-",
+                          marker="o", ms=3, alpha=0.9)
+    if best is not None and best.curve:
+        ax_curve.plot(*best.curve[-1], marker="*", ms=14, color="k", ls="none", label=f"best trial ({best.trial_id})")
+        ax_curve.legend(loc="lower right", fontsize=8)
+    ax_curve.set(xlabel="env-steps", ylabel="validation return (g, higher is better)",
+                 title="every trial (thick: best configuration, dashed: stopped early)")
+    ax_curve.grid(alpha=0.3)
+    for y, c in enumerate(shown):
+        colour = colours[c.config_id]
+        ax_seeds.scatter(c.scores, [y] * len(c.scores), color=colour, s=22, zorder=3)
+        ax_seeds.plot([c.iqm, c.iqm], [y - 0.3, y + 0.3], color=colour, lw=3)
+        if c.ci_low is not None:
+            ax_seeds.plot([c.ci_low, c.ci_high], [y, y], color=colour, lw=1.2)
+    seeds = [f"{len(c.scores)} seed{'' if len(c.scores) == 1 else 's'}" for c in shown]
+    ax_seeds.set_yticks(range(len(shown)), [f"{c.config_id} ({n})" for c, n in zip(shown, seeds)])
+    ax_seeds.set_ylim(len(shown) - 0.4, -0.6)
+    ax_seeds.xaxis.set_major_locator(MaxNLocator(4))
+    ax_seeds.set(xlabel=f"last {metric} (g)", title="seeds (dots), IQM (bar), 95 % bootstrap CI")
+    ax_seeds.grid(alpha=0.3, axis="x")
+    fig.tight_layout()
     return save_fig(fig, path)

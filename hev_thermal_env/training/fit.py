@@ -1,4 +1,6 @@
-"""What the imitation's fit minimises (:mod:`.imitation`): the policy's mean action against the teacher's.
+"""Fitting a policy to demonstrations: the imitation's fit (:mod:`.imitation`) and behaviour cloning.
+
+The imitation's fit minimises, the policy's mean action against the teacher's:
 
 * The squared error to the teacher's action (:func:`fit_targets`: at 1 + ``init.beyond_bound`` where the teacher sits
   at the upper bound), each state counted by its weight (:func:`fit_weights`: ``1 + init.heat_weight`` where the motor
@@ -9,32 +11,39 @@
   action is charged that curve, interpolated. A squared error counts every state alike; the teacher's cost curve says
   where an error is dear (the motor at its limit, a demand the bus can only just meet) and where it is free (a flat
   curve). The term is in grams per step, ``init.cost_weight`` in 1/g.
+
+Behaviour cloning on an offline dataset is the datasets' usability check (``evaluate.py bc``, which writes its result
+files for the leaderboard): :func:`dataset_pairs` reads a Minari dataset (:mod:`hev_thermal_env.evaluation.datasets`)
+as (observation, action) pairs; :func:`fit_bc` fits a small MLP to them (MSE, Adam, full passes over the shuffled
+pairs, observations standardised by the dataset's mean and spread); :class:`BCStrategy` drives the env with it (the
+action clipped to [-1, 1]) and is scored like any strategy. A policy file (:func:`save_bc`, :func:`load_bc`) holds
+the weights, the standardisation and the dataset's id and physics fingerprint.
 """
 
 from __future__ import annotations
 
+import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
+from hev_thermal_env.agents.base import Strategy
+from hev_thermal_env.envs.reward import observation_options
+
 from ..envs.spaces import observation_names
 
-#: The fit's batch size (the initial fit and the refit).
-BATCH = 1024
-#: The initial fit's Adam learning rate.
-LEARNING_RATE = 1e-3
-
-
-def heat_x(obs: np.ndarray) -> np.ndarray:
-    """The heat-index integrator x (observation ``heat_x``) of raw observations ``obs`` [N, dim]."""
-    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")]
+#: The fit's batch size (the initial fit and the refit) and the initial fit's Adam learning rate.
+BATCH, LEARNING_RATE = 1024, 1e-3
+#: Behaviour cloning's MLP, passes, batch size and Adam learning rate.
+BC_HIDDEN, BC_EPOCHS, BC_BATCH, BC_LEARNING_RATE = (128, 128), 60, 256, 1e-3
 
 
 def near_derating(obs: np.ndarray, above_x: float) -> np.ndarray:
-    """Which states (raw observations) lie near derating: :func:`heat_x` above ``above_x`` (0: the motor derates;
-    −0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
-    return heat_x(obs) > above_x
+    """Which states (raw observations [N, dim]) lie near derating: their heat-index integrator (``heat_x``) above
+    ``above_x`` (0: the motor derates; −0.05: where ``ecms_thermal``'s heat price starts, its ``x_thr``)."""
+    return np.asarray(obs)[:, observation_names(0, 1).index("heat_x")] > above_x
 
 
 def fit_weights(obs: np.ndarray, heat_weight: float, above_x: float) -> np.ndarray | None:
@@ -141,3 +150,94 @@ def mean_cost_excess_g(policy: Any, obs: np.ndarray, curves: np.ndarray) -> floa
             mean = policy.get_distribution(x).distribution.mean[:, 0]
             total += float(cost_excess_g(mean, torch.as_tensor(curves[i:i + BATCH])).sum())
     return total / max(len(obs), 1)
+
+
+def dataset_pairs(dataset: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Observations [N, dim] (those the actions were taken in) and actions [N] of every episode of ``dataset``."""
+    obs, act = [], []
+    for ep in dataset.iterate_episodes():
+        obs.append(np.asarray(ep.observations[:-1], dtype=np.float32))
+        act.append(np.asarray(ep.actions, dtype=np.float32).reshape(-1))
+    return np.concatenate(obs), np.concatenate(act)
+
+
+def _mlp(n_in: int, hidden: tuple[int, ...]) -> torch.nn.Sequential:
+    layers: list[torch.nn.Module] = []
+    for n in hidden:
+        layers += [torch.nn.Linear(n_in, n), torch.nn.Tanh()]
+        n_in = n
+    return torch.nn.Sequential(*layers, torch.nn.Linear(n_in, 1))
+
+
+def fit_bc(obs: np.ndarray, actions: np.ndarray, *, hidden: tuple[int, ...] = BC_HIDDEN, epochs: int = BC_EPOCHS,
+           seed: int = 0) -> tuple[dict[str, Any], list[float]]:
+    """Fit the MLP; returns its policy record (weights and standardisation) and the MSE of every pass."""
+    torch.manual_seed(int(seed))
+    mean, std = obs.mean(axis=0), np.maximum(obs.std(axis=0), 1e-6)
+    x = torch.as_tensor((obs - mean) / std, dtype=torch.float32)
+    y = torch.as_tensor(actions, dtype=torch.float32)
+    net = _mlp(x.shape[1], tuple(hidden))
+    opt = torch.optim.Adam(net.parameters(), lr=BC_LEARNING_RATE)
+    history = adam_passes(opt, len(x), epochs, seed, lambda i: torch.mean((net(x[i])[:, 0] - y[i]) ** 2), BC_BATCH)
+    return {"state_dict": net.state_dict(), "hidden": list(hidden), "obs_mean": mean, "obs_std": std}, history
+
+
+def dataset_env_options(dataset: Any) -> dict[str, Any]:
+    """The env arguments of ``dataset``'s env that shape its observations beyond the task
+    (:func:`~hev_thermal_env.envs.reward.observation_options`: a ``ppo`` source's env carries its policy's)."""
+    spec = dataset.env_spec
+    return observation_options(((spec.kwargs if spec is not None else None) or {}).get("reward"))
+
+
+class BCStrategy(Strategy):
+    """Drives with a behaviour-cloned MLP (a record of :func:`fit_bc` or :func:`load_bc`), in an env built with the
+    options of the dataset it was fitted on (:func:`dataset_env_options`)."""
+
+    name = "bc"
+
+    def __init__(self, record: dict[str, Any], label: str = "bc"):
+        self.record, self.label = record, label
+        self.net = _mlp(len(record["obs_mean"]), tuple(record["hidden"]))
+        self.net.load_state_dict(record["state_dict"])
+        self.net.eval()
+        self.mean, self.std = (np.asarray(record[k], dtype=np.float32) for k in ("obs_mean", "obs_std"))
+
+    def env_options(self) -> dict[str, Any]:
+        return dict(self.record.get("env_options") or {})
+
+    def act(self, obs: np.ndarray, info: dict) -> np.ndarray:
+        x = torch.as_tensor(((np.asarray(obs, dtype=np.float32) - self.mean) / self.std)[None])
+        with torch.no_grad():
+            u = float(self.net(x)[0, 0])
+        return np.array([min(1.0, max(-1.0, u))], dtype=np.float32)
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.label, "hidden": self.record["hidden"], "dataset": self.record.get("dataset")}
+
+
+def save_bc(record: dict[str, Any], path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save({k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in record.items()}, path)
+    return path
+
+
+def load_bc(path: str | Path) -> dict[str, Any]:
+    return torch.load(Path(path), weights_only=False)
+
+
+def train_bc(dataset_id: str, *, epochs: int = BC_EPOCHS, seed: int = 0) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Load ``dataset_id`` and fit a BC policy; returns its record and a report (pairs, MSE, seconds)."""
+    import minari
+
+    t0 = time.perf_counter()
+    dataset = minari.load_dataset(dataset_id)
+    obs, actions = dataset_pairs(dataset)
+    record, history = fit_bc(obs, actions, epochs=epochs, seed=seed)
+    meta = dataset.storage.metadata
+    record.update(dataset=dataset_id, physics_fingerprint=meta.get("hev_thermal_physics_fingerprint"), seed=seed,
+                  env_options=dataset_env_options(dataset))
+    report = {"dataset": dataset_id, "pairs": int(len(actions)), "epochs": int(epochs), "seed": int(seed),
+              "mse_first": round(history[0], 5), "mse_last": round(history[-1], 5),
+              "action_variance": round(float(np.var(actions)), 5), "wall_s": round(time.perf_counter() - t0, 1)}
+    return record, report

@@ -2,14 +2,12 @@
 them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argument of the algorithm's constructor
 (``PPO``, ``SAC``, ``TQC``, ``RecurrentPPO``) the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys
 (also inside ``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
-valid one.
+valid one. ``--hp key=value`` overrides (:func:`parse_overrides`) change a file's values, dotted keys inside mappings.
 
-A file comes in one of two formats (:func:`read_hyperparams_file`): the project's flat mapping (``ppo.yaml``), or
-rl-zoo3's (``sac.yaml``, ``tqc.yaml``, ``recurrent_ppo.yaml``: ``python -m rl_zoo3.train --algo sac --env
-HevThermal-v2 --gym-packages hev_thermal_env --conf-file agents/hyperparams/sac.yaml`` reads them unchanged). An
-rl-zoo3 file has one section per env id; its section for :data:`~hev_thermal_env.tasks.ENV_ID` holds
-``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs`` (``gymnasium.make``'s keyword arguments:
-``cycle``, ``scenario``, ...), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
+A file is the project's flat mapping (``ppo.yaml``) or rl-zoo3's (``sac.yaml``, ``tqc.yaml``, ``recurrent_ppo.yaml``,
+which rl-zoo3 reads unchanged: docs/training.md), read by :func:`read_hyperparams_file`. An rl-zoo3 file's section for
+:data:`~hev_thermal_env.tasks.ENV_ID` holds ``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs``
+(``gymnasium.make``'s keyword arguments), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
 arguments; the settings rl-zoo3 has no place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in a
 section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read.
 """
@@ -18,6 +16,7 @@ from __future__ import annotations
 
 import ast
 import collections.abc
+import copy
 import difflib
 import inspect
 import types
@@ -27,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import torch
+import yaml
 
 from hev_thermal_env.agents import HYPERPARAMS_DIR
 from hev_thermal_env.agents.policy_files import SCHEDULE_KEYS, algorithm_class, schedule
@@ -36,17 +36,13 @@ from hev_thermal_env.tasks import ENV_ID
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
 RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer",
             "constraint")
-
 #: Constructor arguments the training sets itself.
 MANAGED_KEYS = ("self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model")
-
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",
                "silu": "SiLU"}
 
 _KIND_NAMES = {bool: "true or false", int: "an integer", float: "a number", str: "a string", list: "a list",
                tuple: "a list", dict: "a mapping", type(None): "null", collections.abc.Callable: "lin_<number>"}
-
-
 #: The section of an rl-zoo3 hyperparameter file with the settings only ``train.py`` reads.
 PROJECT_SECTION = "hev_thermal_env"
 
@@ -186,3 +182,39 @@ def _admits(kinds: set, value: Any) -> bool:
     if callable(value) and not isinstance(value, type):
         return collections.abc.Callable in kinds
     return type(value) in kinds
+
+
+def parse_value(text: str) -> Any:
+    """A ``--hp`` value, as YAML: ``0.99``, ``[64, 64]``, ``{net_arch: [64, 64]}``, ``lin_3e-4``."""
+    s = text.strip()
+    try:
+        return yaml.safe_load(s) if s else None
+    except yaml.YAMLError as exc:
+        raise ValueError(f"cannot parse {text!r} as YAML ({' '.join(str(exc).split())})") from None
+
+
+def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
+    """``["gamma=0.99", "policy_kwargs.net_arch=[64,64]"]`` -> ``{"gamma": 0.99, "policy_kwargs.net_arch": [64, 64]}``.
+
+    Dotted keys are resolved by :func:`apply_overrides`."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = str(item).partition("=")
+        if not sep or not all(key.strip().split(".")):
+            raise ValueError(f"--hp {item!r}: expected key=value (e.g. gamma=0.99 or policy_kwargs.net_arch=[64,64])")
+        out[key.strip()] = parse_value(value)
+    return out
+
+
+def apply_overrides(hp: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """A deep copy of ``hp`` with dotted-key overrides applied (mappings are merged, not replaced)."""
+    hp = copy.deepcopy(hp)
+    for key, value in overrides.items():
+        *path, last = key.split(".")
+        node = hp
+        for part in path:
+            if not isinstance(node.get(part), dict):
+                node[part] = {}
+            node = node[part]
+        node[last] = {**node[last], **value} if isinstance(value, dict) and isinstance(node.get(last), dict) else value
+    return hp

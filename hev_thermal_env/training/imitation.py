@@ -1,24 +1,13 @@
 """A new PPO run's starting point: the policy imitates a classic strategy (behaviour cloning), then PPO learns.
 
 :func:`imitate`: the teacher (``init.imitate``) drives ``init.episodes`` episodes of the training env
-(:func:`demonstrations`), the ``VecNormalize`` observation statistics start from them, and the policy's
-mean action is fitted to the teacher's (the loss of :mod:`.fit`, Adam, ``init.epochs`` passes), at
-1 + ``init.beyond_bound`` where the teacher sits at the upper bound: actions are clipped, so the deterministic
-policy reaches the bound only if its mean lies beyond it. The value function is not pretrained; ``init.imitate:
-null`` starts from scratch. Why (the engine-off bound a fresh policy never samples): docs/training.md.
-
-With ``init.freeze_obs_stats`` (true: every entry the demonstrations vary; or a list of observation names) the
-statistics of those entries stay the demonstrations' for the whole run (the reward's scaling still adapts), so the
-fitted policy keeps the input it was fitted on. Otherwise they drift towards the states PPO visits, and the fitted
-behaviour moves with them: ``ecms_thermal``'s protection of a motor whose cooling fails is lost that way
-(docs/training.md, "The heat"). With ``init.noise`` > 0 the demonstrations are driven off the teacher's path by that
-much noise on its action and labelled with the teacher's own (:func:`demonstrations`): at PPO's own spread the
-protection survives PPO, at a cost in fuel elsewhere (same section). With ``init.refit_batches`` > 0 the fit goes on
-during PPO (:class:`DemonstrationRefit`): after every rollout a few batches of the demonstrations are fitted again under
-the statistics of that moment, so the fitted behaviour follows the statistics as they drift; with
-``init.dagger_every`` the states the policy itself visits join them, labelled by the teacher (DAgger). What the fit
-minimises (the squared error, weighted near derating with ``init.heat_weight``, plus with ``init.cost_weight`` the
-teacher's own cost of the student's action): :mod:`.fit`.
+(:func:`demonstrations`; with ``init.noise`` off its path, labelled with its own action), the ``VecNormalize``
+observation statistics start from them (``init.freeze_obs_stats``: kept there), and the policy's mean action is fitted
+to the teacher's by the loss of :mod:`.fit` (Adam, ``init.epochs`` passes), at 1 + ``init.beyond_bound`` where the
+teacher sits at the upper bound: actions are clipped, so the deterministic policy reaches the bound only if its mean
+lies beyond it. The value function is not pretrained; ``init.imitate: null`` starts from scratch. With
+``init.refit_batches`` the fit goes on during PPO (:class:`DemonstrationRefit`), with ``init.dagger_every`` on the
+student's states too (DAgger). Why each setting: docs/training.md.
 """
 
 from __future__ import annotations
@@ -56,15 +45,14 @@ from .settings import Section, setting
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
 #: An entry whose variance over the demonstrations is at most this the teacher never moves (``ecms_thermal`` with its
-#: fixed heat-index price never derates: the heat index is 0 throughout); ``init.freeze_obs_stats: true`` leaves its
-#: statistics to PPO's states.
+#: fixed heat-index price never derates); ``init.freeze_obs_stats: true`` leaves its statistics to PPO's states.
 MIN_FROZEN_VAR = 1e-12
 
 
 @dataclasses.dataclass(frozen=True)
 class InitConfig(Section):
-    """The ``init`` section: the imitation start (module docstring); no imitation unless the hyperparameter file asks
-    for it. :meth:`for_run` adds the checks that need the run (its algorithm and observations)."""
+    """The ``init`` section: the imitation start (module docstring); none unless the hyperparameter file asks for it.
+    :meth:`for_run` adds the checks that need the run (its algorithm and observations)."""
 
     NAME: ClassVar[str] = "init"
 
@@ -112,18 +100,16 @@ class InitConfig(Section):
         built with its options (and prices its actions for ``cost_weight``); ``freeze_obs_stats`` may list the
         env's observation ``names`` only."""
         f = self.freeze_obs_stats
-        if isinstance(f, list) and names:
-            unknown = [n for n in f if n not in names]
-            if unknown:
-                raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: "
-                                 f"{', '.join(names)}")
+        unknown = [n for n in f if n not in names] if isinstance(f, list) and names else []
+        if unknown:
+            raise ValueError(f"init.freeze_obs_stats: unknown observation(s) {unknown}; observations: "
+                             f"{', '.join(names)}")
         teacher = self.imitate
         if teacher is None:
             return self
         if algo not in IMITATING_ALGORITHMS:
-            algos = ", ".join(IMITATING_ALGORITHMS)
-            raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only ({algos}; algo {algo}); set "
-                             "it to null")
+            raise ValueError(f"init.imitate={teacher!r}: imitation starts PPO runs only "
+                             f"({', '.join(IMITATING_ALGORITHMS)}; algo {algo}); set it to null")
         teachers = [cls.name for cls in registered() if cls.teacher]
         if not isinstance(teacher, str) or teacher not in teachers:
             raise ValueError(f"init.imitate={teacher!r}: the teacher must be a step-by-step classic strategy, one of "
@@ -138,13 +124,12 @@ class InitConfig(Section):
         return self
 
 
+#: The ``init`` section's keys and defaults.
 INIT_DEFAULTS: dict[str, Any] = InitConfig().to_dict()
-"""The ``init`` section's keys and defaults."""
 
 
 def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[str] = ()) -> dict[str, Any]:
-    """The ``init`` section completed with its defaults (:class:`InitConfig`); one-line errors for unknown keys and
-    bad values. ``names``: the env's observation names, which ``freeze_obs_stats`` may list."""
+    """The ``init`` section completed with its defaults, checked for the run (:meth:`InitConfig.for_run`)."""
     return InitConfig.from_dict(init).for_run(algo, names).to_dict()
 
 
@@ -170,16 +155,6 @@ class FrozenRunningMeanStd(RunningMeanStd):
         self.mean[self.frozen], self.var[self.frozen] = self._mean0, self._var0
 
 
-def frozen_mask(setting: bool | list[str], names: tuple[str, ...], var: np.ndarray) -> np.ndarray | None:
-    """The entries ``init.freeze_obs_stats`` freezes (checked by :func:`check_init`): every entry the demonstrations
-    vary (true; ``var``: their variances), none (false: None) or those named."""
-    if setting is False:
-        return None
-    if setting is True:
-        return np.asarray(var) > MIN_FROZEN_VAR
-    return np.isin(np.asarray(names), setting)
-
-
 def teacher_of(init: dict[str, Any]) -> Strategy:
     """The teacher ``init`` names (``init.imitate``), built with its options (``init.teacher_options``)."""
     return get_strategy(init["imitate"], **(init.get("teacher_options") or {}))
@@ -189,16 +164,15 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes
                    progress: Callable[[int], None] | None = None, noise: float = 0.0,
                    drive: Callable[[np.ndarray], np.ndarray] | None = None, costs: list | None = None
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env; with a list
-    ``costs``, each step's cost curve of the teacher (its ``cost_curve_g``, :mod:`.fit`) is appended to it.
+    """Observations [N, dim] (float32) and the teacher's actions [N] on ``episodes`` episodes of the env, episode
+    ``i`` reset with seed ``seed · 1,000,003 + i`` and driven from its first second; ``teacher``: a strategy's name
+    (its defaults) or a strategy (:func:`teacher_of`). With a list ``costs``, each step's cost curve of the teacher
+    (its ``cost_curve_g``, float32, :mod:`.fit`) is appended to it.
 
-    Episode ``i`` is reset with seed ``seed · 1,000,003 + i`` (a fresh cycle of a training family and
-    fresh conditions of the training scenario) and driven from its first second. With ``noise`` > 0 the env is driven
-    by the teacher's action plus a normal draw of that spread (clipped by the env, drawn from ``seed``), and each
-    state is labelled with the teacher's own action there: the demonstrations then visit the states a policy that
-    explores (PPO: ``log_std_init`` −1, a spread of 0.37) or errs reaches, and show the teacher's way back. With
-    ``drive`` (raw observation → action) another policy drives and the teacher only labels (DAgger). ``teacher``: a
-    strategy's name (its defaults) or a strategy (:func:`teacher_of`).
+    With ``noise`` > 0 the env is driven by the teacher's action plus a normal draw of that spread (drawn from
+    ``seed``): the demonstrations visit the states a policy that explores (PPO: ``log_std_init`` −1, a spread of 0.37)
+    or errs reaches, and show the teacher's way back. With ``drive`` (raw observation → action) another policy drives
+    and the teacher only labels (DAgger).
     """
     env = HevThermalEnv(**{**env_kwargs, "random_start": False})
     strategy = get_strategy(teacher) if isinstance(teacher, str) else teacher
@@ -214,7 +188,9 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes
                 a = np.asarray(strategy.act(obs, info), dtype=np.float64).reshape(1)
                 obs_rows.append(np.array(obs, dtype=np.float32))
                 if costs is not None:
-                    costs.append(teacher_cost_curve(strategy))
+                    if getattr(strategy, "cost_curve_g", None) is None:
+                        raise _unpriced(strategy)
+                    costs.append(np.asarray(strategy.cost_curve_g, dtype=np.float32))
                 actions.append(float(a[0]))
                 if drive is not None:
                     a = np.asarray(drive(obs), dtype=np.float64).reshape(1)
@@ -229,14 +205,6 @@ def demonstrations(env_kwargs: dict[str, Any], teacher: str | Strategy, episodes
     return np.stack(obs_rows), np.asarray(actions, dtype=np.float32)
 
 
-def teacher_cost_curve(strategy: Strategy) -> np.ndarray:
-    """The teacher's cost of every candidate above the cheapest at its last step (float32; ``init.cost_weight``)."""
-    curve = getattr(strategy, "cost_curve_g", None)
-    if curve is None:
-        raise _unpriced(strategy)
-    return np.asarray(curve, dtype=np.float32)
-
-
 def heat_weighting(init: dict[str, Any]) -> tuple[float, float]:
     """``init.heat_weight`` and ``init.heat_weight_above_x`` (their defaults where the section has none)."""
     return (float(init.get("heat_weight", INIT_DEFAULTS["heat_weight"])),
@@ -244,30 +212,31 @@ def heat_weighting(init: dict[str, Any]) -> tuple[float, float]:
 
 
 class DemonstrationRefit(BaseCallback):
-    """``init.refit_batches`` > 0: after every rollout, that many batches of the demonstrations are fitted again (the
-    policy's mean to the teacher's action by the imitation's loss, :mod:`.fit`; Adam at ``init.refit_lr``),
-    normalised with the statistics of that moment. The fit then follows the statistics as they drift towards PPO's
-    states, and PPO's gradient moves the policy away from the teacher only where it gains; with ``init.refit_decay``
-    the refit's rate decays with PPO's learning-rate schedule. With ``init.dagger_every`` (env-steps) the
-    deterministic policy drives ``init.dagger_episodes`` fresh training episodes that often, and the teacher's
-    actions on the states it visits join the demonstrations (DAgger)."""
+    """``init.refit_batches`` > 0: after every rollout, that many batches of the demonstrations are fitted again (by
+    the imitation's loss, :mod:`.fit`; Adam at ``init.refit_lr``, decaying with PPO's schedule with
+    ``init.refit_decay``), normalised with the statistics of that moment, so the fit follows them as they drift. With
+    ``init.dagger_every`` (env-steps) the deterministic policy drives ``init.dagger_episodes`` fresh training episodes
+    that often, and the teacher's actions on the states it visits join the demonstrations (DAgger)."""
 
     def __init__(self, venv: Any, obs: np.ndarray, actions: np.ndarray, *, init: dict[str, Any], env_kwargs: dict,
                  high: float, seed: int, curves: np.ndarray | None = None):
         super().__init__()
-        self.venv, self.obs, self.actions, self.high = venv, obs, actions, float(high)
+        self.venv, self.high, self.env_kwargs = venv, float(high), env_kwargs
         self.cost_weight, self.curves = float(init.get("cost_weight", 0.0)), curves
         self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
-        self.decay = bool(init["refit_decay"])
-        self.beyond_bound, self.teacher, self.env_kwargs = float(init["beyond_bound"]), teacher_of(init), env_kwargs
-        self.heat_weight = heat_weighting(init)
-        self.target = fit_targets(actions, self.high, self.beyond_bound)
-        self.weight = fit_weights(obs, *self.heat_weight)
+        self.decay, self.beyond_bound = bool(init["refit_decay"]), float(init["beyond_bound"])
+        self.teacher, self.heat_weight = teacher_of(init), heat_weighting(init)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
         self.seed, self.rounds = int(seed), 0
         self.rng = np.random.default_rng([int(seed), 11])
         self.opt: torch.optim.Optimizer | None = None
         self.mse: list[float] = []
+        self._set_demonstrations(obs, actions)
+
+    def _set_demonstrations(self, obs: np.ndarray, actions: np.ndarray) -> None:
+        self.obs, self.actions = obs, actions
+        self.target = fit_targets(actions, self.high, self.beyond_bound)
+        self.weight = fit_weights(obs, *self.heat_weight)
 
     def _init_callback(self) -> None:
         # the live model and statistics, normalised and acting as every policy does (the student of DAgger)
@@ -276,27 +245,16 @@ class DemonstrationRefit(BaseCallback):
     def _on_step(self) -> bool:
         return True
 
-    def _normalize(self, obs: np.ndarray) -> np.ndarray:
-        return np.asarray(self.policy.normalize(obs), dtype=np.float32)
-
-    def _student(self, obs: np.ndarray) -> np.ndarray:
-        return self.policy.act(np.asarray(obs)[None])[0]
-
-    def _dagger(self) -> None:
-        self.rounds += 1
-        costs = [] if self.curves is not None else None
-        obs, actions = demonstrations(self.env_kwargs, self.teacher, self.dagger_episodes,
-                                      self.seed + 1_000 * self.rounds, drive=self._student, costs=costs)
-        if costs is not None:
-            self.curves = np.concatenate([self.curves, np.stack(costs)])
-        self.obs = np.concatenate([self.obs, obs])
-        self.actions = np.concatenate([self.actions, actions])
-        self.target = fit_targets(self.actions, self.high, self.beyond_bound)
-        self.weight = fit_weights(self.obs, *self.heat_weight)
-
     def _on_rollout_end(self) -> None:
         if self.dagger_every and self.model.num_timesteps >= self.dagger_every * (self.rounds + 1):
-            self._dagger()
+            self.rounds += 1
+            costs = [] if self.curves is not None else None
+            obs, actions = demonstrations(self.env_kwargs, self.teacher, self.dagger_episodes,
+                                          self.seed + 1_000 * self.rounds,
+                                          drive=lambda o: self.policy.act(np.asarray(o)[None])[0], costs=costs)
+            if costs is not None:
+                self.curves = np.concatenate([self.curves, np.stack(costs)])
+            self._set_demonstrations(np.concatenate([self.obs, obs]), np.concatenate([self.actions, actions]))
         policy = self.model.policy
         if self.opt is None:
             self.opt = torch.optim.Adam(policy.parameters(), lr=self.lr)
@@ -307,7 +265,8 @@ class DemonstrationRefit(BaseCallback):
         total = 0.0
         for _ in range(self.batches):
             idx = self.rng.integers(0, len(self.obs), BATCH)
-            mean = policy.get_distribution(torch.as_tensor(self._normalize(self.obs[idx]))).distribution.mean[:, 0]
+            x = torch.as_tensor(np.asarray(self.policy.normalize(self.obs[idx]), dtype=np.float32))
+            mean = policy.get_distribution(x).distribution.mean[:, 0]
             total += adam_step(self.opt, fit_loss(mean, torch.as_tensor(self.target[idx]),
                                                   None if self.weight is None else self.weight[idx],
                                                   None if self.curves is None else self.curves[idx], self.cost_weight))
@@ -320,20 +279,6 @@ class DemonstrationRefit(BaseCallback):
                 "demonstration_steps": int(len(self.actions))}
 
 
-def _action_high(model: Any) -> float:
-    return float(np.asarray(model.action_space.high).reshape(-1)[0])
-
-
-def _refit(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, obs: np.ndarray,
-           actions: np.ndarray, curves: np.ndarray | None) -> DemonstrationRefit | None:
-    """The run's refit of ``obs``, ``actions`` (and the teacher's cost ``curves``), or None without
-    ``init.refit_batches``."""
-    if int(init.get("refit_batches", 0)) <= 0:
-        return None
-    return DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=_action_high(model), seed=seed,
-                              curves=curves)
-
-
 def _demonstrations(env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
                     progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """The run's first demonstrations (``init.episodes`` of the teacher, ``init.noise``) and, with
@@ -344,6 +289,19 @@ def _demonstrations(env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
     return obs, actions, None if costs is None else np.stack(costs)
 
 
+def _refit(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
+           demos: tuple[np.ndarray, np.ndarray, np.ndarray | None]) -> DemonstrationRefit | None:
+    """The run's refit of its demonstrations ``(obs, actions, curves)``, or None without ``init.refit_batches``."""
+    if int(init.get("refit_batches", 0)) <= 0:
+        return None
+    return DemonstrationRefit(venv, demos[0], demos[1], init=init, env_kwargs=env_kwargs, high=_action_high(model),
+                              seed=seed, curves=demos[2])
+
+
+def _action_high(model: Any) -> float:
+    return float(np.asarray(model.action_space.high).reshape(-1)[0])
+
+
 def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[str, Any],
                   seed: int) -> DemonstrationRefit | None:
     """The refit of a resumed run: its first demonstrations driven again (the same episodes and actions), DAgger
@@ -351,8 +309,7 @@ def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[
     kept in a checkpoint."""
     if int(init.get("refit_batches", 0)) <= 0 or not init.get("imitate"):
         return None
-    obs, actions, curves = _demonstrations(env_kwargs, init, seed)
-    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions, curves)
+    refit = _refit(model, venv, env_kwargs, init, seed, _demonstrations(env_kwargs, init, seed))
     if refit.dagger_every:
         refit.rounds = int(model.num_timesteps) // refit.dagger_every
     return refit
@@ -363,7 +320,6 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
     """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config and
     the :class:`DemonstrationRefit` to run during PPO (None without ``init.refit_batches``)."""
     t0 = time.perf_counter()
-    noise = float(init.get("noise", 0.0))
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
         obs, actions, curves = _demonstrations(env_kwargs, init, seed, bar.update)
     demo_s = time.perf_counter() - t0
@@ -372,10 +328,10 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
         venv.obs_rms.mean = obs.mean(axis=0, dtype=np.float64)
         venv.obs_rms.var = obs.var(axis=0, dtype=np.float64)
         venv.obs_rms.count = float(len(obs))
-        mask = frozen_mask(init.get("freeze_obs_stats", False),
-                           observation_names(int(env_kwargs["preview_s"]), int(env_kwargs["preview_step_s"])),
-                           venv.obs_rms.var)
-        if mask is not None:
+        freeze = init.get("freeze_obs_stats", False)  # every entry the demonstrations vary, or those named
+        if freeze is not False:
+            names = observation_names(int(env_kwargs["preview_s"]), int(env_kwargs["preview_step_s"]))
+            mask = venv.obs_rms.var > MIN_FROZEN_VAR if freeze is True else np.isin(np.asarray(names), freeze)
             venv.obs_rms = FrozenRunningMeanStd(venv.obs_rms, mask)
         x = venv.normalize_obs(obs)
     high = _action_high(model)
@@ -384,9 +340,9 @@ def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, A
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed,
                               weights=fit_weights(obs, heat_weight, above_x), curves=curves,
                               cost_weight=float(init.get("cost_weight", 0.0)))
-    refit = _refit(model, venv, env_kwargs, init, seed, obs, actions, curves)
+    refit = _refit(model, venv, env_kwargs, init, seed, (obs, actions, curves))
     return {"teacher": init["imitate"], "teacher_options": dict(init.get("teacher_options") or {}),
-            "episodes": init["episodes"], "noise": noise, "steps": int(len(actions)),
+            "episodes": init["episodes"], "noise": float(init.get("noise", 0.0)), "steps": int(len(actions)),
             "near_derating_share": round(float(np.mean(near_derating(obs, above_x))), 4),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,

@@ -1,20 +1,15 @@
 """PPO-Lagrangian (``train.py --algo ppo_lagrangian``): PPO on the reward less λ times the safety cost, λ learned.
 
-The env's reward is unchanged; :class:`LagrangianVecEnv`, a VecEnv wrapper under ``VecNormalize``, hands PPO
-``reward − λ · info["cost"]`` (g − g/s · s: the safety cost, in seconds of lost motor capability per step, priced at λ
-grams of fuel per second). After every PPO rollout (``n_steps`` calls of ``step``) λ takes one step of dual ascent on
-the constraint "episode safety cost per hour driven ≤ budget" (:func:`dual_ascent`)::
+:class:`LagrangianVecEnv`, a VecEnv wrapper under ``VecNormalize``, hands PPO ``reward − λ · info["cost"]`` (the safety
+cost, in seconds of lost motor capability per step, priced at λ grams of fuel per second). After every PPO rollout
+(``n_steps`` calls of ``step``) λ takes one step of dual ascent (:func:`dual_ascent`) on the constraint "episode safety
+cost per hour driven ≤ budget"::
 
     λ ← clip(λ + lr · (J − d), 0, λ_max)
 
-with J the safety cost of the episodes that ended since the last update, summed and divided by their hours driven
-(``cost_s_per_h``), and d the budget (``constraint.budget_s_per_h``); no episode ended, no update. λ rises while the
-policy derates more than the budget allows and falls back towards 0 while it stays under it: the Lagrangian
-relaxation of the constrained problem max E[return] s.t. E[cost] ≤ d, solved by alternating policy and multiplier
-steps. The budget is a rate because training episodes differ in length (random starts, generated routes).
-
-The ``constraint`` section of the run config holds the settings (:class:`ConstraintConfig`); the multiplier's
-history is saved with each checkpoint and in ``lagrangian.csv`` of the run directory.
+J: the safety cost of the episodes that ended since the last update over their hours driven (none ended: no update);
+d: ``constraint.budget_s_per_h`` (:class:`ConstraintConfig`). The Lagrangian relaxation of max E[return] s.t. E[cost]
+≤ d, solved by alternating policy and multiplier steps; the budget is a rate because episodes differ in length.
 """
 
 from __future__ import annotations
@@ -102,13 +97,9 @@ class LagrangeMultiplier:
     HISTORY_COLUMNS = ("timesteps", "lambda", "cost_s_per_h", "budget_s_per_h", "episodes")
 
     def __init__(self, budget_s_per_h: float, lambda_lr: float, lambda_init: float = 0.0, lambda_max: float = 50.0):
-        self.budget_s_per_h = float(budget_s_per_h)
-        self.lr = float(lambda_lr)
-        self.lam = float(lambda_init)
+        self.budget_s_per_h, self.lr, self.lam = float(budget_s_per_h), float(lambda_lr), float(lambda_init)
         self.lam_max = float(lambda_max)
-        self.cost_s = 0.0
-        self.hours = 0.0
-        self.episodes = 0
+        self.cost_s, self.hours, self.episodes = 0.0, 0.0, 0
         self.history: list[dict[str, float]] = []
 
     def record_episode(self, cost_s: float, duration_s: float) -> None:
@@ -130,12 +121,6 @@ class LagrangeMultiplier:
         self.cost_s, self.hours, self.episodes = 0.0, 0.0, 0
         return rate
 
-    def state(self) -> dict[str, Any]:
-        return {"lambda": self.lam, "history": list(self.history)}
-
-    def load_state(self, state: dict[str, Any]) -> None:
-        self.lam = float(state["lambda"])
-        self.history = list(state.get("history") or [])
 
 
 class LagrangianVecEnv(VecEnvWrapper):
@@ -145,11 +130,8 @@ class LagrangianVecEnv(VecEnvWrapper):
 
     def __init__(self, venv, multiplier: LagrangeMultiplier, update_every: int, dt_s: float):
         super().__init__(venv)
-        self.multiplier = multiplier
-        self.update_every = int(update_every)
-        self.dt_s = float(dt_s)
-        self.calls = 0
-        self.timesteps = 0
+        self.multiplier, self.update_every, self.dt_s = multiplier, int(update_every), float(dt_s)
+        self.calls = self.timesteps = 0
         self.episode_cost = np.zeros(self.num_envs)
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
 
@@ -182,12 +164,12 @@ def make_lagrangian(venv, config: dict[str, Any], dt_s: float) -> LagrangianVecE
 
 
 def state_path(model_path: Path) -> Path:
-    """Where the multiplier is saved beside a checkpoint or model zip (``NAME_lagrangian.json``)."""
+    """Where the multiplier (λ and its history) is saved beside a checkpoint or model zip (``NAME_lagrangian.json``)."""
     return Path(model_path).with_name(Path(model_path).stem + "_lagrangian.json")
 
 
 def save_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> None:
-    atomic_write_text(state_path(model_path), json.dumps(multiplier.state()))
+    atomic_write_text(state_path(model_path), json.dumps({"lambda": multiplier.lam, "history": multiplier.history}))
 
 
 def load_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> bool:
@@ -195,5 +177,6 @@ def load_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> bool:
     p = state_path(model_path)
     if not p.is_file():
         return False
-    multiplier.load_state(json.loads(p.read_text()))
+    state = json.loads(p.read_text())
+    multiplier.lam, multiplier.history = float(state["lambda"]), list(state.get("history") or [])
     return True

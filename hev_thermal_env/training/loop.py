@@ -1,18 +1,22 @@
 """Training sessions: :func:`train` a new run into a directory, :func:`resume` an interrupted one.
 
-A session builds the environment (:mod:`.envs`) and the model, then learns with one callback
-(:mod:`.callbacks`) that checkpoints, evaluates (:mod:`.evaluator`, best model kept) and stops on
-SIGINT/SIGTERM, writing the files of :mod:`.artifacts`. A new run creates its directory only once
-the config, the environment and the model are built: a run that cannot start leaves nothing behind.
-Checkpoints are atomic, so after a ``kill -9`` the latest one is intact; :func:`resume` continues
-from it (model, statistics, timesteps done; for SAC the replay buffer) up to the original total.
+A session builds the environment (:mod:`.envs`) and the model, then learns with one callback (:class:`RunCallback`)
+that checkpoints, evaluates (best model kept, :mod:`.selection`) and stops on SIGINT/SIGTERM, writing the files of
+:mod:`.artifacts`. A new run creates its directory only once the config, the environment and the model are built: a
+run that cannot start leaves nothing behind. Checkpoints are atomic, so after a ``kill -9`` the latest one is intact;
+:func:`resume` continues from it (model, statistics, timesteps done; for SAC the replay buffer) up to the original
+total. SIGINT or SIGTERM stops training at the next step (the partial rollout is dropped), then a checkpoint is saved
+and :class:`TrainingInterrupted` raised; a second SIGINT stops at once (``KeyboardInterrupt``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import io
+import math
 import os
 import signal
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -21,7 +25,7 @@ from typing import Any
 
 import numpy as np
 import torch
-from stable_baselines3.common.callbacks import CallbackList
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.utils import set_random_seed
 
 from hev_thermal_env.agents.policy_files import (
@@ -34,17 +38,84 @@ from hev_thermal_env.agents.policy_files import (
 )
 from hev_thermal_env.io import atomic_write_bytes, check_writable_dir
 
-from .artifacts import read_evaluations, save_model_and_stats, write_csv, write_evaluations
-from .callbacks import RunCallback, TrainingInterrupted, stop_on_signals
+from .artifacts import check_new_dir, read_evaluations, save_model_and_stats, write_csv, write_evaluations
 from .config import load_run_config, save_run_config, validate_config
 from .curves import plot_training_curve
-from .envs import env_kwargs, make_vec_env, wrap_normalize
-from .evaluator import PolicyEvaluator
+from .envs import PolicyEvaluator, env_kwargs, final_validation, make_vec_env, wrap_normalize
 from .hyperparams import algorithm_class, algorithm_kwargs
 from .imitation import imitate, resumed_refit
 from .lagrangian import LagrangeMultiplier, LagrangianVecEnv, load_multiplier, save_multiplier
 from .selection import compute_references, get_scorer, is_better
-from .validation_report import final_validation
+
+
+class TrainingInterrupted(KeyboardInterrupt):
+    """Training stopped on a signal after saving a checkpoint (``exit_code`` 130 for SIGINT, 143 for SIGTERM).
+
+    A ``KeyboardInterrupt``, like the Ctrl-C it comes from: ``train.py`` reports it in one line."""
+
+    def __init__(self, message: str, exit_code: int):
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+class RunCallback(BaseCallback):
+    """Checkpoints, evaluation with best-model keeping, and stopping on a signal, in one callback of a
+    :class:`TrainingRun`.
+
+    Checkpoints and evaluations happen at the start of a rollout, once ``model.num_timesteps`` has crossed their next
+    multiple of the frequency (in env-steps, so they hold across resumes): then every step counted has been trained
+    on. A stop discards the partial rollout and sets the count back to its start, so a resumed run ends where an
+    uninterrupted one would."""
+
+    def __init__(self, run: TrainingRun):
+        super().__init__()
+        self.run = run
+        self.stop_signal: int | None = None
+        self.rollout_start = 0
+
+    def _init_callback(self) -> None:
+        n, r = int(self.model.num_timesteps), self.run
+        self.rollout_start, self.next_ckpt = n, _next_multiple(n, r.checkpoint_freq)
+        self.next_eval = _next_multiple(n, r.eval_freq) if r.eval_freq else math.inf
+
+    def _on_rollout_start(self) -> None:
+        n = self.rollout_start = int(self.model.num_timesteps)
+        if n >= self.next_eval:
+            self.run.evaluate(self.model, self.logger)
+            self.next_eval = _next_multiple(n, self.run.eval_freq)
+        if n >= self.next_ckpt:
+            self.run.checkpoint(self.model)
+            self.next_ckpt = _next_multiple(n, self.run.checkpoint_freq)
+
+    def _on_step(self) -> bool:
+        if self.stop_signal is not None:
+            self.model.num_timesteps = self.rollout_start
+            return False
+        return True
+
+
+def _next_multiple(n: int, freq: int) -> int:
+    return (int(n) // int(freq) + 1) * int(freq)
+
+
+@contextlib.contextmanager
+def stop_on_signals(callback: RunCallback):
+    """SIGINT/SIGTERM ask ``callback`` to stop training at the next step; a second SIGINT stops at once."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        if callback.stop_signal is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        callback.stop_signal = signum
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
 
 
 class TrainingRun:
@@ -53,18 +124,13 @@ class TrainingRun:
 
     def __init__(self, config: dict[str, Any], out_dir: Path, *, progress: bool = True, verbose: int = 1,
                  log: Callable[[str], None] | None = None):
-        self.config = config
-        self.out = Path(out_dir)
-        self.progress = progress
-        self.verbose = verbose
-        self.log = log or (lambda msg: print(msg, flush=True))
-        self.checkpoint_freq = int(config["checkpoint_freq"])
-        self.eval_freq = int(config["eval"]["freq"])
+        self.config, self.out, self.progress, self.verbose = config, Path(out_dir), progress, verbose
+        self.log = log or _print
+        self.checkpoint_freq, self.eval_freq = int(config["checkpoint_freq"]), int(config["eval"]["freq"])
         self.eval_rows = read_evaluations(self.out / "evaluations.csv")
         self.scorer = get_scorer(config["eval"]["selection"])
         self.best_score = min((r["score"] for r in self.eval_rows if np.isfinite(r["score"])), default=None)
-        self.eval_seconds = 0.0
-        self.session_start = time.perf_counter()
+        self.eval_seconds, self.session_start = 0.0, time.perf_counter()
         self.wall_before = float((config.get("result") or {}).get("wall_s", 0.0))
         self.evaluator = None
         if self.eval_freq and config["eval"]["cycles"]:
@@ -120,9 +186,8 @@ class TrainingRun:
             logger.record("eval/mean_return_g", mean_return)
             logger.record("eval/selection_score", score.value)
             for r in results:
-                tag = f"{r['cycle']}_{r['scenario']}"
                 for key in ("return_g", "fuel_corrected_l_per_100km", "delta_soc", "cutoff_s"):
-                    logger.record(f"eval/{key}_{tag}", r[key])
+                    logger.record(f"eval/{key}_{r['cycle']}_{r['scenario']}", r[key])
         if self.verbose:
             worst = max(abs(r["delta_soc"]) for r in results)
             self.log(f"eval @ {n}: {score.describe(self.scorer.short)}{' (new best)' if best else ''}; "
@@ -263,21 +328,6 @@ class TrainingRun:
         save_run_config(self.out, cfg)
 
 
-def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "config.yaml",
-                  overwrite: bool = False) -> Path:
-    """``out_dir`` can receive a new run (or sweep: ``holds``, with its settings file ``marker``): new or empty
-    (or ``overwrite``), and writable."""
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out}: exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()) and not overwrite:
-        if (out / marker).is_file():
-            raise ValueError(f"--out {out} already holds {holds}; continue it with --resume {out} or choose "
-                             f"another directory")
-        raise ValueError(f"--out {out} is not empty; choose an empty or new directory")
-    return check_writable_dir(out)
-
-
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
           overwrite: bool = False, log: Callable[[str], None] | None = None,
           run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
@@ -301,7 +351,7 @@ def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, comm
     out = Path(run_dir)
     config = load_run_config(out)
     validate_config(config)
-    log = log or (lambda msg: print(msg, flush=True))
+    log = log or _print
     if (config.get("result") or {}).get("finished") and (out / "model.zip").is_file():
         log(f"{out}: already finished ({config['result']['timesteps_done']} timesteps); nothing to do")
         return config["result"]
@@ -314,6 +364,10 @@ def resume(run_dir: str | Path, *, progress: bool = True, verbose: int = 1, comm
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     run.prepare(resume_from=start)
     return run.execute()
+
+
+def _print(msg: str) -> None:
+    print(msg, flush=True)
 
 
 def _append_command(out: Path, command: str | None) -> None:

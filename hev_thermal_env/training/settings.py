@@ -5,8 +5,7 @@ A field is a :func:`setting` (as the vehicle's records use :func:`~hev_thermal_e
 its meaning, its kind (``whole``: an integer of at least ``min``; ``number``: a number in [``min``, ``max``], or
 (``min``, ``max``] with ``min_exclusive``; ``bool``; ``any``: checked by the section's :meth:`Section.validate`).
 Errors are one line naming the section, the field and the value (``init.episodes must be a whole number of at least
-1, got 0``); an unknown key names the closest known one. The run config stores each section as :meth:`Section.to_dict`
-(the fields in their order, the values as given), so ``config.yaml`` reads as before.
+1, got 0``); an unknown key names the closest known one.
 """
 
 from __future__ import annotations
@@ -35,8 +34,9 @@ def setting(default: Any, doc: str, *, kind: str = "any", min: float | None = No
     return dataclasses.field(default=default, metadata=meta)
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+def is_number(value: Any) -> bool:
+    """A finite int or float (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def _problem(f: dataclasses.Field, value: Any) -> str | None:
@@ -48,7 +48,7 @@ def _problem(f: dataclasses.Field, value: Any) -> str | None:
                             or (hi is not None and value > hi)):
         return f"must be a whole number of at least {lo}" if hi is None else f"must be a whole number in [{lo}, {hi}]"
     if kind == "number":
-        low_ok = _is_number(value) and math.isfinite(value) and (
+        low_ok = is_number(value) and (
             value > lo if f.metadata["min_exclusive"] else value >= lo)
         if hi is None and not low_ok:
             return f"must be a number of at least {lo:g}"
@@ -74,10 +74,6 @@ class Section:
 
     def validate(self) -> None:
         """Checks across fields; subclasses raise a one-line ``ValueError`` naming them."""
-
-    def replace(self: S, **changes: Any) -> S:
-        """A copy with some fields changed (validated again)."""
-        return dataclasses.replace(self, **changes)
 
     @classmethod
     def from_dict(cls: type[S], data: dict[str, Any] | None) -> S:

@@ -1,26 +1,16 @@
 """One trial of a sweep: the search space it is drawn from, its config, and the Ray Tune trainable that runs it.
 
-A search space maps ``--hp`` keys (dotted keys included) to a fixed value or one sampler, a one-key
-mapping::
-
-    learning_rate: {loguniform: [1.0e-4, 1.0e-3]}   # log-uniform between the bounds
-    gamma: {uniform: [0.95, 0.99]}                  # uniform between the bounds
-    n_epochs: {int: [3, 10]}                        # whole numbers, both bounds included
-    policy_kwargs.net_arch: {choice: [[64, 64], [128, 128]]}
-    ent_coef: 0.0                                   # fixed
-
-Choices travel through Tune and Optuna as their YAML text (Optuna's categorical values must be scalars).
-
-A trial is a ``train.py`` run in ``<trial dir>/run`` that reports every evaluation to Tune
-(:meth:`TuneTrainingRun.report`) with a snapshot of the run directory as the checkpoint. A snapshot is
-itself a resumable run: a trial restored by Tune copies it back and continues with
-:func:`~hev_thermal_env.training.loop.resume`, so it ends where an uninterrupted trial would.
+A search space maps ``--hp`` keys (dotted keys included) to a fixed value or one sampler, a one-key mapping:
+``{uniform: [low, high]}``, ``{loguniform: [low, high]}``, ``{int: [low, high]}`` (both bounds included) or
+``{choice: [a, b, ...]}`` (examples: ``train.py sweep --help``). Choices travel through Tune and Optuna as their YAML
+text (Optuna's categorical values must be scalars). A trial is a ``train.py`` run in ``<trial dir>/run`` that reports
+every evaluation to Tune with a snapshot of the run directory as the checkpoint: itself a resumable run, which a
+trial restored by Tune copies back and resumes, so it ends where an uninterrupted trial would.
 """
 
 from __future__ import annotations
 
 import difflib
-import math
 import shutil
 import tempfile
 from pathlib import Path
@@ -33,8 +23,9 @@ from hev_thermal_env.agents.policy_files import CHECKPOINTS, checkpoint_paths
 from hev_thermal_env.io import read_yaml_mapping
 
 from .config import build_config
+from .hyperparams import parse_value
 from .loop import TrainingRun, resume, train
-from .overrides import parse_value
+from .settings import is_number
 
 METRIC = "eval_return_g"
 TIME_ATTR = "timesteps"
@@ -44,19 +35,15 @@ RUN_DIR = "run"
 SNAPSHOT_FILES = ("config.yaml", "command.txt", "evaluations.csv", "model.zip", "vecnormalize.pkl", "best_model.zip",
                   "best_vecnormalize.pkl")
 SAMPLERS = ("uniform", "loguniform", "int", "choice")
+_PPO_SPACE = {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
+              "gae_lambda": {"choice": [0.9, 0.95, 0.98]}, "clip_range": {"choice": [0.1, 0.2, 0.3]},
+              "n_epochs": {"int": [3, 10]}}
+_SAC_SPACE = {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
+              "tau": {"loguniform": [1.0e-3, 2.0e-2]}, "batch_size": {"choice": [128, 256, 512]}}
 #: What ``train.py sweep`` searches when no ``--space`` file is given.
-DEFAULT_SPACES: dict[str, dict[str, Any]] = {
-    "ppo": {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
-            "gae_lambda": {"choice": [0.9, 0.95, 0.98]}, "clip_range": {"choice": [0.1, 0.2, 0.3]},
-            "n_epochs": {"int": [3, 10]}},
-    "sac": {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
-            "tau": {"loguniform": [1.0e-3, 2.0e-2]}, "batch_size": {"choice": [128, 256, 512]}},
-}
-DEFAULT_SPACES.update(tqc=DEFAULT_SPACES["sac"], recurrent_ppo=DEFAULT_SPACES["ppo"],
-                      ppo_lagrangian=DEFAULT_SPACES["ppo"])
+DEFAULT_SPACES: dict[str, dict[str, Any]] = {"ppo": _PPO_SPACE, "sac": _SAC_SPACE, "tqc": _SAC_SPACE,
+                                             "recurrent_ppo": _PPO_SPACE, "ppo_lagrangian": _PPO_SPACE}
 
-
-# --- the search space ---------------------------------------------------------------------------------
 
 def sampler_of(value: Any) -> str | None:
     """The sampler name of a space entry, or None for a fixed value."""
@@ -67,15 +54,14 @@ def sampler_of(value: Any) -> str | None:
 
 def load_space(algo: str, path: str | Path | None = None, space: dict[str, Any] | None = None) -> dict[str, Any]:
     """The checked search space: ``space``, the one in the YAML file ``path``, or the default space of ``algo``."""
-    if space is not None:
-        check_space(space)
-        return space
-    if path is None:
+    where = "search space"
+    if space is None and path is not None:
+        space, where = read_yaml_mapping(path), str(path)
+    if space is None:
         if algo not in DEFAULT_SPACES:
             raise ValueError(f"no default search space for {algo!r}; give one with --space FILE")
         return dict(DEFAULT_SPACES[algo])
-    space = read_yaml_mapping(path)
-    check_space(space, where=str(path))
+    check_space(space, where)
     return space
 
 
@@ -89,24 +75,19 @@ def check_space(space: dict[str, Any], where: str = "search space") -> None:
             if close:  # {unifrom: [..]} is a misspelt sampler, not a mapping to fix
                 raise ValueError(f"{where}: {key}: unknown sampler {name!r} (did you mean {close[0]!r}?)")
             continue
-        args = value[kind]
+        args, problem = value[kind], None
         if kind == "choice":
-            if not isinstance(args, list) or not args:
-                raise ValueError(f"{where}: {key}: choice needs a non-empty list, got {args!r}")
-            continue
-        if not (isinstance(args, list) and len(args) == 2 and all(_is_number(a) for a in args)):
-            raise ValueError(f"{where}: {key}: {kind} needs [low, high] numbers, got {args!r}")
-        low, high = (float(a) for a in args)
-        if not low < high:
-            raise ValueError(f"{where}: {key}: {kind} needs low < high, got {args!r}")
-        if kind == "loguniform" and low <= 0:
-            raise ValueError(f"{where}: {key}: loguniform needs positive bounds, got {args!r}")
-        if kind == "int" and not all(float(a).is_integer() for a in args):
-            raise ValueError(f"{where}: {key}: int needs whole-number bounds, got {args!r}")
-
-
-def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(float(x))
+            problem = None if isinstance(args, list) and args else "choice needs a non-empty list"
+        elif not (isinstance(args, list) and len(args) == 2 and all(is_number(a) for a in args)):
+            problem = f"{kind} needs [low, high] numbers"
+        elif not float(args[0]) < float(args[1]):
+            problem = f"{kind} needs low < high"
+        elif kind == "loguniform" and float(args[0]) <= 0:
+            problem = "loguniform needs positive bounds"
+        elif kind == "int" and not all(float(a).is_integer() for a in args):
+            problem = "int needs whole-number bounds"
+        if problem:
+            raise ValueError(f"{where}: {key}: {problem}, got {args!r}")
 
 
 def tunable_keys(space: dict[str, Any]) -> list[str]:
@@ -141,8 +122,6 @@ def trial_overrides(space: dict[str, Any], sampled: dict[str, Any]) -> dict[str,
     fixed = {k: v for k, v in space.items() if sampler_of(v) is None}
     return {**fixed, **{k: cast[sampler_of(space[k])](sampled[k]) for k in tunable_keys(space)}}
 
-
-# --- the trial ----------------------------------------------------------------------------------------
 
 def trial_config(settings: dict[str, Any], sampled: dict[str, Any]) -> dict[str, Any]:
     """The ``train.py`` config of the trial that Tune sampled (``sampled``: hyperparameters and seed index)."""
@@ -184,24 +163,24 @@ class TuneTrainingRun(TrainingRun):
 
     def report(self, results: list[dict[str, Any]], timesteps: int) -> None:
         """``tune.report`` of one evaluation (a result per run) with a snapshot of the run directory at
-        ``timesteps`` (the last one with the final model) as the checkpoint: :data:`METRIC` (the mean return,
-        g, higher is better) at :data:`TIME_ATTR` env-steps and the run's ``selection_score`` (lower is better)."""
+        ``timesteps`` as the checkpoint: :data:`METRIC` (the mean return, g, higher is better) at :data:`TIME_ATTR`
+        env-steps and the run's ``selection_score`` (lower is better)."""
         from ray import tune
 
-        metrics = {METRIC: float(np.mean([r["return_g"] for r in results])),
-                   "fuel_corrected_l_per_100km": float(np.mean([r["fuel_corrected_l_per_100km"] for r in results])),
+        def mean(key):
+            return float(np.mean([r[key] for r in results]))
+
+        metrics = {METRIC: mean("return_g"), "fuel_corrected_l_per_100km": mean("fuel_corrected_l_per_100km"),
                    "delta_soc_max_abs": float(np.max(np.abs([r["delta_soc"] for r in results]))),
                    "cutoff_s": float(np.sum([r["cutoff_s"] for r in results])), TIME_ATTR: int(timesteps),
                    "selection_score": self.eval_rows[-1]["score"], "seed": int(self.config["seed"]),
                    "resumed_from_timesteps": int(self.resume_from[0]) if self.resume_from else 0}
         with tempfile.TemporaryDirectory(prefix="hev_sweep_ckpt_") as tmp:
             (Path(tmp) / CHECKPOINTS).mkdir()
-            for name in SNAPSHOT_FILES:
-                if (self.out / name).is_file():
-                    shutil.copy2(self.out / name, Path(tmp) / name)
-            for p in checkpoint_paths(self.out, timesteps):
+            files = [self.out / name for name in SNAPSHOT_FILES] + list(checkpoint_paths(self.out, timesteps))
+            for p in files:
                 if p.is_file():
-                    shutil.copy2(p, Path(tmp) / CHECKPOINTS / p.name)
+                    shutil.copy2(p, Path(tmp) / p.relative_to(self.out))
             tune.report(metrics, checkpoint=tune.Checkpoint.from_directory(tmp))
 
 
@@ -211,11 +190,11 @@ def sweep_trial(config: dict[str, Any], settings: dict[str, Any]) -> None:
 
     run_dir = Path(tune.get_context().get_trial_dir()) / RUN_DIR
     checkpoint = tune.get_checkpoint()
-    if checkpoint is not None:
-        with checkpoint.as_directory() as snapshot:  # later checkpoints of the interrupted session are dropped
-            shutil.rmtree(run_dir / CHECKPOINTS, ignore_errors=True)
-            shutil.copytree(snapshot, run_dir, dirs_exist_ok=True)
-        resume(run_dir, progress=False, verbose=0, run_class=TuneTrainingRun, log=lambda msg: None)
+    if checkpoint is None:
+        train(trial_config(settings, config), run_dir, progress=False, verbose=0, overwrite=True,
+              run_class=TuneTrainingRun, log=lambda msg: None)
         return
-    train(trial_config(settings, config), run_dir, progress=False, verbose=0, overwrite=True,
-          run_class=TuneTrainingRun, log=lambda msg: None)
+    with checkpoint.as_directory() as snapshot:  # later checkpoints of the interrupted session are dropped
+        shutil.rmtree(run_dir / CHECKPOINTS, ignore_errors=True)
+        shutil.copytree(snapshot, run_dir, dirs_exist_ok=True)
+    resume(run_dir, progress=False, verbose=0, run_class=TuneTrainingRun, log=lambda msg: None)
