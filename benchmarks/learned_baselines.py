@@ -290,11 +290,59 @@ def table(record: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | None:
-    """Every method's seed family side by side (:func:`hev_thermal_env.training.curves.family_curves`), each panel
-    under the method's name in the tables; None when no run has evaluations."""
-    from hev_thermal_env.training.curves import family_curves
+def family_curves(families: dict[str, list[tuple[int, str | Path]]], path: str | Path) -> Path | None:
+    """One panel per seed family (name → its ``(seed, run directory)`` pairs): the validation fuel ÷ ECMS (mean over
+    the evaluation's runs) of every seed against the env-steps, the median over seeds in bold, disqualified
+    evaluations (|ΔSOC| beyond :data:`~hev_thermal_env.evaluation.score.SOC_BOUND` on a run) crossed and each seed's
+    ``best_model.zip`` starred (``evaluations.csv`` of every run); written to ``path``, or None when no run has
+    evaluations."""
+    import numpy as np
 
+    from hev_thermal_env.evaluation.score import SOC_BOUND
+    from hev_thermal_env.evaluation.styles import pyplot, save_fig
+    from hev_thermal_env.training.artifacts import read_evaluations
+
+    curves: dict[str, list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
+    for name, seeds in families.items():
+        for seed, run_dir in seeds:
+            rows = read_evaluations(Path(run_dir) / "evaluations.csv")
+            steps = sorted({r["timesteps"] for r in rows})
+            if not steps:
+                continue
+            at = [[r for r in rows if r["timesteps"] == t] for t in steps]
+            curves.setdefault(name, []).append((
+                seed, np.array(steps, dtype=float), np.array([np.mean([r["fuel_ratio"] for r in g]) for g in at]),
+                np.array([all(r["qualified"] for r in g) for g in at]),
+                np.array([any(r["best"] for r in g) for g in at])))
+    if not curves:
+        return None
+    fig, axes = pyplot().subplots(1, len(curves), figsize=(max(3.6 * len(curves) + 0.6, 6.4), 4.2), sharey=True,
+                                  squeeze=False, layout="constrained")
+    for ax, (name, runs) in zip(axes[0], curves.items()):
+        for seed, x, y, ok, best in runs:
+            line, = ax.plot(x, 100.0 * y, lw=0.9, alpha=0.7, label=f"seed {seed}")
+            ax.plot(x[~ok], 100.0 * y[~ok], "x", color=line.get_color(), ms=5)
+            last_best = np.flatnonzero(best)
+            if last_best.size:
+                i = last_best[-1]
+                ax.plot(x[i], 100.0 * y[i], "*", color=line.get_color(), ms=10, mec="k", mew=0.5)
+        n = min(len(x) for _, x, *_ in runs)
+        median = np.median(np.stack([y[:n] for _, _, y, *_ in runs]), axis=0)
+        ax.plot(runs[0][1][:n], 100.0 * median, color="k", lw=2.0, label="median")
+        ax.axhline(100.0, color="0.5", lw=0.8, ls="--")
+        ax.set_title(name, fontsize=10)
+        ax.set_xlabel("env-steps")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="lower right")
+    axes[0][0].set_ylabel("validation fuel, % of ECMS's (mean of 20 runs)")
+    fig.suptitle("Learning curves on the selection runs (validation_bus:20..29 × paper, full_bus)\nx: an evaluation "
+                 f"with |ΔSOC| > {SOC_BOUND:g} on a run; *: best_model.zip", fontsize=9)
+    return save_fig(fig, path)
+
+
+def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | None:
+    """Every method's seed family side by side (:func:`family_curves`), each panel
+    under the method's name in the tables; None when no run has evaluations."""
     return family_curves({FAMILY_NAMES.get(m, m): [(s["seed"], s["run_dir"]) for s in t["seeds"]]
                           for m, t in methods.items()}, path)
 

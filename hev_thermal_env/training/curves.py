@@ -1,5 +1,4 @@
-"""The figures of training: a run's ``DIR/training_curve.png``, seed families side by side (:func:`family_curves`) and
-a sweep's ``sweep.png`` (:func:`plot_sweep`).
+"""The figures of training: a run's ``DIR/training_curve.png`` and a sweep's ``sweep.png`` (:func:`plot_sweep`).
 
 A run's figure has three panels over env-steps: the training episodes' mean return (SB3's ``rollout/ep_rew_mean``,
 the last 100 episodes, from the run's TensorBoard logs) and length; the evaluation return per cycle and scenario and
@@ -16,7 +15,6 @@ from typing import Any
 import numpy as np
 from matplotlib.ticker import EngFormatter, MaxNLocator
 
-from hev_thermal_env.evaluation.score import SOC_BOUND
 from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
 
 from .artifacts import read_evaluations
@@ -162,50 +160,6 @@ def _selection_panel(ax, rows: list[dict[str, Any]], best: int, scorer: Scorer) 
 def plot_training_curve(run_dir: str | Path) -> Path:
     """Write ``DIR/training_curve.png`` (:func:`training_curve_figure`); returns its path."""
     return save_fig(training_curve_figure(run_dir), Path(run_dir) / "training_curve.png")
-
-
-def family_curves(families: dict[str, list[tuple[int, str | Path]]], path: str | Path) -> Path | None:
-    """One panel per seed family (name → its ``(seed, run directory)`` pairs): the validation fuel ÷ ECMS (mean over
-    the evaluation's runs) of every seed against the env-steps, the median over seeds in bold, disqualified
-    evaluations (|ΔSOC| beyond :data:`~hev_thermal_env.evaluation.score.SOC_BOUND` on a run) crossed and each seed's
-    ``best_model.zip`` starred (``evaluations.csv`` of every run); written to ``path``, or None when no run has
-    evaluations."""
-    curves: dict[str, list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
-    for name, seeds in families.items():
-        for seed, run_dir in seeds:
-            rows = read_evaluations(Path(run_dir) / "evaluations.csv")
-            steps = sorted({r["timesteps"] for r in rows})
-            if not steps:
-                continue
-            at = [[r for r in rows if r["timesteps"] == t] for t in steps]
-            curves.setdefault(name, []).append((
-                seed, np.array(steps, dtype=float), np.array([np.mean([r["fuel_ratio"] for r in g]) for g in at]),
-                np.array([all(r["qualified"] for r in g) for g in at]),
-                np.array([any(r["best"] for r in g) for g in at])))
-    if not curves:
-        return None
-    fig, axes = pyplot().subplots(1, len(curves), figsize=(max(3.6 * len(curves) + 0.6, 6.4), 4.2), sharey=True,
-                                  squeeze=False, layout="constrained")
-    for ax, (name, runs) in zip(axes[0], curves.items()):
-        for seed, x, y, ok, best in runs:
-            line, = ax.plot(x, 100.0 * y, lw=0.9, alpha=0.7, label=f"seed {seed}")
-            ax.plot(x[~ok], 100.0 * y[~ok], "x", color=line.get_color(), ms=5)
-            last_best = np.flatnonzero(best)
-            if last_best.size:
-                i = last_best[-1]
-                ax.plot(x[i], 100.0 * y[i], "*", color=line.get_color(), ms=10, mec="k", mew=0.5)
-        n = min(len(x) for _, x, *_ in runs)
-        median = np.median(np.stack([y[:n] for _, _, y, *_ in runs]), axis=0)
-        ax.plot(runs[0][1][:n], 100.0 * median, color="k", lw=2.0, label="median")
-        ax.axhline(100.0, color="0.5", lw=0.8, ls="--")
-        ax.set_title(name, fontsize=10)
-        ax.set_xlabel("env-steps")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="lower right")
-    axes[0][0].set_ylabel("validation fuel, % of ECMS's (mean of 20 runs)")
-    fig.suptitle("Learning curves on the selection runs (validation_bus:20..29 × paper, full_bus)\nx: an evaluation "
-                 f"with |ΔSOC| > {SOC_BOUND:g} on a run; *: best_model.zip", fontsize=9)
-    return save_fig(fig, path)
 
 
 def plot_sweep(trials: list[Any], configs: list[Any], best: Any, path: Path, metric: str) -> Path:
