@@ -31,8 +31,7 @@ from hev_thermal_env.tasks import Task, get_task, list_tasks
 
 from .executors import LocalExecutor
 from .runner import RunResult, run_strategy
-from .score import ANCHOR, normalised_score
-from .yardstick import REFERENCE, Frontier, frontier_ratio
+from .score import ANCHOR, REFERENCE, Frontier, frontier_ratio, normalised_score
 
 REFERENCE_DIR = Path(__file__).resolve().parent / "references"
 """Where the package keeps the references, one JSON file per task id."""

@@ -1,7 +1,7 @@
 """The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` and ``timings.json``.
 
 One row per cycle × scenario × strategy run (seed-family members with ``family``), then the families' rows
-(:mod:`.families`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
+(:mod:`.benchmark`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
 scenario, what the columns mean and why a ratio is missing. Wall times go to ``timings.json`` only, so the other
 files are the same byte for byte run after run.
 """
@@ -18,10 +18,18 @@ from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.physics import paper_bus
 from hev_thermal_env.stats import CONFIDENCE
 
-from .families import OVERALL
 from .runner import jsonable
-from .score import ANCHOR, ILL_CONDITIONED, ILL_CONDITIONED_BELOW, add_score_columns, score_text, strategy_aggregates
-from .yardstick import BLIND_DP, REFERENCE, display_name
+from .score import (
+    ANCHOR,
+    BLIND_DP,
+    ILL_CONDITIONED,
+    ILL_CONDITIONED_BELOW,
+    REFERENCE,
+    add_score_columns,
+    display_name,
+    score_text,
+    strategy_aggregates,
+)
 
 COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "fuel_g", "fuel_l_per_100km",
            "fuel_corrected_l_per_100km", "cost_g", "overheat_g", "frontier_ratio", "frontier_ratio_ci_low",
@@ -33,6 +41,8 @@ COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "f
            "trace_miss_max_mps", "frontier_note")
 """Columns of ``results.csv`` and ``results.json``, in order."""
 
+OVERALL = "all"
+"""Cycle and scenario of a seed family's row over every cycle × scenario."""
 FUEL_DENSITY_G_PER_L = 1000.0 * paper_bus().engine.fuel_density_kg_per_l
 
 MD_HEAD = ("cycle", "scenario", "strategy", "fuel L/100 km", "corrected L/100 km", "frontier ratio", "score",

@@ -18,7 +18,7 @@ from typing import Any
 from hev_thermal_env.agents import strategy_class
 from hev_thermal_env.io import save_png
 
-from .yardstick import display_name
+from .score import display_name
 
 NON_INTERACTIVE_BACKENDS = ("agg", "pdf", "svg", "ps", "cairo")
 
@@ -69,7 +69,7 @@ def ordered(strategies: Iterable[str], learned: Collection[str] = ()) -> list[st
 
 def short_label(strategy: str, width: int = 24) -> str:
     """The strategy's name, a long model path shortened from the left (``ppo:…/run/model.zip``); ``dp`` marked
-    ``(thermal-blind)`` (:func:`~hev_thermal_env.evaluation.yardstick.display_name`, not counted in ``width``)."""
+    ``(thermal-blind)`` (:func:`~hev_thermal_env.evaluation.score.display_name`, not counted in ``width``)."""
     s = str(strategy)
     suffix = display_name(s)[len(s):]
     if len(s) <= width:
