@@ -81,13 +81,12 @@ class Family:
         return tuple(f"ppo:{p}" for p in self.paths)
 
 
-def _is_run(path: Path) -> bool:
+def _is_run(path: Path) -> bool:  # a train.py run
     return path.is_file() or any((path / name).exists() for name in RUN_FILES)
 
 
 def parse_family(text: str, taken: Iterable[str] = ()) -> Family:
-    """The family of a ``NAME=PATH[,PATH...]`` option value (``taken``: the strategies' names). Raises ``ValueError``
-    (bad form, bad or taken name, repeated path, fewer than :data:`MIN_SEEDS` runs) or ``FileNotFoundError``."""
+    """The family of a ``NAME=PATH[,PATH...]`` option value (``taken``: the strategies' names)."""
     name, sep, spec = str(text).partition("=")
     name = name.strip()
     if not sep or not name or not spec.strip():
@@ -117,8 +116,7 @@ def parse_family(text: str, taken: Iterable[str] = ()) -> Family:
 
 
 def tag_members(rows: list[dict], families: Sequence[Family], strategies: Iterable[str] = ()) -> None:
-    """Set ``family`` on every run row: the family's name for its members, None for the others (and for a
-    member that is also one of ``strategies``, shown on its own)."""
+    """Set ``family`` on every run row: its family's name, None for others and members among ``strategies``."""
     alone = set(strategies)
     owner = {label: f.name for f in families for label in f.members if label not in alone}
     for r in rows:
@@ -126,8 +124,7 @@ def tag_members(rows: list[dict], families: Sequence[Family], strategies: Iterab
 
 
 def family_rows(rows: Sequence[dict], families: Sequence[Family]) -> list[dict]:
-    """The family rows: one per family and cycle × scenario of ``rows`` (in their order), then one per family
-    over every cycle × scenario (``cycle`` = ``scenario`` = :data:`OVERALL`)."""
+    """The family rows: per family, one per cycle × scenario of ``rows`` and one over all (:data:`OVERALL`)."""
     out: list[dict] = []
     tasks = list(dict.fromkeys((r["cycle"], r["scenario"]) for r in rows))
     for fam in families:
@@ -154,13 +151,11 @@ def _summary_row(fam: Family, cycle: str, scenario: str, groups: list[list[dict]
     for key in ("fuel_corrected_l_per_100km", "cost_g"):
         values = [m[key] for m in members if m.get(key) is not None]
         row[key] = iqm(values) if values else None
-    row["charge_sustaining"] = all(bool(m.get("charge_sustaining")) for m in members)
-    row["charge_sustaining_runs"] = sum(bool(m.get("charge_sustaining")) for m in members)
-    row["runs"] = len(members)
+    held = [bool(m.get("charge_sustaining")) for m in members]
     missing = sum(m.get("frontier_ratio") is None for m in members)
-    row["frontier_note"] = (f"{missing} of {len(members)} runs without a frontier ratio (left out)" if missing
-                            else None)
-    return row
+    return row | {"charge_sustaining": all(held), "charge_sustaining_runs": sum(held), "runs": len(members),
+                  "frontier_note": f"{missing} of {len(members)} runs without a frontier ratio (left out)" if missing
+                  else None}
 
 
 def representative(rows: Sequence[dict], fam: Family, cycle: str, scenario: str) -> str | None:
@@ -187,8 +182,7 @@ def _run_one(task: tuple[str, str, str, dict, int]) -> tuple[dict, dict]:
 
 def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None,
              families: list[Family] | None = None) -> dict[str, Any]:
-    """Fail before any work on unknown names, strategies that cannot be built, a family named like a strategy or
-    another family, or an unusable output directory; returns the cycles by the names given."""
+    """Fail before any work on bad names, strategies or output directory; returns the cycles by the names given."""
     loaded = {c: load_cycle(c) for c in cycles}
     for s in scenarios:
         get_scenario(s)
@@ -216,11 +210,9 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
                   address: str | None = None, families: list[Family] | None = None,
                   physics: int = LATEST_PHYSICS) -> list[dict]:
     """Run every combination on physics version ``physics``, write the result files and plots, return the rows (runs,
-    then families).
-
-    ``dp_thermal`` is added to ``strategies`` if missing (``results.md`` says so). ``families``: seed families
-    (:func:`~.families.parse_family`), each member run as ``ppo:PATH``. ``executor``: ``local`` (``jobs``
-    processes) or ``ray`` (a local runtime of ``jobs`` CPUs, or the cluster at ``address``)."""
+    then families). ``dp_thermal`` is added to ``strategies`` if missing; ``families``: seed families
+    (:func:`parse_family`); ``executor``: ``local`` (``jobs`` processes) or ``ray`` (a local runtime of ``jobs`` CPUs,
+    or the cluster at ``address``)."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
     fams = list(families or [])
@@ -247,8 +239,7 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
 
 def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, tuple[str, int]]
                ) -> list[tuple[dict, dict]]:
-    """``_run_one`` of every task (on ``executor``, see :mod:`.executors`), results in the order of ``tasks``;
-    ``cycles``: (name, steps) of each cycle, for the progress bar."""
+    """``_run_one`` of every task on ``executor``, in the order of ``tasks``; ``cycles``: (name, steps) of each."""
     costs = [expected_cost_s(st, cycles[c][1]) for c, _, st, *_ in tasks]
     order = sorted(range(len(tasks)), key=lambda i: (-costs[i], i))  # slow runs first: the workers stay busy
     labels = [f"{cycles[c][0]}/{sc}/{st}" for c, sc, st, *_ in tasks]
@@ -262,8 +253,7 @@ def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, t
 
 
 def _plotted_traces(traces: dict, rows: list[dict], strategies: list[str], families: list[Family]) -> dict:
-    """The traces the figures show: every strategy's run, and per family its member nearest the family's IQM
-    (labelled ``NAME: seed nearest IQM``); not every member's."""
+    """The traces the figures show: every strategy's run, and per family its member nearest the family's IQM."""
     shown = {k: v for k, v in traces.items() if k[2] in strategies}
     for f in families:
         for cyc, sc in dict.fromkeys((k[0], k[1]) for k in traces):
@@ -282,33 +272,26 @@ def expected_cost_s(strategy: str, n_steps: int) -> float:
 class BenchmarkProgress:
     """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers: a
     finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
-    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (the workers take them
-    first in, first out) with their elapsed time. :meth:`finished` when a run ends; :meth:`show` redraws, as a thread
-    of the bar does every :data:`REFRESH_S` seconds within a ``with`` block."""
+    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (first in, first out).
+    :meth:`finished` when a run ends; a thread redraws it every :data:`REFRESH_S` seconds within a ``with`` block."""
 
     def __init__(self, labels: Sequence[str], costs: Sequence[float], order: Sequence[int], slots: int,
                  enabled: bool = True):
-        self.labels, self.costs = list(labels), [float(c) for c in costs]
-        self.waiting = list(order)
-        self.slots = max(1, int(slots))
-        self.started: dict[int, float] = {}
-        self.done_cost = 0.0
+        self.labels, self.costs, self.waiting = list(labels), [float(c) for c in costs], list(order)
+        self.slots, self.started, self.done_cost = max(1, int(slots)), {}, 0.0
         self.bar = tqdm(total=sum(self.costs), desc="benchmark", disable=not enabled, smoothing=0,
                         bar_format=BAR_FORMAT)
-        self.lock = threading.Lock()
-        self.closing = threading.Event()
-        self.refresher: threading.Thread | None = None
+        self.lock, self.closing = threading.Lock(), threading.Event()
+        self.refresher = threading.Thread(target=self._refresh, name="benchmark-progress", daemon=True)
 
     def __enter__(self) -> BenchmarkProgress:
         self.show()
-        self.refresher = threading.Thread(target=self._refresh, name="benchmark-progress", daemon=True)
         self.refresher.start()
         return self
 
     def __exit__(self, *exc) -> None:
         self.closing.set()
-        if self.refresher is not None:
-            self.refresher.join()
+        self.refresher.join()
         self.bar.close()
 
     def _refresh(self) -> None:
