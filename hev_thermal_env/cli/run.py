@@ -12,14 +12,7 @@ from typing import Any
 
 from hev_thermal_env.agents import get_strategy, list_strategies
 from hev_thermal_env.cycles import expand_cycle_names, list_cycles, load_cycle
-from hev_thermal_env.evaluation.benchmark import (
-    DEFAULT_CYCLES,
-    DEFAULT_SCENARIOS,
-    DEFAULT_STRATEGIES,
-    MIN_SEEDS,
-    parse_family,
-    run_benchmark,
-)
+from hev_thermal_env.evaluation import benchmark as bench
 from hev_thermal_env.evaluation.executors import EXECUTORS
 from hev_thermal_env.evaluation.plots import FUEL_CHART_FILE, plot_run
 from hev_thermal_env.evaluation.runner import run_strategy
@@ -182,18 +175,18 @@ def benchmark_arguments(p) -> None:
     p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
                    help=f"built-in cycles ({', '.join(list_cycles())}), generated ones (FAMILY:SEED, "
                         f"validation_bus:K), sets (validation_bus, validation_bus:A..B) or CSV paths "
-                        f"(default: {' '.join(DEFAULT_CYCLES)})")
+                        f"(default: {' '.join(bench.DEFAULT_CYCLES)})")
     p.add_argument("--task", default=None, metavar="NAME",
                    help=f"a benchmark task ({', '.join(list_tasks())}; a name alone is its newest version): its "
                         "cycles and scenario, instead of --cycles and --scenarios; its record goes to task.json")
-    p.add_argument("--strategies", nargs="+", default=list(DEFAULT_STRATEGIES), metavar="STRATEGY",
+    p.add_argument("--strategies", nargs="+", default=list(bench.DEFAULT_STRATEGIES), metavar="STRATEGY",
                    help=f"{strategies_help()}; {REFERENCE}, the reference of the ratios, is added if missing")
     p.add_argument("--family", action="append", default=[], metavar="NAME=PATH,PATH,...",
-                   help=f"a seed family: at least {MIN_SEEDS} trained runs (what ppo:PATH loads) of one training "
+                   help=f"a seed family: at least {bench.MIN_SEEDS} trained runs (what ppo:PATH loads) of one training "
                         "setup, or one directory holding such runs; reported as the interquartile mean over the "
                         "seeds with a 95 %% bootstrap interval (repeat for several families)")
     p.add_argument("--scenarios", nargs="+", default=None, metavar="SCENARIO",
-                   help=f"scenarios ({', '.join(list_scenarios())}) (default: {' '.join(DEFAULT_SCENARIOS)})")
+                   help=f"scenarios ({', '.join(list_scenarios())}) (default: {' '.join(bench.DEFAULT_SCENARIOS)})")
     p.add_argument("--out", default="results", metavar="DIR", help="output directory")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help=f"parallel processes, or CPUs of the local Ray runtime (default: the number of cores, "
@@ -211,10 +204,11 @@ def benchmark(args) -> int:
         raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
     families, taken = [], set(list_strategies()) | set(args.strategies)
     for text in args.family:
-        families.append(parse_family(text, taken))
+        families.append(bench.parse_family(text, taken))
         taken.add(families[-1].name)
     if args.task is None:  # --task: its cycles and scenario
-        task, cycles, scenarios = None, args.cycles or list(DEFAULT_CYCLES), args.scenarios or list(DEFAULT_SCENARIOS)
+        task, cycles = None, args.cycles or list(bench.DEFAULT_CYCLES)
+        scenarios = args.scenarios or list(bench.DEFAULT_SCENARIOS)
     elif args.cycles is not None or args.scenarios is not None:
         raise ValueError(f"--task {args.task} sets the cycles and the scenario; drop --cycles and --scenarios")
     else:
@@ -224,7 +218,7 @@ def benchmark(args) -> int:
                              f"task's episodes (seeds {list(task.seeds)}, start {task.start_s} s) need its own runner")
         cycles, scenarios = list(task.cycles), [task.scenario]
     out, t0 = Path(args.out), time.perf_counter()
-    rows = run_benchmark(out, expand_cycle_names(cycles), args.strategies, scenarios, jobs=args.jobs,
+    rows = bench.run_benchmark(out, expand_cycle_names(cycles), args.strategies, scenarios, jobs=args.jobs,
                          plots=not args.no_plots, executor=args.executor, address=args.address, families=families,
                          **({} if task is None else {"physics": task.physics}))
     if task is not None:

@@ -8,25 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hev_thermal_env.evaluation import leaderboard as board
+from hev_thermal_env.evaluation import references as refs
 from hev_thermal_env.evaluation.datasets import SOURCES, training_routes, write_dataset
-from hev_thermal_env.evaluation.leaderboard import (
-    METHODS,
-    PROFILE_FILE,
-    ensure_results,
-    missing_text,
-    score_files,
-    write_leaderboard,
-)
-from hev_thermal_env.evaluation.references import (
-    BUDGET_RULE,
-    REFERENCE_DIR,
-    StaleReferenceError,
-    compute_reference,
-    load_reference,
-    references_table,
-    save_reference,
-    write_references_table,
-)
 from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.tasks import TRAINING_FAMILIES, get_task, held_out_cycles, list_tasks
 
@@ -55,7 +39,8 @@ LEADERBOARD_EXAMPLES = (
 
 def reference_arguments(p) -> None:
     p.add_argument("--task", nargs="+", metavar="NAME", help=f"tasks ({', '.join(list_tasks())})")
-    p.add_argument("--dir", default=None, metavar="DIR", help=f"where references are kept (default: {REFERENCE_DIR})")
+    p.add_argument("--dir", default=None, metavar="DIR",
+                   help=f"where references are kept (default: {refs.REFERENCE_DIR})")
     p.add_argument("--check", action="store_true", help="only check the stored references (exit 1 if one is stale)")
     p.add_argument("--jobs", type=int, default=1, metavar="N",
                    help="episodes solved at once, each in its own process on one thread (default 1)")
@@ -67,11 +52,11 @@ def reference_arguments(p) -> None:
 def reference(args) -> int:
     directory = Path(args.dir) if args.dir else None
     if args.table is not None:
-        table = references_table(args.task, directory)
+        table = refs.references_table(args.task, directory)
         if args.table == "-":
             print(table, end="")
         else:
-            write_references_table(Path(args.table), table)
+            refs.write_references_table(Path(args.table), table)
             print(f"wrote the references table to {args.table}")
         return 0
     if not args.task:
@@ -83,15 +68,15 @@ def reference(args) -> int:
         stale = 0
         for task in tasks:
             try:
-                ref = load_reference(task, directory)
+                ref = refs.load_reference(task, directory)
                 print(f"{task.id}: current (budget {ref['safety_budget_s']:g} s, {len(ref['episodes'])} episodes)")
-            except (FileNotFoundError, StaleReferenceError) as exc:
+            except (FileNotFoundError, refs.StaleReferenceError) as exc:
                 stale += 1
                 print(f"{task.id}: {exc}")
         return 1 if stale else 0
     for task in tasks:
-        record = compute_reference(task, progress=print, jobs=args.jobs)
-        path = save_reference(record, directory)
+        record = refs.compute_reference(task, progress=print, jobs=args.jobs)
+        path = refs.save_reference(record, directory)
         print(f"{task.id}: safety budget {record['safety_budget_s']:g} s; wrote {path} ({record['wall_s']:.0f} s)")
     return 0
 
@@ -171,31 +156,31 @@ def bc(args) -> int:
 def leaderboard_arguments(p) -> None:
     p.add_argument("--tasks", nargs="+", default=None, metavar="NAME",
                    help="tasks (default: every task with a current reference)")
-    p.add_argument("--methods", nargs="+", default=list(METHODS), metavar="STRATEGY",
-                   help=f"this package's methods to run (default: {' '.join(METHODS)})")
+    p.add_argument("--methods", nargs="+", default=list(board.METHODS), metavar="STRATEGY",
+                   help=f"this package's methods to run (default: {' '.join(board.METHODS)})")
     p.add_argument("--results", nargs="+", default=[], metavar="PATH",
                    help="more result files (or directories of them), e.g. of a method written elsewhere")
     p.add_argument("--results-dir", default="results/leaderboard", metavar="DIR",
                    help="where the package's methods' result files are kept")
     p.add_argument("--references", default=None, metavar="DIR", help="references directory (default: the package's)")
     p.add_argument("--out", default="docs/leaderboard.md", metavar="FILE", help="the page")
-    p.add_argument("--no-plot", action="store_true", help=f"skip {PROFILE_FILE}")
+    p.add_argument("--no-plot", action="store_true", help=f"skip {board.PROFILE_FILE}")
 
 
 def leaderboard(args) -> int:
-    refs = Path(args.references) if args.references else None
+    stored = Path(args.references) if args.references else None
     ready, missing = [], []
     for t in [get_task(t).id for t in (args.tasks or list_tasks())]:
         try:
-            load_reference(t, refs)
+            refs.load_reference(t, stored)
             ready.append(t)
-        except (FileNotFoundError, StaleReferenceError) as exc:
+        except (FileNotFoundError, refs.StaleReferenceError) as exc:
             if args.tasks:
                 raise
-            missing.append(missing_text(t, exc))
-    paths = ensure_results(Path(args.results_dir), ready, args.methods, progress=print, references=refs)
-    entries, more_missing = score_files([*paths, *args.results], refs)
-    out = write_leaderboard(entries, [*missing, *more_missing], Path(args.out), plot=not args.no_plot)
+            missing.append(board.missing_text(t, exc))
+    paths = board.ensure_results(Path(args.results_dir), ready, args.methods, progress=print, references=stored)
+    entries, more_missing = board.score_files([*paths, *args.results], stored)
+    out = board.write_leaderboard(entries, [*missing, *more_missing], Path(args.out), plot=not args.no_plot)
     print(f"{len(entries)} results on {len({e['task'] for e in entries})} tasks; wrote {out}")
     for m in missing + more_missing:
         print(f"left out: {m}")
@@ -206,7 +191,7 @@ COMMANDS = {
     "reference": ("a task's reference values: r0, the optimum's cost, the safety budget",
                   "Run the thermal optimum and engine_only on every episode of a named task and store their costs, "
                   "final SOCs, safety costs and the optimum's frontier with the physics fingerprint and the task's "
-                  f"digest; safety budget: {BUDGET_RULE}.", REFERENCE_EXAMPLES, reference_arguments, reference),
+                  f"digest; safety budget: {refs.BUDGET_RULE}.", REFERENCE_EXAMPLES, reference_arguments, reference),
     "dataset": ("a Minari dataset of a strategy's episodes (offline RL)",
                 "Drive a task's episodes (or generated training routes) with a source strategy through Minari's "
                 "DataCollector and write the dataset, its card filled (physics fingerprint, task id and digest or "
@@ -218,5 +203,5 @@ COMMANDS = {
     "leaderboard": ("every method on every task: normalised score, safety cost, profile plot",
                     "Run this package's methods on every task that has current references (their result files are "
                     "kept in --results-dir and reused), add the result files of --results, and write the page --out "
-                    f"with {PROFILE_FILE} beside it.", LEADERBOARD_EXAMPLES, leaderboard_arguments, leaderboard),
+                    f"with {board.PROFILE_FILE} beside it.", LEADERBOARD_EXAMPLES, leaderboard_arguments, leaderboard),
 }

@@ -102,11 +102,6 @@ def overheat_g(r: dict) -> float | None:
     return max(0.0, float(r["cost_g"]) - float(r["fuel_g"]) - miss_g)
 
 
-def _share_cell(r: dict) -> str:
-    heat = r.get("overheat_g")
-    return "-" if heat is None or not r.get("cost_g") else f"{100.0 * heat / r['cost_g']:.0f} %"
-
-
 def _score_cell(r: dict) -> str:
     text = score_text(r.get("score"), r.get("score_ci_low"), r.get("score_ci_high"))
     return f"{text} (ill-cond.)" if (r.get("score_note") or "").startswith(ILL_CONDITIONED) else text
@@ -134,11 +129,11 @@ def _j1711_cell(r: dict) -> str:
 
 
 def _run_line(r: dict) -> list[str]:
-    pct = r.get("fuel_vs_thermal_blind_dp_pct")
+    pct, heat = r.get("fuel_vs_thermal_blind_dp_pct"), r.get("overheat_g")
     return [r["cycle"], r["scenario"], display_name(r["strategy"]), f"{r['fuel_l_per_100km']:.2f}",
             f"{r['fuel_corrected_l_per_100km']:.2f}", ratio_text(r, "frontier_ratio"), _score_cell(r),
-            _share_cell(r), ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-",
-            _j1711_cell(r),
+            "-" if heat is None or not r.get("cost_g") else f"{100.0 * heat / r['cost_g']:.0f} %",
+            ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
             f"{r['soc_initial']:.3f} → {r['soc_final']:.3f}", f"{r['max_motor_temp_c']:.1f}",
             f"{r['heat_index_max']:.2f}", f"{r['derated_s']:.0f}", f"{r['cutoff_s']:.0f}",
             f"{r['safety_cost_s']:.0f}" if r.get("safety_cost_s") is not None else "-",

@@ -91,8 +91,7 @@ class Frontier:
 
 
 def frontier_sample(soc_final, cost_g, max_points: int = 200) -> dict[str, Any]:
-    """Every k-th breakpoint of a frontier (and the last), at most about ``max_points``: for records and plots,
-    where thousands of breakpoints would only bloat a file. Ratios are taken against the full frontier."""
+    """Every k-th breakpoint of a frontier (and the last), at most about ``max_points``, for records and plots."""
     soc, cost = np.asarray(soc_final, dtype=float), np.asarray(cost_g, dtype=float)
     every = max(1, int(np.ceil(soc.size / max_points)))
     idx = np.unique(np.r_[np.arange(0, soc.size, every), soc.size - 1]) if soc.size else np.arange(0)
@@ -116,14 +115,11 @@ def frontier_ratio(cost_g: float, soc_final: float, frontier: Frontier | None) -
 def with_reference(strategies: Iterable[str]) -> tuple[list[str], bool]:
     """``strategies`` with :data:`REFERENCE` added (last) if missing; and whether it was added."""
     names = list(dict.fromkeys(strategies))
-    if REFERENCE in names:
-        return names, False
-    return names + [REFERENCE], True
+    return (names, False) if REFERENCE in names else (names + [REFERENCE], True)
 
 
 def display_name(strategy: str) -> str:
-    """The name tables and figures show: with its class's ``label_suffix`` (``dp`` and ``dp:LABEL`` marked
-    thermal-blind)."""
+    """The name tables and figures show: with its class's ``label_suffix`` (``dp`` marked thermal-blind)."""
     cls = strategy_class(strategy)
     return str(strategy) + (cls.label_suffix if cls is not None else "")
 
@@ -141,8 +137,8 @@ def reference_text(ref_row: Mapping[str, Any] | None, frontier: Frontier | None)
 
 
 def add_yardstick_columns(rows: list[dict]) -> None:
-    """Fill ``frontier_ratio``, ``frontier_note``, ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and
-    ``reference`` of every run row, from the ``dp_thermal`` and ``dp`` rows of its cycle and scenario."""
+    """Fill the yardstick's columns (module docstring) of every run row from the ``dp_thermal`` and ``dp`` rows of
+    its cycle and scenario."""
     refs = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == REFERENCE}
     blind = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == BLIND_DP}
     frontiers: dict[tuple[str, str], tuple[Frontier | None, str | None]] = {}
