@@ -48,7 +48,7 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import ImplausibleCycleWarning
 from hev_thermal_env.cycles.families import VALIDATION_SEED_BASE
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.evaluation.yardstick import Frontier, frontier_sample
+from hev_thermal_env.evaluation.score import Frontier, frontier_sample
 from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.tasks import TEST_FAMILIES
 

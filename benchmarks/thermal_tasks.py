@@ -151,7 +151,7 @@ def run_candidate(candidate: tuple, physics: int, quick: bool, threads: int | No
     warnings.filterwarnings("ignore", category=DeprecationWarning)
     from hev_thermal_env.agents import get_strategy
     from hev_thermal_env.evaluation import run_strategy
-    from hev_thermal_env.evaluation.yardstick import Frontier, frontier_ratio
+    from hev_thermal_env.evaluation.score import Frontier, frontier_ratio
 
     name, cycle, scenario, changes = candidate
     cond = conditions_of(changes)

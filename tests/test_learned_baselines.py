@@ -22,7 +22,7 @@ from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import HYPERPARAMS_DIR, list_strategies
 from hev_thermal_env.agents.policy_files import ALGORITHMS, load_policy
 from hev_thermal_env.agents.ppo import PPOStrategy
-from hev_thermal_env.evaluation.families import parse_family
+from hev_thermal_env.evaluation.benchmark import parse_family
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.submission import load_result
 from hev_thermal_env.tasks import get_task

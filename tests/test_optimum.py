@@ -11,7 +11,7 @@ from hev_thermal_env import Conditions, PhysicsCore, cycle_from_arrays, load_cyc
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.envs.reward import RewardParams, stage_cost_g
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.evaluation.yardstick import Frontier
+from hev_thermal_env.evaluation.score import Frontier
 from hev_thermal_env.physics.core import (
     BATT_CHEM,
     COOLANT_C,

@@ -7,8 +7,14 @@ import numpy as np
 import pytest
 import yaml
 
-from hev_thermal_env.evaluation.fuel_chart import FUEL_CHART_FILE, fuel_figure, plot_fuel_chart
-from hev_thermal_env.evaluation.plots import SPLIT_INFO_KEY, plot_benchmark, run_figure
+from hev_thermal_env.evaluation.plots import (
+    FUEL_CHART_FILE,
+    SPLIT_INFO_KEY,
+    fuel_figure,
+    plot_benchmark,
+    plot_fuel_chart,
+    run_figure,
+)
 from hev_thermal_env.evaluation.styles import close, is_learned, ordered
 from hev_thermal_env.training.curves import training_curve_figure
 

@@ -16,11 +16,11 @@ from hev_thermal_env.evaluation.score import (
     ILL_CONDITIONED,
     OPTIMUM_RATIO_TOLERANCE,
     add_score_columns,
+    add_yardstick_columns,
     aggregate,
     normalised_score,
     score_tolerance,
 )
-from hev_thermal_env.evaluation.yardstick import add_yardstick_columns
 from hev_thermal_env.tasks import Task, get_task
 
 CLASSIC = ("rule", "ecms", "aecms", "ecms_thermal", "dp")

@@ -53,8 +53,8 @@ def test_each_strategy_carries_its_facts_and_the_package_reads_them():
     from hev_thermal_env.agents.base import Strategy
     from hev_thermal_env.evaluation.benchmark import DEFAULT_STRATEGIES
     from hev_thermal_env.evaluation.leaderboard import METHODS, label
+    from hev_thermal_env.evaluation.score import display_name
     from hev_thermal_env.evaluation.styles import ordered, strategy_styles
-    from hev_thermal_env.evaluation.yardstick import display_name
 
     assert DEFAULT_STRATEGIES == (*ALL, "ppo")
     assert METHODS == (*ALL[1:], "ppo")  # conventional drives another bus

@@ -236,7 +236,7 @@ def test_the_thermal_task_measures_thermal_management():
     from hev_thermal_env.agents import get_strategy
     from hev_thermal_env.evaluation import run_strategy
     from hev_thermal_env.evaluation.references import load_reference
-    from hev_thermal_env.evaluation.yardstick import Frontier, frontier_ratio
+    from hev_thermal_env.evaluation.score import Frontier, frontier_ratio
 
     task = get_task("udds-weak-loop-v2")
     episode = load_reference(task)["episodes"][0]

@@ -18,8 +18,8 @@ from hev_thermal_env.cli.evaluate import main as evaluate_main
 from hev_thermal_env.cycles import cycle_from_arrays
 from hev_thermal_env.envs.reward import RewardParams
 from hev_thermal_env.evaluation import run_strategy
-from hev_thermal_env.evaluation.families import OVERALL, Family, family_rows, parse_family, tag_members
-from hev_thermal_env.evaluation.yardstick import Frontier, add_yardstick_columns, frontier_ratio, with_reference
+from hev_thermal_env.evaluation.benchmark import OVERALL, Family, family_rows, parse_family, tag_members
+from hev_thermal_env.evaluation.score import Frontier, add_yardstick_columns, frontier_ratio, with_reference
 from hev_thermal_env.metrics import J1711_TOLERANCE, charge_sustaining, summarize, yardstick_cost_g
 from hev_thermal_env.physics import Conditions, core, paper_bus
 from hev_thermal_env.stats import iqm, iqm_ci, stratified_iqm_ci
@@ -269,7 +269,7 @@ def test_benchmark_with_a_family_writes_the_new_columns(reference_frontier, tiny
 
 
 def test_below_the_first_point_the_frontier_is_the_cheapest_path_with_at_least_that_charge():
-    from hev_thermal_env.evaluation.yardstick import Frontier
+    from hev_thermal_env.evaluation.score import Frontier
 
     f = Frontier.from_settings({"frontier": {"soc_final": [0.64, 0.65, 0.66], "cost_g": [100.0, 110.0, 125.0],
                                              "soc_min": 0.60, "grid": "g"}})

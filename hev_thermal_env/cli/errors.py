@@ -29,8 +29,7 @@ REDELIVER_S = 0.05
 
 
 def program_name(argv: list[str] | None, default: str) -> str:
-    """The name the program was called by (``evaluate.py``, ``hev-evaluate``...); ``default`` when ``main``
-    is given its arguments (called in-process)."""
+    """The name the program was called by; ``default`` when ``main`` is given its arguments (called in-process)."""
     return Path(sys.argv[0]).name if argv is None and sys.argv and sys.argv[0] else default
 
 
@@ -50,9 +49,8 @@ def report(exc: BaseException, prog: str | None = None) -> int:
 
 def run_program(body: Callable[[], int | None], prog: str | None = None,
                 errors: tuple[type[BaseException], ...] = USER_ERRORS) -> int:
-    """``body()`` with the one-line reports of the module docstring (``PROG: `` before errors and warnings
-    with ``prog``); returns the exit status. A ``KeyboardInterrupt`` carrying a message (what was saved)
-    prints it after ``interrupted:``, and its ``exit_code`` if it has one."""
+    """``body()`` with the one-line reports of the module docstring (``PROG: `` before them with ``prog``); returns
+    the exit status. A ``KeyboardInterrupt`` carrying a message (what was saved) prints it after ``interrupted:``."""
     def show(message, category, filename, lineno, file=None, line=None):
         print(f"{f'{prog}: ' if prog else ''}warning: {' '.join(str(message).split())}", file=file or sys.stderr)
 
@@ -68,19 +66,15 @@ def run_program(body: Callable[[], int | None], prog: str | None = None,
 
 
 class KeptInterrupts:
-    """Within the block, a Ctrl-C is never lost, nor does it cut LLVM's bookkeeping short (in the main thread, where
-    SIGINT raises ``KeyboardInterrupt``).
+    """Within the block (in the main thread), a Ctrl-C is never lost, nor does it cut LLVM's bookkeeping short.
 
-    Python raises the ``KeyboardInterrupt`` of a Ctrl-C at the next bytecode of the main thread, wherever that is.
-    Inside a function called from C (a ctypes callback, a finalizer ``__del__``) the exception cannot propagate:
-    Python prints it as "Exception ignored" and goes on, and the program never learns of the Ctrl-C. numba's
-    compiler drives llvmlite, whose JIT calls back into Python for every function compiled (to record the machine
-    code numba caches: cut short, numba's cache write fails later) and whose wrappers note who owns an LLVM object
-    right after the C call that hands it over (cut short in between, the object is freed twice: the interpreter
-    crashes as it exits). So a Ctrl-C that arrives while the main thread runs code of
-    :data:`UNINTERRUPTIBLE_PACKAGES` is put off and delivered again every :data:`REDELIVER_S` seconds until it is
-    outside, and one dropped in any other call from C (reported to ``sys.unraisablehook``) is delivered again the
-    same way, without the report. One still put off when the block ends raises there.
+    Inside a function called from C (a ctypes callback, a finalizer) a ``KeyboardInterrupt`` cannot propagate: Python
+    prints "Exception ignored" and the program never learns of the Ctrl-C. numba's compiler drives llvmlite, whose
+    JIT calls back into Python for every function compiled (cut short, numba's cache write fails later) and whose
+    wrappers note who owns an LLVM object right after the C call that hands it over (cut short in between, the object
+    is freed twice and the interpreter crashes as it exits). So a Ctrl-C that arrives in code of
+    :data:`UNINTERRUPTIBLE_PACKAGES`, or is dropped in any other call from C (``sys.unraisablehook``), is delivered
+    again every :data:`REDELIVER_S` seconds until it lands outside; one still put off when the block ends raises there.
     """
 
     def __enter__(self) -> KeptInterrupts:
@@ -104,7 +98,7 @@ class KeptInterrupts:
                 raise KeyboardInterrupt
 
     def interrupt(self, signum: int, frame) -> None:
-        """The SIGINT handler: ``KeyboardInterrupt``, unless ``frame`` or a frame below it runs code of
+        """The SIGINT handler: ``KeyboardInterrupt``, unless a frame of the stack runs code of
         :data:`UNINTERRUPTIBLE_PACKAGES`."""
         folders = tuple(os.path.dirname(module.__file__) + os.sep for module in map(sys.modules.get,
                         UNINTERRUPTIBLE_PACKAGES) if module is not None and module.__file__)
@@ -116,16 +110,14 @@ class KeptInterrupts:
         self.put_off = False
         raise KeyboardInterrupt
 
-    def unraisable(self, info) -> None:
-        """``sys.unraisablehook``: a dropped ``KeyboardInterrupt`` is delivered again, anything else reported."""
+    def unraisable(self, info) -> None:  # sys.unraisablehook
         if isinstance(info.exc_value, KeyboardInterrupt):
             self.deliver_again()
         else:
             self.previous_hook(info)
 
     def deliver_again(self) -> None:
-        """Simulate a Ctrl-C in the main thread :data:`REDELIVER_S` from now (from another thread, so that the
-        handler does not run again before the main thread has moved on)."""
+        """A Ctrl-C in the main thread :data:`REDELIVER_S` from now (from another thread, once it has moved on)."""
         self.put_off = True
         self.timer = threading.Timer(REDELIVER_S, _thread.interrupt_main)
         self.timer.daemon = True

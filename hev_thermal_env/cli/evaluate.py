@@ -1,6 +1,6 @@
 """Evaluate energy-management strategies on the hybrid bus.
 
-The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job and module:
+The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job:
 ``benchmark`` (strategies × cycles × scenarios or a named task, table + plots), ``run`` (one strategy on one cycle),
 ``paper`` (the paper reproduction report), ``performance`` (the paper's Table 3), ``reference`` (a task's reference
 values), ``dataset`` (an offline dataset), ``bc`` (behaviour cloning on one) and ``leaderboard`` (every method on
@@ -13,13 +13,14 @@ import argparse
 import importlib
 import sys
 
-from .errors import program_name, run_program
+from .errors import program_name, report, run_program
 from .parsing import HelpFormatter, OneLineErrorParser, examples
 
-#: The subcommands, each a module of this package with ``HELP``, ``DESCRIPTION``, ``EXAMPLES``,
-#: ``add_arguments(parser)`` and ``main(args) -> int``, imported by :func:`build_parser` (so that a Ctrl-C while they
-#: load is reported in one line).
-SUBCOMMANDS = ("benchmark", "run", "paper", "performance", "reference", "dataset", "bc", "leaderboard")
+#: The subcommands and the module of this package that holds each (in its ``COMMANDS[name]``: help, description,
+#: examples, ``add_arguments(parser)``, ``main(args) -> int``), imported by :func:`build_parser` (so that a Ctrl-C
+#: while they load is reported in one line).
+SUBCOMMANDS = {"benchmark": "run", "run": "run", "paper": "paper", "performance": "paper", "reference": "tasks",
+               "dataset": "tasks", "bc": "tasks", "leaderboard": "tasks"}
 
 EXAMPLES = (
     "python evaluate.py benchmark --out results                  # shipped PPO + classic strategies",
@@ -38,19 +39,24 @@ def build_parser(prog: str = "evaluate.py") -> argparse.ArgumentParser:
                                 epilog=epilog)
     sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND")  # subparsers: OneLineErrorParser too
     sub.required = True
-    for name in SUBCOMMANDS:
-        module = importlib.import_module(f"{__package__}.{name}")
-        p = sub.add_parser(name, help=module.HELP, description=module.DESCRIPTION, formatter_class=HelpFormatter,
-                           epilog=examples(module.EXAMPLES))
-        module.add_arguments(p)
-        p.set_defaults(main=module.main)
+    for name, module in SUBCOMMANDS.items():
+        text, description, lines, add, main = importlib.import_module(f"{__package__}.{module}").COMMANDS[name]
+        p = sub.add_parser(name, help=text, description=description, formatter_class=HelpFormatter,
+                           epilog=examples(lines))
+        add(p)
+        p.set_defaults(main=main)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     def body() -> int:
         args = build_parser(program_name(argv, "evaluate.py")).parse_args(argv)
-        return args.main(args)
+        from hev_thermal_env.evaluation.executors import ExecutorError
+
+        try:
+            return args.main(args)
+        except ExecutorError as exc:  # Ray missing, a cluster unreachable: one line too
+            return report(exc)
 
     return run_program(body)
 

@@ -22,8 +22,8 @@ class OneLineErrorParser(argparse.ArgumentParser):
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """``(default: VALUE)`` after options with a value default (not None, [] or False) whose help does not
-    already say it; descriptions and epilogs wrapped by paragraph, except those with indented lines (examples)."""
+    """``(default: VALUE)`` after options with a value default whose help does not say it; descriptions and epilogs
+    wrapped by paragraph, except those with indented lines (examples)."""
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
@@ -56,8 +56,7 @@ SESSION_FLAGS = ("resume", "no_progress", "quiet", "address", "cpus", "export")
 
 
 def refuse_settings_with_resume(args: argparse.Namespace, settings_file: str) -> None:
-    """``--resume DIR`` takes every setting from ``DIR/settings_file``: a one-line error naming the setting
-    options given beside it (every option not in :data:`SESSION_FLAGS`)."""
+    """``--resume DIR`` takes every setting from ``DIR/settings_file``: an error naming the setting options given."""
     given = [f"--{k.replace('_', '-')}" for k, v in vars(args).items() if v is not None and k not in SESSION_FLAGS]
     if given:
         raise ValueError(f"--resume takes every setting from {args.resume}/{settings_file}; drop {' '.join(given)}")
@@ -88,8 +87,7 @@ def per_algo(defaults: dict[str, dict[str, Any]], key: str) -> str:
 
 
 def add_run_options(p: argparse.ArgumentParser) -> dict[str, dict[str, Any]]:
-    """The options of a run's training and evaluation (a sweep's trials take them too); returns
-    :func:`file_defaults`."""
+    """The options of a run's training and evaluation (a sweep's trials too); returns :func:`file_defaults`."""
     d = file_defaults()
     p.add_argument("--algo", default=None, help=f"algorithm: {' or '.join(d)} (default: ppo)")
     p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",

@@ -1,27 +1,43 @@
-"""``evaluate.py run``: one strategy on one cycle; a printed summary, JSON, a per-second trace CSV and a plot."""
+"""``evaluate.py run`` (one strategy on one cycle: a printed summary, JSON, a per-second trace CSV and a plot) and
+``evaluate.py benchmark`` (strategies × cycles × scenarios, or a named task's cycles and scenario: a table and plots,
+the main job)."""
 
 from __future__ import annotations
 
-import argparse
 import json
+import os
+import time
+from pathlib import Path
 from typing import Any
 
 from hev_thermal_env.agents import get_strategy, list_strategies
-from hev_thermal_env.cycles import list_cycles, load_cycle
-from hev_thermal_env.evaluation.plots import plot_run
+from hev_thermal_env.cycles import expand_cycle_names, list_cycles, load_cycle
+from hev_thermal_env.evaluation import benchmark as bench
+from hev_thermal_env.evaluation.executors import EXECUTORS
+from hev_thermal_env.evaluation.plots import FUEL_CHART_FILE, plot_run
 from hev_thermal_env.evaluation.runner import run_strategy
+from hev_thermal_env.evaluation.score import REFERENCE
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_output_path
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
+from hev_thermal_env.tasks import get_task, list_tasks
 
 DP_STRATEGIES = ("dp", "dp_thermal")
-
-
-EXAMPLES = (
+RUN_EXAMPLES = (
     "python evaluate.py run --cycle hwfet --strategy ecms",
     "python evaluate.py run --cycle beijing --strategy ppo:runs/ppo --json r.json --trace r.csv --plot r.png",
     "python evaluate.py run --cycle udds --strategy dp --dp-soc-points 801 --dp-actions 81",
     "python evaluate.py run --cycle my_route.csv --strategy rule --scenario hot",
     "python evaluate.py run --cycle hwfet --strategy aecms --option kp=10",
+)
+BENCHMARK_EXAMPLES = (
+    "python evaluate.py benchmark --out results                       # the README's table",
+    "python evaluate.py benchmark --cycles hwfet beijing --scenarios paper hot --out results_hot",
+    "python evaluate.py benchmark --task udds-hot --strategies engine_only rule ecms_thermal --out results_udds_hot",
+    "python evaluate.py benchmark --strategies rule dp ppo ppo:runs/ppo --cycles udds --jobs 2 --out cmp",
+    "python evaluate.py benchmark --strategies rule --family ppo5=runs/s0,runs/s1,runs/s2,runs/s3,runs/s4 --out fam",
+    "python evaluate.py benchmark --family ppo_hot=runs/hot_seeds --out fam   # every train.py run in the folder",
+    "python evaluate.py benchmark --executor ray --out results_ray        # one Ray task per run",
+    "python evaluate.py benchmark --executor ray --address HEAD:6379 --out results   # on a Ray cluster",
 )
 
 
@@ -31,13 +47,7 @@ def strategies_help() -> str:
     return f"{', '.join(names)}, ppo (the shipped policy) or ppo:PATH (a train.py run directory or model zip)"
 
 
-HELP = "one strategy on one cycle: summary, JSON, trace CSV, plot"
-DESCRIPTION = ("Drive one cycle with one energy-management strategy in HevThermal-v1 and "
-               "report fuel, corrected fuel, SOC, motor temperature, heat index, derating "
-               "and cutoff time.")
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
+def run_arguments(p) -> None:
     p.add_argument("--cycle", required=True, metavar="NAME",
                    help=f"built-in cycle ({', '.join(list_cycles())}), a generated one (FAMILY:SEED, e.g. "
                         f"bus_long:7, or validation_bus:K) or a CSV path (time_s,speed_mps[,grade])")
@@ -61,7 +71,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "lists the strategy's options")
 
 
-def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
+def strategy_options(args) -> dict[str, Any]:
     """The strategy's keyword options from the command line (checked)."""
     options: dict[str, Any] = {}
     for item in args.option:
@@ -72,9 +82,9 @@ def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
             options[key.strip()] = json.loads(value)
         except json.JSONDecodeError:
             options[key.strip()] = value
-    dp_flags = {"n_soc": args.dp_soc_points, "n_u": args.dp_actions, "on_infeasible": args.dp_on_infeasible,
-                "grid_scale": args.dp_grid_scale}
-    given = {k: v for k, v in dp_flags.items() if v is not None}
+    given = {k: v for k, v in (("n_soc", args.dp_soc_points), ("n_u", args.dp_actions),
+                               ("on_infeasible", args.dp_on_infeasible), ("grid_scale", args.dp_grid_scale))
+             if v is not None}
     base = args.strategy.partition(":")[0]
     if given and base not in DP_STRATEGIES:
         raise ValueError(f"--dp-soc-points/--dp-actions/--dp-grid-scale/--dp-on-infeasible apply to "
@@ -88,13 +98,12 @@ def strategy_options(args: argparse.Namespace) -> dict[str, Any]:
     for key, flag in (("n_soc", "--dp-soc-points"), ("n_u", "--dp-actions")):
         if key in given and given[key] < 2:
             raise ValueError(f"{flag} must be at least 2, got {given[key]}")
-    options.update(given)
-    return options
+    return options | given
 
 
-def format_summary(summary: dict[str, Any]) -> str:
-    """A readable block of the run's metrics."""
-    s, ratio = summary, summary["net_energy_ratio"]
+def format_summary(s: dict[str, Any]) -> str:
+    """A readable block of a run's metrics (its summary)."""
+    ratio = s["net_energy_ratio"]
     rows = [
         ("distance", f"{s['distance_km']:.3f}", "km"),
         ("fuel", f"{s['fuel_g']:.1f}", "g"),
@@ -133,7 +142,7 @@ def _short(v: Any) -> str:
     return str(v)
 
 
-def main(args: argparse.Namespace) -> int:
+def run(args) -> int:
     # validate everything before the (possibly long) run
     if args.seed < 0:
         raise ValueError(f"--seed must be 0 or more, got {args.seed}")
@@ -145,9 +154,9 @@ def main(args: argparse.Namespace) -> int:
             check_output_path(path)
     if args.plot and not str(args.plot).lower().endswith(".png"):
         raise ValueError(f"--plot {args.plot!r}: expected a .png path")
-
     result = run_strategy(strategy, cycle, scenario, seed=args.seed)
-    print(format_summary(result.summary))
+    s = result.summary
+    print(format_summary(s))
     if args.json:
         atomic_write_json(args.json, result.to_json_dict())
         print(f"wrote {args.json}")
@@ -155,9 +164,82 @@ def main(args: argparse.Namespace) -> int:
         atomic_write_text(args.trace, result.trace_csv())
         print(f"wrote {args.trace}")
     if args.plot:
-        s = result.summary
         title = (f"{s['strategy']} on {s['cycle']} ({s['scenario']}): corrected fuel "
                  f"{s['fuel_corrected_l_per_100km']:.2f} L/100 km, SOC {s['soc_initial']:.3f} -> {s['soc_final']:.3f}")
         plot_run({s["strategy"]: result.trace}, args.plot, title=title)
         print(f"wrote {args.plot}")
     return 0
+
+
+def benchmark_arguments(p) -> None:
+    p.add_argument("--cycles", nargs="+", default=None, metavar="CYCLE",
+                   help=f"built-in cycles ({', '.join(list_cycles())}), generated ones (FAMILY:SEED, "
+                        f"validation_bus:K), sets (validation_bus, validation_bus:A..B) or CSV paths "
+                        f"(default: {' '.join(bench.DEFAULT_CYCLES)})")
+    p.add_argument("--task", default=None, metavar="NAME",
+                   help=f"a benchmark task ({', '.join(list_tasks())}; a name alone is its newest version): its "
+                        "cycles and scenario, instead of --cycles and --scenarios; its record goes to task.json")
+    p.add_argument("--strategies", nargs="+", default=list(bench.DEFAULT_STRATEGIES), metavar="STRATEGY",
+                   help=f"{strategies_help()}; {REFERENCE}, the reference of the ratios, is added if missing")
+    p.add_argument("--family", action="append", default=[], metavar="NAME=PATH,PATH,...",
+                   help=f"a seed family: at least {bench.MIN_SEEDS} trained runs (what ppo:PATH loads) of one training "
+                        "setup, or one directory holding such runs; reported as the interquartile mean over the "
+                        "seeds with a 95 %% bootstrap interval (repeat for several families)")
+    p.add_argument("--scenarios", nargs="+", default=None, metavar="SCENARIO",
+                   help=f"scenarios ({', '.join(list_scenarios())}) (default: {' '.join(bench.DEFAULT_SCENARIOS)})")
+    p.add_argument("--out", default="results", metavar="DIR", help="output directory")
+    p.add_argument("--jobs", type=int, default=None, metavar="N",
+                   help=f"parallel processes, or CPUs of the local Ray runtime (default: the number of cores, "
+                        f"{os.cpu_count() or 1} here)")
+    p.add_argument("--executor", choices=EXECUTORS, default="local",
+                   help="local: this machine's processes; ray: one Ray task per run (needs the ray extra)")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="with --executor ray: join the Ray cluster at HOST:PORT (started with 'ray start --head') "
+                        "instead of starting a local runtime")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+
+
+def benchmark(args) -> int:
+    if args.jobs is not None and args.jobs < 1:
+        raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
+    families, taken = [], set(list_strategies()) | set(args.strategies)
+    for text in args.family:
+        families.append(bench.parse_family(text, taken))
+        taken.add(families[-1].name)
+    if args.task is None:  # --task: its cycles and scenario
+        task, cycles = None, args.cycles or list(bench.DEFAULT_CYCLES)
+        scenarios = args.scenarios or list(bench.DEFAULT_SCENARIOS)
+    elif args.cycles is not None or args.scenarios is not None:
+        raise ValueError(f"--task {args.task} sets the cycles and the scenario; drop --cycles and --scenarios")
+    else:
+        task = get_task(args.task)
+        if task.seeds != (0,) or task.start_s != 0:
+            raise ValueError(f"--task {task.id}: the benchmark runs each cycle once from second 0 with seed 0; this "
+                             f"task's episodes (seeds {list(task.seeds)}, start {task.start_s} s) need its own runner")
+        cycles, scenarios = list(task.cycles), [task.scenario]
+    out, t0 = Path(args.out), time.perf_counter()
+    rows = bench.run_benchmark(out, expand_cycle_names(cycles), args.strategies, scenarios, jobs=args.jobs,
+                         plots=not args.no_plots, executor=args.executor, address=args.address, families=families,
+                         **({} if task is None else {"physics": task.physics}))
+    if task is not None:
+        atomic_write_json(out / "task.json", {**task.to_dict(), "digest": task.digest()})
+        print(f"task {task.id}: {task.description}")
+    print((out / "results.md").read_text())
+    print(f"{sum(1 for r in rows if r.get('family') is None or r['family'] != r['strategy'])} runs in "
+          f"{time.perf_counter() - t0:.1f} s")
+    print(f"table: {out / 'results.md'} (also results.csv, results.json)")
+    if not args.no_plots:
+        print(f"plots: {out / FUEL_CHART_FILE}, {out}/traces_<cycle>_<scenario>.png")
+    return 0
+
+
+COMMANDS = {
+    "benchmark": ("every strategy on every cycle and scenario: table + plots",
+                  "Run every strategy on every cycle in every scenario; write results.csv, results.json, results.md, "
+                  "timings.json and PNG plots into --out. Every run is measured against the thermal optimum "
+                  f"{REFERENCE} of its cycle and scenario (frontier ratio, fixed-price ratio); dp is thermal-blind.",
+                  BENCHMARK_EXAMPLES, benchmark_arguments, benchmark),
+    "run": ("one strategy on one cycle: summary, JSON, trace CSV, plot",
+            "Drive one cycle with one energy-management strategy in HevThermal-v1 and report fuel, corrected fuel, "
+            "SOC, motor temperature, heat index, derating and cutoff time.", RUN_EXAMPLES, run_arguments, run),
+}

@@ -1,10 +1,17 @@
 """The benchmark: every strategy on every cycle and scenario, measured against the thermal optimum.
 
 ``evaluate.py benchmark`` (:func:`run_benchmark`) writes the result files (:mod:`.results_table`: one row per
-cycle × scenario × strategy with the ratios of :mod:`.yardstick`; ``dp_thermal``, the reference, is added where
-missing), the seed families' rows (:mod:`.families`) and the figures (:mod:`.plots`, :mod:`.fuel_chart`). The runs
-are spread over processes or Ray tasks (:mod:`.executors`); each is deterministic, so the files equal a serial run's
-byte for byte (wall times go to ``timings.json`` only). See docs/benchmark.md.
+cycle × scenario × strategy with the ratios of :mod:`.score`; ``dp_thermal``, the reference, is added where
+missing) and the figures (:mod:`.plots`). The runs are spread over processes or Ray tasks (:mod:`.executors`); each
+is deterministic, so the files equal a serial run's byte for byte (wall times go to ``timings.json`` only). See
+docs/benchmark.md.
+
+Seed families: ``--family NAME=PATH[,PATH...]``, several trained policies (one training setup, different seeds)
+benchmarked as one. Each PATH is what ``ppo:PATH`` loads; a single directory that is not itself a run stands for every
+run directory directly inside it (sorted). Each member runs as ``ppo:PATH`` (its rows carry ``family`` = NAME); the
+family adds a row per cycle × scenario and one over all (cycle and scenario :data:`OVERALL`) with the IQM over the
+seeds of each ratio and its 95 % bootstrap interval (:mod:`hev_thermal_env.stats`). Seeds without a ratio are left
+out; the row's note counts them. See docs/metrics.md, *Seed families*.
 
 The progress bar (:class:`BenchmarkProgress`) names the runs in progress and counts expected seconds, not runs:
 runs differ in cost by four orders of magnitude (``dp_thermal`` searches for minutes unless its plan is on disk,
@@ -15,11 +22,13 @@ while a run is in progress in this process too (``--jobs 1``).
 
 from __future__ import annotations
 
+import dataclasses
 import os
+import re
 import threading
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,13 +41,13 @@ from hev_thermal_env.envs.render import SPLIT_INFO_KEY
 from hev_thermal_env.io import check_writable_dir
 from hev_thermal_env.physics.config import LATEST_PHYSICS
 from hev_thermal_env.scenarios import get_scenario
+from hev_thermal_env.stats import iqm, stratified_iqm_ci
 
 from .executors import make_executor
-from .families import Family, family_rows, representative, tag_members
 from .plots import plot_benchmark
-from .results_table import write_results
+from .results_table import OVERALL, write_results
 from .runner import run_strategy
-from .yardstick import REFERENCE, add_yardstick_columns, with_reference
+from .score import REFERENCE, add_yardstick_columns, with_reference
 
 DEFAULT_CYCLES = ("hwfet", "beijing")
 DEFAULT_SCENARIOS = ("paper",)
@@ -53,6 +62,112 @@ RUNNING_CREDIT = 0.9
 BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]"
 #: Seconds between two redraws of the progress bar.
 REFRESH_S = 1.0
+MIN_SEEDS = 2
+NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
+RATIOS = ("frontier_ratio", "fixed_price_ratio")
+RUN_FILES = ("model.zip", "best_model.zip", "checkpoints")  # what makes a directory a train.py run
+
+
+@dataclasses.dataclass(frozen=True)
+class Family:
+    """A family's name and its members' model paths (each run as ``ppo:PATH``)."""
+
+    name: str
+    paths: tuple[str, ...]
+
+    @property
+    def members(self) -> tuple[str, ...]:
+        """The strategy labels of the members."""
+        return tuple(f"ppo:{p}" for p in self.paths)
+
+
+def _is_run(path: Path) -> bool:  # a train.py run
+    return path.is_file() or any((path / name).exists() for name in RUN_FILES)
+
+
+def parse_family(text: str, taken: Iterable[str] = ()) -> Family:
+    """The family of a ``NAME=PATH[,PATH...]`` option value (``taken``: the strategies' names)."""
+    name, sep, spec = str(text).partition("=")
+    name = name.strip()
+    if not sep or not name or not spec.strip():
+        raise ValueError(f"--family {text!r}: expected NAME=PATH,PATH,... (or NAME=DIR, a directory of runs)")
+    if not NAME_PATTERN.match(name):
+        raise ValueError(f"--family {name!r}: a family name starts with a letter and holds letters, digits, "
+                         "'_', '.' or '-'")
+    if name in set(taken) or name == OVERALL:
+        raise ValueError(f"--family {name!r}: the name is taken (a strategy or {OVERALL!r}); choose another")
+    paths = [p.strip() for p in spec.split(",") if p.strip()]
+    for p in paths:
+        if not Path(p).expanduser().exists():
+            raise FileNotFoundError(f"--family {name}: {p} not found")
+    if len(paths) == 1 and Path(paths[0]).expanduser().is_dir() and not _is_run(Path(paths[0]).expanduser()):
+        folder = Path(paths[0])
+        paths = [str(d) for d in sorted(folder.iterdir()) if d.is_dir() and _is_run(d.expanduser())]
+        if not paths:
+            raise ValueError(f"--family {name}: {folder} is neither a train.py run nor a directory of runs "
+                             f"(no subdirectory holds {', '.join(RUN_FILES)})")
+    repeated = sorted({p for p in paths if paths.count(p) > 1})
+    if repeated:
+        raise ValueError(f"--family {name}: {repeated[0]} is listed twice")
+    if len(paths) < MIN_SEEDS:
+        raise ValueError(f"--family {name}: a seed family needs at least {MIN_SEEDS} runs, got {len(paths)} "
+                         f"({', '.join(paths)}); benchmark one policy as ppo:{paths[0]}")
+    return Family(name, tuple(paths))
+
+
+def tag_members(rows: list[dict], families: Sequence[Family], strategies: Iterable[str] = ()) -> None:
+    """Set ``family`` on every run row: its family's name, None for others and members among ``strategies``."""
+    alone = set(strategies)
+    owner = {label: f.name for f in families for label in f.members if label not in alone}
+    for r in rows:
+        r.setdefault("family", owner.get(r["strategy"]))
+
+
+def family_rows(rows: Sequence[dict], families: Sequence[Family]) -> list[dict]:
+    """The family rows: per family, one per cycle × scenario of ``rows`` and one over all (:data:`OVERALL`)."""
+    out: list[dict] = []
+    tasks = list(dict.fromkeys((r["cycle"], r["scenario"]) for r in rows))
+    for fam in families:
+        per_task = {t: [r for r in rows if (r["cycle"], r["scenario"]) == t and r["strategy"] in fam.members]
+                    for t in tasks}
+        per_task = {t: m for t, m in per_task.items() if m}
+        for (cycle, scenario), members in per_task.items():
+            out.append(_summary_row(fam, cycle, scenario, [members], members[0].get("reference")))
+        if per_task:
+            refs = {m[0].get("reference") for m in per_task.values()}
+            ref = refs.pop() if len(refs) == 1 else "per cycle and scenario (see its rows)"
+            out.append(_summary_row(fam, OVERALL, OVERALL, list(per_task.values()), ref))
+    return out
+
+
+def _summary_row(fam: Family, cycle: str, scenario: str, groups: list[list[dict]], reference: Any) -> dict:
+    """IQM and interval of each ratio over the seeds of ``groups`` (one group of member rows per task)."""
+    row: dict[str, Any] = {"cycle": cycle, "scenario": scenario, "strategy": fam.name, "family": fam.name,
+                           "seeds": len(fam.paths), "reference": reference}
+    members = [m for g in groups for m in g]
+    for key in RATIOS:
+        centre, low, high = stratified_iqm_ci([[m[key] for m in g if m.get(key) is not None] for g in groups])
+        row[key], row[f"{key}_ci_low"], row[f"{key}_ci_high"] = centre, low, high
+    for key in ("fuel_corrected_l_per_100km", "cost_g"):
+        values = [m[key] for m in members if m.get(key) is not None]
+        row[key] = iqm(values) if values else None
+    held = [bool(m.get("charge_sustaining")) for m in members]
+    missing = sum(m.get("frontier_ratio") is None for m in members)
+    return row | {"charge_sustaining": all(held), "charge_sustaining_runs": sum(held), "runs": len(members),
+                  "frontier_note": f"{missing} of {len(members)} runs without a frontier ratio (left out)" if missing
+                  else None}
+
+
+def representative(rows: Sequence[dict], fam: Family, cycle: str, scenario: str) -> str | None:
+    """The member (its trace drawn) whose frontier (else fixed-price) ratio is nearest the family's IQM; None if none
+    ran on that cycle and scenario."""
+    members = [r for r in rows if r["cycle"] == cycle and r["scenario"] == scenario and r["strategy"] in fam.members]
+    for key in RATIOS:
+        scored = [r for r in members if r.get(key) is not None]
+        if scored:
+            centre = iqm([r[key] for r in scored])
+            return min(scored, key=lambda r: abs(r[key] - centre))["strategy"]
+    return members[0]["strategy"] if members else None
 
 
 def _run_one(task: tuple[str, str, str, dict, int]) -> tuple[dict, dict]:
@@ -67,8 +182,7 @@ def _run_one(task: tuple[str, str, str, dict, int]) -> tuple[dict, dict]:
 
 def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None,
              families: list[Family] | None = None) -> dict[str, Any]:
-    """Fail before any work on unknown names, strategies that cannot be built, a family named like a strategy or
-    another family, or an unusable output directory; returns the cycles by the names given."""
+    """Fail before any work on bad names, strategies or output directory; returns the cycles by the names given."""
     loaded = {c: load_cycle(c) for c in cycles}
     for s in scenarios:
         get_scenario(s)
@@ -96,11 +210,9 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
                   address: str | None = None, families: list[Family] | None = None,
                   physics: int = LATEST_PHYSICS) -> list[dict]:
     """Run every combination on physics version ``physics``, write the result files and plots, return the rows (runs,
-    then families).
-
-    ``dp_thermal`` is added to ``strategies`` if missing (``results.md`` says so). ``families``: seed families
-    (:func:`~.families.parse_family`), each member run as ``ppo:PATH``. ``executor``: ``local`` (``jobs``
-    processes) or ``ray`` (a local runtime of ``jobs`` CPUs, or the cluster at ``address``)."""
+    then families). ``dp_thermal`` is added to ``strategies`` if missing; ``families``: seed families
+    (:func:`parse_family`); ``executor``: ``local`` (``jobs`` processes) or ``ray`` (a local runtime of ``jobs`` CPUs,
+    or the cluster at ``address``)."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
     fams = list(families or [])
@@ -127,8 +239,7 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
 
 def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, tuple[str, int]]
                ) -> list[tuple[dict, dict]]:
-    """``_run_one`` of every task (on ``executor``, see :mod:`.executors`), results in the order of ``tasks``;
-    ``cycles``: (name, steps) of each cycle, for the progress bar."""
+    """``_run_one`` of every task on ``executor``, in the order of ``tasks``; ``cycles``: (name, steps) of each."""
     costs = [expected_cost_s(st, cycles[c][1]) for c, _, st, *_ in tasks]
     order = sorted(range(len(tasks)), key=lambda i: (-costs[i], i))  # slow runs first: the workers stay busy
     labels = [f"{cycles[c][0]}/{sc}/{st}" for c, sc, st, *_ in tasks]
@@ -142,8 +253,7 @@ def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, t
 
 
 def _plotted_traces(traces: dict, rows: list[dict], strategies: list[str], families: list[Family]) -> dict:
-    """The traces the figures show: every strategy's run, and per family its member nearest the family's IQM
-    (labelled ``NAME: seed nearest IQM``); not every member's."""
+    """The traces the figures show: every strategy's run, and per family its member nearest the family's IQM."""
     shown = {k: v for k, v in traces.items() if k[2] in strategies}
     for f in families:
         for cyc, sc in dict.fromkeys((k[0], k[1]) for k in traces):
@@ -162,33 +272,26 @@ def expected_cost_s(strategy: str, n_steps: int) -> float:
 class BenchmarkProgress:
     """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers: a
     finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
-    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (the workers take them
-    first in, first out) with their elapsed time. :meth:`finished` when a run ends; :meth:`show` redraws, as a thread
-    of the bar does every :data:`REFRESH_S` seconds within a ``with`` block."""
+    slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (first in, first out).
+    :meth:`finished` when a run ends; a thread redraws it every :data:`REFRESH_S` seconds within a ``with`` block."""
 
     def __init__(self, labels: Sequence[str], costs: Sequence[float], order: Sequence[int], slots: int,
                  enabled: bool = True):
-        self.labels, self.costs = list(labels), [float(c) for c in costs]
-        self.waiting = list(order)
-        self.slots = max(1, int(slots))
-        self.started: dict[int, float] = {}
-        self.done_cost = 0.0
+        self.labels, self.costs, self.waiting = list(labels), [float(c) for c in costs], list(order)
+        self.slots, self.started, self.done_cost = max(1, int(slots)), {}, 0.0
         self.bar = tqdm(total=sum(self.costs), desc="benchmark", disable=not enabled, smoothing=0,
                         bar_format=BAR_FORMAT)
-        self.lock = threading.Lock()
-        self.closing = threading.Event()
-        self.refresher: threading.Thread | None = None
+        self.lock, self.closing = threading.Lock(), threading.Event()
+        self.refresher = threading.Thread(target=self._refresh, name="benchmark-progress", daemon=True)
 
     def __enter__(self) -> BenchmarkProgress:
         self.show()
-        self.refresher = threading.Thread(target=self._refresh, name="benchmark-progress", daemon=True)
         self.refresher.start()
         return self
 
     def __exit__(self, *exc) -> None:
         self.closing.set()
-        if self.refresher is not None:
-            self.refresher.join()
+        self.refresher.join()
         self.bar.close()
 
     def _refresh(self) -> None:

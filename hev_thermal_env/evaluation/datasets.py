@@ -1,15 +1,10 @@
 """Offline datasets in Minari's format: a strategy's episodes on a task or on training routes.
 
-:func:`write_dataset` drives ``HevThermal-v2`` through Minari's ``DataCollector`` (the env unmodified, its infos
-recorded) with one of :data:`SOURCES` (D4RL's expert / medium / random levels: the thermal optimum, ECMS, the rule
-strategy, the bus with its motor unused, the shipped policy, uniform random actions) and writes the dataset with its
-card filled: the algorithm, the code's permalink, the physics fingerprint, the task id and digest (or the training
-routes), and each episode's reset arguments (``hev_thermal_episodes``: seed and cycle), which replay needs. Ids:
-``hev-thermal/<task id>/<source>-v0`` on a task, ``hev-thermal/train-<scenario>/<source>-v0`` on training routes
-(:func:`training_routes`: fresh routes of the training families, never a test or validation cycle).
-
-The datasets live in ``$MINARI_DATASETS_PATH`` (Minari's default ``~/.minari/datasets``; ``root`` sets it), in
-Minari's Arrow format. ``evaluate.py dataset`` is the command; docs/tasks.md, *Offline datasets*.
+:func:`write_dataset` drives ``HevThermal-v2`` through Minari's ``DataCollector`` (its infos recorded) with one of
+:data:`SOURCES` (D4RL's expert / medium / random levels) and writes the dataset with its card filled: the algorithm,
+the code's permalink, the physics fingerprint, the task id and digest (or the training routes), and each episode's
+reset arguments (``hev_thermal_episodes``), which replay needs. The datasets live in ``$MINARI_DATASETS_PATH``
+(Minari's default ``~/.minari/datasets``; ``root`` sets it). docs/tasks.md, *Offline datasets*.
 """
 
 from __future__ import annotations
@@ -116,11 +111,13 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
             steps += 1
             done = terminated or truncated
     algorithm = f"hev_thermal_env strategy {SOURCES[source] or source}"
+    where = meta.get("hev_thermal_task") or f"training routes {', '.join(meta['hev_thermal_routes'])}"
+    description = (f"{len(resets)} episodes ({steps} steps) of {source} on {where}; physics fingerprint {fingerprint}. "
+                   "Replay: reset with each entry of metadata['hev_thermal_episodes'].")
     with warnings.catch_warnings():  # the project publishes no contact address
         warnings.filterwarnings("ignore", message=".*author_email.*")
         dataset = env.create_dataset(dataset_id=name, eval_env=env.spec, algorithm_name=algorithm,
-                                     code_permalink=code_permalink(), author="hev-thermal-env",
-                                     description=_description(source, meta, len(resets), steps, fingerprint))
+                                     code_permalink=code_permalink(), author="hev-thermal-env", description=description)
     dataset.storage.update_metadata({**meta, "hev_thermal_physics_fingerprint": fingerprint,
                                      "hev_thermal_source": source, "hev_thermal_episodes": [
                                          {"seed": int(s), "cycle": o["cycle"], "start_s": int(o["start_s"])}
@@ -130,12 +127,6 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
     size = sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
     return {"dataset_id": name, "path": str(path), "episodes": len(resets), "steps": steps, "bytes": size,
             "wall_s": round(time.perf_counter() - t0, 1)}
-
-
-def _description(source: str, meta: dict[str, Any], episodes: int, steps: int, fingerprint: str) -> str:
-    where = meta.get("hev_thermal_task") or f"training routes {', '.join(meta['hev_thermal_routes'])}"
-    return (f"{episodes} episodes ({steps} steps) of {source} on {where}; physics fingerprint "
-            f"{fingerprint}. Replay: reset with each entry of metadata['hev_thermal_episodes'].")
 
 
 def replay(dataset: Any) -> tuple[float, float]:

@@ -1,16 +1,13 @@
 """Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
 
-An executor runs one function over independent tasks and yields ``(index, result)`` as the cells finish (and
-``None`` every ``tick_s`` seconds without one while it waits on other processes: its wait returns to Python that
-often, so a Ctrl-C is handled within that time); ``slots`` is how many run at once. The
-benchmark puts each result in its place, so its files depend neither on the executor nor on the order in which
-cells finish. Ray is optional (the ``ray`` extra): asking for it without it installed, or for an address where no
-cluster answers, raises :class:`ExecutorError` in one line. See docs/scaling-out.md.
+An executor's ``map`` yields ``(index, result)`` as the cells finish, and ``None`` every ``tick_s`` seconds without
+one (its wait returns to Python that often, so a Ctrl-C is handled within that time); ``slots`` is how many run at
+once. Ray is optional (the ``ray`` extra): asking for it without it, or for an address where no cluster answers,
+raises :class:`ExecutorError` in one line. See docs/scaling-out.md.
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import multiprocessing
 import os
@@ -46,33 +43,16 @@ def import_ray():
 
 def make_executor(name: str, *, jobs: int = 1, address: str | None = None):
     """The executor called ``name`` (``local`` or ``ray``); checks what it needs before any work."""
-    if name == "local":
-        if address is not None:
-            raise ValueError("--address needs --executor ray")
-        return LocalExecutor(jobs)
-    if name == "ray":
-        return RayExecutor(jobs, address)
-    raise ValueError(f"unknown executor {name!r}; choose one of {', '.join(EXECUTORS)}")
-
-
-@contextlib.contextmanager
-def sigint_ignored() -> Iterator[None]:
-    """Ctrl-C (SIGINT) ignored within the block, in the main thread (the only one that may change it): a
-    process started in the block ignores it for life, as Python keeps an inherited ignored SIGINT."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    if name == "local" and address is not None:
+        raise ValueError("--address needs --executor ray")
+    if name not in EXECUTORS:
+        raise ValueError(f"unknown executor {name!r}; choose one of {', '.join(EXECUTORS)}")
+    return LocalExecutor(jobs) if name == "local" else RayExecutor(jobs, address)
 
 
 class LocalExecutor:
     """Cells in this process (``jobs=1``) or in ``jobs`` spawned processes. The workers ignore Ctrl-C, so only this
-    process reports it (``KeyboardInterrupt``); leaving on an exception stops the workers, not waiting for them. A
-    SIGTERM (``kill``, a job scheduler's time limit) stops them too before this process ends as SIGTERM ends it."""
+    process reports it; leaving on an exception, or a SIGTERM, stops the workers, not waiting for them."""
 
     def __init__(self, jobs: int = 1):
         self.jobs = self.slots = max(1, int(jobs))
@@ -104,8 +84,7 @@ class LocalExecutor:
 
     def _catch_sigterm(self) -> None:
         """Until :meth:`__exit__`, a SIGTERM first stops the workers (spawned processes outlive a parent killed
-        without its cleanup), then does what it did before (by default: ends this process). Only in the main thread,
-        and not where SIGTERM is ignored."""
+        without its cleanup), then does what it did before. Only in the main thread, where it is not ignored."""
         if threading.current_thread() is not threading.main_thread():
             return
         previous = signal.getsignal(signal.SIGTERM)
@@ -126,15 +105,19 @@ class LocalExecutor:
 
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int],
             tick_s: float | None = None) -> Iterator[tuple[int, Any] | None]:
-        """``(i, fn(tasks[i]))`` for every ``i`` of ``order`` (submitted in that order) as they finish, and None
-        every ``tick_s`` seconds without one in a pool; in this process, nothing while a cell runs (the benchmark's
-        progress bar redraws itself)."""
+        """``(i, fn(tasks[i]))`` for every ``i`` of ``order`` (submitted in that order) as they finish (module
+        docstring); in this process, nothing while a cell runs."""
         if self.pool is None:
-            for i in order:
-                yield i, fn(tasks[i])
+            yield from ((i, fn(tasks[i])) for i in order)
             return
-        with sigint_ignored():  # the workers start within: they ignore Ctrl-C, this process reports it
+        # the workers start within, SIGINT ignored: they ignore it for life (an inherited ignored SIGINT is kept)
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
             futures = {self.pool.submit(fn, tasks[i]): i for i in order}
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
         pending = set(futures)
         while pending:
             done, pending = wait(pending, timeout=tick_s, return_when=FIRST_COMPLETED)
@@ -167,8 +150,6 @@ class RayExecutor:
 
     def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], order: Sequence[int],
             tick_s: float | None = None) -> Iterator[tuple[int, Any] | None]:
-        """``(i, fn(tasks[i]))`` as the tasks finish (submitted in ``order``), None every ``tick_s`` seconds
-        without one."""
         ray = self.ray
         remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(fn)
         pending = {remote.remote(tasks[i]): i for i in order}
@@ -195,7 +176,7 @@ class RayExecutor:
 
 def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
     """Connect this process to Ray: a runtime already started here as it is, else a local runtime of ``num_cpus`` CPUs
-    (all when None) or the cluster at ``address``. Returns whether it started or joined one (to shut down later)."""
+    (all when None) or the cluster at ``address``; returns whether it started or joined one (to shut down later)."""
     if ray.is_initialized():
         return False
     kwargs: dict[str, Any] = dict(logging_level=logging.WARNING, log_to_driver=False, include_dashboard=False)

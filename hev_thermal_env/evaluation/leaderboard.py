@@ -1,15 +1,12 @@
 """The leaderboard: every method on every task with references, scored alike, on one Markdown page with a profile plot.
 
-Its inputs are result files (:mod:`.submission`), whoever wrote them: :func:`ensure_results` writes those of this
-package's strategies (:data:`METHODS`: the classic strategies, the optimum and the shipped policy) into a directory
-and reuses them while they are current (the shipped policy's while its files are the same; the optimum's is its
-stored reference run, so the page needs no solve); an outside method adds its own file. :func:`score_result` scores a
-result against its task's reference (:mod:`.references`): the normalised score per episode (:mod:`.score`),
-aggregated by IQM with a 95 % stratified bootstrap interval (one stratum per episode, the seeds within), the frontier
-ratio, the episode safety cost against the task's budget and the fuel. :func:`write_leaderboard` writes the page and
-the performance profile (rliable's: the fraction of a method's runs, over every task, episode and seed, that score
-above τ, against τ), one row per method and track (*RL* or *guided*, as each result states it, :mod:`.submission`) and
-each physics version apart. ``evaluate.py leaderboard`` is the command; docs/leaderboard.md is its page.
+Its inputs are result files (:mod:`.submission`); :func:`ensure_results` writes those of this package's strategies
+(:data:`METHODS`) and reuses them while they are current. :func:`score_result` scores a result against its task's
+reference (:mod:`.references`): the normalised score per episode (:mod:`.score`), aggregated by IQM with a 95 %
+stratified bootstrap interval (one stratum per episode, the seeds within), the frontier ratio, the episode safety cost
+against the task's budget and the fuel. :func:`write_leaderboard` writes the page and the performance profile
+(rliable's: the fraction of a method's runs, over every task, episode and seed, that score above τ, against τ), one
+row per method and track and each physics version apart. ``evaluate.py leaderboard`` is the command.
 """
 
 from __future__ import annotations
@@ -21,15 +18,14 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.agents import registered, strategy_class
-from hev_thermal_env.io import atomic_write_json, atomic_write_text, files_digest, read_yaml_mapping, save_png
+from hev_thermal_env.io import atomic_write_json, atomic_write_text, files_digest, read_yaml_mapping
 from hev_thermal_env.stats import CONFIDENCE, iqm
 from hev_thermal_env.tasks import get_task, list_tasks
 
 from .references import REFERENCE_DIR, StaleReferenceError, episode_score, load_reference
-from .score import ANCHOR, SOC_BOUND, aggregate, score_text, usable
-from .styles import pyplot
+from .score import ANCHOR, REFERENCE, SOC_BOUND, aggregate, display_name, score_text, usable
+from .styles import pyplot, save_fig
 from .submission import TRACKS, ResultFormatError, load_result, result_of_reference, result_of_strategy, track_of
-from .yardstick import REFERENCE, display_name
 
 METHODS = tuple(cls.name for cls in registered() if cls.in_benchmark and not cls.other_vehicle)
 """The package's methods on the leaderboard, in its order: the benchmark's strategies that drive this bus (``ppo``: the
@@ -57,8 +53,7 @@ def shipped_policy_digest() -> str:
 
 
 def shipped_policy_config() -> dict[str, Any]:
-    """The shipped policy's training config (``config.yaml`` beside its model): its track
-    (:func:`~.submission.track_of`) and the physics fingerprint it was trained on (``versions.physics_fingerprint``)."""
+    """The shipped policy's training config (``config.yaml`` beside its model): its track and physics fingerprint."""
     from hev_thermal_env.agents.ppo import DEFAULT_POLICY_DIR
 
     return read_yaml_mapping(DEFAULT_POLICY_DIR / "config.yaml")
@@ -66,11 +61,9 @@ def shipped_policy_config() -> dict[str, Any]:
 
 def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str] = METHODS,
                    progress: Callable[[str], None] | None = None, references: Path | None = None) -> list[Path]:
-    """``DIRECTORY/<task id>/<method>.json`` for every task and method: reused when it validates, else written
-    (:func:`~.submission.result_of_strategy`; the optimum's from the task's stored reference in ``references``,
-    default the package's, :func:`~.submission.result_of_reference`: its row is the reference's own runs, no plan
-    solved); returns the paths. The shipped policy (``ppo``) is driven only on the tasks of the physics it was trained
-    on (:func:`shipped_policy_config`), and its result states its track."""
+    """``DIRECTORY/<task id>/<method>.json`` for every task and method, reused when it validates (the shipped policy's
+    while its files are the same), else written (the optimum's from the task's stored reference in ``references``:
+    no plan solved); returns the paths. The shipped policy (``ppo``) runs only on the physics it was trained on."""
     paths = []
     shipped = shipped_policy_config() if "ppo" in methods else {}
     trained_on = (shipped.get("versions") or {}).get("physics_fingerprint")
@@ -117,9 +110,9 @@ def result_files(paths: Sequence[str | Path]) -> list[Path]:
 
 def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
     """The leaderboard entry of one result on its task (module docstring); ``rows``: each episode row's frontier
-    ratio, normalised score and note, in the result's order; ``above_optimum_safety``: the runs that derate their motor
-    more than the optimum on their episode where it derates at all (:data:`SAFETY_MARGIN`), ``beyond_soc_bound``: the
-    runs whose |ΔSOC| exceeds :data:`SOC_BOUND` (None if a row lacks its ``soc_initial``)."""
+    ratio, score and note; ``above_optimum_safety``: the runs that derate their motor more than
+    :data:`SAFETY_MARGIN` × the optimum on their episode; ``beyond_soc_bound``: the runs whose |ΔSOC| exceeds
+    :data:`SOC_BOUND` (None if a row lacks its ``soc_initial``)."""
     refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     budget = float(reference["safety_budget_s"])
     groups: dict[tuple[str, int], list[tuple[float | None, str | None]]] = {}
@@ -183,23 +176,10 @@ def missing_text(task: str, exc: Exception) -> str:
     return f"{task}: " + str(exc).replace(str(REFERENCE_DIR) + "/", "")
 
 
-def track_text(entry: dict) -> str:
-    """A row's track: ``RL`` or ``guided`` as its result states it (:data:`~.submission.TRACKS`), ``-`` for a
-    package method that does not learn, ``unstated`` for another result that does not say."""
-    if entry.get("track"):
-        return entry["track"]
-    return "-" if entry["method"] in METHODS else "unstated"
-
-
 def row_key(entry: dict) -> tuple[str, str]:
-    """A row of the page: one method on one track."""
-    return entry["method"], track_text(entry)
-
-
-def row_label(key: tuple[str, str]) -> str:
-    """A row's name in the profile's legend: the method, and its track if it learns."""
-    method, track = key
-    return label(method) if track == "-" else f"{label(method)} [{track}]"
+    """A row of the page: one method on one track, ``RL`` or ``guided`` as its result states it, ``-`` for a package
+    method that does not learn, ``unstated`` for another result that does not say."""
+    return entry["method"], entry.get("track") or ("-" if entry["method"] in METHODS else "unstated")
 
 
 def _order(keys: Sequence[tuple[str, str]]) -> list[tuple[str, str]]:
@@ -253,14 +233,6 @@ def overall(entries: list[dict]) -> list[dict]:
     return out
 
 
-def _minutes(wall_s: float | None) -> str:
-    return "-" if wall_s is None else f"{wall_s / 60.0:.1f} min"
-
-
-def _runs_cell(o: dict) -> str:
-    return f"{o['n']} ({o['left_out']} left out)" if o["left_out"] else str(o["n"])
-
-
 def physics_groups(entries: list[dict]) -> list[tuple[str, list[dict]]]:
     """The entries by the physics they were measured on (``HevThermal-vN``, fingerprint), the newest first: scores on
     different physics are never aggregated together."""
@@ -284,9 +256,11 @@ def markdown(entries: list[dict], missing: Sequence[str], profile: str | None) -
         md += [f"## On {title}", "", f"Tasks: {', '.join(tasks)}.", "", "### Over every task", "",
                "| method | track | tasks | score IQM [95 % CI] | runs | training per seed |",
                "|---|---|---:|---:|---:|---:|"]
-        md += [f"| {label(o['method'])} | {o['track']} | {o['tasks']} | "
-               f"{score_text(o['score'], o['score_ci_low'], o['score_ci_high'])} | {_runs_cell(o)} | "
-               f"{_minutes(o['training_wall_s'])} |" for o in overall(mine)]
+        for o in overall(mine):
+            runs = f"{o['n']} ({o['left_out']} left out)" if o["left_out"] else str(o["n"])
+            wall = "-" if o["training_wall_s"] is None else f"{o['training_wall_s'] / 60.0:.1f} min"
+            md.append(f"| {label(o['method'])} | {o['track']} | {o['tasks']} | "
+                      f"{score_text(o['score'], o['score_ci_low'], o['score_ci_high'])} | {runs} | {wall} |")
         md += [""]
         for t in tasks:
             md += _task_table([e for e in mine if e["task"] == t])
@@ -339,7 +313,8 @@ def _profile_lines(ax, scores: dict[tuple[str, str], np.ndarray], unscored: dict
             x = np.r_[lo, v, hi]
             y = np.r_[v.size, v.size - np.arange(1, v.size + 1), 0.0] / total
             what = f"{total} runs" + (f", {unscored[key]} without a score" if unscored[key] else "")
-            ax.step(x, y, where="post", label=f"{row_label(key)} ({what})", **look[key])
+            name = label(key[0]) if key[1] == "-" else f"{label(key[0])} [{key[1]}]"
+            ax.step(x, y, where="post", label=f"{name} ({what})", **look[key])
     for x in (0.0, 100.0):
         ax.axvline(x, color="0.6", lw=0.8, zorder=0)
     ax.set_xlim(lo, hi)
@@ -389,9 +364,7 @@ def write_leaderboard(entries: list[dict], missing: Sequence[str], out: Path, pl
     out = Path(out)
     profile = None
     if plot and entries:
-        fig = profile_figure(entries)
-        save_png(fig, out.parent / PROFILE_FILE)
-        pyplot().close(fig)
+        save_fig(profile_figure(entries), out.parent / PROFILE_FILE)
         profile = PROFILE_FILE
     atomic_write_text(out, markdown(entries, missing, profile))
     return out

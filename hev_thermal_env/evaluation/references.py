@@ -1,18 +1,11 @@
-"""Reference values of the named tasks: what a result on a task is scored against, stored in the package.
+"""Reference values of the named tasks, stored in the package: what a result on a task is scored against.
 
 Per episode of a task (:meth:`hev_thermal_env.tasks.Task.resets`), a reference holds the thermal optimum's run
-(``dp_thermal``: its cost, final SOC, episode safety cost and its frontier, the cost against the final SOC) and
-:data:`~.score.ANCHOR`'s (its cost, final SOC and frontier ratio ``r0``, the normalised score's 0). With them a
-result is scored without running the optimum again: :func:`episode_score` takes an episode's cost and final SOC.
-
-The task's **safety budget** (:func:`safety_budget_s`) is fixed from the optimum's episode safety costs before any
-policy is trained on the task: the largest of its episodes plus :data:`BUDGET_MARGIN`, at least
-:data:`BUDGET_FLOOR_S` seconds.
-
-A reference belongs to one physics (its fingerprint, :func:`~hev_thermal_env.physics.fingerprint.physics_fingerprint`)
-and one task definition (:meth:`~hev_thermal_env.tasks.Task.digest`); :func:`load_reference` refuses a stored one
-whose fingerprint or digest is not the current one (:class:`StaleReferenceError`, naming both).
-``evaluate.py reference --task NAME`` recomputes and stores it (:func:`compute_reference`, :func:`save_reference`).
+(``dp_thermal``: its cost, final SOC, episode safety cost and frontier) and :data:`~.score.ANCHOR`'s (its cost, final
+SOC and frontier ratio ``r0``, the normalised score's 0), so a result is scored without running the optimum again
+(:func:`episode_score`). The task's safety budget (:func:`safety_budget_s`) is fixed from the optimum's episode safety
+costs before any policy is trained on the task. A reference belongs to one physics fingerprint and one task digest;
+:func:`load_reference` refuses a stale one (:class:`StaleReferenceError`). ``evaluate.py reference`` recomputes it.
 """
 
 from __future__ import annotations
@@ -31,8 +24,7 @@ from hev_thermal_env.tasks import Task, get_task, list_tasks
 
 from .executors import LocalExecutor
 from .runner import RunResult, run_strategy
-from .score import ANCHOR, normalised_score
-from .yardstick import REFERENCE, Frontier, frontier_ratio
+from .score import ANCHOR, REFERENCE, Frontier, frontier_ratio, normalised_score
 
 REFERENCE_DIR = Path(__file__).resolve().parent / "references"
 """Where the package keeps the references, one JSON file per task id."""
@@ -52,23 +44,21 @@ class StaleReferenceError(ValueError):
 
 
 def reference_path(task: str | Task, directory: Path | None = None) -> Path:
-    """The file of ``task``'s reference (a :class:`~hev_thermal_env.tasks.Task` or a task id) in ``directory``
-    (default :data:`REFERENCE_DIR`)."""
+    """The file of ``task``'s reference (a task or its id) in ``directory`` (default :data:`REFERENCE_DIR`)."""
     return Path(directory or REFERENCE_DIR) / f"{task.id if isinstance(task, Task) else task}.json"
 
 
 def safety_budget_s(optimum_safety_costs_s: list[float]) -> float:
-    """The task's safety budget per episode (module docstring) from the optimum's episode safety costs."""
+    """The task's safety budget per episode from the optimum's episode safety costs: the largest times
+    1 + :data:`BUDGET_MARGIN`, at least :data:`BUDGET_FLOOR_S`."""
     worst = max((float(c) for c in optimum_safety_costs_s), default=0.0)
     return round(max(worst * (1.0 + BUDGET_MARGIN), BUDGET_FLOOR_S), 3)
 
 
 def frontier_halfwidth_for(soc_initial: float, anchor_soc_final: float) -> float | None:
     """The optimum's ``frontier_halfwidth`` for an episode whose anchor ends at ``anchor_soc_final``: None (the
-    default, :class:`~hev_thermal_env.planning.thermal_optimum.OptimumSettings`) when the default frontier reaches
-    :data:`ANCHOR_SOC_MARGIN` below it, else the half-width that does, rounded up to 0.01. Without regeneration the
-    anchor can end far below the start on a long route (0.1-0.2 of SOC on generated bus routes), where no default
-    frontier gives it a ratio r0."""
+    default) when the default frontier reaches :data:`ANCHOR_SOC_MARGIN` below it, else the half-width that does,
+    rounded up to 0.01 (the anchor can end 0.1-0.2 of SOC below the start on a long generated bus route)."""
     from hev_thermal_env.planning.thermal_optimum import OptimumSettings
 
     default = OptimumSettings().frontier_halfwidth
@@ -80,10 +70,9 @@ def frontier_halfwidth_for(soc_initial: float, anchor_soc_final: float) -> float
 
 def compute_reference(task: str | Task, progress: Callable[[str], None] | None = None,
                       jobs: int = 1) -> dict[str, Any]:
-    """Run :data:`ANCHOR` and the optimum on every episode of ``task`` and return its reference record (JSON-ready);
+    """Run :data:`ANCHOR` and the optimum on every episode of ``task``; its reference record (JSON-ready).
     ``progress``: called with a line per finished episode; ``jobs``: episodes solved at once, each in its own process
-    with one thread (longest route first). The record does not depend on ``jobs``, except for its times (and
-    ``jobs``)."""
+    with one thread (longest route first; only the record's times depend on it)."""
     task = get_task(task)
     if task.start_s != 0:
         raise ValueError(f"{task.id}: references are computed for episodes from second 0, not {task.start_s}")
@@ -149,14 +138,12 @@ def _episode_record(cycle: str, seed: int, opt: RunResult, anchor: RunResult, wa
 
 def save_reference(record: dict[str, Any], directory: Path | None = None) -> Path:
     """Write ``record`` (:func:`compute_reference`) to its file; returns the path."""
-    path = reference_path(record["task"], directory)
-    atomic_write_json(path, record)
-    return path
+    return atomic_write_json(reference_path(record["task"], directory), record)
 
 
 def load_reference(task: str | Task, directory: Path | None = None, *, check: bool = True) -> dict[str, Any]:
-    """The stored reference of ``task``; ``FileNotFoundError`` without one; :class:`StaleReferenceError` (``check``)
-    when its physics fingerprint or task digest is not the current one."""
+    """The stored reference of ``task``; ``FileNotFoundError`` without one, :class:`StaleReferenceError` (``check``)
+    when stale."""
     task = get_task(task)
     path = reference_path(task, directory)
     if not path.is_file():
@@ -175,8 +162,8 @@ def load_reference(task: str | Task, directory: Path | None = None, *, check: bo
 
 
 def check_current(record: dict[str, Any], task: Task, where: str) -> None:
-    """:class:`StaleReferenceError` naming the stored and current values when ``record`` (a reference or a result
-    file) was measured on other physics or another definition of ``task``."""
+    """:class:`StaleReferenceError` when ``record`` (a reference or a result) was measured on other physics or
+    another definition of ``task``."""
     fingerprint = task.fingerprint()
     problems = []
     if record.get("physics_fingerprint") != fingerprint:
@@ -194,8 +181,7 @@ TABLE_BEGIN, TABLE_END = "<!-- references:begin -->", "<!-- references:end -->"
 
 
 def references_table(tasks: list[str] | None = None, directory: Path | None = None) -> str:
-    """A Markdown table of the stored references of ``tasks`` (default: every named task): episodes, the range of
-    r0 and of the optimum's cost and safety cost over the episodes, the safety budget."""
+    """A Markdown table of the stored references of ``tasks`` (default: every named task)."""
     def span(xs: list[float], digits: int) -> str:
         return " to ".join(dict.fromkeys(f"{x:,.{digits}f}" for x in (min(xs), max(xs))))
 

@@ -1,7 +1,7 @@
 """The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` and ``timings.json``.
 
 One row per cycle × scenario × strategy run (seed-family members with ``family``), then the families' rows
-(:mod:`.families`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
+(:mod:`.benchmark`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
 scenario, what the columns mean and why a ratio is missing. Wall times go to ``timings.json`` only, so the other
 files are the same byte for byte run after run.
 """
@@ -18,10 +18,18 @@ from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.physics import paper_bus
 from hev_thermal_env.stats import CONFIDENCE
 
-from .families import OVERALL
 from .runner import jsonable
-from .score import ANCHOR, ILL_CONDITIONED, ILL_CONDITIONED_BELOW, add_score_columns, score_text, strategy_aggregates
-from .yardstick import BLIND_DP, REFERENCE, display_name
+from .score import (
+    ANCHOR,
+    BLIND_DP,
+    ILL_CONDITIONED,
+    ILL_CONDITIONED_BELOW,
+    REFERENCE,
+    add_score_columns,
+    display_name,
+    score_text,
+    strategy_aggregates,
+)
 
 COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "fuel_g", "fuel_l_per_100km",
            "fuel_corrected_l_per_100km", "cost_g", "overheat_g", "frontier_ratio", "frontier_ratio_ci_low",
@@ -33,6 +41,8 @@ COLUMNS = ("cycle", "scenario", "strategy", "family", "seeds", "distance_km", "f
            "trace_miss_max_mps", "frontier_note")
 """Columns of ``results.csv`` and ``results.json``, in order."""
 
+OVERALL = "all"
+"""Cycle and scenario of a seed family's row over every cycle × scenario."""
 FUEL_DENSITY_G_PER_L = 1000.0 * paper_bus().engine.fuel_density_kg_per_l
 
 MD_HEAD = ("cycle", "scenario", "strategy", "fuel L/100 km", "corrected L/100 km", "frontier ratio", "score",
@@ -92,11 +102,6 @@ def overheat_g(r: dict) -> float | None:
     return max(0.0, float(r["cost_g"]) - float(r["fuel_g"]) - miss_g)
 
 
-def _share_cell(r: dict) -> str:
-    heat = r.get("overheat_g")
-    return "-" if heat is None or not r.get("cost_g") else f"{100.0 * heat / r['cost_g']:.0f} %"
-
-
 def _score_cell(r: dict) -> str:
     text = score_text(r.get("score"), r.get("score_ci_low"), r.get("score_ci_high"))
     return f"{text} (ill-cond.)" if (r.get("score_note") or "").startswith(ILL_CONDITIONED) else text
@@ -124,11 +129,11 @@ def _j1711_cell(r: dict) -> str:
 
 
 def _run_line(r: dict) -> list[str]:
-    pct = r.get("fuel_vs_thermal_blind_dp_pct")
+    pct, heat = r.get("fuel_vs_thermal_blind_dp_pct"), r.get("overheat_g")
     return [r["cycle"], r["scenario"], display_name(r["strategy"]), f"{r['fuel_l_per_100km']:.2f}",
             f"{r['fuel_corrected_l_per_100km']:.2f}", ratio_text(r, "frontier_ratio"), _score_cell(r),
-            _share_cell(r), ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-",
-            _j1711_cell(r),
+            "-" if heat is None or not r.get("cost_g") else f"{100.0 * heat / r['cost_g']:.0f} %",
+            ratio_text(r, "fixed_price_ratio"), f"{pct:.1f} %" if pct is not None else "-", _j1711_cell(r),
             f"{r['soc_initial']:.3f} → {r['soc_final']:.3f}", f"{r['max_motor_temp_c']:.1f}",
             f"{r['heat_index_max']:.2f}", f"{r['derated_s']:.0f}", f"{r['cutoff_s']:.0f}",
             f"{r['safety_cost_s']:.0f}" if r.get("safety_cost_s") is not None else "-",

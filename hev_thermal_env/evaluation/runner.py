@@ -82,12 +82,9 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
                  config: VehicleConfig | None = None, conditions: Conditions | None = None,
                  seed: int = 0, physics: int = 2) -> RunResult:
     """Drive ``cycle`` (a built-in name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`) with ``strategy``
-    (e.g. from :func:`hev_thermal_env.agents.get_strategy`) in the ``scenario`` (``"random"`` draws from the env's
-    reset ``seed``) or explicit ``conditions``; ``config``: the vehicle before the strategy's change (default
-    ``paper_bus(physics=physics)``); ``physics``: the env's physics version (the vehicle's and the reward's defaults,
-    ``HevThermal-vN``). The :class:`RunResult` holds ``summary`` (keys :data:`SUMMARY_KEYS`) and ``trace``: every
-    ``info`` field, every physics output (:data:`~hev_thermal_env.physics.core.OUT_NAMES`), the state after each step
-    and ``u``."""
+    in the ``scenario`` (``"random"`` draws from the env's reset ``seed``) or explicit ``conditions``; ``config``: the
+    vehicle before the strategy's change (default ``paper_bus(physics=physics)``); ``physics``: the env's physics
+    version. ``trace`` holds every ``info`` field, every physics output, the state after each step and ``u``."""
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()

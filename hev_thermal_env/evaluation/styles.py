@@ -1,10 +1,8 @@
 """The look shared by every figure: the pyplot door, the order and colours of the strategies, legends outside.
 
-Strategies go from the simplest to the optimum (by their classes' ``order``, led by ``conventional``, the reference
-vehicle; unregistered names before the optima), then the learned policies (``ppo``, ``ppo:PATH``, seed families passed
-as ``learned``) in warm colours with thicker lines. A registered strategy has its class's colour in every figure;
-``dp`` is labelled thermal-blind (:func:`short_label`). The facts come from the strategies' classes
-(:mod:`hev_thermal_env.agents.base`).
+Strategies go from the simplest to the optimum (by their classes' ``order``; unregistered names before the optima),
+then the learned policies (``ppo``, ``ppo:PATH``, seed families passed as ``learned``) in warm colours with thicker
+lines. A registered strategy has its class's colour in every figure (:mod:`hev_thermal_env.agents.base`).
 """
 
 from __future__ import annotations
@@ -18,7 +16,7 @@ from typing import Any
 from hev_thermal_env.agents import strategy_class
 from hev_thermal_env.io import save_png
 
-from .yardstick import display_name
+from .score import display_name
 
 NON_INTERACTIVE_BACKENDS = ("agg", "pdf", "svg", "ps", "cairo")
 
@@ -40,16 +38,11 @@ def pyplot():
     return plt
 
 
-def base_name(strategy: str) -> str:
-    """``"ppo:runs/x"`` → ``"ppo"``."""
-    return str(strategy).split(":", 1)[0]
-
-
 def is_learned(strategy: str, learned: Collection[str] = ()) -> bool:
     """A learned policy: a learned strategy's name (``ppo``, ``ppo:PATH``), or a name (before any ``:``) in ``learned``
     (seed families)."""
     cls = strategy_class(strategy)
-    return (cls is not None and cls.learned) or base_name(strategy) in learned
+    return (cls is not None and cls.learned) or str(strategy).split(":", 1)[0] in learned
 
 
 def ordered(strategies: Iterable[str], learned: Collection[str] = ()) -> list[str]:
@@ -69,7 +62,7 @@ def ordered(strategies: Iterable[str], learned: Collection[str] = ()) -> list[st
 
 def short_label(strategy: str, width: int = 24) -> str:
     """The strategy's name, a long model path shortened from the left (``ppo:…/run/model.zip``); ``dp`` marked
-    ``(thermal-blind)`` (:func:`~hev_thermal_env.evaluation.yardstick.display_name`, not counted in ``width``)."""
+    ``(thermal-blind)`` (:func:`~hev_thermal_env.evaluation.score.display_name`, not counted in ``width``)."""
     s = str(strategy)
     suffix = display_name(s)[len(s):]
     if len(s) <= width:

@@ -7,20 +7,14 @@ A result file is JSON (:data:`FORMAT`)::
      "episodes": [{"seed": 0, "cycle": "hwfet", "env_seed": 0, "cost_g": 2345.6, "soc_final": 0.598,
                    "safety_cost_s": 0.0, "fuel_g": 2301.2}, ...]}
 
-``seeds`` are the method's own seeds (training seeds of a learned method; ``[0]`` for a deterministic strategy);
-every seed has one row per episode of the task (``cycle``, ``env_seed``: :meth:`~hev_thermal_env.tasks.Task.resets`).
-A row's ``cost_g`` is the episode's yardstick cost and ``safety_cost_s`` its safety cost, both sums over the steps'
-infos (:class:`EpisodeTally` adds them up): ``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)``,
-``safety_cost_s = Σ cost``; ``soc_final`` is the last step's ``info["soc"]``. Optional: ``task_digest``, ``fuel_g``,
-``soc_initial``, ``fuel_corrected_l_per_100km``, ``charge_sustaining``, ``description``, ``training`` (a learned
-method's training compute: ``wall_clock_s_per_seed``, one number per seed, and optionally ``timesteps`` and
-``steps_per_s``; the leaderboard shows the mean per seed), ``track`` (a learned method's track, :data:`TRACKS`: ``"RL"``
-when it learns from the env's reward alone, ``"guided"`` when it also learns from a strategy's actions or costs or the
-optimum's labels: imitation, DAgger, a teacher's cost, behaviour cloning; :func:`track_of` decides it from a
-``train.py`` run's config; the leaderboard shows it on every row of a learned method). :func:`validate_result` checks a
-file and names the field and value of every problem; :func:`result_of_strategy` writes one for a strategy of this
-package, :func:`result_of_seeds` for a seed family of trained policies, :func:`result_of_reference` the optimum's as its
-task's stored reference holds it.
+``seeds`` are the method's own seeds (``[0]`` for a deterministic strategy); every seed has one row per episode of
+the task (``cycle``, ``env_seed``: :meth:`~hev_thermal_env.tasks.Task.resets`). A row's ``cost_g`` is the episode's
+yardstick cost, ``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)``, and ``safety_cost_s = Σ cost`` its
+safety cost, sums over the steps' infos (:class:`EpisodeTally`); ``soc_final`` is the last step's ``info["soc"]``.
+Optional: ``task_digest``, ``fuel_g``, ``soc_initial``, ``fuel_corrected_l_per_100km``, ``charge_sustaining``,
+``description``, ``training`` (a learned method's training compute: ``wall_clock_s_per_seed``, one number per seed,
+and optionally ``timesteps`` and ``steps_per_s``), ``track`` (a learned method's track, :data:`TRACKS`). Format:
+docs/tasks.md, *Results of outside methods*.
 """
 
 from __future__ import annotations
@@ -37,23 +31,22 @@ from hev_thermal_env.tasks import Task, get_task
 
 from .references import StaleReferenceError, check_current, load_reference
 from .runner import run_strategy
-from .yardstick import REFERENCE
+from .score import REFERENCE
 
 FORMAT = "hev-thermal-result-v1"
 REQUIRED = ("format", "task", "physics_fingerprint", "method", "seeds", "episodes")
 ROW_NUMBERS = {"cost_g": (0.0, math.inf), "soc_final": (0.0, 1.0), "safety_cost_s": (0.0, math.inf)}
-#: The tracks of learned methods: ``RL`` (the env's reward alone), ``guided`` (a strategy's actions or costs, the
-#: optimum's labels).
+#: The tracks of learned methods: ``RL`` (the env's reward alone), ``guided`` (also a strategy's actions or costs or
+#: the optimum's labels: imitation, DAgger, a teacher's cost, behaviour cloning).
 TRACKS = ("RL", "guided")
 OPTIONAL_NUMBERS = {"fuel_g": (0.0, math.inf), "fuel_corrected_l_per_100km": (-math.inf, math.inf),
                     "soc_initial": (0.0, 1.0)}
 
 
 def track_of(config: dict[str, Any]) -> str:
-    """The track of a ``train.py`` run from its config (``DIR/config.yaml`` or the policy's): ``guided`` when its start
-    imitates a strategy (``init.imitate``, under which the refit, DAgger and the teacher's cost also live), else
-    ``RL``. A constraint on the env's own safety cost (``constraint``) and the reward's settings (``env.reward``) are
-    the env's signal: they leave a run on the RL track."""
+    """The track of a ``train.py`` run from its config: ``guided`` when its start imitates a strategy
+    (``init.imitate``, under which the refit, DAgger and the teacher's cost also live), else ``RL`` (a safety
+    constraint and the reward's settings are the env's signal)."""
     return "guided" if (config.get("init") or {}).get("imitate") else "RL"
 
 
@@ -62,8 +55,7 @@ class ResultFormatError(ValueError):
 
 
 class EpisodeTally:
-    """What a result row needs, added up step by step from the env's infos: ``add(info)`` after every step, then
-    :meth:`row`."""
+    """A result row added up from the env's infos: ``add(info)`` after every step, then :meth:`row`."""
 
     def __init__(self) -> None:
         self.cost_g = self.safety_cost_s = self.fuel_g = 0.0
@@ -180,8 +172,7 @@ def load_result(path: str | Path) -> dict[str, Any]:
 
 
 def _reference_widths(task: Task, directory: Path | None = None) -> dict[tuple[str, int], float]:
-    """(cycle, seed) -> the optimum's frontier half-width recorded in ``task``'s stored reference (in ``directory``,
-    default the package's), where it has one."""
+    """(cycle, seed) -> the optimum's frontier half-width recorded in ``task``'s stored reference, where it has one."""
     try:
         ref = load_reference(task, directory)
     except (FileNotFoundError, StaleReferenceError):
@@ -195,7 +186,7 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
     """Run a strategy (a name of this package's, built by ``get_strategy(strategy, **options)``, or a
     :class:`~hev_thermal_env.agents.base.Strategy`) on every episode of ``task``; its result record (seed 0).
 
-    The optimum (:data:`~.yardstick.REFERENCE`, without options) is asked for the frontier its episode's stored
+    The optimum (:data:`~.score.REFERENCE`, without options) is asked for the frontier its episode's stored
     reference (in ``references``, default the package's) was solved with (``frontier_halfwidth``, wider where the
     anchor ends far below the start), so it reuses that plan and its run is the reference's."""
     task = get_task(task)
@@ -213,19 +204,20 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
                      "safety_cost_s": s["safety_cost_s"], "fuel_g": s["fuel_g"],
                      "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
                      "charge_sustaining": bool(s["charge_sustaining"])})
-    return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-            task.fingerprint(), "method": method or str(getattr(strategy, "label", strategy)), "seeds": [0],
-            "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
+    return _record(task, method or str(getattr(strategy, "label", strategy)), [0], round(time.perf_counter() - t0, 2),
+                   rows)
 
+
+def _record(task: Task, method: str, seeds: list[int], wall_clock_s: float, rows: list, **more) -> dict[str, Any]:
+    return {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint": task.fingerprint(),
+            "method": method, "seeds": seeds, "wall_clock_s": wall_clock_s, "episodes": rows, **more}
 
 
 def result_of_seeds(task: str | Task, policies: dict[int, str | Strategy], method: str, *,
                     training: dict[str, Any] | None = None, track: str | None = None) -> dict[str, Any]:
     """The result record of a seed family: ``policies`` maps each training seed to a strategy (a name, e.g.
-    ``ppo:PATH`` for a policy saved by ``train.py`` whatever its algorithm, or a
-    :class:`~hev_thermal_env.agents.base.Strategy`), each driven on every episode of ``task``
-    (:func:`result_of_strategy`); ``training``: the family's training compute (module docstring), or None; ``track``:
-    its track (:data:`TRACKS`), or None."""
+    ``ppo:PATH``, or a :class:`~hev_thermal_env.agents.base.Strategy`), each driven on every episode of ``task``;
+    ``training`` and ``track``: as in the module docstring, or None."""
     task = get_task(task)
     if not policies:
         raise ValueError(f"result_of_seeds: {method}: no seeds given")
@@ -234,18 +226,13 @@ def result_of_seeds(task: str | Task, policies: dict[int, str | Strategy], metho
     for seed, name in policies.items():
         one = result_of_strategy(task, name, method)
         rows += [{**row, "seed": int(seed)} for row in one["episodes"]]
-    record = {"format": FORMAT, "task": task.id, "task_digest": task.digest(), "physics_fingerprint":
-              task.fingerprint(), "method": method, "seeds": [int(s) for s in policies],
-              "wall_clock_s": round(time.perf_counter() - t0, 2), "episodes": rows}
-    if training is not None:
-        record["training"] = training
-    if track is not None:
-        record["track"] = track
-    return validate_result(record, f"{method} on {task.id}")
+    more = {k: v for k, v in (("training", training), ("track", track)) if v is not None}
+    return validate_result(_record(task, method, [int(s) for s in policies], round(time.perf_counter() - t0, 2), rows,
+                                   **more), f"{method} on {task.id}")
 
 
 def result_of_reference(task: str | Task, references: Path | None = None) -> dict[str, Any]:
-    """The optimum's result record (:data:`~.yardstick.REFERENCE`) read from ``task``'s stored reference (in
+    """The optimum's result record (:data:`~.score.REFERENCE`) read from ``task``'s stored reference (in
     ``references``, default the package's): its runs there, no plan solved. ``wall_clock_s`` is the plans' solve
     time recorded in the reference."""
     task = get_task(task)
@@ -258,8 +245,6 @@ def result_of_reference(task: str | Task, references: Path | None = None) -> dic
                "fuel_corrected_l_per_100km": opt.get("fuel_corrected_l_per_100km")}
         rows.append({k: v for k, v in row.items() if v is not None})
         plan_s += float(e.get("optimum_plan_s") or 0.0)
-    return validate_result({"format": FORMAT, "task": task.id, "task_digest": task.digest(),
-                            "physics_fingerprint": task.fingerprint(), "method": REFERENCE, "seeds": [0],
-                            "wall_clock_s": round(plan_s, 1), "episodes": rows,
-                            "description": "the optimum's runs as the task's stored reference holds them"},
+    return validate_result(_record(task, REFERENCE, [0], round(plan_s, 1), rows,
+                                   description="the optimum's runs as the task's stored reference holds them"),
                            f"{REFERENCE} on {task.id} (stored reference)")
