@@ -240,6 +240,6 @@ COMMANDS = {
                   f"{REFERENCE} of its cycle and scenario (frontier ratio, fixed-price ratio); dp is thermal-blind.",
                   BENCHMARK_EXAMPLES, benchmark_arguments, benchmark),
     "run": ("one strategy on one cycle: summary, JSON, trace CSV, plot",
-            "Drive one cycle with one energy-management strategy in HevThermal-v1 and report fuel, corrected fuel, "
+            "Drive one cycle with one energy-management strategy in HevThermal-v2 and report fuel, corrected fuel, "
             "SOC, motor temperature, heat index, derating and cutoff time.", RUN_EXAMPLES, run_arguments, run),
 }
