@@ -6,8 +6,9 @@ friction alone: the tie goes to u = 0)::
 
     J(u) = fuel_g + s_eff · E_batt / Q_lhv + miss price
 
-E_batt: the battery's chemical energy over the step (J); Q_lhv: the fuel's lower heating value; the miss price is the
-reward's. s = :data:`REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery energy as the reward and the corrected fuel do.
+E_batt: the battery's chemical energy over the step (J, negative when charging); Q_lhv: the fuel's lower heating value;
+the miss price is the reward's. s = :data:`REWARD_EQUIVALENCE_FACTOR` (≈3.09) prices battery energy as the reward and
+the corrected fuel do.
 
 * ``ecms``: s_eff = s · (1 + k · ((SOC_target − SOC)/0.1)^p), p = 1 (``penalty="linear"``) or 3 (``"cubic"``).
 * ``aecms``: s_eff = s0 + k_p·e + k_i·∫e dt, e = SOC_target − SOC (PI; the integral clamped, anti-windup).
@@ -40,8 +41,10 @@ from .base import Strategy, register
 
 #: ``ecms_thermal``'s heat-index prices: ``fixed`` (w_x) and ``margin`` (w_x scaled by the distance to the cutoff).
 X_PRICES = ("fixed", "margin")
-#: ``ecms_thermal``'s heat prices by physics version when left out (v1 keeps the motor out of derating, v2 prices the
-#: heat index PWM itself; docs/strategies.md, "ecms_thermal on physics v2").
+#: ``ecms_thermal``'s heat prices by physics version when left out (the env's physics version decides at reset). v1
+#: keeps the motor out of derating: 300 g per unit of the heat-index integrator from x = −0.05, 5 g/K² above 55 °C;
+#: v2: 30 g per unit of the heat index PWM itself (x > 0), no temperature price (docs/strategies.md, "ecms_thermal on
+#: physics v2").
 THERMAL_PRICES = {1: {"w_x": 300.0, "x_thr": -0.05, "w_temp": 5.0},
                   2: {"w_x": 30.0, "x_thr": 0.0, "w_temp": 0.0}}
 #: The equivalence factor (s in fuel + s·E_batt/Q_lhv) that matches the reward's default battery price.

@@ -1,11 +1,12 @@
 """The motor at constant operating points: its continuous (S1) rating, and what it holds by heat alone.
 
 The rating (docs/thermal_model.md, *The rated condition*, gives the numbers): 30 kW at the base speed
-(:func:`rated_point`) in 40 °C air, IEC 60034-1's reference temperature of the final coolant (clause 8.2: 40 °C air
-for machines whose ultimate coolant is the surrounding air), on a bench (:data:`RATED`: the bus standing, the pump at
-full flow, the fan as its controller runs it). The governing limit is whichever protection a steady state reaches
-first: the housing's 70 °C cut-off or the winding's own trip (class H, 165 °C); the allowed rise is that limit less
-the air's temperature.
+(:func:`rated_point`: 80 N·m at 3,581 rpm, where both torque envelopes corner; Table 1 rounds it to 3,600 rpm) in
+40 °C air, IEC 60034-1's reference temperature of the final coolant (clause 8.2: 40 °C air for machines whose ultimate
+coolant is the surrounding air), on a bench (:data:`RATED`: the bus standing, no ram air, the pump at full flow, the
+fan as its controller runs it, full speed above 45 °C coolant). The governing limit is whichever protection a steady
+state reaches first: the housing's 70 °C cut-off or the winding's own trip (class H, 165 °C); the allowed rise is that
+limit less the 40 °C air.
 
 :func:`hold` steps the thermal network fed by the loss split of the vehicle step at one torque and speed: *heat alone*
 keeps the torque whatever the heat index (eqs 8-9) says and never trips, *as shipped* caps it by the heat index and the

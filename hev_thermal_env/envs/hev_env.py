@@ -78,8 +78,9 @@ class HevThermalEnv(EnvParts, gym.Env):
     Entry 11 is the motor's torque limit in the last step: the peak torque at that speed, derated by the heat index
     (eq 8), 0 while cut off; after reset, the limit for the first step. Its upper bound is the motor's peak torque (240
     N·m for ``paper_bus``); that of entry 12 the number of gears (5), its lower bound 0 so that an all-zero observation
-    lies inside the space (torchrl fills a batch's final observation with zeros). The preview is held at the cycle's
-    last speed past its end; with the defaults it has 5 entries (+2 to +10 s) and the observation 21.
+    lies inside the space (torchrl fills a batch's final observation with zeros). The preview is taken from the start
+    of the next step and held at the cycle's last speed past its end; with the defaults it has 5 entries (+2 to +10 s)
+    and the observation 21.
     :func:`observation_names` gives the names in order.
 
     ## Rewards
@@ -107,9 +108,11 @@ class HevThermalEnv(EnvParts, gym.Env):
     efficiency under load is better, so the prices alone are minimised by ending with more charge (docs/metrics.md).
     The settlement is the potential difference of the dead-zone hinge Φ: over an episode it adds up to −10,000 g per
     unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step by step as the SOC
-    moves. That is 9 times the most that ending beyond the band earns (≈1,100 g), so the reward's optimum is
-    charge-sustaining, and a run that starts and ends inside the band returns exactly minus its corrected fuel and the
-    overheat terms. A larger pack needs a proportionally larger ``soc_band_weight``.
+    moves (a cost in the step that leaves the band, a refund in the step that returns). Its slope is about the battery
+    price of a unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times the most that ending beyond the band earns
+    (≈1,100 g), so the reward's optimum is charge-sustaining, and a run that starts and ends inside the band returns
+    exactly minus its corrected fuel and the overheat terms. A step's settlement stays within ≈10 g (a step moves the
+    SOC by ≈0.001 at most); a larger pack needs a proportionally larger ``soc_band_weight``.
 
     The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on high ground it sits
     lower by the charge the remaining descent will return (:func:`~hev_thermal_env.envs.reward.band_center`)::

@@ -30,10 +30,10 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 HOUR_S = 3600.0
 #: ln 2 / 10 K: the insulation's life halves every 10 K (Montsinger).
 LN2_PER_10K = math.log(2.0) / 10.0
-#: Physics v2's price of the insulation's life: the motor and its inverter replaced (8,000 €, a stated assumption for a
-#: 90 kW bus drive) at 1.60 € per litre of diesel of 835 g (docs/environment.md, *Physics versions and the overheat
-#: price*).
 MOTOR_LIFE_COST_G = 8000.0 / 1.60 * 835.0
+"""Physics v2's price of the insulation's life: the motor and its inverter replaced (8,000 €, a stated assumption for a
+90 kW bus drive) at 1.60 € per litre of diesel of 835 g: 4.2 t of diesel, 0.058 g per second at the class
+temperature, halving every 10 K below it (docs/environment.md, *Physics versions and the overheat price*)."""
 
 
 @dataclasses.dataclass(frozen=True)

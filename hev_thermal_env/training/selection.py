@@ -1,6 +1,6 @@
 """Choosing ``best_model.zip``: a scorer turns one evaluation into a score, and the lowest score wins.
 
-An evaluation is one result per validation cycle × scenario (:mod:`.evaluator`); the config's
+An evaluation is one result per validation cycle × scenario (:class:`~.envs.PolicyEvaluator`); the config's
 ``eval.selection`` names the scorer, one of :data:`SCORERS`: ``fuel_vs_ecms`` (the default) or
 ``fuel_vs_rule``, the mean corrected fuel relative to that strategy on the same runs plus
 :data:`VIOLATION_PENALTY` per run whose ``|ΔSOC|`` exceeds :data:`SOC_BOUND` (:func:`fuel_ratio_score`),
