@@ -72,14 +72,13 @@ class Task:
     train_scenario: str | None = None
     physics: int = LATEST_PHYSICS
 
-    #: The env the task's episodes are driven in: ``HevThermal-v{physics}``.
-    env_id = property(lambda self: f"HevThermal-v{self.physics}")
-    #: ``NAME-vVERSION``, e.g. ``hwfet-v1``.
-    id = property(lambda self: f"{self.name}-v{self.version}")
-    #: Whether the task's cycles are a test set that training never sees.
-    held_out = property(lambda self: self.train_cycles is not None and not set(self.cycles) & set(self.train_cycles))
-    #: The training cycles and scenario of the task (``train.py --task``).
-    training = property(lambda self: (self.train_cycles or self.cycles, self.train_scenario or self.scenario))
+    env_id = property(lambda self: f"HevThermal-v{self.physics}",
+                      doc="The env the task's episodes are driven in: ``HevThermal-v{physics}``.")
+    id = property(lambda self: f"{self.name}-v{self.version}", doc="``NAME-vVERSION``, e.g. ``hwfet-v1``.")
+    held_out = property(lambda self: self.train_cycles is not None and not set(self.cycles) & set(self.train_cycles),
+                      doc="Whether the task's cycles are a test set that training never sees.")
+    training = property(lambda self: (self.train_cycles or self.cycles, self.train_scenario or self.scenario),
+                      doc="The training cycles and scenario of the task (``train.py --task``).")
     n_episodes = property(lambda self: len(self.cycles) * len(self.seeds))
 
     def fingerprint(self) -> str:

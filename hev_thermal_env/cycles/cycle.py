@@ -194,18 +194,16 @@ class Cycle:
         v = self.speed_mps
         return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(self.time_s)))
 
-    #: Distance [km].
-    distance_km = property(lambda self: self.distance_m / 1000.0)
-    #: Mean speed including stops [km/h]: distance divided by duration.
-    mean_speed_kmh = property(lambda self: 3.6 * self.distance_m / self.duration_s)
-    #: Maximum speed [km/h].
-    max_speed_kmh = property(lambda self: 3.6 * float(np.max(self.speed_mps)))
-    #: Fraction of 1-s samples with speed below 0.1 m/s.
-    idle_fraction = property(lambda self: float(np.mean(self.speed_mps < IDLE_SPEED_MPS)))
-    #: Forward-difference acceleration [m/s^2] over each 1-s step (length ``n_steps``).
-    accel_mps2 = property(lambda self: np.diff(self.speed_mps) / np.diff(self.time_s))
-    #: Largest ``|acceleration|`` [m/s^2] from the 1-s forward difference of the speed.
-    max_abs_accel_mps2 = property(lambda self: float(np.max(np.abs(self.accel_mps2))))
+    distance_km = property(lambda self: self.distance_m / 1000.0, doc="Distance [km].")
+    mean_speed_kmh = property(lambda self: 3.6 * self.distance_m / self.duration_s,
+                      doc="Mean speed including stops [km/h]: distance divided by duration.")
+    max_speed_kmh = property(lambda self: 3.6 * float(np.max(self.speed_mps)), doc="Maximum speed [km/h].")
+    idle_fraction = property(lambda self: float(np.mean(self.speed_mps < IDLE_SPEED_MPS)),
+                      doc="Fraction of 1-s samples with speed below 0.1 m/s.")
+    accel_mps2 = property(lambda self: np.diff(self.speed_mps) / np.diff(self.time_s),
+                      doc="Forward-difference acceleration [m/s^2] over each 1-s step (length ``n_steps``).")
+    max_abs_accel_mps2 = property(lambda self: float(np.max(np.abs(self.accel_mps2))),
+                      doc="Largest ``|acceleration|`` [m/s^2] from the 1-s forward difference of the speed.")
 
     def to_csv(self, path: str | os.PathLike) -> Path:
         """Write the cycle to ``path`` (overwritten) as CSV ``time_s,speed_mps,grade`` and return the path;
