@@ -101,15 +101,18 @@ SUMMARY_FIELDS = ("cost_g", "fuel_g", "fuel_corrected_l_per_100km", "delta_soc",
 
 
 def conditions_of(changes: dict[str, Any] | None) -> Any:
-    """The candidate's :class:`~hev_thermal_env.physics.Conditions` (None: the scenario's own)."""
+    """The candidate's :class:`~hev_thermal_env.physics.Conditions` (None: the scenario's own); a weakened pump is
+    :func:`~hev_thermal_env.scenarios.in_service`, the conditions the thermal task's scenario is built from."""
     from hev_thermal_env.physics import Conditions
+    from hev_thermal_env.scenarios import in_service
     if changes is None:
         return None
-    ambient, pump = changes.get("ambient_c", 20.0), changes.get("pump", 1.0)
-    start = changes.get("start_c", ambient)
-    return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=start, coolant_temp_c=start,
-                      coolant="on" if pump >= 1.0 else "degraded", coolant_degraded_factor=min(pump, 1.0),
-                      payload_kg=changes.get("payload_kg", 0.0), fan=changes.get("fan", True))
+    ambient, pump, payload = changes.get("ambient_c", 20.0), changes.get("pump", 1.0), changes.get("payload_kg", 0.0)
+    start, fan = changes.get("start_c", ambient), changes.get("fan", True)
+    if pump < 1.0:
+        return in_service(ambient, start, pump, fan=fan, payload_kg=payload)
+    return Conditions(ambient_temp_c=ambient, initial_motor_temp_c=start, coolant_temp_c=start, coolant="on",
+                      coolant_degraded_factor=1.0, payload_kg=payload, fan=fan)
 
 
 def screen_candidate(candidate: tuple, physics: int) -> dict[str, Any]:

@@ -70,11 +70,12 @@ class Scenario:
         return with_grade_profile(cyc, kwargs.pop("seed"), **kwargs)
 
 
-def _in_service(ambient_c: float, warm_c: float, pump: float, fan: bool = True) -> Conditions:
-    """A full bus (4.5 t) in ``ambient_c`` air whose motor and coolant start at ``warm_c`` (warm from service), the
+def in_service(ambient_c: float, warm_c: float, pump: float, fan: bool = True,
+               payload_kg: float = 4500.0) -> Conditions:
+    """A bus (full: 4.5 t) in ``ambient_c`` air whose motor and coolant start at ``warm_c`` (warm from service), the
     pump's flow at ``pump`` of intact."""
     return Conditions(ambient_temp_c=ambient_c, initial_motor_temp_c=warm_c, coolant_temp_c=warm_c,
-                      coolant="degraded", coolant_degraded_factor=pump, payload_kg=4500.0, fan=fan)
+                      coolant="degraded", coolant_degraded_factor=pump, payload_kg=payload_kg, fan=fan)
 
 
 SCENARIOS: dict[str, Scenario] = {
@@ -89,7 +90,7 @@ SCENARIOS: dict[str, Scenario] = {
     "full_bus": Scenario("full_bus", "the paper's conditions with 4.5 t of passengers (19.5 t in all)",
                          Conditions(payload_kg=4500.0)),
     "weak_loop": Scenario("weak_loop", "a full bus an hour into service: 40 °C air, motor and coolant at 55 °C, "
-                                       "pump flow at 10 % (a weak loop)", _in_service(40.0, 55.0, 0.1)),
+                                       "pump flow at 10 % (a weak loop)", in_service(40.0, 55.0, 0.1)),
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",
                        Conditions(), randomized=True),
     "random_service": Scenario("random_service", "as random, plus a payload of 0-4.5 t per episode (training)",

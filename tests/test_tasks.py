@@ -4,8 +4,10 @@ routes are disjoint from every training and validation cycle, and ``train.py`` /
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -48,6 +50,8 @@ DIGESTS = {
     "udds-weak-loop-v2": "d52bb40fbaf9",
 }
 _FAMILY_SEED = re.compile(r"^([a-z_]+):(\d+)$")
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 # --- the registry ------------------------------------------------------------------------------------------------
@@ -250,3 +254,7 @@ def test_the_thermal_task_measures_thermal_management():
     assert runs["dp"]["cutoff_s"] > 0 and runs["ecms"]["cutoff_s"] > runs["ecms_thermal"]["cutoff_s"]
     release = paper_bus(physics=task.physics).thermal.cutoff_release_temp_c
     assert runs["engine_only"]["cutoff_s"] == 0 and runs["engine_only"]["max_motor_temp_c"] < release
+    # the task's scenario is the candidate the search found (benchmarks/thermal_tasks.py builds both from in_service)
+    search = json.loads((ROOT / "benchmarks" / "results" / "thermal_tasks_v2.json").read_text())
+    found = [c["conditions"] for c in search["candidates"] if c["thermal_task"]]
+    assert found == [dataclasses.asdict(get_scenario(task.scenario).conditions)]
