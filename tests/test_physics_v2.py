@@ -54,3 +54,48 @@ def test_the_overheat_term_is_the_insulation_life_consumed():
         assert info["reward_overheat"] == pytest.approx(-MOTOR_LIFE_COST_G / life_s, rel=1e-9)
     assert MOTOR_LIFE_COST_G / (20000.0 * 3600.0) == pytest.approx(0.058, abs=0.001)  # g/s at the class temperature
     assert math.isfinite(info["reward_overheat"])
+
+
+def _traction_step(physics: int, u: np.ndarray):
+    """One traction step (8 → 8.5 m/s on the flat) at each motor share of ``u``, from the default start."""
+    from hev_thermal_env.physics import Conditions
+    from hev_thermal_env.physics.core import PhysicsCore
+
+    core = PhysicsCore(paper_bus(physics=physics))
+    n = len(u)
+    state = core.initial_state(Conditions(), n)
+    return core.step(state, u, np.full(n, 8.0), np.full(n, 8.5), np.zeros(n), core.conditions_array(Conditions(), n))
+
+
+def test_v2s_engine_off_choice_is_a_band_of_the_action():
+    """v2: every share from 1 - engine_min_share up stops the engine and drives as u = 1 does (the motor alone, no
+    fuel); just below the band the engine runs. v1: only u = 1 stops it, and u = 0.95 burns fuel for 5 % of the
+    torque."""
+    band = 1.0 - paper_bus().powertrain.engine_min_share
+    u = np.array([band - 0.01, np.float32(band), 0.95, 0.999, 1.0])  # the edge as a float32 action is in the band
+    state, out = _traction_step(2, u)
+    assert out[0, C.ENGINE_ON] == 1.0 and out[0, C.FUEL_G] > 0.1
+    for i in (1, 2, 3):
+        np.testing.assert_array_equal(out[i], out[-1])
+        np.testing.assert_array_equal(state[i], state[-1])
+    assert out[-1, C.ENGINE_ON] == 0.0 and out[-1, C.FUEL_G] == 0.0
+    _, out_v1 = _traction_step(1, u)
+    assert out_v1[2, C.ENGINE_ON] == 1.0 and out_v1[2, C.FUEL_G] > 0.1 and out_v1[-1, C.FUEL_G] == 0.0
+    assert paper_bus(physics=1).powertrain.engine_min_share == 0.0
+
+
+def test_the_engine_off_band_leaves_braking_and_an_engine_that_never_stops_alone():
+    """The band is a traction rule of the stop-start engine: while braking, u = 0.95 still takes 95 % of the
+    available regeneration; with stop-start off, u = 0.95 still gives the motor 95 % of the demand."""
+    from hev_thermal_env.physics import Conditions
+    from hev_thermal_env.physics.core import PhysicsCore
+
+    bus = paper_bus()
+    no_stop = bus.replace(powertrain=bus.powertrain.replace(stop_start=False))
+    for config, v0, v1 in ((bus, 8.5, 7.5), (no_stop, 8.0, 8.5)):
+        core = PhysicsCore(config)
+        u = np.array([0.95, 1.0])
+        state = core.initial_state(Conditions(), 2)
+        _, out = core.step(state, u, np.full(2, v0), np.full(2, v1), np.zeros(2), core.conditions_array(Conditions(), 2))
+        assert out[0, C.MOTOR_TORQUE] == pytest.approx(0.95 * out[1, C.MOTOR_TORQUE], rel=1e-9)
+        assert out[1, C.MOTOR_TORQUE] != 0.0

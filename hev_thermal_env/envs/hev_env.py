@@ -42,7 +42,9 @@ class HevThermalEnv(EnvParts, gym.Env):
     ## Action Space
 
     ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler. Motor u·T_dem, engine
-    (1 - u)·T_dem; u < 0 loads the engine more and charges the battery. The physics core clips the motor request to its
+    (1 - u)·T_dem; u < 0 loads the engine more and charges the battery. In traction, u ≥ 0.9 stops the engine and the
+    motor carries the demand alone, as u = 1 (the engine-off choice is a band of the action, not its end point;
+    ``PowertrainParams.engine_min_share``, v1: only u = 1). The physics core clips the motor request to its
     envelope (peak torque, heat index, cutoff) and the battery's limits and lets the engine cover the rest up to its
     full load (the motor never tops up by itself). While braking, u > 0 is the share of the available regeneration the
     motor takes (friction brakes take the rest) and u ≤ 0 brakes by friction alone, so that u = 0 throughout drives the
@@ -210,7 +212,8 @@ class HevThermalEnv(EnvParts, gym.Env):
     ## Version History
 
     * v2: physics v2: the motor rated where its nameplate says (docs/thermal_model.md, *The rated condition*), and the
-      overheat price is the winding insulation's life (docs/environment.md); the MDP is otherwise v1's.
+      overheat price is the winding insulation's life (docs/environment.md), and in traction u ≥ 0.9 stops the engine
+      (the motor alone, as u = 1; in v1 only u = 1 does); the MDP is otherwise v1's.
     * v1: the motor thermal network with physical parameters, the action governs braking, observation entry 7
       (winding temperature), the safety cost ``cost``, numpy-scalar infos with the same keys at reset as at every step
       (CHANGELOG.md). ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming the newest id.

@@ -40,6 +40,10 @@ class PowertrainParams(Params):
 
     stop_start: bool = spec(True, "engine off (no fuel) whenever it is not needed")
     regen_enabled: bool = spec(True, "regenerative braking by the motor within its and the battery's limits")
+    engine_min_share: float = spec(0.1, "in traction, a motor share u >= 1 - engine_min_share stops the engine and the "
+                                        "motor carries the demand alone (u = 1): the engine-off choice is a band of "
+                                        "the action, not its end point (physics v2; v1: 0, only u = 1)",
+                                   min=0.0, max=0.5)
 
 
 POWERTRAIN_LAYOUT = PowertrainParams.LAYOUT = Layout.of_fields(PowertrainParams)
@@ -76,6 +80,9 @@ PHYSICS_VERSIONS = (1, 2)
 """The physics versions (``HevThermal-vN``): one core; the default vehicle's parameters differ."""
 LATEST_PHYSICS = 2
 
+PHYSICS_V1_POWERTRAIN = {"engine_min_share": 0.0}
+"""Physics v1's powertrain where v2 differs: the engine stops only at u = 1 exactly."""
+
 PHYSICS_V1_THERMAL = {"jacket_ua_w_per_k": 250.0, "radiator_ua_w_per_k": 175.0, "t_gain_cold": 0.1715}
 """Physics v1's thermal parameters where v2 differs: the cooling conductances as its calibration left them (no figure
 identified them; v2 sets them by the motor's rating, docs/thermal_model.md, *The rated condition*) and T_gain's cold
@@ -92,10 +99,12 @@ def check_physics(physics: object) -> int:
 def paper_bus(thermal_model: str = "network", physics: int = LATEST_PHYSICS) -> VehicleConfig:
     """The default vehicle, the paper's parallel hybrid city bus; ``thermal_model="paper_eqs"``: with the paper's
     one-node thermal model as written (eqs 1-7). ``physics``: 2 (``HevThermal-v2``, the motor rated where its nameplate
-    says) or 1 (``HevThermal-v1``: the cooling conductances of :data:`PHYSICS_V1_THERMAL`)."""
+    says) or 1 (``HevThermal-v1``: the cooling conductances of :data:`PHYSICS_V1_THERMAL`, the engine stopped only at
+    u = 1, :data:`PHYSICS_V1_POWERTRAIN`)."""
     config = VehicleConfig()
     if check_physics(physics) == 1:
-        config = config.replace(thermal=config.thermal.replace(**PHYSICS_V1_THERMAL))
+        config = config.replace(thermal=config.thermal.replace(**PHYSICS_V1_THERMAL),
+                                powertrain=config.powertrain.replace(**PHYSICS_V1_POWERTRAIN))
     return config if thermal_model == "network" else config.with_thermal_model(thermal_model)
 
 

@@ -136,6 +136,9 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
 
         if t_s_dem > 0.0:
             # --- traction: motor request clipped to its limits, engine covers the rest -------------------
+            min_share = pt[PT_IDX.engine_min_share]
+            if stop_start and min_share > 0.0 and u >= 1.0 - min_share - 1e-6:
+                u = 1.0  # the engine-off band: the motor alone (its edge as a float32 action, 0.9 → 0.89999998, too)
             engine_on = engine_avail and (((1.0 - u) * t_s_dem > 1e-9) or not stop_start)
             if not engine_on and engine_avail and p_dis < acc_w:
                 engine_on = True  # the battery cannot carry the accessories
