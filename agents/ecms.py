@@ -106,7 +106,9 @@ class ECMS(Strategy):
             return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
         cost = self.candidate_costs(st, out, soc)
         self.cost_curve_g = cost - cost.min()
-        return np.array([self.u_grid[argmin_small_action(cost, self.u_grid)]], dtype=np.float32)
+        off_from = env.config.powertrain.engine_off_from
+        return np.array([self.u_grid[argmin_small_action(cost, self.u_grid, engine_off_from=off_from)]],
+                        dtype=np.float32)
 
     def _observe(self, soc: float) -> None:
         """Hook for adaptive variants (called once per step with the SOC before the step)."""

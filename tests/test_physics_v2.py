@@ -99,3 +99,39 @@ def test_the_engine_off_band_leaves_braking_and_an_engine_that_never_stops_alone
         _, out = core.step(state, u, np.full(2, v0), np.full(2, v1), np.zeros(2), core.conditions_array(Conditions(), 2))
         assert out[0, C.MOTOR_TORQUE] == pytest.approx(0.95 * out[1, C.MOTOR_TORQUE], rel=1e-9)
         assert out[1, C.MOTOR_TORQUE] != 0.0
+
+
+@pytest.mark.parametrize("dv", [0.1, 0.2, 0.5, 1.2])
+def test_v2s_charge_yields_to_the_demand(dv):
+    """v2: a charge the engine at full load cannot carry on top of the demand is cut down before the trace is missed:
+    at 15 m/s with the engine saturated or nearly so, u = -1 and -0.5 miss no more than u = 0 (the motor unused), and
+    the motor never assists below u = 0. v1: the charge is kept and the bus misses more."""
+    from hev_thermal_env.physics import Conditions
+    from hev_thermal_env.physics.core import PhysicsCore
+
+    u = np.array([-1.0, -0.5, 0.0])
+    missed = {}
+    for physics in (1, 2):
+        core = PhysicsCore(paper_bus(physics=physics))
+        state = core.initial_state(Conditions(), 3)
+        _, out = core.step(state, u, np.full(3, 15.0), np.full(3, 15.0 + dv), np.zeros(3),
+                           core.conditions_array(Conditions(), 3))
+        missed[physics] = out[:, C.MISSED_J]
+        if physics == 2:
+            np.testing.assert_allclose(out[:, C.MISSED_J], out[2, C.MISSED_J], rtol=1e-9, atol=1e-6)
+            assert np.all(out[:, C.MOTOR_TORQUE] <= 0.0)
+    assert missed[1][0] > missed[2][0] + 1.0 or missed[1][0] == missed[2][0] == 0.0
+
+
+def test_a_tie_within_the_engine_off_band_resolves_to_u_1():
+    """Equally cheap candidates give the smallest |u| (a cut-off motor: u = 0), but a tie wholly within v2's band
+    gives u = 1, the band's canonical action (what a teacher's demonstrations and the traces show)."""
+    from hev_thermal_env.planning.problem import argmin_small_action
+
+    off_from = paper_bus().powertrain.engine_off_from
+    u = np.array([-0.5, 0.0, 0.5, 0.9, 0.95, 1.0])
+    band_tie = np.array([3.0, 2.0, 1.5, 1.0, 1.0, 1.0])
+    assert argmin_small_action(band_tie, u, engine_off_from=off_from) == 5
+    assert argmin_small_action(np.ones(6), u, engine_off_from=off_from) == 1
+    assert argmin_small_action(band_tie, u, engine_off_from=paper_bus(physics=1).powertrain.engine_off_from) == 3
+    assert paper_bus(physics=1).powertrain.engine_off_from == 1.0

@@ -46,7 +46,9 @@ class HevThermalEnv(EnvParts, gym.Env):
     motor carries the demand alone, as u = 1 (the engine-off choice is a band of the action, not its end point;
     ``PowertrainParams.engine_min_share``, v1: only u = 1). The physics core clips the motor request to its
     envelope (peak torque, heat index, cutoff) and the battery's limits and lets the engine cover the rest up to its
-    full load (the motor never tops up by itself). While braking, u > 0 is the share of the available regeneration the
+    full load (the motor never tops up by itself); a charge (u < 0) that the engine at full load cannot carry on top of
+    the demand is cut down, to none at the least, before the trace is missed (``charge_yields_to_demand``; v1: the
+    bus misses its trace). While braking, u > 0 is the share of the available regeneration the
     motor takes (friction brakes take the rest) and u ≤ 0 brakes by friction alone, so that u = 0 throughout drives the
     bus with its motor unused (``engine_only``); standing, the action has no effect. Values outside [-1, 1] are clipped
     (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share applied); NaN or inf, or a shape other than
@@ -213,7 +215,8 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     * v2: physics v2: the motor rated where its nameplate says (docs/thermal_model.md, *The rated condition*), and the
       overheat price is the winding insulation's life (docs/environment.md), and in traction u ≥ 0.9 stops the engine
-      (the motor alone, as u = 1; in v1 only u = 1 does); the MDP is otherwise v1's.
+      (the motor alone, as u = 1; in v1 only u = 1 does) and a charge yields to the demand before the trace is
+      missed; the MDP is otherwise v1's.
     * v1: the motor thermal network with physical parameters, the action governs braking, observation entry 7
       (winding temperature), the safety cost ``cost``, numpy-scalar infos with the same keys at reset as at every step
       (CHANGELOG.md). ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming the newest id.

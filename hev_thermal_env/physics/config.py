@@ -44,8 +44,21 @@ class PowertrainParams(Params):
                                         "motor carries the demand alone (u = 1): the engine-off choice is a band of "
                                         "the action, not its end point (physics v2; v1: 0, only u = 1)",
                                    min=0.0, max=0.5)
+    charge_yields_to_demand: bool = spec(True, "in traction, a charge (u < 0) that the engine at full load cannot carry "
+                                               "on top of the demand is cut down, to none at the least, before the "
+                                               "trace is missed (physics v2; v1: the trace is missed)")
 
 
+    @property
+    def engine_off_from(self) -> float:
+        """The smallest traction share u that stops the engine (1.0 without a band, or without stop-start)."""
+        if self.stop_start and self.engine_min_share > 0.0:
+            return 1.0 - self.engine_min_share - ENGINE_OFF_TOL
+        return 1.0
+
+
+#: The engine-off band takes in its edge as a float32 action (0.9 → 0.89999998).
+ENGINE_OFF_TOL = 1e-6
 POWERTRAIN_LAYOUT = PowertrainParams.LAYOUT = Layout.of_fields(PowertrainParams)
 PT_IDX = POWERTRAIN_LAYOUT.index()
 
@@ -80,8 +93,9 @@ PHYSICS_VERSIONS = (1, 2)
 """The physics versions (``HevThermal-vN``): one core; the default vehicle's parameters differ."""
 LATEST_PHYSICS = 2
 
-PHYSICS_V1_POWERTRAIN = {"engine_min_share": 0.0}
-"""Physics v1's powertrain where v2 differs: the engine stops only at u = 1 exactly."""
+PHYSICS_V1_POWERTRAIN = {"engine_min_share": 0.0, "charge_yields_to_demand": False}
+"""Physics v1's powertrain where v2 differs: the engine stops only at u = 1 exactly, and a charge the engine cannot
+carry with the demand makes the bus miss its trace."""
 
 PHYSICS_V1_THERMAL = {"jacket_ua_w_per_k": 250.0, "radiator_ua_w_per_k": 175.0, "t_gain_cold": 0.1715}
 """Physics v1's thermal parameters where v2 differs: the cooling conductances as its calibration left them (no figure
@@ -99,8 +113,8 @@ def check_physics(physics: object) -> int:
 def paper_bus(thermal_model: str = "network", physics: int = LATEST_PHYSICS) -> VehicleConfig:
     """The default vehicle, the paper's parallel hybrid city bus; ``thermal_model="paper_eqs"``: with the paper's
     one-node thermal model as written (eqs 1-7). ``physics``: 2 (``HevThermal-v2``, the motor rated where its nameplate
-    says) or 1 (``HevThermal-v1``: the cooling conductances of :data:`PHYSICS_V1_THERMAL`, the engine stopped only at
-    u = 1, :data:`PHYSICS_V1_POWERTRAIN`)."""
+    says) or 1 (``HevThermal-v1``: the cooling conductances of :data:`PHYSICS_V1_THERMAL`, the powertrain of
+    :data:`PHYSICS_V1_POWERTRAIN`)."""
     config = VehicleConfig()
     if check_physics(physics) == 1:
         config = config.replace(thermal=config.thermal.replace(**PHYSICS_V1_THERMAL),

@@ -26,7 +26,7 @@ from . import glider as gli
 from . import motor as mot
 from . import thermal as thm
 from . import thermal_network as tnet
-from .config import PT_IDX, Conditions, VehicleConfig
+from .config import ENGINE_OFF_TOL, PT_IDX, Conditions, VehicleConfig
 from .jit import MIN_THREAD_BATCH, jit, thread_pool
 
 # state columns (``motor_temp_c``: the stator/housing node, the paper's lumped motor temperature; ``heat_x_min``: the
@@ -137,8 +137,8 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         if t_s_dem > 0.0:
             # --- traction: motor request clipped to its limits, engine covers the rest -------------------
             min_share = pt[PT_IDX.engine_min_share]
-            if stop_start and min_share > 0.0 and u >= 1.0 - min_share - 1e-6:
-                u = 1.0  # the engine-off band: the motor alone (its edge as a float32 action, 0.9 → 0.89999998, too)
+            if stop_start and min_share > 0.0 and u >= 1.0 - min_share - ENGINE_OFF_TOL:
+                u = 1.0  # the engine-off band: the motor alone (PowertrainParams.engine_off_from)
             engine_on = engine_avail and (((1.0 - u) * t_s_dem > 1e-9) or not stop_start)
             if not engine_on and engine_avail and p_dis < acc_w:
                 engine_on = True  # the battery cannot carry the accessories
@@ -162,6 +162,11 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 t_e_max = max(eng.max_torque_nm(en, w_e) - t_acc, 0.0)
             t_e = min(max(t_e, 0.0), t_e_max)
             short = t_s_dem - rho * t_m - t_e
+            if short > 1e-12 and t_m < 0.0 and pt[PT_IDX.charge_yields_to_demand] != 0.0:
+                # a charge the engine at full load cannot carry on top of the demand yields to it (down to none)
+                t_m = min(t_m + short / rho, 0.0)
+                t_e = min(max(t_s_dem - rho * t_m, 0.0), t_e_max)
+                short = t_s_dem - rho * t_m - t_e
             if short > 1e-12:
                 t_w_del = drv.wheel_torque_nm(dl, rho * t_m + t_e, gear)
                 missed_force = (t_wheel - t_w_del) / r_w

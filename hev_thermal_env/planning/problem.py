@@ -45,13 +45,19 @@ def stage_splits(kind: int, u: np.ndarray) -> np.ndarray:
     return np.zeros(1)
 
 
-def argmin_small_action(cost: np.ndarray, actions: np.ndarray, tol_g: float = 1e-9) -> int:
-    """Index of the cheapest candidate; among equally cheap ones (e.g. the motor cut off) the smallest |u|."""
+def argmin_small_action(cost: np.ndarray, actions: np.ndarray, tol_g: float = 1e-9,
+                        engine_off_from: float = 1.0) -> int:
+    """Index of the cheapest candidate; among equally cheap ones (e.g. the motor cut off) the smallest |u|, except
+    that a tie wholly within the engine-off band (every tied u >= ``engine_off_from``,
+    :attr:`~hev_thermal_env.physics.config.PowertrainParams.engine_off_from`) gives the largest, u = 1."""
     best = float(np.min(cost))
     ties = np.flatnonzero(cost <= best + tol_g)
     if ties.size == 1:
         return int(ties[0])
-    return int(ties[np.argmin(np.abs(actions[ties]))])
+    tied = actions[ties]
+    if tied.min() >= engine_off_from:
+        return int(ties[np.argmax(tied)])
+    return int(ties[np.argmin(np.abs(tied))])
 
 
 @dataclass

@@ -166,7 +166,8 @@ def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, p
     """Index of the cheapest candidate: stage cost + interpolated cost-to-go of its next state."""
     cost = stage_cost_g(problem.reward_params, out, state_after, problem.soc_target, problem.lhv, problem.core.dt_s,
                         soc_deviation=settings.price_soc_deviation, soc_band=False)
-    return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions)
+    return argmin_small_action(cost + plan.lookup(stage + 1, state_after), actions,
+                               engine_off_from=problem.core.config.powertrain.engine_off_from)
 
 
 def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: bool) -> dict[str, np.ndarray]:
