@@ -57,12 +57,12 @@ def short_cycle(path: Path, n: int = 120) -> str:
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> dict[str, Path]:
-    """One tiny run per method; PPO-Lagrangian on 120 s of US06 with a failing cooling loop, so that episodes end
-    with a safety cost and λ moves."""
+    """One tiny run per method; PPO-Lagrangian on 120 s of US06 in ``weak_loop`` (a warm motor, a 40 °C day, the
+    pump at 10 %), so that episodes end with a safety cost and λ moves."""
     d = tmp_path_factory.mktemp("baselines")
     out = {}
     for algo, hp in TINY.items():
-        extra = (["--cycles", short_cycle(d / "short.csv"), "--scenario", "hot"] if algo == "ppo_lagrangian"
+        extra = (["--cycles", short_cycle(d / "short.csv"), "--scenario", "weak_loop"] if algo == "ppo_lagrangian"
                  else ["--task", "bus-generalisation"])
         out[algo] = d / algo
         assert train.main(["--algo", algo, *extra, "--out", str(out[algo]), *COMMON, "--hp", *hp]) == 0, algo

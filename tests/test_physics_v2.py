@@ -96,7 +96,8 @@ def test_the_engine_off_band_leaves_braking_and_an_engine_that_never_stops_alone
         core = PhysicsCore(config)
         u = np.array([0.95, 1.0])
         state = core.initial_state(Conditions(), 2)
-        _, out = core.step(state, u, np.full(2, v0), np.full(2, v1), np.zeros(2), core.conditions_array(Conditions(), 2))
+        cond = core.conditions_array(Conditions(), 2)
+        _, out = core.step(state, u, np.full(2, v0), np.full(2, v1), np.zeros(2), cond)
         assert out[0, C.MOTOR_TORQUE] == pytest.approx(0.95 * out[1, C.MOTOR_TORQUE], rel=1e-9)
         assert out[1, C.MOTOR_TORQUE] != 0.0
 

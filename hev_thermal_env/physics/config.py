@@ -44,9 +44,9 @@ class PowertrainParams(Params):
                                         "motor carries the demand alone (u = 1): the engine-off choice is a band of "
                                         "the action, not its end point (physics v2; v1: 0, only u = 1)",
                                    min=0.0, max=0.5)
-    charge_yields_to_demand: bool = spec(True, "in traction, a charge (u < 0) that the engine at full load cannot carry "
-                                               "on top of the demand is cut down, to none at the least, before the "
-                                               "trace is missed (physics v2; v1: the trace is missed)")
+    charge_yields_to_demand: bool = spec(True, "in traction, a charge (u < 0) that the engine at full load cannot "
+                                               "carry on top of the demand is cut down, to none at the least, before "
+                                               "the trace is missed (physics v2; v1: the trace is missed)")
 
 
     @property

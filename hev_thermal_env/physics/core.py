@@ -44,13 +44,12 @@ N_COND = 6
 
 # output columns (per step; powers are means over the step, energies in J)
 OUT_NAMES = (
-    "fuel_g", "engine_on", "engine_speed_radps", "engine_torque_nm", "engine_power_w",
-    "motor_torque_nm", "motor_speed_radps", "motor_elec_power_w", "motor_loss_w", "motor_heat_w",
-    "motor_torque_avail_nm", "motor_torque_request_nm", "battery_power_w", "battery_chem_power_w",
-    "battery_loss_w", "battery_current_a", "gear", "speed_mps", "wheel_power_demand_w", "wheel_power_w",
-    "missed_wheel_energy_j", "trace_miss_mps", "brake_power_w", "clutch_loss_w", "driveline_loss_w",
-    "accessory_power_w", "coolant_on", "heat_index", "q_air_w", "q_rad_w", "q_cool_w",
-    "shaft_torque_demand_nm", "motor_torque_clipped", "engine_torque_max_nm", "motor_torque_max_nm",
+    "fuel_g", "engine_on", "engine_speed_radps", "engine_torque_nm", "engine_power_w", "motor_torque_nm",
+    "motor_speed_radps", "motor_elec_power_w", "motor_loss_w", "motor_heat_w", "motor_torque_avail_nm",
+    "motor_torque_request_nm", "battery_power_w", "battery_chem_power_w", "battery_loss_w", "battery_current_a", "gear",
+    "speed_mps", "wheel_power_demand_w", "wheel_power_w", "missed_wheel_energy_j", "trace_miss_mps", "brake_power_w",
+    "clutch_loss_w", "driveline_loss_w", "accessory_power_w", "coolant_on", "heat_index", "q_air_w", "q_rad_w",
+    "q_cool_w", "shaft_torque_demand_nm", "motor_torque_clipped", "engine_torque_max_nm", "motor_torque_max_nm",
     "q_radiator_w", "inverter_heat_w", "regen_available_nm",
 )
 (FUEL_G, ENGINE_ON, ENGINE_SPEED, ENGINE_TORQUE, ENGINE_POWER, MOTOR_TORQUE, MOTOR_SPEED, MOTOR_ELEC, MOTOR_LOSS,
@@ -136,9 +135,8 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
 
         if t_s_dem > 0.0:
             # --- traction: motor request clipped to its limits, engine covers the rest -------------------
-            min_share = pt[PT_IDX.engine_min_share]
-            if stop_start and min_share > 0.0 and u >= 1.0 - min_share - ENGINE_OFF_TOL:
-                u = 1.0  # the engine-off band: the motor alone (PowertrainParams.engine_off_from)
+            band = pt[PT_IDX.engine_min_share]  # the engine-off band (PowertrainParams.engine_off_from)
+            u = 1.0 if stop_start and band > 0.0 and u >= 1.0 - band - ENGINE_OFF_TOL else u
             engine_on = engine_avail and (((1.0 - u) * t_s_dem > 1e-9) or not stop_start)
             if not engine_on and engine_avail and p_dis < acc_w:
                 engine_on = True  # the battery cannot carry the accessories
@@ -162,9 +160,8 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 t_e_max = max(eng.max_torque_nm(en, w_e) - t_acc, 0.0)
             t_e = min(max(t_e, 0.0), t_e_max)
             short = t_s_dem - rho * t_m - t_e
-            if short > 1e-12 and t_m < 0.0 and pt[PT_IDX.charge_yields_to_demand] != 0.0:
-                # a charge the engine at full load cannot carry on top of the demand yields to it (down to none)
-                t_m = min(t_m + short / rho, 0.0)
+            if short > 1e-12 and t_m < 0.0 and pt[PT_IDX.charge_yields_to_demand] != 0.0:  # the charge yields
+                t_m = min(t_m + short / rho, 0.0, t_m_max)
                 t_e = min(max(t_s_dem - rho * t_m, 0.0), t_e_max)
                 short = t_s_dem - rho * t_m - t_e
             if short > 1e-12:
