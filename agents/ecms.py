@@ -86,6 +86,7 @@ class ECMS(Strategy):
         self.soc_target = float(self.env.soc_target if self.soc_target_option is None else self.soc_target_option)
         self.lhv = self.env.config.engine.fuel_lhv_j_per_g
         self.dt_s = self.env.core.dt_s
+        self.engine_off_from = self.env.config.powertrain.engine_off_from
 
     def equivalence_factor(self, soc: float) -> float:
         e = (self.soc_target - soc) / 0.1
@@ -106,9 +107,8 @@ class ECMS(Strategy):
             return np.zeros(1, dtype=np.float32)  # standing: the action has no effect
         cost = self.candidate_costs(st, out, soc)
         self.cost_curve_g = cost - cost.min()
-        off_from = env.config.powertrain.engine_off_from
-        return np.array([self.u_grid[argmin_small_action(cost, self.u_grid, engine_off_from=off_from)]],
-                        dtype=np.float32)
+        best = argmin_small_action(cost, self.u_grid, engine_off_from=self.engine_off_from)
+        return np.array([self.u_grid[best]], dtype=np.float32)
 
     def _observe(self, soc: float) -> None:
         """Hook for adaptive variants (called once per step with the SOC before the step)."""

@@ -56,15 +56,16 @@ def test_the_overheat_term_is_the_insulation_life_consumed():
     assert math.isfinite(info["reward_overheat"])
 
 
-def _traction_step(physics: int, u: np.ndarray):
-    """One traction step (8 → 8.5 m/s on the flat) at each motor share of ``u``, from the default start."""
+def _step(config, u: np.ndarray, v0: float = 8.0, v1: float = 8.5):
+    """One step on the flat from ``v0`` to ``v1`` m/s at each motor share of ``u``, from the default start (8 → 8.5:
+    traction)."""
     from hev_thermal_env.physics import Conditions
     from hev_thermal_env.physics.core import PhysicsCore
 
-    core = PhysicsCore(paper_bus(physics=physics))
+    core = PhysicsCore(config)
     n = len(u)
     state = core.initial_state(Conditions(), n)
-    return core.step(state, u, np.full(n, 8.0), np.full(n, 8.5), np.zeros(n), core.conditions_array(Conditions(), n))
+    return core.step(state, u, np.full(n, v0), np.full(n, v1), np.zeros(n), core.conditions_array(Conditions(), n))
 
 
 def test_v2s_engine_off_choice_is_a_band_of_the_action():
@@ -73,13 +74,13 @@ def test_v2s_engine_off_choice_is_a_band_of_the_action():
     torque."""
     band = 1.0 - paper_bus().powertrain.engine_min_share
     u = np.array([band - 0.01, np.float32(band), 0.95, 0.999, 1.0])  # the edge as a float32 action is in the band
-    state, out = _traction_step(2, u)
+    state, out = _step(paper_bus(physics=2), u)
     assert out[0, C.ENGINE_ON] == 1.0 and out[0, C.FUEL_G] > 0.1
     for i in (1, 2, 3):
         np.testing.assert_array_equal(out[i], out[-1])
         np.testing.assert_array_equal(state[i], state[-1])
     assert out[-1, C.ENGINE_ON] == 0.0 and out[-1, C.FUEL_G] == 0.0
-    _, out_v1 = _traction_step(1, u)
+    _, out_v1 = _step(paper_bus(physics=1), u)
     assert out_v1[2, C.ENGINE_ON] == 1.0 and out_v1[2, C.FUEL_G] > 0.1 and out_v1[-1, C.FUEL_G] == 0.0
     assert paper_bus(physics=1).powertrain.engine_min_share == 0.0
 
@@ -87,17 +88,10 @@ def test_v2s_engine_off_choice_is_a_band_of_the_action():
 def test_the_engine_off_band_leaves_braking_and_an_engine_that_never_stops_alone():
     """The band is a traction rule of the stop-start engine: while braking, u = 0.95 still takes 95 % of the
     available regeneration; with stop-start off, u = 0.95 still gives the motor 95 % of the demand."""
-    from hev_thermal_env.physics import Conditions
-    from hev_thermal_env.physics.core import PhysicsCore
-
     bus = paper_bus()
     no_stop = bus.replace(powertrain=bus.powertrain.replace(stop_start=False))
     for config, v0, v1 in ((bus, 8.5, 7.5), (no_stop, 8.0, 8.5)):
-        core = PhysicsCore(config)
-        u = np.array([0.95, 1.0])
-        state = core.initial_state(Conditions(), 2)
-        cond = core.conditions_array(Conditions(), 2)
-        _, out = core.step(state, u, np.full(2, v0), np.full(2, v1), np.zeros(2), cond)
+        _, out = _step(config, np.array([0.95, 1.0]), v0, v1)
         assert out[0, C.MOTOR_TORQUE] == pytest.approx(0.95 * out[1, C.MOTOR_TORQUE], rel=1e-9)
         assert out[1, C.MOTOR_TORQUE] != 0.0
 
@@ -107,16 +101,10 @@ def test_v2s_charge_yields_to_the_demand(dv):
     """v2: a charge the engine at full load cannot carry on top of the demand is cut down before the trace is missed:
     at 15 m/s with the engine saturated or nearly so, u = -1 and -0.5 miss no more than u = 0 (the motor unused), and
     the motor never assists below u = 0. v1: the charge is kept and the bus misses more."""
-    from hev_thermal_env.physics import Conditions
-    from hev_thermal_env.physics.core import PhysicsCore
-
     u = np.array([-1.0, -0.5, 0.0])
     missed = {}
     for physics in (1, 2):
-        core = PhysicsCore(paper_bus(physics=physics))
-        state = core.initial_state(Conditions(), 3)
-        _, out = core.step(state, u, np.full(3, 15.0), np.full(3, 15.0 + dv), np.zeros(3),
-                           core.conditions_array(Conditions(), 3))
+        _, out = _step(paper_bus(physics=physics), u, 15.0, 15.0 + dv)
         missed[physics] = out[:, C.MISSED_J]
         if physics == 2:
             np.testing.assert_allclose(out[:, C.MISSED_J], out[2, C.MISSED_J], rtol=1e-9, atol=1e-6)

@@ -196,15 +196,15 @@ def test_env_info_reward_terms_sum_to_the_reward():
 
 
 def test_env_settles_the_band_step_by_step():
-    """Charging hard (u = -1 for 1,200 s; physics v2's charge yields where the engine is at full load): the env's
-    reward_soc is the battery energy plus the hinge's potential difference."""
+    """Charging hard (u = -1 over HWFET's 760 s, where the engine carries the charge; in UDDS's launches physics v2's
+    charge yields to the demand): the env's reward_soc is the battery energy plus the hinge's potential difference."""
     from hev_thermal_env.envs.hev_env import HevThermalEnv
 
-    env = HevThermalEnv(cycle="udds", scenario="paper")
+    env = HevThermalEnv(cycle="hwfet", scenario="paper")
     env.reset(seed=0)
     lhv = env.config.engine.fuel_lhv_j_per_g
     settled = 0.0
-    for _ in range(1200):
+    for _ in range(760):
         before = env.phys_state.copy()
         _, _, _, _, info = env.step(np.array([-1.0], dtype=np.float32))
         batt_g = env.last_out[BATT_CHEM] / (lhv * 0.36 * 0.90)
@@ -213,7 +213,7 @@ def test_env_settles_the_band_step_by_step():
         assert info["reward_soc"] == pytest.approx(-batt_g + band, rel=1e-12, abs=1e-9)
         settled += band
     excess = env.phys_state[0, SOC] - 0.65 - 0.01
-    assert excess > 0.009
+    assert excess > 0.02
     assert settled == pytest.approx(-10000.0 * excess, rel=1e-9)
 
 
