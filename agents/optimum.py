@@ -4,6 +4,7 @@ benchmark's yardstick. A solved plan is kept on disk and reused (its ``cached_pl
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from typing import Any
 
@@ -19,7 +20,7 @@ from hev_thermal_env.planning.thermal_optimum import (
     cached_plan,
 )
 
-from .base import Strategy, register
+from .base import Strategy, register, registered, strategy_class
 
 
 @register
@@ -30,7 +31,9 @@ class ThermalOptimumStrategy(Strategy):
     Options: ``grid_scale`` (every bin divided by it, splits multiplied), ``soc_bin`` (the SOC bin, then not narrowed on
     short or cheap cycles), ``n_u`` (splits), ``soc_final`` (default: the initial SOC) and ``soc_tol``,
     ``on_infeasible`` (``"raise"`` or ``"closest"``), ``frontier_halfwidth`` (final SOCs kept around the target),
-    ``plan_cache`` (reuse a plan solved before for the same problem, settings and planner sources), ``threads``.
+    ``plan_cache`` (reuse a plan solved before for the same problem, settings and planner sources), ``threads``,
+    ``seed_with`` (teacher strategies whose run of the episode seeds the search, :func:`seed_runs`; default
+    ``ecms_thermal``: the thermal optimum is never dearer than it at its final SOC).
     """
 
     name = "dp_thermal"
@@ -45,7 +48,8 @@ class ThermalOptimumStrategy(Strategy):
 
     def __init__(self, grid_scale: float = 1.0, soc_bin: float | None = None, n_u: int | None = None,
                  soc_final: float | None = None, soc_tol: float = 0.005, on_infeasible: str = "raise",
-                 frontier_halfwidth: float = 0.08, plan_cache: bool = True, threads: int | None = None):
+                 frontier_halfwidth: float = 0.08, plan_cache: bool = True, threads: int | None = None,
+                 seed_with: tuple[str, ...] | list[str] = ("ecms_thermal",)):
         if on_infeasible not in ("raise", "closest"):
             raise ValueError(f"{self.name}: on_infeasible {on_infeasible!r} is not one of ['raise', 'closest']")
         if not grid_scale > 0.0:
@@ -57,6 +61,14 @@ class ThermalOptimumStrategy(Strategy):
             raise ValueError(f"{self.name}: soc_bin must be > 0, got {soc_bin}")
         if n_u is not None and not n_u > 1:
             raise ValueError(f"{self.name}: n_u must be at least 2, got {n_u}")
+        if isinstance(seed_with, str):
+            seed_with = tuple(name.strip() for name in seed_with.split(",") if name.strip())
+        teachers = [cls.name for cls in registered() if cls.teacher]
+        for name in seed_with:
+            if name not in teachers:
+                raise ValueError(f"{self.name}: seed_with {name!r} is not a teacher strategy; teachers: "
+                                 f"{', '.join(sorted(teachers))}")
+        self.seed_with = tuple(seed_with)
         grid = SearchGrid().scaled(float(grid_scale))
         grid = dataclasses.replace(grid, soc=grid.soc if soc_bin is None else float(soc_bin),
                                    n_u=grid.n_u if n_u is None else int(n_u))
@@ -71,7 +83,8 @@ class ThermalOptimumStrategy(Strategy):
         """Search (or reuse the plan of the same problem) and return the planned action sequence."""
         key = self.settings.key(problem)
         if self.plan is None or key != self._key:
-            self.plan, self._key = cached_plan(problem, self.settings, self.plan_cache), key
+            seeds = seed_runs(self.env, self.seed_with) if self.seed_with else None
+            self.plan, self._key = cached_plan(problem, self.settings, self.plan_cache, seeds), key
         return self.plan.u
 
     def reset(self, env: Any) -> None:
@@ -97,7 +110,24 @@ class ThermalOptimumStrategy(Strategy):
                      "heat_bin_max": g.heat_bin_max, "dominance": True, "refine": True,
                      "n_local": N_LOCAL, "local_halfwidth": LOCAL_HALFWIDTH, "first_pass_scale": FIRST_PASS_SCALE,
                      "refine_global_stride": REFINE_STRIDE, "seed_dp": True, "bin_budget": BIN_BUDGET},
-            "soc_tol": s.soc_tol, "on_infeasible": s.on_infeasible,
+            "seed_with": list(self.seed_with), "soc_tol": s.soc_tol, "on_infeasible": s.on_infeasible,
             "frontier_halfwidth": s.frontier_halfwidth, "thermal_planning": "exact state (forward search)",
             **(self.plan.report if self.plan is not None else {}),
         }
+
+
+def seed_runs(env: Any, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Each teacher strategy's actions over the rest of ``env``'s episode, driven on a copy of the env as it stands (a
+    teacher acts from the env's state, not from the observation)."""
+    runs = {}
+    for name in names:
+        e = copy.deepcopy(env.unwrapped if hasattr(env, "unwrapped") else env)
+        strategy = strategy_class(name)()
+        strategy.reset(e)
+        u, done = [], False
+        while not done:
+            action = np.asarray(strategy.act(None, {}), dtype=np.float32).reshape(1)
+            done = e.step(action)[3]
+            u.append(float(action[0]))
+        runs[name] = np.asarray(u, dtype=np.float32)
+    return runs

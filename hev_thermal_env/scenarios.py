@@ -4,8 +4,9 @@ docs/scenarios.md.
 A scenario is a small record of deltas (:data:`SCENARIOS`), not a code path; a runner calls
 :meth:`Scenario.prepare_cycle` on the cycle before building the episode (the conditions alone do not carry the
 road). ``hot`` (a failing cooling loop, the pump's flow at 3 %) stays as it was for physics v1's task ``udds-hot-v1``;
-``weak_loop`` (a full bus an hour into service on a 40 °C day, the pump's flow at 10 %) is physics v2's thermal task
-``udds-weak-loop-v2`` (docs/tasks.md, *Where heat binds*); ``random`` and ``random_service`` are for training, drawn
+``weak_loop`` (a full bus an hour into service on a 40 °C day, the pump's flow at 10 %) and its three hilly kin
+(``hilly_weak_loop``, ``hilly_evening``, ``hilly_fan_failed``) are physics v2's thermal tasks (docs/tasks.md, *Where
+heat binds*); ``random`` and ``random_service`` are for training, drawn
 per episode (:meth:`Scenario.sample`).
 """
 
@@ -91,6 +92,15 @@ SCENARIOS: dict[str, Scenario] = {
                          Conditions(payload_kg=4500.0)),
     "weak_loop": Scenario("weak_loop", "a full bus an hour into service: 40 °C air, motor and coolant at 55 °C, "
                                        "pump flow at 10 % (a weak loop)", in_service(40.0, 55.0, 0.1)),
+    "hilly_weak_loop": Scenario("hilly_weak_loop", "weak_loop on a hilly road: a full bus an hour into service, 40 °C "
+                                "air, motor and coolant at 55 °C, pump flow at 10 %", in_service(40.0, 55.0, 0.1),
+                                grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
+    "hilly_evening": Scenario("hilly_evening", "a hilly road late in a hot day's service: a full bus, 35 °C air, motor "
+                              "and coolant at 58 °C, pump flow at 10 %", in_service(35.0, 58.0, 0.1),
+                              grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
+    "hilly_fan_failed": Scenario("hilly_fan_failed", "a hilly road with the radiator's fan failed: a full bus, 40 °C "
+                                 "air, motor and coolant at 58 °C, pump flow at 20 %",
+                                 in_service(40.0, 58.0, 0.2, fan=False), grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",
                        Conditions(), randomized=True),
     "random_service": Scenario("random_service", "as random, plus a payload of 0-4.5 t per episode (training)",

@@ -142,6 +142,13 @@ _TASKS = (
     Task("beijing", 2, "the synthetic Beijing-like city-bus cycle, the paper's conditions", ("beijing",), "paper"),
     Task("udds-weak-loop", 2, "EPA urban cycle, a full bus an hour into service on a 40 °C day, the pump's flow at "
          "10 % (weak_loop): knowing the heat pays", ("udds",), "weak_loop"),
+    Task("udds-hilly-weak-loop", 2, "UDDS over rolling hills in weak_loop's conditions (hilly_weak_loop): knowing the "
+         "heat pays", ("udds",), "hilly_weak_loop"),
+    Task("udds-hilly-evening", 2, "UDDS over rolling hills, a full bus late in service on a 35 °C day, the motor at "
+         "58 °C, the pump's flow at 10 % (hilly_evening): knowing the heat pays", ("udds",), "hilly_evening"),
+    Task("udds-hilly-fan-failed", 2, "UDDS over rolling hills, a full bus in 40 °C air, the motor at 58 °C, the "
+         "radiator's fan failed and the pump's flow at 20 % (hilly_fan_failed): knowing the heat pays", ("udds",),
+         "hilly_fan_failed"),
 )
 TASKS: dict[str, Task] = {t.id: t for t in _TASKS}
 """The tasks by id."""

@@ -25,7 +25,7 @@ from hev_thermal_env.physics.core import (
 )
 from hev_thermal_env.planning import stage
 from hev_thermal_env.planning.problem import DPProblem, stage_splits
-from hev_thermal_env.planning.search import SearchGrid, frontier_points, heat_stays_cheap, search
+from hev_thermal_env.planning.search import SearchGrid, frontier_points, heat_stays_cheap, search, seed_splits
 from hev_thermal_env.planning.stage import (
     KEY_BITS,
     KEY_COLUMNS,
@@ -176,6 +176,39 @@ def test_search_matches_an_exhaustive_search_on_a_short_cycle(heat_free):
         assert found <= exact * 1.001, (s, exact, found)
 
 
+def test_a_seed_path_survives_the_search_to_its_own_final_state():
+    """A seed (here a poor one: the motor asked for 37 % of every pull, 80 % of every regeneration) is never dropped:
+    its own replay's final state and cost are among the last survivors, to the last digit."""
+    speed = np.r_[np.linspace(0.0, 12.0, 25), np.full(20, 12.0), np.linspace(12.0, 0.0, 16)]
+    p = problem_for(speed, Conditions(ambient_temp_c=40.0, initial_motor_temp_c=66.0))
+    kinds = p.stage_kinds()
+    u = np.where(kinds > 0, 0.37, np.where(kinds < 0, 0.8, -0.5)).astype(np.float32)
+    seeds = seed_splits(p, u)
+    assert np.all(seeds[0][kinds == 0] == 0.0) and np.all(seeds[0][kinds > 0] == np.float32(0.37))
+    st, cost = p.state0[None, :].copy(), 0.0
+    for i in range(p.n_stages):
+        st, out = p.step(st, np.array([u[i]], dtype=np.float64), i)
+        cost += float(stage_cost_g(p.reward_params, out, st, p.soc_target, p.lhv, 1.0, battery=False,
+                                   overheat=True)[0])
+    for seeded in (None, seeds):
+        res = search(p, SearchGrid(soc=1e-4, n_u=9), (0.55, 0.75), seeds=seeded)
+        hit = np.flatnonzero((res.final_state[:, SOC] == st[0, SOC]) & (res.final_cost_g == cost))
+        assert hit.size == (0 if seeded is None else 1)
+    np.testing.assert_array_equal(res.path(int(hit[0])).astype(np.float32), seeds[0].astype(np.float32))
+    with pytest.raises(ValueError, match="seed path has 3 actions"):
+        seed_splits(p, u[:3])
+
+
+def test_the_optimum_is_no_dearer_than_its_seed_at_its_final_charge(hot_runs):
+    """``dp_thermal`` is seeded with ``ecms_thermal``'s run: the frontier at the seed's final SOC is at most its cost,
+    and the seed's replayed cost is the cost ``ecms_thermal`` realises in the env."""
+    d = hot_runs["dp_thermal"]["strategy_settings"]
+    seed = d["seeds"]["ecms_thermal"]
+    assert seed["cost_g"] == pytest.approx(hot_runs["ecms_thermal"]["cost_g"], rel=1e-12)
+    assert seed["soc_final"] == pytest.approx(hot_runs["ecms_thermal"]["soc_final"], abs=1e-12)
+    assert Frontier.from_settings(d).cost_at(seed["soc_final"]) <= seed["cost_g"] * (1 + 1e-12)
+
+
 @pytest.mark.full
 def test_grid_doubling_changes_the_optimum_little(city200):
     """Every bin halved and the split grid doubled: the optimum's cost moves by <= 0.3 % (hot, where heat binds)."""
@@ -310,7 +343,7 @@ def test_heat_stays_cheap_only_where_no_later_stage_prices_a_bin_above_a_gram():
 @pytest.mark.parametrize("options, match", [
     ({"grid_scale": 0}, "grid_scale"), ({"n_u": 1}, "n_u"), ({"soc_bin": -1e-4}, "soc"),
     ({"on_infeasible": "maybe"}, "on_infeasible"), ({"frontier_halfwidth": 0.001}, "frontier_halfwidth"),
-    ({"n_soc": 101}, "unknown option"),
+    ({"n_soc": 101}, "unknown option"), ({"seed_with": ["dp"]}, "not a teacher strategy"),
 ])
 def test_bad_options_name_the_problem(options, match):
     with pytest.raises(ValueError, match=match):

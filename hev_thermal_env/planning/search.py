@@ -25,7 +25,7 @@ from threadpoolctl import threadpool_limits
 from hev_thermal_env.envs.reward import stage_cost_g
 from hev_thermal_env.physics import core
 
-from .problem import IDLE, DPProblem, default_threads, split_grid, stage_splits
+from .problem import BRAKING, IDLE, TRACTION, DPProblem, default_threads, split_grid, stage_splits
 from .soc_dp import backward_envelope
 from .stage import KEY_BITS, KEY_COLUMNS, StageBuffers, expand, non_dominated, survivors
 
@@ -180,14 +180,43 @@ def check_key_range(grid: SearchGrid, temp_hi_c: float = 250.0) -> None:
                              f"{2 ** (bits - 1) - 1} bins up to {top:g}); use a wider bin or a smaller grid_scale")
 
 
-def _stage_splits(u_grid: np.ndarray, centers: np.ndarray | None, i: int, kind: int) -> np.ndarray:
+def _stage_splits(u_grid: np.ndarray, centers: np.ndarray | None, i: int, kind: int,
+                  seeds: np.ndarray | None = None) -> np.ndarray:
     """The splits of stage ``i`` (of ``kind``, :func:`~.problem.stage_splits`): the uniform grid's, or a refining
-    pass's around each of ``centers`` (float32 values: a path's splits are stored as float32 and replayed exactly)."""
-    if kind == IDLE or centers is None:
+    pass's around each of ``centers``, and each seed path's own split (float32 values: a path's splits are stored as
+    float32 and replayed exactly)."""
+    if kind == IDLE:
         return stage_splits(kind, u_grid)
+    own = np.empty(0) if seeds is None else seeds[:, i]
+    if centers is None:
+        u = u_grid if own.size == 0 else np.unique(np.r_[u_grid, own])
+        return stage_splits(kind, u)
     near = np.clip((centers[:, i, None] + np.linspace(-LOCAL_HALFWIDTH, LOCAL_HALFWIDTH, N_LOCAL)).ravel(), -1.0, 1.0)
-    u = np.unique(np.r_[u_grid[::REFINE_STRIDE], u_grid[-1], 0.0, near].astype(np.float32)).astype(np.float64)
+    u = np.unique(np.r_[u_grid[::REFINE_STRIDE], u_grid[-1], 0.0, near, own].astype(np.float32)).astype(np.float64)
     return stage_splits(kind, u)
+
+
+def seed_splits(problem: DPProblem, u: np.ndarray) -> np.ndarray:
+    """A driven action sequence ``u`` [k, n] as the splits the search offers (:func:`~.problem.stage_splits`): the
+    action in traction, its share (u > 0, else 0) while braking, 0 where the action has no effect; float32 values."""
+    kinds = problem.stage_kinds()
+    u = np.atleast_2d(np.asarray(u, dtype=np.float32).astype(np.float64))[:, :problem.n_stages]
+    if u.shape[1] != problem.n_stages:
+        raise ValueError(f"dp_thermal: a seed path has {u.shape[1]} actions for {problem.n_stages} stages")
+    return np.where(kinds == TRACTION, u, np.where(kinds == BRAKING, np.maximum(u, 0.0), 0.0))
+
+
+def _keep_seeds(keep: np.ndarray, seed_at: np.ndarray, seeds: np.ndarray, u: np.ndarray, i: int, soc: np.ndarray,
+                window: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """``keep`` with each seed path's candidate of stage ``i`` added while it is within the SOC ``window`` (a tube
+    aside), and where each seed now sits among the survivors (-1: it left the window)."""
+    live = np.flatnonzero(seed_at >= 0)
+    cand = seed_at[live] * u.size + np.searchsorted(u, seeds[live, i])
+    held = (soc[cand] >= window[0]) & (soc[cand] <= window[1])
+    keep = np.union1d(keep, cand[held])
+    seed_at = np.full_like(seed_at, -1)
+    seed_at[live[held]] = np.searchsorted(keep, cand[held])
+    return keep, seed_at
 
 
 def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.ndarray] | None, k: int) -> np.ndarray:
@@ -208,7 +237,8 @@ def _inside(soc: np.ndarray, lo: float, hi: float, tube: tuple[np.ndarray, np.nd
 @threadpool_limits.wrap(limits=1, user_api="blas")
 def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, float], *, threads: int | None = None,
            progress=None, u_center: np.ndarray | None = None, tube: tuple[np.ndarray, np.ndarray] | None = None,
-           heat_price: np.ndarray | None = None, third_price: bool = False) -> SearchResult:
+           heat_price: np.ndarray | None = None, third_price: bool = False,
+           seeds: np.ndarray | None = None) -> SearchResult:
     """The forward pass over the cycle (see the module docstring); ``final_window`` bounds the final SOCs kept.
 
     ``u_center`` (paths [k, n], one split per stage) makes it a refining pass (:data:`REFINE_STRIDE`). ``tube`` (SOC
@@ -216,6 +246,9 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     ``heat_price`` (g/K of the temperatures :data:`PRICED` after each stage, [n + 1, 3]) gives each bin
     its heat-priced representative (:func:`~.stage.keep_best_per_bin`). ``third_price``: where heat stays cheap, a bin
     keeps its cheapest at :data:`THIRD_PRICE` in place of its coolest.
+    ``seeds`` (paths [k, n] as :func:`seed_splits` gives them) are offered their own split at every stage and never
+    dropped while within the SOC window: every seed that ends there is among the final survivors, so the frontier is
+    no dearer than it at its final SOC.
     ``progress(stage, n_stages, n_states)`` is called after every stage.
     """
     t0 = time.perf_counter()
@@ -235,8 +268,9 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
     n_evals, max_states = 0, 1
     buffers = StageBuffers(problem)
     cheap_heat = heat_stays_cheap(grid, heat_price, n)
+    seed_at = np.zeros(0 if seeds is None else len(seeds), dtype=np.int64)
     for i in range(n):
-        u = _stage_splits(u_grid, centers, i, int(kinds[i]))
+        u = _stage_splits(u_grid, centers, i, int(kinds[i]), seeds)
         so, c, e, a = expand(problem, i, states, cost, batt_j, u, threads, buffers)
         n_evals += so.shape[0]
         inside = _inside(so[:, core.SOC], lo_win[i + 1], hi_win[i + 1], tube, i + 1)
@@ -252,6 +286,8 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
             keep = non_dominated(so[keep], c[keep] + batt_g_per_j * e[keep], widths, keep,
                                  fuller_value=c[keep] + heat_g[keep] if cheap_heat[i + 1] else None)
         keep = np.sort(keep)
+        if seed_at.size:
+            keep, seed_at = _keep_seeds(keep, seed_at, seeds, u, i, so[:, core.SOC], (lo_win[i + 1], hi_win[i + 1]))
         states, cost, batt_j = so[keep], c[keep], e[keep]
         parents.append((keep // u.size).astype(np.int32))
         actions.append(a[keep].astype(np.float32))

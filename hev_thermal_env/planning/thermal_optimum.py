@@ -45,6 +45,7 @@ from .search import (
     heat_prices,
     heat_stays_cheap,
     search,
+    seed_splits,
 )
 from .soc_dp import DPSettings, rollout, solve
 
@@ -178,9 +179,12 @@ def _search(problem: DPProblem, grid: SearchGrid, window: tuple[float, float], l
         return search(problem, grid, window, threads=threads, progress=progress, **refine)
 
 
-def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
-    """Search the passes (see the module docstring) and return the plan into the final-SOC band."""
+def plan_optimum(problem: DPProblem, s: OptimumSettings, seeds: dict[str, np.ndarray] | None = None) -> OptimumPlan:
+    """Search the passes (see the module docstring) and return the plan into the final-SOC band. ``seeds``: driven
+    action sequences by name (a causal strategy's run of the same episode), each kept alive through every pass and
+    a centre of the refining passes, so no seed ends cheaper than the frontier at its own final SOC."""
     t0 = time.perf_counter()
+    seed_u = None if not seeds else seed_splits(problem, np.array(list(seeds.values())))
     grid = s.grid_for(problem.n_stages)
     target = float(problem.state0[core.SOC]) if s.soc_final is None else float(s.soc_final)
     window = (target - s.frontier_halfwidth, target + s.frontier_halfwidth)
@@ -194,7 +198,8 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
         centers, heat = [dp_u], heat_dp
         first_pass: dict[str, Any] = {"skipped": "heat stays cheap along dp's path", "heat_prices_s": heat_s}
     else:
-        first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads, heat_price=heat_dp)
+        first = _search(problem, grid.scaled(FIRST_PASS_SCALE), window, "pass 1", s.threads, heat_price=heat_dp,
+                        seeds=seed_u)
         searched0 = [first]
         j_first = pick_final(first, problem, band, s.on_infeasible)
         first_pass = {"solve_s": first.solve_s, "cost_g": float(first.final_cost_g[j_first])}
@@ -204,7 +209,8 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
         first_pass["heat_prices_s"] = heat_s + time.perf_counter() - t_heat
     first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
     # the refining passes make the plan and the frontier; where the coarse pass was skipped, pass 2 keeps a third price
-    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat, third_price=not searched0)
+    passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat, third_price=not searched0,
+                           seeds=seed_u)
     searched = searched0 + passes
     result, j = _pick(passes, problem, band, s.on_infeasible)
     u = result.path(j)
@@ -217,6 +223,8 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
         "planned_fuel_g": float(run["out"][:, core.FUEL_G].sum()),
         "solve_s": sum(r.solve_s for r in searched), "plan_total_s": time.perf_counter() - t0,
         "first_pass": first_pass,
+        "seeds": {name: {"cost_g": r["cost_g"], "soc_final": float(r["state"][-1, core.SOC])}
+                  for name, r in ((name, replay(problem, u)) for name, u in (seeds or {}).items())},
         "passes": [{"solve_s": r.solve_s, "soc_bin": r.grid.soc, "max_states": r.max_states,
                     "tube": r.info.get("tube", False)} for r in searched],
         "vehicle_steps_evaluated": int(sum(r.n_evals for r in searched)),
@@ -232,22 +240,24 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings) -> OptimumPlan:
 
 def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tuple[float, float],
             band: tuple[float, float], centers: list[np.ndarray], dp_soc: np.ndarray,
-            heat: np.ndarray, third_price: bool) -> tuple[list[SearchResult], SearchGrid]:
+            heat: np.ndarray, third_price: bool, seeds: np.ndarray | None = None) -> tuple[list[SearchResult], SearchGrid]:
     """The second pass around ``centers`` and, where :meth:`OptimumSettings.refined_grid` narrows the SOC bin, the
     third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid used.
     ``third_price``: the second pass keeps a bin's cheapest at :data:`~.search.THIRD_PRICE` where heat stays cheap
-    (it spans the whole window, where a frontier far from the plan comes from; the tube around the plan needs none)."""
-    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers), heat_price=heat,
-                     third_price=third_price)
+    (it spans the whole window, where a frontier far from the plan comes from; the tube around the plan needs none).
+    ``seeds`` are centres too, and the tube holds their SOC traces."""
+    extra = [] if seeds is None else list(seeds)
+    second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers + extra), heat_price=heat,
+                     third_price=third_price, seeds=seeds)
     j2 = pick_final(second, problem, band, s.on_infeasible)
     fine = s.refined_grid(grid, second, problem, float(second.final_cost_g[j2]))
     if not fine.soc < grid.soc:
         return [second], grid
     u2 = second.path(j2)
-    socs = [replay(problem, u2)["state"][:, core.SOC], dp_soc]
+    socs = [replay(problem, u)["state"][:, core.SOC] for u in [u2] + extra] + [dp_soc]
     tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
-    third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:]), tube=tube,
-                    heat_price=heat)
+    third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:] + extra),
+                    tube=tube, heat_price=heat, seeds=seeds)
     return [second, third], fine
 
 
@@ -267,13 +277,24 @@ def _pick(passes: list[SearchResult], problem: DPProblem, band: tuple[float, flo
 _told = False
 
 
-def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool = True) -> OptimumPlan:
-    """The plan of ``problem``: read from disk if it was solved before (its report then says ``from_cache``), else
-    solved by :func:`plan_optimum` and kept (``use_cache=False``: always solved, not kept)."""
+def seeds_key(seeds: dict[str, np.ndarray] | None) -> str:
+    """What the seeds add to a plan's key: their names and float32 actions (empty without seeds)."""
+    if not seeds:
+        return ""
+    h = hashlib.sha256()
+    for name, u in seeds.items():
+        h.update(name.encode() + np.ascontiguousarray(u, dtype="<f4").tobytes())
+    return "seeds:" + h.hexdigest()
+
+
+def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool = True,
+                seeds: dict[str, np.ndarray] | None = None) -> OptimumPlan:
+    """The plan of ``problem`` (and ``seeds``, :func:`plan_optimum`): read from disk if it was solved before (its report
+    then says ``from_cache``), else solved and kept (``use_cache=False``: always solved, not kept)."""
     grid = settings.grid_for(problem.n_stages)
     path = None
     if use_cache and CACHE_DIR is not None:
-        key = settings.key(problem) + source_hash([__name__])
+        key = settings.key(problem) + source_hash([__name__]) + seeds_key(seeds)
         path = CACHE_DIR.parent / "plans" / f"dp_thermal-{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
     if path is not None and path.is_file():
         try:
@@ -282,7 +303,7 @@ def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool =
                                grid=grid)
         except (OSError, ValueError, KeyError):
             pass
-    plan = plan_optimum(problem, settings)
+    plan = plan_optimum(problem, settings, seeds)
     if path is not None:
         try:
             atomic_write_json(path, {"u": plan.u.tolist(), "report": plan.report})
