@@ -1,8 +1,8 @@
 #!/usr/bin/env python
 """The learned baselines side by side: every method of ``train.py``, seeds 0-4, evaluated on every named task.
 
-Each method (:data:`METHODS`: PPO, SAC, TQC, RecurrentPPO, PPO-Lagrangian) trains with its hyperparameter file
-(``agents/hyperparams/<algo>.yaml``: its stated budget of env-steps) on the generalisation task's training
+Each method (:data:`METHODS`: PPO, PPO on the RL track, SAC, TQC, RecurrentPPO, PPO-Lagrangian) trains with its
+hyperparameter file (``agents/hyperparams/<method>.yaml``: its stated budget of env-steps) on the generalisation task's training
 distribution (``train.py --task bus-generalisation``: a fresh route of every generated bus family per episode,
 ``random_service`` conditions; never a test, validation or standard cycle), one ``train.py`` process per seed, the
 seeds fixed in advance (:data:`SEEDS`, no picking among extra seeds), into ``RUNS/METHOD/seed_S`` (a finished run
@@ -48,10 +48,17 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 #: The methods, by ``train.py --algo`` name.
-METHODS = ("ppo", "sac", "tqc", "recurrent_ppo", "ppo_lagrangian")
+METHODS = ("ppo", "ppo_rl", "sac", "tqc", "recurrent_ppo", "ppo_lagrangian")
 #: Each method's name in the benchmark's tables (its seed family; a family may not take a strategy's name, ``ppo``).
-FAMILY_NAMES = {"ppo": "PPO", "sac": "SAC", "tqc": "TQC", "recurrent_ppo": "RecurrentPPO",
+#: ``ppo_rl`` is PPO on the RL track (its own file, no teacher), ``PPO`` beside the guided recipe's: the tables tell
+#: them apart by their tracks.
+FAMILY_NAMES = {"ppo": "PPO", "ppo_rl": "PPO", "sac": "SAC", "tqc": "TQC", "recurrent_ppo": "RecurrentPPO",
                 "ppo_lagrangian": "PPO-Lagrangian"}
+#: A method's result file name where it is not its family name.
+FILE_NAMES = {"ppo_rl": "PPO-RL"}
+#: A method's ``train.py --algo`` where it is not the method's name, and its hyperparameter file.
+ALGOS = {"ppo_rl": "ppo"}
+HYPERPARAMS = {"ppo_rl": "agents/hyperparams/ppo_rl.yaml"}
 #: Behaviour cloning from the optimum's offline dataset (``evaluate.py dataset``, then ``evaluate.py bc --seeds``): one
 #: route of every training family of the generalisation task, in ``paper``, driven by the thermal optimum.
 BC = "bc"
@@ -82,6 +89,7 @@ _SMOKE_OFF_POLICY = ["learning_starts=128", "buffer_size=1000", "batch_size=32",
 SMOKE_ARGS = {
     "ppo": [*_SMOKE_COMMON, "--hp", *_SMOKE_PPO],
     "ppo_lagrangian": [*_SMOKE_COMMON, "--hp", *_SMOKE_PPO, *METHOD_HP["ppo_lagrangian"]],
+    "ppo_rl": [*_SMOKE_COMMON, "--hp", *_SMOKE_PPO[:4]],
     "sac": [*_SMOKE_COMMON, "--hp", *_SMOKE_OFF_POLICY],
     "tqc": [*_SMOKE_COMMON, "--hp", *_SMOKE_OFF_POLICY, "policy_kwargs.n_quantiles=5"],
     "recurrent_ppo": [*_SMOKE_COMMON, "--hp", "n_steps=64", "batch_size=64", "n_epochs=1",
@@ -105,8 +113,9 @@ def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str
         if out.exists():
             shutil.rmtree(out)
         shown = out.relative_to(ROOT) if out.is_relative_to(ROOT) else out
-        cmd = [sys.executable, "train.py", "--algo", method, "--task", TRAINING_TASK, "--seed", str(seed), "--out",
-               str(shown), "--no-progress", *extra]
+        cmd = [sys.executable, "train.py", "--algo", ALGOS.get(method, method), "--task", TRAINING_TASK, "--seed",
+               str(seed), "--out", str(shown), "--no-progress",
+               *(["--hyperparams", HYPERPARAMS[method]] if method in HYPERPARAMS else []), *extra]
         process_wall = run_command(cmd)
     return {**seed_record(out, seed), "process_wall_s": process_wall}
 
@@ -162,7 +171,8 @@ def evaluate_task(task_id: str, methods: dict[str, dict[str, Any]], results_dir:
         seeds = trained["seeds"]
         training = {"wall_clock_s_per_seed": [s["train_wall_s"] or 0.0 for s in seeds],
                     "timesteps": seeds[0]["timesteps"], "steps_per_s": _mean([s["steps_per_s"] for s in seeds])}
-        path = (ablation_dir if method in variants else results_dir) / task.id / f"{FAMILY_NAMES[method]}.json"
+        path = ((ablation_dir if method in variants else results_dir) / task.id
+                / f"{FILE_NAMES.get(method, FAMILY_NAMES[method])}.json")
         policies = [s["policy"] for s in seeds]
         digests = [_digest(p) for p in policies]
         track = family_track(method, seeds)
@@ -343,7 +353,7 @@ def family_curves(families: dict[str, list[tuple[int, str | Path]]], path: str |
 def learning_curves(methods: dict[str, dict[str, Any]], path: Path) -> Path | None:
     """Every method's seed family side by side (:func:`family_curves`), each panel
     under the method's name in the tables; None when no run has evaluations."""
-    return family_curves({FAMILY_NAMES.get(m, m): [(s["seed"], s["run_dir"]) for s in t["seeds"]]
+    return family_curves({FILE_NAMES.get(m, FAMILY_NAMES.get(m, m)): [(s["seed"], s["run_dir"]) for s in t["seeds"]]
                           for m, t in methods.items()}, path)
 
 

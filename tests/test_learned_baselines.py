@@ -274,21 +274,24 @@ def test_every_algorithm_has_a_checked_hyperparameter_file_on_the_same_observati
     assert cfg["total_timesteps"] >= 100_000
 
 
-#: The RL track's hyperparameter files, stored as rl-zoo3 files (rl-zoo3's name for each algorithm).
-ZOO_FILES = {"sac": "sac", "tqc": "tqc", "recurrent_ppo": "ppo_lstm"}
+#: The RL track's hyperparameter files, stored as rl-zoo3 files: file name -> (train.py's algorithm, rl-zoo3's).
+ZOO_FILES = {"sac": ("sac", "sac"), "tqc": ("tqc", "tqc"), "recurrent_ppo": ("recurrent_ppo", "ppo_lstm"),
+             "ppo_rl": ("ppo", "ppo")}
 
 
-@pytest.mark.parametrize("algo", list(ZOO_FILES))
-def test_the_rl_tracks_files_are_rl_zoo3_files_that_train_py_reads_alike(algo):
+@pytest.mark.parametrize("name", list(ZOO_FILES))
+def test_the_rl_tracks_files_are_rl_zoo3_files_that_train_py_reads_alike(name):
     """An rl-zoo3 file: one section for the env id (its env_kwargs gymnasium.make's, policy_kwargs rl-zoo3's string)
     and train.py's own settings apart; train.py reads the same hyperparameters from it, and the env its
     env_kwargs make is the one train.py trains on."""
     import gymnasium as gym
 
+    from hev_thermal_env.evaluation.submission import track_of
     from hev_thermal_env.tasks import ENV_ID
     from hev_thermal_env.training.hyperparams import PROJECT_SECTION, load_hyperparams
 
-    path = ROOT / "agents" / "hyperparams" / f"{algo}.yaml"  # this checkout's, as rl-zoo3 is given it
+    algo = ZOO_FILES[name][0]
+    path = ROOT / "agents" / "hyperparams" / f"{name}.yaml"  # this checkout's, as rl-zoo3 is given it
     raw = yaml.safe_load(path.read_text())
     assert set(raw) == {ENV_ID, PROJECT_SECTION}
     zoo = raw[ENV_ID]
@@ -301,6 +304,7 @@ def test_the_rl_tracks_files_are_rl_zoo3_files_that_train_py_reads_alike(algo):
     try:
         cfg = build_config(algo, hyperparams_file=path, task="bus-generalisation")
         assert env.observation_space.shape == (cfg["env"]["observation_size"],)
+        assert track_of(cfg) == "RL"
     finally:
         env.close()
 
@@ -349,7 +353,10 @@ def _script():
 
 def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_names():
     script = _script()
-    assert set(script.METHODS) == set(ALGORITHMS) == set(script.SMOKE_ARGS) == set(script.FAMILY_NAMES)
+    assert set(script.METHODS) == set(ALGORITHMS) | set(script.ALGOS) == set(script.SMOKE_ARGS) == set(
+        script.FAMILY_NAMES)
+    assert set(script.ALGOS.values()) <= set(ALGORITHMS) and set(script.HYPERPARAMS) == set(script.ALGOS)
+    assert all((ROOT / path).is_file() for path in script.HYPERPARAMS.values())
     assert script.SEEDS == (0, 1, 2, 3, 4)
     for name in script.FAMILY_NAMES.values():  # a seed family may not take a strategy's name
         assert parse_family(f"{name}={ROOT},{ROOT / 'agents'}", taken=list_strategies()).name == name
@@ -357,14 +364,14 @@ def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_
 
 @pytest.mark.full
 def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
-    """Three methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved); each
-    family's track read from its runs' configs (PPO starts from a teacher's actions, RecurrentPPO has the reward
-    alone, BC is guided)."""
+    """Four methods, two seeds, tiny budgets, scored on hwfet against its stored reference (no optimum solved); each
+    family's track read from its runs' configs (PPO starts from a teacher's actions, PPO from its RL file and
+    RecurrentPPO have the reward alone, BC is guided)."""
     script = _script()
-    assert script.main(["--smoke", "--methods", "ppo", "recurrent_ppo", "bc", "--out", str(tmp_path)]) == 0
+    assert script.main(["--smoke", "--methods", "ppo", "ppo_rl", "recurrent_ppo", "bc", "--out", str(tmp_path)]) == 0
     task = get_task(script.SMOKE_TASKS[0]).id
     record = json.loads((tmp_path / "learned_baselines.json").read_text())
-    for method in ("ppo", "recurrent_ppo"):
+    for method in ("ppo", "ppo_rl", "recurrent_ppo"):
         seeds = record["methods"][method]["seeds"]
         assert [s["seed"] for s in seeds] == [0, 1] and all(s["steps_per_s"] > 0 for s in seeds)
         assert all(Path(s["policy"]).is_file() for s in seeds)
@@ -374,9 +381,10 @@ def test_the_benchmark_smoke_run_writes_its_json(tmp_path):
             assert ev["score_iqm"] <= 100.0 + 1e-6 and ev["frontier_ratio_iqm"] >= 1.0 - 1e-6
         assert ev["safety_cost_s_iqm"] >= 0.0 and ev["max_abs_delta_soc"] >= 0.0
         assert 0 <= ev["above_optimum_safety"] <= 2 and 0 <= ev["beyond_soc_bound"] <= 2
-        result = load_result(tmp_path / "learned_baselines" / task / f"{script.FAMILY_NAMES[method]}.json")
+        name = script.FILE_NAMES.get(method, script.FAMILY_NAMES[method])
+        result = load_result(tmp_path / "learned_baselines" / task / f"{name}.json")
         assert result["seeds"] == [0, 1] and len(result["training"]["wall_clock_s_per_seed"]) == 2
-        assert result["track"] == ev["track"] == {"ppo": "guided", "recurrent_ppo": "RL"}[method]
+        assert result["track"] == ev["track"] == {"ppo": "guided", "ppo_rl": "RL", "recurrent_ppo": "RL"}[method]
     bc = record["evaluation"][task]["methods"]["bc"]  # behaviour cloning: two fits of a tiny dataset
     assert bc["runs"] == 2 and len(bc["training_wall_s_per_seed"]) == 2 and record["bc"]["seeds"] == [0, 1]
     assert load_result(tmp_path / "learned_baselines" / task / "BC.json")["seeds"] == [0, 1]
