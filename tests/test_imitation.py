@@ -30,13 +30,10 @@ ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": T
 
 
 def test_the_teachers_options_reach_its_demonstrations():
-    """``init.teacher_options`` build the teacher: the shipped file's ``x_price: margin`` (with ``k_soc``) lets
-    ``ecms_thermal`` derate a cool motor where the fixed price never does, and gives other actions from the same
-    episodes."""
-    assert build_config("ppo")["init"]["teacher_options"] == {"w_x": 300.0, "x_thr": -0.05, "w_temp": 5.0,
-                                                              "x_price": "margin", "k_soc": 1.5, "margin_floor": 0.5,
-                                                              "braking_x_thr": 0.0, "braking_floor": 1.0,
-                                                              "braking_below_c": 50.0}
+    """``init.teacher_options`` build the teacher: the shipped file keeps the physics version's heat prices and
+    firms the SOC feedback; ``x_price: margin`` lets ``ecms_thermal`` derate a cool motor where the fixed price never
+    does, and gives other actions from the same episodes."""
+    assert build_config("ppo")["init"]["teacher_options"] == {"k_soc": 1.5}
     teachers = {p: teacher_of({"imitate": "ecms_thermal", "teacher_options": {"x_price": p}})
                 for p in ("fixed", "margin")}
     runs = {p: demonstrations(env_kwargs(ENV), t, 2, seed=5) for p, t in teachers.items()}
@@ -148,10 +145,11 @@ def test_init_settings_are_checked_in_one_line():
         with pytest.raises(ValueError, match=match):
             build_config("ppo", overrides=bad)
     # another teacher than the file's: its options go with null (the file's are ecms_thermal's)
-    with pytest.raises(ValueError, match=r"unknown option.*'x_price'.*init.teacher_options=null"):
-        build_config("ppo", overrides={"init.imitate": "ecms"})
-    assert build_config("ppo", overrides={"init.imitate": "ecms", "init.teacher_options": None})["init"][
-        "teacher_options"] == {}
+    with pytest.raises(ValueError, match=r"unknown option.*'k_soc'.*init.teacher_options=null"):
+        build_config("ppo", overrides={"init.imitate": "rule", "init.cost_weight": 0.0})
+    assert build_config("ppo", overrides={"init.imitate": "rule", "init.cost_weight": 0.0,
+                                          "init.teacher_options": None})["init"]["teacher_options"] == {}
+    assert build_config("ppo", overrides={"init.imitate": "ecms"})["init"]["teacher_options"] == {"k_soc": 1.5}
     with pytest.raises(ValueError, match="PPO runs only"):
         build_config("sac", overrides={"init.imitate": "ecms"})
     frozen = build_config("ppo", overrides={"init.freeze_obs_stats": ["motor_temp_c", "heat_x"]})

@@ -1,7 +1,8 @@
 """The thermal optimum over a known cycle and its fuel-versus-final-SOC frontier (the ``dp_thermal`` planner).
 
-The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md), seeded by the SOC
-DP's path (:mod:`.soc_dp`), with heat prices measured along that path or the first pass's. The plan is the cheapest
+The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md), centred on the SOC
+DP's path (:mod:`.soc_dp`), with heat prices measured along that path or the first pass's, and seeded with causal
+strategies' runs of the same episode (``seeds``: kept alive through every pass and centres of the refining passes). The plan is the cheapest
 path into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
 battery energy at the reward's price: an exact action sequence, so the env realises the planned cost. The report's
 ``frontier``, over the final states of the same passes, is the cost by final SOC within ``frontier_halfwidth`` of the
@@ -231,7 +232,8 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings, seeds: dict[str, np.nda
         "max_states": int(max(r.max_states for r in searched)),
         "frontier": {"soc_final": soc_f.tolist(), "cost_g": cost_f.tolist(),
                      "grid": grid.describe() + f" (every {REFINE_STRIDE}. split) + {N_LOCAL} splits within "
-                                               f"±{LOCAL_HALFWIDTH:g} of {len(centers)} earlier path(s)",
+                                               f"±{LOCAL_HALFWIDTH:g} of {len(centers) + len(seeds or {})} earlier "
+                                               f"path(s)",
                      "soc_min": float(min(r.final_state[:, core.SOC].min() for r in passes)),
                      "cost": "fuel + missed wheel energy at the miss price + the reward's overheat terms (g)"},
     }
