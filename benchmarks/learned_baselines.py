@@ -56,9 +56,8 @@ FAMILY_NAMES = {"ppo": "PPO", "ppo_rl": "PPO", "sac": "SAC", "tqc": "TQC", "recu
                 "ppo_lagrangian": "PPO-Lagrangian"}
 #: A method's result file name where it is not its family name.
 FILE_NAMES = {"ppo_rl": "PPO-RL"}
-#: A method's ``train.py --algo`` where it is not the method's name, and its hyperparameter file.
-ALGOS = {"ppo_rl": "ppo"}
-HYPERPARAMS = {"ppo_rl": "agents/hyperparams/ppo_rl.yaml"}
+#: A method that is another method's algorithm with its own hyperparameter file: its ``train.py --algo`` and file.
+FROM_FILE = {"ppo_rl": ("ppo", "agents/hyperparams/ppo_rl.yaml")}
 #: Behaviour cloning from the optimum's offline dataset (``evaluate.py dataset``, then ``evaluate.py bc --seeds``): one
 #: route of every training family of the generalisation task, in ``paper``, driven by the thermal optimum.
 BC = "bc"
@@ -113,9 +112,9 @@ def train_seed(method: str, seed: int, runs: Path, extra: list[str]) -> dict[str
         if out.exists():
             shutil.rmtree(out)
         shown = out.relative_to(ROOT) if out.is_relative_to(ROOT) else out
-        cmd = [sys.executable, "train.py", "--algo", ALGOS.get(method, method), "--task", TRAINING_TASK, "--seed",
-               str(seed), "--out", str(shown), "--no-progress",
-               *(["--hyperparams", HYPERPARAMS[method]] if method in HYPERPARAMS else []), *extra]
+        algo, hyperparams = FROM_FILE.get(method, (method, None))
+        cmd = [sys.executable, "train.py", "--algo", algo, "--task", TRAINING_TASK, "--seed", str(seed), "--out",
+               str(shown), "--no-progress", *(["--hyperparams", hyperparams] if hyperparams else []), *extra]
         process_wall = run_command(cmd)
     return {**seed_record(out, seed), "process_wall_s": process_wall}
 

@@ -71,6 +71,10 @@ class Scenario:
         return with_grade_profile(cyc, kwargs.pop("seed"), **kwargs)
 
 
+#: The hilly scenarios' road: rolling hills laid under the cycle (:func:`~hev_thermal_env.cycles.with_grade_profile`).
+HILLY_ROAD = {"seed": HILLY_SEED, **HILLY_KWARGS}
+
+
 def in_service(ambient_c: float, warm_c: float, pump: float, fan: bool = True,
                payload_kg: float = 4500.0) -> Conditions:
     """A bus (full: 4.5 t) in ``ambient_c`` air whose motor and coolant start at ``warm_c`` (warm from service), the
@@ -87,20 +91,20 @@ SCENARIOS: dict[str, Scenario] = {
     "summer": Scenario("summer", "summer day: 38 °C ambient, motor and coolant start at 38 °C, cooling intact",
                        Conditions(ambient_temp_c=38.0, initial_motor_temp_c=38.0)),
     "hilly": Scenario("hilly", "the paper's conditions on a hilly road (grades up to ±7 %, no net climb)",
-                      Conditions(), grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
+                      Conditions(), grade_profile=HILLY_ROAD),
     "full_bus": Scenario("full_bus", "the paper's conditions with 4.5 t of passengers (19.5 t in all)",
                          Conditions(payload_kg=4500.0)),
     "weak_loop": Scenario("weak_loop", "a full bus an hour into service: 40 °C air, motor and coolant at 55 °C, "
                                        "pump flow at 10 % (a weak loop)", in_service(40.0, 55.0, 0.1)),
     "hilly_weak_loop": Scenario("hilly_weak_loop", "weak_loop on a hilly road: a full bus an hour into service, 40 °C "
                                 "air, motor and coolant at 55 °C, pump flow at 10 %", in_service(40.0, 55.0, 0.1),
-                                grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
+                                grade_profile=HILLY_ROAD),
     "hilly_evening": Scenario("hilly_evening", "a hilly road late in a hot day's service: a full bus, 35 °C air, motor "
                               "and coolant at 58 °C, pump flow at 10 %", in_service(35.0, 58.0, 0.1),
-                              grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
+                              grade_profile=HILLY_ROAD),
     "hilly_fan_failed": Scenario("hilly_fan_failed", "a hilly road with the radiator's fan failed: a full bus, 40 °C "
                                  "air, motor and coolant at 58 °C, pump flow at 20 %",
-                                 in_service(40.0, 58.0, 0.2, fan=False), grade_profile={"seed": HILLY_SEED, **HILLY_KWARGS}),
+                                 in_service(40.0, 58.0, 0.2, fan=False), grade_profile=HILLY_ROAD),
     "random": Scenario("random", "randomised ambient, start temperature, SOC and cooling (training)",
                        Conditions(), randomized=True),
     "random_service": Scenario("random_service", "as random, plus a payload of 0-4.5 t per episode (training)",

@@ -353,10 +353,9 @@ def _script():
 
 def test_the_benchmark_covers_every_algorithm_with_fixed_seeds_and_valid_family_names():
     script = _script()
-    assert set(script.METHODS) == set(ALGORITHMS) | set(script.ALGOS) == set(script.SMOKE_ARGS) == set(
+    assert set(script.METHODS) == set(ALGORITHMS) | set(script.FROM_FILE) == set(script.SMOKE_ARGS) == set(
         script.FAMILY_NAMES)
-    assert set(script.ALGOS.values()) <= set(ALGORITHMS) and set(script.HYPERPARAMS) == set(script.ALGOS)
-    assert all((ROOT / path).is_file() for path in script.HYPERPARAMS.values())
+    assert all(algo in ALGORITHMS and (ROOT / path).is_file() for algo, path in script.FROM_FILE.values())
     assert script.SEEDS == (0, 1, 2, 3, 4)
     for name in script.FAMILY_NAMES.values():  # a seed family may not take a strategy's name
         assert parse_family(f"{name}={ROOT},{ROOT / 'agents'}", taken=list_strategies()).name == name

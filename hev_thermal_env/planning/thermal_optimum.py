@@ -186,6 +186,7 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings, seeds: dict[str, np.nda
     a centre of the refining passes, so no seed ends cheaper than the frontier at its own final SOC."""
     t0 = time.perf_counter()
     seed_u = None if not seeds else seed_splits(problem, np.array(list(seeds.values())))
+    seed_runs = {} if seed_u is None else {name: replay(problem, u) for name, u in zip(seeds, seed_u)}
     grid = s.grid_for(problem.n_stages)
     target = float(problem.state0[core.SOC]) if s.soc_final is None else float(s.soc_final)
     window = (target - s.frontier_halfwidth, target + s.frontier_halfwidth)
@@ -211,7 +212,7 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings, seeds: dict[str, np.nda
     first_pass["heat_price_g_per_k_max"] = dict(zip(("motor", "winding", "coolant"), heat.max(axis=0).tolist()))
     # the refining passes make the plan and the frontier; where the coarse pass was skipped, pass 2 keeps a third price
     passes, grid = _refine(problem, s, grid, window, band, centers, dp_soc, heat, third_price=not searched0,
-                           seeds=seed_u)
+                           seeds=seed_u, seed_soc=[r["state"][:, core.SOC] for r in seed_runs.values()])
     searched = searched0 + passes
     result, j = _pick(passes, problem, band, s.on_infeasible)
     u = result.path(j)
@@ -225,7 +226,7 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings, seeds: dict[str, np.nda
         "solve_s": sum(r.solve_s for r in searched), "plan_total_s": time.perf_counter() - t0,
         "first_pass": first_pass,
         "seeds": {name: {"cost_g": r["cost_g"], "soc_final": float(r["state"][-1, core.SOC])}
-                  for name, r in ((name, replay(problem, u)) for name, u in (seeds or {}).items())},
+                  for name, r in seed_runs.items()},
         "passes": [{"solve_s": r.solve_s, "soc_bin": r.grid.soc, "max_states": r.max_states,
                     "tube": r.info.get("tube", False)} for r in searched],
         "vehicle_steps_evaluated": int(sum(r.n_evals for r in searched)),
@@ -242,12 +243,13 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings, seeds: dict[str, np.nda
 
 def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tuple[float, float],
             band: tuple[float, float], centers: list[np.ndarray], dp_soc: np.ndarray,
-            heat: np.ndarray, third_price: bool, seeds: np.ndarray | None = None) -> tuple[list[SearchResult], SearchGrid]:
+            heat: np.ndarray, third_price: bool, seeds: np.ndarray | None = None,
+            seed_soc: list[np.ndarray] = ()) -> tuple[list[SearchResult], SearchGrid]:
     """The second pass around ``centers`` and, where :meth:`OptimumSettings.refined_grid` narrows the SOC bin, the
     third pass in a SOC tube around the second pass's best path and the DP's; returns them and the finest grid used.
     ``third_price``: the second pass keeps a bin's cheapest at :data:`~.search.THIRD_PRICE` where heat stays cheap
     (it spans the whole window, where a frontier far from the plan comes from; the tube around the plan needs none).
-    ``seeds`` are centres too, and the tube holds their SOC traces."""
+    ``seeds`` are centres too, and the tube holds their SOC traces (``seed_soc``)."""
     extra = [] if seeds is None else list(seeds)
     second = _search(problem, grid, window, "pass 2", s.threads, u_center=np.array(centers + extra), heat_price=heat,
                      third_price=third_price, seeds=seeds)
@@ -256,7 +258,7 @@ def _refine(problem: DPProblem, s: OptimumSettings, grid: SearchGrid, window: tu
     if not fine.soc < grid.soc:
         return [second], grid
     u2 = second.path(j2)
-    socs = [replay(problem, u)["state"][:, core.SOC] for u in [u2] + extra] + [dp_soc]
+    socs = [replay(problem, u2)["state"][:, core.SOC], *seed_soc, dp_soc]
     tube = (np.min(socs, axis=0) - TUBE_HALFWIDTH, np.max(socs, axis=0) + TUBE_HALFWIDTH)
     third = _search(problem, fine, window, "pass 3", s.threads, u_center=np.array([u2] + centers[1:] + extra),
                     tube=tube, heat_price=heat, seeds=seeds)
