@@ -19,7 +19,6 @@ from hev_thermal_env.cycles import (
 )
 from hev_thermal_env.cycles.cycle import warn_implausible
 from hev_thermal_env.cycles.families import (
-    FAMILY_BOUNDS,
     LAUNCH_ACCEL_MPS2,
     TRAINING_SEED_LIMIT,
     VALIDATION_SEED_BASE,
@@ -31,6 +30,7 @@ from hev_thermal_env.cycles.names import VALIDATION_FAMILIES, VALIDATION_SIZE, v
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.physics.config import VehicleConfig
 from hev_thermal_env.scenarios import get_scenario
+from tools.family_bounds import FAMILY_BOUNDS
 
 SEEDS = (0, 1, 7, 123_456, 2_000_000_000)
 

@@ -1,19 +1,13 @@
-"""Named, seeded families of synthetic bus cycles: what a city bus meets in service.
+"""Named, seeded families of synthetic bus cycles (:data:`FAMILIES`): chains of *segments*, each a
+:func:`~hev_thermal_env.cycles.generate_bus_cycle` run of one kind (:data:`SEGMENT_KINDS`), joined at standstill,
+optionally over a closed hilly road (:func:`~hev_thermal_env.cycles.generate_grade_profile`, no net climb), within
+what the loader accepts without an :class:`~hev_thermal_env.cycles.ImplausibleCycleWarning`. What each family covers,
+its statistics and the seeds: docs/cycle-families.md.
 
-Every family cycle is a chain of *segments*, each a :func:`~hev_thermal_env.cycles.generate_bus_cycle` run of one
-kind (:data:`SEGMENT_KINDS`), joined at standstill, optionally over a closed hilly road
-(:func:`~hev_thermal_env.cycles.generate_grade_profile`, no net climb); all of it generated, not measured, and
-within what the loader accepts without an :class:`~hev_thermal_env.cycles.ImplausibleCycleWarning`. The families:
-:data:`FAMILIES`; their statistics and why each is there: docs/cycle-families.md. Payload is a condition of the
-run, not part of a cycle.
-
-Seeds: training draws from ``[0, TRAINING_SEED_LIMIT)`` (:func:`training_seed`); the validation set
-(:mod:`~hev_thermal_env.cycles.names`) uses seeds from :data:`VALIDATION_SEED_BASE` up, disjoint by construction.
-Segments and roads are seeded with :func:`inner_seed`, an injective map of (family, seed, part) onto integers from 2**48
-up: no two family cycles share a generator seed, and none is the seed of a built-in or ``random_bus`` cycle; the
-per-cycle draws (durations, segment kinds, launch accelerations, hill heights) use ``inner_seed(family, seed, 0)``.
+Seeds: training draws from ``[0, TRAINING_SEED_LIMIT)`` (:func:`training_seed`), the validation set from
+:data:`VALIDATION_SEED_BASE` up; segments, roads and the per-cycle draws take :func:`inner_seed`, injective onto
+integers from 2**48 up (no family cycle shares a generator seed with another, a built-in or a ``random_bus`` cycle).
 """
-
 from __future__ import annotations
 
 import dataclasses
@@ -56,35 +50,6 @@ LAUNCH_POWER_W_PER_KG = (9.0, 12.0)
 MOTORWAY_POWER_W_PER_KG = (8.0, 14.0)
 #: Kinds of ``bus_mixed`` segments and their probabilities.
 MIXED_KINDS = {"city": 0.35, "congested": 0.25, "launch": 0.2, "suburban": 0.2}
-
-
-#: The documented envelope of each family's :func:`cycle_statistics` (low, high), for every seed: exact for
-#: durations, top speeds, accelerations and grades (limits of the draws), measured with a margin for the
-#: rest (``benchmarks/cycle_families.py`` gives the ranges over 300 seeds). Payload: 0-4,500 kg for every
-#: family, from the training scenario (``random_service``), not from the cycle.
-FAMILY_BOUNDS: dict[str, dict[str, tuple[float, float]]] = {
-    "random_bus": {"duration_s": (1300, 1300), "mean_speed_kmh": (10, 25), "max_speed_kmh": (30, 60),
-                   "stops_per_km": (1.5, 6.5), "idle_fraction": (0.15, 0.40), "max_accel_mps2": (0.9, 1.0),
-                   "max_decel_mps2": (0.85, 1.0), "grade_min": (0, 0), "grade_max": (0, 0)},
-    "bus_long": {"duration_s": (3000, 4200), "mean_speed_kmh": (12, 28), "max_speed_kmh": (40, 70),
-                 "stops_per_km": (1.2, 5.0), "idle_fraction": (0.15, 0.35), "max_accel_mps2": (0.9, 1.0),
-                 "max_decel_mps2": (0.85, 1.0), "grade_min": (0, 0), "grade_max": (0, 0)},
-    "bus_congested": {"duration_s": (1200, 2400), "mean_speed_kmh": (5, 9), "max_speed_kmh": (20, 35),
-                      "stops_per_km": (9, 20), "idle_fraction": (0.30, 0.50), "max_accel_mps2": (0.7, 0.8),
-                      "max_decel_mps2": (0.8, 0.9), "grade_min": (0, 0), "grade_max": (0, 0)},
-    "bus_launch": {"duration_s": (1200, 2000), "mean_speed_kmh": (10, 19), "max_speed_kmh": (30, 60),
-                   "stops_per_km": (3, 9), "idle_fraction": (0.25, 0.50), "max_accel_mps2": (1.3, 2.2),
-                   "max_decel_mps2": (1.6, 2.0), "grade_min": (0, 0), "grade_max": (0, 0)},
-    "bus_hilly": {"duration_s": (1200, 2400), "mean_speed_kmh": (10, 25), "max_speed_kmh": (30, 60),
-                  "stops_per_km": (1.5, 6.5), "idle_fraction": (0.15, 0.40), "max_accel_mps2": (0.9, 1.0),
-                  "max_decel_mps2": (0.85, 1.0), "grade_min": (-0.08, -0.01), "grade_max": (0.01, 0.08)},
-    "bus_mixed": {"duration_s": (3000, 4500), "mean_speed_kmh": (5, 36), "max_speed_kmh": (25, 70),
-                  "stops_per_km": (0.5, 18), "idle_fraction": (0.10, 0.50), "max_accel_mps2": (0.75, 2.2),
-                  "max_decel_mps2": (0.8, 2.0), "grade_min": (-0.07, 0), "grade_max": (0, 0.07)},
-    "bus_express": {"duration_s": (1800, 3600), "mean_speed_kmh": (35, 75), "max_speed_kmh": (80, 115),
-                    "stops_per_km": (0.2, 1.2), "idle_fraction": (0.05, 0.30), "max_accel_mps2": (1.3, 1.5),
-                    "max_decel_mps2": (0.8, 1.5), "grade_min": (-0.05, 0), "grade_max": (0, 0.05)},
-}
 #: Payload range [kg] the training scenario draws under every family (``random_service``).
 PAYLOAD_KG_RANGE = (0.0, 4500.0)
 
