@@ -1,18 +1,12 @@
-"""Names of generated cycles: one cycle (``FAMILY:SEED``, ``validation_bus:K``), a family, or a set; the validation set.
+"""Names of generated cycles (docs/cycle-families.md, *Names*): one cycle (``FAMILY:SEED``, ``validation_bus:K``),
+a bare family (a fresh cycle every episode in an env's or training run's cycle list), or a set (``validation_bus``,
+``validation_bus:A..B``, ``FAMILY:A..B`` inclusive, at most :data:`MAX_RANGE` seeds), which :func:`expand_cycle_names`
+replaces by its cycles' names wherever a list of cycles is accepted.
 
-``FAMILY:SEED`` is one cycle of a family (:func:`~hev_thermal_env.cycles.families.generate_family_cycle`),
-``validation_bus:K`` validation cycle ``K``. ``validation_bus``, ``validation_bus:A..B`` and ``FAMILY:A..B``
-(inclusive, at most :data:`MAX_RANGE` seeds) are *sets*: :func:`expand_cycle_names` replaces them by their cycles'
-names wherever a list of cycles is accepted. A bare family name (``bus_long``) in an env's or training run's cycle list
-draws a fresh cycle of the family every episode.
-
-The validation set ``validation_bus``: fixed generated bus cycles that training never draws. Cycle ``k`` has family
-:func:`validation_family` (below :data:`ROTATION_SIZE` the five of :data:`VALIDATION_FAMILIES` in turn, then express
-routes) and seed ``VALIDATION_SEED_BASE + k``, above every training seed (:func:`validation_seed` asserts it). A
-training run selects its checkpoints on ``validation_bus:20..29``; the trained policies are judged on
-``validation_bus:0..19``, which no selection saw.
+The validation set ``validation_bus``: cycle ``k`` has family :func:`validation_family` and seed
+``VALIDATION_SEED_BASE + k``, above every training seed (:func:`validation_seed` asserts it); runs select checkpoints
+on ``validation_bus:20..29`` and are judged on ``validation_bus:0..19``.
 """
-
 from __future__ import annotations
 
 import functools
