@@ -198,8 +198,15 @@ class EnvParts:
         """Build the parts from the env's arguments; returns one env's observation and action spaces."""
         self.info_keys = env_spaces.check_info_keys(info_keys)
         self.physics = check_physics(physics)
-        self.config = resolve_config(config, thermal, self.physics)
+        if config is None:
+            config = paper_bus(physics=self.physics)
+        if not isinstance(config, VehicleConfig):
+            raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
+        self.config = config if thermal is None else config.with_thermal(bool(thermal))
         self.core = physics_core.PhysicsCore(self.config)
+        # the dt_s of safety_cost: 0 with the thermal model off (the heat index is still integrated then, but nothing
+        # derates or stops)
+        self._cost_step_s = float(self.core.dt_s) if self.config.thermal.enabled else 0.0
         battery = self.config.battery
         self.sampler = EpisodeSampler(cycle, scenario, conditions, random_start, soc_offset,
                                       (battery.soc_min, battery.soc_max))
@@ -207,7 +214,7 @@ class EnvParts:
         self.preview_s, self.preview_step_s = int(preview_s), int(preview_step_s)
         self.obs_names = env_spaces.observation_names(self.preview_s, self.preview_step_s)
         low, high = env_spaces.observation_bounds(self.config, offsets.size)
-        self._tables = TableCache(self.core, self.sampler.cycles.fixed_cycles())
+        self._tables = TableCache(self.core, [c for c in self.sampler.cycles.items if isinstance(c, Cycle)])
         self._rows = EpisodeRows(self.core, n_rows, offsets, low, high, RewardParams.of(reward, self.physics))
         return (spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32),
                 spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32))
@@ -220,22 +227,7 @@ class EnvParts:
     def reward_params(self, value: RewardParams | dict) -> None:
         self._rows.reward_params = RewardParams.of(value)
 
-    @property
-    def phys_state(self) -> np.ndarray:
-        """State before the next step, [n, N_STATE] (n = 1 for the single env)."""
-        return self._rows.state
+    phys_state = property(lambda self: self._rows.state,
+                          doc="State before the next step, [n, N_STATE] (n = 1 for the single env).")
+    cond = property(lambda self: self._rows.cond, doc="Conditions array of the episodes, [n, N_COND].")
 
-    @property
-    def cond(self) -> np.ndarray:
-        """Conditions array of the episodes, [n, N_COND]."""
-        return self._rows.cond
-
-
-def resolve_config(config: VehicleConfig | None, thermal: bool | None, physics: int = 2) -> VehicleConfig:
-    """The vehicle: ``config`` (default ``paper_bus(physics=physics)``), its thermal model switched by ``thermal`` if
-    given."""
-    if config is None:
-        config = paper_bus(physics=physics)
-    if not isinstance(config, VehicleConfig):
-        raise TypeError(f"config: expected VehicleConfig or None, got {type(config).__name__}")
-    return config if thermal is None else config.with_thermal(bool(thermal))

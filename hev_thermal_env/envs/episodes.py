@@ -59,9 +59,6 @@ class CycleChoice:
             return cyc if self.scenario is None else self.scenario.prepare_cycle(cyc)
         return item
 
-    def fixed_cycles(self) -> list[Cycle]:
-        return [c for c in self.items if isinstance(c, Cycle)]
-
 
 @dataclasses.dataclass(frozen=True)
 class Episode:

@@ -236,7 +236,6 @@ class HevThermalEnv(EnvParts, gym.Env):
         self.observation_space, self.action_space = self._build(1, cycle, scenario, config, conditions, reward,
                                                                 preview_s, preview_step_s, thermal, random_start,
                                                                 info_keys, soc_offset, physics)
-        self._cost_step_s = spaces.cost_step_s(self.config, self.core.dt_s)
         self._u = np.zeros(1)
         self.cycle: Cycle | None = None
         self.conditions: Conditions | None = None

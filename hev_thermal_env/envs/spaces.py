@@ -78,7 +78,7 @@ STATE_INFO_KEYS = ("soc", "motor_temp_c", "heat_index", "motor_cutoff", "winding
 def safety_cost(heat_index: Any, cutoff: Any, winding_trip: Any, dt_s: float) -> Any:
     """The safety cost of steps (``info["cost"]``, the env's spec, section Cost): ``dt_s · max(PWM, stopped)``, PWM
     the heat index after the step (eq 9), ``stopped`` either protection (``cutoff``: 70 °C, ``winding_trip``: 165 °C
-    winding); ``dt_s`` 0 for a motor without the thermal model (:func:`cost_step_s`). Arrays, or numpy scalars."""
+    winding); ``dt_s`` 0 for a motor without the thermal model (nothing derates or stops). Arrays, or numpy scalars."""
     if isinstance(heat_index, np.ndarray):
         return np.maximum(heat_index, np.maximum(cutoff, winding_trip)) * dt_s
     return max(heat_index, cutoff, winding_trip) * dt_s  # one step: a tenth of the ufuncs' time
@@ -133,7 +133,7 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
                    cost_step: float) -> dict[str, Any]:
     """The ``info`` of one step of the single env (same values as the vector env's info arrays), numpy scalars in
     :data:`INFO_KEYS` order; ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (numpy scalars);
-    ``cost_step``: the ``dt_s`` of :func:`safety_cost` (:func:`cost_step_s`)."""
+    ``cost_step``: the ``dt_s`` of :func:`safety_cost`."""
     info = {
         "fuel_g": out[core.FUEL_G], "soc": state[core.SOC], "motor_temp_c": state[core.TEMP_C],
         "heat_index": out[core.HEAT_INDEX], "motor_torque_nm": out[core.MOTOR_TORQUE],
@@ -154,12 +154,6 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
         motor_share_clipped=np.True_ if clipped else np.False_, motor_torque_clipped=out[core.MOTOR_CLIPPED] != 0.0)
     info.update(episode)
     return info
-
-
-def cost_step_s(config: VehicleConfig, dt_s: float) -> float:
-    """The ``dt_s`` of :func:`safety_cost` for ``config``: the step's length, or 0 with the thermal model off (the heat
-    index is still integrated then, but nothing derates or stops)."""
-    return float(dt_s) if config.thermal.enabled else 0.0
 
 
 _SMALL_INT64 = tuple(np.int64(i) for i in range(64))

@@ -19,7 +19,7 @@ from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
 from .batch import EnvParts
 from .reward import RewardParams
-from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, cost_step_s, reset_info_dict, step_info_arrays
+from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, reset_info_dict, step_info_arrays
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = {
@@ -76,7 +76,6 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
         self.single_observation_space, self.single_action_space = self._build(
             self.num_envs, cycle, scenario, config, conditions, reward, preview_s, preview_step_s, thermal,
             random_start, info_keys, soc_offset, physics)
-        self._cost_step_s = cost_step_s(self.config, self.core.dt_s)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
