@@ -212,21 +212,6 @@ def reward_kernel(w, out, state_before, state_after, target_before, target_after
         total[b] = tot
 
 
-def _before(state_before: np.ndarray | None, state_after: np.ndarray, soc_target: np.ndarray) -> np.ndarray:
-    """States before the step, [B, N_STATE] (one [N_STATE] shared by every row; None: at the target)."""
-    b = state_after.shape[0]
-    if state_before is None:
-        before = np.zeros((b, core.N_STATE))
-        before[:, core.SOC] = soc_target
-        return before
-    before = np.asarray(state_before, dtype=np.float64)
-    if before.ndim == 1:
-        before = np.broadcast_to(before, (b, before.size))
-    if before.shape != state_after.shape:
-        raise ValueError(f"state_before: shape {before.shape} does not match state_after {state_after.shape}")
-    return np.ascontiguousarray(before)
-
-
 def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray, soc_target: np.ndarray | float,
                  lhv_j_per_g: float, dt_s: float = 1.0, *, state_before: np.ndarray | None = None,
                  **switches: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -241,8 +226,18 @@ def reward_terms(params: RewardParams, out: np.ndarray, state_after: np.ndarray,
     total = np.empty(b)
     target = np.ascontiguousarray(np.broadcast_to(np.asarray(soc_target, dtype=np.float64), (b,)))
     after = np.ascontiguousarray(state_after, dtype=np.float64)
-    reward_kernel(params.weights(lhv_j_per_g, **switches), np.ascontiguousarray(out, dtype=np.float64),
-                  _before(state_before, after, target), after, target, target, float(dt_s), terms, total)
+    w, out = params.weights(lhv_j_per_g, **switches), np.ascontiguousarray(out, dtype=np.float64)
+    if state_before is None:  # at the target
+        before = np.zeros((b, core.N_STATE))
+        before[:, core.SOC] = target
+    else:
+        before = np.asarray(state_before, dtype=np.float64)
+        if before.ndim == 1:  # one state for every row
+            before = np.broadcast_to(before, (b, before.size))
+        if before.shape != after.shape:
+            raise ValueError(f"state_before: shape {before.shape} does not match state_after {after.shape}")
+        before = np.ascontiguousarray(before)
+    reward_kernel(w, out, before, after, target, target, float(dt_s), terms, total)
     return terms, total
 
 
