@@ -117,7 +117,6 @@ class EpisodeRows:
         self._reward_params = value
         self._weights = value.weights(self.lhv)
 
-    #: Cycle speed [n, width] of every row (held at the cycle's last value past its end), and grade.
     speed = property(lambda self: self.tables[0], doc="Cycle speed [n, width] of every row (held at its last value).")
     grade = property(lambda self: self.tables[1], doc="Road grade [n, width] of every row (0 past the cycle's end).")
 

@@ -45,9 +45,6 @@ class EpisodePlot:
         self.axes = self.fig.subplots(5, 1, sharex=True)
         self._lines: dict[str, object] = {}
         self._cycle: Cycle | None = None
-        self._build()
-
-    def _build(self) -> None:
         import matplotlib
 
         with matplotlib.rc_context({"font.size": FONT_PT}):
