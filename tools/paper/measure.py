@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.cycles import Cycle, load_cycle
 from hev_thermal_env.metrics import summarize
 from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME, TARGET_BY_ID, TARGETS, PaperFigure
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, paper_bus
@@ -30,7 +30,7 @@ from hev_thermal_env.physics import core as physics_core
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
-from hev_thermal_env.simulate import drive
+from hev_thermal_env.simulate import CoreDriver
 
 RPM = math.pi / 30.0
 #: The paper's conditions for Figs 7-10 and Table 2.
@@ -86,6 +86,44 @@ def warm_figures(temps_c: np.ndarray, band: PaperFigure = WARM_BAND) -> dict[str
     return {"warm_from_s": float(warm[0] + 1), "temp_warm_mean_c": float(after.mean()), "temp_warm_min_c": lo,
             "temp_warm_max_c": hi, "warm_excursion_k": max(0.0, band.low - lo, hi - band.high),
             "warm_seconds_outside": float(((after < band.low) | (after > band.high)).sum())}
+
+
+class StrategyDriver(CoreDriver):
+    """What a model-based strategy reads of ``HevThermalEnv`` (``core``, ``config``, ``cycle``, ``k``, ``phys_state``,
+    ``peek``) over a :class:`~hev_thermal_env.simulate.CoreDriver`: light enough for the calibration's thousands of
+    runs, a pure function of the vehicle, the cycle and the conditions."""
+
+    @property
+    def unwrapped(self) -> StrategyDriver:
+        return self
+
+    def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        a = np.array(actions, dtype=np.float64).reshape(-1)
+        n, k = a.size, self.k
+        return self.core.step(np.repeat(self.phys_state, n, axis=0), a, np.full(n, self._v[k]),
+                              np.full(n, self._v[k + 1]), np.full(n, self._g[k]), np.repeat(self.cond, n, axis=0))
+
+
+def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
+          conditions: Conditions | None = None) -> dict[str, np.ndarray]:
+    """Run ``strategy`` (an ``agents.base.Strategy``) over ``cycle`` on a :class:`StrategyDriver`, with the float32
+    action the environment gives it (so the run equals the environment's step for step); the traces of
+    :meth:`~hev_thermal_env.simulate.CoreDriver.run` and ``u``, the action applied."""
+    cyc = load_cycle(cycle)
+    conditions = conditions or Conditions()
+    config = strategy.vehicle_config(config)
+    env = StrategyDriver(config, cyc, conditions)
+    strategy.reset(env)
+    us = np.empty(cyc.n_steps)
+
+    def act(k: int) -> float:
+        a = np.asarray(strategy.act(None, {}), dtype=np.float32).reshape(1)
+        us[k] = u = min(max(float(a[0]), -1.0), 1.0)
+        return u
+
+    trace = env.run(act)
+    trace["u"] = us
+    return trace
 
 
 def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | None = None
