@@ -41,8 +41,6 @@ ANCHOR = "engine_only"
 ILL_CONDITIONED_BELOW = 0.02
 """``r0 − 1`` below this: the score is flagged and left out of aggregates."""
 ILL_CONDITIONED = "ill-conditioned"
-OPTIMUM_RATIO_TOLERANCE = 1e-3
-"""The optimum's stated tolerance: no run's frontier ratio lies below 1 − this (the grid's resolution)."""
 SOC_BOUND = 0.02
 """|ΔSOC| beyond which a run does not hold its charge: a checkpoint with such a validation run is not selected
 (:mod:`hev_thermal_env.training.selection`), and a score counts such runs (``beyond_soc_bound``)."""
@@ -88,15 +86,6 @@ class Frontier:
         if not self.soc_min - SOC_TOLERANCE <= soc_final <= float(self.soc_final[-1]) + SOC_TOLERANCE:
             return None
         return float(np.interp(soc_final, self.soc_final, self.cost_g))
-
-
-def frontier_sample(soc_final, cost_g, max_points: int = 200) -> dict[str, Any]:
-    """Every k-th breakpoint of a frontier (and the last), at most about ``max_points``, for records and plots."""
-    soc, cost = np.asarray(soc_final, dtype=float), np.asarray(cost_g, dtype=float)
-    every = max(1, int(np.ceil(soc.size / max_points)))
-    idx = np.unique(np.r_[np.arange(0, soc.size, every), soc.size - 1]) if soc.size else np.arange(0)
-    return {"soc_final": [round(float(x), 6) for x in soc[idx]], "cost_g": [round(float(x), 4) for x in cost[idx]],
-            "every_kth_breakpoint": every, "breakpoints": int(soc.size)}
 
 
 def frontier_ratio(cost_g: float, soc_final: float, frontier: Frontier | None) -> tuple[float | None, str | None]:
@@ -179,11 +168,6 @@ def normalised_score(ratio: float | None, anchor_ratio: float | None) -> tuple[f
     if gap < ILL_CONDITIONED_BELOW:
         return score, f"{ILL_CONDITIONED}: {ANCHOR}'s frontier ratio is {r0:.4f} (r0 − 1 < {ILL_CONDITIONED_BELOW})"
     return score, None
-
-
-def score_tolerance(anchor_ratio: float) -> float:
-    """How far above 100 a score may lie within :data:`OPTIMUM_RATIO_TOLERANCE`, on an episode with ``r0``."""
-    return 100.0 * OPTIMUM_RATIO_TOLERANCE / (float(anchor_ratio) - 1.0)
 
 
 def usable(score: float | None, note: str | None) -> bool:
