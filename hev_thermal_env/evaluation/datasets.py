@@ -1,10 +1,6 @@
-"""Offline datasets in Minari's format: a strategy's episodes on a task or on training routes.
-
-:func:`write_dataset` drives ``HevThermal-v2`` through Minari's ``DataCollector`` (its infos recorded) with one of
-:data:`SOURCES` (D4RL's expert / medium / random levels) and writes the dataset with its card filled: the algorithm,
-the code's permalink, the physics fingerprint, the task id and digest (or the training routes), and each episode's
-reset arguments (``hev_thermal_episodes``), which replay needs. The datasets live in ``$MINARI_DATASETS_PATH``
-(Minari's default ``~/.minari/datasets``; ``root`` sets it). docs/tasks.md, *Offline datasets*.
+"""Offline datasets in Minari's format (docs/tasks.md, *Offline datasets*): a strategy's episodes on a task or on
+training routes, with each episode's reset arguments in the card (``hev_thermal_episodes``), which replay needs. The
+datasets live in ``$MINARI_DATASETS_PATH`` (Minari's default ``~/.minari/datasets``; ``root`` sets it).
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
-"""Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
-
-An executor's ``map`` yields ``(index, result)`` as the cells finish, and ``None`` every ``tick_s`` seconds without
-one (its wait returns to Python that often, so a Ctrl-C is handled within that time); ``slots`` is how many run at
-once. Ray is optional (the ``ray`` extra): asking for it without it, or for an address where no cluster answers,
-raises :class:`ExecutorError` in one line. See docs/scaling-out.md.
+"""Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``, the optional
+``ray`` extra; docs/scaling-out.md). An executor's ``map`` yields ``(index, result)`` as the cells finish, and
+``None`` every ``tick_s`` seconds without one (so a Ctrl-C is handled within that time); ``slots`` is how many run at
+once. Ray missing, or no cluster at the address, raises :class:`ExecutorError` in one line.
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
-"""Reference values of the named tasks, stored in the package: what a result on a task is scored against.
-
-Per episode of a task (:meth:`hev_thermal_env.tasks.Task.resets`), a reference holds the thermal optimum's run
-(``dp_thermal``: its cost, final SOC, episode safety cost and frontier) and :data:`~.score.ANCHOR`'s (its cost, final
-SOC and frontier ratio ``r0``, the normalised score's 0), so a result is scored without running the optimum again
-(:func:`episode_score`). The task's safety budget (:func:`safety_budget_s`) is fixed from the optimum's episode safety
-costs before any policy is trained on the task. A reference belongs to one physics fingerprint and one task digest;
-:func:`load_reference` refuses a stale one (:class:`StaleReferenceError`). ``evaluate.py reference`` recomputes it.
+"""Reference values of the named tasks, stored in the package (docs/tasks.md, *Reference values*): per episode the
+thermal optimum's run and :data:`~.score.ANCHOR`'s, so a result is scored without running the optimum again
+(:func:`episode_score`), and the task's safety budget (:func:`safety_budget_s`). A reference belongs to one physics
+fingerprint and one task digest; :func:`load_reference` refuses a stale one (:class:`StaleReferenceError`).
+``evaluate.py reference`` recomputes it.
 """
 
 from __future__ import annotations

@@ -1,9 +1,6 @@
-"""The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` and ``timings.json``.
-
-One row per cycle × scenario × strategy run (seed-family members with ``family``), then the families' rows
-(:mod:`.benchmark`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
-scenario, what the columns mean and why a ratio is missing. Wall times go to ``timings.json`` only, so the other
-files are the same byte for byte run after run.
+"""The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` (the runs and families, not the
+members) and ``timings.json``, one row per cycle × scenario × strategy run, then the families' rows. Wall times go to
+``timings.json`` only, so the other files are the same byte for byte run after run.
 """
 
 from __future__ import annotations

@@ -1,23 +1,15 @@
-"""The benchmark's yardstick and the normalised score: every run against the thermal optimum (``dp_thermal``).
+"""The benchmark's yardstick and the normalised score: every run against the thermal optimum (``dp_thermal``);
+docs/metrics.md.
 
-The reference run publishes in its settings (``strategy_settings``) the optimum's cost against the final SOC,
-``"frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}``, sorted by SOC, the cost
-(:func:`hev_thermal_env.metrics.yardstick_cost_g`) non-decreasing in it. :func:`add_yardstick_columns` gives each
-row ``frontier_ratio`` (``cost_g`` / F(``soc_final``), F interpolated on the frontier; None outside its range, with
-a ``frontier_note``), ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and ``reference``. ``dp`` plans with
-the thermal state held: labelled thermal-blind everywhere (its class's ``label_suffix``).
-
-The normalised score is the share of the achievable saving a strategy captures, per episode, with ``r`` its frontier
-ratio and ``r0`` that of :data:`ANCHOR` (the hybrid with its motor unused) on the same episode::
+The reference run publishes in its ``strategy_settings`` the optimum's cost against the final SOC,
+``"frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}`` (:class:`Frontier`);
+:func:`add_yardstick_columns` gives each row ``frontier_ratio`` = ``cost_g`` / F(``soc_final``) and the other ratios.
+The normalised score of an episode, with ``r`` the frontier ratio and ``r0`` that of :data:`ANCHOR`::
 
     score = 100 · (r0 − r) / (r0 − 1)
 
-The thermal optimum scores 100 (up to the tolerance of its replay), ``engine_only`` 0, a strategy worse than leaving
-the motor unused below 0; never clipped. Where ``r0 − 1`` is below :data:`ILL_CONDITIONED_BELOW` the score divides by
-almost nothing: it is flagged ``ill-conditioned`` and kept out of every aggregate. ``conventional`` (a bus without a
-motor) is another vehicle and never an anchor. Aggregates (:func:`aggregate`) are the interquartile mean over episodes
-and seeds with a 95 % stratified bootstrap interval (:func:`hev_thermal_env.stats.stratified_iqm_ci`, one stratum per
-episode). See docs/metrics.md.
+never clipped; where ``r0 − 1`` < :data:`ILL_CONDITIONED_BELOW` it is flagged ``ill-conditioned`` and kept out of
+every aggregate (:func:`aggregate`: IQM over episodes and seeds, a 95 % bootstrap interval stratified by episode).
 """
 
 from __future__ import annotations
@@ -126,8 +118,9 @@ def reference_text(ref_row: Mapping[str, Any] | None, frontier: Frontier | None)
 
 
 def add_yardstick_columns(rows: list[dict]) -> None:
-    """Fill the yardstick's columns (module docstring) of every run row from the ``dp_thermal`` and ``dp`` rows of
-    its cycle and scenario."""
+    """Fill every run row's ``frontier_ratio`` (None off the frontier's range, with a ``frontier_note``),
+    ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and ``reference`` from the ``dp_thermal`` and ``dp`` rows
+    of its cycle and scenario."""
     refs = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == REFERENCE}
     blind = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == BLIND_DP}
     frontiers: dict[tuple[str, str], tuple[Frontier | None, str | None]] = {}
