@@ -123,24 +123,3 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
     size = sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
     return {"dataset_id": name, "path": str(path), "episodes": len(resets), "steps": steps, "bytes": size,
             "wall_s": round(time.perf_counter() - t0, 1)}
-
-
-def replay(dataset: Any) -> tuple[float, float]:
-    """Replay every episode's actions through the dataset's recovered env; returns the largest absolute difference
-    of the observations and of the rewards from those stored (0 and 0 for an exact replay)."""
-    env = dataset.recover_environment()
-    resets = dataset.storage.metadata["hev_thermal_episodes"]
-    worst_obs = worst_reward = 0.0
-    try:
-        for ep, spec in zip(dataset.iterate_episodes(), resets):
-            obs, _ = env.reset(seed=spec["seed"], options={"cycle": spec["cycle"], "start_s": spec["start_s"]})
-            seen, rewards = [obs], []
-            for action in ep.actions:
-                obs, reward, *_ = env.step(action)
-                seen.append(obs)
-                rewards.append(reward)
-            worst_obs = max(worst_obs, float(np.max(np.abs(np.asarray(seen) - ep.observations))))
-            worst_reward = max(worst_reward, float(np.max(np.abs(np.asarray(rewards) - ep.rewards))))
-    finally:
-        env.close()
-    return worst_obs, worst_reward
