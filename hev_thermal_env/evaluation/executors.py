@@ -181,7 +181,15 @@ def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
     if address is None:
         ray.init(num_cpus=num_cpus, **kwargs)
         return True
-    check_reachable(address)
+    if address.strip() != "auto":  # fail fast, in one line, when nothing answers there (``auto`` is left to Ray)
+        host, port = split_address(address)
+        try:
+            with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
+                pass
+        except OSError as exc:
+            reason = exc.strerror or str(exc) or type(exc).__name__
+            raise ExecutorError(f"--address {address}: no Ray cluster reachable at {host}:{port} "
+                                f"({reason.lower()}); start one with 'ray start --head' or check the address") from None
     try:
         ray.init(address=address, **kwargs)
     except Exception as exc:  # noqa: BLE001 - any failure to join is reported in one line
@@ -206,16 +214,3 @@ def split_address(address: str) -> tuple[str, int]:
     except ValueError:
         raise ExecutorError(f"--address {address!r}: port {port!r} is not a number") from None
 
-
-def check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
-    """Fail fast, in one line, when nothing answers at ``address`` (``auto`` is left to Ray)."""
-    if address.strip() == "auto":
-        return
-    host, port = split_address(address)
-    try:
-        with socket.create_connection((host, port), timeout=timeout_s):
-            pass
-    except OSError as exc:
-        reason = exc.strerror or str(exc) or type(exc).__name__
-        raise ExecutorError(f"--address {address}: no Ray cluster reachable at {host}:{port} ({reason.lower()}); "
-                            f"start one with 'ray start --head' or check the address") from None

@@ -20,7 +20,7 @@ from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.tasks import Task, get_task, list_tasks
 
 from .executors import LocalExecutor
-from .runner import RunResult, run_strategy
+from .runner import run_strategy
 from .score import ANCHOR, REFERENCE, Frontier, frontier_ratio, normalised_score
 
 REFERENCE_DIR = Path(__file__).resolve().parent / "references"
@@ -107,10 +107,7 @@ def reference_episode(cell: tuple[str, int, str, int | None, int]) -> dict[str, 
     if threads is not None:
         options["threads"] = threads
     opt = run_strategy(get_strategy(REFERENCE, **options), cycle, scenario, seed=seed, physics=physics)
-    return _episode_record(cycle, seed, opt, anchor, time.perf_counter() - t_ep)
-
-
-def _episode_record(cycle: str, seed: int, opt: RunResult, anchor: RunResult, wall_s: float) -> dict[str, Any]:
+    wall_s = time.perf_counter() - t_ep
     settings = opt.summary.get("strategy_settings") or {}
     frontier = Frontier.from_settings(settings)
     if frontier is None:

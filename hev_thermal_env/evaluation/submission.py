@@ -164,16 +164,6 @@ def load_result(path: str | Path) -> dict[str, Any]:
     return validate_result(data, str(path))
 
 
-def _reference_widths(task: Task, directory: Path | None = None) -> dict[tuple[str, int], float]:
-    """(cycle, seed) -> the optimum's frontier half-width recorded in ``task``'s stored reference, where it has one."""
-    try:
-        ref = load_reference(task, directory)
-    except (FileNotFoundError, StaleReferenceError):
-        return {}
-    return {(e["cycle"], int(e["seed"])): float(e["frontier_halfwidth"]) for e in ref["episodes"]
-            if e.get("frontier_halfwidth") is not None}
-
-
 def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str | None = None, *,
                        references: Path | None = None, **options: Any) -> dict[str, Any]:
     """Run a strategy (a name of this package's, built by ``get_strategy(strategy, **options)``, or a
@@ -184,7 +174,14 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
     anchor ends far below the start), so it reuses that plan and its run is the reference's."""
     task = get_task(task)
     t0 = time.perf_counter()
-    widths = _reference_widths(task, references) if strategy == REFERENCE and not options else {}
+    episodes = []  # the stored reference's, for the optimum
+    if strategy == REFERENCE and not options:
+        try:
+            episodes = load_reference(task, references)["episodes"]
+        except (FileNotFoundError, StaleReferenceError):
+            pass
+    widths = {(e["cycle"], int(e["seed"])): float(e["frontier_halfwidth"]) for e in episodes
+              if e.get("frontier_halfwidth") is not None}
     rows = []
     for env_seed, opts in task.resets():
         width = widths.get((opts["cycle"], int(env_seed)))
