@@ -78,9 +78,7 @@ def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[st
     for r in rows:
         r["overheat_g"] = overheat_g(r)
     buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(COLUMNS)
-    w.writerows([_fmt(r.get(c)) for c in COLUMNS] for r in rows)
+    csv.writer(buf, lineterminator="\n").writerows([COLUMNS, *([_fmt(r.get(c)) for c in COLUMNS] for r in rows)])
     atomic_write_text(out / "results.csv", buf.getvalue())
     clean = [{c: jsonable(r.get(c)) for c in COLUMNS} for r in rows]
     atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean, "notes": list(notes)})
