@@ -28,6 +28,16 @@ NAMESPACE = "hev-thermal"
 TRAINING_ROUTE_SEED_BASE = 1_000_000
 
 
+def code_permalink() -> str:
+    """The code that wrote a dataset: this module in the installed version of the package (the project publishes no
+    repository address)."""
+    try:
+        version = metadata.version("hev-thermal-env")
+    except metadata.PackageNotFoundError:
+        version = "unknown"
+    return f"hev-thermal-env {version}: hev_thermal_env/evaluation/datasets.py (evaluate.py dataset)"
+
+
 def dataset_id(source: str, task: str | None = None, scenario: str = "paper") -> str:
     """``hev-thermal/<task id>/<source>-v0`` or, without a task, ``hev-thermal/train-<scenario>/<source>-v0``."""
     where = get_task(task).id if task is not None else f"train-{scenario}"
@@ -100,15 +110,10 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
     where = meta.get("hev_thermal_task") or f"training routes {', '.join(meta['hev_thermal_routes'])}"
     description = (f"{len(resets)} episodes ({steps} steps) of {source} on {where}; physics fingerprint {fingerprint}. "
                    "Replay: reset with each entry of metadata['hev_thermal_episodes'].")
-    try:  # the code: this module in the installed version (the project publishes no repository or contact address)
-        version = metadata.version("hev-thermal-env")
-    except metadata.PackageNotFoundError:
-        version = "unknown"
-    code = f"hev-thermal-env {version}: hev_thermal_env/evaluation/datasets.py (evaluate.py dataset)"
-    with warnings.catch_warnings():
+    with warnings.catch_warnings():  # the project publishes no contact address
         warnings.filterwarnings("ignore", message=".*author_email.*")
         dataset = env.create_dataset(dataset_id=name, eval_env=env.spec, algorithm_name=algorithm,
-                                     code_permalink=code, author="hev-thermal-env", description=description)
+                                     code_permalink=code_permalink(), author="hev-thermal-env", description=description)
     dataset.storage.update_metadata({**meta, "hev_thermal_physics_fingerprint": fingerprint,
                                      "hev_thermal_source": source, "hev_thermal_episodes": [
                                          {"seed": int(s), "cycle": o["cycle"], "start_s": int(o["start_s"])}
