@@ -1,13 +1,16 @@
 #!/usr/bin/env python
-"""Long fuzz run of the environment's invariants (see ``hev_thermal_env.checks.fuzz``); writes JSON."""
+"""Long fuzz run of the environment's invariants (see ``tools.fuzz.fuzz``); writes JSON."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
-from hev_thermal_env.checks import fuzz
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the checkout: its workshop, tools/
+
+from tools.fuzz import fuzz  # noqa: E402
 
 
 def main() -> None:

@@ -40,7 +40,9 @@ import time
 import warnings
 from multiprocessing import Pool
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 from tqdm import tqdm
 
 from hev_thermal_env import cycle_from_arrays, load_cycle
@@ -48,7 +50,7 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cycles import ImplausibleCycleWarning
 from hev_thermal_env.cycles.families import VALIDATION_SEED_BASE
 from hev_thermal_env.evaluation.runner import run_strategy
-from hev_thermal_env.evaluation.score import Frontier, frontier_sample
+from hev_thermal_env.evaluation.score import Frontier
 from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.tasks import TEST_FAMILIES
 
@@ -99,6 +101,15 @@ print(json.dumps({"solve_s": d.get("solve_s"), "plan_s": s["plan_s"], "cost_g": 
                   "package": hev_thermal_env.__file__,
                   "strategies": sys.modules[type(get_strategy(name)).__module__].__file__}))
 """
+
+
+def frontier_sample(soc_final, cost_g, max_points: int = 200) -> dict[str, Any]:
+    """Every k-th breakpoint of a frontier (and the last), at most about ``max_points``, for records and plots."""
+    soc, cost = np.asarray(soc_final, dtype=float), np.asarray(cost_g, dtype=float)
+    every = max(1, int(np.ceil(soc.size / max_points)))
+    idx = np.unique(np.r_[np.arange(0, soc.size, every), soc.size - 1]) if soc.size else np.arange(0)
+    return {"soc_final": [round(float(x), 6) for x in soc[idx]], "cost_g": [round(float(x), 4) for x in cost[idx]],
+            "every_kth_breakpoint": every, "breakpoints": int(soc.size)}
 
 
 def fresh_cycles(n: int) -> list[tuple[str, str]]:

@@ -11,14 +11,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from hev_thermal_env import paper_bus
-from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME as P
 from hev_thermal_env.scenarios import get_scenario
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the checkout: its workshop, tools/
+
+from tools.paper.figures import PAPER_FIGURE_BY_NAME as P  # noqa: E402
 
 CYCLES = ("hwfet", "udds", "beijing")
 SCENARIOS = ("paper", "summer", "hilly", "full_bus", "hot")

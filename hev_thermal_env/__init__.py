@@ -3,11 +3,7 @@ permanent-magnet traction motor heats up, derates and cuts out.
 
 ``import hev_thermal_env`` registers ``HevThermal-v2`` and ``HevThermal-v1`` (in a fresh worker process that has not
 imported the package, ``gymnasium.make("hev_thermal_env:HevThermal-v2")`` imports it) and loads the vehicle and the
-envs (``.physics``, ``.cycles``, ``.envs``). Imported on demand: ``.wrappers`` (the SB3 ``VecEnv`` adapter),
-``.planning`` (SOC DP, the thermal optimum), ``.agents`` (the strategies behind one protocol, the shipped policy and
-the training hyperparameters;
-the source tree's top-level ``agents/``), ``.evaluation`` (runs, the benchmark, plots), ``.training`` (SB3 training;
-imports torch) and ``.cli`` (``evaluate.py``/``train.py``, ``hev-evaluate``, ``hev-train``).
+envs; the other rooms (docs/architecture.md) are imported on demand, ``.training`` (imports torch) among them.
 """
 
 from gymnasium.envs.registration import register, registry

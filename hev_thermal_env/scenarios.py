@@ -1,13 +1,6 @@
 """Named scenarios: the run conditions (and how they are randomised) for the same vehicle; what each is for and does:
-docs/scenarios.md.
-
-A scenario is a small record of deltas (:data:`SCENARIOS`), not a code path; a runner calls
-:meth:`Scenario.prepare_cycle` on the cycle before building the episode (the conditions alone do not carry the
-road). ``hot`` (a failing cooling loop, the pump's flow at 3 %) stays as it was for physics v1's task ``udds-hot-v1``;
-``weak_loop`` (a full bus an hour into service on a 40 °C day, the pump's flow at 10 %) and its three hilly kin
-(``hilly_weak_loop``, ``hilly_evening``, ``hilly_fan_failed``) are physics v2's thermal tasks (docs/tasks.md, *Where
-heat binds*); ``random`` and ``random_service`` are for training, drawn
-per episode (:meth:`Scenario.sample`).
+docs/scenarios.md. A scenario is a small record of deltas (:data:`SCENARIOS`), not a code path; a runner calls
+:meth:`Scenario.prepare_cycle` on the cycle before building the episode (the conditions alone do not carry the road).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Whole-cycle simulation without any environment: a cycle, a vehicle and a split (:func:`simulate`) or a
-model-based strategy (:func:`drive`) → per-step traces.
+"""Whole-cycle simulation without any environment: a cycle, a vehicle and a split (:func:`simulate`) → per-step
+traces (a model-based strategy on :class:`CoreDriver`: the workshop's ``tools.paper.measure.drive``).
 
 A consumer of the physics core like the env, DP and ECMS (cycle → kernel → simulate → metrics).
 """
@@ -30,9 +30,9 @@ class SimResult:
 
 
 class CoreDriver:
-    """What a model-based strategy reads of ``HevThermalEnv`` (``core``, ``config``, ``cycle``, ``k``, ``phys_state``,
-    ``peek``) over a bare ``PhysicsCore``, without the reward and observation machinery: light enough for the
-    calibration's thousands of runs, a pure function of the vehicle, the cycle and the conditions."""
+    """A bare ``PhysicsCore`` stepping a cycle (``core``, ``config``, ``cycle``, ``k``, ``phys_state`` as
+    ``HevThermalEnv`` names them), without the reward and observation machinery: a pure function of the vehicle, the
+    cycle and the conditions."""
 
     def __init__(self, config: VehicleConfig, cycle: Cycle, conditions: Conditions):
         self.config, self.cycle, self.conditions, self.k = config, cycle, conditions, 0
@@ -41,16 +41,6 @@ class CoreDriver:
         self.cond = self.core.conditions_array(conditions, 1)
         self._v = np.asarray(cycle.speed_mps, dtype=np.float64)
         self._g = np.asarray(cycle.grade, dtype=np.float64)
-
-    @property
-    def unwrapped(self) -> CoreDriver:
-        return self
-
-    def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        a = np.array(actions, dtype=np.float64).reshape(-1)
-        n, k = a.size, self.k
-        return self.core.step(np.repeat(self.phys_state, n, axis=0), a, np.full(n, self._v[k]),
-                              np.full(n, self._v[k + 1]), np.full(n, self._g[k]), np.repeat(self.cond, n, axis=0))
 
     def step(self, u: float) -> tuple[np.ndarray, np.ndarray]:
         k = self.k
@@ -107,28 +97,6 @@ def simulate(cycle: Any, config: VehicleConfig | None = None, split: Split = 0.0
     return SimResult(trace=trace, summary=summary)
 
 
-def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
-          conditions: Conditions | None = None) -> dict[str, np.ndarray]:
-    """Run ``strategy`` (an ``agents.base.Strategy``) over ``cycle`` on a :class:`CoreDriver`, with the float32
-    action the environment gives it (so the run equals the environment's step for step); the traces of
-    :meth:`CoreDriver.run` and ``u``, the action applied."""
-    cyc = load_cycle(cycle)
-    conditions = conditions or Conditions()
-    config = strategy.vehicle_config(config)
-    env = CoreDriver(config, cyc, conditions)
-    strategy.reset(env)
-    us = np.empty(cyc.n_steps)
-
-    def act(k: int) -> float:
-        a = np.asarray(strategy.act(None, {}), dtype=np.float32).reshape(1)
-        us[k] = u = min(max(float(a[0]), -1.0), 1.0)
-        return u
-
-    trace = env.run(act)
-    trace["u"] = us
-    return trace
-
-
 def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
     """Every physics output of ``outs`` [n, N_OUT] and state of ``states`` [n, N_STATE] (after each step) by name
     (:mod:`hev_thermal_env.physics.core`), and ``heat_index`` = clip(heat_x, 0, 1)."""
@@ -137,20 +105,6 @@ def step_traces(outs: np.ndarray, states: np.ndarray) -> dict[str, np.ndarray]:
         trace[name] = states[:, i].copy()
     trace["heat_index"] = np.clip(trace["heat_x"], 0.0, 1.0)
     return trace
-
-
-def energy_balance(trace: dict[str, np.ndarray], config: VehicleConfig, dt_s: float = 1.0) -> dict[str, float]:
-    """Energy in and out over a run (J) and the relative closing error. In: engine brake energy and battery chemical
-    energy. Out: wheel energy delivered, friction brakes, battery, motor, clutch and driveline losses, accessories."""
-    e_in = float((trace["engine_power_w"].sum() + trace["battery_chem_power_w"].sum()) * dt_s)
-    parts = {k: float(trace[k].sum() * dt_s) for k in (
-        "wheel_power_w", "brake_power_w", "battery_loss_w", "motor_loss_w", "clutch_loss_w", "driveline_loss_w",
-        "accessory_power_w")}
-    e_out = sum(parts.values())
-    scale = float((np.abs(trace["engine_power_w"]).sum() + np.abs(trace["battery_chem_power_w"]).sum()) * dt_s)
-    fuel_j = float(trace["fuel_g"].sum() * config.engine.fuel_lhv_j_per_g)
-    return {"energy_in_j": e_in, "energy_out_j": e_out, "relative_error": abs(e_in - e_out) / max(scale, 1.0),
-            "fuel_energy_j": fuel_j, **parts}
 
 
 def _split_array(split: Any, n: int) -> np.ndarray:

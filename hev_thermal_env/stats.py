@@ -40,11 +40,9 @@ def stratified_iqm_ci(groups: Sequence[Sequence[float]]) -> tuple[float | None, 
     centre = iqm(pooled)
     if pooled.size < 2:
         return centre, None, None
-    if np.all(pooled == pooled[0]):
-        return centre, centre, centre
     varying = tuple(x for x in clean if x.size > 1)
     fixed = np.concatenate([x for x in clean if x.size == 1] or [np.empty(0)])
-    if not varying:  # one score per task: nothing to resample within a task
+    if not varying or np.all(pooled == pooled[0]):  # all equal, or one score per task: nothing to resample
         return centre, centre, centre
 
     def statistic(*samples, axis):

@@ -1,22 +1,11 @@
-"""The benchmark's named tasks: fixed cycles × a scenario × seeds × an episode definition, each versioned; the tasks
-and why each is there: docs/tasks.md.
+"""The benchmark's named tasks: fixed cycles × a scenario × seeds × an episode definition, each versioned; the tasks,
+why each is there and how to drive one: docs/tasks.md.
 
 A task's id, ``NAME-vVERSION`` (``hwfet-v1``), names one definition for good: changing anything that changes the
 episodes makes a new version, and the test suite pins each version's :meth:`Task.digest`. The physics is not part of
 a task (results carry the physics fingerprint beside the task id). :func:`make_task` builds its env,
-:meth:`Task.resets` gives the ``reset`` arguments of its episodes::
-
-    from hev_thermal_env.tasks import get_task, make_task
-
-    task = get_task("udds-hot")
-    env = make_task(task.id)
-    for seed, options in task.resets():
-        obs, info = env.reset(seed=seed, options=options)
-        ...  # drive to truncation: one episode of the task
-
-``bus-generalisation`` is a test set of generated bus routes (:data:`TEST_FAMILIES`, seeds from
-:data:`TEST_SEED_BASE`) that no training run and no validation cycle uses; a training config that names one of its
-cycles is refused (:func:`held_out_cycles`).
+:meth:`Task.resets` gives the ``reset`` arguments of its episodes. A training config that names a cycle of a held-out
+task (``bus-generalisation``'s test routes) is refused (:func:`held_out_cycles`).
 """
 
 from __future__ import annotations

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from hev_thermal_env import Conditions, cycle_from_arrays, load_cycle, paper_bus, simulate
-from hev_thermal_env.simulate import energy_balance
-from tools.audit import energy_audit
+from tools.audit import energy_audit, energy_balance
 
 
 @pytest.fixture(scope="module")

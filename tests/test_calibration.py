@@ -16,11 +16,11 @@ import yaml
 from scipy.stats import qmc
 
 from hev_thermal_env import paper_bus
-from hev_thermal_env.paper.figures import FITTED, HELD_OUT
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig
 from tools.calibration import docs, fit
 from tools.calibration import protocol as proto
 from tools.paper import measure
+from tools.paper.figures import FITTED, HELD_OUT
 
 ROOT = Path(__file__).resolve().parents[1]
 CAL = ROOT / "docs" / "calibration"

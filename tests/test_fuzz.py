@@ -1,6 +1,6 @@
 """Random-action fuzzing of the environment with a bounded budget (the long run: benchmarks/fuzz.py)."""
 
-from hev_thermal_env.checks import fuzz
+from tools.fuzz import fuzz
 
 
 def test_fuzz_invariants_bounded_budget():

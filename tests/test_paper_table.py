@@ -1,4 +1,4 @@
-"""The paper's table of targets and checks (the one table, :mod:`hev_thermal_env.paper.figures`): their residuals and
+"""The paper's table of targets and checks (the one table, :mod:`tools.paper.figures`): their residuals and
 verdicts, the measuring functions on synthetic traces, and the report's opening table."""
 
 from __future__ import annotations
@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 import yaml
 
-from hev_thermal_env.paper.figures import (
+from hev_thermal_env.paper.figures import table3_paper
+from tools.paper import measure
+from tools.paper.figures import (
     CHECK_NOTES,
     CHECKS,
     FITTED,
@@ -19,9 +21,7 @@ from hev_thermal_env.paper.figures import (
     PAPER_FIGURES,
     TARGETS,
     PaperFigure,
-    table3_paper,
 )
-from tools.paper import measure
 from tools.paper.report import summary_line, verdict_markdown
 from tools.paper.verdicts import OUTSIDE, WITHIN, agreement, fuel_level_rows, verdict_rows
 

@@ -24,7 +24,7 @@ from hev_thermal_env.physics import engine as eng
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import performance_report
-from hev_thermal_env.simulate import energy_balance
+from tools.audit import energy_balance
 
 RPM = math.pi / 30
 

@@ -14,16 +14,21 @@ from hev_thermal_env.evaluation.results_table import write_results
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.score import (
     ILL_CONDITIONED,
-    OPTIMUM_RATIO_TOLERANCE,
     add_score_columns,
     add_yardstick_columns,
     aggregate,
     normalised_score,
-    score_tolerance,
 )
 from hev_thermal_env.tasks import Task, get_task
 
 CLASSIC = ("rule", "ecms", "aecms", "ecms_thermal", "dp")
+OPTIMUM_RATIO_TOLERANCE = 1e-3
+"""The optimum's stated tolerance: no run's frontier ratio lies below 1 − this (the grid's resolution)."""
+
+
+def score_tolerance(anchor_ratio: float) -> float:
+    """How far above 100 a score may lie within :data:`OPTIMUM_RATIO_TOLERANCE`, on an episode with ``r0``."""
+    return 100.0 * OPTIMUM_RATIO_TOLERANCE / (float(anchor_ratio) - 1.0)
 
 
 def test_score_formula_not_clipped():

@@ -6,7 +6,9 @@ it, but for ``evaluate.py paper``, which loads :mod:`tools.paper` when it runs.
 * :mod:`tools.calibration`: the thermal model's fit to the paper's figures (``python -m tools.calibration``);
 * :mod:`tools.audit`: the energy audit of a run, each component against its own map (a test oracle);
 * :mod:`tools.family_bounds`: the documented envelope of the cycle families' statistics (a test oracle);
+* :mod:`tools.fuzz`: random-action fuzzing of the environment against its invariants (``benchmarks/fuzz.py``);
 * :mod:`tools.parameters_page`: ``docs/parameters.md`` (``python -m tools.parameters_page > docs/parameters.md``).
 
-Their tests are in ``tests/`` (``test_paper_table.py``, ``test_calibration.py``, ``test_audit.py``, ...).
+Their tests are in ``tests/`` (``test_paper_table.py``, ``test_calibration.py``, ``test_audit.py``, ``test_fuzz.py``,
+...).
 """

@@ -1,6 +1,6 @@
 """Energy audit of a run from independent quantities: each component against its own map.
 
-The closing balance of ``simulate.energy_balance`` adds up outputs that the step computed from one another, so it
+The closing balance of :func:`energy_balance` adds up outputs that the step computed from one another, so it
 closes whatever the maps say (a wrong fuel map, a SOC held in its window by a clamp, a motor loss at the wrong
 point all pass it). The audit takes the operating points the run reports (engine and motor speed and torque,
 gear, the states before and after each step, the cycle) and asks each component's own map, and conservation,
@@ -220,3 +220,17 @@ def _thermal_check(run: _Run) -> Check:
         to_air = (g["q_air_w"] + g["q_rad_w"] + g["q_cool_w"]) * dt_s
         detail = "motor node heat + convection, radiation and coolant = motor heat (eq 7)"
     return Check("thermal", _rel(stored + to_air, heat, max(run.peak(heat), 1.0)), REL_TOL, detail)
+
+
+def energy_balance(trace: dict[str, np.ndarray], config: VehicleConfig, dt_s: float = 1.0) -> dict[str, float]:
+    """Energy in and out over a run (J) and the relative closing error. In: engine brake energy and battery chemical
+    energy. Out: wheel energy delivered, friction brakes, battery, motor, clutch and driveline losses, accessories."""
+    e_in = float((trace["engine_power_w"].sum() + trace["battery_chem_power_w"].sum()) * dt_s)
+    parts = {k: float(trace[k].sum() * dt_s) for k in (
+        "wheel_power_w", "brake_power_w", "battery_loss_w", "motor_loss_w", "clutch_loss_w", "driveline_loss_w",
+        "accessory_power_w")}
+    e_out = sum(parts.values())
+    scale = float((np.abs(trace["engine_power_w"]).sum() + np.abs(trace["battery_chem_power_w"]).sum()) * dt_s)
+    fuel_j = float(trace["fuel_g"].sum() * config.engine.fuel_lhv_j_per_g)
+    return {"energy_in_j": e_in, "energy_out_j": e_out, "relative_error": abs(e_in - e_out) / max(scale, 1.0),
+            "fuel_energy_j": fuel_j, **parts}

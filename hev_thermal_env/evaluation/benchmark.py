@@ -1,23 +1,11 @@
-"""The benchmark: every strategy on every cycle and scenario, measured against the thermal optimum.
+"""The benchmark (``evaluate.py benchmark``, :func:`run_benchmark`): every strategy on every cycle and scenario,
+measured against the thermal optimum (``dp_thermal``, added where missing), into the result files
+(:mod:`.results_table`) and figures (:mod:`.plots`). The runs are spread over processes or Ray tasks
+(:mod:`.executors`); each is deterministic, so the files equal a serial run's byte for byte. docs/benchmark.md.
 
-``evaluate.py benchmark`` (:func:`run_benchmark`) writes the result files (:mod:`.results_table`: one row per
-cycle × scenario × strategy with the ratios of :mod:`.score`; ``dp_thermal``, the reference, is added where
-missing) and the figures (:mod:`.plots`). The runs are spread over processes or Ray tasks (:mod:`.executors`); each
-is deterministic, so the files equal a serial run's byte for byte (wall times go to ``timings.json`` only). See
-docs/benchmark.md.
-
-Seed families: ``--family NAME=PATH[,PATH...]``, several trained policies (one training setup, different seeds)
-benchmarked as one. Each PATH is what ``ppo:PATH`` loads; a single directory that is not itself a run stands for every
-run directory directly inside it (sorted). Each member runs as ``ppo:PATH`` (its rows carry ``family`` = NAME); the
-family adds a row per cycle × scenario and one over all (cycle and scenario :data:`OVERALL`) with the IQM over the
-seeds of each ratio and its 95 % bootstrap interval (:mod:`hev_thermal_env.stats`). Seeds without a ratio are left
-out; the row's note counts them. See docs/metrics.md, *Seed families*.
-
-The progress bar (:class:`BenchmarkProgress`) names the runs in progress and counts expected seconds, not runs:
-runs differ in cost by four orders of magnitude (``dp_thermal`` searches for minutes unless its plan is on disk,
-``dp`` for seconds, the others drive a cycle in a fraction of one; :func:`expected_cost_s`); the time left is
-tqdm's, from the rate of that work so far. It redraws itself every second from a thread of its own, so it moves
-while a run is in progress in this process too (``--jobs 1``).
+Seed families (``--family NAME=PATH[,PATH...]``, :func:`parse_family`): trained policies of one setup benchmarked as
+one, each member as ``ppo:PATH``; a row per cycle × scenario and one over all (:data:`OVERALL`) with the IQM over the
+seeds of each ratio and its 95 % bootstrap interval (docs/metrics.md, *Seed families*).
 """
 
 from __future__ import annotations
@@ -86,7 +74,8 @@ def _is_run(path: Path) -> bool:  # a train.py run
 
 
 def parse_family(text: str, taken: Iterable[str] = ()) -> Family:
-    """The family of a ``NAME=PATH[,PATH...]`` option value (``taken``: the strategies' names)."""
+    """The family of a ``NAME=PATH[,PATH...]`` option value (``taken``: the strategies' names); a single directory
+    that is not itself a run stands for every run directory directly inside it (sorted)."""
     name, sep, spec = str(text).partition("=")
     name = name.strip()
     if not sep or not name or not spec.strip():
@@ -124,7 +113,8 @@ def tag_members(rows: list[dict], families: Sequence[Family], strategies: Iterab
 
 
 def family_rows(rows: Sequence[dict], families: Sequence[Family]) -> list[dict]:
-    """The family rows: per family, one per cycle × scenario of ``rows`` and one over all (:data:`OVERALL`)."""
+    """The family rows: per family, one per cycle × scenario of ``rows`` and one over all (:data:`OVERALL`); seeds
+    without a ratio are left out, the row's note counts them."""
     out: list[dict] = []
     tasks = list(dict.fromkeys((r["cycle"], r["scenario"]) for r in rows))
     for fam in families:
@@ -270,8 +260,9 @@ def expected_cost_s(strategy: str, n_steps: int) -> float:
 
 
 class BenchmarkProgress:
-    """A tqdm bar over runs ``labels`` of expected costs ``costs``, handed out in ``order`` to ``slots`` workers: a
-    finished run adds its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
+    """A tqdm bar over runs ``labels`` of expected costs ``costs`` (seconds, not runs: runs differ in cost by four
+    orders of magnitude), handed out in ``order`` to ``slots`` workers; the time left is tqdm's. A finished run adds
+    its weight, a run in progress its elapsed time up to :data:`RUNNING_CREDIT` of its weight (a
     slower run weighs more as it goes); the postfix names the first ``slots`` unfinished runs (first in, first out).
     :meth:`finished` when a run ends; a thread redraws it every :data:`REFRESH_S` seconds within a ``with`` block."""
 

@@ -1,10 +1,6 @@
-"""Offline datasets in Minari's format: a strategy's episodes on a task or on training routes.
-
-:func:`write_dataset` drives ``HevThermal-v2`` through Minari's ``DataCollector`` (its infos recorded) with one of
-:data:`SOURCES` (D4RL's expert / medium / random levels) and writes the dataset with its card filled: the algorithm,
-the code's permalink, the physics fingerprint, the task id and digest (or the training routes), and each episode's
-reset arguments (``hev_thermal_episodes``), which replay needs. The datasets live in ``$MINARI_DATASETS_PATH``
-(Minari's default ``~/.minari/datasets``; ``root`` sets it). docs/tasks.md, *Offline datasets*.
+"""Offline datasets in Minari's format (docs/tasks.md, *Offline datasets*): a strategy's episodes on a task or on
+training routes, with each episode's reset arguments in the card (``hev_thermal_episodes``), which replay needs. The
+datasets live in ``$MINARI_DATASETS_PATH`` (Minari's default ``~/.minari/datasets``; ``root`` sets it).
 """
 
 from __future__ import annotations
@@ -127,24 +123,3 @@ def write_dataset(source: str, *, task: str | None = None, routes: list[str] | N
     size = sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
     return {"dataset_id": name, "path": str(path), "episodes": len(resets), "steps": steps, "bytes": size,
             "wall_s": round(time.perf_counter() - t0, 1)}
-
-
-def replay(dataset: Any) -> tuple[float, float]:
-    """Replay every episode's actions through the dataset's recovered env; returns the largest absolute difference
-    of the observations and of the rewards from those stored (0 and 0 for an exact replay)."""
-    env = dataset.recover_environment()
-    resets = dataset.storage.metadata["hev_thermal_episodes"]
-    worst_obs = worst_reward = 0.0
-    try:
-        for ep, spec in zip(dataset.iterate_episodes(), resets):
-            obs, _ = env.reset(seed=spec["seed"], options={"cycle": spec["cycle"], "start_s": spec["start_s"]})
-            seen, rewards = [obs], []
-            for action in ep.actions:
-                obs, reward, *_ = env.step(action)
-                seen.append(obs)
-                rewards.append(reward)
-            worst_obs = max(worst_obs, float(np.max(np.abs(np.asarray(seen) - ep.observations))))
-            worst_reward = max(worst_reward, float(np.max(np.abs(np.asarray(rewards) - ep.rewards))))
-    finally:
-        env.close()
-    return worst_obs, worst_reward

@@ -1,9 +1,7 @@
-"""Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``).
-
-An executor's ``map`` yields ``(index, result)`` as the cells finish, and ``None`` every ``tick_s`` seconds without
-one (its wait returns to Python that often, so a Ctrl-C is handled within that time); ``slots`` is how many run at
-once. Ray is optional (the ``ray`` extra): asking for it without it, or for an address where no cluster answers,
-raises :class:`ExecutorError` in one line. See docs/scaling-out.md.
+"""Where the cells of a benchmark matrix run: this machine's processes (``local``) or Ray tasks (``ray``, the optional
+``ray`` extra; docs/scaling-out.md). An executor's ``map`` yields ``(index, result)`` as the cells finish, and
+``None`` every ``tick_s`` seconds without one (so a Ctrl-C is handled within that time); ``slots`` is how many run at
+once. Ray missing, or no cluster at the address, raises :class:`ExecutorError` in one line.
 """
 
 from __future__ import annotations
@@ -183,7 +181,15 @@ def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
     if address is None:
         ray.init(num_cpus=num_cpus, **kwargs)
         return True
-    check_reachable(address)
+    if address.strip() != "auto":  # fail fast, in one line, when nothing answers there (``auto`` is left to Ray)
+        host, port = split_address(address)
+        try:
+            with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
+                pass
+        except OSError as exc:
+            reason = exc.strerror or str(exc) or type(exc).__name__
+            raise ExecutorError(f"--address {address}: no Ray cluster reachable at {host}:{port} "
+                                f"({reason.lower()}); start one with 'ray start --head' or check the address") from None
     try:
         ray.init(address=address, **kwargs)
     except Exception as exc:  # noqa: BLE001 - any failure to join is reported in one line
@@ -208,16 +214,3 @@ def split_address(address: str) -> tuple[str, int]:
     except ValueError:
         raise ExecutorError(f"--address {address!r}: port {port!r} is not a number") from None
 
-
-def check_reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
-    """Fail fast, in one line, when nothing answers at ``address`` (``auto`` is left to Ray)."""
-    if address.strip() == "auto":
-        return
-    host, port = split_address(address)
-    try:
-        with socket.create_connection((host, port), timeout=timeout_s):
-            pass
-    except OSError as exc:
-        reason = exc.strerror or str(exc) or type(exc).__name__
-        raise ExecutorError(f"--address {address}: no Ray cluster reachable at {host}:{port} ({reason.lower()}); "
-                            f"start one with 'ray start --head' or check the address") from None

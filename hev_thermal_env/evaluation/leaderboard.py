@@ -1,12 +1,7 @@
-"""The leaderboard: every method on every task with references, scored alike, on one Markdown page with a profile plot.
-
-Its inputs are result files (:mod:`.submission`); :func:`ensure_results` writes those of this package's strategies
-(:data:`METHODS`) and reuses them while they are current. :func:`score_result` scores a result against its task's
-reference (:mod:`.references`): the normalised score per episode (:mod:`.score`), aggregated by IQM with a 95 %
-stratified bootstrap interval (one stratum per episode, the seeds within), the frontier ratio, the episode safety cost
-against the task's budget and the fuel. :func:`write_leaderboard` writes the page and the performance profile
-(rliable's: the fraction of a method's runs, over every task, episode and seed, that score above τ, against τ), one
-row per method and track and each physics version apart. ``evaluate.py leaderboard`` is the command.
+"""The leaderboard (``evaluate.py leaderboard``, docs/leaderboard.md): every method on every task with references,
+scored alike (:func:`score_result`) from result files (:mod:`.submission`; :func:`ensure_results` writes this
+package's), on one Markdown page with rliable's performance profile (:func:`write_leaderboard`), one row per method
+and track and each physics version apart.
 """
 
 from __future__ import annotations

@@ -1,21 +1,8 @@
-"""The benchmark's figures: trace figures and the fuel chart.
-
-:func:`plot_run`: every strategy of one cycle and scenario on shared time axes (drawn alike by the benchmark and
-``evaluate.py run``). Panels, top to bottom: the cycle's speed (thick, light) and each strategy's; the cumulative missed
-wheel energy; SOC; motor temperature, with the 70 °C cutoff and its 60 °C release when the motor comes near them (a
-mark wherever a motor is cut off); the heat index; the split, one strip per strategy (colour = motor share u; green:
-the regeneration share while braking; grey where no torque is demanded).
-
-:data:`FUEL_CHART_FILE` (:func:`fuel_figure`): every strategy against the thermal optimum, a panel per cycle (column)
-and scenario (row). Rows go from the simplest strategy (top) to the optimum, the learned policies below a gap on a
-shaded band. The shared x axis is the frontier ratio (:mod:`.score`; 1 = the optimum at the run's final SOC) and
-always holds 1; each dot carries its value and the normalised score (0 = ``engine_only``, 100 = the optimum). A seed
-family (:mod:`.benchmark`) is one row: IQM (diamond), 95 % bootstrap interval (whiskers), each seed (small dots). A run
-without a ratio is marked "n/a"; without any frontier the chart shows the fixed-price ratio (corrected fuel over
-``dp_thermal``'s).
-
-:func:`plot_benchmark` draws one trace figure per cycle and scenario (a seed family as its member nearest the IQM) and
-the fuel chart.
+"""The benchmark's figures (docs/benchmark.md): :func:`plot_run`, every strategy of one cycle and scenario on shared
+time axes (the benchmark's and ``evaluate.py run``'s), and :data:`FUEL_CHART_FILE` (:func:`fuel_figure`), every
+strategy's frontier ratio (1 = the optimum at the run's final SOC; without any frontier, the fixed-price ratio) with
+its normalised score, a panel per cycle (column) and scenario (row), a seed family as its IQM (diamond), 95 %
+bootstrap interval (whiskers) and seeds (dots). :func:`plot_benchmark` draws both.
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
-"""Reference values of the named tasks, stored in the package: what a result on a task is scored against.
-
-Per episode of a task (:meth:`hev_thermal_env.tasks.Task.resets`), a reference holds the thermal optimum's run
-(``dp_thermal``: its cost, final SOC, episode safety cost and frontier) and :data:`~.score.ANCHOR`'s (its cost, final
-SOC and frontier ratio ``r0``, the normalised score's 0), so a result is scored without running the optimum again
-(:func:`episode_score`). The task's safety budget (:func:`safety_budget_s`) is fixed from the optimum's episode safety
-costs before any policy is trained on the task. A reference belongs to one physics fingerprint and one task digest;
-:func:`load_reference` refuses a stale one (:class:`StaleReferenceError`). ``evaluate.py reference`` recomputes it.
+"""Reference values of the named tasks, stored in the package (docs/tasks.md, *Reference values*): per episode the
+thermal optimum's run and :data:`~.score.ANCHOR`'s, so a result is scored without running the optimum again
+(:func:`episode_score`), and the task's safety budget (:func:`safety_budget_s`). A reference belongs to one physics
+fingerprint and one task digest; :func:`load_reference` refuses a stale one (:class:`StaleReferenceError`).
+``evaluate.py reference`` recomputes it.
 """
 
 from __future__ import annotations
@@ -23,7 +20,7 @@ from hev_thermal_env.io import atomic_write_json
 from hev_thermal_env.tasks import Task, get_task, list_tasks
 
 from .executors import LocalExecutor
-from .runner import RunResult, run_strategy
+from .runner import run_strategy
 from .score import ANCHOR, REFERENCE, Frontier, frontier_ratio, normalised_score
 
 REFERENCE_DIR = Path(__file__).resolve().parent / "references"
@@ -110,10 +107,7 @@ def reference_episode(cell: tuple[str, int, str, int | None, int]) -> dict[str, 
     if threads is not None:
         options["threads"] = threads
     opt = run_strategy(get_strategy(REFERENCE, **options), cycle, scenario, seed=seed, physics=physics)
-    return _episode_record(cycle, seed, opt, anchor, time.perf_counter() - t_ep)
-
-
-def _episode_record(cycle: str, seed: int, opt: RunResult, anchor: RunResult, wall_s: float) -> dict[str, Any]:
+    wall_s = time.perf_counter() - t_ep
     settings = opt.summary.get("strategy_settings") or {}
     frontier = Frontier.from_settings(settings)
     if frontier is None:

@@ -1,9 +1,6 @@
-"""The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` and ``timings.json``.
-
-One row per cycle × scenario × strategy run (seed-family members with ``family``), then the families' rows
-(:mod:`.benchmark`). ``results.md`` shows the runs and families (not the members), the families over every cycle ×
-scenario, what the columns mean and why a ratio is missing. Wall times go to ``timings.json`` only, so the other
-files are the same byte for byte run after run.
+"""The benchmark's result files: ``results.csv``, ``results.json``, ``results.md`` (the runs and families, not the
+members) and ``timings.json``, one row per cycle × scenario × strategy run, then the families' rows. Wall times go to
+``timings.json`` only, so the other files are the same byte for byte run after run.
 """
 
 from __future__ import annotations
@@ -81,9 +78,7 @@ def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[st
     for r in rows:
         r["overheat_g"] = overheat_g(r)
     buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(COLUMNS)
-    w.writerows([_fmt(r.get(c)) for c in COLUMNS] for r in rows)
+    csv.writer(buf, lineterminator="\n").writerows([COLUMNS, *([_fmt(r.get(c)) for c in COLUMNS] for r in rows)])
     atomic_write_text(out / "results.csv", buf.getvalue())
     clean = [{c: jsonable(r.get(c)) for c in COLUMNS} for r in rows]
     atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean, "notes": list(notes)})

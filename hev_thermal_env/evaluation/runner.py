@@ -47,9 +47,8 @@ class RunResult:
         """The per-second trace as CSV text: the env's ``info`` fields, then the action."""
         keys = tuple(k for k in self.info_keys if k in self.trace)
         buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow(keys)
-        w.writerows([_fmt(v) for v in row] for row in zip(*(np.asarray(self.trace[k]) for k in keys)))
+        rows = ([_fmt(v) for v in row] for row in zip(*(np.asarray(self.trace[k]) for k in keys)))
+        csv.writer(buf, lineterminator="\n").writerows([keys, *rows])
         return buf.getvalue()
 
 

@@ -1,23 +1,15 @@
-"""The benchmark's yardstick and the normalised score: every run against the thermal optimum (``dp_thermal``).
+"""The benchmark's yardstick and the normalised score: every run against the thermal optimum (``dp_thermal``);
+docs/metrics.md.
 
-The reference run publishes in its settings (``strategy_settings``) the optimum's cost against the final SOC,
-``"frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}``, sorted by SOC, the cost
-(:func:`hev_thermal_env.metrics.yardstick_cost_g`) non-decreasing in it. :func:`add_yardstick_columns` gives each
-row ``frontier_ratio`` (``cost_g`` / F(``soc_final``), F interpolated on the frontier; None outside its range, with
-a ``frontier_note``), ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and ``reference``. ``dp`` plans with
-the thermal state held: labelled thermal-blind everywhere (its class's ``label_suffix``).
-
-The normalised score is the share of the achievable saving a strategy captures, per episode, with ``r`` its frontier
-ratio and ``r0`` that of :data:`ANCHOR` (the hybrid with its motor unused) on the same episode::
+The reference run publishes in its ``strategy_settings`` the optimum's cost against the final SOC,
+``"frontier": {"soc_final": [...], "cost_g": [...], "grid": "<method and grid>"}`` (:class:`Frontier`);
+:func:`add_yardstick_columns` gives each row ``frontier_ratio`` = ``cost_g`` / F(``soc_final``) and the other ratios.
+The normalised score of an episode, with ``r`` the frontier ratio and ``r0`` that of :data:`ANCHOR`::
 
     score = 100 · (r0 − r) / (r0 − 1)
 
-The thermal optimum scores 100 (up to the tolerance of its replay), ``engine_only`` 0, a strategy worse than leaving
-the motor unused below 0; never clipped. Where ``r0 − 1`` is below :data:`ILL_CONDITIONED_BELOW` the score divides by
-almost nothing: it is flagged ``ill-conditioned`` and kept out of every aggregate. ``conventional`` (a bus without a
-motor) is another vehicle and never an anchor. Aggregates (:func:`aggregate`) are the interquartile mean over episodes
-and seeds with a 95 % stratified bootstrap interval (:func:`hev_thermal_env.stats.stratified_iqm_ci`, one stratum per
-episode). See docs/metrics.md.
+never clipped; where ``r0 − 1`` < :data:`ILL_CONDITIONED_BELOW` it is flagged ``ill-conditioned`` and kept out of
+every aggregate (:func:`aggregate`: IQM over episodes and seeds, a 95 % bootstrap interval stratified by episode).
 """
 
 from __future__ import annotations
@@ -41,8 +33,6 @@ ANCHOR = "engine_only"
 ILL_CONDITIONED_BELOW = 0.02
 """``r0 − 1`` below this: the score is flagged and left out of aggregates."""
 ILL_CONDITIONED = "ill-conditioned"
-OPTIMUM_RATIO_TOLERANCE = 1e-3
-"""The optimum's stated tolerance: no run's frontier ratio lies below 1 − this (the grid's resolution)."""
 SOC_BOUND = 0.02
 """|ΔSOC| beyond which a run does not hold its charge: a checkpoint with such a validation run is not selected
 (:mod:`hev_thermal_env.training.selection`), and a score counts such runs (``beyond_soc_bound``)."""
@@ -90,15 +80,6 @@ class Frontier:
         return float(np.interp(soc_final, self.soc_final, self.cost_g))
 
 
-def frontier_sample(soc_final, cost_g, max_points: int = 200) -> dict[str, Any]:
-    """Every k-th breakpoint of a frontier (and the last), at most about ``max_points``, for records and plots."""
-    soc, cost = np.asarray(soc_final, dtype=float), np.asarray(cost_g, dtype=float)
-    every = max(1, int(np.ceil(soc.size / max_points)))
-    idx = np.unique(np.r_[np.arange(0, soc.size, every), soc.size - 1]) if soc.size else np.arange(0)
-    return {"soc_final": [round(float(x), 6) for x in soc[idx]], "cost_g": [round(float(x), 4) for x in cost[idx]],
-            "every_kth_breakpoint": every, "breakpoints": int(soc.size)}
-
-
 def frontier_ratio(cost_g: float, soc_final: float, frontier: Frontier | None) -> tuple[float | None, str | None]:
     """(``cost_g`` / F(``soc_final``), None), or (None, why not)."""
     if frontier is None:
@@ -137,8 +118,9 @@ def reference_text(ref_row: Mapping[str, Any] | None, frontier: Frontier | None)
 
 
 def add_yardstick_columns(rows: list[dict]) -> None:
-    """Fill the yardstick's columns (module docstring) of every run row from the ``dp_thermal`` and ``dp`` rows of
-    its cycle and scenario."""
+    """Fill every run row's ``frontier_ratio`` (None off the frontier's range, with a ``frontier_note``),
+    ``fixed_price_ratio``, ``fuel_vs_thermal_blind_dp_pct`` and ``reference`` from the ``dp_thermal`` and ``dp`` rows
+    of its cycle and scenario."""
     refs = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == REFERENCE}
     blind = {(r["cycle"], r["scenario"]): r for r in rows if r["strategy"] == BLIND_DP}
     frontiers: dict[tuple[str, str], tuple[Frontier | None, str | None]] = {}
@@ -179,11 +161,6 @@ def normalised_score(ratio: float | None, anchor_ratio: float | None) -> tuple[f
     if gap < ILL_CONDITIONED_BELOW:
         return score, f"{ILL_CONDITIONED}: {ANCHOR}'s frontier ratio is {r0:.4f} (r0 − 1 < {ILL_CONDITIONED_BELOW})"
     return score, None
-
-
-def score_tolerance(anchor_ratio: float) -> float:
-    """How far above 100 a score may lie within :data:`OPTIMUM_RATIO_TOLERANCE`, on an episode with ``r0``."""
-    return 100.0 * OPTIMUM_RATIO_TOLERANCE / (float(anchor_ratio) - 1.0)
 
 
 def usable(score: float | None, note: str | None) -> bool:

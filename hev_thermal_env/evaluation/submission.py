@@ -1,20 +1,13 @@
-"""The result format: one method's episodes on one task, written by this package or by any outside method.
+"""The result format (:data:`FORMAT`, JSON; docs/tasks.md, *Results of outside methods*): one method's episodes on
+one task, written by this package or by any outside method.
 
-A result file is JSON (:data:`FORMAT`)::
-
-    {"format": "hev-thermal-result-v1", "task": "hwfet-v1", "physics_fingerprint": "4d016e1aad58ae32",
-     "method": "my-sac", "seeds": [0, 1, 2], "wall_clock_s": 5400.0,
-     "episodes": [{"seed": 0, "cycle": "hwfet", "env_seed": 0, "cost_g": 2345.6, "soc_final": 0.598,
-                   "safety_cost_s": 0.0, "fuel_g": 2301.2}, ...]}
-
-``seeds`` are the method's own seeds (``[0]`` for a deterministic strategy); every seed has one row per episode of
-the task (``cycle``, ``env_seed``: :meth:`~hev_thermal_env.tasks.Task.resets`). A row's ``cost_g`` is the episode's
-yardstick cost, ``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)``, and ``safety_cost_s = Σ cost`` its
-safety cost, sums over the steps' infos (:class:`EpisodeTally`); ``soc_final`` is the last step's ``info["soc"]``.
-Optional: ``task_digest``, ``fuel_g``, ``soc_initial``, ``fuel_corrected_l_per_100km``, ``charge_sustaining``,
-``description``, ``training`` (a learned method's training compute: ``wall_clock_s_per_seed``, one number per seed,
-and optionally ``timesteps`` and ``steps_per_s``), ``track`` (a learned method's track, :data:`TRACKS`). Format:
-docs/tasks.md, *Results of outside methods*.
+Required: :data:`REQUIRED`; ``seeds`` are the method's own (``[0]`` for a deterministic strategy), every seed with one
+row per episode of the task (``cycle``, ``env_seed``: :meth:`~hev_thermal_env.tasks.Task.resets`). A row's
+``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)`` (the yardstick cost) and ``safety_cost_s = Σ cost`` are
+sums over the steps' infos (:class:`EpisodeTally`); ``soc_final`` is the last step's ``info["soc"]``. Optional:
+``task_digest``, the row's :data:`OPTIONAL_NUMBERS` and ``charge_sustaining``, ``description``, ``training`` (a
+learned method's ``wall_clock_s_per_seed``, one number per seed, optionally ``timesteps`` and ``steps_per_s``) and
+``track`` (:data:`TRACKS`).
 """
 
 from __future__ import annotations
@@ -171,16 +164,6 @@ def load_result(path: str | Path) -> dict[str, Any]:
     return validate_result(data, str(path))
 
 
-def _reference_widths(task: Task, directory: Path | None = None) -> dict[tuple[str, int], float]:
-    """(cycle, seed) -> the optimum's frontier half-width recorded in ``task``'s stored reference, where it has one."""
-    try:
-        ref = load_reference(task, directory)
-    except (FileNotFoundError, StaleReferenceError):
-        return {}
-    return {(e["cycle"], int(e["seed"])): float(e["frontier_halfwidth"]) for e in ref["episodes"]
-            if e.get("frontier_halfwidth") is not None}
-
-
 def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str | None = None, *,
                        references: Path | None = None, **options: Any) -> dict[str, Any]:
     """Run a strategy (a name of this package's, built by ``get_strategy(strategy, **options)``, or a
@@ -191,7 +174,14 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
     anchor ends far below the start), so it reuses that plan and its run is the reference's."""
     task = get_task(task)
     t0 = time.perf_counter()
-    widths = _reference_widths(task, references) if strategy == REFERENCE and not options else {}
+    episodes = []  # the stored reference's, for the optimum
+    if strategy == REFERENCE and not options:
+        try:
+            episodes = load_reference(task, references)["episodes"]
+        except (FileNotFoundError, StaleReferenceError):
+            pass
+    widths = {(e["cycle"], int(e["seed"])): float(e["frontier_halfwidth"]) for e in episodes
+              if e.get("frontier_halfwidth") is not None}
     rows = []
     for env_seed, opts in task.resets():
         width = widths.get((opts["cycle"], int(env_seed)))

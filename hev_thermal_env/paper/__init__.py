@@ -1,2 +1,2 @@
-"""The paper: one table of its figures, targets and checks, with their tolerances (:mod:`.figures`); measuring and
-judging ours is the workshop's, ``tools/paper``."""
+"""The paper: its Table 3 (:mod:`.figures`); the table of all its figures, measuring and judging ours are the
+workshop's, ``tools/paper``."""

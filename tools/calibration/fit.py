@@ -2,7 +2,7 @@
 
 Only the parameters with status ``fitted`` in docs/calibration/parameter_ranges.yaml are free, within exactly their
 [min, max]; every other parameter keeps the code's value (``tests/test_calibration.py`` checks that it is the
-YAML's). The cost is Σ r² over the fitted targets F1-F7 (:data:`~hev_thermal_env.paper.figures.FITTED`), r in
+YAML's). The cost is Σ r² over the fitted targets F1-F7 (:data:`~tools.paper.figures.FITTED`), r in
 tolerances; the held-out targets H1-H6 are measured after each attempt and never enter a cost.
 
 * **Fit** (:func:`fit_starts`): ``scipy.optimize.least_squares`` (trf) in the unit box θ̃ = (θ − min)/(max − min),
@@ -29,8 +29,8 @@ import numpy as np
 from scipy import optimize
 from scipy.stats import qmc
 
-from hev_thermal_env.paper.figures import FITTED, HELD_OUT, PaperFigure
 from hev_thermal_env.physics import VehicleConfig, paper_bus
+from tools.paper.figures import FITTED, HELD_OUT, PaperFigure
 from tools.paper.measure import Baseline, measure
 
 from . import protocol as proto

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from hev_thermal_env.paper.figures import FITTED, HELD_OUT
+from tools.paper.figures import FITTED, HELD_OUT
 
 from .fit import Attempt
 from .protocol import PROTOCOL_MD, PROTOCOL_YAML

@@ -10,8 +10,8 @@ from typing import Any
 
 import yaml
 
-from hev_thermal_env.paper.figures import FITTED, TARGETS
 from hev_thermal_env.physics import VehicleConfig, paper_bus
+from tools.paper.figures import FITTED, TARGETS
 from tools.paper.measure import Baseline, measure, sustained_speeds
 
 from . import protocol as proto

@@ -2,10 +2,10 @@
 report, the calibration and the tests.
 
 Every cycle run is the paper's own strategy, ``rule``, in the paper's conditions (ambient, motor and coolant at
-20 °C, coolant on), driven over the physics core (:func:`hev_thermal_env.simulate.drive`); Table 3's runs have the
+20 °C, coolant on), driven over the physics core (:func:`drive`); Table 3's runs have the
 coolant closed, the motor starting at 30 or 50 °C. "The motor temperature" is the state's ``motor_temp_c``, the
 stator/housing node: the paper's one lumped motor temperature. :func:`target_values` maps the runs to the rows of
-:data:`hev_thermal_env.paper.figures.PAPER_FIGURES` (F1-F7, H1-H6 and the checks); :func:`measure` runs what a set
+:data:`tools.paper.figures.PAPER_FIGURES` (F1-F7, H1-H6 and the checks); :func:`measure` runs what a set
 of targets needs.
 The heat index's onset and its return to 0 are the interpolated zero crossings of its integrator x (continuous in
 the parameters, as the fit needs); an index that never rises has its onset past the cycle's end by 1,000 s per
@@ -22,15 +22,16 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.cycles import load_cycle
+from hev_thermal_env.cycles import Cycle, load_cycle
 from hev_thermal_env.metrics import summarize
-from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME, TARGET_BY_ID, TARGETS, PaperFigure
 from hev_thermal_env.physics import Conditions, ThermalParams, VehicleConfig, paper_bus
 from hev_thermal_env.physics import core as physics_core
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
-from hev_thermal_env.simulate import drive
+from hev_thermal_env.simulate import CoreDriver
+
+from .figures import PAPER_FIGURE_BY_NAME, TARGET_BY_ID, TARGETS, PaperFigure
 
 RPM = math.pi / 30.0
 #: The paper's conditions for Figs 7-10 and Table 2.
@@ -86,6 +87,44 @@ def warm_figures(temps_c: np.ndarray, band: PaperFigure = WARM_BAND) -> dict[str
     return {"warm_from_s": float(warm[0] + 1), "temp_warm_mean_c": float(after.mean()), "temp_warm_min_c": lo,
             "temp_warm_max_c": hi, "warm_excursion_k": max(0.0, band.low - lo, hi - band.high),
             "warm_seconds_outside": float(((after < band.low) | (after > band.high)).sum())}
+
+
+class StrategyDriver(CoreDriver):
+    """What a model-based strategy reads of ``HevThermalEnv`` (``core``, ``config``, ``cycle``, ``k``, ``phys_state``,
+    ``peek``) over a :class:`~hev_thermal_env.simulate.CoreDriver`: light enough for the calibration's thousands of
+    runs, a pure function of the vehicle, the cycle and the conditions."""
+
+    @property
+    def unwrapped(self) -> StrategyDriver:
+        return self
+
+    def peek(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        a = np.array(actions, dtype=np.float64).reshape(-1)
+        n, k = a.size, self.k
+        return self.core.step(np.repeat(self.phys_state, n, axis=0), a, np.full(n, self._v[k]),
+                              np.full(n, self._v[k + 1]), np.full(n, self._g[k]), np.repeat(self.cond, n, axis=0))
+
+
+def drive(strategy: Any, cycle: str | Cycle, config: VehicleConfig,
+          conditions: Conditions | None = None) -> dict[str, np.ndarray]:
+    """Run ``strategy`` (an ``agents.base.Strategy``) over ``cycle`` on a :class:`StrategyDriver`, with the float32
+    action the environment gives it (so the run equals the environment's step for step); the traces of
+    :meth:`~hev_thermal_env.simulate.CoreDriver.run` and ``u``, the action applied."""
+    cyc = load_cycle(cycle)
+    conditions = conditions or Conditions()
+    config = strategy.vehicle_config(config)
+    env = StrategyDriver(config, cyc, conditions)
+    strategy.reset(env)
+    us = np.empty(cyc.n_steps)
+
+    def act(k: int) -> float:
+        a = np.asarray(strategy.act(None, {}), dtype=np.float32).reshape(1)
+        us[k] = u = min(max(float(a[0]), -1.0), 1.0)
+        return u
+
+    trace = env.run(act)
+    trace["u"] = us
+    return trace
 
 
 def cycle_run(config: VehicleConfig, cycle: str, baseline_fuel_l100: float | None = None
@@ -189,7 +228,7 @@ def target_values(cycles: Mapping[str, Mapping[str, float]], accel: Mapping[str,
 
 def figure_values(cycles: Mapping[str, Mapping[str, float]], t3: Mapping[str, float],
                   fig4: Mapping[str, Any] | None = None) -> dict[str, float | None]:
-    """Our value of every row of :data:`hev_thermal_env.paper.figures.PAPER_FIGURES` that was measured (None where
+    """Our value of every row of :data:`tools.paper.figures.PAPER_FIGURES` that was measured (None where
     its run did not happen): ``cycles`` maps a cycle to its thermal-model :func:`cycle_run` figures, ``t3`` holds
     :func:`accel_times` and maybe :func:`sustained_speeds`, ``fig4`` is :func:`fig4_curve`."""
     ours: dict[str, float | None] = {name: None for name in PAPER_FIGURE_BY_NAME}

@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from hev_thermal_env.evaluation.styles import figure_title, legend_outside, pyplot, save_fig
-from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME as FIGURES
+
+from .figures import PAPER_FIGURE_BY_NAME as FIGURES
 
 PAPER_COLOUR, OURS_COLOUR, OFF_COLOUR = "#e66101", "#1f78b4", "#999999"
 WITHIN_COLOUR, OUTSIDE_COLOUR, BAND_COLOUR = "#1a9641", "#d7191c", "#fdb863"

@@ -15,11 +15,11 @@ from typing import Any
 
 from hev_thermal_env.evaluation.runner import jsonable
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
-from hev_thermal_env.paper.figures import PAPER_FIGURE_BY_NAME as FIGURES
 from hev_thermal_env.paper.figures import TABLE3_RUNS, table3_paper
 from hev_thermal_env.physics import VehicleConfig, paper_bus
 
 from . import plots as figs
+from .figures import PAPER_FIGURE_BY_NAME as FIGURES
 from .measure import Baseline, cutoff_curve, cycle_run, fig4_curve, figure_values, launch_run, table3, table3_row
 from .verdicts import VERDICT_CYCLES, agreement, fuel_level_rows, verdict_rows
 

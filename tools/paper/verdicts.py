@@ -1,4 +1,4 @@
-"""Ours against the paper's figures (:mod:`hev_thermal_env.paper.figures`): a verdict row per figure, the agreement
+"""Ours against the paper's figures (:mod:`.figures`): a verdict row per figure, the agreement
 per group and figure, and our absolute fuel beside Table 2's levels."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from hev_thermal_env.paper.figures import PAPER_FIGURES, TABLE2_LEVELS, TABLE2_ROWS, PaperFigure
+from .figures import PAPER_FIGURES, TABLE2_LEVELS, TABLE2_ROWS, PaperFigure
 
 WITHIN, OUTSIDE = "within tolerance", "OUTSIDE tolerance"
 #: Cycles every verdict needs (Table 2 and Figs 7-10).

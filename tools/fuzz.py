@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from .cycles import list_cycles
-from .envs import HevThermalVectorEnv
-from .physics import battery, core
-from .scenarios import list_scenarios
+from hev_thermal_env.cycles import list_cycles
+from hev_thermal_env.envs import HevThermalVectorEnv
+from hev_thermal_env.physics import battery, core
+from hev_thermal_env.scenarios import list_scenarios
 
 #: Steps whose energy balance, summed over an episode, may miss by this fraction of the energy in and out.
 BALANCE_TOL = 0.005
