@@ -272,24 +272,6 @@ def paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c, a
 
 
 @jit
-def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
-    """(Q_air, Q_rad, Q_cool) leaving the paper's node at ``temp_c`` and the vehicle speed (eqs 1, 4, 5, 6)."""
-    term = forced_air_term(th[IDX.air_speed_per_mps], th[IDX.air_speed_exponent], speed_mps)
-    g_air = air_conductance_core(th[IDX.h_air_base], th[IDX.h_air_natural], th[IDX.h_air_forced], term,
-                                 th[IDX.area_m2], temp_c, ambient_c)
-    return paper_node_core(g_air, th[IDX.eps_sigma_area], th[IDX.h_water_area_w_per_k], th[IDX.thermostat_temp_c],
-                           temp_c, ambient_c, water_c, coolant_factor)
-
-
-@jit
-def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, speed_mps, dt_s):
-    """One Euler step of the paper's eq 7. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
-    q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
-    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[IDX.motor_heat_capacity_j_per_k]
-    return new, q_air, q_rad, q_cool
-
-
-@jit
 def cutoff_step(th, cutoff, temp_c):
     """Protection with hysteresis: trips at cutoff_temp_c, releases at cutoff_release_temp_c."""
     # one return, not three (speed rule in jit.py)
