@@ -246,15 +246,8 @@ def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
 
 
 @jit
-def forced_air_term(air_speed_per_mps, v_exp, speed_mps):
-    """(V/48.27)^0.63 of eq 4 (V in km/h); ``air_speed_per_mps`` = 3.6 / 48.27. 0 at standstill."""
-    v_rel = max(speed_mps, 0.0) * air_speed_per_mps
-    return v_rel ** v_exp if v_rel > 0.0 else 0.0
-
-
-@jit
 def air_conductance_core(h_still0, h_natural, h_forced, forced_term, area, temp_c, ambient_c):
-    """h_air·A of eqs 1 and 4 (W/K) from scalars, the speed's term precomputed (:func:`forced_air_term`)."""
+    """h_air·A of eqs 1 and 4 (W/K) from scalars, the speed's term (V/48.27)^0.63 precomputed (V in km/h)."""
     h_still = h_still0 + h_natural * math.sqrt(math.sqrt(abs(temp_c - ambient_c) * 1e-3))
     return (h_still + h_forced * forced_term) * area
 

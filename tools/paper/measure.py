@@ -31,6 +31,7 @@ from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
 from hev_thermal_env.simulate import drive
+from tools.rating import forced_air_term
 
 RPM = math.pi / 30.0
 #: The paper's conditions for Figs 7-10 and Table 2.
@@ -230,7 +231,7 @@ def heat_flows_w(th: np.ndarray, temp_c: float, ambient_c: float, water_c: float
     """(Q_air, Q_rad, Q_cool) leaving the paper's node (``paper_eqs``) at ``temp_c`` and the vehicle speed (eqs 1, 4,
     5, 6), from the packed thermal parameters ``th``."""
     ix = thm.IDX
-    term = thm.forced_air_term(th[ix.air_speed_per_mps], th[ix.air_speed_exponent], speed_mps)
+    term = forced_air_term(th[ix.air_speed_per_mps], th[ix.air_speed_exponent], speed_mps)
     g_air = thm.air_conductance_core(th[ix.h_air_base], th[ix.h_air_natural], th[ix.h_air_forced], term,
                                      th[ix.area_m2], temp_c, ambient_c)
     return thm.paper_node_core(g_air, th[ix.eps_sigma_area], th[ix.h_water_area_w_per_k], th[ix.thermostat_temp_c],
@@ -242,7 +243,7 @@ def temperature_step(th: np.ndarray, temp_c: float, heat_w: float, ambient_c: fl
     """One explicit-Euler step of the paper's eq 7 on its node. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
     q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
     new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[thm.IDX.motor_heat_capacity_j_per_k]
-    return new, q_air, q_rad, q_cool
+    return float(new), q_air, q_rad, q_cool
 
 
 def cutoff_curve() -> dict[str, Any]:
