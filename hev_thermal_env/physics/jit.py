@@ -10,7 +10,7 @@ pair only when both sit on simple paths; in the per-row code these calls cost mo
 component function taking a packed vector reads it for the last time outside any branch and returns from one place
 (``thermal.cutoff_step``, ``thermal.available_torque_nm``, ``driveline.select_gear``).
 
-**The cache** (docs/architecture.md) lives in ``cache_root() / source_hash()``: a hash of the numba version, of every
+**The cache** (docs/architecture.md) lives in a directory named ``source_hash()``: a hash of the numba version, of every
 package file with an ``@jit`` line (:func:`jit` refuses a function defined anywhere else) and of the project modules
 those import at module level, transitively (a kernel inlines other files' kernels and constants).
 """
@@ -90,17 +90,14 @@ def source_hash(roots: Iterable[str] | None = None) -> str:
     return h.hexdigest()[:16]
 
 
-def cache_root() -> Path:
-    """The directory that holds one cache directory per kernel source hash."""
-    explicit = os.environ.get("HEV_THERMAL_ENV_CACHE_DIR")
-    if explicit:
-        return Path(explicit)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "hev-thermal-env" / "numba"
-
-
 def _usable_cache_dir() -> Path | None:
-    path = cache_root() / source_hash()
+    """The cache directory of this source tree under the root that holds one per kernel source hash
+    (``$HEV_THERMAL_ENV_CACHE_DIR``, else ``hev-thermal-env/numba`` in ``$XDG_CACHE_HOME`` or ``~/.cache``), or None
+    where it cannot be written."""
+    root = os.environ.get("HEV_THERMAL_ENV_CACHE_DIR")
+    if not root:
+        root = Path(os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")) / "hev-thermal-env" / "numba"
+    path = Path(root) / source_hash()
     try:
         path.mkdir(parents=True, exist_ok=True)
         probe = path / f".probe-{os.getpid()}"
