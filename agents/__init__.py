@@ -13,7 +13,6 @@ from __future__ import annotations
 import importlib
 import inspect
 import pkgutil
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +47,14 @@ def get_strategy(name: str, **options: Any) -> Strategy:
         raise ValueError(f"unknown strategy {name!r}; valid strategies: {', '.join(list_strategies())}")
     from_label = getattr(factory, "from_label", None)
     build = from_label if label and from_label is not None else factory
-    _check_options(base, build, options, skip=1 if build is from_label else 0)
+    params = list(inspect.signature(build).parameters.values())[1 if build is from_label else 0:]
+    if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):  # unknown option names: list the known
+        known = [p.name for p in params if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                                      inspect.Parameter.KEYWORD_ONLY)]
+        unknown = [k for k in options if k not in known]
+        if unknown:
+            raise ValueError(f"strategy {base!r}: unknown option(s) {unknown}; valid options: "
+                             f"{', '.join(known) or 'none'}")
     try:
         strategy = build(label, **options) if build is from_label else build(**options)
     except (TypeError, ValueError) as exc:  # a value of the wrong type or out of range
@@ -58,18 +64,6 @@ def get_strategy(name: str, **options: Any) -> Strategy:
     if label and build is not from_label:
         strategy.label = name
     return strategy
-
-
-def _check_options(base: str, build: Callable[..., Any], options: dict[str, Any], skip: int) -> None:
-    """Unknown option names raise ValueError listing the options ``build`` takes (after ``skip`` positionals)."""
-    params = list(inspect.signature(build).parameters.values())[skip:]
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params):
-        return
-    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
-    known = [p.name for p in params if p.kind in named]
-    unknown = [k for k in options if k not in known]
-    if unknown:
-        raise ValueError(f"strategy {base!r}: unknown option(s) {unknown}; valid options: {', '.join(known) or 'none'}")
 
 
 __all__ = ["HYPERPARAMS_DIR", "Strategy", "get_strategy", "list_strategies", "register", "registered", "strategy_class"]

@@ -2,19 +2,19 @@
 """The learned baselines side by side: every method of ``train.py``, seeds 0-4, evaluated on every named task.
 
 Each method (:data:`METHODS`: PPO, PPO on the RL track, SAC, TQC, RecurrentPPO, PPO-Lagrangian) trains with its
-hyperparameter file (``agents/hyperparams/<method>.yaml``: its stated budget of env-steps) on the generalisation task's training
-distribution (``train.py --task bus-generalisation``: a fresh route of every generated bus family per episode,
-``random_service`` conditions; never a test, validation or standard cycle), one ``train.py`` process per seed, the
-seeds fixed in advance (:data:`SEEDS`, no picking among extra seeds), into ``RUNS/METHOD/seed_S`` (a finished run
-is reused). The policy evaluated is each run's ``best_model.zip`` (selected on ``validation_bus:20..29``, never on a
-task's cycles); ``--also NAME=DIR`` scores a family of finished runs ``DIR/seed_S`` beside them (``--also-final``: their
-final ``model.zip``). Behaviour cloning (``bc``, :data:`BC`) fits seeds 0-4 to the thermal optimum's offline dataset on
-one route of every training family (``evaluate.py dataset --source optimum``, then ``evaluate.py bc``; the dataset is
-reused when there). Every seed family then drives every episode of every task (``--tasks``, default all) and is scored
-against the task's stored reference, as the leaderboard scores any result (no optimum is solved here): the
-normalised score (0 = ``engine_only``, 100 = the thermal optimum) and the frontier ratio, IQM over episodes and seeds
-with the 95 % stratified bootstrap interval, the episode safety cost (Σ ``info["cost"]``) against the task's
-budget and the optimum's (+5 %), and the runs beyond |ΔSOC| 0.02.
+hyperparameter file (``agents/hyperparams/<method>.yaml``: its stated budget of env-steps) on the generalisation task's
+training distribution (``train.py --task bus-generalisation``: a fresh route of every generated bus family per episode,
+``random_service`` conditions; never a test, validation or standard cycle), one ``train.py`` process per seed, the seeds
+fixed in advance (:data:`SEEDS`, no picking among extra seeds), into ``RUNS/METHOD/seed_S`` (a finished run is reused).
+The policy evaluated is each run's ``best_model.zip`` (selected on ``validation_bus:20..29``, never on a task's cycles);
+``--also NAME=DIR`` scores a family of finished runs ``DIR/seed_S`` beside them (``--also-final``: their final
+``model.zip``). Behaviour cloning (``bc``, :data:`BC`) fits seeds 0-4 to the thermal optimum's offline dataset on one
+route of every training family (``evaluate.py dataset --source optimum``, then ``evaluate.py bc``; the dataset is reused
+when there). Every seed family then drives every episode of every task (``--tasks``, default all) and is scored against
+the task's stored reference, as the leaderboard scores any result (no optimum is solved here): the normalised score (0 =
+``engine_only``, 100 = the thermal optimum) and the frontier ratio, IQM over episodes and seeds with the 95 % stratified
+bootstrap interval, the episode safety cost (Σ ``info["cost"]``) against the task's budget and the optimum's (+5 %), and
+the runs beyond |ΔSOC| 0.02.
 
 Every family's track (``RL`` or ``guided``) is read from its runs' configs
 (:func:`hev_thermal_env.evaluation.submission.track_of`: guided when the run's start imitates a strategy); BC is guided.

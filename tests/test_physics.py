@@ -25,6 +25,7 @@ from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import performance_report
 from tools.audit import energy_balance
+from tools.paper.measure import heat_flows_w, temperature_step
 
 RPM = math.pi / 30
 
@@ -142,9 +143,9 @@ def test_time_to_cutoff_matches_energy_balance():
     while temp < 70.0:
         d = thm.derate_frac(th, temp)
         heat = mot.total_loss_w(mo, torque, w, cfg.thermal.extra_loss_frac, d)
-        q_air, q_rad, q_cool = thm.heat_flows_w(th, temp, 20.0, 20.0, 0.0, speed)
+        q_air, q_rad, q_cool = heat_flows_w(th, temp, 20.0, 20.0, 0.0, speed)
         q_out.append(q_air + q_rad + q_cool - heat)
-        temp = thm.temperature_step(th, temp, heat, 20.0, 20.0, 0.0, speed, 1.0)[0]
+        temp = temperature_step(th, temp, heat, 20.0, 20.0, 0.0, speed, 1.0)[0]
         t += 1
     net_w = -float(np.mean(q_out))
     t_analytic = cfg.thermal.heat_capacity_j_per_k * (70.0 - 20.0) / net_w
@@ -162,7 +163,7 @@ def test_coolant_on_rated_power_settles_below_cutoff():
     hist = []
     for _ in range(3600):
         heat = mot.total_loss_w(mo, torque, w, cfg.thermal.extra_loss_frac, thm.derate_frac(th, temp))
-        temp = thm.temperature_step(th, temp, heat, 20.0, 20.0, 1.0, 40 / 3.6, 1.0)[0]
+        temp = temperature_step(th, temp, heat, 20.0, 20.0, 1.0, 40 / 3.6, 1.0)[0]
         hist.append(temp)
     assert max(hist) < cfg.thermal.cutoff_temp_c
     assert abs(hist[-1] - hist[-300]) < 1.0  # settled (the thermostat chatters within a degree)

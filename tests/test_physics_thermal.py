@@ -13,6 +13,7 @@ from hev_thermal_env.physics import Conditions, PhysicsCore, ThermalParams, core
 from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import performance_report
+from tools.rating import forced_air_term
 
 RPM = math.pi / 30
 
@@ -151,7 +152,7 @@ def network_step(p, tw, thh, tc, q_w, q_h, amb, coolant_factor, fan_factor, spee
     from hev_thermal_env.physics import thermal_network as tnet
 
     ix = thm.IDX
-    forced = thm.forced_air_term(p[ix.air_speed_per_mps], p[ix.air_speed_exponent], speed_mps)
+    forced = forced_air_term(p[ix.air_speed_per_mps], p[ix.air_speed_exponent], speed_mps)
     ram = (speed_mps * p[ix.ram_air_per_mps]) ** p[ix.radiator_air_exponent] if speed_mps > 0.0 else 0.0
     t_h, t_w, t_c, *rest = tnet.thermal_step(p, thh, tw, tc, q_w, q_h, q_inv, amb, amb, coolant_factor, fan_factor,
                                              forced, ram, 1.0 / dt_s)

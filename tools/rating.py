@@ -47,11 +47,17 @@ def rated_point(config: VehicleConfig) -> tuple[float, float]:
     return mo.continuous_torque_nm, mo.continuous_power_w / mo.continuous_torque_nm / mot.RPM
 
 
+def forced_air_term(air_speed_per_mps: float, v_exp: float, speed_mps: float) -> float:
+    """(V/48.27)^0.63 of eq 4 (V in km/h); ``air_speed_per_mps`` = 3.6 / 48.27. 0 at standstill."""
+    v_rel = max(speed_mps, 0.0) * air_speed_per_mps
+    return float(v_rel ** v_exp) if v_rel > 0.0 else 0.0
+
+
 def _speed_terms(th: np.ndarray, v_mps: float) -> tuple[float, float]:
     """eq 4's (V/48.27)^0.63 and the radiator's (ram air / reference)^n at vehicle speed ``v_mps``."""
     if v_mps <= 0.0:
         return 0.0, 0.0
-    forced = thm.forced_air_term(th[thm.IDX.air_speed_per_mps], th[thm.IDX.air_speed_exponent], v_mps)
+    forced = forced_air_term(th[thm.IDX.air_speed_per_mps], th[thm.IDX.air_speed_exponent], v_mps)
     ram = (th[thm.IDX.ram_air_per_mps] * v_mps) ** th[thm.IDX.radiator_air_exponent]
     return forced, ram
 

@@ -44,8 +44,9 @@ def effective_mass_kg(gl, payload_kg):
 
 
 @jit
-def resistance_force_n(gl, speed_mps, grade, payload_kg):
-    """Rolling + grade + aerodynamic force at ``speed_mps`` on ``grade`` (rise/run)."""
+def road_force_n(gl, speed_mps, accel_mps2, grade, payload_kg):
+    """Total tractive force needed at the wheels (positive drives, negative brakes): inertia, then rolling + grade +
+    aerodynamic force at ``speed_mps`` on ``grade`` (rise/run)."""
     m_g = (gl[IDX.mass_kg] + payload_kg) * gl[IDX.gravity_mps2]
     if grade == 0.0:
         cos_t, sin_t = 1.0, 0.0
@@ -54,13 +55,7 @@ def resistance_force_n(gl, speed_mps, grade, payload_kg):
         cos_t, sin_t = inv, grade * inv
     rolling = m_g * gl[IDX.rolling_resistance_coeff] * cos_t if speed_mps > 1e-3 else 0.0
     aero = 0.5 * gl[IDX.air_density_kgpm3] * gl[IDX.drag_coefficient] * gl[IDX.frontal_area_m2] * speed_mps * speed_mps
-    return rolling + m_g * sin_t + aero
-
-
-@jit
-def road_force_n(gl, speed_mps, accel_mps2, grade, payload_kg):
-    """Total tractive force needed at the wheels (positive drives, negative brakes)."""
-    return effective_mass_kg(gl, payload_kg) * accel_mps2 + resistance_force_n(gl, speed_mps, grade, payload_kg)
+    return effective_mass_kg(gl, payload_kg) * accel_mps2 + (rolling + m_g * sin_t + aero)
 
 
 MPH_10 = 10.0 * 0.44704

@@ -8,21 +8,23 @@ Speed rule for the step (``core.step_kernel``): numba reference-counts array val
 pair only when both sit on simple paths; in the per-row code these calls cost most of the time (≈270 ns, a row
 ≈50-90 ns). So: no per-row array views or per-row calls that bind arrays (index the 2-D arrays with the row), and a
 component function taking a packed vector reads it for the last time outside any branch and returns from one place
-(``thermal.cutoff_step``, ``thermal.heat_flows_w``, ``driveline.select_gear``).
+(``thermal.cutoff_step``, ``thermal.available_torque_nm``, ``driveline.select_gear``).
 
-**The cache** (docs/architecture.md) lives in ``cache_root() / source_hash()``: a hash of the numba version, of every
+**The cache** (docs/architecture.md) lives in a directory named ``source_hash()``: a hash of the numba version, of every
 package file with an ``@jit`` line (:func:`jit` refuses a function defined anywhere else) and of the project modules
 those import at module level, transitively (a kernel inlines other files' kernels and constants).
 """
 
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 import os
 import re
 from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
+from importlib.util import resolve_name
 from pathlib import Path
 
 import numba
@@ -32,7 +34,6 @@ from numba.core import config as _numba_config
 PACKAGE_DIR = Path(__file__).resolve().parent.parent
 _OPTIONS = {"error_model": "numpy", "nogil": True}
 _KERNEL_LINE = re.compile(rb"^@jit\b", re.M)
-_IMPORT = re.compile(rb"^(?:from[ \t]+(\.*[\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)|import[ \t]+([^\n]*))", re.M)
 #: Batches smaller than this are not split over threads (thread start-up would dominate).
 MIN_THREAD_BATCH = 4096
 
@@ -53,34 +54,16 @@ def package_modules() -> dict[str, Path]:
 
 
 def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
-    """The package's modules that ``name`` imports at module level (statements at the start of a line)."""
+    """The package's modules that ``name`` imports at module level."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
-    for m in _IMPORT.finditer(path.read_bytes()):
-        if m[3] is not None:
-            found.update(part.split()[0] for part in m[3].decode().split(",") if part.strip())
-            continue
-        mod = m[1].decode()
-        level = len(mod) - len(mod.lstrip("."))
-        if level:
-            base = package.split(".")
-            mod = ".".join(base[:len(base) - level + 1] + ([mod[level:]] if mod[level:] else []))
-        for part in re.sub(r"#[^\n]*", "", m[2].decode()).strip("()").split(","):
-            sub = f"{mod}.{part.split()[0]}" if part.strip() else mod
-            found.add(sub if sub in modules else mod)
+    for node in ast.parse(path.read_bytes()).body:
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            mod = node.module if not node.level else resolve_name("." * node.level + (node.module or ""), package)
+            found.update(f"{mod}.{alias.name}" if f"{mod}.{alias.name}" in modules else mod for alias in node.names)
     return {f for f in found if f in modules and f != name}
-
-
-def module_sources(roots: Iterable[str], modules: dict[str, Path]) -> list[Path]:
-    """The source files of the modules ``roots`` and of every package module they import, transitively."""
-    seen: set[str] = set()
-    todo = list(roots)
-    while todo:
-        name = todo.pop()
-        if name not in seen:
-            seen.add(name)
-            todo.extend(_imports(name, modules[name], modules) - seen)
-    return sorted(modules[n] for n in seen)
 
 
 def kernel_modules(modules: dict[str, Path] | None = None) -> list[str]:
@@ -90,27 +73,31 @@ def kernel_modules(modules: dict[str, Path] | None = None) -> list[str]:
 
 
 def source_hash(roots: Iterable[str] | None = None) -> str:
-    """Hash of the numba version and of the sources of ``roots`` and every package module they import
-    (:func:`module_sources`; default: the kernel modules, :func:`kernel_modules`)."""
+    """Hash of the numba version and of the sources of ``roots`` (default: the kernel modules,
+    :func:`kernel_modules`) and of every package module they import at module level, transitively."""
     modules = package_modules()
+    seen: set[str] = set()
+    todo = list(kernel_modules(modules) if roots is None else roots)
+    while todo:
+        name = todo.pop()
+        if name not in seen:
+            seen.add(name)
+            todo.extend(_imports(name, modules[name], modules) - seen)
     h = hashlib.sha256(numba.__version__.encode())
-    for path in module_sources(kernel_modules(modules) if roots is None else roots, modules):
+    for path in sorted(modules[n] for n in seen):
         h.update(path.relative_to(PACKAGE_DIR).as_posix().encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
 
-def cache_root() -> Path:
-    """The directory that holds one cache directory per kernel source hash."""
-    explicit = os.environ.get("HEV_THERMAL_ENV_CACHE_DIR")
-    if explicit:
-        return Path(explicit)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "hev-thermal-env" / "numba"
-
-
 def _usable_cache_dir() -> Path | None:
-    path = cache_root() / source_hash()
+    """The cache directory of this source tree under the root that holds one per kernel source hash
+    (``$HEV_THERMAL_ENV_CACHE_DIR``, else ``hev-thermal-env/numba`` in ``$XDG_CACHE_HOME`` or ``~/.cache``), or None
+    where it cannot be written."""
+    root = os.environ.get("HEV_THERMAL_ENV_CACHE_DIR")
+    if not root:
+        root = Path(os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")) / "hev-thermal-env" / "numba"
+    path = Path(root) / source_hash()
     try:
         path.mkdir(parents=True, exist_ok=True)
         probe = path / f".probe-{os.getpid()}"

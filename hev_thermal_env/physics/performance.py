@@ -14,20 +14,15 @@ from . import core
 from .config import Conditions, VehicleConfig
 
 
-def _sustainable(config: VehicleConfig, speeds_mps: np.ndarray, grade: float) -> np.ndarray:
-    cfg = config.replace(motor=config.motor.replace(enabled=False))
-    phys = core.PhysicsCore(cfg)
-    n = len(speeds_mps)
-    cond = Conditions(initial_soc=0.5 * (cfg.battery.soc_min + cfg.battery.soc_max))
-    state = phys.initial_state(cond, n)
-    _, out = phys.step(state, np.zeros(n), speeds_mps, speeds_mps, np.full(n, grade), phys.conditions_array(cond, n))
-    return out[:, core.TRACE_MISS] <= 1e-9
-
-
 def max_sustained_speed_kmh(config: VehicleConfig, grade: float = 0.0, resolution_kmh: float = 0.05) -> float:
     """Highest steady speed the engine alone holds on ``grade`` (rise/run)."""
     speeds_kmh = np.arange(resolution_kmh, 160.0, resolution_kmh)
-    ok = _sustainable(config, speeds_kmh / 3.6, grade)
+    speeds_mps, n = speeds_kmh / 3.6, len(speeds_kmh)
+    phys = core.PhysicsCore(config.replace(motor=config.motor.replace(enabled=False)))
+    cond = Conditions(initial_soc=0.5 * (config.battery.soc_min + config.battery.soc_max))
+    state = phys.initial_state(cond, n)
+    _, out = phys.step(state, np.zeros(n), speeds_mps, speeds_mps, np.full(n, grade), phys.conditions_array(cond, n))
+    ok = out[:, core.TRACE_MISS] <= 1e-9
     if not ok[0]:
         return 0.0
     first_bad = np.argmin(ok) if not ok.all() else len(ok)

@@ -246,15 +246,8 @@ def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
 
 
 @jit
-def forced_air_term(air_speed_per_mps, v_exp, speed_mps):
-    """(V/48.27)^0.63 of eq 4 (V in km/h); ``air_speed_per_mps`` = 3.6 / 48.27. 0 at standstill."""
-    v_rel = max(speed_mps, 0.0) * air_speed_per_mps
-    return v_rel ** v_exp if v_rel > 0.0 else 0.0
-
-
-@jit
 def air_conductance_core(h_still0, h_natural, h_forced, forced_term, area, temp_c, ambient_c):
-    """h_air·A of eqs 1 and 4 (W/K) from scalars, the speed's term precomputed (:func:`forced_air_term`)."""
+    """h_air·A of eqs 1 and 4 (W/K) from scalars, the speed's term (V/48.27)^0.63 precomputed (V in km/h)."""
     h_still = h_still0 + h_natural * math.sqrt(math.sqrt(abs(temp_c - ambient_c) * 1e-3))
     return (h_still + h_forced * forced_term) * area
 
@@ -269,24 +262,6 @@ def paper_node_core(g_air, eps_sigma_area, h_water_area, thermostat_c, temp_c, a
     ta = ambient_c + KELVIN
     q_rad = eps_sigma_area * ((tk * tk) * (tk * tk) - (ta * ta) * (ta * ta))
     return q_air, q_rad, q_cool
-
-
-@jit
-def heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps):
-    """(Q_air, Q_rad, Q_cool) leaving the paper's node at ``temp_c`` and the vehicle speed (eqs 1, 4, 5, 6)."""
-    term = forced_air_term(th[IDX.air_speed_per_mps], th[IDX.air_speed_exponent], speed_mps)
-    g_air = air_conductance_core(th[IDX.h_air_base], th[IDX.h_air_natural], th[IDX.h_air_forced], term,
-                                 th[IDX.area_m2], temp_c, ambient_c)
-    return paper_node_core(g_air, th[IDX.eps_sigma_area], th[IDX.h_water_area_w_per_k], th[IDX.thermostat_temp_c],
-                           temp_c, ambient_c, water_c, coolant_factor)
-
-
-@jit
-def temperature_step(th, temp_c, heat_w, ambient_c, water_c, coolant_factor, speed_mps, dt_s):
-    """One Euler step of the paper's eq 7. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
-    q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
-    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[IDX.motor_heat_capacity_j_per_k]
-    return new, q_air, q_rad, q_cool
 
 
 @jit

@@ -2,12 +2,12 @@
 
 The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md), centred on the SOC
 DP's path (:mod:`.soc_dp`), with heat prices measured along that path or the first pass's, and seeded with causal
-strategies' runs of the same episode (``seeds``: kept alive through every pass and centres of the refining passes). The plan is the cheapest
-path into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the search's cost plus the
-battery energy at the reward's price: an exact action sequence, so the env realises the planned cost. The report's
-``frontier``, over the final states of the same passes, is the cost by final SOC within ``frontier_halfwidth`` of the
-target: the benchmark divides each strategy's cost by it at the strategy's own final SOC. Every pass shows a bar of its
-stages on stderr (hidden off a terminal and in worker processes).
+strategies' runs of the same episode (``seeds``: kept alive through every pass and centres of the refining passes). The
+plan is the cheapest path into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the
+search's cost plus the battery energy at the reward's price: an exact action sequence, so the env realises the planned
+cost. The report's ``frontier``, over the final states of the same passes, is the cost by final SOC within
+``frontier_halfwidth`` of the target: the benchmark divides each strategy's cost by it at the strategy's own final SOC.
+Every pass shows a bar of its stages on stderr (hidden off a terminal and in worker processes).
 
 Solved plans are kept on disk (:func:`cached_plan`: JSON in ``plans/`` beside the compiled-kernel cache), under a hash
 of the plan's key (:meth:`OptimumSettings.key`) and of the sources the planner runs
@@ -24,7 +24,6 @@ import multiprocessing
 import sys
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -142,15 +141,6 @@ def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, floa
     return int(near[np.argmin(adj[near])])
 
 
-def soc_dp_path(problem: DPProblem, target: float, soc_tol: float,
-                threads: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """The SOC-state DP's (thermal state held) action sequence on ``problem`` and its SOC trace: a centre for
-    the refining passes."""
-    settings = DPSettings(soc_final=target, soc_tol=soc_tol, on_infeasible="closest", threads=threads)
-    run = rollout(solve(problem, settings), problem, settings, free=True)
-    return np.asarray(run["u"], dtype=np.float64), run["state"][:, core.SOC].copy()
-
-
 def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
     """Drive the action sequence ``u`` on the physics from the start: states, outputs and the yardstick cost."""
     n = u.size
@@ -191,7 +181,10 @@ def plan_optimum(problem: DPProblem, s: OptimumSettings, seeds: dict[str, np.nda
     target = float(problem.state0[core.SOC]) if s.soc_final is None else float(s.soc_final)
     window = (target - s.frontier_halfwidth, target + s.frontier_halfwidth)
     band = (target - s.soc_tol, target + s.soc_tol)
-    dp_u, dp_soc = soc_dp_path(problem, target, s.soc_tol, s.threads)
+    # the SOC-state DP's path (thermal state held while planning, driven free): a centre of the refining passes
+    dp_settings = DPSettings(soc_final=target, soc_tol=s.soc_tol, on_infeasible="closest", threads=s.threads)
+    dp_run = rollout(solve(problem, dp_settings), problem, dp_settings, free=True)
+    dp_u, dp_soc = np.asarray(dp_run["u"], dtype=np.float64), dp_run["state"][:, core.SOC].copy()
     t_heat = time.perf_counter()
     heat_dp = heat_prices(problem, dp_u)
     heat_s = time.perf_counter() - t_heat
@@ -281,16 +274,6 @@ def _pick(passes: list[SearchResult], problem: DPProblem, band: tuple[float, flo
 _told = False
 
 
-def seeds_key(seeds: dict[str, np.ndarray] | None) -> str:
-    """What the seeds add to a plan's key: their names and float32 actions (empty without seeds)."""
-    if not seeds:
-        return ""
-    h = hashlib.sha256()
-    for name, u in seeds.items():
-        h.update(name.encode() + np.ascontiguousarray(u, dtype="<f4").tobytes())
-    return "seeds:" + h.hexdigest()
-
-
 def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool = True,
                 seeds: dict[str, np.ndarray] | None = None) -> OptimumPlan:
     """The plan of ``problem`` (and ``seeds``, :func:`plan_optimum`): read from disk if it was solved before (its report
@@ -298,7 +281,12 @@ def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool =
     grid = settings.grid_for(problem.n_stages)
     path = None
     if use_cache and CACHE_DIR is not None:
-        key = settings.key(problem) + source_hash([__name__]) + seeds_key(seeds)
+        key = settings.key(problem) + source_hash([__name__])
+        if seeds:  # their names and float32 actions
+            h = hashlib.sha256()
+            for name, u in seeds.items():
+                h.update(name.encode() + np.ascontiguousarray(u, dtype="<f4").tobytes())
+            key += "seeds:" + h.hexdigest()
         path = CACHE_DIR.parent / "plans" / f"dp_thermal-{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
     if path is not None and path.is_file():
         try:
@@ -313,14 +301,9 @@ def cached_plan(problem: DPProblem, settings: OptimumSettings, use_cache: bool =
             atomic_write_json(path, {"u": plan.u.tolist(), "report": plan.report})
         except OSError:
             return plan
-        _tell(path)
+        global _told
+        if not _told and not in_worker_process():  # said once per process, not in pool workers
+            _told = True
+            tqdm.write(f"dp_thermal: plan kept in {path.parent}/ and reused whenever the same cycle, start, vehicle "
+                       f"and settings come again (plan_cache=False solves afresh)", file=sys.stderr)
     return plan
-
-
-def _tell(path: Path) -> None:
-    """Say once per process (not in pool workers) where plans are kept."""
-    global _told
-    if not _told and not in_worker_process():
-        _told = True
-        tqdm.write(f"dp_thermal: plan kept in {path.parent}/ and reused whenever the same cycle, start, vehicle and "
-                   f"settings come again (plan_cache=False solves afresh)", file=sys.stderr)

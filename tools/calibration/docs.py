@@ -20,6 +20,7 @@ from hev_thermal_env.physics import VehicleConfig, paper_bus
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics import thermal_network as tnet
 from tools.paper.measure import LAUNCH_GRADE, LAUNCH_S, LAUNCH_SPEED_MPS, launch_run
+from tools.rating import forced_air_term
 
 from . import log
 from . import protocol as proto
@@ -56,7 +57,7 @@ def conductances(config: VehicleConfig, speed_mps: float, housing_c: float, cool
                  ambient_c: float = 20.0, coolant_factor: float = 1.0, fan_factor: float = 1.0) -> dict[str, float]:
     """The network's conductances (W/K) at an operating point, from the physics' own functions."""
     th = config.thermal.pack()
-    forced = thm.forced_air_term(th[IDX.air_speed_per_mps], th[IDX.air_speed_exponent], speed_mps)
+    forced = forced_air_term(th[IDX.air_speed_per_mps], th[IDX.air_speed_exponent], speed_mps)
     g_air = thm.air_conductance_core(th[IDX.h_air_base], th[IDX.h_air_natural], th[IDX.h_air_forced], forced,
                                      th[IDX.area_m2], housing_c, ambient_c)
     mcp = th[IDX.coolant_mcp_w_per_k] * coolant_factor

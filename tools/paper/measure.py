@@ -30,6 +30,7 @@ from hev_thermal_env.physics import motor as mot
 from hev_thermal_env.physics import thermal as thm
 from hev_thermal_env.physics.performance import acceleration_time_s, max_sustained_speed_kmh
 from hev_thermal_env.simulate import CoreDriver
+from tools.rating import forced_air_term
 
 from .figures import PAPER_FIGURE_BY_NAME, TARGET_BY_ID, TARGETS, PaperFigure
 
@@ -264,6 +265,26 @@ def fig4_curve(duration_s: int = 200) -> dict[str, Any]:
             "torque_at_saturation_nm": float(tmax[-1]), "continuous_torque_nm": float(cont)}
 
 
+def heat_flows_w(th: np.ndarray, temp_c: float, ambient_c: float, water_c: float, coolant_factor: float,
+                 speed_mps: float) -> tuple[float, float, float]:
+    """(Q_air, Q_rad, Q_cool) leaving the paper's node (``paper_eqs``) at ``temp_c`` and the vehicle speed (eqs 1, 4,
+    5, 6), from the packed thermal parameters ``th``."""
+    ix = thm.IDX
+    term = forced_air_term(th[ix.air_speed_per_mps], th[ix.air_speed_exponent], speed_mps)
+    g_air = thm.air_conductance_core(th[ix.h_air_base], th[ix.h_air_natural], th[ix.h_air_forced], term,
+                                     th[ix.area_m2], temp_c, ambient_c)
+    return thm.paper_node_core(g_air, th[ix.eps_sigma_area], th[ix.h_water_area_w_per_k], th[ix.thermostat_temp_c],
+                               temp_c, ambient_c, water_c, coolant_factor)
+
+
+def temperature_step(th: np.ndarray, temp_c: float, heat_w: float, ambient_c: float, water_c: float,
+                     coolant_factor: float, speed_mps: float, dt_s: float) -> tuple[float, float, float, float]:
+    """One explicit-Euler step of the paper's eq 7 on its node. Returns (new temperature, Q_air, Q_rad, Q_cool)."""
+    q_air, q_rad, q_cool = heat_flows_w(th, temp_c, ambient_c, water_c, coolant_factor, speed_mps)
+    new = temp_c + dt_s * (heat_w - q_air - q_rad - q_cool) / th[thm.IDX.motor_heat_capacity_j_per_k]
+    return float(new), q_air, q_rad, q_cool
+
+
 def cutoff_curve() -> dict[str, Any]:
     """Coolant off, motor at peak power from 20 °C: temperature until the cutoff, and m·c_p·ΔT / mean net heat."""
     cfg = paper_bus()
@@ -274,9 +295,9 @@ def cutoff_curve() -> dict[str, Any]:
     temp, temps, nets = 20.0, [20.0], []
     while temp < cfg.thermal.cutoff_temp_c and len(temps) < 5000:
         heat = mot.total_loss_w(mo, torque, w, cfg.thermal.extra_loss_frac, thm.derate_frac(th, temp))
-        q_air, q_rad, q_cool = thm.heat_flows_w(th, temp, 20.0, 20.0, 0.0, speed)
+        q_air, q_rad, q_cool = heat_flows_w(th, temp, 20.0, 20.0, 0.0, speed)
         nets.append(heat - q_air - q_rad - q_cool)
-        temp = thm.temperature_step(th, temp, heat, 20.0, 20.0, 0.0, speed, 1.0)[0]
+        temp = temperature_step(th, temp, heat, 20.0, 20.0, 0.0, speed, 1.0)[0]
         temps.append(temp)
     net = float(np.mean(nets))
     cutoff = cfg.thermal.cutoff_temp_c
