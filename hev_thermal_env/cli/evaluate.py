@@ -13,13 +13,12 @@ import argparse
 import importlib
 import sys
 
-from .errors import program_name, report, run_program
-from .parsing import HelpFormatter, OneLineErrorParser, examples
+from .errors import HelpFormatter, OneLineErrorParser, examples, program_name, report, run_program
 
 #: The subcommands and the module of this package that holds each (in its ``COMMANDS[name]``: help, description,
 #: examples, ``add_arguments(parser)``, ``main(args) -> int``), imported by :func:`build_parser` (so that a Ctrl-C
 #: while they load is reported in one line).
-SUBCOMMANDS = {"benchmark": "run", "run": "run", "paper": "paper", "performance": "paper", "reference": "tasks",
+SUBCOMMANDS = {"benchmark": "run", "run": "run", "paper": "run", "performance": "run", "reference": "tasks",
                "dataset": "tasks", "bc": "tasks", "leaderboard": "tasks"}
 
 EXAMPLES = (
