@@ -1,11 +1,6 @@
 """The files of a run directory (docs/training.md lists them): its creation (:func:`check_new_dir`), models and
-``evaluations.csv``.
-
-Besides ``model.zip``, ``best_model.zip`` (each with its ``*vecnormalize.pkl``), ``config.yaml``,
-``command.txt``, ``evaluations.csv``, ``validation.csv``, ``training_curve.png`` and ``tb/``, a run holds
-``checkpoints/ckpt_N_steps.zip`` (+ ``_vecnormalize.pkl``, + ``_replay_buffer.pkl`` for SAC; the policy
-format of :mod:`hev_thermal_env.agents.policy_files`). Models and statistics are written atomically,
-statistics first and the model last, so a present model zip means a complete pair.
+``evaluations.csv``. Models and statistics are written atomically, statistics first and the model last, so a present
+model zip means a complete pair.
 """
 
 from __future__ import annotations

@@ -1,15 +1,7 @@
-"""The algorithms' hyperparameter files (``agents/hyperparams/``), the SB3 constructor arguments built from
-them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argument of the algorithm's constructor
-(``PPO``, ``SAC``, ``TQC``, ``RecurrentPPO``) the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys
-(also inside ``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
-valid one. ``--hp key=value`` overrides (:func:`parse_overrides`) change a file's values, dotted keys inside mappings.
-
-A file is the project's flat mapping (``ppo.yaml``) or rl-zoo3's (``sac.yaml``, ``tqc.yaml``, ``recurrent_ppo.yaml``,
-which rl-zoo3 reads unchanged: docs/training.md), read by :func:`read_hyperparams_file`. An rl-zoo3 file's section for
-:data:`~hev_thermal_env.tasks.ENV_ID` holds ``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs``
-(``gymnasium.make``'s keyword arguments), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
-arguments; the settings rl-zoo3 has no place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in a
-section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read.
+"""The algorithms' hyperparameter files (``agents/hyperparams/``; both formats, the project's flat one and
+rl-zoo3's: docs/training.md), the SB3 constructor arguments built from them, their checks and the ``--hp``
+overrides (:func:`parse_overrides`). Unknown keys (also inside ``policy_kwargs``) and values of the wrong type are
+refused in one line naming the key and the closest valid one.
 """
 
 from __future__ import annotations
@@ -58,7 +50,7 @@ def load_hyperparams(algo: str, path: str | Path | None = None) -> dict[str, Any
 
 
 def read_hyperparams_file(path: str | Path) -> dict[str, Any]:
-    """A hyperparameter file in either format (module docstring) as the project's flat dict: an rl-zoo3 file's
+    """A hyperparameter file in either format (docs/training.md) as the project's flat dict: an rl-zoo3 file's
     ``env_kwargs`` become the ``env`` section (``cycle`` its ``cycles``), its ``normalize`` and ``policy_kwargs``
     strings mappings (``nn.ReLU`` the name ``relu``), and :data:`PROJECT_SECTION` joins the rest."""
     data = read_yaml_mapping(path)

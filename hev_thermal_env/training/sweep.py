@@ -1,12 +1,8 @@
 """Sweeps: Ray Tune over hyperparameters and seeds, with the training of :mod:`.loop` as the trainable; their report.
 
-Optuna (Tune's ``OptunaSearch``) draws ``samples`` configurations from the search space (:mod:`.sweep_trial`), each
-trained with ``seeds`` seeds (Tune's ``Repeater``: Optuna learns from their mean); a space without a sampler is a
-multi-seed study of one configuration (the seeds as a grid). ASHA (or the median stopping rule) stops trials that fall
-behind. A configuration scores the interquartile mean (IQM) over its seeds of each trial's last validation return (a
-trial stopped early counts with its return then), with a 95 % bootstrap interval (:mod:`hev_thermal_env.stats`). The
-best configuration's seed with the highest last return (one that ran to the end first) is exported as a policy that
-``ppo:PATH`` loads. The sweep directory (:mod:`hev_thermal_env.cli.sweep`) must be on storage every node sees.
+Optuna draws ``samples`` configurations (:mod:`.sweep_trial`), each trained with ``seeds`` seeds; ASHA (or the
+median rule) stops trials that fall behind. A configuration scores the IQM over its seeds of each trial's last
+validation return, with a 95 % bootstrap interval; its best seed is exported (docs/scaling-out.md).
 """
 
 from __future__ import annotations
