@@ -1,10 +1,6 @@
 """Evaluate energy-management strategies on the hybrid bus.
 
-The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job:
-``benchmark`` (strategies × cycles × scenarios or a named task, table + plots), ``run`` (one strategy on one cycle),
-``paper`` (the paper reproduction report), ``performance`` (the paper's Table 3), ``reference`` (a task's reference
-values), ``dataset`` (an offline dataset), ``bc`` (behaviour cloning on one) and ``leaderboard`` (every method on
-every task).
+The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job (:data:`SUBCOMMANDS`).
 """
 
 from __future__ import annotations

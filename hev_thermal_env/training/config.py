@@ -32,11 +32,10 @@ from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
 from hev_thermal_env.tasks import TRAINING_FAMILIES, get_task, held_out_cycles
 
-from .hyperparams import apply_overrides, check_hyperparams, check_known, load_hyperparams
+from .hyperparams import Section, apply_overrides, check_hyperparams, check_known, load_hyperparams, setting
 from .imitation import InitConfig
 from .lagrangian import ConstraintConfig
 from .selection import DEFAULT_SCORER, get_scorer
-from .settings import Section, setting
 
 #: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's), and their defaults.
 NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters

@@ -36,7 +36,7 @@ from .fit import (
     mean_cost_excess_g,
     near_derating,
 )
-from .settings import Section, setting
+from .hyperparams import Section, setting
 
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")

@@ -19,7 +19,7 @@ from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from hev_thermal_env.io import atomic_write_text
 
-from .settings import Section, setting
+from .hyperparams import Section, setting
 
 
 @dataclasses.dataclass(frozen=True)

@@ -19,9 +19,8 @@ from hev_thermal_env.agents.policy_files import CHECKPOINTS, checkpoint_paths
 from hev_thermal_env.io import read_yaml_mapping
 
 from .config import build_config
-from .hyperparams import parse_value
+from .hyperparams import is_number, parse_value
 from .loop import TrainingRun, resume, train
-from .settings import is_number
 
 METRIC = "eval_return_g"
 TIME_ATTR = "timesteps"
