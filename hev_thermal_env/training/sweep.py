@@ -366,9 +366,9 @@ def write_report(out: Path, trials: list[TrialRecord], settings: dict[str, Any],
     return SweepReport(trials, configs, best, complete)
 
 
-def export_best(report: Any, dest: Path, settings: dict[str, Any]) -> Path:
-    """Export the best trial of a sweep's report (:class:`~.sweep.SweepReport`) as a policy package in ``dest``: its
-    final model, from its latest Tune checkpoint (the latest training checkpoint of a trial stopped early)."""
+def export_best(report: SweepReport, dest: Path, settings: dict[str, Any]) -> Path:
+    """Export the best trial of a sweep's report as a policy package in ``dest``: its final model, from its latest
+    Tune checkpoint (the latest training checkpoint of a trial stopped early)."""
     best = report.best
     source = best.checkpoint if best.checkpoint is not None else best.run_dir
     model = source / "model.zip"
