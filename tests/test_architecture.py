@@ -87,8 +87,8 @@ def test_the_package_leaves_the_workshop_alone():
                      else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
             if any(n == "tools" or n.startswith("tools.") for n in names):
                 users.setdefault(name, set()).update(names)
-    assert users == {"hev_thermal_env.cli.paper": {"tools.paper.measure", "tools.paper.report"}}
-    top = ast.parse((ROOT / "hev_thermal_env" / "cli" / "paper.py").read_text()).body
+    assert users == {"hev_thermal_env.cli.run": {"tools.paper.measure", "tools.paper.report"}}
+    top = ast.parse((ROOT / "hev_thermal_env" / "cli" / "run.py").read_text()).body
     assert not any(isinstance(n, (ast.Import, ast.ImportFrom)) and (n.module or "").startswith("tools") for n in top
                    if isinstance(n, ast.ImportFrom))
 

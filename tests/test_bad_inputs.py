@@ -30,7 +30,7 @@ import hev_thermal_env.evaluation.benchmark as bench
 import hev_thermal_env.io as hev_io
 from hev_thermal_env import Conditions, ConfigError, VehicleConfig, load_cycle, simulate
 from hev_thermal_env.agents import get_strategy
-from hev_thermal_env.cli import paper as cli_performance
+from hev_thermal_env.cli import run as cli_performance
 from hev_thermal_env.cli import run as cli_run
 from hev_thermal_env.cli.evaluate import main as evaluate_main
 from hev_thermal_env.cli.train import main as train_main

@@ -17,10 +17,10 @@ from hev_thermal_env.training.fit import fit_policy_mean, fit_weights
 from hev_thermal_env.training.imitation import (
     INIT_DEFAULTS,
     InitConfig,
-    check_init,
     demonstrations,
     teacher_of,
 )
+from tests.support.training import check_init
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -12,7 +12,8 @@ from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.training.envs import env_kwargs
 from hev_thermal_env.training.fit import cost_excess_g, fit_loss, fit_policy_mean, mean_cost_excess_g
-from hev_thermal_env.training.imitation import INIT_DEFAULTS, check_init, demonstrations
+from hev_thermal_env.training.imitation import INIT_DEFAULTS, demonstrations
+from tests.support.training import check_init
 
 ENV = {"cycles": ["random_bus"], "scenario": "random_service", "random_start": True, "preview_s": 10,
        "preview_step_s": 2, "thermal": True, "reward": {}}

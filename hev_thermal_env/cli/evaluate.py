@@ -1,10 +1,6 @@
 """Evaluate energy-management strategies on the hybrid bus.
 
-The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job:
-``benchmark`` (strategies × cycles × scenarios or a named task, table + plots), ``run`` (one strategy on one cycle),
-``paper`` (the paper reproduction report), ``performance`` (the paper's Table 3), ``reference`` (a task's reference
-values), ``dataset`` (an offline dataset), ``bc`` (behaviour cloning on one) and ``leaderboard`` (every method on
-every task).
+The program behind ``evaluate.py`` and ``hev-evaluate``, one subcommand per job (:data:`SUBCOMMANDS`).
 """
 
 from __future__ import annotations
@@ -13,13 +9,12 @@ import argparse
 import importlib
 import sys
 
-from .errors import program_name, report, run_program
-from .parsing import HelpFormatter, OneLineErrorParser, examples
+from .errors import HelpFormatter, OneLineErrorParser, examples, program_name, report, run_program
 
 #: The subcommands and the module of this package that holds each (in its ``COMMANDS[name]``: help, description,
 #: examples, ``add_arguments(parser)``, ``main(args) -> int``), imported by :func:`build_parser` (so that a Ctrl-C
 #: while they load is reported in one line).
-SUBCOMMANDS = {"benchmark": "run", "run": "run", "paper": "paper", "performance": "paper", "reference": "tasks",
+SUBCOMMANDS = {"benchmark": "run", "run": "run", "paper": "run", "performance": "run", "reference": "tasks",
                "dataset": "tasks", "bc": "tasks", "leaderboard": "tasks"}
 
 EXAMPLES = (

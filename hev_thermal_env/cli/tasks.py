@@ -1,8 +1,6 @@
-"""The subcommands on the named tasks: ``evaluate.py reference`` ((re)compute a task's reference values: the optimum's
-and ``engine_only``'s runs per episode, the safety budget), ``dataset`` (an offline dataset, Minari, of a strategy's
-episodes on a task or on training routes), ``bc`` (behaviour cloning on such a dataset, scored on tasks: the datasets'
-usability check) and ``leaderboard`` (every method on every task with references, one Markdown page and a profile
-plot)."""
+"""The subcommands on the named tasks: ``evaluate.py reference`` (a task's reference values), ``dataset`` (an offline
+Minari dataset of a strategy's episodes), ``bc`` (behaviour cloning on one, the datasets' usability check) and
+``leaderboard`` (every method on every task with references: one Markdown page and a profile plot)."""
 
 from __future__ import annotations
 

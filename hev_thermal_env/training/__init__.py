@@ -9,8 +9,8 @@ imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
 
 from hev_thermal_env.agents.policy_files import load_policy
 
+from .artifacts import export_policy
 from .config import build_config
-from .export import export_policy
 from .hyperparams import parse_overrides
 from .loop import TrainingInterrupted, resume, train
 

@@ -1,11 +1,6 @@
-"""The files of a run directory (docs/training.md lists them): its creation (:func:`check_new_dir`), models and
-``evaluations.csv``.
-
-Besides ``model.zip``, ``best_model.zip`` (each with its ``*vecnormalize.pkl``), ``config.yaml``,
-``command.txt``, ``evaluations.csv``, ``validation.csv``, ``training_curve.png`` and ``tb/``, a run holds
-``checkpoints/ckpt_N_steps.zip`` (+ ``_vecnormalize.pkl``, + ``_replay_buffer.pkl`` for SAC; the policy
-format of :mod:`hev_thermal_env.agents.policy_files`). Models and statistics are written atomically,
-statistics first and the model last, so a present model zip means a complete pair.
+"""The files of a run directory (docs/training.md lists them): its creation (:func:`check_new_dir`), models,
+``evaluations.csv``, and a trained policy exported as a small package (:func:`export_policy`). Models and statistics
+are written atomically, statistics first and the model last, so a present model zip means a complete pair.
 """
 
 from __future__ import annotations
@@ -19,7 +14,16 @@ from typing import Any
 
 import torch
 
+from hev_thermal_env.agents.policy_files import (
+    find_run_config,
+    load_obs_normalizer,
+    load_sb3_model,
+    resolve_model_path,
+    stats_path_for,
+)
 from hev_thermal_env.io import atomic_write_bytes, atomic_write_text, check_writable_dir
+
+from .config import save_run_config
 
 EVAL_COLUMNS = ("timesteps", "wall_s", "cycle", "scenario", "return_g", "fuel_corrected_l_per_100km", "delta_soc",
                 "cutoff_s", "trace_miss_max_mps", "fuel_ratio", "mean_return_g", "score", "qualified", "best")
@@ -89,3 +93,26 @@ def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "conf
                              f"another directory")
         raise ValueError(f"--out {out} is not empty; choose an empty or new directory")
     return check_writable_dir(out)
+
+
+def export_policy(run: str | Path, out_dir: str | Path, readme: str | None = None) -> Path:
+    """Copy a trained policy into ``out_dir`` as a small package (how ``agents/policies/ppo_default/`` was made):
+    ``model.zip`` (without the optimizer's
+    state), ``vecnormalize.pkl`` and ``config.yaml`` (and ``README.md`` if given)."""
+    model_path = resolve_model_path(run)
+    config = find_run_config(model_path)
+    if config is None:
+        raise FileNotFoundError(f"no config.yaml next to {model_path}: export needs a train.py run")
+    model = load_sb3_model(model_path, config["algo"], config.get("hyperparams"))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if config["normalize"] is not False:
+        stats_path = stats_path_for(model_path)
+        load_obs_normalizer(stats_path)  # checks it
+        atomic_write_bytes(out / "vecnormalize.pkl", stats_path.read_bytes())
+    atomic_write_bytes(out / "model.zip", model_bytes(model, exclude_optimizer_state=True))
+    config = {**config, "exported_from": {"model": model_path.name, "timesteps": int(model.num_timesteps)}}
+    save_run_config(out, config)
+    if readme is not None:
+        atomic_write_text(out / "README.md", readme)
+    return out

@@ -1,13 +1,8 @@
-"""The config of a training run: one plain dict, saved as ``DIR/config.yaml``.
+"""The config of a training run: one plain dict, saved as ``DIR/config.yaml`` (its sections: docs/training.md).
 
-:func:`build_config` makes it from the hyperparameter file (:mod:`.hyperparams`), the ``--hp``
-overrides and the command-line settings, and :func:`validate_config` checks all of
-it before anything is created (one-line ``ValueError`` s). Sections: ``algo``, ``seed``,
-``total_timesteps``, ``n_envs``, ``env`` (the training env), ``normalize`` (``VecNormalize``), ``init``
-(:mod:`.imitation`), ``constraint`` (a constrained algorithm's safety-cost budget and multiplier, :mod:`.lagrangian`;
-None for the others), ``hyperparams`` (the SB3 constructor's), ``eval``, ``checkpoint_freq``, ``task`` (the id of the
-benchmark task the run trains for, :mod:`hev_thermal_env.tasks`, or None), ``command``, ``created``, ``versions``, and
-after training ``result``. No run trains or selects checkpoints on a held-out task's test cycles.
+:func:`build_config` makes it from the hyperparameter file (:mod:`.hyperparams`), the ``--hp`` overrides and the
+command-line settings; :func:`validate_config` checks all of it before anything is created (one-line ``ValueError``
+s). No run trains or selects checkpoints on a held-out task's test cycles.
 """
 
 from __future__ import annotations
@@ -37,11 +32,10 @@ from hev_thermal_env.physics.fingerprint import physics_fingerprint
 from hev_thermal_env.scenarios import get_scenario
 from hev_thermal_env.tasks import TRAINING_FAMILIES, get_task, held_out_cycles
 
-from .hyperparams import apply_overrides, check_hyperparams, check_known, load_hyperparams
+from .hyperparams import Section, apply_overrides, check_hyperparams, check_known, load_hyperparams, setting
 from .imitation import InitConfig
 from .lagrangian import ConstraintConfig
 from .selection import DEFAULT_SCORER, get_scorer
-from .settings import Section, setting
 
 #: ``VecNormalize`` arguments of the ``normalize`` section (its ``gamma`` is the algorithm's), and their defaults.
 NORMALIZE_KEYS = tuple(k for k in inspect.signature(VecNormalize.__init__).parameters
@@ -216,12 +210,7 @@ def validate_config(config: dict[str, Any]) -> None:
         check_known("normalize setting", config["normalize"], NORMALIZE_KEYS)
     RunSettings(**{f.name: config[f.name] for f in dataclasses.fields(RunSettings)})
     check_hyperparams(config["algo"], config["hyperparams"])
-    _check_batch_sizes(config)
-
-
-def _check_batch_sizes(config: dict[str, Any]) -> None:
-    """The rollout and minibatch sizes SB3 asserts on, as one-line errors before any work."""
-    hp, n_envs = config["hyperparams"], config["n_envs"]
+    hp, n_envs = config["hyperparams"], config["n_envs"]  # the sizes SB3 asserts on, as one-line errors
     on_policy = config["algo"] in ("ppo", "ppo_lagrangian", "recurrent_ppo")  # PPO's rollouts: n_steps per env
     if on_policy and "n_steps" in hp and whole_number("n_steps", hp["n_steps"]) * n_envs < 2:
         raise ValueError(f"n_steps={hp['n_steps']} with n_envs={n_envs}: PPO needs n_steps × n_envs of at least 2")

@@ -1,9 +1,5 @@
-"""The figures of training: a run's ``DIR/training_curve.png`` and a sweep's ``sweep.png`` (:func:`plot_sweep`).
-
-A run's figure has three panels over env-steps: the training episodes' mean return (SB3's ``rollout/ep_rew_mean``,
-the last 100 episodes, from the run's TensorBoard logs) and length; the evaluation return per cycle and scenario and
-their mean; the evaluation fuel in % of the selection's reference (:mod:`.selection`) per run, the score (their mean)
-in black, disqualified evaluations crossed and ``best_model.zip`` starred. A dotted line marks the selected evaluation.
+"""The figures of training: a run's ``DIR/training_curve.png`` (:func:`training_curve_figure`) and a sweep's
+``sweep.png`` (:func:`plot_sweep`).
 """
 
 from __future__ import annotations
@@ -64,7 +60,10 @@ def _by_series(rows: list[dict[str, Any]]) -> dict[str, dict[int, dict[str, Any]
 
 
 def training_curve_figure(run_dir: str | Path):
-    """The figure of the run in ``run_dir`` (see the module docstring); returns the matplotlib figure."""
+    """The figure of the run in ``run_dir``, three panels over env-steps: the training episodes' mean return and
+    length (SB3's ``rollout/ep_rew_mean``, from ``tb/``); the evaluation return per run and their mean; the evaluation
+    fuel in % of the selection's reference per run, the score in black, disqualified evaluations crossed,
+    ``best_model.zip`` starred. Returns the matplotlib figure."""
     plt = pyplot()
     out = Path(run_dir)
     rows = read_evaluations(out / "evaluations.csv")

@@ -22,7 +22,7 @@ from hev_thermal_env.physics import core
 from hev_thermal_env.wrappers.sb3 import Sb3VecEnv
 
 from .artifacts import write_csv
-from .lagrangian import LagrangianVecEnv, make_lagrangian
+from .lagrangian import LagrangeMultiplier, LagrangianVecEnv
 from .selection import run_key
 
 #: The per-step info fields the metrics need.
@@ -76,7 +76,10 @@ def make_vec_env(config: dict[str, Any]) -> tuple[VecMonitor | LagrangianVecEnv,
     timed = TimedVecEnv(sb3_env)
     monitored = VecMonitor(timed)
     if constrained:
-        return make_lagrangian(monitored, config, float(sb3_env.venv.core.dt_s)), timed
+        c = config["constraint"]
+        multiplier = LagrangeMultiplier(c["budget_s_per_h"], c["lambda_lr"], c["lambda_init"], c["lambda_max"])
+        n_steps = int(config["hyperparams"].get("n_steps", 2048))
+        return LagrangianVecEnv(monitored, multiplier, n_steps, float(sb3_env.venv.core.dt_s)), timed
     return monitored, timed
 
 

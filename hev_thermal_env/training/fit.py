@@ -1,23 +1,11 @@
 """Fitting a policy to demonstrations: the imitation's fit (:mod:`.imitation`) and behaviour cloning.
 
-The imitation's fit minimises, the policy's mean action against the teacher's:
-
-* The squared error to the teacher's action (:func:`fit_targets`: at 1 + ``init.beyond_bound`` where the teacher sits
-  at the upper bound), each state counted by its weight (:func:`fit_weights`: ``1 + init.heat_weight`` where the motor
-  derates, else 1).
-* With ``init.cost_weight`` > 0, also what the policy's action costs by the teacher's own measure
-  (:func:`cost_excess_g`): a classic teacher that picks the cheapest of a grid of candidate actions (``ecms``,
-  ``aecms``, ``ecms_thermal``) records each step's cost of every candidate above the cheapest (g), and the student's
-  action is charged that curve, interpolated. A squared error counts every state alike; the teacher's cost curve says
-  where an error is dear (the motor at its limit, a demand the bus can only just meet) and where it is free (a flat
-  curve). The term is in grams per step, ``init.cost_weight`` in 1/g.
-
-Behaviour cloning on an offline dataset is the datasets' usability check (``evaluate.py bc``, which writes its result
-files for the leaderboard): :func:`dataset_pairs` reads a Minari dataset (:mod:`hev_thermal_env.evaluation.datasets`)
-as (observation, action) pairs; :func:`fit_bc` fits a small MLP to them (MSE, Adam, full passes over the shuffled
-pairs, observations standardised by the dataset's mean and spread); :class:`BCStrategy` drives the env with it (the
-action clipped to [-1, 1]) and is scored like any strategy. A policy file (:func:`save_bc`, :func:`load_bc`) holds
-the weights, the standardisation and the dataset's id and physics fingerprint.
+The imitation's loss (docs/training.md): the (weighted, :func:`fit_weights`) squared error of the policy's mean to the
+teacher's action (:func:`fit_targets`), plus with ``init.cost_weight`` (1/g) > 0 what the action costs by the
+teacher's own curve (:func:`cost_excess_g`, g per step). Behaviour cloning (``evaluate.py bc``): :func:`fit_bc` fits a
+small MLP to a Minari dataset's pairs (:func:`dataset_pairs`), :class:`BCStrategy` drives with it (the action clipped
+to [-1, 1]); its policy file (:func:`save_bc`) holds the weights, the standardisation, the dataset's id and
+fingerprint.
 """
 
 from __future__ import annotations

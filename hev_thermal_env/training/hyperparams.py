@@ -1,15 +1,12 @@
-"""The algorithms' hyperparameter files (``agents/hyperparams/``), the SB3 constructor arguments built from
-them and their checks: a file holds run settings (:data:`RUN_KEYS`) and any argument of the algorithm's constructor
-(``PPO``, ``SAC``, ``TQC``, ``RecurrentPPO``) the training does not set itself (:data:`MANAGED_KEYS`). Unknown keys
-(also inside ``policy_kwargs``) and values of the wrong type are refused in one line naming the key and the closest
-valid one. ``--hp key=value`` overrides (:func:`parse_overrides`) change a file's values, dotted keys inside mappings.
+"""The algorithms' hyperparameter files (``agents/hyperparams/``; both formats, the project's flat one and
+rl-zoo3's: docs/training.md), the SB3 constructor arguments built from them, their checks and the ``--hp``
+overrides (:func:`parse_overrides`). Unknown keys (also inside ``policy_kwargs``) and values of the wrong type are
+refused in one line naming the key and the closest valid one.
 
-A file is the project's flat mapping (``ppo.yaml``) or rl-zoo3's (``sac.yaml``, ``tqc.yaml``, ``recurrent_ppo.yaml``,
-which rl-zoo3 reads unchanged: docs/training.md), read by :func:`read_hyperparams_file`. An rl-zoo3 file's section for
-:data:`~hev_thermal_env.tasks.ENV_ID` holds ``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs``
-(``gymnasium.make``'s keyword arguments), ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's
-arguments; the settings rl-zoo3 has no place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in a
-section of their own, :data:`PROJECT_SECTION`, which rl-zoo3 does not read.
+The config's sections are typed records (:class:`Section`): frozen dataclasses whose fields (:func:`setting`, as the
+vehicle's records use :func:`~hev_thermal_env.physics.params.spec`) say their kind and range, validated in one place
+with one-line errors naming the section, the field and the value (``init.episodes must be a whole number of at least
+1, got 0``).
 """
 
 from __future__ import annotations
@@ -17,13 +14,15 @@ from __future__ import annotations
 import ast
 import collections.abc
 import copy
+import dataclasses
 import difflib
 import inspect
+import math
 import types
 import typing
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, TypeVar
 
 import torch
 import yaml
@@ -31,6 +30,7 @@ import yaml
 from hev_thermal_env.agents import HYPERPARAMS_DIR
 from hev_thermal_env.agents.policy_files import SCHEDULE_KEYS, algorithm_class, schedule
 from hev_thermal_env.io import read_yaml_mapping
+from hev_thermal_env.physics.params import Params
 from hev_thermal_env.tasks import ENV_ID
 
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
@@ -46,6 +46,8 @@ _KIND_NAMES = {bool: "true or false", int: "an integer", float: "a number", str:
 #: The section of an rl-zoo3 hyperparameter file with the settings only ``train.py`` reads.
 PROJECT_SECTION = "hev_thermal_env"
 
+S = TypeVar("S", bound="Section")
+
 
 def load_hyperparams(algo: str, path: str | Path | None = None) -> dict[str, Any]:
     """The hyperparameter file of ``algo`` (``agents/hyperparams/<algo>.yaml`` unless ``path``) as a flat dict
@@ -58,7 +60,7 @@ def load_hyperparams(algo: str, path: str | Path | None = None) -> dict[str, Any
 
 
 def read_hyperparams_file(path: str | Path) -> dict[str, Any]:
-    """A hyperparameter file in either format (module docstring) as the project's flat dict: an rl-zoo3 file's
+    """A hyperparameter file in either format (docs/training.md) as the project's flat dict: an rl-zoo3 file's
     ``env_kwargs`` become the ``env`` section (``cycle`` its ``cycles``), its ``normalize`` and ``policy_kwargs``
     strings mappings (``nn.ReLU`` the name ``relu``), and :data:`PROJECT_SECTION` joins the rest."""
     data = read_yaml_mapping(path)
@@ -218,3 +220,81 @@ def apply_overrides(hp: dict[str, Any], overrides: dict[str, Any]) -> dict[str, 
             node = node[part]
         node[last] = {**node[last], **value} if isinstance(value, dict) and isinstance(node.get(last), dict) else value
     return hp
+
+
+def setting(default: Any, doc: str, *, kind: str = "any", min: float | None = None, max: float | None = None,
+            min_exclusive: bool = False, what: str = "") -> Any:
+    """A field of a :class:`Section`: its default (a mapping or list is copied for each record), meaning, kind
+    (``whole``: an integer of at least ``min``; ``number``: a number in [``min``, ``max``], or (``min``, ``max``] with
+    ``min_exclusive``; ``bool``; ``any``: checked by :meth:`Section.validate`) and range; ``what`` follows the range
+    in its error message."""
+    meta = {"doc": doc, "kind": kind, "min": min, "max": max, "min_exclusive": min_exclusive, "what": what}
+    if isinstance(default, (dict, list)):
+        return dataclasses.field(default_factory=lambda: type(default)(default), metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def is_number(value: Any) -> bool:
+    """A finite int or float (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _problem(f: dataclasses.Field, value: Any) -> str | None:
+    """What is wrong with ``value`` for field ``f`` (its kind and range), or None."""
+    kind, lo, hi = f.metadata["kind"], f.metadata["min"], f.metadata["max"]
+    if kind == "bool" and not isinstance(value, bool):
+        return "must be true or false"
+    if kind == "whole" and (not isinstance(value, int) or isinstance(value, bool) or value < lo
+                            or (hi is not None and value > hi)):
+        return f"must be a whole number of at least {lo}" if hi is None else f"must be a whole number in [{lo}, {hi}]"
+    if kind == "number":
+        low_ok = is_number(value) and (
+            value > lo if f.metadata["min_exclusive"] else value >= lo)
+        if hi is None and not low_ok:
+            return f"must be a number of at least {lo:g}"
+        if hi is not None and not (low_ok and value <= hi):
+            left = "(" if f.metadata["min_exclusive"] else "["
+            return f"must be a number in {left}{lo:g}, {hi:g}]{f.metadata['what']}"
+    return None
+
+
+@dataclasses.dataclass(frozen=True)
+class Section:
+    """Base class: a section of the run config (:attr:`NAME` in its messages; empty: the top level)."""
+
+    NAME: ClassVar[str] = "section"
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            problem = _problem(f, getattr(self, f.name))
+            if problem:
+                raise ValueError(f"{self.NAME + '.' if self.NAME else ''}{f.name} {problem}, got "
+                                 f"{getattr(self, f.name)!r}")
+        self.validate()
+
+    def validate(self) -> None:
+        """Checks across fields; subclasses raise a one-line ``ValueError`` naming them."""
+
+    @classmethod
+    def from_dict(cls: type[S], data: dict[str, Any] | None) -> S:
+        """The section from a mapping (None: every default); unknown keys raise ``ValueError``."""
+        if data is not None and not isinstance(data, dict):
+            names = ", ".join(f.name for f in dataclasses.fields(cls))
+            raise ValueError(f"{cls.NAME or 'config'}={data!r}: expected a mapping ({names})")
+        check_known(f"{cls.NAME or 'run'} setting", data or {}, [f.name for f in dataclasses.fields(cls)])
+        return cls(**(data or {}))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields in their order, as plain values (the YAML form)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_yaml(cls: type[S], path: str | Path) -> S:
+        """The section from a YAML file holding it; errors name the file."""
+        try:
+            return cls.from_dict(yaml.safe_load(Path(path).read_text()))
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
+    #: The YAML text of :meth:`to_dict`, also written to ``path`` if given (the vehicle records' method).
+    to_yaml = Params.to_yaml

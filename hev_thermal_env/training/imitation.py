@@ -1,13 +1,9 @@
 """A new PPO run's starting point: the policy imitates a classic strategy (behaviour cloning), then PPO learns.
 
 :func:`imitate`: the teacher (``init.imitate``) drives ``init.episodes`` episodes of the training env
-(:func:`demonstrations`; with ``init.noise`` off its path, labelled with its own action), the ``VecNormalize``
-observation statistics start from them (``init.freeze_obs_stats``: kept there), and the policy's mean action is fitted
-to the teacher's by the loss of :mod:`.fit` (Adam, ``init.epochs`` passes), at 1 + ``init.beyond_bound`` where the
-teacher sits at the upper bound: actions are clipped, so the deterministic policy reaches the bound only if its mean
-lies beyond it. The value function is not pretrained; ``init.imitate: null`` starts from scratch. With
-``init.refit_batches`` the fit goes on during PPO (:class:`DemonstrationRefit`), with ``init.dagger_every`` on the
-student's states too (DAgger). Why each setting: docs/training.md.
+(:func:`demonstrations`), the ``VecNormalize`` statistics start from them, and the policy's mean action is fitted to
+the teacher's (:mod:`.fit`); the value function is not pretrained. :class:`DemonstrationRefit` goes on fitting during
+PPO (``init.refit_batches``, DAgger with ``init.dagger_every``). Each setting and why: docs/training.md.
 """
 
 from __future__ import annotations
@@ -40,7 +36,7 @@ from .fit import (
     mean_cost_excess_g,
     near_derating,
 )
-from .settings import Section, setting
+from .hyperparams import Section, setting
 
 #: The algorithms whose policy the imitation fits (PPO's feed-forward Gaussian policy).
 IMITATING_ALGORITHMS = ("ppo", "ppo_lagrangian")
@@ -126,11 +122,6 @@ class InitConfig(Section):
 
 #: The ``init`` section's keys and defaults.
 INIT_DEFAULTS: dict[str, Any] = InitConfig().to_dict()
-
-
-def check_init(init: dict[str, Any], algo: str, names: tuple[str, ...] | list[str] = ()) -> dict[str, Any]:
-    """The ``init`` section completed with its defaults, checked for the run (:meth:`InitConfig.for_run`)."""
-    return InitConfig.from_dict(init).for_run(algo, names).to_dict()
 
 
 def _unpriced(teacher: Strategy) -> ValueError:
@@ -290,12 +281,14 @@ def _demonstrations(env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
 
 
 def _refit(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
-           demos: tuple[np.ndarray, np.ndarray, np.ndarray | None]) -> DemonstrationRefit | None:
-    """The run's refit of its demonstrations ``(obs, actions, curves)``, or None without ``init.refit_batches``."""
+           demos: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None) -> DemonstrationRefit | None:
+    """The run's refit of its demonstrations ``(obs, actions, curves)`` (None: the first ones driven again), or None
+    without ``init.refit_batches``."""
     if int(init.get("refit_batches", 0)) <= 0:
         return None
-    return DemonstrationRefit(venv, demos[0], demos[1], init=init, env_kwargs=env_kwargs, high=_action_high(model),
-                              seed=seed, curves=demos[2])
+    obs, actions, curves = demos or _demonstrations(env_kwargs, init, seed)
+    return DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=_action_high(model),
+                              seed=seed, curves=curves)
 
 
 def _action_high(model: Any) -> float:
@@ -307,10 +300,8 @@ def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[
     """The refit of a resumed run: its first demonstrations driven again (the same episodes and actions), DAgger
     continuing from the next round; the student's states of earlier rounds and the refit's optimiser state are not
     kept in a checkpoint."""
-    if int(init.get("refit_batches", 0)) <= 0 or not init.get("imitate"):
-        return None
-    refit = _refit(model, venv, env_kwargs, init, seed, _demonstrations(env_kwargs, init, seed))
-    if refit.dagger_every:
+    refit = _refit(model, venv, env_kwargs, init, seed) if init.get("imitate") else None
+    if refit is not None and refit.dagger_every:
         refit.rounds = int(model.num_timesteps) // refit.dagger_every
     return refit
 

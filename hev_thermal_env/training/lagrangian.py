@@ -1,15 +1,10 @@
 """PPO-Lagrangian (``train.py --algo ppo_lagrangian``): PPO on the reward less λ times the safety cost, λ learned.
 
-:class:`LagrangianVecEnv`, a VecEnv wrapper under ``VecNormalize``, hands PPO ``reward − λ · info["cost"]`` (the safety
-cost, in seconds of lost motor capability per step, priced at λ grams of fuel per second). After every PPO rollout
-(``n_steps`` calls of ``step``) λ takes one step of dual ascent (:func:`dual_ascent`) on the constraint "episode safety
-cost per hour driven ≤ budget"::
-
-    λ ← clip(λ + lr · (J − d), 0, λ_max)
-
-J: the safety cost of the episodes that ended since the last update over their hours driven (none ended: no update);
-d: ``constraint.budget_s_per_h`` (:class:`ConstraintConfig`). The Lagrangian relaxation of max E[return] s.t. E[cost]
-≤ d, solved by alternating policy and multiplier steps; the budget is a rate because episodes differ in length.
+:class:`LagrangianVecEnv`, under ``VecNormalize``, hands PPO ``reward − λ · info["cost"]`` (the safety cost in seconds
+of lost motor capability per step, λ in grams of fuel per second). After every rollout λ takes one step of dual
+ascent (:func:`dual_ascent`) on "episode safety cost per hour driven ≤ budget": ``λ ← clip(λ + lr · (J − d), 0,
+λ_max)``, J the cost per hour of the episodes that ended since the last update (none: no update), d
+``constraint.budget_s_per_h``. docs/training.md.
 """
 
 from __future__ import annotations
@@ -24,7 +19,7 @@ from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from hev_thermal_env.io import atomic_write_text
 
-from .settings import Section, setting
+from .hyperparams import Section, setting
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,7 +117,6 @@ class LagrangeMultiplier:
         return rate
 
 
-
 class LagrangianVecEnv(VecEnvWrapper):
     """Rewards ``reward − λ · info["cost"]`` for PPO (module docstring); the wrapped env must copy ``cost`` into its
     infos. ``update_every``: ``step`` calls between two updates of λ (PPO's ``n_steps``: once per rollout);
@@ -154,13 +148,6 @@ class LagrangianVecEnv(VecEnvWrapper):
         if self.calls % self.update_every == 0:
             self.multiplier.update(self.timesteps)
         return obs, shaped, dones, infos
-
-
-def make_lagrangian(venv, config: dict[str, Any], dt_s: float) -> LagrangianVecEnv:
-    """The wrapper of a ``ppo_lagrangian`` run config over ``venv``."""
-    c = config["constraint"]
-    multiplier = LagrangeMultiplier(c["budget_s_per_h"], c["lambda_lr"], c["lambda_init"], c["lambda_max"])
-    return LagrangianVecEnv(venv, multiplier, int(config["hyperparams"].get("n_steps", 2048)), dt_s)
 
 
 def state_path(model_path: Path) -> Path:

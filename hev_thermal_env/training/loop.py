@@ -1,12 +1,9 @@
-"""Training sessions: :func:`train` a new run into a directory, :func:`resume` an interrupted one.
+"""Training sessions: :func:`train` a new run into a directory, :func:`resume` an interrupted one (docs/training.md).
 
-A session builds the environment (:mod:`.envs`) and the model, then learns with one callback (:class:`RunCallback`)
-that checkpoints, evaluates (best model kept, :mod:`.selection`) and stops on SIGINT/SIGTERM, writing the files of
-:mod:`.artifacts`. A new run creates its directory only once the config, the environment and the model are built: a
-run that cannot start leaves nothing behind. Checkpoints are atomic, so after a ``kill -9`` the latest one is intact;
-:func:`resume` continues from it (model, statistics, timesteps done; for SAC the replay buffer) up to the original
-total. SIGINT or SIGTERM stops training at the next step (the partial rollout is dropped), then a checkpoint is saved
-and :class:`TrainingInterrupted` raised; a second SIGINT stops at once (``KeyboardInterrupt``).
+A new run creates its directory only once the config, the environment and the model are built. Checkpoints are
+atomic; :func:`resume` continues from the latest (model, statistics, timesteps done; for SAC the replay buffer) up to
+the original total. SIGINT or SIGTERM stops at the next step (the partial rollout dropped), saves a checkpoint and
+raises :class:`TrainingInterrupted`; a second SIGINT stops at once (``KeyboardInterrupt``).
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
 """Choosing ``best_model.zip``: a scorer turns one evaluation into a score, and the lowest score wins.
 
-An evaluation is one result per validation cycle × scenario (:class:`~.envs.PolicyEvaluator`); the config's
-``eval.selection`` names the scorer, one of :data:`SCORERS`: ``fuel_vs_ecms`` (the default) or
-``fuel_vs_rule``, the mean corrected fuel relative to that strategy on the same runs plus
-:data:`VIOLATION_PENALTY` per run whose ``|ΔSOC|`` exceeds :data:`SOC_BOUND` (:func:`fuel_ratio_score`),
-so a checkpoint that holds the SOC everywhere always beats one that does not; or ``final``, which scores as
-``fuel_vs_ecms`` but keeps the latest evaluation, so ``best_model.zip`` is the final model. See docs/training.md.
+``eval.selection`` names the scorer (:data:`SCORERS`, docs/training.md): the mean corrected fuel relative to a
+strategy on the same runs plus :data:`VIOLATION_PENALTY` per run whose ``|ΔSOC|`` exceeds :data:`SOC_BOUND`
+(:func:`fuel_ratio_score`), or ``final``, which keeps the latest evaluation.
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
 """Sweeps: Ray Tune over hyperparameters and seeds, with the training of :mod:`.loop` as the trainable; their report.
 
-Optuna (Tune's ``OptunaSearch``) draws ``samples`` configurations from the search space (:mod:`.sweep_trial`), each
-trained with ``seeds`` seeds (Tune's ``Repeater``: Optuna learns from their mean); a space without a sampler is a
-multi-seed study of one configuration (the seeds as a grid). ASHA (or the median stopping rule) stops trials that fall
-behind. A configuration scores the interquartile mean (IQM) over its seeds of each trial's last validation return (a
-trial stopped early counts with its return then), with a 95 % bootstrap interval (:mod:`hev_thermal_env.stats`). The
-best configuration's seed with the highest last return (one that ran to the end first) is exported as a policy that
-``ppo:PATH`` loads. The sweep directory (:mod:`hev_thermal_env.cli.sweep`) must be on storage every node sees.
+Optuna draws ``samples`` configurations (:mod:`.sweep_trial`), each trained with ``seeds`` seeds; ASHA (or the
+median rule) stops trials that fall behind. A configuration scores the IQM over its seeds of each trial's last
+validation return, with a 95 % bootstrap interval; its best seed is exported (docs/scaling-out.md).
 """
 
 from __future__ import annotations
@@ -19,6 +15,7 @@ from typing import Any
 
 from tqdm.auto import tqdm
 
+from hev_thermal_env.agents.policy_files import checkpoint_files
 from hev_thermal_env.evaluation.executors import import_ray, start_ray
 from hev_thermal_env.evaluation.results_table import _fmt, _table  # the benchmark tables' cells and layout
 from hev_thermal_env.io import (
@@ -30,10 +27,9 @@ from hev_thermal_env.io import (
 )
 from hev_thermal_env.stats import CONFIDENCE, iqm, iqm_ci
 
-from .artifacts import check_new_dir, write_csv
+from .artifacts import check_new_dir, export_policy, write_csv
 from .config import whole_number
 from .curves import plot_sweep
-from .export import export_best
 from .hyperparams import check_known
 from .sweep_trial import (
     METRIC,
@@ -368,3 +364,23 @@ def write_report(out: Path, trials: list[TrialRecord], settings: dict[str, Any],
     if any(t.curve for t in trials):
         plot_sweep(trials, configs, best, out / "sweep.png", METRIC)
     return SweepReport(trials, configs, best, complete)
+
+
+def export_best(report: SweepReport, dest: Path, settings: dict[str, Any]) -> Path:
+    """Export the best trial of a sweep's report as a policy package in ``dest``: its final model, from its latest
+    Tune checkpoint (the latest training checkpoint of a trial stopped early)."""
+    best = report.best
+    source = best.checkpoint if best.checkpoint is not None else best.run_dir
+    model = source / "model.zip"
+    if not model.is_file():
+        ckpts = checkpoint_files(source)
+        if not ckpts:
+            raise FileNotFoundError(f"no model in the best trial's checkpoint {source}")
+        model = ckpts[-1][1]
+    config = next(c for c in report.configs if c.config_id == best.config_id)
+    lines = [f"# Best trial of a sweep ({settings['algo']})", "",
+             f"Trial {best.trial_id}, configuration {best.config_id}, seed {best.seed}, {best.timesteps} env-steps "
+             f"({best.status}); validation return {best.score:.1f} g; configuration IQM over "
+             f"{len(config.scores)} seed(s) {config.iqm:.1f} g.", "", "Hyperparameters searched:", ""]
+    lines += [f"- `{k}`: {v!r}" for k, v in best.hyperparams.items()] or ["- (none: a multi-seed study)"]
+    return export_policy(model, dest, readme="\n".join(lines) + "\n")

@@ -1,11 +1,7 @@
-"""One trial of a sweep: the search space it is drawn from, its config, and the Ray Tune trainable that runs it.
-
-A search space maps ``--hp`` keys (dotted keys included) to a fixed value or one sampler, a one-key mapping:
-``{uniform: [low, high]}``, ``{loguniform: [low, high]}``, ``{int: [low, high]}`` (both bounds included) or
-``{choice: [a, b, ...]}`` (examples: ``train.py sweep --help``). Choices travel through Tune and Optuna as their YAML
-text (Optuna's categorical values must be scalars). A trial is a ``train.py`` run in ``<trial dir>/run`` that reports
-every evaluation to Tune with a snapshot of the run directory as the checkpoint: itself a resumable run, which a
-trial restored by Tune copies back and resumes, so it ends where an uninterrupted trial would.
+"""One trial of a sweep: the search space it is drawn from (samplers: ``train.py sweep --help``; ``int``'s bounds both
+included), its config, and the Ray Tune trainable, a ``train.py`` run in ``<trial dir>/run`` that reports every
+evaluation with a snapshot of the run directory as the checkpoint, so a restored trial resumes it and ends where an
+uninterrupted one would.
 """
 
 from __future__ import annotations
@@ -23,9 +19,8 @@ from hev_thermal_env.agents.policy_files import CHECKPOINTS, checkpoint_paths
 from hev_thermal_env.io import read_yaml_mapping
 
 from .config import build_config
-from .hyperparams import parse_value
+from .hyperparams import is_number, parse_value
 from .loop import TrainingRun, resume, train
-from .settings import is_number
 
 METRIC = "eval_return_g"
 TIME_ATTR = "timesteps"
