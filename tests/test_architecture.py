@@ -19,8 +19,7 @@ KNOWN_OVER: set[str] = set()
 #: The rooms of the package, bottom to top: a module may import from its own room and the rooms below it
 #: (``""`` is the package itself, ``hev_thermal_env/__init__.py``).
 ROOMS = (("io", "stats"), ("cycles",), ("physics",), ("prices", "scenarios"), ("envs",), ("wrappers",),
-         ("metrics", "simulate", "tasks", ""), ("planning",), ("agents",), ("evaluation",),
-         ("paper",), ("training",), ("cli",))
+         ("metrics", "simulate", "tasks", ""), ("planning",), ("agents",), ("evaluation",), ("training",), ("cli",))
 
 
 def _modules() -> dict[str, Path]:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
-from hev_thermal_env.paper.figures import table3_paper
+from hev_thermal_env.physics.performance import table3_paper
 from tools.paper import measure
 from tools.paper.figures import (
     CHECK_NOTES,

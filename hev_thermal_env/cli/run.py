@@ -27,10 +27,9 @@ from hev_thermal_env.evaluation.plots import FUEL_CHART_FILE, plot_run
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.evaluation.score import REFERENCE
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_output_path, check_writable_dir
-from hev_thermal_env.paper.figures import table3_paper
 from hev_thermal_env.physics import Conditions, VehicleConfig, paper_bus
 from hev_thermal_env.physics.config import COOLANT_MODES
-from hev_thermal_env.physics.performance import performance_report
+from hev_thermal_env.physics.performance import performance_report, table3_paper
 from hev_thermal_env.scenarios import get_scenario, list_scenarios
 from hev_thermal_env.tasks import get_task, list_tasks
 
@@ -54,7 +53,8 @@ BENCHMARK_EXAMPLES = (
 )
 
 
-#: The paper's rows of Table 3 (a run of :data:`~hev_thermal_env.paper.figures.TABLE3_RUNS`) by starting temperature.
+#: The paper's rows of Table 3 (a run of :data:`~hev_thermal_env.physics.performance.TABLE3_RUNS`) by starting
+#: temperature.
 PAPER_ROWS = {None: ("off", "thermal off"), 30.0: ("30c", "30 °C start, coolant closed"),
               50.0: ("50c", "50 °C start, coolant closed")}
 FIGURES = (("top speed", "top_speed_kmh", "km/h"), ("0-60 km/h", "accel_0_60_s", "s"),

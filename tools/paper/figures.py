@@ -1,7 +1,7 @@
 """The paper's figures and the tolerances we judge ours against: one table, :data:`PAPER_FIGURES`.
 
 The targets are those of the calibration protocol (docs/calibration/protocol.md, §3), kept here alone (Table 3's values
-from the package, :mod:`hev_thermal_env.paper.figures`, which ``evaluate.py performance`` prints): F1-F7 are
+from the package, :mod:`hev_thermal_env.physics.performance`, which ``evaluate.py performance`` prints): F1-F7 are
 fitted (:data:`FITTED`, the only rows in the calibration's cost), H1-H6 are held out (:data:`HELD_OUT`, never in a
 cost). The checks C1-C3 (:data:`CHECKS`) are judged beside them with no weight; C4-C6 are reported
 (:data:`CHECK_NOTES`), and Table 2's absolute fuel levels too (:data:`TABLE2_LEVELS`).
@@ -19,7 +19,7 @@ import dataclasses
 import math
 from typing import Any
 
-from hev_thermal_env.paper.figures import TABLE3_ACCEL_RISE_S, TABLE3_OFF
+from hev_thermal_env.physics.performance import TABLE3_ACCEL_RISE_S, TABLE3_OFF
 
 
 @dataclasses.dataclass(frozen=True)

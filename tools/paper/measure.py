@@ -176,8 +176,8 @@ def table3(config: VehicleConfig, resolution_kmh: float = 0.05, accel_dt_s: floa
 
 
 def table3_row(t3: Mapping[str, float], run: str) -> dict[str, float]:
-    """Our Table 3 row of ``run`` (one of :data:`hev_thermal_env.paper.figures.TABLE3_RUNS`), keyed as
-    :func:`hev_thermal_env.paper.figures.table3_paper`."""
+    """Our Table 3 row of ``run`` (one of :data:`hev_thermal_env.physics.performance.TABLE3_RUNS`), keyed as
+    :func:`hev_thermal_env.physics.performance.table3_paper`."""
     on = "off" if run == "off" else "on"
     return {"top_speed_kmh": t3[f"top_speed_{on}_kmh"], "accel_0_60_s": t3[f"accel_{run}_s"],
             "grade_4pct_speed_kmh": t3[f"grade_speed_{on}_kmh"]}

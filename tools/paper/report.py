@@ -15,8 +15,8 @@ from typing import Any
 
 from hev_thermal_env.evaluation.runner import jsonable
 from hev_thermal_env.io import atomic_write_json, atomic_write_text, check_writable_dir
-from hev_thermal_env.paper.figures import TABLE3_RUNS, table3_paper
 from hev_thermal_env.physics import VehicleConfig, paper_bus
+from hev_thermal_env.physics.performance import TABLE3_RUNS, table3_paper
 
 from . import plots as figs
 from .figures import PAPER_FIGURE_BY_NAME as FIGURES

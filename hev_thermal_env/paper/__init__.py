@@ -1,2 +1,0 @@
-"""The paper: its Table 3 (:mod:`.figures`); the table of all its figures, measuring and judging ours are the
-workshop's, ``tools/paper``."""
