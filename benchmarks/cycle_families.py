@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the checkout: its workshop (tools/)
 
 from hev_thermal_env.cycles import (  # noqa: E402
     cycle_statistics,

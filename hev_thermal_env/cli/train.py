@@ -157,7 +157,6 @@ def main(argv: list[str] | None = None) -> int:
     return run_program(body, prog)
 
 
-
 def sweep_parser(prog: str) -> argparse.ArgumentParser:
     p = OneLineErrorParser(prog=prog, description=SWEEP_HELP.split("\n\n")[0],
                            formatter_class=argparse.RawDescriptionHelpFormatter,

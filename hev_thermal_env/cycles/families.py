@@ -8,6 +8,7 @@ Seeds: training draws from ``[0, TRAINING_SEED_LIMIT)`` (:func:`training_seed`),
 :data:`VALIDATION_SEED_BASE` up; segments, roads and the per-cycle draws take :func:`inner_seed`, injective onto
 integers from 2**48 up (no family cycle shares a generator seed with another, a built-in or a ``random_bus`` cycle).
 """
+
 from __future__ import annotations
 
 import dataclasses

@@ -225,8 +225,12 @@ def generate_bus_cycle(seed: int, duration_s: float = 1300.0, *, max_speed_kmh: 
     ``metadata`` holding ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
     ``TypeError`` for a seed that is not an integer, ``ValueError`` if a parameter is out of range.
     """
-    # the arguments but the seed and the labels, in the signature's order (the metadata's)
-    params = _checked_params(seed, **{k: v for k, v in locals().items() if k not in ("seed", "name", "description")})
+    params = _checked_params(
+        seed, duration_s=duration_s, max_speed_kmh=max_speed_kmh, cruise_speed_kmh_range=cruise_speed_kmh_range,
+        cruise_speed_mode_kmh=cruise_speed_mode_kmh, cruise_s_range=cruise_s_range,
+        speed_change_prob=speed_change_prob, speed_noise_kmh=speed_noise_kmh, dwell_s_range=dwell_s_range,
+        max_accel_mps2=max_accel_mps2, accel_power_w_per_kg=accel_power_w_per_kg,
+        accel_scale_range=accel_scale_range, decel_mps2_range=decel_mps2_range, max_jerk_mps3=max_jerk_mps3)
     n_total = int(round(duration_s))
     speeds, n_trips = _micro_trips(np.random.default_rng(int(seed)), n_total, params)
     speed_mps = np.round(np.asarray(speeds, dtype=np.float64), _SPEED_DECIMALS)

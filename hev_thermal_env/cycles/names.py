@@ -7,6 +7,7 @@ The validation set ``validation_bus``: cycle ``k`` has family :func:`validation_
 ``VALIDATION_SEED_BASE + k``, above every training seed (:func:`validation_seed` asserts it); runs select checkpoints
 on ``validation_bus:20..29`` and are judged on ``validation_bus:0..19``.
 """
+
 from __future__ import annotations
 
 import functools

@@ -226,7 +226,13 @@ class EnvParts:
     def reward_params(self, value: RewardParams | dict) -> None:
         self._rows.reward_params = RewardParams.of(value)
 
-    phys_state = property(lambda self: self._rows.state,
-                          doc="State before the next step, [n, N_STATE] (n = 1 for the single env).")
-    cond = property(lambda self: self._rows.cond, doc="Conditions array of the episodes, [n, N_COND].")
+    @property
+    def phys_state(self) -> np.ndarray:
+        """State before the next step, [n, N_STATE] (n = 1 for the single env)."""
+        return self._rows.state
+
+    @property
+    def cond(self) -> np.ndarray:
+        """Conditions array of the episodes, [n, N_COND]."""
+        return self._rows.cond
 

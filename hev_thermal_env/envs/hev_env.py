@@ -245,14 +245,20 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     # -- contract attributes ---------------------------------------------------------------------
 
-    k = property(lambda self: int(self._rows.k[0]),
-                 doc="Index of the next step (from ``cycle.speed_mps[k]`` to ``[k+1]``).")
-    soc_target = property(lambda self: float(self._rows.soc_target[0]),
-                          doc="SOC target of the reward's deviation term: the episode's initial SOC before any "
-                              "``soc_offset``.")
-    last_out = property(lambda self: self._rows.last_out[0],
-                        doc="Outputs (N_OUT,) of the last step (zeros after reset); columns in "
-                            "``physics.core.OUT_NAMES``.")
+    @property
+    def k(self) -> int:
+        """Index of the next step (from ``cycle.speed_mps[k]`` to ``[k+1]``)."""
+        return int(self._rows.k[0])
+
+    @property
+    def soc_target(self) -> float:
+        """SOC target of the reward's deviation term: the episode's initial SOC before any ``soc_offset``."""
+        return float(self._rows.soc_target[0])
+
+    @property
+    def last_out(self) -> np.ndarray:
+        """Outputs (N_OUT,) of the last step (zeros after reset); columns in ``physics.core.OUT_NAMES``."""
+        return self._rows.last_out[0]
 
     # -- gymnasium API ---------------------------------------------------------------------------
 

@@ -104,10 +104,11 @@ def result_files(paths: Sequence[str | Path]) -> list[Path]:
 
 
 def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str, Any]:
-    """The leaderboard entry of one result on its task (module docstring); ``rows``: each episode row's frontier
-    ratio, score and note; ``above_optimum_safety``: the runs that derate their motor more than
-    :data:`SAFETY_MARGIN` × the optimum on their episode; ``beyond_soc_bound``: the runs whose |ΔSOC| exceeds
-    :data:`SOC_BOUND` (None if a row lacks its ``soc_initial``)."""
+    """The leaderboard entry of one result on its task (the IQM with its 95 % stratified bootstrap interval, one stratum
+    per episode: docs/leaderboard.md); ``rows``: each episode row's frontier ratio, score and note;
+    ``above_optimum_safety``: the runs that derate their motor more than :data:`SAFETY_MARGIN` × the optimum on their
+    episode; ``beyond_soc_bound``: the runs whose |ΔSOC| exceeds :data:`SOC_BOUND` (None if a row lacks its
+    ``soc_initial``)."""
     refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     budget = float(reference["safety_budget_s"])
     groups: dict[tuple[str, int], list[tuple[float | None, str | None]]] = {}
@@ -327,9 +328,10 @@ def _looks(keys: Sequence[tuple[str, str]], plt: Any) -> dict[tuple[str, str], d
 
 
 def profile_figure(entries: list[dict]):
-    """The performance profile (module docstring), one row of panels per physics version (:func:`physics_groups`,
-    its fingerprint in the row's title): every row (method and track) over the whole range of scores (a
-    symmetric-log axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better strategies differ."""
+    """The performance profile (the fraction of runs whose score exceeds τ, docs/leaderboard.md), one row of panels per
+    physics version (:func:`physics_groups`, its fingerprint in the row's title): every row (method and track) over the
+    whole range of scores (a symmetric-log axis, linear within ±100) and zoomed on :data:`ZOOM`, where the better
+    strategies differ."""
     plt = pyplot()
     groups = physics_groups(entries)
     fig = plt.figure(figsize=(16.0, 5.8 * len(groups)), layout="constrained")

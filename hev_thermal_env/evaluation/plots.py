@@ -45,10 +45,15 @@ def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
 
 
 def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", learned: Collection[str] = ()):
-    """The trace figure (module docstring) of ``{label: trace}``, each with per-step ``time_s``, ``speed_mps``,
-    ``soc``, ``motor_temp_c``, ``heat_index`` and ``motor_share`` (and, if present, ``cycle_speed_mps``,
+    """The trace figure of ``{label: trace}``, each with per-step ``time_s``, ``speed_mps``, ``soc``,
+    ``motor_temp_c``, ``heat_index`` and ``motor_share`` (and, if present, ``cycle_speed_mps``,
     ``missed_wheel_energy_j``, ``motor_cutoff``, ``shaft_torque_demand_nm``); temperature limits of ``paper_bus`` and
-    the default reward. ``learned``: more names drawn as learned policies (seed families)."""
+    the default reward. ``learned``: more names drawn as learned policies (seed families).
+
+    Panels, top to bottom: the cycle's speed (thick, light) and each strategy's; the cumulative missed wheel energy;
+    SOC; motor temperature, with the 70 °C cutoff and its 60 °C release when the motor comes near them (a mark
+    wherever a motor is cut off); the heat index; the split, one strip per strategy (colour = motor share u; green: the
+    regeneration share while braking; grey where no torque is demanded)."""
     if not traces:
         raise ValueError("plot_run: no traces to plot")
     labels = ordered(traces, learned)

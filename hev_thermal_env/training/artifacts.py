@@ -97,8 +97,8 @@ def check_new_dir(out_dir: str | Path, holds: str = "a run", marker: str = "conf
 
 def export_policy(run: str | Path, out_dir: str | Path, readme: str | None = None) -> Path:
     """Copy a trained policy into ``out_dir`` as a small package (how ``agents/policies/ppo_default/`` was made):
-    ``model.zip`` (without the optimizer's
-    state), ``vecnormalize.pkl`` and ``config.yaml`` (and ``README.md`` if given)."""
+    ``model.zip`` (without the optimizer's state), ``vecnormalize.pkl`` and ``config.yaml`` (and ``README.md`` if
+    given)."""
     model_path = resolve_model_path(run)
     config = find_run_config(model_path)
     if config is None:

@@ -1,8 +1,12 @@
-"""The config of a training run: one plain dict, saved as ``DIR/config.yaml`` (its sections: docs/training.md).
+"""The config of a training run: one plain dict, saved as ``DIR/config.yaml``.
 
 :func:`build_config` makes it from the hyperparameter file (:mod:`.hyperparams`), the ``--hp`` overrides and the
 command-line settings; :func:`validate_config` checks all of it before anything is created (one-line ``ValueError``
-s). No run trains or selects checkpoints on a held-out task's test cycles.
+s). Sections: ``algo``, ``seed``, ``total_timesteps``, ``n_envs``, ``env`` (the training env), ``normalize``
+(``VecNormalize``), ``init`` (:mod:`.imitation`), ``constraint`` (a constrained algorithm's safety-cost budget and
+multiplier, :mod:`.lagrangian`; None for the others), ``hyperparams`` (the SB3 constructor's), ``eval``,
+``checkpoint_freq``, ``task`` (the id of the benchmark task the run trains for, or None), ``command``, ``created``,
+``versions``, and after training ``result``. No run trains or selects checkpoints on a held-out task's test cycles.
 """
 
 from __future__ import annotations

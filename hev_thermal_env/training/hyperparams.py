@@ -1,7 +1,15 @@
-"""The algorithms' hyperparameter files (``agents/hyperparams/``; both formats, the project's flat one and
-rl-zoo3's: docs/training.md), the SB3 constructor arguments built from them, their checks and the ``--hp``
-overrides (:func:`parse_overrides`). Unknown keys (also inside ``policy_kwargs``) and values of the wrong type are
-refused in one line naming the key and the closest valid one.
+"""The algorithms' hyperparameter files (``agents/hyperparams/``), the SB3 constructor arguments built from
+them, their checks and the ``--hp`` overrides (:func:`parse_overrides`): a file holds run settings
+(:data:`RUN_KEYS`) and any argument of the algorithm's constructor the training does not set itself
+(:data:`MANAGED_KEYS`). Unknown keys (also inside ``policy_kwargs``) and values of the wrong type are refused in one
+line naming the key and the closest valid one.
+
+A file is the project's flat mapping (``ppo.yaml``) or rl-zoo3's (``sac.yaml``, which rl-zoo3 reads unchanged),
+read by :func:`read_hyperparams_file`. An rl-zoo3 file's section for :data:`~hev_thermal_env.tasks.ENV_ID` holds
+``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs`` (``gymnasium.make``'s keyword arguments),
+``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's arguments; the settings rl-zoo3 has no
+place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in :data:`PROJECT_SECTION`, which rl-zoo3
+does not read.
 
 The config's sections are typed records (:class:`Section`): frozen dataclasses whose fields (:func:`setting`, as the
 vehicle's records use :func:`~hev_thermal_env.physics.params.spec`) say their kind and range, validated in one place
@@ -225,9 +233,9 @@ def apply_overrides(hp: dict[str, Any], overrides: dict[str, Any]) -> dict[str, 
 def setting(default: Any, doc: str, *, kind: str = "any", min: float | None = None, max: float | None = None,
             min_exclusive: bool = False, what: str = "") -> Any:
     """A field of a :class:`Section`: its default (a mapping or list is copied for each record), meaning, kind
-    (``whole``: an integer of at least ``min``; ``number``: a number in [``min``, ``max``], or (``min``, ``max``] with
-    ``min_exclusive``; ``bool``; ``any``: checked by :meth:`Section.validate`) and range; ``what`` follows the range
-    in its error message."""
+    (``whole``: an integer of at least ``min``, at most ``max`` if given; ``number``: a number in [``min``, ``max``], or
+    (``min``, ``max``] with ``min_exclusive``; ``bool``; ``any``: checked by :meth:`Section.validate`) and range;
+    ``what`` follows the range in its error message."""
     meta = {"doc": doc, "kind": kind, "min": min, "max": max, "min_exclusive": min_exclusive, "what": what}
     if isinstance(default, (dict, list)):
         return dataclasses.field(default_factory=lambda: type(default)(default), metadata=meta)

@@ -1,9 +1,10 @@
 """Training sessions: :func:`train` a new run into a directory, :func:`resume` an interrupted one (docs/training.md).
 
-A new run creates its directory only once the config, the environment and the model are built. Checkpoints are
-atomic; :func:`resume` continues from the latest (model, statistics, timesteps done; for SAC the replay buffer) up to
-the original total. SIGINT or SIGTERM stops at the next step (the partial rollout dropped), saves a checkpoint and
-raises :class:`TrainingInterrupted`; a second SIGINT stops at once (``KeyboardInterrupt``).
+A new run creates its directory only once the config, the environment and the model are built: a run that cannot start
+leaves nothing behind. Checkpoints are atomic; :func:`resume` continues from the latest (model, statistics, timesteps
+done; for SAC the replay buffer) up to the original total. SIGINT or SIGTERM stops at the next step (the partial rollout
+dropped), saves a checkpoint and raises :class:`TrainingInterrupted`; a second SIGINT stops at once
+(``KeyboardInterrupt``).
 """
 
 from __future__ import annotations
