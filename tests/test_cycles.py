@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import hev_thermal_env.cycles
 from hev_thermal_env.cycles import (
     Cycle,
     cycle_from_arrays,
@@ -33,8 +34,40 @@ STANDARD_CYCLES = {
 # -- built-in cycles ---------------------------------------------------------------------
 
 
+# name: (duration_s, distance_km, max speed km/h), from the carculator-utils wheel's columns (data/README.md)
+BUS_CYCLES = {
+    "sort1": (133.0, 0.519, 40.0),
+    "sort2": (164.0, 0.938, 50.0),
+    "sort3": (206.0, 1.457, 60.0),
+    "urban_bus": (8130.0, 39.550, 68.1),
+}
+
+
 def test_list_cycles():
-    assert list_cycles() == ["hwfet", "udds", "us06", "wltc_3b", "beijing"]
+    assert list_cycles() == ["hwfet", "udds", "us06", "wltc_3b", "beijing", "sort1", "sort2", "sort3", "urban_bus"]
+
+
+@pytest.mark.parametrize("name", list(BUS_CYCLES))
+def test_vendored_bus_cycles(name):
+    duration_s, distance_km, max_kmh = BUS_CYCLES[name]
+    cyc = load_cycle(name)
+    assert (cyc.duration_s, cyc.n_steps) == (duration_s, int(duration_s))
+    assert cyc.distance_km == pytest.approx(distance_km, abs=0.001)
+    assert cyc.max_speed_kmh == pytest.approx(max_kmh, abs=1e-6)  # km/h / 3.6 written to 10 significant digits
+    assert not cyc.synthetic and cyc.metadata["license"] == "BSD-3-Clause"
+    assert "carculator-utils==1.3.5" in cyc.source
+    assert cyc.speed_mps[0] == 0.0 and cyc.speed_mps[-1] == 0.0 and cyc.speed_mps[-2] > 0.0
+    licence = Path(hev_thermal_env.cycles.__file__).parent / "data" / "LICENSE-carculator-utils"
+    assert "Paul Scherrer Institut" in licence.read_text()
+
+
+def test_urban_bus_route_has_grades_and_no_net_climb():
+    cyc = load_cycle("urban_bus")
+    assert cyc.grade.min() == pytest.approx(-0.0748, abs=1e-4) and cyc.grade.max() == pytest.approx(0.0889, abs=1e-4)
+    mean_speed = 0.5 * (cyc.speed_mps[:-1] + cyc.speed_mps[1:])
+    assert abs(float(np.sum(cyc.grade[:-1] * mean_speed))) < 1.0  # metres climbed over 39.55 km
+    assert cyc.idle_fraction == pytest.approx(0.335, abs=0.001)
+    assert np.all(load_cycle("sort1").grade == 0.0)
 
 
 @pytest.mark.parametrize("name", list(STANDARD_CYCLES))

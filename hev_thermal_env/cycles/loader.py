@@ -2,7 +2,9 @@
 
 Built-in cycles live in ``hev_thermal_env/cycles/data/`` as CSV files ``time_s,speed_mps,grade``. ``hwfet``,
 ``udds``, ``us06`` and ``wltc_3b`` are standard cycles vendored from the ``fastsim==2.1.5`` wheel (Apache-2.0, see
-``data/README.md`` and ``data/NOTICE``). ``beijing`` is synthetic: the output of
+``data/README.md`` and ``data/NOTICE``); ``sort1``-``sort3`` (UITP's bus test cycles) and ``urban_bus`` (an 8,130 s
+urban bus route with its grades) from the ``carculator-utils==1.3.5`` wheel (BSD-3-Clause,
+``data/LICENSE-carculator-utils``). ``beijing`` is synthetic: the output of
 :func:`~hev_thermal_env.cycles.generator.generate_bus_cycle` with a fixed seed, stored as CSV so it never depends on
 the numpy version.
 
@@ -32,16 +34,31 @@ from .cycle import Cycle, Locate, float_vector, to_1s_grid
 from .generator import BEIJING_KWARGS, BEIJING_SEED, BEIJING_TARGETS, bus_cycle_params
 from .names import generated_cycle
 
-_FASTSIM_SOURCE = ("fastsim==2.1.5 wheel from PyPI, fastsim/resources/cycles/{file} (Apache-2.0, Alliance for "
-                   "Sustainable Energy, LLC); converted to time_s,speed_mps,grade without changing values")
+#: The packages built-in cycles are vendored from: package -> (licence, source text with ``{file}``).
+_PACKAGES = {
+    "fastsim==2.1.5": ("Apache-2.0", "fastsim==2.1.5 wheel from PyPI, fastsim/resources/cycles/{file} (Apache-2.0, "
+                       "Alliance for Sustainable Energy, LLC); converted to time_s,speed_mps,grade without changing "
+                       "values"),
+    "carculator-utils==1.3.5": ("BSD-3-Clause", "carculator-utils==1.3.5 wheel from PyPI, "
+                                "carculator_utils/data/{file} (BSD-3-Clause, Paul Scherrer Institut); km/h converted "
+                                "to m/s, a gradient angle to rise/run"),
+}
 
-#: Built-in cycles: name -> (description, synthetic, source file in the fastsim wheel or None).
-_BUILTINS: dict[str, tuple[str, bool, str | None]] = {
-    "hwfet": ("EPA Highway Fuel Economy Test cycle (HWFET)", False, "hwfet.csv"),
-    "udds": ("EPA Urban Dynamometer Driving Schedule (UDDS, FTP-72)", False, "udds.csv"),
-    "us06": ("EPA US06 Supplemental FTP cycle (aggressive driving)", False, "us06.csv"),
-    "wltc_3b": ("WLTC class 3b (WLTP, four phases: low, medium, high, extra high)", False, "wltc_3b.csv"),
-    "beijing": ("Synthetic Beijing-like city-bus cycle (generated, not measured)", True, None),
+#: Built-in cycles: name -> (description, package, its file; both None for the synthetic ``beijing``).
+_BUILTINS: dict[str, tuple[str, str | None, str | None]] = {
+    "hwfet": ("EPA Highway Fuel Economy Test cycle (HWFET)", "fastsim==2.1.5", "hwfet.csv"),
+    "udds": ("EPA Urban Dynamometer Driving Schedule (UDDS, FTP-72)", "fastsim==2.1.5", "udds.csv"),
+    "us06": ("EPA US06 Supplemental FTP cycle (aggressive driving)", "fastsim==2.1.5", "us06.csv"),
+    "wltc_3b": ("WLTC class 3b (WLTP, four phases: low, medium, high, extra high)", "fastsim==2.1.5", "wltc_3b.csv"),
+    "beijing": ("Synthetic Beijing-like city-bus cycle (generated, not measured)", None, None),
+    "sort1": ("UITP SORT 1 bus test cycle (heavy urban)", "carculator-utils==1.3.5",
+              "driving_cycles/car.csv, column 'SORT 1'"),
+    "sort2": ("UITP SORT 2 bus test cycle (easy urban)", "carculator-utils==1.3.5",
+              "driving_cycles/car.csv, column 'SORT 2'"),
+    "sort3": ("UITP SORT 3 bus test cycle (suburban)", "carculator-utils==1.3.5",
+              "driving_cycles/car.csv, column 'SORT 3'"),
+    "urban_bus": ("Urban bus route of a 13 m bus, 8,130 s with its grades", "carculator-utils==1.3.5",
+                  "driving_cycles/bus.csv and gradient/bus.csv, column 'Urban, 13m'"),
 }
 
 _REQUIRED = ("time_s", "speed_mps")
@@ -49,7 +66,8 @@ _OPTIONAL = ("grade",)
 
 
 def list_cycles() -> list[str]:
-    """Names of the built-in cycles: ``["hwfet", "udds", "us06", "wltc_3b", "beijing"]``."""
+    """Names of the built-in cycles: ``["hwfet", "udds", "us06", "wltc_3b", "beijing", "sort1", "sort2", "sort3",
+    "urban_bus"]``."""
     return list(_BUILTINS)
 
 
@@ -66,10 +84,13 @@ def _builtin_arrays(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _load_builtin(name: str) -> Cycle:
     time_s, speed_mps, grade = _builtin_arrays(name)
-    description, synthetic, fastsim_file = _BUILTINS[name]
-    source = _FASTSIM_SOURCE.format(file=fastsim_file)
-    metadata: dict[str, Any] = {"synthetic": False, "package": "fastsim==2.1.5", "license": "Apache-2.0"}
-    if synthetic:
+    description, package, file = _BUILTINS[name]
+    synthetic = package is None
+    if not synthetic:
+        licence, source = _PACKAGES[package]
+        source = source.format(file=file)
+        metadata: dict[str, Any] = {"synthetic": False, "package": package, "license": licence}
+    else:
         args = ", ".join([f"seed={BEIJING_SEED}"] + [f"{k}={v!r}" for k, v in BEIJING_KWARGS.items()])
         source = f"hev_thermal_env.cycles.generate_bus_cycle({args}), stored as data/{name}.csv"
         metadata = {"synthetic": True, "note": "synthetic: generated by a stop-to-stop micro-trip model, not measured",
