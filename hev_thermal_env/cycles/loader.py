@@ -34,17 +34,17 @@ from .cycle import Cycle, Locate, float_vector, to_1s_grid
 from .generator import BEIJING_KWARGS, BEIJING_SEED, BEIJING_TARGETS, bus_cycle_params
 from .names import generated_cycle
 
-#: The packages built-in cycles are vendored from: package -> (licence, source text with ``{file}``).
-_PACKAGES = {
-    "fastsim==2.1.5": ("Apache-2.0", "fastsim==2.1.5 wheel from PyPI, fastsim/resources/cycles/{file} (Apache-2.0, "
+#: The packages built-in cycles are vendored from: package -> (licence, source text with ``{where}``).
+_PACKAGES: dict[str, tuple[str, str]] = {
+    "fastsim==2.1.5": ("Apache-2.0", "fastsim==2.1.5 wheel from PyPI, fastsim/resources/cycles/{where} (Apache-2.0, "
                        "Alliance for Sustainable Energy, LLC); converted to time_s,speed_mps,grade without changing "
                        "values"),
     "carculator-utils==1.3.5": ("BSD-3-Clause", "carculator-utils==1.3.5 wheel from PyPI, "
-                                "carculator_utils/data/{file} (BSD-3-Clause, Paul Scherrer Institut); km/h converted "
-                                "to m/s, a gradient angle to rise/run"),
+                                "carculator_utils/data/{where} (BSD-3-Clause, Paul Scherrer Institut); km/h converted "
+                                "to m/s"),
 }
 
-#: Built-in cycles: name -> (description, package, its file; both None for the synthetic ``beijing``).
+#: Built-in cycles: name -> (description, package, where in it; both None for the synthetic ``beijing``).
 _BUILTINS: dict[str, tuple[str, str | None, str | None]] = {
     "hwfet": ("EPA Highway Fuel Economy Test cycle (HWFET)", "fastsim==2.1.5", "hwfet.csv"),
     "udds": ("EPA Urban Dynamometer Driving Schedule (UDDS, FTP-72)", "fastsim==2.1.5", "udds.csv"),
@@ -58,7 +58,8 @@ _BUILTINS: dict[str, tuple[str, str | None, str | None]] = {
     "sort3": ("UITP SORT 3 bus test cycle (suburban)", "carculator-utils==1.3.5",
               "driving_cycles/car.csv, column 'SORT 3'"),
     "urban_bus": ("Urban bus route of a 13 m bus, 8,130 s with its grades", "carculator-utils==1.3.5",
-                  "driving_cycles/bus.csv and gradient/bus.csv, column 'Urban, 13m'"),
+                  "driving_cycles/bus.csv and gradient/bus.csv, column 'Urban, 13m' (its gradient angle as "
+                  "rise/run)"),
 }
 
 _REQUIRED = ("time_s", "speed_mps")
@@ -84,11 +85,11 @@ def _builtin_arrays(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _load_builtin(name: str) -> Cycle:
     time_s, speed_mps, grade = _builtin_arrays(name)
-    description, package, file = _BUILTINS[name]
+    description, package, where = _BUILTINS[name]
     synthetic = package is None
-    if not synthetic:
+    if package is not None:
         licence, source = _PACKAGES[package]
-        source = source.format(file=file)
+        source = source.format(where=where)
         metadata: dict[str, Any] = {"synthetic": False, "package": package, "license": licence}
     else:
         args = ", ".join([f"seed={BEIJING_SEED}"] + [f"{k}={v!r}" for k, v in BEIJING_KWARGS.items()])
