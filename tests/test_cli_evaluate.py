@@ -82,6 +82,20 @@ def test_benchmark_writes_every_file_and_column(tiny_cycles, tmp_path):
     assert "See docs/metrics.md." in md and (ROOT / "docs" / "metrics.md").is_file()
 
 
+def test_a_failed_run_leaves_the_others_written_and_is_raised_after(tiny_cycles, tmp_path):
+    out = tmp_path / "bench"
+    with pytest.raises(ValueError) as info:  # no path of dp reaches SOC 0.95 within 120 s
+        run_benchmark(out, cycles=tiny_cycles[:1], strategies=("rule", "dp"), jobs=1, progress=False,
+                      options={"dp": {"soc_final": 0.95}})
+    assert str(info.value).startswith(f"1 of 3 runs failed (the other runs are in {out}): hwfet_tiny/paper/dp: dp: ")
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert [row["strategy"] for row in rows] == ["rule", "dp_thermal"]
+    assert float(rows[0]["frontier_ratio"]) >= 1.0 - 1e-3  # the reference ran: the other rows keep their ratios
+    md = (out / "results.md").read_text()
+    assert "Failed, left out: hwfet_tiny/paper/dp: dp: no feasible path to the final SOC 0.9500" in md
+    assert (out / "fuel_vs_optimum.png").is_file() and (out / "traces_hwfet_tiny_paper.png").is_file()
+
+
 @pytest.mark.full
 def test_benchmark_parallel_equals_serial_byte_for_byte(tiny_cycles, tmp_path):
     kw = dict(cycles=tiny_cycles, strategies=("rule", "ecms", "dp"), scenarios=("paper", "hot"), progress=False,

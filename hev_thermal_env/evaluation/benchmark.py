@@ -161,11 +161,16 @@ def representative(rows: Sequence[dict], fam: Family, cycle: str, scenario: str)
 
 
 def _run_one(task: tuple[str, str, str, dict, int]) -> tuple[dict, dict]:
+    """One run's summary row and trace; a run its strategy cannot make (a ``ValueError``, e.g. no plan of the optimum
+    ends in its SOC band) is a row holding ``error``, so the other runs still finish."""
     cycle, scenario, strategy, options, physics = task
     with warnings.catch_warnings():  # the main process warned about implausible cycle data when validating
         warnings.simplefilter("ignore", ImplausibleCycleWarning)
         cyc = load_cycle(cycle)
-    res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario, physics=physics)
+    try:
+        res = run_strategy(get_strategy(strategy, **options.get(strategy, {})), cyc, scenario, physics=physics)
+    except ValueError as exc:
+        return {"cycle": cyc.name, "scenario": scenario, "strategy": strategy, "error": " ".join(str(exc).split())}, {}
     trace = {k: np.asarray(res.trace[k]) for k in TRACE_KEYS if k in res.trace}
     return {**res.summary, "cycle": cyc.name, "scenario": scenario, "strategy": strategy}, trace
 
@@ -202,7 +207,9 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     """Run every combination on physics version ``physics``, write the result files and plots, return the rows (runs,
     then families). ``dp_thermal`` is added to ``strategies`` if missing; ``families``: seed families
     (:func:`parse_family`); ``executor``: ``local`` (``jobs`` processes) or ``ray`` (a local runtime of ``jobs`` CPUs,
-    or the cluster at ``address``)."""
+    or the cluster at ``address``). Runs that raise ``ValueError`` are left out of the files (their cell's ratios too,
+    where it is the reference's), named in ``results.md``, and raised together as one ``ValueError`` after the files
+    are written."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
     fams = list(families or [])
@@ -214,17 +221,27 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     t0 = time.perf_counter()
     with make_executor(executor, jobs=jobs, address=address) as runner:
         results = _run_tasks(tasks, runner, progress, {c: (cyc.name, cyc.n_steps) for c, cyc in loaded.items()})
+    failed = [r[0] for r in results if "error" in r[0]]
+    results = [r for r in results if "error" not in r[0]]
     rows = [r[0] for r in results]
     traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}
     add_yardstick_columns(rows)
     tag_members(rows, fams, strategies)
     rows += family_rows(rows, fams)
     out.mkdir(parents=True, exist_ok=True)
-    write_results(out, rows, wall_s=time.perf_counter() - t0, notes=[REFERENCE_ADDED_NOTE] if added else [])
+    notes = ([REFERENCE_ADDED_NOTE] if added else []) + [f"Failed, left out: {_failure(f)}" for f in failed]
+    write_results(out, rows, wall_s=time.perf_counter() - t0, notes=notes)
     if plots:
         cycle_names = list(dict.fromkeys(r["cycle"] for r in rows if r.get("family") is None))
         plot_benchmark(out, rows, _plotted_traces(traces, rows, strategies, fams), cycle_names, list(scenarios))
+    if failed:
+        raise ValueError(f"{len(failed)} of {len(tasks)} runs failed (the other runs are in {out}): "
+                         + "; ".join(_failure(f) for f in failed))
     return rows
+
+
+def _failure(row: dict) -> str:
+    return f"{row['cycle']}/{row['scenario']}/{row['strategy']}: {row['error']}"
 
 
 def _run_tasks(tasks: list[tuple], executor, progress: bool, cycles: dict[str, tuple[str, int]]
