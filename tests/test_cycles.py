@@ -57,8 +57,11 @@ def test_vendored_bus_cycles(name):
     assert not cyc.synthetic and cyc.metadata["license"] == "BSD-3-Clause"
     assert "carculator-utils==1.3.5" in cyc.source
     assert cyc.speed_mps[0] == 0.0 and cyc.speed_mps[-1] == 0.0 and cyc.speed_mps.max() > 0.0
+
+
+def test_the_bus_cycles_licence_is_vendored():
     licence = Path(hev_thermal_env.cycles.__file__).parent / "data" / "LICENSE-carculator-utils"
-    assert "Paul Scherrer Institut" in licence.read_text()
+    assert "Paul Scherrer Institut" in licence.read_text() and "BSD 3-Clause" in licence.read_text()
 
 
 def test_urban_bus_route_has_grades_and_no_net_climb():

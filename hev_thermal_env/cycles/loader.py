@@ -86,7 +86,6 @@ def _builtin_arrays(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _load_builtin(name: str) -> Cycle:
     time_s, speed_mps, grade = _builtin_arrays(name)
     description, package, where = _BUILTINS[name]
-    synthetic = package is None
     if package is not None:
         licence, source = _PACKAGES[package]
         source = source.format(where=where)
@@ -98,7 +97,7 @@ def _load_builtin(name: str) -> Cycle:
                     "generator": "hev_thermal_env.cycles.generate_bus_cycle", "seed": BEIJING_SEED,
                     "params": bus_cycle_params(**BEIJING_KWARGS),
                     "targets": {k: list(v) for k, v in BEIJING_TARGETS.items()}}
-    return Cycle(name=name, time_s=time_s, speed_mps=speed_mps, grade=grade, synthetic=synthetic,
+    return Cycle(name=name, time_s=time_s, speed_mps=speed_mps, grade=grade, synthetic=metadata["synthetic"],
                  description=description, source=source, metadata=metadata)
 
 
