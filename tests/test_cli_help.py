@@ -1,5 +1,5 @@
-"""The ``--help`` of every program and subcommand: renders, plain text (no ``%%``, no reStructuredText),
-every default shown with its value, examples that parse."""
+"""The ``--help`` of every program and subcommand (and of the workshop's sweep): renders, plain text (no ``%%``, no
+reStructuredText), every default shown with its value, examples that parse."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ import pytest
 from hev_thermal_env.cli import train as cli_train
 from hev_thermal_env.cli.evaluate import build_parser as evaluate_parser
 from hev_thermal_env.cli.train import build_parser as train_parser
+from tools.sweep.cli import build_parser as sweep_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,14 +26,15 @@ def parsers() -> dict[str, argparse.ArgumentParser]:
     top = evaluate_parser()
     (sub,) = [a for a in top._actions if isinstance(a, argparse._SubParsersAction)]
     return {"evaluate.py": top, **{f"evaluate.py {name}": sub.choices[name] for name in SUBCOMMANDS},
-            "train.py": train_parser()}
+            "train.py": train_parser(), "python -m tools.sweep": sweep_parser()}
 
 
 def help_text(parser: argparse.ArgumentParser) -> str:
     return parser.format_help()
 
 
-@pytest.mark.parametrize("name", ["evaluate.py", *(f"evaluate.py {s}" for s in SUBCOMMANDS), "train.py"])
+@pytest.mark.parametrize("name", ["evaluate.py", *(f"evaluate.py {s}" for s in SUBCOMMANDS), "train.py",
+                                  "python -m tools.sweep"])
 def test_help_is_plain_text_with_examples_and_defaults(name):
     parser = parsers()[name]
     text = help_text(parser)
@@ -102,7 +104,14 @@ def test_every_train_example_builds_a_valid_config(monkeypatch):
     assert len(built) == 4 and built[2]["algo"] == "sac" and built[3]["task"] == "bus-generalisation-v1"
 
 
+def test_every_sweep_example_parses():
+    lines = example_lines(sweep_parser())
+    assert len(lines) == 4 and all(argv[:3] == ["python", "-m", "tools.sweep"] for argv in lines)
+    for argv in lines:
+        sweep_parser().parse_args(argv[3:])
+
+
 def test_the_scripts_print_their_help():
-    for script, args in (("evaluate.py", ["benchmark", "--help"]), ("train.py", ["--help"])):
-        r = subprocess.run([sys.executable, str(ROOT / script), *args], capture_output=True, text=True, timeout=300)
+    for command in (["evaluate.py", "benchmark", "--help"], ["train.py", "--help"], ["-m", "tools.sweep", "--help"]):
+        r = subprocess.run([sys.executable, *command], cwd=ROOT, capture_output=True, text=True, timeout=300)
         assert r.returncode == 0 and r.stdout.startswith("usage: ") and "examples:" in r.stdout, r.stderr

@@ -1,6 +1,7 @@
 """Scaling out on Ray: the benchmark matrix as Ray tasks (byte-identical files, a killed worker's cell run
-again, an unreachable cluster, Ray not installed) and sweeps through Ray Tune (end to end, interrupted
-and resumed, best trial exported). One local Ray runtime (2 CPUs) is shared by the module."""
+again, an unreachable cluster, Ray not installed) and the workshop's sweeps through Ray Tune (``python -m
+tools.sweep``: end to end, interrupted and resumed, best trial exported). One local Ray runtime (2 CPUs) is shared
+by the module."""
 
 from __future__ import annotations
 
@@ -21,13 +22,13 @@ import pytest
 from hev_thermal_env import load_cycle
 from hev_thermal_env.agents import get_strategy
 from hev_thermal_env.cli.evaluate import main as evaluate_main
-from hev_thermal_env.cli.train import main as train_main
 from hev_thermal_env.evaluation.benchmark import run_benchmark
 from hev_thermal_env.evaluation.executors import ExecutorError, split_address
 from hev_thermal_env.evaluation.runner import run_strategy
 from hev_thermal_env.stats import iqm, iqm_ci
-from hev_thermal_env.training.sweep import TrialRecord, write_report
-from hev_thermal_env.training.sweep_trial import check_space, encode_choice, trial_overrides
+from tools.sweep.cli import main as sweep_main
+from tools.sweep.report import TrialRecord, creation_order, write_report
+from tools.sweep.trial import check_space, encode_choice, trial_overrides
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -192,7 +193,7 @@ def test_without_ray_local_works_and_ray_says_how_to_install(monkeypatch, tiny_c
     assert evaluate_main([*args, "--executor", "ray"]) == 2
     line = one_line(capsys.readouterr().err)
     assert "Ray" in line and 'pip install "hev-thermal-env[ray]"' in line
-    assert train_main(["sweep", "--out", str(tmp_path / "sweep")]) == 2
+    assert sweep_main(["--out", str(tmp_path / "sweep")]) == 2
     assert 'pip install "hev-thermal-env[ray]"' in one_line(capsys.readouterr().err)
     assert not (tmp_path / "r").exists() and not (tmp_path / "sweep").exists()
 
@@ -278,7 +279,7 @@ def test_a_fixed_space_is_a_seed_grid_and_a_searched_one_goes_to_optuna():
     from ray.tune.search import Repeater
     from ray.tune.search.optuna import OptunaSearch
 
-    from hev_thermal_env.training.sweep import _scheduler, _search, build_sweep, check_settings, total_trials
+    from tools.sweep.study import _scheduler, _search, build_sweep, check_settings, total_trials
 
     train = dict(timesteps=1024, n_envs=2, eval_freq=256)
     fixed = build_sweep("ppo", space={"gamma": 0.97}, seeds=3, train=train)
@@ -294,7 +295,7 @@ def test_a_fixed_space_is_a_seed_grid_and_a_searched_one_goes_to_optuna():
 
 def test_sweep_bad_input_is_one_line(tmp_path, capsys):
     (tmp_path / "space.yaml").write_text("gama: {uniform: [0.9, 0.99]}\n")
-    base = ["sweep", "--out", str(tmp_path / "s"), "--no-progress", "--timesteps", "256", "--n-envs", "2"]
+    base = ["--out", str(tmp_path / "s"), "--no-progress", "--timesteps", "256", "--n-envs", "2"]
     for args, needle in (
         (["--space", str(tmp_path / "space.yaml")], "did you mean 'gamma'"),
         (["--hp", "max_grad_norm=big"], "max_grad_norm"),
@@ -303,9 +304,9 @@ def test_sweep_bad_input_is_one_line(tmp_path, capsys):
         (["--scheduler", "hyperband"], "--scheduler"),
         (["--seeds", "0"], "--seeds"),
     ):
-        assert train_main([*base, *args]) == 2, args
+        assert sweep_main([*base, *args]) == 2, args
         assert needle in one_line(capsys.readouterr().err), args
-    assert train_main(["sweep", "--resume", str(tmp_path)]) == 2
+    assert sweep_main(["--resume", str(tmp_path)]) == 2
     assert "not a sweep directory" in one_line(capsys.readouterr().err)
     assert not (tmp_path / "s").exists()
 
@@ -337,7 +338,6 @@ def test_sweep_end_to_end_interrupted_and_resumed(ray_runtime, tiny_cycles, tmp_
     out = tmp_path / "sweep"
     (tmp_path / "space.yaml").write_text(SPACE)
     args = [
-        "sweep",
         "--out",
         str(out),
         "--space",
@@ -361,14 +361,14 @@ def test_sweep_end_to_end_interrupted_and_resumed(ray_runtime, tiny_cycles, tmp_
         *TINY_HP,
     ]
     watcher = interrupt_after_checkpoints(out)
-    assert train_main(args) == 130
+    assert sweep_main(args) == 130
     watcher.join()
     assert f"--resume {out}" in capsys.readouterr().err
     trial_dirs = sorted(out.glob("tune/trial_*"))
     assert len(trial_dirs) == 2
     before = {d.name: len(trial_results(d)) if (d / "result.json").is_file() else 0 for d in trial_dirs}
 
-    assert train_main(["sweep", "--resume", str(out), "--no-progress"]) == 0
+    assert sweep_main(["--resume", str(out), "--no-progress"]) == 0
     printed = capsys.readouterr().out
     assert "2 trials" in printed and f"ppo:{out / 'best_policy'}" in printed
     rows = list(csv.DictReader((out / "sweep_trials.csv").open()))
@@ -402,9 +402,35 @@ def test_configurations_are_numbered_in_the_order_their_trials_were_created():
     configurations by creation (the number that starts a trial's experiment tag), so a resumed sweep keeps c0, c1..."""
     from types import SimpleNamespace
 
-    from hev_thermal_env.training.sweep import creation_order
-
     listed = [SimpleNamespace(trial_id=i, experiment_tag=tag) for i, tag in
               [("e", "1_batch_size=512"), ("a", "4_x=1"), ("b", "10_x=2"), ("c", "3_x=3"), ("d", "2_x=4"),
                ("f", "")]]
     assert [t.trial_id for t in creation_order(listed)] == ["e", "d", "c", "a", "b", "f"]
+
+
+# --- tuning with rl-zoo3 (docs/scaling-out.md) --------------------------------------------------------------
+
+#: The documented tuning command's budgets and log folder, shrunk for the test: flag -> value.
+TINY_TUNING = {"--n-trials": "2", "--n-timesteps": "600", "--n-evaluations": "1", "--eval-episodes": "1"}
+
+
+@pytest.mark.full
+def test_the_documented_rl_zoo3_tuning_command_writes_its_report(tmp_path):
+    """The rl-zoo3 command of docs/scaling-out.md, run from the checkout's root as written but for its budgets and
+    log folder: two Optuna trials, the best trial's parameters printed and every trial's in the report."""
+    page = (ROOT / "docs" / "scaling-out.md").read_text()
+    blocks = [b for b in page.split("```text\n")[1:] if b.startswith("python -m rl_zoo3.train")]
+    assert len(blocks) == 1, "docs/scaling-out.md: no (or more than one) rl-zoo3 tuning command"
+    words = blocks[0].split("```")[0].replace("\\\n", " ").split()
+    assert "-optimize" in words and "--log-folder" in words
+    for flag, value in {**TINY_TUNING, "--log-folder": str(tmp_path / "tuning")}.items():
+        words[words.index(flag) + 1] = value
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, *words[1:]], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert "Best trial:" in done.stdout and "Params:" in done.stdout
+    (report,) = (tmp_path / "tuning" / "sac").glob("report_HevThermal-v2_2-trials-600-tpe-median_*.csv")
+    assert report.with_suffix(".pkl").is_file()
+    rows = list(csv.DictReader(report.open()))
+    assert len(rows) == 2 and all(r["state"] == "COMPLETE" and np.isfinite(float(r["value"])) for r in rows)
+    assert all(r["params_learning_rate"] and r["user_attrs_gamma"] for r in rows)

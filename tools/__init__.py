@@ -4,6 +4,7 @@ it, but for ``evaluate.py paper``, which loads :mod:`tools.paper` when it runs.
 
 * :mod:`tools.paper`: the runs behind the paper's figures, what is measured on them, and the reproduction report;
 * :mod:`tools.calibration`: the thermal model's fit to the paper's figures (``python -m tools.calibration``);
+* :mod:`tools.sweep`: the hyperparameter sweep on Ray Tune that tuned the shipped files (``python -m tools.sweep``);
 * :mod:`tools.audit`: the energy audit of a run, each component against its own map (a test oracle);
 * :mod:`tools.family_bounds`: the documented envelope of the cycle families' statistics (a test oracle);
 * :mod:`tools.fuzz`: random-action fuzzing of the environment against its invariants (``benchmarks/fuzz.py``);

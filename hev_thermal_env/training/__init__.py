@@ -3,8 +3,7 @@
 
 A run is one plain dict, its config (:func:`build_config`), which :func:`train` runs (or :func:`resume`
 continues) into a run directory; :func:`load_policy` loads its policy, :func:`export_policy` packs one for
-shipping. Sweeps (:mod:`.sweep`) need the ``ray`` extra and are not imported here. Importing this package
-imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
+shipping. Importing this package imports torch and Stable-Baselines3 (``import hev_thermal_env`` does not).
 """
 
 from hev_thermal_env.agents.policy_files import load_policy

@@ -1,7 +1,7 @@
-"""One trial of a sweep: the search space it is drawn from (samplers: ``train.py sweep --help``; ``int``'s bounds both
-included), its config, and the Ray Tune trainable, a ``train.py`` run in ``<trial dir>/run`` that reports every
-evaluation with a snapshot of the run directory as the checkpoint, so a restored trial resumes it and ends where an
-uninterrupted one would.
+"""One trial of a sweep: the search space it is drawn from (samplers: ``python -m tools.sweep --help``; ``int``'s
+bounds both included), its config, and the Ray Tune trainable, a ``train.py`` run in ``<trial dir>/run`` that reports
+every evaluation with a snapshot of the run directory as the checkpoint, so a restored trial resumes it and ends where
+an uninterrupted one would.
 """
 
 from __future__ import annotations
@@ -17,10 +17,9 @@ import yaml
 
 from hev_thermal_env.agents.policy_files import CHECKPOINTS, checkpoint_paths
 from hev_thermal_env.io import read_yaml_mapping
-
-from .config import build_config
-from .hyperparams import is_number, parse_value
-from .loop import TrainingRun, resume, train
+from hev_thermal_env.training.config import build_config
+from hev_thermal_env.training.hyperparams import is_number, parse_value
+from hev_thermal_env.training.loop import TrainingRun, resume, train
 
 METRIC = "eval_return_g"
 TIME_ATTR = "timesteps"
@@ -35,7 +34,7 @@ _PPO_SPACE = {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"unif
               "n_epochs": {"int": [3, 10]}}
 _SAC_SPACE = {"learning_rate": {"loguniform": [1.0e-4, 1.0e-3]}, "gamma": {"uniform": [0.95, 0.99]},
               "tau": {"loguniform": [1.0e-3, 2.0e-2]}, "batch_size": {"choice": [128, 256, 512]}}
-#: What ``train.py sweep`` searches when no ``--space`` file is given.
+#: What ``python -m tools.sweep`` searches when no ``--space`` file is given.
 DEFAULT_SPACES: dict[str, dict[str, Any]] = {"ppo": _PPO_SPACE, "sac": _SAC_SPACE, "tqc": _SAC_SPACE,
                                              "recurrent_ppo": _PPO_SPACE, "ppo_lagrangian": _PPO_SPACE}
 
