@@ -1,13 +1,8 @@
-"""``evaluate.py run`` (one strategy on one cycle: a printed summary, JSON, a per-second trace CSV and a plot),
-``evaluate.py benchmark`` (strategies × cycles × scenarios, or a named task's cycles and scenario: a table and plots,
-the main job), ``evaluate.py paper`` (the paper reproduction report) and ``evaluate.py performance`` (top speed, 0-60
-km/h and 4 % grade speed, the paper's Table 3).
+"""The subcommands ``run``, ``benchmark`` (the main job), ``paper`` and ``performance`` of ``evaluate.py``, each
+described in :data:`COMMANDS`.
 
-The report is the maintainers' comparison of the model with the figures it was calibrated to; it lives in the
+``paper``'s report is the maintainers' comparison of the model with the figures it was calibrated to; it lives in the
 workshop of a source checkout, ``tools/paper`` (docs/development.md), and is imported only when the command runs.
-Each performance figure is printed beside the paper's value for the same row of Table 3: thermal model off, or on
-with the motor starting at 30 °C or 50 °C (the paper ran those with the coolant closed); other starting temperatures
-have no paper row, their comparison column is left empty.
 """
 
 from __future__ import annotations
@@ -54,7 +49,8 @@ BENCHMARK_EXAMPLES = (
 
 
 #: The paper's rows of Table 3 (a run of :data:`~hev_thermal_env.physics.performance.TABLE3_RUNS`) by starting
-#: temperature.
+#: temperature: thermal model off, or on with the motor starting at 30 °C or 50 °C (the paper ran those with the
+#: coolant closed). Other starting temperatures have no paper row: their comparison column is left empty.
 PAPER_ROWS = {None: ("off", "thermal off"), 30.0: ("30c", "30 °C start, coolant closed"),
               50.0: ("50c", "50 °C start, coolant closed")}
 FIGURES = (("top speed", "top_speed_kmh", "km/h"), ("0-60 km/h", "accel_0_60_s", "s"),
