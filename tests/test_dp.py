@@ -66,7 +66,7 @@ def test_threaded_core_step_gives_the_same_batch():
 
 def test_forward_envelope_bounds_every_action_sequence(city200):
     p = problem_for(city200.speed_mps)
-    held = np.repeat(p.state0[None, :], p.n_stages + 1, axis=0)
+    held = p.state0
     lo, hi = forward_envelope(p, held)
     rng = np.random.default_rng(0)
     n = 64
@@ -74,7 +74,7 @@ def test_forward_envelope_bounds_every_action_sequence(city200):
     for i in range(p.n_stages):
         u = rng.uniform(-1.0, 1.0, n)
         u[:5] = [-1.0, 1.0, 0.0, 0.5, 0.999]
-        x = np.repeat(held[i][None, :], n, axis=0)  # the planning model: thermal state held
+        x = np.repeat(held[None, :], n, axis=0)  # the planning model: thermal state held
         x[:, SOC] = st[:, SOC]
         so, _ = p.step(x, u, i)
         st[:, SOC] = so[:, SOC]
@@ -83,7 +83,7 @@ def test_forward_envelope_bounds_every_action_sequence(city200):
 
 def test_backward_envelope_edge_just_reaches_the_band(city200):
     p = problem_for(city200.speed_mps)
-    held = np.repeat(p.state0[None, :], p.n_stages + 1, axis=0)
+    held = p.state0
     band = (0.645, 0.655)
     lo, hi = backward_envelope(p, held, band)
     soc = np.array([lo[0], hi[0]])
@@ -92,7 +92,7 @@ def test_backward_envelope_edge_just_reaches_the_band(city200):
     kind = p.stage_kinds()
     assert np.sum(kind == BRAKING) > 20
     for i in range(p.n_stages):
-        x = np.repeat(held[i][None, :], 2, axis=0)  # the planning model: thermal state held
+        x = np.repeat(held[None, :], 2, axis=0)  # the planning model: thermal state held
         x[:, SOC] = soc
         a = np.array([-1.0, 1.0]) if kind[i] == 1 else np.array([1.0, 0.0]) if kind[i] == BRAKING else np.zeros(2)
         np.testing.assert_array_equal(a, p.extreme_actions()[i, ::-1])

@@ -48,7 +48,6 @@ class PowertrainParams(Params):
                                                "carry on top of the demand is cut down, to none at the least, before "
                                                "the trace is missed (physics v2; v1: the trace is missed)")
 
-
     @property
     def engine_off_from(self) -> float:
         """The smallest traction share u that stops the engine (1.0 without a band, or without stop-start)."""

@@ -5,12 +5,11 @@ called through :class:`PhysicsCore` by everything that steps a vehicle. Backward
 the road load at the mean of the cycle's speeds v0 → v1 gives the wheel torque, the driveline maps it to the coupler
 shaft, the action u ∈ [-1, 1] splits it. Traction: the motor is asked for u·T_dem, clipped only by its own limits
 (peak torque, the heat index of eq 8, the protections) and the battery's power and SOC limits; the engine covers the
-rest up to full load. What is still missing is a trace miss (missed wheel energy; ``trace_miss_mps`` = missed
-force·dt / effective mass); the motor never tops up by itself, so assisting or missing is the action's choice, at the
-same price for every strategy. Braking: the driven axle takes a speed-dependent share
-(``glider.driven_axle_brake_frac``), the other axle's friction brakes the rest; of its available regeneration the
-motor takes the share u > 0 (u ≤ 0: friction alone). u = 0 throughout is the bus with its motor unused (the spinning
-motor's losses remain); at standstill the action has no effect.
+rest up to full load; what is still missing is a trace miss (missed wheel energy; ``trace_miss_mps`` = missed
+force·dt / effective mass; why the motor never tops up: docs/vehicle.md). Braking: the driven axle takes a
+speed-dependent share (``glider.driven_axle_brake_frac``), the other axle's friction brakes the rest; of its available
+regeneration the motor takes the share u > 0 (u ≤ 0: friction alone). u = 0 throughout is the bus with its motor
+unused (the spinning motor's losses remain); at standstill the action has no effect.
 """
 
 from __future__ import annotations
@@ -130,7 +129,6 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
         t_m_req = 0.0
         t_e_max = 0.0
         t_m_max = 0.0
-        acc_from_engine = 0.0
         regen_avail = 0.0
 
         if t_s_dem > 0.0:
@@ -165,11 +163,9 @@ def step_kernel(gl, dl, en, mo, th, ba, pt, state, action, v0, v1, grade, cond, 
                 t_e = min(max(t_s_dem - rho * t_m, 0.0), t_e_max)
                 short = t_s_dem - rho * t_m - t_e
             if short > 1e-12:
-                t_w_del = drv.wheel_torque_nm(dl, rho * t_m + t_e, gear)
-                missed_force = (t_wheel - t_w_del) / r_w
+                missed_force = (t_wheel - drv.wheel_torque_nm(dl, rho * t_m + t_e, gear)) / r_w
             if engine_on:
                 clutch_loss = t_e * (w_e - w_s)
-                acc_from_engine = acc_w
                 fuel_rate = eng.fuel_rate_gps(en, w_e, t_e + t_acc)
             t_s_used = rho * t_m + t_e
             t_w_used = drv.wheel_torque_nm(dl, t_s_used, gear)

@@ -10,9 +10,8 @@ pair only when both sit on simple paths; in the per-row code these calls cost mo
 component function taking a packed vector reads it for the last time outside any branch and returns from one place
 (``thermal.cutoff_step``, ``thermal.available_torque_nm``, ``driveline.select_gear``).
 
-**The cache** (docs/architecture.md) lives in a directory named ``source_hash()``: a hash of the numba version, of every
-package file with an ``@jit`` line (:func:`jit` refuses a function defined anywhere else) and of the project modules
-those import at module level, transitively (a kernel inlines other files' kernels and constants).
+**The cache** (docs/architecture.md, *The compiled cache*): :data:`CACHE_DIR`, named by :func:`source_hash` (a kernel
+inlines other files' kernels and constants, so the hash covers them).
 """
 
 from __future__ import annotations

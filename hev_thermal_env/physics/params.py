@@ -107,10 +107,9 @@ class Params:
             elif isinstance(default, bool):
                 if not isinstance(value, bool):
                     raise ConfigError(f"{label}.{name}: expected true/false, got {value!r}")
-            elif isinstance(default, tuple):
+            elif isinstance(default, tuple):  # made a tuple of floats by __post_init__
                 if not isinstance(value, (list, tuple)) or not all(_is_number(x) for x in value):
                     raise ConfigError(f"{label}.{name}: expected a list of numbers, got {value!r}")
-                value = tuple(float(x) for x in value)
             elif isinstance(default, (int, float)) and not _is_number(value):
                 raise ConfigError(f"{label}.{name}: expected a number, got {value!r}")
             kwargs[name] = value

@@ -50,17 +50,16 @@ def acceleration_time_s(config: VehicleConfig, conditions: Conditions, dt_s: flo
     phys = core.PhysicsCore(config, dt_s=dt_s)
     state = phys.initial_state(conditions, 1)
     cond = phys.conditions_array(conditions, 1)
-    v = np.zeros(1)
+    v = 0.0
     v_end = 60.0 / 3.6
     a_req = 4.0  # beyond what the bus can do: the step delivers its maximum
     t = 0.0
-    u = np.full(1, 0.5)
     while t < 120.0:
-        state, out = phys.step(state, u, v, v + a_req * dt_s, np.zeros(1), cond)
+        state, out = phys.step(state, 0.5, v, v + a_req * dt_s, 0.0, cond)
         v_new = out[0, core.SPEED]
         if v_new >= v_end:
-            return t + dt_s * (v_end - v[0]) / max(v_new - v[0], 1e-12)
-        v = np.array([v_new])
+            return t + dt_s * (v_end - v) / max(v_new - v, 1e-12)
+        v = v_new
         t += dt_s
     return float("inf")
 

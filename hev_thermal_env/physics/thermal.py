@@ -119,7 +119,7 @@ class ThermalParams(Params):
         self.require(self.winding_heat_capacity_j_per_k < 0.5 * self.heat_capacity_j_per_k,
                      "winding_heat_capacity_j_per_k", "must be below half the motor's m·c_p")
         # the paper's node is integrated explicitly: its fastest time constant must exceed the step
-        tau = self.mass_kg * self.cp_j_per_kgk / max(self.h_water_w_per_m2k * self.area_m2, 1e-12)
+        tau = self.heat_capacity_j_per_k / max(self.h_water_w_per_m2k * self.area_m2, 1e-12)
         self.require(self.model != "paper_eqs" or tau >= 2.0, "h_water_w_per_m2k",
                      f"thermal time constant {tau:.2f} s is below 2 s, too stiff for the 1 s step")
 
@@ -149,7 +149,7 @@ LAYOUT = ThermalParams.LAYOUT = Layout.of_fields(ThermalParams, replace={
     "model": Slot("model", fill=lambda p: float(THERMAL_MODELS.index(p.model))),
 }, derived={
     # constants of the per-row code, computed once here (the kernel has ~100 ns per row; a division is ~5)
-    "motor_heat_capacity_j_per_k": lambda p: p.mass_kg * p.cp_j_per_kgk,
+    "motor_heat_capacity_j_per_k": lambda p: p.heat_capacity_j_per_k,
     "housing_heat_capacity_j_per_k": lambda p: p.housing_heat_capacity_j_per_k,
     "coolant_heat_capacity_j_per_k": lambda p: p.coolant_heat_capacity_j_per_k,
     "coolant_mcp_w_per_k": lambda p: p.coolant_mcp_w_per_k,
@@ -235,11 +235,8 @@ def available_torque_nm(th, peak_nm, cont_nm, heat_x, cutoff):
 
 @jit
 def heat_index_step(th, heat_x, heat_x_min, torque_nm, cont_nm, temp_c, dt_s):
-    """One Euler step of eq 9 with anti-windup to [heat_x_min, 1]; T_gain at ``temp_c``.
-
-    Beyond the maximum speed the continuous envelope is 0 and the motor gives no torque: the
-    overload ratio is then taken as 0 (the index relaxes).
-    """
+    """One Euler step of eq 9 with anti-windup to [heat_x_min, 1]; T_gain at ``temp_c``. Beyond the maximum speed the
+    continuous envelope is 0 and the motor gives no torque: the overload ratio is then 0 (the index relaxes)."""
     ratio = abs(torque_nm) / cont_nm if cont_nm > 0.0 else 0.0
     dx = t_gain(th, temp_c) * th[IDX.inv_t_s] * (ratio - 1.0)
     return min(max(heat_x + dx * dt_s, heat_x_min), 1.0)

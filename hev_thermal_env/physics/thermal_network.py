@@ -1,16 +1,12 @@
 """The motor's lumped thermal network, and the one thermal step both thermal models go through.
 
 Nodes of ``ThermalParams.model = "network"`` (diagram, equations and every parameter's source: docs/thermal_model.md):
-the winding (copper loss; its own protection at 165 °C); the stator/housing, **the paper's lumped motor temperature**
-(iron and friction losses; air convection, eqs 1 and 4, and radiation, eq 6, over the paper's cooling area, and the
-water jacket); the coolant loop (the pump's flow ṁ·c_p through the jacket, ε-NTU: G = ṁc_p·(1 − exp(−UA/ṁc_p)), and
-the inverter's cold plate, then a thermostat valve on the coolant routing it through the radiator, UA growing with
-ram air and fan, or a bypass). The coolant mode scales the pump's flow (degraded) or stops it (off).
-
-Integration: conductances at the start of the step (radiation linearised as ε·σ·A·(T² + T_a²)(T + T_a) in kelvin),
-then one backward-Euler step of the three temperatures (a tridiagonal solve): stable at any step, and the flows close
-the balance exactly, C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt. ``"paper_eqs"``
-(``thermal.py``): one explicit-Euler node heated by every loss, the coolant held.
+the winding (copper loss), the stator/housing, **the paper's lumped motor temperature** (iron and friction losses; air
+convection, eqs 1 and 4, and radiation, eq 6), and the pumped coolant loop (jacket, the inverter's cold plate, a
+thermostat valve and the radiator). Conductances at the start of the step, then one backward-Euler step of the three
+temperatures (a tridiagonal solve): stable at any step, and the flows close the balance exactly,
+C_w·ΔT_w + C_h·ΔT_h + C_c·ΔT_c = (Q_gen − Q_air − Q_rad − Q_radiator)·dt. ``"paper_eqs"`` (``thermal.py``): one
+explicit-Euler node heated by every loss, the coolant held.
 """
 
 from __future__ import annotations

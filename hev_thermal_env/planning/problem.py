@@ -45,13 +45,12 @@ def stage_splits(kind: int, u: np.ndarray) -> np.ndarray:
     return np.zeros(1)
 
 
-def argmin_small_action(cost: np.ndarray, actions: np.ndarray, tol_g: float = 1e-9,
-                        engine_off_from: float = 1.0) -> int:
-    """Index of the cheapest candidate; among equally cheap ones (e.g. the motor cut off) the smallest |u|, except
-    that a tie wholly within the engine-off band (every tied u >= ``engine_off_from``,
+def argmin_small_action(cost: np.ndarray, actions: np.ndarray, engine_off_from: float = 1.0) -> int:
+    """Index of the cheapest candidate; among equally cheap ones (within 1e-9 g, e.g. the motor cut off) the smallest
+    |u|, except that a tie wholly within the engine-off band (every tied u >= ``engine_off_from``,
     :attr:`~hev_thermal_env.physics.config.PowertrainParams.engine_off_from`) gives the largest, u = 1."""
     best = float(np.min(cost))
-    ties = np.flatnonzero(cost <= best + tol_g)
+    ties = np.flatnonzero(cost <= best + 1e-9)
     if ties.size == 1:
         return int(ties[0])
     tied = actions[ties]
@@ -109,8 +108,7 @@ class DPProblem:
         if states.ndim != 2 or states.shape[1] != N_STATE:
             raise ValueError(f"DPProblem.step: states must have shape (B, {N_STATE}), got {states.shape}")
         b = states.shape[0]
-        act = np.empty(b)
-        act[:] = actions
+        act = np.full(b, actions, dtype=np.float64)
         so, out = np.empty((b, N_STATE)), np.empty((b, N_OUT))
         self.core.step_unchecked(np.ascontiguousarray(states, dtype=np.float64), act, *self.stage_inputs(i, b),
                                  np.ascontiguousarray(np.broadcast_to(self.cond, (b, self.cond.size))), so, out)

@@ -1,17 +1,10 @@
 """The thermal optimum's search: forward dynamic programming over exact physics states (cost-to-come).
 
 Why forward, the bins, the heat prices and the passes: docs/strategies.md. Each stage (:mod:`.stage`) expands every
-surviving state by every split the stage offers (:func:`~.problem.stage_splits`) in batched calls of the physics core,
-prices the candidates with the env's reward, keeps a few per bin and drops those that can no longer reach the
-final-SOC window (the backward SOC envelope of :mod:`.soc_dp`). Nothing is interpolated: a surviving path's
-planned cost is its realised cost. The last stage's survivors give the frontier (:func:`frontier_points`), at the
-yardstick cost (fuel, missed wheel energy at the miss price, the reward's overheat terms; no battery price).
-
-The bins also price heat (:func:`heat_prices`): what a kelvin of each temperature is worth at each stage, measured
-along a reference path. From every :data:`EVERY`-th stage the path's remaining actions are replayed with one
-temperature ± :data:`DELTA_K`; the difference of the rest of the path's cost (plus the battery energy at the reward's
-price) over 2·ΔT, at least 0 (cooler is never worse in this physics), linear between the sampled stages and 0 at the
-end. A price ranks states within a bin and sets how wide its temperature bins are (:meth:`SearchGrid.stage_widths`).
+surviving state by every split the stage offers, keeps a few per bin and drops those that can no longer reach the
+final-SOC window (the backward SOC envelope of :mod:`.soc_dp`). Nothing is interpolated: a surviving path's planned
+cost is its realised cost. The last stage's survivors give the frontier (:func:`frontier_points`), at the yardstick
+cost (fuel, missed wheel energy at the miss price, the reward's overheat terms; no battery price).
 """
 
 from __future__ import annotations
@@ -148,8 +141,7 @@ def soc_window(problem: DPProblem, lo_final: float, hi_final: float, margin: flo
     ref = problem.state0.copy()
     ref[core.HEAT_X] = min(ref[core.HEAT_X], ref[core.HEAT_X_MIN])
     ref[core.CUTOFF] = ref[core.WINDING_TRIP] = 0.0
-    held = np.repeat(ref[None, :], problem.n_stages + 1, axis=0)
-    lo, hi = backward_envelope(problem, held, (lo_final, hi_final))
+    lo, hi = backward_envelope(problem, ref, (lo_final, hi_final))
     return lo - margin, hi + margin
 
 
@@ -300,7 +292,10 @@ def search(problem: DPProblem, grid: SearchGrid, final_window: tuple[float, floa
 
 
 def heat_prices(problem: DPProblem, u_ref: np.ndarray) -> np.ndarray:
-    """Prices [n_stages + 1, len(PRICED)] (g/K) of the temperatures after each stage (module docstring)."""
+    """Prices [n_stages + 1, len(PRICED)] (g/K) of the temperatures after each stage, along the path ``u_ref``: from
+    every :data:`EVERY`-th stage the path's remaining actions replayed with one temperature ± :data:`DELTA_K`, the
+    difference of the rest of the path's cost (plus the battery energy at the reward's price) over 2·ΔT, at least 0
+    (cooler is never worse in this physics), linear between the sampled stages and 0 at the end."""
     n = problem.n_stages
     starts = np.arange(0, n, EVERY)
     rows = starts.size * len(PRICED) * 2
@@ -323,9 +318,7 @@ def heat_prices(problem: DPProblem, u_ref: np.ndarray) -> np.ndarray:
                             overheat=True)
         adj[active] += cost[1:] + price * out[1:, core.BATT_CHEM] * problem.core.dt_s
         ref, st[active] = so[:1], so[1:]
-    diff = (adj[sign > 0] - adj[sign < 0]).reshape(starts.size, len(PRICED)) / (2.0 * DELTA_K)
-    mu = np.maximum(diff, 0.0)
+    mu = np.maximum((adj[sign > 0] - adj[sign < 0]).reshape(starts.size, len(PRICED)) / (2.0 * DELTA_K), 0.0)
     # the price of the temperature after stage i: measured from the start of stage i + 1
     at = np.arange(n + 1)
-    out_mu = np.column_stack([np.interp(at, np.r_[starts, n], np.r_[mu[:, d], 0.0]) for d in range(len(PRICED))])
-    return out_mu
+    return np.column_stack([np.interp(at, np.r_[starts, n], np.r_[mu[:, d], 0.0]) for d in range(len(PRICED))])

@@ -34,10 +34,8 @@ WALL_G_PER_SOC = 1e6
 
 @jit
 def interp_soc(values, lo, step, n, soc, wall, result):
-    """Linear interpolation of ``values`` (``n`` points from ``lo``, spacing ``step``) at every ``soc[b]``.
-
-    Beyond the grid's ends the value continues with slope ``wall`` (value at the end + wall × distance).
-    """
+    """Linear interpolation of ``values`` (``n`` points from ``lo``, spacing ``step``) at every ``soc[b]``, continued
+    beyond the grid's ends with slope ``wall`` (value at the end + wall × distance)."""
     top = n - 1.0
     for b in range(soc.shape[0]):
         excess = 0.0
@@ -74,10 +72,8 @@ class DPSettings:
 
 @dataclass
 class DPPlan:
-    """A solved DP: the cost-to-go on the SOC grid of every stage, and how it was made.
-
-    The SOC grid of stage i has ``n_soc`` points from ``soc_lo[i]`` to ``soc_hi[i]`` (the corridor).
-    """
+    """A solved DP: the cost-to-go on the SOC grid of every stage (stage i: ``n_soc`` points from ``soc_lo[i]`` to
+    ``soc_hi[i]``, the corridor), and how it was made."""
 
     soc_lo: np.ndarray  # [n_stages + 1]
     soc_hi: np.ndarray  # [n_stages + 1]
@@ -151,8 +147,7 @@ def solve(problem: DPProblem, settings: DPSettings) -> DPPlan:
     t_start = time.perf_counter()
     if problem.n_stages < 1:
         raise ValueError("dp: the cycle has no step left to plan")
-    held = np.repeat(problem.state0[None, :], problem.n_stages + 1, axis=0)
-    soc_lo, soc_hi, info = corridor(problem, held, settings.soc_final, settings.soc_tol, settings.on_infeasible)
+    soc_lo, soc_hi, info = corridor(problem, settings)
     soc_hi = np.maximum(soc_hi, soc_lo + 1e-9)
     threads = default_threads() if settings.threads is None else settings.threads
     J, n_evals = _backward(problem, settings, soc_lo, soc_hi, threads)
@@ -171,11 +166,9 @@ def choose(plan: DPPlan, stage: int, state_after: np.ndarray, out: np.ndarray, p
 
 
 def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: bool) -> dict[str, np.ndarray]:
-    """Run the plan forward on the physics from the start state, re-optimising each step.
-
-    ``free=False`` holds the thermal state at the start's (the planning model: the plan's own prediction, reported by
-    the ``dp`` strategy); ``free=True`` lets the whole state evolve (as the environment would).
-    """
+    """Run the plan forward on the physics from the start state, re-optimising each step: ``free=False`` holds the
+    thermal state at the start's (the planning model: the plan's own prediction, reported by the ``dp`` strategy),
+    ``free=True`` lets the whole state evolve (as the environment would)."""
     u_exec = split_grid(settings.n_u_exec)
     n = plan.n_stages
     st = problem.state0.copy()
@@ -201,14 +194,13 @@ def rollout(plan: DPPlan, problem: DPProblem, settings: DPSettings, *, free: boo
 
 def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lowest and highest SOC reachable at each stage from the start: the most discharge and the most charge
-    throughout (:meth:`~.problem.DPProblem.extreme_actions`), the other state columns following ``held``."""
+    throughout (:meth:`~.problem.DPProblem.extreme_actions`), the other state columns held at ``held`` [N_STATE]."""
     n = problem.n_stages
-    st = np.repeat(problem.state0[None, :], 2, axis=0)
+    st = np.repeat(held[None, :], 2, axis=0)
     a = problem.extreme_actions()
     lo, hi = np.empty(n + 1), np.empty(n + 1)
     lo[0] = hi[0] = problem.state0[core.SOC]
     for i in range(n):
-        st[:] = held[i]
         st[0, core.SOC], st[1, core.SOC] = lo[i], hi[i]
         so, _ = problem.step(st, a[i], i)
         lo[i + 1], hi[i + 1] = so[0, core.SOC], so[1, core.SOC]
@@ -217,18 +209,18 @@ def forward_envelope(problem: DPProblem, held: np.ndarray) -> tuple[np.ndarray, 
 
 def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """Lowest / highest SOC at each stage from which the most charge / the most discharge throughout
-    (:meth:`~.problem.DPProblem.extreme_actions`) still reaches the band (three fixed-point iterations per stage)."""
+    (:meth:`~.problem.DPProblem.extreme_actions`) still reaches the band (three fixed-point iterations per stage), the
+    other state columns held at ``held`` [N_STATE]."""
     n = problem.n_stages
     bat = problem.core.config.battery
     lo, hi = np.empty(n + 1), np.empty(n + 1)
     lo[n], hi[n] = band
-    st = np.empty((2, core.N_STATE))
+    st = np.repeat(held[None, :], 2, axis=0)
     a = problem.extreme_actions()[:, ::-1].copy()  # row 0 charges (towards the lower edge), row 1 discharges
     for i in range(n - 1, -1, -1):
         target = np.array([lo[i + 1], hi[i + 1]])
         guess = target.copy()
         for _ in range(3):
-            st[:] = held[i]
             st[:, core.SOC] = np.clip(guess, bat.soc_min, bat.soc_max)
             so, _ = problem.step(st, a[i], i)
             guess = target - (so[:, core.SOC] - st[:, core.SOC])
@@ -237,26 +229,25 @@ def backward_envelope(problem: DPProblem, held: np.ndarray, band: tuple[float, f
     return lo, hi
 
 
-def corridor(problem: DPProblem, held: np.ndarray, soc_final: float | None, tol: float,
-             on_infeasible: str) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The SOC corridor (lowest and highest SOC per stage: reachable from the start and still reaching the band)
-    for the band ``soc_final`` ± ``tol`` (default: the initial SOC), or for the nearest reachable one
-    (``on_infeasible="closest"``)."""
-    soc0 = float(problem.state0[core.SOC])
-    target = soc0 if soc_final is None else float(soc_final)
+def corridor(problem: DPProblem, s: DPSettings) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The SOC corridor (lowest and highest SOC per stage, the thermal state held at the start's: reachable from the
+    start and still reaching the band) for the band ``s.soc_final`` ± ``s.soc_tol`` (default: the initial SOC), or for
+    the nearest reachable one (``s.on_infeasible="closest"``)."""
+    soc0, tol = float(problem.state0[core.SOC]), s.soc_tol
+    target = soc0 if s.soc_final is None else float(s.soc_final)
     band = (target - tol, target + tol)
-    f_lo, f_hi = forward_envelope(problem, held)
+    f_lo, f_hi = forward_envelope(problem, problem.state0)
     info: dict[str, Any] = {"soc_final_requested": target, "reachable_final_soc": [float(f_lo[-1]), float(f_hi[-1])]}
 
     def bounds(band: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, bool]:
-        b_lo, b_hi = backward_envelope(problem, held, band)
+        b_lo, b_hi = backward_envelope(problem, problem.state0, band)
         lo, hi = np.maximum(f_lo, b_lo), np.minimum(f_hi, b_hi)
         return lo, hi, bool(np.all(lo <= hi + 1e-9))
 
     lo, hi, feasible = bounds(band)
     info["final_soc_feasible"] = feasible
     if not feasible:
-        if on_infeasible == "raise":
+        if s.on_infeasible == "raise":
             raise DPInfeasibleError(
                 f"dp: no feasible path to the final SOC {target:.4f} ± {tol} on cycle {problem.name!r} from SOC "
                 f"{soc0:.4f}: the reachable final SOC is [{f_lo[-1]:.4f}, {f_hi[-1]:.4f}] (change soc_final or "

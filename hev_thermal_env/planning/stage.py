@@ -1,11 +1,8 @@
 """One stage of the thermal optimum's search (:mod:`.search`): every surviving state × every split, stepped by the
 env's own :func:`~hev_thermal_env.physics.core.step_kernel` and priced by its
-:func:`~hev_thermal_env.envs.reward.reward_row` in one compiled call per thread (:func:`expand`), then binned.
-
-A candidate's bin is floor(state / width) per key column, packed into one 64-bit key. In each occupied bin at most
-four states survive (:func:`keep_best_per_bin`); then, within each SOC bin, a state is dropped when a cheaper one lies
-in a cooler thermal bin (:func:`pareto_per_soc_bin`), and where heat cannot bind, when a fuller one of its thermal bins
-costs no more (:func:`dominated_by_fuller`).
+:func:`~hev_thermal_env.envs.reward.reward_row` in one compiled call per thread (:func:`expand`), then binned: a
+candidate's bin is floor(state / width) per key column, packed into one 64-bit key; each bin keeps at most four
+states (:func:`keep_best_per_bin`), and the states another dominates are dropped (:func:`non_dominated`).
 """
 
 from __future__ import annotations
@@ -177,9 +174,7 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, price3, heat_g, key_
     table_key[:cap] = -1
     used = 0
     for b in range(states.shape[0]):
-        if not inside[b]:
-            continue
-        if int(np.floor(states[b, key_cols[0]] / widths[0])) % n_parts != part:
+        if not inside[b] or int(np.floor(states[b, key_cols[0]] / widths[0])) % n_parts != part:
             continue
         key = 0
         for d in range(key_cols.shape[0]):
@@ -192,10 +187,7 @@ def _fill_bins(states, inside, cost, batt_j, price, price2, price3, heat_g, key_
                 if 2 * used > cap:
                     return -1
                 table_key[h] = key
-                cheap[h] = b
-                cool[h] = b
-                second[h] = b
-                priced[h] = b
+                cheap[h] = cool[h] = second[h] = priced[h] = b
                 break
             if k == key:
                 if cost[b] + price * batt_j[b] < cost[cheap[h]] + price * batt_j[cheap[h]]:
@@ -226,16 +218,15 @@ def hotness(states, b):
 @jit
 def keep_best_per_bin(states, inside, cost, batt_j, price, price2, price3, heat_g, key_cols, widths, bits, part,
                       n_parts, cap_hint, out_idx, keep_cool):
-    """Of every bin, the cheapest row at battery price ``price``, the cheapest at ``price2``, the coolest
-    (:func:`hotness`; only with ``keep_cool``: where heat cannot bind, :func:`~.search.heat_stays_cheap`, the
-    heat-priced one stands for it) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row: the
-    temperatures at the prices of :func:`~.search.heat_prices`); writes their indices to ``out_idx`` (a row once) and
-    returns how many. With ``price3`` > 0 the coolest's slot holds the cheapest at battery price ``price3`` instead
-    (kept whatever ``keep_cool``). Why these four: docs/strategies.md.
+    """Of every bin, the cheapest row at battery price ``price`` (compared: ``cost + price · batt_j``, g), the
+    cheapest at ``price2``, the coolest (:func:`hotness`; only with ``keep_cool``: where heat cannot bind the
+    heat-priced one stands for it) and the cheapest at ``price`` with its heat priced (``heat_g``, g per row); writes
+    their indices to ``out_idx`` (a row once) and returns how many. With ``price3`` > 0 the coolest's slot holds the
+    cheapest at battery price ``price3`` instead (kept whatever ``keep_cool``). Why these four: docs/strategies.md.
 
     Skips rows with ``inside`` False and rows whose SOC bin is not ``part`` modulo ``n_parts`` (parts run on separate
-    threads). The cost compared is ``cost + price · batt_j`` (g). An open-addressing hash table, sized from
-    ``cap_hint`` (the expected number of bins) and grown when it fills, finds a row's bin in O(1).
+    threads). An open-addressing hash table, sized from ``cap_hint`` (the expected number of bins) and grown when it
+    fills, finds a row's bin in O(1).
     """
     cap = 1024
     while cap < 4 * cap_hint:
@@ -312,13 +303,11 @@ def dominated_by_fuller(soc_bin, q, value, order, out):
     """Mark (``out``) every row that a row of a higher SOC bin and the same thermal bins (``q``: motor, winding,
     coolant, heat index, cutoff, winding trip) beats or ties on ``value``; returns how many are marked.
 
-    Used where heat cannot bind (:func:`~.search.heat_stays_cheap`; docs/strategies.md), with ``value`` the
-    cost-to-come plus the heat at its price: a path from the fuller state that takes the same actions ends with more
-    charge at the same fuel, and the frontier prices a final state by the charge it ends with or more.
-
-    ``order`` sorts the rows by SOC bin descending. Rows are grouped by SOC bin and a group is compared only with the
-    fuller groups before it, so the representatives of one bin (:func:`keep_best_per_bin`) all stay. The lowest value
-    of every thermal bin's fuller rows is kept in an open-addressing table keyed by the bins.
+    Used where heat cannot bind (:func:`~.search.heat_stays_cheap`; why: docs/strategies.md), with ``value`` the
+    cost-to-come plus the heat at its price. ``order`` sorts the rows by SOC bin descending. Rows are grouped by SOC
+    bin and a group is compared only with the fuller groups before it, so the representatives of one bin
+    (:func:`keep_best_per_bin`) all stay. The lowest value of every thermal bin's fuller rows is kept in an
+    open-addressing table keyed by the bins.
     """
     n = order.shape[0]
     d_count = q.shape[1]

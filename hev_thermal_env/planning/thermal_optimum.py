@@ -1,18 +1,14 @@
 """The thermal optimum over a known cycle and its fuel-versus-final-SOC frontier (the ``dp_thermal`` planner).
 
-The benchmark's yardstick, by the forward search of :mod:`.search` in passes (docs/strategies.md), centred on the SOC
-DP's path (:mod:`.soc_dp`), with heat prices measured along that path or the first pass's, and seeded with causal
-strategies' runs of the same episode (``seeds``: kept alive through every pass and centres of the refining passes). The
-plan is the cheapest path into the final-SOC band (default: the initial SOC ± 0.005) of the last two passes, by the
-search's cost plus the battery energy at the reward's price: an exact action sequence, so the env realises the planned
-cost. The report's ``frontier``, over the final states of the same passes, is the cost by final SOC within
-``frontier_halfwidth`` of the target: the benchmark divides each strategy's cost by it at the strategy's own final SOC.
-Every pass shows a bar of its stages on stderr (hidden off a terminal and in worker processes).
+The benchmark's yardstick: the forward search of :mod:`.search` in passes around the SOC DP's path (:mod:`.soc_dp`)
+and the seeds' (causal strategies' runs of the same episode; the passes: docs/strategies.md). The plan is the cheapest
+path into the final-SOC band of the last two passes (by the search's cost plus the battery energy at the reward's
+price), an exact action sequence; the report's ``frontier``, over their final states, is the cost by final SOC within
+``frontier_halfwidth`` of the target, which the benchmark divides each strategy's cost by at its own final SOC.
 
 Solved plans are kept on disk (:func:`cached_plan`: JSON in ``plans/`` beside the compiled-kernel cache), under a hash
-of the plan's key (:meth:`OptimumSettings.key`) and of the sources the planner runs
-(:func:`~hev_thermal_env.physics.jit.source_hash`), so an edit of any of them solves afresh and an edit elsewhere does
-not.
+of the plan's key (:meth:`OptimumSettings.key`) and of the sources the planner runs, so an edit of any of them solves
+afresh and an edit elsewhere does not.
 """
 
 from __future__ import annotations
@@ -67,10 +63,8 @@ def in_worker_process() -> bool:
 
 @dataclass(frozen=True)
 class OptimumSettings:
-    """What the thermal optimum is asked for (the ``dp_thermal`` strategy's options; see the module docstring).
-
-    ``fixed_soc_bin``: the SOC bin was given, so it is not narrowed on short or cheap cycles.
-    """
+    """What the thermal optimum is asked for (the ``dp_thermal`` strategy's options); ``fixed_soc_bin``: the SOC bin
+    was given, so it is not narrowed on short or cheap cycles."""
 
     grid: SearchGrid = SearchGrid()
     fixed_soc_bin: bool = False
@@ -101,8 +95,7 @@ class OptimumSettings:
         if soc.size < 3 or np.ptp(soc) <= 0.0:
             return grid
         j_per_soc = -np.polyfit(soc, e, 1)[0]
-        rp = problem.reward_params
-        bin_g = grid.soc * j_per_soc * rp.prices.battery_g_per_j(problem.lhv)
+        bin_g = grid.soc * j_per_soc * problem.reward_params.prices.battery_g_per_j(problem.lhv)
         if not (bin_g > 0.0 and cost_g > 0.0):
             return grid
         factor = min(max(BIN_BUDGET * cost_g / (bin_g * problem.n_stages), 0.2), 1.0)
@@ -144,12 +137,11 @@ def pick_final(result: SearchResult, problem: DPProblem, band: tuple[float, floa
 def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
     """Drive the action sequence ``u`` on the physics from the start: states, outputs and the yardstick cost."""
     n = u.size
-    st = problem.state0[None, :].copy()
     states = np.empty((n + 1, core.N_STATE))
     outs = np.empty((n, core.N_OUT))
-    states[0] = st[0]
+    states[0] = problem.state0
     for i in range(n):
-        st, out = problem.step(st, np.array([u[i]]), i)
+        st, out = problem.step(states[i:i + 1], u[i], i)
         states[i + 1], outs[i] = st[0], out[0]
     cost = stage_cost_g(problem.reward_params, outs, states[1:], problem.soc_target, problem.lhv,
                         problem.core.dt_s, battery=False, overheat=True)
@@ -158,7 +150,7 @@ def replay(problem: DPProblem, u: np.ndarray) -> dict[str, np.ndarray]:
 
 def _search(problem: DPProblem, grid: SearchGrid, window: tuple[float, float], label: str, threads: int | None,
             **refine: Any) -> SearchResult:
-    """:func:`~.search.search` with a bar of its stages."""
+    """:func:`~.search.search` with a bar of its stages on stderr (hidden off a terminal and in worker processes)."""
     hidden = True if in_worker_process() else None  # None: tqdm hides it off a terminal
     with tqdm(total=problem.n_stages, desc=f"dp_thermal {problem.name}: {label}", unit="stage", leave=False,
               disable=hidden) as bar:
