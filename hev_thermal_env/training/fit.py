@@ -77,6 +77,15 @@ def fit_targets(actions: np.ndarray, high: float, beyond_bound: float) -> np.nda
     return np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
 
 
+def batch_loss(policy: Any, x: torch.Tensor, target: np.ndarray, rows: np.ndarray, weights: np.ndarray | None,
+               curves: np.ndarray | None, cost_weight: float) -> torch.Tensor:
+    """:func:`fit_loss` of ``policy``'s mean action on ``x``, the normalised observations of the demonstration steps
+    ``rows`` (``target``, ``weights`` and ``curves`` are indexed by them): a batch of the fit or of the refit."""
+    mean = policy.get_distribution(x).distribution.mean[:, 0]
+    return fit_loss(mean, torch.as_tensor(target[rows]), None if weights is None else weights[rows],
+                    None if curves is None else curves[rows], cost_weight)
+
+
 def adam_step(opt: torch.optim.Optimizer, loss: torch.Tensor) -> float:
     """One step of ``opt`` down ``loss``; returns the loss."""
     opt.zero_grad()
@@ -113,17 +122,10 @@ def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs
             raise ValueError(f"fit_policy_mean: {len(rows)} {name} for {len(actions)} demonstration steps")
     target = fit_targets(actions, high, beyond_bound)
     x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
-    y = torch.as_tensor(target)
-
-    def loss_of(idx: torch.Tensor) -> torch.Tensor:
-        rows = idx.numpy()
-        mean = policy.get_distribution(x[idx]).distribution.mean[:, 0]
-        return fit_loss(mean, y[idx], None if weights is None else weights[rows],
-                        None if curves is None else curves[rows], cost_weight)
-
     opt = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
     policy.set_training_mode(True)
-    history = adam_passes(opt, len(x), epochs, seed, loss_of)
+    history = adam_passes(opt, len(x), epochs, seed,
+                          lambda idx: batch_loss(policy, x[idx], target, idx.numpy(), weights, curves, cost_weight))
     policy.set_training_mode(False)
     return history
 

@@ -243,10 +243,9 @@ class TrainingRun:
             self.raw.timesteps = int(self.model.num_timesteps)
             if resume_from is not None:
                 load_multiplier(self.raw.multiplier, resume_from[1])
-        init = cfg.get("init") or {}
+        init, kwargs, seed = cfg.get("init") or {}, env_kwargs(cfg["env"]), int(cfg["seed"])
         if resume_from is None and init.get("imitate"):
-            rec, self.refit = imitate(self.model, self.venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]),
-                                      progress=self.progress)
+            rec, self.refit = imitate(self.model, kwargs, init, seed, progress=self.progress)
             cfg.setdefault("result", {})["imitation"] = rec
             loss = ("weighted " if init.get("heat_weight") else "") + "MSE"
             if init.get("cost_weight"):
@@ -256,7 +255,7 @@ class TrainingRun:
                      f"mean fitted ({loss} {rec['mse_first']} -> {rec['mse_last']}) in {rec['wall_s']} s"
                      + ("" if excess is None else f"; {excess} g per step dearer than the teacher by its cost"))
         elif resume_from is not None:
-            self.refit = resumed_refit(self.venv, self.model, env_kwargs(cfg["env"]), init, int(cfg["seed"]))
+            self.refit = resumed_refit(self.model, kwargs, init, seed)
 
     def execute(self) -> dict[str, Any]:
         """Learn up to the total, then save the final model and its evaluation; returns the ``result`` section."""
