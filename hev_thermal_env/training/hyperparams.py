@@ -42,8 +42,7 @@ from hev_thermal_env.physics.params import Params
 from hev_thermal_env.tasks import ENV_ID
 
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
-RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer",
-            "constraint")
+RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "constraint")
 #: Constructor arguments the training sets itself.
 MANAGED_KEYS = ("self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model")
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",

@@ -146,7 +146,7 @@ class TrainingRun:
         zip_path, stats_path, replay_path = checkpoint_paths(self.out, n)
         if self.multiplier is not None:
             save_multiplier(self.multiplier, zip_path)
-        if self.config["algo"] in OFF_POLICY and self.config["hyperparams"].get("save_replay_buffer", True):
+        if self.config["algo"] in OFF_POLICY:
             buf = io.BytesIO()
             model.save_replay_buffer(buf)
             atomic_write_bytes(replay_path, buf.getvalue())
@@ -328,12 +328,11 @@ class TrainingRun:
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
           overwrite: bool = False, log: Callable[[str], None] | None = None,
           run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
-    """Train a new run into ``out_dir`` (new or empty unless ``overwrite``); returns the ``result`` section of its
-    config. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped by a signal.
-    ``run_class`` runs the session (a sweep's trial reports to Ray Tune through its own :class:`TrainingRun`).
-    """
+    """Train a new run of ``config`` (:func:`~.config.build_config`'s, checked there) into ``out_dir`` (new or empty
+    unless ``overwrite``); returns the ``result`` section of its config. Raises :class:`TrainingInterrupted` after
+    saving a checkpoint when stopped by a signal. ``run_class`` runs the session (a sweep's trial reports to Ray Tune
+    through its own :class:`TrainingRun`)."""
     out = check_new_dir(out_dir, overwrite=overwrite)
-    validate_config(config)
     _limit_threads()
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     run.prepare()
