@@ -233,7 +233,7 @@ def _refit_setup(batches=8, dagger_every=0, **init_settings):
     fit_policy_mean(model.policy, venv.normalize_obs(obs), actions, epochs=150, beyond_bound=0.25, high=1.0, seed=0)
     init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "refit_batches": batches, "dagger_every": dagger_every,
             "dagger_episodes": 1, **init_settings}
-    refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs(ENV), high=1.0, seed=4)
+    refit = DemonstrationRefit(obs, actions, init=init, env_kwargs=env_kwargs(ENV), high=1.0, seed=4)
     refit.init_callback(model)
     return venv, model, refit, obs, actions
 
@@ -342,11 +342,11 @@ def test_a_run_with_refit_and_dagger_records_them_and_a_resumed_run_drives_its_d
     _, model, _, obs, actions = _refit_setup()
     model.num_timesteps = 700
     init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "episodes": 1, "refit_batches": 2, "dagger_every": 256}
-    again = resumed_refit(model.get_env(), model, env_kwargs(ENV), init, seed=4)
+    again = resumed_refit(model, env_kwargs(ENV), init, seed=4)
     np.testing.assert_array_equal(again.obs, obs)
     np.testing.assert_array_equal(again.actions, actions)
     assert again.rounds == 2
-    assert resumed_refit(model.get_env(), model, env_kwargs(ENV), {**init, "refit_batches": 0}, seed=4) is None
+    assert resumed_refit(model, env_kwargs(ENV), {**init, "refit_batches": 0}, seed=4) is None
 
 
 

@@ -113,7 +113,7 @@ def test_the_refit_charges_the_curves_and_a_dagger_round_adds_the_teachers_curve
     model = PPO("MlpPolicy", venv, seed=0, device="cpu", n_steps=64, policy_kwargs={"net_arch": [32, 32]})
     init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "refit_batches": 20, "dagger_every": 100,
             "dagger_episodes": 1, "cost_weight": 5.0}
-    refit = DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs(ENV), high=1.0, seed=4,
+    refit = DemonstrationRefit(obs, actions, init=init, env_kwargs=env_kwargs(ENV), high=1.0, seed=4,
                                curves=np.stack(costs))
     refit.init_callback(model)
     x = venv.normalize_obs(obs)
@@ -138,9 +138,9 @@ def test_a_resumed_run_gets_the_teachers_curves_of_its_first_demonstrations_agai
     venv = VecNormalize(DummyVecEnv([lambda: HevThermalEnv(**env_kwargs(ENV))]), norm_reward=False)
     model = PPO("MlpPolicy", venv, seed=0, device="cpu", n_steps=64, policy_kwargs={"net_arch": [16, 16]})
     init = {**INIT_DEFAULTS, "imitate": "ecms_thermal", "episodes": 1, "refit_batches": 2, "cost_weight": 1.0}
-    again = resumed_refit(venv, model, env_kwargs(ENV), init, seed=4)
+    again = resumed_refit(model, env_kwargs(ENV), init, seed=4)
     np.testing.assert_array_equal(again.obs, obs)
     np.testing.assert_array_equal(again.curves, np.stack(costs))
     assert again.cost_weight == 1.0
-    plain = resumed_refit(venv, model, env_kwargs(ENV), {**init, "cost_weight": 0.0}, seed=4)
+    plain = resumed_refit(model, env_kwargs(ENV), {**init, "cost_weight": 0.0}, seed=4)
     assert plain.curves is None and plain.cost_weight == 0.0

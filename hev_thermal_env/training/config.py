@@ -49,8 +49,7 @@ NORMALIZE_DEFAULTS = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "
 
 @dataclasses.dataclass(frozen=True)
 class RunSettings(Section):
-    """The run's top-level numbers (the sections are records of their own: :class:`~.imitation.InitConfig`,
-    :class:`~.lagrangian.ConstraintConfig`)."""
+    """The run's top-level numbers."""
 
     NAME: ClassVar[str] = ""
 
@@ -104,7 +103,7 @@ class EnvConfig(Section):
 class EvalConfig(Section):
     """The ``eval`` section: the periodic evaluation. The checkpoints are scored on the last ten validation cycles
     (one of each rotating family, then five express routes); ``validation_bus:0..19`` are left for judging the
-    trained policies. :meth:`for_run` refuses a cycle the run also trains on."""
+    trained policies."""
 
     NAME: ClassVar[str] = "eval"
 
@@ -124,17 +123,17 @@ class EvalConfig(Section):
                                  f"the evaluation scenarios must be fixed, and {s!r} draws them at random")
         for key in ("cycles", "final_cycles"):
             object.__setattr__(self, key, [str(c) for c in (getattr(self, key) or [])])
-            for c in expand_cycle_names(getattr(self, key)):
-                _refuse_held_out(f"eval.{key}", c)
-                load_cycle(c)
 
     def for_run(self, env: EnvConfig) -> EvalConfig:
+        """This section with its cycles checked: each loaded, none a held-out task's test cycle or a training one."""
         trained = {str(c).strip().lower() for c in expand_cycle_names(env.cycles) if not is_family(c)}
         for key in ("cycles", "final_cycles"):
             for c in expand_cycle_names(getattr(self, key)):
+                _refuse_held_out(f"eval.{key}", c)
                 if str(c).strip().lower() in trained:
                     raise ValueError(f"eval.{key}: {c!r} is also a training cycle; a run must be scored on cycles "
                                      "it does not train on")
+                load_cycle(c)
         return self
 
 
@@ -169,8 +168,7 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
         if cycles is not None or scenario is not None:
             raise ValueError(f"--task {task} sets the training cycles and scenario; drop --cycles and --scenario")
         resolved = get_task(task)
-        task_id, (task_cycles, scenario) = resolved.id, resolved.training
-        cycles = list(task_cycles)
+        task_id, (cycles, scenario) = resolved.id, resolved.training
     given = {"env.cycles": cycles, "env.scenario": scenario, "n_timesteps": timesteps, "n_envs": n_envs,
              "eval.cycles": eval_cycles, "eval.scenarios": eval_scenarios, "eval.freq": eval_freq,
              "checkpoint_freq": checkpoint_freq}

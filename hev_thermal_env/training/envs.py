@@ -108,42 +108,34 @@ class PolicyEvaluator:
         self.scenarios = list(scenarios)
         self.seed = int(seed)
 
-    def run(self, act: Callable[[np.ndarray], np.ndarray],
-            reset: Callable[[], None] | None = None) -> list[dict[str, Any]]:
-        """Drive every (cycle, scenario) with ``act(raw_obs [n, dim]) -> actions [n, 1]``; one result per run.
-
-        ``reset()`` is called before each scenario's episodes start (a recurrent policy forgets its state); by default
-        ``act``'s owner's ``reset_state`` when ``act`` is a method of an object that has one
-        (:class:`~hev_thermal_env.agents.policy_files.LoadedPolicy`)."""
-        if reset is None:
-            reset = getattr(getattr(act, "__self__", None), "reset_state", None)
-        return [r for scenario in self.scenarios for r in self._run_scenario(act, scenario, reset)]
-
-    def _run_scenario(self, act: Callable[[np.ndarray], np.ndarray], scenario: str,
-                      reset: Callable[[], None] | None) -> list[dict[str, Any]]:
-        kwargs = env_kwargs({**self.env_cfg, "scenario": scenario}, for_eval=True)
-        n = len(self.cycles)
-        venv = HevThermalVectorEnv(n, **{**kwargs, "cycle": self.cycles})
-        obs, _ = venv.reset(seed=self.seed, options=[{"cycle": c} for c in self.cycles])
-        soc0 = venv.phys_state[:, core.SOC].copy()
-        if reset is not None:
-            reset()
+    def run(self, act: Callable[[np.ndarray], np.ndarray]) -> list[dict[str, Any]]:
+        """Drive every (cycle, scenario) with ``act(raw_obs [n, dim]) -> actions [n, 1]``; one result per run. Before
+        each scenario's episodes start a recurrent policy forgets its state: ``act``'s owner's ``reset_state`` is
+        called when it has one (:class:`~hev_thermal_env.agents.policy_files.LoadedPolicy`)."""
+        reset = getattr(getattr(act, "__self__", None), "reset_state", None)
         lengths = np.array([c.n_steps for c in self.cycles])
-        horizon = int(lengths.max())
-        traces, returns = {k: np.zeros((horizon, n)) for k in TRACE_KEYS}, np.zeros(n)
-        for t in range(horizon):
-            obs, reward, _, _, info = venv.step(act(obs))
-            returns += np.where(t < lengths, reward, 0.0)
-            for k in TRACE_KEYS:
-                traces[k][t] = info[k]
+        n, horizon = len(self.cycles), int(lengths.max())
         results = []
-        for i, (name, cyc) in enumerate(zip(self.cycle_names, self.cycles)):
-            m = int(lengths[i])
-            s = run_metrics({k: traces[k][:m, i] for k in TRACE_KEYS}, venv.config, float(soc0[i]), cyc.speed_mps, 0,
-                            m, venv.core.dt_s)
-            results.append({"cycle": name, "scenario": scenario, "return_g": float(returns[i]),
-                            **{k: s[k] for k in METRIC_KEYS}})
-        venv.close()
+        for scenario in self.scenarios:
+            kwargs = env_kwargs({**self.env_cfg, "scenario": scenario}, for_eval=True)
+            venv = HevThermalVectorEnv(n, **{**kwargs, "cycle": self.cycles})
+            obs, _ = venv.reset(seed=self.seed, options=[{"cycle": c} for c in self.cycles])
+            soc0 = venv.phys_state[:, core.SOC].copy()
+            if reset is not None:
+                reset()
+            traces, returns = {k: np.zeros((horizon, n)) for k in TRACE_KEYS}, np.zeros(n)
+            for t in range(horizon):
+                obs, reward, _, _, info = venv.step(act(obs))
+                returns += np.where(t < lengths, reward, 0.0)
+                for k in TRACE_KEYS:
+                    traces[k][t] = info[k]
+            for i, (name, cyc) in enumerate(zip(self.cycle_names, self.cycles)):
+                m = int(lengths[i])
+                s = run_metrics({k: traces[k][:m, i] for k in TRACE_KEYS}, venv.config, float(soc0[i]), cyc.speed_mps,
+                                0, m, venv.core.dt_s)
+                results.append({"cycle": name, "scenario": scenario, "return_g": float(returns[i]),
+                                **{k: s[k] for k in METRIC_KEYS}})
+            venv.close()
         return results
 
 

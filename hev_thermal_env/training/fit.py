@@ -77,6 +77,15 @@ def fit_targets(actions: np.ndarray, high: float, beyond_bound: float) -> np.nda
     return np.where(actions >= high, high + beyond_bound, actions).astype(np.float32)
 
 
+def batch_loss(policy: Any, x: torch.Tensor, target: np.ndarray, rows: np.ndarray, weights: np.ndarray | None,
+               curves: np.ndarray | None, cost_weight: float) -> torch.Tensor:
+    """:func:`fit_loss` of ``policy``'s mean action on ``x``, the normalised observations of the demonstration steps
+    ``rows`` (``target``, ``weights`` and ``curves`` are indexed by them): a batch of the fit or of the refit."""
+    mean = policy.get_distribution(x).distribution.mean[:, 0]
+    return fit_loss(mean, torch.as_tensor(target[rows]), None if weights is None else weights[rows],
+                    None if curves is None else curves[rows], cost_weight)
+
+
 def adam_step(opt: torch.optim.Optimizer, loss: torch.Tensor) -> float:
     """One step of ``opt`` down ``loss``; returns the loss."""
     opt.zero_grad()
@@ -113,17 +122,10 @@ def fit_policy_mean(policy: Any, obs: np.ndarray, actions: np.ndarray, *, epochs
             raise ValueError(f"fit_policy_mean: {len(rows)} {name} for {len(actions)} demonstration steps")
     target = fit_targets(actions, high, beyond_bound)
     x = torch.as_tensor(np.ascontiguousarray(obs, dtype=np.float32))
-    y = torch.as_tensor(target)
-
-    def loss_of(idx: torch.Tensor) -> torch.Tensor:
-        rows = idx.numpy()
-        mean = policy.get_distribution(x[idx]).distribution.mean[:, 0]
-        return fit_loss(mean, y[idx], None if weights is None else weights[rows],
-                        None if curves is None else curves[rows], cost_weight)
-
     opt = torch.optim.Adam(policy.parameters(), lr=LEARNING_RATE)
     policy.set_training_mode(True)
-    history = adam_passes(opt, len(x), epochs, seed, loss_of)
+    history = adam_passes(opt, len(x), epochs, seed,
+                          lambda idx: batch_loss(policy, x[idx], target, idx.numpy(), weights, curves, cost_weight))
     policy.set_training_mode(False)
     return history
 
@@ -142,11 +144,9 @@ def mean_cost_excess_g(policy: Any, obs: np.ndarray, curves: np.ndarray) -> floa
 
 def dataset_pairs(dataset: Any) -> tuple[np.ndarray, np.ndarray]:
     """Observations [N, dim] (those the actions were taken in) and actions [N] of every episode of ``dataset``."""
-    obs, act = [], []
-    for ep in dataset.iterate_episodes():
-        obs.append(np.asarray(ep.observations[:-1], dtype=np.float32))
-        act.append(np.asarray(ep.actions, dtype=np.float32).reshape(-1))
-    return np.concatenate(obs), np.concatenate(act)
+    episodes = list(dataset.iterate_episodes())
+    return (np.concatenate([np.asarray(ep.observations[:-1], dtype=np.float32) for ep in episodes]),
+            np.concatenate([np.asarray(ep.actions, dtype=np.float32).reshape(-1) for ep in episodes]))
 
 
 def _mlp(n_in: int, hidden: tuple[int, ...]) -> torch.nn.Sequential:
@@ -157,24 +157,23 @@ def _mlp(n_in: int, hidden: tuple[int, ...]) -> torch.nn.Sequential:
     return torch.nn.Sequential(*layers, torch.nn.Linear(n_in, 1))
 
 
-def fit_bc(obs: np.ndarray, actions: np.ndarray, *, hidden: tuple[int, ...] = BC_HIDDEN, epochs: int = BC_EPOCHS,
+def fit_bc(obs: np.ndarray, actions: np.ndarray, *, epochs: int = BC_EPOCHS,
            seed: int = 0) -> tuple[dict[str, Any], list[float]]:
     """Fit the MLP; returns its policy record (weights and standardisation) and the MSE of every pass."""
     torch.manual_seed(int(seed))
     mean, std = obs.mean(axis=0), np.maximum(obs.std(axis=0), 1e-6)
     x = torch.as_tensor((obs - mean) / std, dtype=torch.float32)
     y = torch.as_tensor(actions, dtype=torch.float32)
-    net = _mlp(x.shape[1], tuple(hidden))
+    net = _mlp(x.shape[1], BC_HIDDEN)
     opt = torch.optim.Adam(net.parameters(), lr=BC_LEARNING_RATE)
     history = adam_passes(opt, len(x), epochs, seed, lambda i: torch.mean((net(x[i])[:, 0] - y[i]) ** 2), BC_BATCH)
-    return {"state_dict": net.state_dict(), "hidden": list(hidden), "obs_mean": mean, "obs_std": std}, history
+    return {"state_dict": net.state_dict(), "hidden": list(BC_HIDDEN), "obs_mean": mean, "obs_std": std}, history
 
 
 def dataset_env_options(dataset: Any) -> dict[str, Any]:
     """The env arguments of ``dataset``'s env that shape its observations beyond the task
     (:func:`~hev_thermal_env.envs.reward.observation_options`: a ``ppo`` source's env carries its policy's)."""
-    spec = dataset.env_spec
-    return observation_options(((spec.kwargs if spec is not None else None) or {}).get("reward"))
+    return observation_options((getattr(dataset.env_spec, "kwargs", None) or {}).get("reward"))
 
 
 class BCStrategy(Strategy):

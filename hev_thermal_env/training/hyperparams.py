@@ -2,19 +2,11 @@
 them, their checks and the ``--hp`` overrides (:func:`parse_overrides`): a file holds run settings
 (:data:`RUN_KEYS`) and any argument of the algorithm's constructor the training does not set itself
 (:data:`MANAGED_KEYS`). Unknown keys (also inside ``policy_kwargs``) and values of the wrong type are refused in one
-line naming the key and the closest valid one.
+line naming the key and the closest valid one. A file is the project's flat mapping (``ppo.yaml``) or rl-zoo3's
+(``sac.yaml``, which rl-zoo3 reads unchanged): :func:`read_hyperparams_file`.
 
-A file is the project's flat mapping (``ppo.yaml``) or rl-zoo3's (``sac.yaml``, which rl-zoo3 reads unchanged),
-read by :func:`read_hyperparams_file`. An rl-zoo3 file's section for :data:`~hev_thermal_env.tasks.ENV_ID` holds
-``n_timesteps``, ``n_envs``, ``policy``, ``normalize``, ``env_kwargs`` (``gymnasium.make``'s keyword arguments),
-``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` string and the constructor's arguments; the settings rl-zoo3 has no
-place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in :data:`PROJECT_SECTION`, which rl-zoo3
-does not read.
-
-The config's sections are typed records (:class:`Section`): frozen dataclasses whose fields (:func:`setting`, as the
-vehicle's records use :func:`~hev_thermal_env.physics.params.spec`) say their kind and range, validated in one place
-with one-line errors naming the section, the field and the value (``init.episodes must be a whole number of at least
-1, got 0``).
+The config's sections are typed records (:class:`Section`), validated in one place with one-line errors naming the
+section, the field and the value (``init.episodes must be a whole number of at least 1, got 0``).
 """
 
 from __future__ import annotations
@@ -42,8 +34,7 @@ from hev_thermal_env.physics.params import Params
 from hev_thermal_env.tasks import ENV_ID
 
 #: Keys of a hyperparameter file that describe the run rather than the algorithm's constructor.
-RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "save_replay_buffer",
-            "constraint")
+RUN_KEYS = ("n_timesteps", "n_envs", "env", "normalize", "eval", "checkpoint_freq", "policy", "constraint")
 #: Constructor arguments the training sets itself.
 MANAGED_KEYS = ("self", "policy", "env", "seed", "tensorboard_log", "verbose", "device", "_init_setup_model")
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",
@@ -68,9 +59,12 @@ def load_hyperparams(algo: str, path: str | Path | None = None) -> dict[str, Any
 
 
 def read_hyperparams_file(path: str | Path) -> dict[str, Any]:
-    """A hyperparameter file in either format (docs/training.md) as the project's flat dict: an rl-zoo3 file's
-    ``env_kwargs`` become the ``env`` section (``cycle`` its ``cycles``), its ``normalize`` and ``policy_kwargs``
-    strings mappings (``nn.ReLU`` the name ``relu``), and :data:`PROJECT_SECTION` joins the rest."""
+    """A hyperparameter file in either format (docs/training.md) as the project's flat dict. An rl-zoo3 file's
+    section :data:`~hev_thermal_env.tasks.ENV_ID` holds ``n_timesteps``, ``n_envs``, ``policy``, the constructor's
+    arguments, ``env_kwargs`` (``gymnasium.make``'s: the ``env`` section, ``cycle`` its ``cycles``) and ``normalize``
+    and ``policy_kwargs`` as rl-zoo3's ``"dict(...)"`` strings (read as mappings, ``nn.ReLU`` as the name ``relu``);
+    the settings rl-zoo3 has no place for (``eval``, ``checkpoint_freq``, ``init``, ``constraint``) sit in
+    :data:`PROJECT_SECTION`, which rl-zoo3 does not read."""
     data = read_yaml_mapping(path)
     env_ids = [k for k in data if str(k).startswith("HevThermal-v")]
     if not env_ids:
@@ -256,13 +250,10 @@ def _problem(f: dataclasses.Field, value: Any) -> str | None:
                             or (hi is not None and value > hi)):
         return f"must be a whole number of at least {lo}" if hi is None else f"must be a whole number in [{lo}, {hi}]"
     if kind == "number":
-        low_ok = is_number(value) and (
-            value > lo if f.metadata["min_exclusive"] else value >= lo)
-        if hi is None and not low_ok:
-            return f"must be a number of at least {lo:g}"
-        if hi is not None and not (low_ok and value <= hi):
-            left = "(" if f.metadata["min_exclusive"] else "["
-            return f"must be a number in {left}{lo:g}, {hi:g}]{f.metadata['what']}"
+        excl = f.metadata["min_exclusive"]
+        if not (is_number(value) and (value > lo if excl else value >= lo) and (hi is None or value <= hi)):
+            return (f"must be a number of at least {lo:g}" if hi is None else
+                    f"must be a number in {'(' if excl else '['}{lo:g}, {hi:g}]{f.metadata['what']}")
     return None
 
 

@@ -17,7 +17,6 @@ import numpy as np
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.running_mean_std import RunningMeanStd
-from stable_baselines3.common.vec_env import VecNormalize
 from tqdm.auto import tqdm
 
 from hev_thermal_env.agents import get_strategy, registered
@@ -29,7 +28,7 @@ from ..envs.spaces import observation_names
 from .fit import (
     BATCH,
     adam_step,
-    fit_loss,
+    batch_loss,
     fit_policy_mean,
     fit_targets,
     fit_weights,
@@ -209,17 +208,15 @@ class DemonstrationRefit(BaseCallback):
     ``init.dagger_every`` (env-steps) the deterministic policy drives ``init.dagger_episodes`` fresh training episodes
     that often, and the teacher's actions on the states it visits join the demonstrations (DAgger)."""
 
-    def __init__(self, venv: Any, obs: np.ndarray, actions: np.ndarray, *, init: dict[str, Any], env_kwargs: dict,
-                 high: float, seed: int, curves: np.ndarray | None = None):
+    def __init__(self, obs: np.ndarray, actions: np.ndarray, curves: np.ndarray | None = None, *,
+                 init: dict[str, Any], env_kwargs: dict, high: float, seed: int):
         super().__init__()
-        self.venv, self.high, self.env_kwargs = venv, float(high), env_kwargs
-        self.cost_weight, self.curves = float(init.get("cost_weight", 0.0)), curves
-        self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
-        self.decay, self.beyond_bound = bool(init["refit_decay"]), float(init["beyond_bound"])
+        self.high, self.env_kwargs, self.curves = float(high), env_kwargs, curves
+        self.batches, self.lr, self.decay = int(init["refit_batches"]), float(init["refit_lr"]), init["refit_decay"]
+        self.beyond_bound, self.cost_weight = float(init["beyond_bound"]), float(init["cost_weight"])
         self.teacher, self.heat_weight = teacher_of(init), heat_weighting(init)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
-        self.seed, self.rounds = int(seed), 0
-        self.rng = np.random.default_rng([int(seed), 11])
+        self.seed, self.rounds, self.rng = int(seed), 0, np.random.default_rng([int(seed), 11])
         self.opt: torch.optim.Optimizer | None = None
         self.mse: list[float] = []
         self._set_demonstrations(obs, actions)
@@ -231,7 +228,7 @@ class DemonstrationRefit(BaseCallback):
 
     def _init_callback(self) -> None:
         # the live model and statistics, normalised and acting as every policy does (the student of DAgger)
-        self.policy = LoadedPolicy(self.model, self.venv if isinstance(self.venv, VecNormalize) else None)
+        self.policy = LoadedPolicy(self.model, self.model.get_vec_normalize_env())
 
     def _on_step(self) -> bool:
         return True
@@ -257,10 +254,8 @@ class DemonstrationRefit(BaseCallback):
         for _ in range(self.batches):
             idx = self.rng.integers(0, len(self.obs), BATCH)
             x = torch.as_tensor(np.asarray(self.policy.normalize(self.obs[idx]), dtype=np.float32))
-            mean = policy.get_distribution(x).distribution.mean[:, 0]
-            total += adam_step(self.opt, fit_loss(mean, torch.as_tensor(self.target[idx]),
-                                                  None if self.weight is None else self.weight[idx],
-                                                  None if self.curves is None else self.curves[idx], self.cost_weight))
+            total += adam_step(self.opt, batch_loss(policy, x, self.target, idx, self.weight, self.curves,
+                                                    self.cost_weight))
         self.mse.append(total / max(self.batches, 1))
 
     def summary(self) -> dict[str, Any]:
@@ -274,66 +269,57 @@ def _demonstrations(env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
                     progress: Callable[[int], None] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """The run's first demonstrations (``init.episodes`` of the teacher, ``init.noise``) and, with
     ``init.cost_weight`` > 0, the teacher's cost curves [N, n] (else None)."""
-    costs = [] if float(init.get("cost_weight", 0.0)) > 0.0 else None
+    costs = [] if init["cost_weight"] > 0.0 else None
     obs, actions = demonstrations(env_kwargs, teacher_of(init), init["episodes"], seed, progress,
-                                  noise=float(init.get("noise", 0.0)), costs=costs)
+                                  noise=float(init["noise"]), costs=costs)
     return obs, actions, None if costs is None else np.stack(costs)
 
 
-def _refit(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int,
-           demos: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None) -> DemonstrationRefit | None:
-    """The run's refit of its demonstrations ``(obs, actions, curves)`` (None: the first ones driven again), or None
-    without ``init.refit_batches``."""
-    if int(init.get("refit_batches", 0)) <= 0:
-        return None
-    obs, actions, curves = demos or _demonstrations(env_kwargs, init, seed)
-    return DemonstrationRefit(venv, obs, actions, init=init, env_kwargs=env_kwargs, high=_action_high(model),
-                              seed=seed, curves=curves)
-
-
-def _action_high(model: Any) -> float:
-    return float(np.asarray(model.action_space.high).reshape(-1)[0])
-
-
-def resumed_refit(venv: Any, model: Any, env_kwargs: dict[str, Any], init: dict[str, Any],
+def resumed_refit(model: Any, env_kwargs: dict[str, Any], init: dict[str, Any],
                   seed: int) -> DemonstrationRefit | None:
-    """The refit of a resumed run: its first demonstrations driven again (the same episodes and actions), DAgger
-    continuing from the next round; the student's states of earlier rounds and the refit's optimiser state are not
-    kept in a checkpoint."""
-    refit = _refit(model, venv, env_kwargs, init, seed) if init.get("imitate") else None
-    if refit is not None and refit.dagger_every:
+    """The refit of a resumed run (None without ``init.imitate`` and ``init.refit_batches``): its first
+    demonstrations driven again (the same episodes and actions), DAgger continuing from the next round; the student's
+    states of earlier rounds and the refit's optimiser state are not kept in a checkpoint."""
+    if not init.get("imitate") or init["refit_batches"] <= 0:
+        return None
+    refit = DemonstrationRefit(*_demonstrations(env_kwargs, init, seed), init=init, env_kwargs=env_kwargs,
+                               high=float(model.action_space.high[0]), seed=seed)
+    if refit.dagger_every:
         refit.rounds = int(model.num_timesteps) // refit.dagger_every
     return refit
 
 
-def imitate(model: Any, venv: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, *,
+def imitate(model: Any, env_kwargs: dict[str, Any], init: dict[str, Any], seed: int, *,
             progress: bool = True) -> tuple[dict[str, Any], DemonstrationRefit | None]:
-    """Start ``model`` (PPO) from the teacher's behaviour (module docstring); returns what to record in the config and
-    the :class:`DemonstrationRefit` to run during PPO (None without ``init.refit_batches``)."""
+    """Start ``model`` (PPO) and its ``VecNormalize`` statistics from the teacher's behaviour (module docstring);
+    returns what to record in the config and the :class:`DemonstrationRefit` to run during PPO (None without
+    ``init.refit_batches``)."""
     t0 = time.perf_counter()
     with tqdm(total=init["episodes"], desc=f"imitating {init['imitate']}", unit="episode", disable=not progress) as bar:
         obs, actions, curves = _demonstrations(env_kwargs, init, seed, bar.update)
     demo_s = time.perf_counter() - t0
-    x = obs
-    if isinstance(venv, VecNormalize) and venv.norm_obs:
+    x, venv = obs, model.get_vec_normalize_env()
+    if venv is not None and venv.norm_obs:
         venv.obs_rms.mean = obs.mean(axis=0, dtype=np.float64)
         venv.obs_rms.var = obs.var(axis=0, dtype=np.float64)
         venv.obs_rms.count = float(len(obs))
-        freeze = init.get("freeze_obs_stats", False)  # every entry the demonstrations vary, or those named
+        freeze = init["freeze_obs_stats"]  # every entry the demonstrations vary, or those named
         if freeze is not False:
             names = observation_names(int(env_kwargs["preview_s"]), int(env_kwargs["preview_step_s"]))
             mask = venv.obs_rms.var > MIN_FROZEN_VAR if freeze is True else np.isin(np.asarray(names), freeze)
             venv.obs_rms = FrozenRunningMeanStd(venv.obs_rms, mask)
         x = venv.normalize_obs(obs)
-    high = _action_high(model)
+    high = float(model.action_space.high[0])
     heat_weight, above_x = heat_weighting(init)
     history = fit_policy_mean(model.policy, x, actions, epochs=init["epochs"],
                               beyond_bound=float(init["beyond_bound"]), high=high, seed=seed,
                               weights=fit_weights(obs, heat_weight, above_x), curves=curves,
-                              cost_weight=float(init.get("cost_weight", 0.0)))
-    refit = _refit(model, venv, env_kwargs, init, seed, (obs, actions, curves))
-    return {"teacher": init["imitate"], "teacher_options": dict(init.get("teacher_options") or {}),
-            "episodes": init["episodes"], "noise": float(init.get("noise", 0.0)), "steps": int(len(actions)),
+                              cost_weight=float(init["cost_weight"]))
+    refit = None
+    if init["refit_batches"] > 0:
+        refit = DemonstrationRefit(obs, actions, curves, init=init, env_kwargs=env_kwargs, high=high, seed=seed)
+    return {"teacher": init["imitate"], "teacher_options": dict(init["teacher_options"]),
+            "episodes": init["episodes"], "noise": float(init["noise"]), "steps": int(len(actions)),
             "near_derating_share": round(float(np.mean(near_derating(obs, above_x))), 4),
             "teacher_at_bound": round(float(np.mean(actions >= high)), 4),
             "mse_first": round(history[0], 5) if history else None,

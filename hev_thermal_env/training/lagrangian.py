@@ -159,11 +159,8 @@ def save_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> None:
     atomic_write_text(state_path(model_path), json.dumps({"lambda": multiplier.lam, "history": multiplier.history}))
 
 
-def load_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> bool:
-    """Restore λ saved beside ``model_path``; False when nothing was saved there."""
-    p = state_path(model_path)
-    if not p.is_file():
-        return False
-    state = json.loads(p.read_text())
-    multiplier.lam, multiplier.history = float(state["lambda"]), list(state.get("history") or [])
-    return True
+def load_multiplier(multiplier: LagrangeMultiplier, model_path: Path) -> None:
+    """Restore λ saved beside ``model_path``, if any."""
+    if (p := state_path(model_path)).is_file():
+        state = json.loads(p.read_text())
+        multiplier.lam, multiplier.history = float(state["lambda"]), list(state.get("history") or [])

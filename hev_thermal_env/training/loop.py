@@ -146,7 +146,7 @@ class TrainingRun:
         zip_path, stats_path, replay_path = checkpoint_paths(self.out, n)
         if self.multiplier is not None:
             save_multiplier(self.multiplier, zip_path)
-        if self.config["algo"] in OFF_POLICY and self.config["hyperparams"].get("save_replay_buffer", True):
+        if self.config["algo"] in OFF_POLICY:
             buf = io.BytesIO()
             model.save_replay_buffer(buf)
             atomic_write_bytes(replay_path, buf.getvalue())
@@ -243,10 +243,9 @@ class TrainingRun:
             self.raw.timesteps = int(self.model.num_timesteps)
             if resume_from is not None:
                 load_multiplier(self.raw.multiplier, resume_from[1])
-        init = cfg.get("init") or {}
+        init, kwargs, seed = cfg.get("init") or {}, env_kwargs(cfg["env"]), int(cfg["seed"])
         if resume_from is None and init.get("imitate"):
-            rec, self.refit = imitate(self.model, self.venv, env_kwargs(cfg["env"]), init, int(cfg["seed"]),
-                                      progress=self.progress)
+            rec, self.refit = imitate(self.model, kwargs, init, seed, progress=self.progress)
             cfg.setdefault("result", {})["imitation"] = rec
             loss = ("weighted " if init.get("heat_weight") else "") + "MSE"
             if init.get("cost_weight"):
@@ -256,7 +255,7 @@ class TrainingRun:
                      f"mean fitted ({loss} {rec['mse_first']} -> {rec['mse_last']}) in {rec['wall_s']} s"
                      + ("" if excess is None else f"; {excess} g per step dearer than the teacher by its cost"))
         elif resume_from is not None:
-            self.refit = resumed_refit(self.venv, self.model, env_kwargs(cfg["env"]), init, int(cfg["seed"]))
+            self.refit = resumed_refit(self.model, kwargs, init, seed)
 
     def execute(self) -> dict[str, Any]:
         """Learn up to the total, then save the final model and its evaluation; returns the ``result`` section."""
@@ -329,12 +328,11 @@ class TrainingRun:
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
           overwrite: bool = False, log: Callable[[str], None] | None = None,
           run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
-    """Train a new run into ``out_dir`` (new or empty unless ``overwrite``); returns the ``result`` section of its
-    config. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped by a signal.
-    ``run_class`` runs the session (a sweep's trial reports to Ray Tune through its own :class:`TrainingRun`).
-    """
+    """Train a new run of ``config`` (:func:`~.config.build_config`'s, checked there) into ``out_dir`` (new or empty
+    unless ``overwrite``); returns the ``result`` section of its config. Raises :class:`TrainingInterrupted` after
+    saving a checkpoint when stopped by a signal. ``run_class`` runs the session (a sweep's trial reports to Ray Tune
+    through its own :class:`TrainingRun`)."""
     out = check_new_dir(out_dir, overwrite=overwrite)
-    validate_config(config)
     _limit_threads()
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     run.prepare()
