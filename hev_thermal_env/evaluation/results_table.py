@@ -178,9 +178,8 @@ def _score_summary(rows: list[dict]) -> list[str]:
     aggs = strategy_aggregates(rows)
     if not aggs or max(a["episodes"] for a in aggs) < 2 or all(a["score"] is None for a in aggs):
         return []
-    lines = [[display_name(a["strategy"]), str(a["episodes"]), score_text(a["score"], a["score_ci_low"],
-                                                                          a["score_ci_high"]), str(a["excluded"])]
-             for a in aggs]
+    lines = [[display_name(a["strategy"]), str(a["episodes"]),
+              score_text(a["score"], a["score_ci_low"], a["score_ci_high"]), str(a["excluded"])] for a in aggs]
     return ["", "Normalised score over every cycle × scenario (IQM; with seeds to resample, its "
                 f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval in brackets; a deterministic strategy has one "
                 "run per cycle × scenario and no interval):", "",
