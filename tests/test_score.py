@@ -55,7 +55,7 @@ def test_family_rows_aggregate_their_members():
     fam = [{"cycle": c, "scenario": sc, "strategy": "fam", "family": "fam"}
            for c, sc in (("a", "paper"), ("b", "paper"), ("all", "all"))]
     rows += fam
-    add_score_columns(rows, lambda r: r["family"] == r["strategy"])
+    add_score_columns(rows)
     scores = {(r["cycle"], r["strategy"]): r["score"] for r in rows}
     assert scores[("a", "ppo:1")] == pytest.approx(50.0) and scores[("b", "ppo:1")] == pytest.approx(75.0)
     assert scores[("a", "fam")] == pytest.approx(75.0)  # IQM of 50 and 100

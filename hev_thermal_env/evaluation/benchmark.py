@@ -175,23 +175,22 @@ def _run_one(task: tuple[str, str, str, dict, int]) -> tuple[dict, dict]:
     return {**res.summary, "cycle": cyc.name, "scenario": scenario, "strategy": strategy}, trace
 
 
-def validate(cycles, strategies, scenarios, out: Path, options: dict | None = None,
-             families: list[Family] | None = None) -> dict[str, Any]:
+def validate(cycles, strategies, scenarios, out: Path, options: dict, families: list[Family]) -> dict[str, Any]:
     """Fail before any work on bad names, strategies or output directory; returns the cycles by the names given."""
     loaded = {c: load_cycle(c) for c in cycles}
     for s in scenarios:
         get_scenario(s)
     names = set(list_strategies()) | set(strategies)
-    for f in families or []:
+    for f in families:
         if f.name in names:
             raise ValueError(f"--family {f.name!r}: the name is taken (a strategy or another family); choose another")
         names.add(f.name)
     for s in strategies:
-        get_strategy(s, **(options or {}).get(s, {}))
-    for f in families or []:
+        get_strategy(s, **options.get(s, {}))
+    for f in families:
         for path, member in zip(f.paths, f.members):
             try:
-                get_strategy(member, **(options or {}).get(member, {}))
+                get_strategy(member, **options.get(member, {}))
             except (ValueError, OSError) as exc:  # say which member of which family
                 kind = ValueError if isinstance(exc, ValueError) else OSError
                 raise kind(f"--family {f.name}: {path}: {' '.join(str(exc).split())}") from None
@@ -212,23 +211,20 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     are written."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
-    fams = list(families or [])
+    fams, options = list(families or []), options or {}
     loaded = validate(cycles, strategies, scenarios, out, options, fams)
-    options = options or {}
     run_names = list(dict.fromkeys([*strategies, *(m for f in fams for m in f.members)]))
     tasks = [(c, sc, st, options, physics) for c in cycles for sc in scenarios for st in run_names]
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
     t0 = time.perf_counter()
     with make_executor(executor, jobs=jobs, address=address) as runner:
         results = _run_tasks(tasks, runner, progress, {c: (cyc.name, cyc.n_steps) for c, cyc in loaded.items()})
-    failed = [r[0] for r in results if "error" in r[0]]
-    results = [r for r in results if "error" not in r[0]]
-    rows = [r[0] for r in results]
-    traces = {(r[0]["cycle"], r[0]["scenario"], r[0]["strategy"]): r[1] for r in results}
+    failed = [row for row, _ in results if "error" in row]
+    rows = [row for row, _ in results if "error" not in row]
+    traces = {(r["cycle"], r["scenario"], r["strategy"]): trace for r, trace in results if "error" not in r}
     add_yardstick_columns(rows)
     tag_members(rows, fams, strategies)
     rows += family_rows(rows, fams)
-    out.mkdir(parents=True, exist_ok=True)
     notes = ([REFERENCE_ADDED_NOTE] if added else []) + [f"Failed, left out: {_failure(f)}" for f in failed]
     write_results(out, rows, wall_s=time.perf_counter() - t0, notes=notes)
     if plots:

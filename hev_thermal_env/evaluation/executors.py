@@ -184,8 +184,7 @@ def start_ray(ray, num_cpus: int | None, address: str | None) -> bool:
     if address.strip() != "auto":  # fail fast, in one line, when nothing answers there (``auto`` is left to Ray)
         host, port = split_address(address)
         try:
-            with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
-                pass
+            socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S).close()
         except OSError as exc:
             reason = exc.strerror or str(exc) or type(exc).__name__
             raise ExecutorError(f"--address {address}: no Ray cluster reachable at {host}:{port} "

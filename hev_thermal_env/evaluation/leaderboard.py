@@ -6,7 +6,7 @@ and track and each physics version apart.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -68,19 +68,15 @@ def ensure_results(directory: Path, tasks: Sequence[str], methods: Sequence[str]
             if method == "ppo" and trained_on is not None and task.fingerprint() != trained_on:
                 continue
             path = Path(directory) / task.id / f"{method}.json"
-            digest = shipped_policy_digest() if method == "ppo" else None
+            stamp = {"policy_digest": shipped_policy_digest(), "track": track_of(shipped)} if method == "ppo" else {}
             try:
                 stored = load_result(path)
-                stale = digest is not None and (stored.get("policy_digest") != digest
-                                                or stored.get("track") != track_of(shipped))
+                stale = any(stored.get(k) != v for k, v in stamp.items())
             except (ResultFormatError, StaleReferenceError):
                 stale = True
             if stale:
                 record = (result_of_reference(task, references) if method == REFERENCE
-                          else result_of_strategy(task, method, references=references))
-                if digest is not None:
-                    record["policy_digest"] = digest
-                    record["track"] = track_of(shipped)
+                          else result_of_strategy(task, method, references=references)) | stamp
                 atomic_write_json(path, record)
                 if progress is not None:
                     how = ("from the stored reference" if method == REFERENCE
@@ -112,13 +108,12 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
     refs = {(e["cycle"], e["seed"]): e for e in reference["episodes"]}
     budget = float(reference["safety_budget_s"])
     groups: dict[tuple[str, int], list[tuple[float | None, str | None]]] = {}
-    ratios, safety, rows = [], [], []
+    safety, rows = [], []
     above = beyond_soc = 0
     for row in result["episodes"]:
         key = (row["cycle"], int(row.get("env_seed", 0)))
         ratio, score, note = episode_score(refs[key], row["cost_g"], row["soc_final"])
         groups.setdefault(key, []).append((score, note))
-        ratios.append(ratio)
         rows.append({"frontier_ratio": ratio, "score": score, "note": note})
         safety.append(float(row["safety_cost_s"]))
         optimum_s = float(refs[key]["optimum"]["safety_cost_s"])
@@ -127,25 +122,28 @@ def score_result(result: dict[str, Any], reference: dict[str, Any]) -> dict[str,
             beyond_soc += abs(float(row["soc_final"]) - float(row["soc_initial"])) > SOC_BOUND
         else:  # a row without its start: the count is unknown
             beyond_soc = None
-    agg = aggregate(list(groups.values()))
-    fuel = [r.get("fuel_corrected_l_per_100km") for r in result["episodes"]]
+    kept = [[s for s, note in g if usable(s, note)] for g in groups.values()]
     cs = [r.get("charge_sustaining") for r in result["episodes"]]
     return {"task": result["task"], "method": result["method"], "track": result.get("track"),
-            "seeds": len(result["seeds"]),
-            "runs": len(result["episodes"]), **agg,
+            "seeds": len(result["seeds"]), "runs": len(result["episodes"]), **aggregate(list(groups.values())),
             "anchor_ratios": [e["anchor"]["frontier_ratio"] for e in reference["episodes"]],
-            "scores": [s for g in groups.values() for s, note in g if usable(s, note)],
-            "score_groups": [[s for s, note in g if usable(s, note)] for g in groups.values()],
-            "frontier_ratio": iqm([r for r in ratios if r is not None]) if any(r is not None for r in ratios) else None,
+            "scores": [s for g in kept for s in g], "score_groups": kept,
+            "frontier_ratio": _iqm(r["frontier_ratio"] for r in rows),
             "safety_cost_s": iqm(safety), "safety_cost_max_s": max(safety), "budget_s": budget,
             "within_budget": sum(s <= budget for s in safety), "above_optimum_safety": int(above),
             "beyond_soc_bound": beyond_soc,
-            "fuel_corrected_l_per_100km": iqm([f for f in fuel if f is not None]) if any(f is not None for f in fuel)
-            else None, "fuel_kg": float(np.mean([r.get("fuel_g", np.nan) for r in result["episodes"]])) / 1000.0,
+            "fuel_corrected_l_per_100km": _iqm(r.get("fuel_corrected_l_per_100km") for r in result["episodes"]),
+            "fuel_kg": float(np.mean([r.get("fuel_g", np.nan) for r in result["episodes"]])) / 1000.0,
             "charge_sustaining": None if any(c is None for c in cs) else sum(cs),
             "wall_clock_s": result.get("wall_clock_s"), "rows": rows,
             "training_wall_s": float(np.mean(result["training"]["wall_clock_s_per_seed"]))
             if result.get("training") else None}
+
+
+def _iqm(values: Iterable[float | None]) -> float | None:
+    """The IQM of the values that are not None; None without any."""
+    kept = [v for v in values if v is not None]
+    return iqm(kept) if kept else None
 
 
 def score_files(paths: Sequence[str | Path], references_dir: Path | None = None) -> tuple[list[dict], list[str]]:
@@ -200,15 +198,13 @@ def _task_table(entries: list[dict]) -> list[str]:
     by_row = {row_key(e): e for e in entries}
     for key in _order(list(by_row)):
         e = by_row[key]
-        fuel = e["fuel_corrected_l_per_100km"]
         cs = "-" if e["charge_sustaining"] is None else f"{e['charge_sustaining']}/{e['runs']}"
         excl = f" ({e['excluded']} left out)" if e["excluded"] else ""
         lines.append(f"| {label(key[0])} | {key[1]} | "
                      f"{score_text(e['score'], e['score_ci_low'], e['score_ci_high'])}{excl} | "
                      f"{_num(e['frontier_ratio'], 3)} | {e['safety_cost_s']:.0f}; {e['safety_cost_max_s']:.0f} | "
-                     f"{e['within_budget']}/{e['runs']} | {e['above_optimum_safety']}/{e['runs']} | {_num(fuel, 2)} | "
-                     f"{_num(e['fuel_kg'], 2)} | {cs} | "
-                     f"{e['runs']} |")
+                     f"{e['within_budget']}/{e['runs']} | {e['above_optimum_safety']}/{e['runs']} | "
+                     f"{_num(e['fuel_corrected_l_per_100km'], 2)} | {_num(e['fuel_kg'], 2)} | {cs} | {e['runs']} |")
     return lines + [""]
 
 
@@ -313,10 +309,9 @@ def _profile_lines(ax, scores: dict[tuple[str, str], np.ndarray], unscored: dict
             ax.step(x, y, where="post", label=f"{name} ({what})", **look[key])
     for x in (0.0, 100.0):
         ax.axvline(x, color="0.6", lw=0.8, zorder=0)
-    ax.set_xlim(lo, hi)
-    ax.set_ylim(-0.02, 1.02)
+    ax.set(xlim=(lo, hi), ylim=(-0.02, 1.02),
+           xlabel="normalised score τ (0 = engine_only, 100 = the thermal optimum)")
     ax.grid(alpha=0.3)
-    ax.set_xlabel("normalised score τ (0 = engine_only, 100 = the thermal optimum)")
 
 
 def _looks(keys: Sequence[tuple[str, str]], plt: Any) -> dict[tuple[str, str], dict[str, Any]]:
@@ -359,9 +354,8 @@ def profile_figure(entries: list[dict]):
 def write_leaderboard(entries: list[dict], missing: Sequence[str], out: Path, plot: bool = True) -> Path:
     """Write the page ``out`` and, with ``plot``, :data:`PROFILE_FILE` beside it; returns the page's path."""
     out = Path(out)
-    profile = None
-    if plot and entries:
+    profile = PROFILE_FILE if plot and entries else None
+    if profile:
         save_fig(profile_figure(entries), out.parent / PROFILE_FILE)
-        profile = PROFILE_FILE
     atomic_write_text(out, markdown(entries, missing, profile))
     return out

@@ -40,20 +40,12 @@ def _series(trace: Mapping[str, np.ndarray], key: str) -> np.ndarray | None:
     return np.asarray(trace[key], dtype=float) if key in trace else None
 
 
-def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
-    return np.asarray(trace["time_s"], dtype=float)
-
-
 def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", learned: Collection[str] = ()):
     """The trace figure of ``{label: trace}``, each with per-step ``time_s``, ``speed_mps``, ``soc``,
     ``motor_temp_c``, ``heat_index`` and ``motor_share`` (and, if present, ``cycle_speed_mps``,
-    ``missed_wheel_energy_j``, ``motor_cutoff``, ``shaft_torque_demand_nm``); temperature limits of ``paper_bus`` and
-    the default reward. ``learned``: more names drawn as learned policies (seed families).
-
-    Panels, top to bottom: the cycle's speed (thick, light) and each strategy's; the cumulative missed wheel energy;
-    SOC; motor temperature, with the 70 °C cutoff and its 60 °C release when the motor comes near them (a mark
-    wherever a motor is cut off); the heat index; the split, one strip per strategy (colour = motor share u; green: the
-    regeneration share while braking; grey where no torque is demanded)."""
+    ``missed_wheel_energy_j``, ``motor_cutoff``, ``shaft_torque_demand_nm``), a panel each (its title says what it
+    shows); the temperature limits are ``paper_bus``'s. ``learned``: more names drawn as learned policies (seed
+    families)."""
     if not traces:
         raise ValueError("plot_run: no traces to plot")
     labels = ordered(traces, learned)
@@ -67,7 +59,7 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", 
     limit_handles = _temperature_panel(ax_temp, traces, labels, styles)
     for label in labels:
         tr, st = traces[label], styles[label]
-        t = _time(tr)
+        t = _series(tr, "time_s")
         miss = _series(tr, "missed_wheel_energy_j")
         if miss is not None:
             ax_miss.plot(t, np.cumsum(miss) / 3.6e6, **st)
@@ -95,11 +87,12 @@ def _speed_panel(ax, traces, labels, styles) -> list:
     handles = []
     cycle = next((traces[x] for x in labels if "cycle_speed_mps" in traces[x]), None)
     if cycle is not None:
-        handles += ax.plot(_time(cycle), _series(cycle, "cycle_speed_mps") * 3.6, color=CYCLE_COLOUR, lw=5.0,
-                           solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
+        handles += ax.plot(_series(cycle, "time_s"), _series(cycle, "cycle_speed_mps") * 3.6, color=CYCLE_COLOUR,
+                           lw=5.0, solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
     for label in labels:
         tr = traces[label]
-        handles += ax.plot(_time(tr), _series(tr, "speed_mps") * 3.6, label=short_label(label), **styles[label])
+        handles += ax.plot(_series(tr, "time_s"), _series(tr, "speed_mps") * 3.6, label=short_label(label),
+                           **styles[label])
     ax.set_title("speed: the cycle (thick, light) and what each strategy delivered (thin)", fontsize=10)
     ax.set(ylabel="speed (km/h)", ylim=(0.0, None))
     return handles
@@ -111,7 +104,7 @@ def _temperature_panel(ax, traces, labels, styles) -> list:
     hottest = -np.inf
     for label in labels:
         tr = traces[label]
-        t, temp = _time(tr), _series(tr, "motor_temp_c")
+        t, temp = _series(tr, "time_s"), _series(tr, "motor_temp_c")
         hottest = max(hottest, float(np.nanmax(temp)))
         ax.plot(t, temp, **styles[label])
         cut = _series(tr, "motor_cutoff")
@@ -139,7 +132,7 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
     brakes, grey where no torque is demanded."""
     from matplotlib.colors import ListedColormap
 
-    t_all = [_time(traces[label]) for label in labels]
+    t_all = [_series(traces[label], "time_s") for label in labels]
     t0, t1 = min(float(t[0]) for t in t_all), max(float(t[-1]) for t in t_all)
     n_cols = int(round(t1 - t0)) + 1
     grid = np.full((len(labels), n_cols), np.nan)
@@ -275,8 +268,7 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
 
 def _row_label(name: str, families: set[str], members: dict[str, list[dict]]) -> str:
     if name in families:
-        n = len({m["strategy"] for m in members.get(name, [])})
-        return f"{name} ({n} seeds)"
+        return f"{name} ({len({m['strategy'] for m in members.get(name, [])})} seeds)"
     return short_label(name)
 
 
@@ -300,7 +292,7 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         r = sel.get(name)
         if r is None:
             continue
-        colour = styles[name]["color"]
+        colour, learned_row = styles[name]["color"], is_learned(name, families)
         if r.get(key) is None:
             why = "final SOC off the frontier" if "outside" in str(r.get("frontier_note")) else "see results.md"
             ax.annotate(f"n/a ({why})", (origin, y), xytext=(5, 0), textcoords="offset points", va="center",
@@ -310,10 +302,9 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         if name in families:
             left, right = _family(ax, r, seeds.get(name, []), key, y, colour)
         else:
-            ax.plot([origin, v], [y, y], color=colour, lw=2.2 if is_learned(name, families) else 1.4, zorder=2,
+            ax.plot([origin, v], [y, y], color=colour, lw=2.2 if learned_row else 1.4, zorder=2,
                     solid_capstyle="butt")
-            ax.plot([v], [y], marker="D" if is_learned(name, families) else "o",
-                    ms=7 if is_learned(name, families) else 6, color=colour, zorder=3)
+            ax.plot([v], [y], marker="D" if learned_row else "o", ms=7 if learned_row else 6, color=colour, zorder=3)
             left = right = v
         # a value clearly below the reference is labelled on its left, away from the line; others (and a family's
         # longer label, with its interval) on the right, past the reference line if need be
@@ -322,7 +313,7 @@ def _panel(ax, sel: dict[str, dict], seeds: dict[str, list[dict]], key: str, pos
         right = max(right, origin)
         ax.annotate(_value_label(r, key), (left if below else right, y), xytext=(-7 if below else 7, 0),
                     textcoords="offset points", va="center", ha="right" if below else "left", fontsize=8,
-                    fontweight="bold" if is_learned(name, families) else "normal")
+                    fontweight="bold" if learned_row else "normal")
     ax.grid(axis="x", alpha=0.3)
     ax.tick_params(axis="y", length=0)
     ax.spines[["top", "right"]].set_visible(False)
@@ -340,8 +331,8 @@ def _family(ax, r: dict, seeds: list[dict], key: str, y: float, colour: str) -> 
     """Draw a family's seeds, interval and IQM on row ``y``; returns its left and right ends (for the label)."""
     xs = [float(m[key]) for m in seeds if m.get(key) is not None]
     n = len(xs)
-    offsets = [SEED_SPREAD * ((i + 0.5) / n - 0.5) for i in range(n)]
-    ax.plot(xs, [y + o for o in offsets], ls="none", marker="o", ms=3.5, color=colour, alpha=0.6, zorder=3)
+    ax.plot(xs, [y + SEED_SPREAD * ((i + 0.5) / n - 0.5) for i in range(n)], ls="none", marker="o", ms=3.5,
+            color=colour, alpha=0.6, zorder=3)
     v, low, high = float(r[key]), r.get(f"{key}_ci_low"), r.get(f"{key}_ci_high")
     if low is not None and high is not None:
         ax.errorbar([v], [y], xerr=[[v - float(low)], [float(high) - v]], fmt="none", ecolor=colour, elinewidth=2.0,

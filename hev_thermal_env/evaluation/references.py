@@ -27,9 +27,7 @@ REFERENCE_DIR = Path(__file__).resolve().parent / "references"
 """Where the package keeps the references, one JSON file per task id."""
 FORMAT = "hev-thermal-reference-v1"
 BUDGET_MARGIN = 0.05
-"""The safety budget is the optimum's largest episode safety cost times 1 + this ..."""
-BUDGET_FLOOR_S = 10.0
-"""... and at least this many seconds (the optimum often loses no capability at all)."""
+BUDGET_FLOOR_S = 10.0  # the optimum often loses no capability at all
 ANCHOR_SOC_MARGIN = 0.01
 """The optimum's frontier reaches this far below the anchor's final SOC (:func:`frontier_halfwidth_for`)."""
 BUDGET_RULE = (f"largest episode safety cost of {REFERENCE} × {1 + BUDGET_MARGIN:g}, at least {BUDGET_FLOOR_S:g} s "
@@ -40,9 +38,8 @@ class StaleReferenceError(ValueError):
     """A stored reference measured on other physics or another task definition than the current ones."""
 
 
-def reference_path(task: str | Task, directory: Path | None = None) -> Path:
-    """The file of ``task``'s reference (a task or its id) in ``directory`` (default :data:`REFERENCE_DIR`)."""
-    return Path(directory or REFERENCE_DIR) / f"{task.id if isinstance(task, Task) else task}.json"
+def reference_path(task_id: str, directory: Path | None = None) -> Path:
+    return Path(directory or REFERENCE_DIR) / f"{task_id}.json"
 
 
 def safety_budget_s(optimum_safety_costs_s: list[float]) -> float:
@@ -103,9 +100,7 @@ def reference_episode(cell: tuple[str, int, str, int | None, int]) -> dict[str, 
     t_ep = time.perf_counter()
     anchor = run_strategy(get_strategy(ANCHOR), cycle, scenario, seed=seed, physics=physics)
     width = frontier_halfwidth_for(anchor.summary["soc_initial"], anchor.summary["soc_final"])
-    options: dict[str, Any] = {} if width is None else {"frontier_halfwidth": width}
-    if threads is not None:
-        options["threads"] = threads
+    options = {k: v for k, v in (("frontier_halfwidth", width), ("threads", threads)) if v is not None}
     opt = run_strategy(get_strategy(REFERENCE, **options), cycle, scenario, seed=seed, physics=physics)
     wall_s = time.perf_counter() - t_ep
     settings = opt.summary.get("strategy_settings") or {}
@@ -135,11 +130,11 @@ def save_reference(record: dict[str, Any], directory: Path | None = None) -> Pat
     return atomic_write_json(reference_path(record["task"], directory), record)
 
 
-def load_reference(task: str | Task, directory: Path | None = None, *, check: bool = True) -> dict[str, Any]:
-    """The stored reference of ``task``; ``FileNotFoundError`` without one, :class:`StaleReferenceError` (``check``)
-    when stale."""
+def load_reference(task: str | Task, directory: Path | None = None) -> dict[str, Any]:
+    """The stored reference of ``task``; ``FileNotFoundError`` without one, :class:`StaleReferenceError` when
+    stale."""
     task = get_task(task)
-    path = reference_path(task, directory)
+    path = reference_path(task.id, directory)
     if not path.is_file():
         raise FileNotFoundError(f"no reference for {task.id} ({path}); compute it with: "
                                 f"python evaluate.py reference --task {task.id}")
@@ -150,8 +145,7 @@ def load_reference(task: str | Task, directory: Path | None = None, *, check: bo
     if record.get("format") != FORMAT or record.get("task") != task.id:
         raise ValueError(f"{path}: not a reference of {task.id} in format {FORMAT} (format {record.get('format')!r}, "
                          f"task {record.get('task')!r})")
-    if check:
-        check_current(record, task, str(path))
+    check_current(record, task, str(path))
     return record
 
 
@@ -185,11 +179,9 @@ def references_table(tasks: list[str] | None = None, directory: Path | None = No
         task = get_task(name)
         try:
             ref = load_reference(task, directory)
-        except FileNotFoundError:
-            lines.append(f"| `{task.id}` | {len(task.resets())} | not yet computed | | | |")
-            continue
-        except StaleReferenceError:
-            lines.append(f"| `{task.id}` | {len(task.resets())} | stale: recompute | | | |")
+        except (FileNotFoundError, StaleReferenceError) as exc:
+            why = "not yet computed" if isinstance(exc, FileNotFoundError) else "stale: recompute"
+            lines.append(f"| `{task.id}` | {len(task.resets())} | {why} | | | |")
             continue
         e = ref["episodes"]
         r0 = [x["anchor"]["frontier_ratio"] for x in e if x["anchor"]["frontier_ratio"] is not None]

@@ -24,6 +24,7 @@ from .score import (
     REFERENCE,
     add_score_columns,
     display_name,
+    is_family_row,
     score_text,
     strategy_aggregates,
 )
@@ -63,18 +64,16 @@ EXPLANATION = (
 
 
 def _fmt(v: Any) -> str:
-    if v is None:
-        return ""
     if isinstance(v, float):
         return f"{v:.6g}"
-    return str(v)
+    return "" if v is None else str(v)
 
 
 def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[str] = ()) -> None:
     """Write the four files of ``rows`` (run rows, then family rows) into ``out``; ``notes``: extra lines for
     ``results.md`` (e.g. that the reference was added). Fills each row's normalised score (:mod:`.score`) and
     ``overheat_g`` first."""
-    add_score_columns(rows, _is_family_row)
+    add_score_columns(rows)
     for r in rows:
         r["overheat_g"] = overheat_g(r)
     buf = io.StringIO()
@@ -84,14 +83,14 @@ def write_results(out: Path, rows: list[dict], wall_s: float, notes: Sequence[st
     atomic_write_json(out / "results.json", {"columns": list(COLUMNS), "rows": clean, "notes": list(notes)})
     atomic_write_json(out / "timings.json", {"total_wall_s": wall_s, "runs": [
         {"cycle": r["cycle"], "scenario": r["scenario"], "strategy": r["strategy"], "wall_s": r.get("wall_s")}
-        for r in rows if not _is_family_row(r)]})
+        for r in rows if not is_family_row(r)]})
     atomic_write_text(out / "results.md", markdown(rows, notes))
 
 
 def overheat_g(r: dict) -> float | None:
     """The overheat terms of a run's cost (g): ``cost_g`` less the fuel and the missed wheel energy at its price."""
     need = ("cost_g", "fuel_g", "miss_correction_l_per_100km", "distance_km")
-    if _is_family_row(r) or any(r.get(k) is None for k in need):
+    if is_family_row(r) or any(r.get(k) is None for k in need):
         return None
     miss_g = r["miss_correction_l_per_100km"] * r["distance_km"] / 100.0 * FUEL_DENSITY_G_PER_L
     return max(0.0, float(r["cost_g"]) - float(r["fuel_g"]) - miss_g)
@@ -100,10 +99,6 @@ def overheat_g(r: dict) -> float | None:
 def _score_cell(r: dict) -> str:
     text = score_text(r.get("score"), r.get("score_ci_low"), r.get("score_ci_high"))
     return f"{text} (ill-cond.)" if (r.get("score_note") or "").startswith(ILL_CONDITIONED) else text
-
-
-def _is_family_row(r: dict) -> bool:
-    return r.get("family") is not None and r["strategy"] == r["family"]
 
 
 def ratio_text(r: dict, key: str) -> str:
@@ -116,7 +111,7 @@ def ratio_text(r: dict, key: str) -> str:
 
 
 def _j1711_cell(r: dict) -> str:
-    if _is_family_row(r):
+    if is_family_row(r):
         return f"{r.get('charge_sustaining_runs', 0)}/{r.get('runs', 0)} runs"
     ratio = r.get("net_energy_ratio")
     flag = "yes" if r.get("charge_sustaining") else "no"
@@ -148,10 +143,10 @@ def _table(head: Sequence[str], lines: list[list[str]]) -> list[str]:
 
 def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
     """``results.md``: the table, the families over every cycle × scenario, the notes."""
-    shown = [r for r in rows if r.get("family") is None or (_is_family_row(r) and r["cycle"] != OVERALL)]
-    lines = [_family_line(r) if _is_family_row(r) else _run_line(r) for r in shown]
+    shown = [r for r in rows if r.get("family") is None or (is_family_row(r) and r["cycle"] != OVERALL)]
+    lines = [_family_line(r) if is_family_row(r) else _run_line(r) for r in shown]
     md = _table(MD_HEAD, lines)
-    overall = [r for r in rows if _is_family_row(r) and r["cycle"] == OVERALL]
+    overall = [r for r in rows if is_family_row(r) and r["cycle"] == OVERALL]
     if overall:
         md += ["", f"Seed families over every cycle × scenario (IQM over seeds and cycles × scenarios, "
                    f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval):", ""]
@@ -161,7 +156,7 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
                        ratio_text(r, "fixed_price_ratio"), _j1711_cell(r)] for r in overall])
     md += _score_summary(rows)
     md += ["", *_reference_lines(rows), *_heat_value_lines(rows), *_track_lines(rows), "", EXPLANATION]
-    if any(_is_family_row(r) for r in rows):
+    if any(is_family_row(r) for r in rows):
         md += ["", f"Seed families: IQM over the seeds with its {100 * CONFIDENCE:.0f} % bootstrap interval in "
                    "brackets; each seed's row is in results.csv and results.json (column `family`)."]
     missing: dict[str, list[str]] = {}  # note -> the rows it concerns (a family's members: on the family's row)
@@ -180,12 +175,11 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
 
 def _score_summary(rows: list[dict]) -> list[str]:
     """The score of each strategy over every cycle × scenario, where there are several."""
-    aggs = strategy_aggregates(rows, _is_family_row)
+    aggs = strategy_aggregates(rows)
     if not aggs or max(a["episodes"] for a in aggs) < 2 or all(a["score"] is None for a in aggs):
         return []
-    lines = [[display_name(a["strategy"]), str(a["episodes"]), score_text(a["score"], a["score_ci_low"],
-                                                                          a["score_ci_high"]), str(a["excluded"])]
-             for a in aggs]
+    lines = [[display_name(a["strategy"]), str(a["episodes"]),
+              score_text(a["score"], a["score_ci_low"], a["score_ci_high"]), str(a["excluded"])] for a in aggs]
     return ["", "Normalised score over every cycle × scenario (IQM; with seeds to resample, its "
                 f"{100 * CONFIDENCE:.0f} % stratified bootstrap interval in brackets; a deterministic strategy has one "
                 "run per cycle × scenario and no interval):", "",
@@ -209,7 +203,7 @@ def _track_lines(rows: list[dict]) -> list[str]:
     tracks: dict[str, str] = {}
     for r in rows:
         settings = r.get("strategy_settings") or {}
-        if "imitate" in settings and not _is_family_row(r):  # a family's members: under the family's name
+        if "imitate" in settings and not is_family_row(r):  # a family's members: under the family's name
             teacher = settings["imitate"]
             tracks.setdefault(r.get("family") or display_name(r["strategy"]),
                               f"guided (its training imitates `{teacher}`)" if teacher else "RL")

@@ -18,7 +18,7 @@ from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.cycles import Cycle, load_cycle
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.metrics import run_metrics, yardstick_cost_g
-from hev_thermal_env.physics import Conditions, VehicleConfig, core, paper_bus
+from hev_thermal_env.physics import Conditions, core, paper_bus
 from hev_thermal_env.scenarios import Scenario, get_scenario
 from hev_thermal_env.simulate import step_traces
 
@@ -65,29 +65,23 @@ def jsonable(x: Any) -> Any:
         return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
         return [jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
+    if isinstance(x, (np.ndarray, np.generic)):
         return jsonable(x.tolist())
-    if isinstance(x, (np.bool_, bool)):
-        return bool(x)
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, (np.floating, float)):
-        f = float(x)
-        return f if np.isfinite(f) else None
+    if isinstance(x, float):
+        return float(x) if np.isfinite(x) else None
     return x
 
 
 def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
-                 config: VehicleConfig | None = None, conditions: Conditions | None = None,
-                 seed: int = 0, physics: int = 2) -> RunResult:
+                 conditions: Conditions | None = None, seed: int = 0, physics: int = 2) -> RunResult:
     """Drive ``cycle`` (a built-in name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`) with ``strategy``
-    in the ``scenario`` (``"random"`` draws from the env's reset ``seed``) or explicit ``conditions``; ``config``: the
-    vehicle before the strategy's change (default ``paper_bus(physics=physics)``); ``physics``: the env's physics
-    version. ``trace`` holds every ``info`` field, every physics output, the state after each step and ``u``."""
+    in the ``scenario`` (``"random"`` draws from the env's reset ``seed``) or explicit ``conditions``, on
+    ``paper_bus(physics=physics)`` as the strategy changes it. ``trace`` holds every ``info`` field, every physics
+    output, the state after each step and ``u``."""
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()
-    vehicle = strategy.vehicle_config(config if config is not None else paper_bus(physics=physics))
+    vehicle = strategy.vehicle_config(paper_bus(physics=physics))
     env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions, physics=physics,
                         **strategy.env_options())
     try:
@@ -101,18 +95,17 @@ def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | S
         n = e.cycle.n_steps - k0
         outs, states, us = np.empty((n, core.N_OUT)), np.empty((n, core.N_STATE)), np.empty(n)
         infos: dict[str, list] = {}
-        steps = 0
-        while True:
+        for i in range(n):
             action = np.asarray(strategy.act(obs, info), dtype=np.float32).reshape(1)
             obs, _, terminated, truncated, info = env.step(action)
-            outs[steps] = e.last_out
-            states[steps] = e.phys_state[0]
-            us[steps] = float(action[0])
+            outs[i] = e.last_out
+            states[i] = e.phys_state[0]
+            us[i] = float(action[0])
             for key, value in info.items():
                 infos.setdefault(key, []).append(value)
-            steps += 1
-            if terminated or truncated or steps >= n:
+            if terminated or truncated:
                 break
+        steps = i + 1
         wall = time.perf_counter() - t_start
     finally:
         env.close()

@@ -187,45 +187,48 @@ def score_text(centre: float | None, low: float | None = None, high: float | Non
     return f"{centre:.1f} [{low:.1f}, {high:.1f}]"
 
 
-def add_score_columns(rows: list[dict], is_family_row) -> None:
+def is_family_row(r: Mapping[str, Any]) -> bool:
+    """A seed family's own row (not one of its members'): its ``strategy`` is its ``family``."""
+    return r.get("family") is not None and r["strategy"] == r["family"]
+
+
+def add_score_columns(rows: list[dict]) -> None:
     """Fill the score's columns (``score``, ``score_ci_low``, ``score_ci_high``, ``score_anchor_ratio``,
-    ``score_note``) of every row: runs against :data:`ANCHOR`'s run of their cycle and scenario; family
-    rows (``is_family_row``) as the aggregate of their members' scores (cycle and scenario ``all``: over every one)."""
+    ``score_note``) of every row: runs against :data:`ANCHOR`'s run of their cycle and scenario; family rows as the
+    aggregate of their members' scores (cycle and scenario ``all``: over every one)."""
     anchors = {(r["cycle"], r["scenario"]): r.get("frontier_ratio") for r in rows
                if r["strategy"] == ANCHOR and r.get("family") is None}
     runs = [r for r in rows if not is_family_row(r)]
     for r in runs:
         key = (r["cycle"], r["scenario"])
-        if key not in anchors:
-            r["score"], r["score_note"] = None, f"{ANCHOR} did not run on this cycle and scenario"
-            r["score_anchor_ratio"] = None
-        else:
-            r["score_anchor_ratio"] = anchors[key]
-            r["score"], r["score_note"] = normalised_score(r.get("frontier_ratio"), anchors[key])
+        r["score_anchor_ratio"] = anchors.get(key)
+        r["score"], r["score_note"] = (normalised_score(r.get("frontier_ratio"), anchors[key]) if key in anchors
+                                       else (None, f"{ANCHOR} did not run on this cycle and scenario"))
         r["score_ci_low"] = r["score_ci_high"] = None
-    for f in (r for r in rows if is_family_row(r)):
+    for f in filter(is_family_row, rows):
         members = [m for m in runs if m.get("family") == f["family"]
                    and (f["cycle"] == "all" or (m["cycle"], m["scenario"]) == (f["cycle"], f["scenario"]))]
-        agg = aggregate(list(_by_episode(members).values()))
+        agg = aggregate(_by_episode(members))
         f.update({k: agg[k] for k in ("score", "score_ci_low", "score_ci_high")})
         f["score_anchor_ratio"] = None
         f["score_note"] = (f"{agg['excluded']} of {agg['n'] + agg['excluded']} runs left out (ill-conditioned or "
                            "without a ratio)") if agg["excluded"] else None
 
 
-def _by_episode(rows: Iterable[dict]) -> dict[tuple[str, str], list[tuple[float | None, str | None]]]:
+def _by_episode(rows: Iterable[dict]) -> list[list[tuple[float | None, str | None]]]:
+    """The ``(score, note)`` of ``rows`` grouped by cycle and scenario, in order of appearance."""
     groups: dict[tuple[str, str], list[tuple[float | None, str | None]]] = {}
     for r in rows:
         groups.setdefault((r["cycle"], r["scenario"]), []).append((r.get("score"), r.get("score_note")))
-    return groups
+    return list(groups.values())
 
 
-def strategy_aggregates(rows: Sequence[dict], is_family_row) -> list[dict]:
-    """Per strategy (runs, not family members), the aggregate score over every cycle × scenario it ran on, in the
-    rows' order: ``{"strategy", "episodes", **aggregate}``."""
+def strategy_aggregates(rows: Sequence[dict]) -> list[dict]:
+    """Per strategy (runs, not seed families or their members), the aggregate score over every cycle × scenario it
+    ran on, in the rows' order: ``{"strategy", "episodes", **aggregate}``."""
+    runs = [r for r in rows if r.get("family") is None]
     out = []
-    runs = [r for r in rows if r.get("family") is None and not is_family_row(r)]
     for name in dict.fromkeys(r["strategy"] for r in runs):
         groups = _by_episode(r for r in runs if r["strategy"] == name)
-        out.append({"strategy": name, "episodes": len(groups), **aggregate(list(groups.values()))})
+        out.append({"strategy": name, "episodes": len(groups), **aggregate(groups)})
     return out

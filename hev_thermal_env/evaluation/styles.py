@@ -46,18 +46,15 @@ def is_learned(strategy: str, learned: Collection[str] = ()) -> bool:
 
 
 def ordered(strategies: Iterable[str], learned: Collection[str] = ()) -> list[str]:
-    """The strategies from the simplest to the optimum, then the learned ones (each group stable)."""
-    names = list(dict.fromkeys(strategies))
+    """The strategies from the simplest to the optimum, then the learned ones (each group stable: a stable sort)."""
 
     def rank(name: str) -> tuple[float, ...]:
         cls = strategy_class(name)
         if is_learned(name, learned):
-            return (3, names.index(name))
-        if cls is not None:
-            return (2 if cls.optimum else 0, cls.order, names.index(name))
-        return (1, names.index(name))
+            return (3,)
+        return (2 if cls.optimum else 0, cls.order) if cls is not None else (1,)
 
-    return sorted(names, key=rank)
+    return sorted(dict.fromkeys(strategies), key=rank)
 
 
 def short_label(strategy: str, width: int = 24) -> str:

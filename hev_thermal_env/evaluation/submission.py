@@ -1,17 +1,17 @@
 """The result format (:data:`FORMAT`, JSON; docs/tasks.md, *Results of outside methods*): one method's episodes on
 one task, written by this package or by any outside method.
 
-Required: :data:`REQUIRED`; ``seeds`` are the method's own (``[0]`` for a deterministic strategy), every seed with one
-row per episode of the task (``cycle``, ``env_seed``: :meth:`~hev_thermal_env.tasks.Task.resets`). A row's
-``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)`` (the yardstick cost) and ``safety_cost_s = Σ cost`` are
-sums over the steps' infos (:class:`EpisodeTally`); ``soc_final`` is the last step's ``info["soc"]``. Optional:
-``task_digest``, the row's :data:`OPTIONAL_NUMBERS` and ``charge_sustaining``, ``description``, ``training`` (a
-learned method's ``wall_clock_s_per_seed``, one number per seed, optionally ``timesteps`` and ``steps_per_s``) and
-``track`` (:data:`TRACKS`).
+Required: :data:`REQUIRED`; every seed of ``seeds`` (``[0]`` for a deterministic strategy) with one row per episode
+of the task (``cycle``, ``env_seed``: :meth:`~hev_thermal_env.tasks.Task.resets`) holding :data:`ROW_NUMBERS`, from
+the steps' infos (:class:`EpisodeTally`: ``cost_g = −Σ (reward_fuel + reward_miss + reward_overheat)``,
+``safety_cost_s = Σ cost``, ``soc_final`` the last ``soc``). Optional: ``task_digest``, the row's
+:data:`OPTIONAL_NUMBERS` and ``charge_sustaining``, ``description``, ``training`` (``wall_clock_s_per_seed``, one
+number per seed, optionally ``timesteps`` and ``steps_per_s``) and ``track`` (:data:`TRACKS`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import time
@@ -34,6 +34,8 @@ ROW_NUMBERS = {"cost_g": (0.0, math.inf), "soc_final": (0.0, 1.0), "safety_cost_
 TRACKS = ("RL", "guided")
 OPTIONAL_NUMBERS = {"fuel_g": (0.0, math.inf), "fuel_corrected_l_per_100km": (-math.inf, math.inf),
                     "soc_initial": (0.0, 1.0)}
+#: A row's numbers from a run's summary (:func:`result_of_strategy`).
+RUN_NUMBERS = ("cost_g", "soc_initial", "soc_final", "safety_cost_s", "fuel_g", "fuel_corrected_l_per_100km")
 
 
 def track_of(config: dict[str, Any]) -> str:
@@ -123,7 +125,7 @@ def _check_training(training: Any, seeds: list[int], where: str) -> None:
 def _check_episodes(rows: Any, task: Task, seeds: list[int], where: str) -> None:
     if not isinstance(rows, list):
         raise ResultFormatError(f"{where}: episodes: expected a list of rows, got {type(rows).__name__}")
-    expected = {(s, c, e) for s in seeds for e, o in task.resets() for c in [o["cycle"]]}
+    expected = {(s, o["cycle"], e) for s in seeds for e, o in task.resets()}
     seen = set()
     for i, row in enumerate(rows):
         at = f"{where}: episodes[{i}]"
@@ -166,20 +168,17 @@ def load_result(path: str | Path) -> dict[str, Any]:
 
 def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str | None = None, *,
                        references: Path | None = None, **options: Any) -> dict[str, Any]:
-    """Run a strategy (a name of this package's, built by ``get_strategy(strategy, **options)``, or a
-    :class:`~hev_thermal_env.agents.base.Strategy`) on every episode of ``task``; its result record (seed 0).
-
-    The optimum (:data:`~.score.REFERENCE`, without options) is asked for the frontier its episode's stored
-    reference (in ``references``, default the package's) was solved with (``frontier_halfwidth``, wider where the
-    anchor ends far below the start), so it reuses that plan and its run is the reference's."""
+    """The result record (seed 0) of a strategy (a name, built by ``get_strategy(strategy, **options)``, or a
+    :class:`~hev_thermal_env.agents.base.Strategy`) on every episode of ``task``. The optimum
+    (:data:`~.score.REFERENCE`, without options) is asked for the ``frontier_halfwidth`` its episode's stored
+    reference (in ``references``, default the package's) was solved with: it reuses that plan and its run is the
+    reference's."""
     task = get_task(task)
     t0 = time.perf_counter()
     episodes = []  # the stored reference's, for the optimum
     if strategy == REFERENCE and not options:
-        try:
+        with contextlib.suppress(FileNotFoundError, StaleReferenceError):
             episodes = load_reference(task, references)["episodes"]
-        except (FileNotFoundError, StaleReferenceError):
-            pass
     widths = {(e["cycle"], int(e["seed"])): float(e["frontier_halfwidth"]) for e in episodes
               if e.get("frontier_halfwidth") is not None}
     rows = []
@@ -187,12 +186,8 @@ def result_of_strategy(task: str | Task, strategy: str | Strategy, method: str |
         width = widths.get((opts["cycle"], int(env_seed)))
         kwargs = options if width is None else {**options, "frontier_halfwidth": width}
         agent = get_strategy(strategy, **kwargs) if isinstance(strategy, str) else strategy
-        res = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed, physics=task.physics)
-        s = res.summary
-        rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), "cost_g": s["cost_g"],
-                     "soc_initial": s["soc_initial"], "soc_final": s["soc_final"],
-                     "safety_cost_s": s["safety_cost_s"], "fuel_g": s["fuel_g"],
-                     "fuel_corrected_l_per_100km": s["fuel_corrected_l_per_100km"],
+        s = run_strategy(agent, opts["cycle"], task.scenario, seed=env_seed, physics=task.physics).summary
+        rows.append({"seed": 0, "cycle": opts["cycle"], "env_seed": int(env_seed), **{k: s[k] for k in RUN_NUMBERS},
                      "charge_sustaining": bool(s["charge_sustaining"])})
     return _record(task, method or str(getattr(strategy, "label", strategy)), [0], round(time.perf_counter() - t0, 2),
                    rows)
