@@ -8,15 +8,19 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+from matplotlib.ticker import MaxNLocator
+
 from hev_thermal_env.agents.policy_files import checkpoint_files
 from hev_thermal_env.evaluation.results_table import _fmt, _table  # the benchmark tables' cells and layout
+from hev_thermal_env.evaluation.styles import pyplot, save_fig
 from hev_thermal_env.io import atomic_write_json, atomic_write_text
 from hev_thermal_env.stats import CONFIDENCE, iqm, iqm_ci
 from hev_thermal_env.training.artifacts import export_policy, write_csv
-from hev_thermal_env.training.curves import plot_sweep
 
 from .trial import METRIC, RUN_DIR, SEED_INDEX, TIME_ATTR, probe_config, trial_overrides, tunable_keys
 
+#: Configurations shown in the right panel of ``sweep.png`` (best first).
+MAX_CONFIGS_SHOWN = 12
 
 @dataclasses.dataclass
 class TrialRecord:
@@ -172,3 +176,40 @@ def export_best(report: SweepReport, dest: Path, settings: dict[str, Any]) -> Pa
              f"{len(config.scores)} seed(s) {config.iqm:.1f} g.", "", "Hyperparameters searched:", ""]
     lines += [f"- `{k}`: {v!r}" for k, v in best.hyperparams.items()] or ["- (none: a multi-seed study)"]
     return export_policy(model, dest, readme="\n".join(lines) + "\n")
+
+
+def plot_sweep(trials: list[Any], configs: list[Any], best: Any, path: Path, metric: str) -> Path:
+    """A sweep's figure (the trial records and configuration summaries, best first; ``best``: the best
+    trial or None), a PNG at ``path``. Left: the validation return over env-steps per trial (the best configuration
+    drawn thick, trials stopped early dashed). Right: per configuration, each seed's last ``metric`` (dots), the IQM
+    (bar) and its 95 % bootstrap interval (whiskers)."""
+    plt = pyplot()
+    shown = [c for c in configs if c.iqm is not None][:MAX_CONFIGS_SHOWN]
+    colours = {c.config_id: plt.cm.tab10(i % 10) for i, c in enumerate(shown)}
+    fig, (ax_curve, ax_seeds) = plt.subplots(1, 2, figsize=(12, 4.8), gridspec_kw={"width_ratios": [3, 2]})
+    best_config = best.config_id if best is not None else None
+    for t in trials:
+        if t.curve:
+            ax_curve.plot(*zip(*t.curve), color=colours.get(t.config_id, "0.7"),
+                          lw=2.4 if t.config_id == best_config else 1.0, ls="--" if t.status == "stopped" else "-",
+                          marker="o", ms=3, alpha=0.9)
+    if best is not None and best.curve:
+        ax_curve.plot(*best.curve[-1], marker="*", ms=14, color="k", ls="none", label=f"best trial ({best.trial_id})")
+        ax_curve.legend(loc="lower right", fontsize=8)
+    ax_curve.set(xlabel="env-steps", ylabel="validation return (g, higher is better)",
+                 title="every trial (thick: best configuration, dashed: stopped early)")
+    ax_curve.grid(alpha=0.3)
+    for y, c in enumerate(shown):
+        colour = colours[c.config_id]
+        ax_seeds.scatter(c.scores, [y] * len(c.scores), color=colour, s=22, zorder=3)
+        ax_seeds.plot([c.iqm, c.iqm], [y - 0.3, y + 0.3], color=colour, lw=3)
+        if c.ci_low is not None:
+            ax_seeds.plot([c.ci_low, c.ci_high], [y, y], color=colour, lw=1.2)
+    seeds = [f"{len(c.scores)} seed{'' if len(c.scores) == 1 else 's'}" for c in shown]
+    ax_seeds.set_yticks(range(len(shown)), [f"{c.config_id} ({n})" for c, n in zip(shown, seeds)])
+    ax_seeds.set_ylim(len(shown) - 0.4, -0.6)
+    ax_seeds.xaxis.set_major_locator(MaxNLocator(4))
+    ax_seeds.set(xlabel=f"last {metric} (g)", title="seeds (dots), IQM (bar), 95 % bootstrap CI")
+    ax_seeds.grid(alpha=0.3, axis="x")
+    fig.tight_layout()
+    return save_fig(fig, path)
