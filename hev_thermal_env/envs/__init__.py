@@ -1,7 +1,6 @@
-"""The MDP layer: :class:`HevThermalEnv` (``HevThermal-v1``, :mod:`.hev_env`) and :class:`HevThermalVectorEnv`
-(:mod:`.vector_env`), both stepping through the batch engine (:mod:`.batch`); what a reset draws (:mod:`.episodes`); the
-reward, written once (:mod:`.reward`); the observation and info layout, the safety cost and codes (:mod:`.spaces`);
-rendering (:mod:`.render`).
+"""The MDP layer: :class:`HevThermalEnv` (:mod:`.hev_env`) and :class:`HevThermalVectorEnv` (:mod:`.vector_env`),
+both stepping through the batch engine (:mod:`.batch`); what a reset draws (:mod:`.episodes`); the reward
+(:mod:`.reward`); the observation and info layout (:mod:`.spaces`); rendering (:mod:`.render`).
 """
 
 from .hev_env import HevThermalEnv
