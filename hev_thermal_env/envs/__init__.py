@@ -4,15 +4,8 @@ both stepping through the batch engine (:mod:`.batch`); what a reset draws (:mod
 """
 
 from .hev_env import HevThermalEnv
-from .reward import REWARD_TERMS, RewardParams
-from .spaces import (
-    EPISODE_INFO_KEYS,
-    INFO_DTYPES,
-    INFO_KEYS,
-    observation_names,
-    safety_cost,
-)
+from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, INFO_KEYS, observation_names
 from .vector_env import HevThermalVectorEnv
 
-__all__ = ["EPISODE_INFO_KEYS", "INFO_DTYPES", "INFO_KEYS", "REWARD_TERMS", "HevThermalEnv", "HevThermalVectorEnv",
-           "RewardParams", "observation_names", "safety_cost"]
+__all__ = ["EPISODE_INFO_KEYS", "INFO_DTYPES", "INFO_KEYS", "HevThermalEnv", "HevThermalVectorEnv",
+           "observation_names"]
