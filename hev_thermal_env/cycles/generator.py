@@ -8,15 +8,12 @@ plus a first-order autoregressive fluctuation. Every change of acceleration is l
 approached along a jerk-limited profile that lands on them exactly (only that last step may exceed the jerk limit
 slightly). The cycle lasts exactly ``round(duration_s)`` seconds and ends at standstill: a trip that would
 overrun is shortened (shorter cruise, then lower speed) and the remainder becomes the final dwell. Speeds are
-rounded to 1e-6 m/s so that a generated cycle written to CSV reads back identically; the road is flat.
+rounded to 1e-6 m/s so that a generated cycle written to CSV reads back identically; the road is flat. The
+built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and :data:`BEIJING_KWARGS` (synthetic, not a
+measured Beijing bus cycle).
 
-The built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and :data:`BEIJING_KWARGS`; it is
-synthetic, not a measured Beijing bus cycle.
-
-:func:`generate_grade_profile` draws a road along the distance from its own seed (so no flat cycle changes):
-normal grades clipped to ``±max_grade`` on segments, joined by vertical curves, and (``closed``) ending at the
-height it started (a bus line loops back: no net climb to bias the fuel). :func:`with_grade_profile` lays it
-under any cycle; the ``hilly`` scenario lays the road of :data:`HILLY_SEED` under its cycles.
+:func:`generate_grade_profile` draws a road along the distance from its own seed (so no flat cycle changes);
+:func:`with_grade_profile` lays it under any cycle, the ``hilly`` scenario the road of :data:`HILLY_SEED`.
 """
 
 from __future__ import annotations
@@ -221,8 +218,7 @@ def generate_bus_cycle(seed: int, duration_s: float = 1300.0, *, max_speed_kmh: 
     ``accel_scale_range``; braking at a per-trip deceleration from ``decel_mps2_range`` [m/s²]; ``max_jerk_mps3``
     limits the change of acceleration per second. ``name`` defaults to ``"bus_seed<seed>"``.
 
-    Returns a :class:`Cycle` with ``synthetic=True``, a flat road, speed 0 at the first and last sample, and
-    ``metadata`` holding ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
+    The cycle's ``metadata`` holds ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
     ``TypeError`` for a seed that is not an integer, ``ValueError`` if a parameter is out of range.
     """
     params = _checked_params(
