@@ -99,35 +99,28 @@ def _build_trip(segments: list[tuple[float, int]], noise: np.ndarray, accel_limi
     return out
 
 
-def bus_cycle_params(**kwargs: Any) -> dict[str, Any]:
-    """Every parameter of :func:`generate_bus_cycle` with its value: the keyword arguments given (as they would be
-    passed to it, without ``seed``, ``name`` and ``description``) and the defaults of the others."""
-    sig = inspect.signature(generate_bus_cycle)
-    params = {k: p.default for k, p in sig.parameters.items() if k not in ("seed", "name", "description")}
-    unknown = set(kwargs) - set(params)
-    if unknown:
-        raise ValueError(f"unknown generate_bus_cycle parameters: {sorted(unknown)}")
-    params.update(kwargs)
-    return as_lists(params)
-
-
 def as_lists(kwargs: dict[str, Any]) -> dict[str, Any]:
     """``kwargs`` with tuples as lists (a cycle's metadata, JSON-like)."""
     return {k: list(v) if isinstance(v, tuple) else v for k, v in kwargs.items()}
 
 
-def check_range(name: str, rng_: tuple[float, float], lo: float = 0.0) -> tuple[float, float]:
+def check_range(name: str, rng_: tuple[float, float]) -> tuple[float, float]:
     a, b = (float(x) for x in rng_)
-    if not (math.isfinite(a) and math.isfinite(b)) or a < lo or b < a:
-        raise ValueError(f"{name} must be a finite (low, high) pair with {lo} <= low <= high")
+    if not (math.isfinite(a) and math.isfinite(b)) or a < 0.0 or b < a:
+        raise ValueError(f"{name} must be a finite (low, high) pair with 0.0 <= low <= high")
     return a, b
 
 
-def _checked_params(seed: Any, **p: Any) -> dict[str, Any]:
-    """The arguments of :func:`generate_bus_cycle` as floats and ``[low, high]`` lists (its cycles' metadata);
-    ``TypeError`` for a seed that is not an integer, ``ValueError`` naming a value out of range."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"seed must be an integer, got {seed!r}")
+def bus_cycle_params(**kwargs: Any) -> dict[str, Any]:
+    """Every parameter of :func:`generate_bus_cycle` but ``seed``, ``name`` and ``description``, as its cycles'
+    metadata holds them: the keyword arguments given and the defaults of the others, as floats and ``[low, high]``
+    lists; ``ValueError`` naming an unknown parameter or a value out of range."""
+    sig = inspect.signature(generate_bus_cycle)
+    p = {k: prm.default for k, prm in sig.parameters.items() if k not in ("seed", "name", "description")}
+    unknown = set(kwargs) - set(p)
+    if unknown:
+        raise ValueError(f"unknown generate_bus_cycle parameters: {sorted(unknown)}")
+    p.update(kwargs)
     if not (math.isfinite(p["duration_s"]) and p["duration_s"] >= 60.0):
         raise ValueError(f"duration_s must be at least 60 s, got {p['duration_s']!r}")
     for label in ("max_speed_kmh", "max_accel_mps2", "accel_power_w_per_kg", "max_jerk_mps3"):
@@ -221,8 +214,10 @@ def generate_bus_cycle(seed: int, duration_s: float = 1300.0, *, max_speed_kmh: 
     The cycle's ``metadata`` holds ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
     ``TypeError`` for a seed that is not an integer, ``ValueError`` if a parameter is out of range.
     """
-    params = _checked_params(
-        seed, duration_s=duration_s, max_speed_kmh=max_speed_kmh, cruise_speed_kmh_range=cruise_speed_kmh_range,
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"seed must be an integer, got {seed!r}")
+    params = bus_cycle_params(
+        duration_s=duration_s, max_speed_kmh=max_speed_kmh, cruise_speed_kmh_range=cruise_speed_kmh_range,
         cruise_speed_mode_kmh=cruise_speed_mode_kmh, cruise_s_range=cruise_s_range,
         speed_change_prob=speed_change_prob, speed_noise_kmh=speed_noise_kmh, dwell_s_range=dwell_s_range,
         max_accel_mps2=max_accel_mps2, accel_power_w_per_kg=accel_power_w_per_kg,
