@@ -238,8 +238,6 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     def _reset_info_arrays(self, idx: np.ndarray, reset_infos: list[dict], infos: dict) -> dict:
         """``infos`` with the reset infos of sub-envs ``idx`` written into fresh arrays (the step's arrays may view the
         engine's outputs or be a final info's) and masked in."""
-        if idx.size == 0:
-            return infos
         mask = np.zeros(self.num_envs, dtype=bool)
         mask[idx] = True
         for key in self.info_keys:
