@@ -108,11 +108,10 @@ class HevThermalEnv(EnvParts, gym.Env):
     Why the band settlement: at the battery's average price alone, ending with more charge pays (the engine's marginal
     efficiency under load is better; docs/metrics.md). The settlement, the potential difference of the dead-zone hinge
     Φ, adds up over an episode to −10,000 g per unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01
-    around c), paid step by step as the SOC leaves the band and refunded as it returns: about the battery price of a
-    unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times the most that ending beyond the band earns (≈1,100 g), so the
-    optimum is charge-sustaining and a run that starts and ends inside the band returns exactly minus its corrected
-    fuel and the overheat terms. A step's settlement stays within ≈10 g; a larger pack needs a larger
-    ``soc_band_weight``.
+    around c), paid as the SOC leaves the band and refunded as it returns: about the battery price of a unit of
+    ``paper_bus``'s SOC (≈9,450 g), 9 times the most that ending beyond the band earns (≈1,100 g). The optimum is
+    charge-sustaining, a run that starts and ends inside the band returns exactly minus its corrected fuel and the
+    overheat terms, and a step's settlement stays within ≈10 g (a larger pack needs a larger ``soc_band_weight``).
 
     The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on high ground it sits
     lower by the charge the remaining descent will return (:func:`~hev_thermal_env.envs.reward.band_center`)::

@@ -25,8 +25,6 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 (W_FUEL, W_MISS, W_SOC_ENERGY, W_SOC_BAND, W_SOC_BAND_WEIGHT, W_SOC_DEV, W_SOC_SCALE, W_TEMP, W_SOFT_LIMIT,
  W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, W_DERATE_FROM, W_LIFE, W_CLASS_C, N_WEIGHTS) = range(18)
 
-#: Seconds per hour.
-HOUR_S = 3600.0
 #: ln 2 / 10 K: the insulation's life halves every 10 K (Montsinger).
 LN2_PER_10K = math.log(2.0) / 10.0
 MOTOR_LIFE_COST_G = 8000.0 / 1.60 * 835.0
@@ -115,7 +113,7 @@ class RewardParams(Params):
         w[W_MISS_PRICE] = self.prices.miss_g_per_j(lhv_j_per_g)
         w[W_DESCENT] = self.descent_recovery
         w[W_DERATE_FROM] = self.derate_from_x
-        w[W_LIFE] = self.motor_life_cost_g / (self.insulation_life_h * HOUR_S) if overheat else 0.0
+        w[W_LIFE] = self.motor_life_cost_g / (self.insulation_life_h * 3600.0) if overheat else 0.0
         w[W_CLASS_C] = self.insulation_class_temp_c
         return w
 
