@@ -32,10 +32,7 @@ class ImplausibleCycleWarning(UserWarning):
     mistake (km/h under a ``speed_mps`` header) or a glitch in the recording."""
 
 Locate = Callable[[int], str]
-
-
-def _index_locator(i: int) -> str:
-    return f"index {i}"
+_index_locator: Locate = "index {}".format
 
 
 def _first(mask: np.ndarray) -> int | None:

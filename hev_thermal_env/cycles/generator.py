@@ -8,15 +8,12 @@ plus a first-order autoregressive fluctuation. Every change of acceleration is l
 approached along a jerk-limited profile that lands on them exactly (only that last step may exceed the jerk limit
 slightly). The cycle lasts exactly ``round(duration_s)`` seconds and ends at standstill: a trip that would
 overrun is shortened (shorter cruise, then lower speed) and the remainder becomes the final dwell. Speeds are
-rounded to 1e-6 m/s so that a generated cycle written to CSV reads back identically; the road is flat.
+rounded to 1e-6 m/s so that a generated cycle written to CSV reads back identically; the road is flat. The
+built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and :data:`BEIJING_KWARGS` (synthetic, not a
+measured Beijing bus cycle).
 
-The built-in ``beijing`` cycle is this generator with :data:`BEIJING_SEED` and :data:`BEIJING_KWARGS`; it is
-synthetic, not a measured Beijing bus cycle.
-
-:func:`generate_grade_profile` draws a road along the distance from its own seed (so no flat cycle changes):
-normal grades clipped to ``±max_grade`` on segments, joined by vertical curves, and (``closed``) ending at the
-height it started (a bus line loops back: no net climb to bias the fuel). :func:`with_grade_profile` lays it
-under any cycle; the ``hilly`` scenario lays the road of :data:`HILLY_SEED` under its cycles.
+:func:`generate_grade_profile` draws a road along the distance from its own seed (so no flat cycle changes);
+:func:`with_grade_profile` lays it under any cycle, the ``hilly`` scenario the road of :data:`HILLY_SEED`.
 """
 
 from __future__ import annotations
@@ -102,35 +99,28 @@ def _build_trip(segments: list[tuple[float, int]], noise: np.ndarray, accel_limi
     return out
 
 
-def bus_cycle_params(**kwargs: Any) -> dict[str, Any]:
-    """Every parameter of :func:`generate_bus_cycle` with its value: the keyword arguments given (as they would be
-    passed to it, without ``seed``, ``name`` and ``description``) and the defaults of the others."""
-    sig = inspect.signature(generate_bus_cycle)
-    params = {k: p.default for k, p in sig.parameters.items() if k not in ("seed", "name", "description")}
-    unknown = set(kwargs) - set(params)
-    if unknown:
-        raise ValueError(f"unknown generate_bus_cycle parameters: {sorted(unknown)}")
-    params.update(kwargs)
-    return as_lists(params)
-
-
 def as_lists(kwargs: dict[str, Any]) -> dict[str, Any]:
     """``kwargs`` with tuples as lists (a cycle's metadata, JSON-like)."""
     return {k: list(v) if isinstance(v, tuple) else v for k, v in kwargs.items()}
 
 
-def check_range(name: str, rng_: tuple[float, float], lo: float = 0.0) -> tuple[float, float]:
+def check_range(name: str, rng_: tuple[float, float]) -> tuple[float, float]:
     a, b = (float(x) for x in rng_)
-    if not (math.isfinite(a) and math.isfinite(b)) or a < lo or b < a:
-        raise ValueError(f"{name} must be a finite (low, high) pair with {lo} <= low <= high")
+    if not (math.isfinite(a) and math.isfinite(b)) or a < 0.0 or b < a:
+        raise ValueError(f"{name} must be a finite (low, high) pair with 0.0 <= low <= high")
     return a, b
 
 
-def _checked_params(seed: Any, **p: Any) -> dict[str, Any]:
-    """The arguments of :func:`generate_bus_cycle` as floats and ``[low, high]`` lists (its cycles' metadata);
-    ``TypeError`` for a seed that is not an integer, ``ValueError`` naming a value out of range."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"seed must be an integer, got {seed!r}")
+def bus_cycle_params(**kwargs: Any) -> dict[str, Any]:
+    """Every parameter of :func:`generate_bus_cycle` but ``seed``, ``name`` and ``description``, as its cycles'
+    metadata holds them: the keyword arguments given and the defaults of the others, as floats and ``[low, high]``
+    lists; ``ValueError`` naming an unknown parameter or a value out of range."""
+    sig = inspect.signature(generate_bus_cycle)
+    p = {k: prm.default for k, prm in sig.parameters.items() if k not in ("seed", "name", "description")}
+    unknown = set(kwargs) - set(p)
+    if unknown:
+        raise ValueError(f"unknown generate_bus_cycle parameters: {sorted(unknown)}")
+    p.update(kwargs)
     if not (math.isfinite(p["duration_s"]) and p["duration_s"] >= 60.0):
         raise ValueError(f"duration_s must be at least 60 s, got {p['duration_s']!r}")
     for label in ("max_speed_kmh", "max_accel_mps2", "accel_power_w_per_kg", "max_jerk_mps3"):
@@ -221,12 +211,13 @@ def generate_bus_cycle(seed: int, duration_s: float = 1300.0, *, max_speed_kmh: 
     ``accel_scale_range``; braking at a per-trip deceleration from ``decel_mps2_range`` [m/s²]; ``max_jerk_mps3``
     limits the change of acceleration per second. ``name`` defaults to ``"bus_seed<seed>"``.
 
-    Returns a :class:`Cycle` with ``synthetic=True``, a flat road, speed 0 at the first and last sample, and
-    ``metadata`` holding ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
+    The cycle's ``metadata`` holds ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
     ``TypeError`` for a seed that is not an integer, ``ValueError`` if a parameter is out of range.
     """
-    params = _checked_params(
-        seed, duration_s=duration_s, max_speed_kmh=max_speed_kmh, cruise_speed_kmh_range=cruise_speed_kmh_range,
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"seed must be an integer, got {seed!r}")
+    params = bus_cycle_params(
+        duration_s=duration_s, max_speed_kmh=max_speed_kmh, cruise_speed_kmh_range=cruise_speed_kmh_range,
         cruise_speed_mode_kmh=cruise_speed_mode_kmh, cruise_s_range=cruise_s_range,
         speed_change_prob=speed_change_prob, speed_noise_kmh=speed_noise_kmh, dwell_s_range=dwell_s_range,
         max_accel_mps2=max_accel_mps2, accel_power_w_per_kg=accel_power_w_per_kg,

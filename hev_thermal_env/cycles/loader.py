@@ -1,12 +1,9 @@
 """Loading cycles: built-in names, user CSV files and arrays.
 
-Built-in cycles live in ``hev_thermal_env/cycles/data/`` as CSV files ``time_s,speed_mps,grade``. ``hwfet``,
-``udds``, ``us06`` and ``wltc_3b`` are standard cycles vendored from the ``fastsim==2.1.5`` wheel (Apache-2.0, see
-``data/README.md`` and ``data/NOTICE``); ``sort1``-``sort3`` (UITP's bus test cycles) and ``urban_bus`` (an 8,130 s
-urban bus route with its grades) from the ``carculator-utils==1.3.5`` wheel (BSD-3-Clause,
-``data/LICENSE-carculator-utils``). ``beijing`` is synthetic: the output of
-:func:`~hev_thermal_env.cycles.generator.generate_bus_cycle` with a fixed seed, stored as CSV so it never depends on
-the numpy version.
+Built-in cycles are CSV files ``time_s,speed_mps,grade`` in ``hev_thermal_env/cycles/data/``: standard and bus cycles
+vendored from the ``fastsim==2.1.5`` and ``carculator-utils==1.3.5`` wheels (licences and conversions:
+``data/README.md``), and the synthetic ``beijing``, :func:`~hev_thermal_env.cycles.generator.generate_bus_cycle` with
+a fixed seed, stored so that it never depends on the numpy version.
 
 User CSV files have a header row naming the columns (case-insensitive; other columns are ignored): ``time_s`` and
 ``speed_mps`` are required, ``grade`` (rise/run) defaults to 0. Blank lines and lines starting with ``#`` are
@@ -67,8 +64,7 @@ _OPTIONAL = ("grade",)
 
 
 def list_cycles() -> list[str]:
-    """Names of the built-in cycles: ``["hwfet", "udds", "us06", "wltc_3b", "beijing", "sort1", "sort2", "sort3",
-    "urban_bus"]``."""
+    """Names of the built-in cycles."""
     return list(_BUILTINS)
 
 
@@ -157,12 +153,9 @@ def _load_csv(path: Path) -> Cycle:
 def load_cycle(name_or_path: str | os.PathLike | Cycle) -> Cycle:
     """The cycle named by a built-in name from :func:`list_cycles` (case-insensitive), a generated cycle's name
     (``FAMILY:SEED`` or ``validation_bus:K``, :mod:`~hev_thermal_env.cycles.names`), either followed by ``*K``
-    (:func:`laps`: K laps back to back, a service day's repetition, e.g. ``udds*3``) or a CSV path (module
-    docstring); a :class:`Cycle` is returned unchanged.
-
-    Raises ``ValueError`` if the name is neither built-in, nor a generated cycle's, nor an existing file (the
-    message lists the built-in names), if it names a family or a set rather than one cycle, or if the file is
-    invalid; ``TypeError`` for another type.
+    (:func:`laps`: K laps back to back, a service day's repetition, e.g. ``udds*3``) or a CSV path; a :class:`Cycle`
+    is returned unchanged. Raises ``ValueError`` for anything else (listing the built-in names), a family or a set
+    rather than one cycle, or an invalid file; ``TypeError`` for another type.
     """
     if isinstance(name_or_path, Cycle):
         return name_or_path
@@ -207,10 +200,8 @@ def cycle_from_arrays(speed_mps: Any, grade: Any = None, name: str = "custom", *
                       metadata: dict | None = None) -> Cycle:
     """A validated :class:`Cycle` from ``speed_mps`` [m/s] and ``grade`` (rise/run, zeros if omitted).
 
-    ``time_s`` (default ``0, 1, 2, ...``) is shifted to 0 s and resampled to 1 s as for CSV files; the original
-    time step and offset are added to ``metadata``. Raises ``ValueError`` with the sample index and the problem for
-    the same faults as CSV files (non-numeric, NaN/inf, negative speed, non-increasing or non-uniform time, length
-    mismatch, fewer than 2 samples).
+    ``time_s`` (default ``0, 1, 2, ...``) is shifted to 0 s and resampled to 1 s as for CSV files, the original time
+    step and offset added to ``metadata``; the same faults as in CSV files raise ``ValueError`` with the sample index.
     """
     origin = f"cycle_from_arrays({name!r})"
     speed = float_vector("speed_mps", speed_mps, origin)

@@ -3,9 +3,10 @@ a bare family (a fresh cycle every episode in an env's or training run's cycle l
 ``validation_bus:A..B``, ``FAMILY:A..B`` inclusive, at most :data:`MAX_RANGE` seeds), which :func:`expand_cycle_names`
 replaces by its cycles' names wherever a list of cycles is accepted.
 
-The validation set ``validation_bus``: cycle ``k`` has family :func:`validation_family` and seed
-``VALIDATION_SEED_BASE + k``, above every training seed (:func:`validation_seed` asserts it); runs select checkpoints
-on ``validation_bus:20..29`` and are judged on ``validation_bus:0..19``.
+The validation set ``validation_bus``: cycle ``k`` has a family of :data:`VALIDATION_FAMILIES` in turn (from
+:data:`ROTATION_SIZE` on :data:`EXPRESS_FAMILY`) and seed ``VALIDATION_SEED_BASE + k``, above every training seed
+(:func:`validation_seed` asserts it); runs select checkpoints on ``validation_bus:20..29`` and are judged on
+``validation_bus:0..19``.
 """
 
 from __future__ import annotations
@@ -45,14 +46,10 @@ def validation_seed(k: int) -> int:
     return seed
 
 
-def validation_family(k: int) -> str:
-    """The family of validation cycle ``k``."""
-    return EXPRESS_FAMILY if int(k) >= ROTATION_SIZE else VALIDATION_FAMILIES[int(k) % len(VALIDATION_FAMILIES)]
-
-
 def validation_cycle(k: int) -> Cycle:
     """Validation cycle ``k``, named ``validation_bus:k``."""
-    return generate_family_cycle(validation_family(k), validation_seed(k), name=f"{VALIDATION_SET}:{int(k)}")
+    family = EXPRESS_FAMILY if int(k) >= ROTATION_SIZE else VALIDATION_FAMILIES[int(k) % len(VALIDATION_FAMILIES)]
+    return generate_family_cycle(family, validation_seed(k), name=f"{VALIDATION_SET}:{int(k)}")
 
 
 def validation_names(first: int = 0, last: int = VALIDATION_SIZE - 1) -> list[str]:
@@ -121,16 +118,14 @@ def expand_cycle_names(cycles: Any) -> list[Any]:
     for item in items:
         if not is_cycle_set(item):
             out.append(item)
-            continue
-        m = _RANGE.match(_key(item))
-        if m is None:
+        elif (m := _RANGE.match(_key(item))) is None:
             out += validation_names()
-            continue
-        prefix, first, last = m.group(1), int(m.group(2)), int(m.group(3))
-        if prefix == VALIDATION_SET:
-            out += validation_names(first, last)
-            continue
-        if not 0 < last - first + 1 <= MAX_RANGE:
-            raise ValueError(f"{item!r}: a range of seeds must name 1 to {MAX_RANGE} cycles (first <= last)")
-        out += [f"{prefix}:{seed}" for seed in range(first, last + 1)]
+        else:
+            prefix, first, last = m.group(1), int(m.group(2)), int(m.group(3))
+            if prefix == VALIDATION_SET:
+                out += validation_names(first, last)
+            elif not 0 < last - first + 1 <= MAX_RANGE:
+                raise ValueError(f"{item!r}: a range of seeds must name 1 to {MAX_RANGE} cycles (first <= last)")
+            else:
+                out += [f"{prefix}:{seed}" for seed in range(first, last + 1)]
     return out

@@ -1,19 +1,11 @@
-"""The MDP layer: :class:`HevThermalEnv` (``HevThermal-v1``, :mod:`.hev_env`) and :class:`HevThermalVectorEnv`
-(:mod:`.vector_env`), both stepping through the batch engine (:mod:`.batch`); what a reset draws (:mod:`.episodes`); the
-reward, written once (:mod:`.reward`); the observation and info layout, the safety cost and codes (:mod:`.spaces`);
-rendering (:mod:`.render`).
+"""The MDP layer: :class:`HevThermalEnv` (:mod:`.hev_env`) and :class:`HevThermalVectorEnv` (:mod:`.vector_env`),
+both stepping through the batch engine (:mod:`.batch`); what a reset draws (:mod:`.episodes`); the reward
+(:mod:`.reward`); the observation and info layout (:mod:`.spaces`); rendering (:mod:`.render`).
 """
 
 from .hev_env import HevThermalEnv
-from .reward import REWARD_TERMS, RewardParams
-from .spaces import (
-    EPISODE_INFO_KEYS,
-    INFO_DTYPES,
-    INFO_KEYS,
-    observation_names,
-    safety_cost,
-)
+from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, INFO_KEYS, observation_names
 from .vector_env import HevThermalVectorEnv
 
-__all__ = ["EPISODE_INFO_KEYS", "INFO_DTYPES", "INFO_KEYS", "REWARD_TERMS", "HevThermalEnv", "HevThermalVectorEnv",
-           "RewardParams", "observation_names", "safety_cost"]
+__all__ = ["EPISODE_INFO_KEYS", "INFO_DTYPES", "INFO_KEYS", "HevThermalEnv", "HevThermalVectorEnv",
+           "observation_names"]

@@ -218,6 +218,14 @@ class EnvParts:
         return (spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32),
                 spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32))
 
+    def _start(self, idx: Sequence[int], rngs: Sequence[np.random.Generator], options: Sequence[dict | None],
+               max_steps: int | None = None) -> list[dict[str, Any]]:
+        """Draw an episode for each row of ``idx`` from its generator and reset options, start them; their reset
+        infos."""
+        episodes = [self.sampler.sample(rng, opt) for rng, opt in zip(rngs, options)]
+        self._rows.load(idx, episodes, [self._tables.get(ep) for ep in episodes], max_steps)
+        return [env_spaces.reset_info_dict(self._rows, i, ep) for i, ep in zip(idx, episodes)]
+
     @property
     def reward_params(self) -> RewardParams:
         return self._rows.reward_params

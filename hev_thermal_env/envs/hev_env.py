@@ -13,7 +13,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ..cycles import Cycle
 from ..physics import core
 from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
@@ -41,16 +40,15 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Action Space
 
-    ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler. Motor u·T_dem, engine
+    ``Box(-1, 1, (1,), float32)``: u, the motor's share of the torque demanded at the coupler: motor u·T_dem, engine
     (1 - u)·T_dem; u < 0 loads the engine more and charges the battery. In traction, u ≥ 0.9 stops the engine and the
-    motor carries the demand alone, as u = 1 (the engine-off choice is a band of the action, not its end point;
-    ``PowertrainParams.engine_min_share``, v1: only u = 1). The physics core clips the motor request to its
-    envelope (peak torque, heat index, cutoff) and the battery's limits and lets the engine cover the rest up to its
-    full load (the motor never tops up by itself); a charge (u < 0) that the engine at full load cannot carry on top of
-    the demand is cut down, to none at the least, before the trace is missed (``charge_yields_to_demand``; v1: the
-    bus misses its trace). While braking, u > 0 is the share of the available regeneration the
-    motor takes (friction brakes take the rest) and u ≤ 0 brakes by friction alone, so that u = 0 throughout drives the
-    bus with its motor unused (``engine_only``); standing, the action has no effect. Values outside [-1, 1] are clipped
+    motor carries the demand alone, as at u = 1 (``PowertrainParams.engine_min_share``; v1: only u = 1). The physics
+    core clips the motor request to its envelope (peak torque, heat index, cutoff) and the battery's limits and the
+    engine covers the rest up to its full load (the motor never tops up by itself); a charge (u < 0) that the engine
+    at full load cannot carry on top of the demand is cut down, to none at the least, before the trace is missed
+    (``charge_yields_to_demand``; v1: the bus misses its trace). While braking, u > 0 is the motor's share of the
+    available regeneration (friction brakes take the rest) and u ≤ 0 brakes by friction alone, so u = 0 throughout
+    leaves the motor unused (``engine_only``); standing, the action has no effect. Values outside [-1, 1] are clipped
     (``info["motor_share_clipped"]``; ``info["motor_share"]`` is the share applied); NaN or inf, or a shape other than
     ``(1,)``, raise ``ValueError``.
 
@@ -79,12 +77,11 @@ class HevThermalEnv(EnvParts, gym.Env):
     | 15 | coolant multiplier (the pump's flow): 1 on, 0 < f < 1 degraded, 0 off | 0 | 1 | - |
     | 16... | preview: cycle speed ``preview_step_s``, ``2·preview_step_s``, ... ``preview_s`` s ahead | 0 | 60 | m/s |
 
-    Entry 11 is the motor's torque limit in the last step: the peak torque at that speed, derated by the heat index
-    (eq 8), 0 while cut off; after reset, the limit for the first step. Its upper bound is the motor's peak torque (240
-    N·m for ``paper_bus``); that of entry 12 the number of gears (5), its lower bound 0 so that an all-zero observation
-    lies inside the space (torchrl fills a batch's final observation with zeros). The preview is taken from the start
-    of the next step and held at the cycle's last speed past its end; with the defaults it has 5 entries (+2 to +10 s)
-    and the observation 21.
+    Entry 11 is the motor's torque limit in the last step (after reset: in the first): the peak torque at that speed,
+    derated by the heat index (eq 8), 0 while cut off; its upper bound is the motor's peak torque (240 N·m for
+    ``paper_bus``), that of entry 12 the number of gears (5). Lower bounds are 0 so that an all-zero observation lies
+    inside the space (torchrl fills a batch's final observation with zeros). The preview starts at the next step and
+    holds the cycle's last speed past its end; with the defaults it has 5 entries (+2 to +10 s), the observation 21.
     :func:`observation_names` gives the names in order.
 
     ## Rewards
@@ -104,19 +101,17 @@ class HevThermalEnv(EnvParts, gym.Env):
                           − motor_life_cost_g · dt / (insulation_life_h · 2^((insulation_class_temp_c − T_w) / 10 K))
         Φ(SOC, c)       = −soc_band_weight · max(|SOC − c| − soc_band, 0)
 
-    The prices (:class:`~hev_thermal_env.prices.Prices`) are those of the corrected fuel of
-    :mod:`hev_thermal_env.metrics`: with the default weights an episode's fuel, miss and battery terms add up to minus
-    its corrected fuel, so DP and ECMS, which minimise the same terms, optimise the metric they are judged by.
+    The prices (:class:`~hev_thermal_env.prices.Prices`) are those of the corrected fuel
+    (:mod:`hev_thermal_env.metrics`): with the default weights an episode's fuel, miss and battery terms add up to
+    minus its corrected fuel, so DP and ECMS, which minimise the same terms, optimise the metric they are judged by.
 
-    Why the band settlement: the battery is priced at one stated average efficiency, but the engine's marginal
-    efficiency under load is better, so the prices alone are minimised by ending with more charge (docs/metrics.md).
-    The settlement is the potential difference of the dead-zone hinge Φ: over an episode it adds up to −10,000 g per
-    unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01 around c), paid step by step as the SOC
-    moves (a cost in the step that leaves the band, a refund in the step that returns). Its slope is about the battery
-    price of a unit of ``paper_bus``'s SOC (≈9,450 g) and 9 times the most that ending beyond the band earns
-    (≈1,100 g), so the reward's optimum is charge-sustaining, and a run that starts and ends inside the band returns
-    exactly minus its corrected fuel and the overheat terms. A step's settlement stays within ≈10 g (a step moves the
-    SOC by ≈0.001 at most); a larger pack needs a proportionally larger ``soc_band_weight``.
+    Why the band settlement: at the battery's average price alone, ending with more charge pays (the engine's marginal
+    efficiency under load is better; docs/metrics.md). The settlement, the potential difference of the dead-zone hinge
+    Φ, adds up over an episode to −10,000 g per unit SOC that the final SOC lies beyond the band (±``soc_band`` = 0.01
+    around c), paid as the SOC leaves the band and refunded as it returns: about the battery price of a unit of
+    ``paper_bus``'s SOC (≈9,450 g), 9 times the most that ending beyond the band earns (≈1,100 g). The optimum is
+    charge-sustaining, a run that starts and ends inside the band returns exactly minus its corrected fuel and the
+    overheat terms, and a step's settlement stays within ≈10 g (a larger pack needs a larger ``soc_band_weight``).
 
     The band's center c(t) is the episode's initial SOC on a flat route and at the route's end; on high ground it sits
     lower by the charge the remaining descent will return (:func:`~hev_thermal_env.envs.reward.band_center`)::
@@ -124,36 +119,32 @@ class HevThermalEnv(EnvParts, gym.Env):
         c(t) = SOC_start − descent_recovery · m · g · (h(t) − h_end) / E_per_SOC
 
     with ``descent_recovery`` = 0.6 (≈ driveline 0.93 × charge path 0.90 × the ≈0.75 of the potential energy that
-    rolling and air resistance leave on a city descent): spending charge on a climb that the descent refills costs
-    nothing while it lasts. The episode still pays exactly for its final SOC, plus a constant of its start (zero when
-    the route starts as high as it ends or inside the band).
+    rolling and air resistance leave on a city descent): charge spent on a climb that the descent refills costs
+    nothing meanwhile. The episode still pays exactly for its final SOC, plus a constant of its start (zero when the
+    route starts as high as it ends or inside the band).
 
     ## Info
 
-    ``reset`` and ``step`` return the same keys in the same order, :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` (the
-    contract first: fuel, SOC, motor and engine operating points, heat index, cutoff, reward terms, the safety cost;
-    then extras such as ``motor_share``, the share u applied after clipping, and the episode's keys,
-    :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``, in their order. Every
-    value is a numpy scalar of the same type for a key at every reset and step
-    (:data:`~hev_thermal_env.envs.spaces.INFO_DTYPES`), so that readers that store each info value with a fixed dtype
-    (torchrl, Minari's ``DataCollector(record_infos=True)``, gymnasium's vector wrappers) take the info unchanged. A
-    reset's info holds the starting state (:data:`~hev_thermal_env.envs.spaces.STATE_INFO_KEYS`) and zero or False
-    for every quantity of a step. The cycle and the coolant mode are codes, ``cycle_id``
-    (:func:`~hev_thermal_env.envs.spaces.cycle_name`, or ``env.unwrapped.cycle.name``) and ``coolant_code``
+    ``reset`` and ``step`` return the keys of :data:`~hev_thermal_env.envs.spaces.INFO_KEYS` in order (the contract
+    first, then extras such as ``motor_share``, the share u applied, and the episode's
+    :data:`~hev_thermal_env.envs.spaces.EPISODE_INFO_KEYS`), or those chosen by ``info_keys``. Every value is a numpy
+    scalar of one type per key (:data:`~hev_thermal_env.envs.spaces.INFO_DTYPES`), so that readers that store infos
+    with a fixed dtype (torchrl, Minari's ``DataCollector(record_infos=True)``, gymnasium's vector wrappers) take them
+    unchanged. A reset's info holds the starting state (:data:`~hev_thermal_env.envs.spaces.STATE_INFO_KEYS`) and zero
+    or False for every quantity of a step. The cycle and the coolant mode are codes: ``cycle_id``
+    (:func:`~hev_thermal_env.envs.spaces.cycle_name`) and ``coolant_code``
     (:func:`~hev_thermal_env.envs.spaces.coolant_mode`).
 
     ## Cost
 
-    ``info["cost"]``, the step's **safety cost** (Safety-Gymnasium's convention: a per-step cost beside the reward,
-    for constrained RL; the reward does not contain it and is unchanged by it)::
+    ``info["cost"]``, the step's **safety cost** (Safety-Gymnasium's convention: a per-step cost for constrained RL
+    beside the reward, which does not contain it)::
 
         cost = dt · max(PWM, [stopped])        (in seconds, ≥ 0, at most 1 per 1-s step)
 
-    PWM (eq 9, the heat index after the step) is the share of the motor's overload reserve, peak minus continuous
-    torque (eq 8), that heat has taken away; ``[stopped]`` is 1 while the 70 °C protection or the 165 °C winding
-    protection holds the motor at zero torque. An episode's safety cost reads as seconds of lost motor capability; 0
-    throughout with the thermal model off (``thermal=False``). :func:`~hev_thermal_env.envs.spaces.safety_cost`
-    computes it; docs/tasks.md says why this measure and how the benchmark's tasks use it.
+    PWM (eq 9) is the heat index after the step, ``[stopped]`` 1 while either protection (70 °C motor, 165 °C winding)
+    holds the motor at zero torque: an episode's safety cost reads as seconds of lost motor capability, 0 throughout
+    with ``thermal=False`` (:func:`~hev_thermal_env.envs.spaces.safety_cost`; why this measure: docs/tasks.md).
 
     ## Starting State
 
@@ -190,15 +181,14 @@ class HevThermalEnv(EnvParts, gym.Env):
       removes it.
     * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor temperature, heat index and
       split so far) or ``"human"`` (the same in a matplotlib window, redrawn at every step and reset).
-    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting); False is the
-      paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the baseline of its tables.
+    * ``thermal``: if given, sets ``config.thermal.enabled``; False is the paper's unmodified ADVISOR motor (no
+      derating, no extra loss, no cutoff), the baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
     * ``soc_offset``: start each episode up to this much SOC (uniform, at most 0.2, clipped to the battery's window)
-      above or below its SOC target, the scenario's initial SOC; the reward's band and the observation still refer to
-      the unshifted target. A reset's ``initial_soc`` option is never shifted. 0 (default): on the target.
-    * ``info_keys``: the info keys to report, at steps and resets: ``"all"`` (default) or a sequence of names from
-      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()`` reports none, the lean path for gymnasium's vector wrappers
-      and trainers that read none.
+      off its SOC target, the scenario's initial SOC, to which the reward's band and the observation still refer; a
+      reset's ``initial_soc`` option is never shifted.
+    * ``info_keys``: the info keys reported at steps and resets: ``"all"`` or a sequence of names from
+      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()``, none, is the lean path for trainers that read none.
 
     ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this episode only),
     ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant`` (``"on"``, ``"degraded"``, ``"off"``) and
@@ -213,10 +203,9 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     ## Version History
 
-    * v2: physics v2: the motor rated where its nameplate says (docs/thermal_model.md, *The rated condition*), and the
-      overheat price is the winding insulation's life (docs/environment.md), and in traction u ≥ 0.9 stops the engine
-      (the motor alone, as u = 1; in v1 only u = 1 does) and a charge yields to the demand before the trace is
-      missed; the MDP is otherwise v1's.
+    * v2: physics v2: the motor rated where its nameplate says (docs/thermal_model.md, *The rated condition*), the
+      overheat price the winding insulation's life (docs/environment.md), in traction u ≥ 0.9 stops the engine (v1:
+      only u = 1) and a charge yields to the demand before the trace is missed; the MDP is otherwise v1's.
     * v1: the motor thermal network with physical parameters, the action governs braking, observation entry 7
       (winding temperature), the safety cost ``cost``, numpy-scalar infos with the same keys at reset as at every step
       (CHANGELOG.md). ``gymnasium.make("HevThermal-v0")`` raises gymnasium's ``DeprecatedEnv`` naming the newest id.
@@ -237,13 +226,14 @@ class HevThermalEnv(EnvParts, gym.Env):
                                                                 preview_s, preview_step_s, thermal, random_start,
                                                                 info_keys, soc_offset, physics)
         self._u = np.zeros(1)
-        self.cycle: Cycle | None = None
-        self.conditions: Conditions | None = None
         self._history: dict[str, list] | None = None
         self._episode_info: dict[str, Any] = {}
         self._plot = None
 
     # -- contract attributes ---------------------------------------------------------------------
+
+    cycle = property(lambda self: self._rows.cycles[0], doc="The episode's cycle (None before the first reset).")
+    conditions = property(lambda self: self._rows.conditions[0], doc="The episode's conditions.")
 
     @property
     def k(self) -> int:
@@ -264,14 +254,9 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        ep = self.sampler.sample(self.np_random, options)
-        tab = self._tables.get(ep)
         self._rows.last_out = np.zeros((1, core.N_OUT))  # a fresh array: references to the last one stay valid
-        self._rows.load([0], [ep], [tab])
-        self.cycle = ep.cycle
-        self.conditions = ep.conditions
+        info, = self._start([0], [self.np_random], [options])
         obs = self._rows.observe()[0]
-        info = spaces.reset_info_dict(self._rows, 0, ep)
         self._episode_info = {key: info[key] for key in spaces.EPISODE_INFO_KEYS}
         if self.render_mode is not None:
             self._history = {name: [] for name in _HISTORY_KEYS}
@@ -283,7 +268,7 @@ class HevThermalEnv(EnvParts, gym.Env):
     def step(self, action):
         u, clipped = check_action(action)
         rows = self._rows
-        if self.cycle is None:
+        if rows.cycles[0] is None:
             raise RuntimeError("call reset() before step()")
         if rows.k[0] >= rows.end[0]:
             raise RuntimeError("the episode has ended (truncated at the end of the cycle); call reset()")
@@ -293,8 +278,8 @@ class HevThermalEnv(EnvParts, gym.Env):
         truncated = k >= rows.end[0]
         info = {}
         if self.info_keys or self._history is not None:
-            info = spaces.step_info_dict(out[0], rows.state[0], terms[0], rows.speed[0, k], k, u, clipped,
-                                    self._episode_info, self._cost_step_s)
+            info = spaces.step_info(out[0], rows.state[0], terms[0], rows.speed[0, k], k, u,
+                                    np.True_ if clipped else np.False_, self._episode_info, self._cost_step_s)
             if self._history is not None:
                 self._record(info)
             if self.info_keys is not spaces.INFO_KEYS:
@@ -311,7 +296,7 @@ class HevThermalEnv(EnvParts, gym.Env):
         if not np.all(np.isfinite(a)):
             raise ValueError("peek: actions contain NaN or inf")
         rows = self._rows
-        if self.cycle is None or rows.k[0] >= rows.end[0]:
+        if rows.cycles[0] is None or rows.k[0] >= rows.end[0]:
             raise RuntimeError("peek: no next step (call reset() first)")
         k = int(rows.k[0])
         return self.core.step(np.repeat(rows.state, a.size, axis=0), a, rows.speed[0, k], rows.speed[0, k + 1],

@@ -1,9 +1,8 @@
 """The reward of ``HevThermal-v2`` (v1: other weights), written once: the env, the vector env, DP and ECMS all call it.
 
-Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards: its weights and prices
-(:class:`RewardParams`, :class:`~hev_thermal_env.prices.Prices`), the one compiled implementation
-(:func:`reward_kernel`), the band's center (:func:`band_center`) and what planners call on batches
-(:func:`reward_terms`, :func:`stage_cost_g`, :func:`soc_band_charge_g`).
+Specified in :class:`~hev_thermal_env.envs.HevThermalEnv`, section Rewards, at the prices of
+:class:`~hev_thermal_env.prices.Prices`; planners call it on batches through :func:`reward_terms`,
+:func:`stage_cost_g` and :func:`soc_band_charge_g`.
 """
 
 from __future__ import annotations
@@ -26,8 +25,6 @@ REWARD_TERMS = ("reward_fuel", "reward_miss", "reward_soc", "reward_overheat")
 (W_FUEL, W_MISS, W_SOC_ENERGY, W_SOC_BAND, W_SOC_BAND_WEIGHT, W_SOC_DEV, W_SOC_SCALE, W_TEMP, W_SOFT_LIMIT,
  W_CUTOFF, W_DERATE, W_BATT_PRICE, W_MISS_PRICE, W_DESCENT, W_DERATE_FROM, W_LIFE, W_CLASS_C, N_WEIGHTS) = range(18)
 
-#: Seconds per hour.
-HOUR_S = 3600.0
 #: ln 2 / 10 K: the insulation's life halves every 10 K (Montsinger).
 LN2_PER_10K = math.log(2.0) / 10.0
 MOTOR_LIFE_COST_G = 8000.0 / 1.60 * 835.0
@@ -116,7 +113,7 @@ class RewardParams(Params):
         w[W_MISS_PRICE] = self.prices.miss_g_per_j(lhv_j_per_g)
         w[W_DESCENT] = self.descent_recovery
         w[W_DERATE_FROM] = self.derate_from_x
-        w[W_LIFE] = self.motor_life_cost_g / (self.insulation_life_h * HOUR_S) if overheat else 0.0
+        w[W_LIFE] = self.motor_life_cost_g / (self.insulation_life_h * 3600.0) if overheat else 0.0
         w[W_CLASS_C] = self.insulation_class_temp_c
         return w
 
@@ -140,12 +137,9 @@ def soc_band_potential(w, soc, soc_target):
 
 
 def descent_soc(climb_m: np.ndarray, mass_kg: float, gravity_mps2: float, battery_j_per_soc: float) -> np.ndarray:
-    """The SOC the descent from each instant to the route's end would return if all of it came back.
-
-    ``climb_m`` [n + 1]: the height reached at each instant, from the start (m,
-    :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`); the result is
-    ``m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc``, 0 at the end and on a flat route.
-    """
+    """The SOC the descent from each instant to the route's end would return if all of it came back: ``climb_m``
+    [n + 1], the height reached at each instant (m, :attr:`~hev_thermal_env.envs.episodes.CycleTables.climb_m`), gives
+    ``m · g · (climb_m[k] − climb_m[n]) / battery_j_per_soc``, 0 at the end and on a flat route."""
     h = np.asarray(climb_m, dtype=np.float64)
     return mass_kg * gravity_mps2 * (h - h[-1]) / battery_j_per_soc
 
@@ -174,11 +168,8 @@ def soc_band_charge_g(params: RewardParams, soc: np.ndarray, soc_target: float) 
 
 @jit
 def reward_row(w, out, st0, st, b, target_before, target_after, dt_s):
-    """The four terms of row ``b`` (fuel, miss, soc, overheat) and their sum, in a fixed order.
-
-    ``st0`` / ``st``: states before / after the step; ``target_before`` / ``target_after``: the band's center at those
-    two instants (equal on a flat route).
-    """
+    """The four terms of row ``b`` (fuel, miss, soc, overheat) and their sum, in a fixed order; ``st0`` / ``st``: the
+    states before / after the step, ``target_before`` / ``target_after``: the band's center at those instants."""
     fuel = -w[W_FUEL] * out[b, core.FUEL_G]
     miss = -w[W_MISS] * (out[b, core.MISSED_J] * w[W_MISS_PRICE])
     e = (st[b, core.SOC] - target_after) / w[W_SOC_SCALE]

@@ -34,16 +34,6 @@ N_OBS_BASE = len(_OBS_FIELDS)
 (OBS_SPEED, OBS_ACCEL, OBS_DEMAND, OBS_SOC, OBS_SOC_TARGET, OBS_SOC_DEVIATION, OBS_TEMP, OBS_WINDING, OBS_PWM,
  OBS_HEAT_X, OBS_CUTOFF, OBS_AVAIL, OBS_GEAR, OBS_PROGRESS, OBS_AMBIENT, OBS_COOLANT) = range(N_OBS_BASE)
 
-# Step-info keys straight from an output column of the physics core.
-_INFO_OUT_COLUMNS = (
-    ("fuel_g", core.FUEL_G), ("motor_torque_nm", core.MOTOR_TORQUE), ("motor_heat_w", core.MOTOR_HEAT),
-    ("engine_torque_nm", core.ENGINE_TORQUE), ("speed_mps", core.SPEED), ("trace_miss_mps", core.TRACE_MISS),
-    ("heat_index", core.HEAT_INDEX), ("missed_wheel_energy_j", core.MISSED_J), ("battery_chem_power_w", core.BATT_CHEM),
-    ("battery_power_w", core.BATT_POWER), ("motor_torque_avail_nm", core.MOTOR_AVAIL),
-)
-_INFO_RPM_COLUMNS = (("motor_speed_rpm", core.MOTOR_SPEED), ("engine_speed_rpm", core.ENGINE_SPEED))
-_INFO_BOOL_COLUMNS = (("engine_on", core.ENGINE_ON), ("coolant_on", core.COOLANT_ON),
-                      ("motor_torque_clipped", core.MOTOR_CLIPPED))
 _REWARD_KEYS = ("reward_fuel", "reward_overheat", "reward_soc", "reward_miss")  # the documented contract order
 _REWARD_COLUMNS = tuple((key, REWARD_TERMS.index(key)) for key in _REWARD_KEYS)
 
@@ -128,12 +118,13 @@ def observation_bounds(config: VehicleConfig, n_preview: int) -> tuple[np.ndarra
     return np.array(low, dtype=np.float64), np.array(high, dtype=np.float64)
 
 
-def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.float64,
-                   time_s: float, u: float, clipped: bool, episode: dict[str, Any],
-                   cost_step: float) -> dict[str, Any]:
-    """The ``info`` of one step of the single env (same values as the vector env's info arrays), numpy scalars in
-    :data:`INFO_KEYS` order; ``episode``: the :data:`EPISODE_INFO_KEYS` values of the episode (numpy scalars);
-    ``cost_step``: the ``dt_s`` of :func:`safety_cost`."""
+def step_info(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: Any, time_s: Any, u: Any,
+              clipped: Any, episode: dict[str, Any], cost_step: float) -> dict[str, Any]:
+    """The ``info`` of a step in :data:`INFO_KEYS` order, of the types of :data:`INFO_DTYPES`: of one step from the
+    rows ``out`` [N_OUT], ``state`` [N_STATE] and ``terms`` [4] (numpy scalars; ``clipped`` an ``np.bool_``), or of a
+    batch from their transposes (``out.T`` ...: an array per key, a column view where the dtype allows).
+    ``episode``: the :data:`EPISODE_INFO_KEYS` values, taken as they are; ``cost_step``: the ``dt_s`` of
+    :func:`safety_cost`."""
     info = {
         "fuel_g": out[core.FUEL_G], "soc": state[core.SOC], "motor_temp_c": state[core.TEMP_C],
         "heat_index": out[core.HEAT_INDEX], "motor_torque_nm": out[core.MOTOR_TORQUE],
@@ -151,7 +142,7 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
         missed_wheel_energy_j=out[core.MISSED_J], battery_chem_power_w=out[core.BATT_CHEM],
         battery_power_w=out[core.BATT_POWER], motor_torque_avail_nm=out[core.MOTOR_AVAIL],
         cycle_speed_mps=np.float64(cycle_speed), time_s=np.float64(time_s), motor_share=np.float64(u),
-        motor_share_clipped=np.True_ if clipped else np.False_, motor_torque_clipped=out[core.MOTOR_CLIPPED] != 0.0)
+        motor_share_clipped=clipped, motor_torque_clipped=out[core.MOTOR_CLIPPED] != 0.0)
     info.update(episode)
     return info
 
@@ -159,33 +150,13 @@ def step_info_dict(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_
 _SMALL_INT64 = tuple(np.int64(i) for i in range(64))
 
 
-def _int64(x: Any) -> np.int64:
-    """``np.int64(int(x))``: a gear or a code, from a table of the small ones (a fifth of the constructor's time)."""
+def _int64(x: Any) -> Any:
+    """``x`` as int64: an array cast, a scalar (a gear or a code) from a table of the small ones (a fifth of the
+    constructor's time)."""
+    if type(x) is np.ndarray:
+        return x.astype(np.int64)
     i = int(x)
     return _SMALL_INT64[i] if 0 <= i < 64 else np.int64(i)
-
-
-def step_info_arrays(out: np.ndarray, state: np.ndarray, terms: np.ndarray, cycle_speed: np.ndarray,
-                     time_s: np.ndarray, u: np.ndarray, clipped: np.ndarray, episode: dict[str, np.ndarray],
-                     cost_step: float) -> dict[str, np.ndarray]:
-    """The step infos of a batch as one array per key (of dtype :data:`INFO_DTYPES`; one column slice per key where
-    the dtype allows); ``episode``: an array per :data:`EPISODE_INFO_KEYS` key (copied); ``cost_step``: as in
-    :func:`step_info_dict`."""
-    info = {name: out[:, col] for name, col in _INFO_OUT_COLUMNS}
-    for name, col in _INFO_RPM_COLUMNS:
-        info[name] = out[:, col] * RPM_PER_RADPS
-    for name, col in _INFO_BOOL_COLUMNS:
-        info[name] = out[:, col] != 0.0
-    for key, col in _REWARD_COLUMNS:
-        info[key] = terms[:, col]
-    info.update(gear=out[:, core.GEAR].astype(np.int64), soc=state[:, core.SOC], motor_temp_c=state[:, core.TEMP_C],
-                motor_cutoff=state[:, core.CUTOFF] != 0.0, winding_temp_c=state[:, core.WINDING_C],
-                coolant_temp_c=state[:, core.COOLANT_C], winding_trip=state[:, core.WINDING_TRIP] != 0.0,
-                cost=safety_cost(out[:, core.HEAT_INDEX], state[:, core.CUTOFF], state[:, core.WINDING_TRIP],
-                                 cost_step),
-                cycle_speed_mps=cycle_speed, time_s=time_s, motor_share=u, motor_share_clipped=clipped,
-                **{key: episode[key].copy() for key in EPISODE_INFO_KEYS})
-    return {key: info[key] for key in INFO_KEYS}
 
 
 def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
@@ -202,7 +173,7 @@ def reset_info_dict(rows: Any, i: int, ep: Any) -> dict[str, Any]:
                "soc_target": np.float64(rows.soc_target[i]), "ambient_temp_c": np.float64(ep.conditions.ambient_temp_c),
                "coolant_code": np.int64(coolant_code(ep.conditions.coolant))}
     # cost_step 0: the safety cost, too, is a quantity of a step
-    return step_info_dict(out, st, np.zeros(len(REWARD_TERMS)), rows.speed[i, k], k, 0.0, False, episode, 0.0)
+    return step_info(out, st, np.zeros(len(REWARD_TERMS)), rows.speed[i, k], k, 0.0, np.False_, episode, 0.0)
 
 
 def cycle_id(name: str) -> int:

@@ -19,7 +19,7 @@ from ..physics.config import Conditions, VehicleConfig
 from ..scenarios import Scenario
 from .batch import EnvParts
 from .reward import RewardParams
-from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, reset_info_dict, step_info_arrays
+from .spaces import EPISODE_INFO_KEYS, INFO_DTYPES, step_info
 
 # Attributes with one value per sub-environment (``get_attr`` returns them per env; they cannot be set).
 _PER_ENV_ATTRS = {
@@ -118,8 +118,7 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
                 self._rngs[i] = seeding.np_random(seeds[i])[0]
         reset_infos = self._start_episodes(idx, [per_env[i] for i in idx])
         self._autoreset[idx] = False
-        obs = self._rows.observe()
-        return obs, self._reset_info_arrays(idx, reset_infos, {})
+        return self._rows.observe(), self._reset_info_arrays(idx, reset_infos, {})
 
     def step(self, actions: np.ndarray):
         u, clipped = self._check_actions(actions)
@@ -147,25 +146,22 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
                 arr[resetting] = 0.0
             truncated[resetting] = False
             step_mask[resetting] = False
-            infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
+        infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
+        if resetting.size:
             infos = self._reset_info_arrays(resetting, reset_infos, infos)
             obs = rows.observe()
         elif mode == AutoresetMode.SAME_STEP and truncated.any():
             idx = np.flatnonzero(truncated)
-            step_infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
             final_obs = np.full(self.num_envs, None, dtype=object)
             for i in idx:
                 final_obs[i] = obs[i].copy()
             done_mask = truncated.copy()
-            final_info = {key: done_mask if key.startswith("_") else value for key, value in step_infos.items()}
+            final_info = {key: done_mask if key.startswith("_") else value for key, value in infos.items()}
             rows.last_out = out.copy()  # the final infos keep viewing ``out``
             reset_infos = self._start_episodes(idx, [None] * idx.size)
             obs[idx] = rows.observe(idx)
-            infos = self._reset_info_arrays(idx, reset_infos, dict(step_infos))
-            infos["final_obs"], infos["_final_obs"] = final_obs, done_mask
-            infos["final_info"], infos["_final_info"] = final_info, done_mask
-        else:
-            infos = self._step_infos(out, state, terms, cycle_speed, time_s, u, clipped, step_mask)
+            infos = self._reset_info_arrays(idx, reset_infos, dict(infos))
+            infos.update(final_obs=final_obs, _final_obs=done_mask, final_info=final_info, _final_info=done_mask)
         self._autoreset = terminated | truncated
         return obs, reward, terminated, truncated, infos
 
@@ -226,11 +222,8 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
 
     def _start_episodes(self, idx: np.ndarray, options: Sequence[dict | None]) -> list[dict]:
         """Draw and start new episodes in rows ``idx`` from their own generators; their reset infos."""
-        episodes = [self.sampler.sample(self._rngs[i], opt) for i, opt in zip(idx, options)]
-        tables = [self._tables.get(ep) for ep in episodes]
-        self._rows.load(idx, episodes, tables, self.max_episode_steps)
+        infos = self._start(idx, [self._rngs[i] for i in idx], options, self.max_episode_steps)
         self._started[idx] = True
-        infos = [reset_info_dict(self._rows, i, ep) for i, ep in zip(idx, episodes)]
         for key, col in self._episode_cols.items():
             col[idx] = [info[key] for info in infos]
         return infos
@@ -238,15 +231,13 @@ class HevThermalVectorEnv(EnvParts, VectorEnv):
     def _step_infos(self, out, state, terms, cycle_speed, time_s, u, clipped, mask) -> dict[str, np.ndarray]:
         if not self.info_keys:
             return {}
-        arrays = step_info_arrays(out, state, terms, cycle_speed, time_s, u, clipped, self._episode_cols,
-                                  self._cost_step_s)
+        episode = {key: col.copy() for key, col in self._episode_cols.items()}
+        arrays = step_info(out.T, state.T, terms.T, cycle_speed, time_s, u, clipped, episode, self._cost_step_s)
         return {k: v for key in self.info_keys for k, v in ((key, arrays[key]), ("_" + key, mask))}
 
     def _reset_info_arrays(self, idx: np.ndarray, reset_infos: list[dict], infos: dict) -> dict:
         """``infos`` with the reset infos of sub-envs ``idx`` written into fresh arrays (the step's arrays may view the
         engine's outputs or be a final info's) and masked in."""
-        if idx.size == 0:
-            return infos
         mask = np.zeros(self.num_envs, dtype=bool)
         mask[idx] = True
         for key in self.info_keys:

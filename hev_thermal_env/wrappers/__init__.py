@@ -1,6 +1,2 @@
 """Adapters of the envs to other libraries' interfaces: :class:`~.sb3.Sb3VecEnv`, the native vector env as a
-Stable-Baselines3 ``VecEnv``."""
-
-from .sb3 import Sb3VecEnv
-
-__all__ = ["Sb3VecEnv"]
+Stable-Baselines3 ``VecEnv`` (:mod:`.sb3` imports stable-baselines3 and torch; this package imports nothing)."""
