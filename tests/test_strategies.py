@@ -482,3 +482,14 @@ def test_ecms_thermal_braking_options_only_below_a_temperature():
             braked += 1
         env.step(np.array([1.0], dtype=np.float32))
     assert braked > 0
+
+
+def test_run_strategy_drives_the_vehicle_it_is_given():
+    """``run_strategy(config=)`` drives that bus: 3 t more test mass burns more fuel on the same cycle and split."""
+    bus = paper_bus()
+    heavy = bus.replace(glider=bus.glider.replace(mass_kg=bus.glider.mass_kg + 3000.0))
+    cycle = cycle_from_arrays(load_cycle("udds").speed_mps[:201], name="udds_200s")
+    light_run = run_strategy(get_strategy("engine_only"), cycle, "paper").summary
+    heavy_run = run_strategy(get_strategy("engine_only"), cycle, "paper", config=heavy).summary
+    assert heavy_run["fuel_g"] > 1.05 * light_run["fuel_g"]
+    assert heavy_run["distance_km"] == pytest.approx(light_run["distance_km"], rel=1e-3)

@@ -18,7 +18,7 @@ from hev_thermal_env.agents.base import Strategy
 from hev_thermal_env.cycles import Cycle, load_cycle
 from hev_thermal_env.envs import HevThermalEnv
 from hev_thermal_env.metrics import run_metrics, yardstick_cost_g
-from hev_thermal_env.physics import Conditions, core, paper_bus
+from hev_thermal_env.physics import Conditions, VehicleConfig, core, paper_bus
 from hev_thermal_env.scenarios import Scenario, get_scenario
 from hev_thermal_env.simulate import step_traces
 
@@ -73,15 +73,16 @@ def jsonable(x: Any) -> Any:
 
 
 def run_strategy(strategy: Strategy, cycle: str | Cycle | Any, scenario: str | Scenario = "paper", *,
-                 conditions: Conditions | None = None, seed: int = 0, physics: int = 2) -> RunResult:
+                 config: VehicleConfig | None = None, conditions: Conditions | None = None,
+                 seed: int = 0, physics: int = 2) -> RunResult:
     """Drive ``cycle`` (a built-in name, a CSV path or a :class:`~hev_thermal_env.cycles.Cycle`) with ``strategy``
-    in the ``scenario`` (``"random"`` draws from the env's reset ``seed``) or explicit ``conditions``, on
-    ``paper_bus(physics=physics)`` as the strategy changes it. ``trace`` holds every ``info`` field, every physics
-    output, the state after each step and ``u``."""
+    in the ``scenario`` (``"random"`` draws from the env's reset ``seed``) or explicit ``conditions``; ``config``: the
+    vehicle before the strategy's change (default ``paper_bus(physics=physics)``); ``physics``: the env's physics
+    version. ``trace`` holds every ``info`` field, every physics output, the state after each step and ``u``."""
     scen = get_scenario(scenario)
     cyc = load_cycle(cycle)
     t_start = time.perf_counter()
-    vehicle = strategy.vehicle_config(paper_bus(physics=physics))
+    vehicle = strategy.vehicle_config(config if config is not None else paper_bus(physics=physics))
     env = HevThermalEnv(cycle=cyc, scenario=scen, config=vehicle, conditions=conditions, physics=physics,
                         **strategy.env_options())
     try:
