@@ -347,8 +347,9 @@ def test_reset_options():
         env.reset(options={"start_s": 10_000})
     with pytest.raises(ValueError, match="start_s"):
         env.reset(options={"start_s": 1.5})
-    with pytest.raises(ValueError, match="coolant"):
-        env.reset(options={"coolant": "cold"})
+    for bad in ("cold", ["on"]):
+        with pytest.raises(ValueError, match=r"reset option coolant: .* is not one of \['on'"):
+            env.reset(options={"coolant": bad})
     with pytest.raises(ValueError, match="initial_soc"):
         env.reset(options={"initial_soc": 0.95})
 

@@ -62,6 +62,7 @@ Ctrl-C saves a checkpoint (exit status 130); --resume DIR continues.
 tuning: rl-zoo3's Optuna optimiser tunes the RL track's files (sac, tqc, recurrent_ppo, ppo_rl):
 python -m rl_zoo3.train with -optimize (docs/scaling-out.md)."""
 
+
 def build_parser(prog: str = "train.py") -> argparse.ArgumentParser:
     p = OneLineErrorParser(prog=prog, description=__doc__.split("\n\n")[0], formatter_class=HelpFormatter,
                            epilog=examples(EXAMPLES) + "\n\n" + NOTES)

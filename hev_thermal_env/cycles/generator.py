@@ -211,7 +211,8 @@ def generate_bus_cycle(seed: int, duration_s: float = 1300.0, *, max_speed_kmh: 
     ``accel_scale_range``; braking at a per-trip deceleration from ``decel_mps2_range`` [m/s²]; ``max_jerk_mps3``
     limits the change of acceleration per second. ``name`` defaults to ``"bus_seed<seed>"``.
 
-    The cycle's ``metadata`` holds ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
+    Returns a :class:`Cycle` with ``synthetic=True``, a flat road, speed 0 at the first and last sample, and
+    ``metadata`` holding ``synthetic``, ``generator``, ``seed``, all parameters and ``n_trips``. Raises
     ``TypeError`` for a seed that is not an integer, ``ValueError`` if a parameter is out of range.
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):

@@ -12,7 +12,7 @@ import numpy as np
 from ..cycles import Cycle, expand_cycle_names, generate_family_cycle, load_cycle
 from ..cycles.families import training_seed
 from ..cycles.names import is_family
-from ..physics.config import Conditions
+from ..physics.config import COOLANT_MODES, Conditions
 from ..physics.core import GEAR, WHEEL_DEMAND, PhysicsCore
 from ..scenarios import Scenario, get_scenario
 
@@ -95,6 +95,8 @@ class EpisodeSampler:
         cond = self.conditions if self.conditions is not None else self.scenario.sample(rng)
         changes = {k: options[k] for k in ("ambient_temp_c", "initial_motor_temp_c", "initial_soc", "coolant")
                    if k in options}
+        if "coolant" in changes and changes["coolant"] not in COOLANT_MODES:
+            raise ValueError(f"reset option coolant: {changes['coolant']!r} is not one of {list(COOLANT_MODES)}")
         for key, value in changes.items():
             if key != "coolant" and (isinstance(value, bool) or not isinstance(value, (int, float, np.number))):
                 raise ValueError(f"reset option {key}: expected a number, got {value!r}")

@@ -79,7 +79,7 @@ class HevThermalEnv(EnvParts, gym.Env):
 
     Entry 11 is the motor's torque limit in the last step (after reset: in the first): the peak torque at that speed,
     derated by the heat index (eq 8), 0 while cut off; its upper bound is the motor's peak torque (240 N·m for
-    ``paper_bus``), that of entry 12 the number of gears (5). Lower bounds are 0 so that an all-zero observation lies
+    ``paper_bus``), that of entry 12 the number of gears (5), its lower bound 0 so that an all-zero observation lies
     inside the space (torchrl fills a batch's final observation with zeros). The preview starts at the next step and
     holds the cycle's last speed past its end; with the defaults it has 5 entries (+2 to +10 s), the observation 21.
     :func:`observation_names` gives the names in order.
@@ -142,7 +142,8 @@ class HevThermalEnv(EnvParts, gym.Env):
 
         cost = dt · max(PWM, [stopped])        (in seconds, ≥ 0, at most 1 per 1-s step)
 
-    PWM (eq 9) is the heat index after the step, ``[stopped]`` 1 while either protection (70 °C motor, 165 °C winding)
+    PWM (eq 9) is the heat index after the step, the share of the motor's overload reserve, peak minus continuous
+    torque (eq 8), that heat has taken away; ``[stopped]`` is 1 while either protection (70 °C motor, 165 °C winding)
     holds the motor at zero torque: an episode's safety cost reads as seconds of lost motor capability, 0 throughout
     with ``thermal=False`` (:func:`~hev_thermal_env.envs.spaces.safety_cost`; why this measure: docs/tasks.md).
 
@@ -181,14 +182,15 @@ class HevThermalEnv(EnvParts, gym.Env):
       removes it.
     * ``render_mode``: ``None``, ``"rgb_array"`` (an H×W×3 uint8 plot of speed, SOC, motor temperature, heat index and
       split so far) or ``"human"`` (the same in a matplotlib window, redrawn at every step and reset).
-    * ``thermal``: if given, sets ``config.thermal.enabled``; False is the paper's unmodified ADVISOR motor (no
-      derating, no extra loss, no cutoff), the baseline of its tables.
+    * ``thermal``: if given, sets ``config.thermal.enabled`` (default None: the config's own setting); False is the
+      paper's unmodified ADVISOR motor (no derating, no extra loss, no cutoff), the baseline of its tables.
     * ``random_start``: start each episode at a uniformly drawn second of the cycle (training).
     * ``soc_offset``: start each episode up to this much SOC (uniform, at most 0.2, clipped to the battery's window)
       off its SOC target, the scenario's initial SOC, to which the reward's band and the observation still refer; a
-      reset's ``initial_soc`` option is never shifted.
-    * ``info_keys``: the info keys reported at steps and resets: ``"all"`` or a sequence of names from
-      :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()``, none, is the lean path for trainers that read none.
+      reset's ``initial_soc`` option is never shifted. 0 (default): on the target.
+    * ``info_keys``: the info keys reported at steps and resets, in their order: ``"all"`` (default) or a sequence of
+      names from :data:`~hev_thermal_env.envs.spaces.INFO_KEYS`; ``()``, none, is the lean path for trainers that read
+      none.
 
     ``reset(seed=None, options=None)`` accepts the options ``cycle`` (as the argument, this episode only),
     ``ambient_temp_c``, ``initial_motor_temp_c``, ``initial_soc``, ``coolant`` (``"on"``, ``"degraded"``, ``"off"``) and

@@ -211,7 +211,8 @@ def run_benchmark(out_dir: str | Path, cycles=DEFAULT_CYCLES, strategies=DEFAULT
     are written."""
     out = Path(out_dir)
     strategies, added = with_reference(strategies)
-    fams, options = list(families or []), options or {}
+    fams = list(families or [])
+    options = options or {}
     loaded = validate(cycles, strategies, scenarios, out, options, fams)
     run_names = list(dict.fromkeys([*strategies, *(m for f in fams for m in f.members)]))
     tasks = [(c, sc, st, options, physics) for c in cycles for sc in scenarios for st in run_names]

@@ -40,12 +40,20 @@ def _series(trace: Mapping[str, np.ndarray], key: str) -> np.ndarray | None:
     return np.asarray(trace[key], dtype=float) if key in trace else None
 
 
+def _time(trace: Mapping[str, np.ndarray]) -> np.ndarray:
+    return np.asarray(trace["time_s"], dtype=float)
+
+
 def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", learned: Collection[str] = ()):
     """The trace figure of ``{label: trace}``, each with per-step ``time_s``, ``speed_mps``, ``soc``,
     ``motor_temp_c``, ``heat_index`` and ``motor_share`` (and, if present, ``cycle_speed_mps``,
-    ``missed_wheel_energy_j``, ``motor_cutoff``, ``shaft_torque_demand_nm``), a panel each (its title says what it
-    shows); the temperature limits are ``paper_bus``'s. ``learned``: more names drawn as learned policies (seed
-    families)."""
+    ``missed_wheel_energy_j``, ``motor_cutoff``, ``shaft_torque_demand_nm``); temperature limits of ``paper_bus`` and
+    the default reward. ``learned``: more names drawn as learned policies (seed families).
+
+    Panels, top to bottom: the cycle's speed (thick, light) and each strategy's; the cumulative missed wheel energy;
+    SOC; motor temperature, with the 70 °C cutoff and its 60 °C release when the motor comes near them (a mark
+    wherever a motor is cut off); the heat index; the split, one strip per strategy (colour = motor share u; green: the
+    regeneration share while braking; grey where no torque is demanded)."""
     if not traces:
         raise ValueError("plot_run: no traces to plot")
     labels = ordered(traces, learned)
@@ -59,7 +67,7 @@ def run_figure(traces: Mapping[str, Mapping[str, np.ndarray]], title: str = "", 
     limit_handles = _temperature_panel(ax_temp, traces, labels, styles)
     for label in labels:
         tr, st = traces[label], styles[label]
-        t = _series(tr, "time_s")
+        t = _time(tr)
         miss = _series(tr, "missed_wheel_energy_j")
         if miss is not None:
             ax_miss.plot(t, np.cumsum(miss) / 3.6e6, **st)
@@ -87,11 +95,11 @@ def _speed_panel(ax, traces, labels, styles) -> list:
     handles = []
     cycle = next((traces[x] for x in labels if "cycle_speed_mps" in traces[x]), None)
     if cycle is not None:
-        handles += ax.plot(_series(cycle, "time_s"), _series(cycle, "cycle_speed_mps") * 3.6, color=CYCLE_COLOUR,
+        handles += ax.plot(_time(cycle), _series(cycle, "cycle_speed_mps") * 3.6, color=CYCLE_COLOUR,
                            lw=5.0, solid_capstyle="butt", zorder=1, label="cycle (demanded speed)")
     for label in labels:
         tr = traces[label]
-        handles += ax.plot(_series(tr, "time_s"), _series(tr, "speed_mps") * 3.6, label=short_label(label),
+        handles += ax.plot(_time(tr), _series(tr, "speed_mps") * 3.6, label=short_label(label),
                            **styles[label])
     ax.set_title("speed: the cycle (thick, light) and what each strategy delivered (thin)", fontsize=10)
     ax.set(ylabel="speed (km/h)", ylim=(0.0, None))
@@ -104,7 +112,7 @@ def _temperature_panel(ax, traces, labels, styles) -> list:
     hottest = -np.inf
     for label in labels:
         tr = traces[label]
-        t, temp = _series(tr, "time_s"), _series(tr, "motor_temp_c")
+        t, temp = _time(tr), _series(tr, "motor_temp_c")
         hottest = max(hottest, float(np.nanmax(temp)))
         ax.plot(t, temp, **styles[label])
         cut = _series(tr, "motor_cutoff")
@@ -132,7 +140,7 @@ def _split_panel(fig, ax, traces, labels, styles) -> None:
     brakes, grey where no torque is demanded."""
     from matplotlib.colors import ListedColormap
 
-    t_all = [_series(traces[label], "time_s") for label in labels]
+    t_all = [_time(traces[label]) for label in labels]
     t0, t1 = min(float(t[0]) for t in t_all), max(float(t[-1]) for t in t_all)
     n_cols = int(round(t1 - t0)) + 1
     grid = np.full((len(labels), n_cols), np.nan)

@@ -27,7 +27,9 @@ REFERENCE_DIR = Path(__file__).resolve().parent / "references"
 """Where the package keeps the references, one JSON file per task id."""
 FORMAT = "hev-thermal-reference-v1"
 BUDGET_MARGIN = 0.05
-BUDGET_FLOOR_S = 10.0  # the optimum often loses no capability at all
+"""The safety budget is the optimum's largest episode safety cost times 1 + this ..."""
+BUDGET_FLOOR_S = 10.0
+"""... and at least this many seconds (the optimum often loses no capability at all)."""
 ANCHOR_SOC_MARGIN = 0.01
 """The optimum's frontier reaches this far below the anchor's final SOC (:func:`frontier_halfwidth_for`)."""
 BUDGET_RULE = (f"largest episode safety cost of {REFERENCE} × {1 + BUDGET_MARGIN:g}, at least {BUDGET_FLOOR_S:g} s "
@@ -39,6 +41,7 @@ class StaleReferenceError(ValueError):
 
 
 def reference_path(task_id: str, directory: Path | None = None) -> Path:
+    """The file of the reference of the task ``task_id`` in ``directory`` (default :data:`REFERENCE_DIR`)."""
     return Path(directory or REFERENCE_DIR) / f"{task_id}.json"
 
 

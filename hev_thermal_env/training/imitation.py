@@ -212,11 +212,13 @@ class DemonstrationRefit(BaseCallback):
                  init: dict[str, Any], env_kwargs: dict, high: float, seed: int):
         super().__init__()
         self.high, self.env_kwargs, self.curves = float(high), env_kwargs, curves
-        self.batches, self.lr, self.decay = int(init["refit_batches"]), float(init["refit_lr"]), init["refit_decay"]
+        self.batches, self.lr = int(init["refit_batches"]), float(init["refit_lr"])
+        self.decay = bool(init["refit_decay"])
         self.beyond_bound, self.cost_weight = float(init["beyond_bound"]), float(init["cost_weight"])
         self.teacher, self.heat_weight = teacher_of(init), heat_weighting(init)
         self.dagger_every, self.dagger_episodes = int(init["dagger_every"]), int(init["dagger_episodes"])
-        self.seed, self.rounds, self.rng = int(seed), 0, np.random.default_rng([int(seed), 11])
+        self.seed, self.rounds = int(seed), 0
+        self.rng = np.random.default_rng([int(seed), 11])
         self.opt: torch.optim.Optimizer | None = None
         self.mse: list[float] = []
         self._set_demonstrations(obs, actions)

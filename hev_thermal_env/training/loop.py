@@ -243,7 +243,9 @@ class TrainingRun:
             self.raw.timesteps = int(self.model.num_timesteps)
             if resume_from is not None:
                 load_multiplier(self.raw.multiplier, resume_from[1])
-        init, kwargs, seed = cfg.get("init") or {}, env_kwargs(cfg["env"]), int(cfg["seed"])
+        init = cfg.get("init") or {}
+        kwargs = env_kwargs(cfg["env"])
+        seed = int(cfg["seed"])
         if resume_from is None and init.get("imitate"):
             rec, self.refit = imitate(self.model, kwargs, init, seed, progress=self.progress)
             cfg.setdefault("result", {})["imitation"] = rec
@@ -328,11 +330,12 @@ class TrainingRun:
 def train(config: dict[str, Any], out_dir: str | Path, *, progress: bool = True, verbose: int = 1,
           overwrite: bool = False, log: Callable[[str], None] | None = None,
           run_class: type[TrainingRun] = TrainingRun) -> dict[str, Any]:
-    """Train a new run of ``config`` (:func:`~.config.build_config`'s, checked there) into ``out_dir`` (new or empty
-    unless ``overwrite``); returns the ``result`` section of its config. Raises :class:`TrainingInterrupted` after
-    saving a checkpoint when stopped by a signal. ``run_class`` runs the session (a sweep's trial reports to Ray Tune
-    through its own :class:`TrainingRun`)."""
+    """Train a new run into ``out_dir`` (new or empty unless ``overwrite``); returns the ``result`` section of its
+    config. Raises :class:`TrainingInterrupted` after saving a checkpoint when stopped by a signal.
+    ``run_class`` runs the session (a sweep's trial reports to Ray Tune through its own :class:`TrainingRun`).
+    """
     out = check_new_dir(out_dir, overwrite=overwrite)
+    validate_config(config)
     _limit_threads()
     run = run_class(config, out, progress=progress, verbose=verbose, log=log)
     run.prepare()

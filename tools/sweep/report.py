@@ -22,6 +22,7 @@ from .trial import METRIC, RUN_DIR, SEED_INDEX, TIME_ATTR, probe_config, trial_o
 #: Configurations shown in the right panel of ``sweep.png`` (best first).
 MAX_CONFIGS_SHOWN = 12
 
+
 @dataclasses.dataclass
 class TrialRecord:
     """One trial; ``status`` is Tune's in lower case, ``finished`` for a trial that ran to the end and ``stopped``
