@@ -207,6 +207,8 @@ def test_train_task_sets_the_training_cycles_and_scenario():
     assert build_config("ppo", timesteps=64)["task"] is None
     with pytest.raises(ValueError, match="--task hwfet sets the training cycles and scenario"):
         build_config("ppo", task="hwfet", cycles=["udds"])
+    with pytest.raises(ValueError, match="--task hwfet sets the training cycles and scenario; drop --hp env.scenario"):
+        build_config("ppo", task="hwfet", overrides={"env.scenario": "hot"})
     from hev_thermal_env.cli.train import build_parser
 
     assert build_parser().parse_args(["--task", "summer", "--out", "x"]).task == "summer"

@@ -167,6 +167,9 @@ def build_config(algo: str, *, hyperparams_file: str | Path | None = None, overr
     if task is not None:
         if cycles is not None or scenario is not None:
             raise ValueError(f"--task {task} sets the training cycles and scenario; drop --cycles and --scenario")
+        clash = sorted(k for k in (overrides or {}) if k in ("env", "env.cycles", "env.scenario"))
+        if clash:
+            raise ValueError(f"--task {task} sets the training cycles and scenario; drop --hp {', '.join(clash)}")
         resolved = get_task(task)
         task_id, (cycles, scenario) = resolved.id, resolved.training
     given = {"env.cycles": cycles, "env.scenario": scenario, "n_timesteps": timesteps, "n_envs": n_envs,
