@@ -127,6 +127,24 @@ def test_fuel_chart_shows_a_family_as_iqm_whiskers_and_seed_dots(tmp_path):
     assert plot_fuel_chart(rows, tmp_path / FUEL_CHART_FILE).stat().st_size > 20_000
 
 
+def test_fuel_chart_wraps_many_cycles_onto_rows_of_four(tmp_path):
+    cycles = tuple(f"validation_bus:{k}" for k in range(6))
+    fig = fuel_figure(rows_for(cycles=cycles, scenarios=("paper", "hot")))
+    try:
+        panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_title()]
+        assert sorted(ax.get_title() for ax in panels) == sorted(f"{c} cycle, {s} scenario" for c in cycles
+                                                                 for s in ("paper", "hot"))
+        assert len({round(ax.get_position().x0, 3) for ax in panels}) == 4  # four columns
+        assert len({round(ax.get_position().y0, 3) for ax in panels}) == 4  # two rows a scenario
+        assert sum(not ax.get_visible() for ax in fig.axes) == 4
+        assert fig.get_size_inches()[0] < 25.0
+        assert_legends_outside_axes(fig)
+    finally:
+        close(fig)
+    rows = rows_for(cycles=cycles)
+    assert plot_fuel_chart(rows, tmp_path / FUEL_CHART_FILE).stat().st_size > 20_000
+
+
 def test_fuel_chart_grows_one_row_per_scenario():
     fig = fuel_figure(rows_for(cycles=("hwfet", "beijing", "udds"), scenarios=("paper", "hot", "random", "x")))
     try:

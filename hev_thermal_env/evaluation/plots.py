@@ -180,6 +180,7 @@ def plot_run(traces: Mapping[str, Mapping[str, np.ndarray]], path: str | os.Path
 FUEL_CHART_FILE = "fuel_vs_optimum.png"
 LEARNED_GAP = 0.8  # extra rows of space between the classic strategies and the learned policies
 SEED_SPREAD = 0.32  # vertical spread of a family's seed dots (rows are 1 apart)
+MAX_PANEL_COLUMNS = 4  # more cycles than this wrap onto further rows of panels
 
 #: What the x axis shows, in order of preference: (row key, axis label, title, 1 line's legend label).
 MEASURES = (
@@ -240,16 +241,25 @@ def fuel_figure(rows: list[dict], cycles: list[str] | None = None, scenarios: li
     values = [float(r[k]) for r in drawn for k in (key, f"{key}_ci_low", f"{key}_ci_high") if r.get(k) is not None]
     values += [float(m[key]) for ms in members.values() for m in ms if m.get(key) is not None]
     height = 0.27 * (max(pos.values()) + 1.0) + 1.1
-    fig, axes = pyplot().subplots(len(scenarios), len(cycles), sharex=True, sharey=True, squeeze=False,
-                                  figsize=(4.8 * len(cycles) + 2.4, height * len(scenarios) + 1.2),
-                                  layout="constrained")
+    # a row of panels per scenario, a column per cycle; more cycles than MAX_PANEL_COLUMNS wrap onto further rows
+    n_cols = min(len(cycles), MAX_PANEL_COLUMNS)
+    rows_per_scenario = -(-len(cycles) // n_cols)
+    fig, axes = pyplot().subplots(len(scenarios) * rows_per_scenario, n_cols, sharex=True, sharey=True,
+                                  squeeze=False, layout="constrained",
+                                  figsize=(4.8 * n_cols + 2.4, height * len(scenarios) * rows_per_scenario + 1.2))
     axes[0, 0].set_xlim(*_value_range(values or [1.0], bool(families)))  # shared: before the labels
     for i, sc in enumerate(scenarios):
-        for j, cyc in enumerate(cycles):
+        for j in range(rows_per_scenario * n_cols):
+            ax = axes[i * rows_per_scenario + j // n_cols, j % n_cols]
+            if j >= len(cycles):
+                ax.set_visible(False)
+                axes[i * rows_per_scenario + j // n_cols - 1, j % n_cols].xaxis.set_tick_params(labelbottom=True)
+                continue
+            cyc = cycles[j]
             sel = {r["strategy"]: r for r in drawn if r["cycle"] == cyc and r["scenario"] == sc}
             seeds = {f: [m for m in ms if m["cycle"] == cyc and m["scenario"] == sc] for f, ms in members.items()}
-            _panel(axes[i, j], sel, seeds, key, pos, styles, families)
-            axes[i, j].set_title(f"{cyc} cycle, {sc} scenario", fontsize=10)
+            _panel(ax, sel, seeds, key, pos, styles, families)
+            ax.set_title(f"{cyc} cycle, {sc} scenario", fontsize=10)
     ax0 = axes[0, 0]
     ax0.ticklabel_format(axis="x", useOffset=False, style="plain")
     ax0.set(ylim=(max(pos.values()) + 0.7, -0.7), yticks=list(pos.values()))
